@@ -1,0 +1,73 @@
+//! Optical media: dispersion formulas and the built-in glass catalogue.
+//!
+//! Wavelengths are in nm at every public function; the Sellmeier formula itself works in
+//! micrometres, as the glass makers' datasheets do.
+
+mod catalog;
+
+pub use catalog::{CatalogGlass, CATALOG, lookup, suggestions};
+
+use crate::prescription::{Medium, Problem};
+
+/// Fraunhofer d line (helium), the reference for nd and the Abbe number.
+pub const D_LINE_NM: f64 = 587.5618;
+/// Fraunhofer F line (hydrogen).
+pub const F_LINE_NM: f64 = 486.1327;
+/// Fraunhofer C line (hydrogen).
+pub const C_LINE_NM: f64 = 656.2725;
+
+/// A medium with its dispersion resolved: index as a function of wavelength.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Dispersion {
+    Constant(f64),
+    /// Sellmeier with three terms, wavelengths in micrometres.
+    Sellmeier { b: [f64; 3], c: [f64; 3] },
+    /// Two-term Cauchy n = A + B / l^2 (l in micrometres), fitted so that n(d) = nd and
+    /// n(F) - n(C) = (nd - 1) / vd: the simplest formula that honours both numbers a model glass
+    /// gives. It is smooth and monotonic over the visible range, which is all a model glass claims.
+    Cauchy { a: f64, b: f64 },
+}
+
+impl Dispersion {
+    /// Resolves a medium, looking up catalogue glasses by name.
+    pub fn of(medium: &Medium) -> Result<Dispersion, Problem> {
+        Ok(match medium {
+            Medium::Air => Dispersion::Constant(1.0),
+            Medium::Index(n) => Dispersion::Constant(*n),
+            Medium::Glass(name) => lookup(name)?.dispersion(),
+            Medium::Sellmeier { b, c } => Dispersion::Sellmeier { b: *b, c: *c },
+            Medium::Model { nd, vd } => Dispersion::model(*nd, *vd),
+        })
+    }
+
+    /// The model glass for (nd, vd); a vd of zero or infinity means no dispersion.
+    pub fn model(nd: f64, vd: f64) -> Dispersion {
+        if !(vd.is_finite() && vd > 0.0) {
+            return Dispersion::Constant(nd);
+        }
+        let inv_sq = |nm: f64| 1.0 / (nm * 1e-3).powi(2);
+        let b = (nd - 1.0) / vd / (inv_sq(F_LINE_NM) - inv_sq(C_LINE_NM));
+        Dispersion::Cauchy {
+            a: nd - b * inv_sq(D_LINE_NM),
+            b,
+        }
+    }
+
+    /// Refractive index at `wavelength_nm`.
+    pub fn index(&self, wavelength_nm: f64) -> f64 {
+        let l2 = (wavelength_nm * 1e-3).powi(2);
+        match self {
+            Dispersion::Constant(n) => *n,
+            Dispersion::Sellmeier { b, c } => {
+                let sum: f64 = (0..3).map(|i| b[i] * l2 / (l2 - c[i])).sum();
+                (1.0 + sum).sqrt()
+            }
+            Dispersion::Cauchy { a, b } => a + b / l2,
+        }
+    }
+
+    /// Whether the index changes with wavelength.
+    pub fn disperses(&self) -> bool {
+        !matches!(self, Dispersion::Constant(_))
+    }
+}

@@ -1,0 +1,10 @@
+//! lensbake: lens prescriptions in; first-order and third-order analysis, exact ray traces,
+//! aberration plots, baked lens ray transfer function (LRTF) tables and depth-of-field renders out.
+//!
+//! Data flows one way: file -> [`prescription::Prescription`] -> [`system::LensSystem`] ->
+//! [`system::SystemAt`] (one wavelength) -> analyses, trace, bake, render. The library never
+//! prints; every failure is a typed error.
+
+pub mod glass;
+pub mod prescription;
+pub mod system;

@@ -1,0 +1,130 @@
+//! Errors for reading and validating prescriptions. Every error says where (file, line, surface,
+//! field) and what is wrong, so a user can fix the file without reading our code.
+
+use std::fmt;
+use std::path::PathBuf;
+
+/// Where in the input a problem sits. Any part may be unknown.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Location {
+    pub file: Option<PathBuf>,
+    /// 1-based line in the file.
+    pub line: Option<usize>,
+    /// 1-based surface number.
+    pub surface: Option<usize>,
+    pub field: Option<String>,
+}
+
+impl Location {
+    pub fn file(path: impl Into<PathBuf>) -> Location {
+        Location {
+            file: Some(path.into()),
+            ..Location::default()
+        }
+    }
+
+    pub fn with_line(mut self, line: usize) -> Location {
+        self.line = Some(line);
+        self
+    }
+
+    pub fn with_surface(mut self, surface: usize) -> Location {
+        self.surface = Some(surface);
+        self
+    }
+
+    pub fn with_field(mut self, field: impl Into<String>) -> Location {
+        self.field = Some(field.into());
+        self
+    }
+}
+
+impl fmt::Display for Location {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let mut parts: Vec<String> = Vec::new();
+        match (&self.file, self.line) {
+            (Some(file), Some(line)) => parts.push(format!("{}:{line}", file.display())),
+            (Some(file), None) => parts.push(file.display().to_string()),
+            (None, Some(line)) => parts.push(format!("line {line}")),
+            (None, None) => {}
+        }
+        if let Some(s) = self.surface {
+            parts.push(format!("surface {s}"));
+        }
+        if let Some(field) = &self.field {
+            parts.push(format!("field `{field}`"));
+        }
+        if parts.is_empty() {
+            write!(f, "<input>")
+        } else {
+            write!(f, "{}", parts.join(", "))
+        }
+    }
+}
+
+/// What is wrong. Each class of bad input has its own variant so tests and callers can tell
+/// them apart.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum Problem {
+    #[error("cannot read file: {0}")]
+    Io(String),
+    #[error("the file holds no surfaces")]
+    Empty,
+    #[error("cannot parse `{text}` as a number")]
+    NotANumber { text: String },
+    #[error("value {value} is not finite")]
+    NonFinite { value: f64 },
+    #[error("expected {expected} columns, found {found}")]
+    WrongColumnCount { expected: String, found: usize },
+    #[error("syntax error: {0}")]
+    Syntax(String),
+    #[error("unsupported: {0}")]
+    Unsupported(String),
+    #[error("refractive index {index} is below 1")]
+    IndexBelowOne { index: f64 },
+    #[error("semi-aperture must be positive, got {value}")]
+    NonPositiveAperture { value: f64 },
+    #[error("semi-aperture {semi_aperture} mm is larger than |radius| {radius} mm")]
+    ApertureExceedsRadius { semi_aperture: f64, radius: f64 },
+    #[error("the conic surface is undefined beyond r = {limit} mm, inside its semi-aperture {semi_aperture} mm")]
+    ApertureExceedsConic { semi_aperture: f64, limit: f64 },
+    #[error("more than {max} even-asphere terms ({found})", max = super::model::MAX_ASPHERE_TERMS)]
+    TooManyAsphereTerms { found: usize },
+    #[error("surface crosses the next surface {next} within the clear aperture (gap {gap:.6} mm at r = {radius:.3} mm)")]
+    SurfacesCross { next: usize, radius: f64, gap: f64 },
+    #[error("no surface is marked as the aperture stop")]
+    NoStop,
+    #[error("more than one aperture stop: surfaces {surfaces:?}")]
+    MultipleStops { surfaces: Vec<usize> },
+    #[error("stop has {count} blades; a diaphragm needs at least 3")]
+    TooFewBlades { count: u32 },
+    #[error("unknown glass `{name}`{}", suggest(.suggestions))]
+    UnknownGlass {
+        name: String,
+        suggestions: Vec<String>,
+    },
+    #[error("wavelength {nm} nm is outside the range where this medium's dispersion formula is defined")]
+    WavelengthOutOfRange { nm: f64 },
+}
+
+fn suggest(suggestions: &[String]) -> String {
+    if suggestions.is_empty() {
+        String::new()
+    } else {
+        format!("; did you mean {}?", suggestions.join(", "))
+    }
+}
+
+/// A problem at a location.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("{location}: {problem}")]
+pub struct PrescriptionError {
+    pub location: Location,
+    pub problem: Problem,
+}
+
+impl PrescriptionError {
+    pub fn new(location: Location, problem: Problem) -> PrescriptionError {
+        PrescriptionError { location, problem }
+    }
+}

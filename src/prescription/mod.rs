@@ -1,0 +1,9 @@
+//! Lens prescriptions: the data model, its validation, and the file formats that produce it.
+
+mod error;
+mod model;
+mod validate;
+
+pub use error::{Location, PrescriptionError, Problem};
+pub use model::{MAX_ASPHERE_TERMS, Medium, Prescription, Provenance, Shape, StopShape, Surface};
+pub use validate::{SourceMap, validate};

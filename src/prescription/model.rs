@@ -1,0 +1,209 @@
+//! The lens prescription as the source describes it: surfaces in order, media, stop, provenance.
+//!
+//! Plain data, serialisable to the canonical RON format. Nothing here resolves glass names or
+//! knows about wavelengths; [`crate::system::LensSystem`] does that after validation.
+
+use serde::{Deserialize, Serialize};
+
+/// A whole lens prescription: the surface table plus where it came from.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Prescription {
+    pub provenance: Provenance,
+    /// Medium the object sits in (air for almost every camera lens).
+    #[serde(default = "Medium::air")]
+    pub object_medium: Medium,
+    /// Surfaces 1..N in the order light meets them from the object side.
+    pub surfaces: Vec<Surface>,
+}
+
+/// What the source says about the lens; kept so reports can cite it and compare against it.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Provenance {
+    pub title: String,
+    /// Patent, book page or file the table was taken from.
+    #[serde(default)]
+    pub source: Option<String>,
+    #[serde(default)]
+    pub design_wavelength_nm: Option<f64>,
+    /// Focal length the source claims (mm); compared with the computed EFL, never used for it.
+    #[serde(default)]
+    pub claimed_focal_length_mm: Option<f64>,
+    #[serde(default)]
+    pub claimed_f_number: Option<f64>,
+    #[serde(default)]
+    pub notes: Option<String>,
+}
+
+/// One refracting (or dummy) surface and the gap after it.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Surface {
+    pub shape: Shape,
+    /// Axial distance from this vertex to the next one (mm); for the last surface, to the film.
+    pub thickness: f64,
+    /// Medium after this surface.
+    pub medium: Medium,
+    /// Clear semi-aperture (mm). For the stop surface this is the stop radius wide open.
+    pub semi_aperture: f64,
+    /// Present when this surface is the aperture stop.
+    #[serde(default)]
+    pub stop: Option<StopShape>,
+}
+
+/// Surface profile. Curvature c = 1/R (plane: 0); positive when the centre of curvature lies at
+/// larger z.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Shape {
+    Plane,
+    Sphere {
+        curvature: f64,
+    },
+    /// Conic of revolution, conic constant k (k = 0 sphere, k = -1 paraboloid).
+    Conic {
+        curvature: f64,
+        conic: f64,
+    },
+    /// Even asphere: conic base plus `coefficients[i] * r^(2i + 2)`, i.e. terms r^2 .. r^20.
+    EvenAsphere {
+        curvature: f64,
+        conic: f64,
+        coefficients: Vec<f64>,
+    },
+}
+
+/// Most even-asphere terms accepted (r^2 through r^20).
+pub const MAX_ASPHERE_TERMS: usize = 10;
+
+impl Shape {
+    /// A sphere from a radius as printed in a table; radius 0 or infinite means plane.
+    pub fn from_radius(radius: f64) -> Shape {
+        if radius == 0.0 || radius.is_infinite() {
+            Shape::Plane
+        } else {
+            Shape::Sphere {
+                curvature: 1.0 / radius,
+            }
+        }
+    }
+
+    pub fn curvature(&self) -> f64 {
+        match self {
+            Shape::Plane => 0.0,
+            Shape::Sphere { curvature }
+            | Shape::Conic { curvature, .. }
+            | Shape::EvenAsphere { curvature, .. } => *curvature,
+        }
+    }
+
+    pub fn conic(&self) -> f64 {
+        match self {
+            Shape::Plane | Shape::Sphere { .. } => 0.0,
+            Shape::Conic { conic, .. } | Shape::EvenAsphere { conic, .. } => *conic,
+        }
+    }
+
+    /// Even-asphere coefficients (r^2, r^4, ...); empty for all other shapes.
+    pub fn aspheric_coefficients(&self) -> &[f64] {
+        match self {
+            Shape::EvenAsphere { coefficients, .. } => coefficients,
+            _ => &[],
+        }
+    }
+
+    /// Radius of curvature; infinite for a plane.
+    pub fn radius(&self) -> f64 {
+        let c = self.curvature();
+        if c == 0.0 { f64::INFINITY } else { 1.0 / c }
+    }
+
+    /// Sag z(r) at radial height r, or None where the conic base is undefined (beyond its rim).
+    pub fn sag(&self, r: f64) -> Option<f64> {
+        let c = self.curvature();
+        let r2 = r * r;
+        let k = self.conic();
+        let disc = 1.0 - (1.0 + k) * c * c * r2;
+        if disc < 0.0 {
+            return None;
+        }
+        // c r^2 / (1 + sqrt(...)) avoids the cancellation of (1 - sqrt(...)) / c near the axis.
+        let base = c * r2 / (1.0 + disc.sqrt());
+        let mut power = r2;
+        let mut poly = 0.0;
+        for a in self.aspheric_coefficients() {
+            poly += a * power;
+            power *= r2;
+        }
+        Some(base + poly)
+    }
+}
+
+/// Shape of the aperture stop's opening, for bokeh. Its size is the stop surface's semi-aperture.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum StopShape {
+    Circle,
+    /// A polygonal diaphragm of `count` blades. `blade_curvature` bends each edge outward
+    /// (0 = straight edges, 1 = edges on the circumscribed circle, i.e. a circle again).
+    Blades {
+        count: u32,
+        rotation_deg: f64,
+        blade_curvature: f64,
+    },
+}
+
+/// Optical medium after a surface (or around the object).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Medium {
+    /// Index exactly 1 at every wavelength (optical-design convention: indices relative to air).
+    Air,
+    /// A constant index, non-dispersive.
+    Index(f64),
+    /// A glass from the built-in catalogue, by name (e.g. "N-BK7").
+    Glass(String),
+    /// Sellmeier coefficients, wavelengths in micrometres: n^2 = 1 + sum B_i l^2 / (l^2 - C_i).
+    Sellmeier { b: [f64; 3], c: [f64; 3] },
+    /// A model glass from its d-line index and Abbe number (see [`crate::glass`] for the formula).
+    Model { nd: f64, vd: f64 },
+}
+
+impl Medium {
+    pub fn air() -> Medium {
+        Medium::Air
+    }
+
+    /// Whether the medium is air or an index of exactly 1 (used to describe the lens, not for optics).
+    pub fn is_air(&self) -> bool {
+        matches!(self, Medium::Air) || matches!(self, Medium::Index(n) if *n == 1.0)
+    }
+}
+
+impl Prescription {
+    /// 0-based index of the stop surface, if exactly one surface is marked as stop.
+    pub fn stop_index(&self) -> Option<usize> {
+        let mut stops = self.surfaces.iter().enumerate().filter(|(_, s)| s.stop.is_some());
+        match (stops.next(), stops.next()) {
+            (Some((i, _)), None) => Some(i),
+            _ => None,
+        }
+    }
+
+    /// Vertex z of every surface in the lens frame (surface 1 at z = 0).
+    pub fn vertex_z(&self) -> Vec<f64> {
+        let mut z = 0.0;
+        self.surfaces
+            .iter()
+            .map(|s| {
+                let here = z;
+                z += s.thickness;
+                here
+            })
+            .collect()
+    }
+
+    /// Distance from the first to the last vertex (excludes the gap to the film).
+    pub fn total_track(&self) -> f64 {
+        let n = self.surfaces.len();
+        if n < 2 {
+            return 0.0;
+        }
+        self.surfaces[..n - 1].iter().map(|s| s.thickness).sum()
+    }
+}

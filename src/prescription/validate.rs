@@ -1,0 +1,203 @@
+//! Checks a prescription before anything computes with it.
+
+use super::error::{Location, PrescriptionError, Problem};
+use super::model::{Medium, Prescription, Shape, StopShape, MAX_ASPHERE_TERMS};
+use std::path::PathBuf;
+
+/// Where each surface came from in its file, so errors found after parsing still cite lines.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SourceMap {
+    pub file: Option<PathBuf>,
+    /// 1-based line of each surface's row, by 0-based surface index.
+    pub surface_lines: Vec<Option<usize>>,
+}
+
+impl SourceMap {
+    pub fn for_file(file: impl Into<PathBuf>) -> SourceMap {
+        SourceMap {
+            file: Some(file.into()),
+            surface_lines: Vec::new(),
+        }
+    }
+
+    /// Location of surface `index` (0-based) and one of its fields.
+    pub fn surface(&self, index: usize, field: &str) -> Location {
+        let mut location = Location {
+            file: self.file.clone(),
+            ..Location::default()
+        }
+        .with_surface(index + 1)
+        .with_field(field);
+        location.line = self.surface_lines.get(index).copied().flatten();
+        location
+    }
+
+    pub fn whole_file(&self) -> Location {
+        Location {
+            file: self.file.clone(),
+            ..Location::default()
+        }
+    }
+}
+
+/// Number of radial samples used to compare neighbouring sags; fine enough to catch a crossing
+/// anywhere but at a knife edge, which the rim check catches.
+const CROSSING_SAMPLES: usize = 64;
+
+/// Validates the prescription, returning the first problem found.
+pub fn validate(p: &Prescription, map: &SourceMap) -> Result<(), PrescriptionError> {
+    if p.surfaces.is_empty() {
+        return Err(PrescriptionError::new(map.whole_file(), Problem::Empty));
+    }
+    check_medium(&p.object_medium, Location {
+        file: map.file.clone(),
+        field: Some("object_medium".into()),
+        ..Location::default()
+    })?;
+    for (i, s) in p.surfaces.iter().enumerate() {
+        check_surface(i, s, map)?;
+    }
+    check_stop(p, map)?;
+    check_crossings(p, map)
+}
+
+fn finite(value: f64, location: Location) -> Result<(), PrescriptionError> {
+    if value.is_finite() {
+        Ok(())
+    } else {
+        Err(PrescriptionError::new(location, Problem::NonFinite { value }))
+    }
+}
+
+fn check_medium(medium: &Medium, location: Location) -> Result<(), PrescriptionError> {
+    match medium {
+        Medium::Air | Medium::Glass(_) => Ok(()),
+        Medium::Index(n) => {
+            finite(*n, location.clone())?;
+            if *n < 1.0 {
+                return Err(PrescriptionError::new(location, Problem::IndexBelowOne { index: *n }));
+            }
+            Ok(())
+        }
+        Medium::Sellmeier { b, c } => {
+            for v in b.iter().chain(c) {
+                finite(*v, location.clone())?;
+            }
+            Ok(())
+        }
+        Medium::Model { nd, vd } => {
+            finite(*nd, location.clone())?;
+            finite(*vd, location.clone())?;
+            if *nd < 1.0 {
+                return Err(PrescriptionError::new(location, Problem::IndexBelowOne { index: *nd }));
+            }
+            Ok(())
+        }
+    }
+}
+
+fn check_surface(i: usize, s: &Surface, map: &SourceMap) -> Result<(), PrescriptionError> {
+    let curvature = s.shape.curvature();
+    finite(curvature, map.surface(i, "curvature"))?;
+    finite(s.shape.conic(), map.surface(i, "conic"))?;
+    let terms = s.shape.aspheric_coefficients();
+    if terms.len() > MAX_ASPHERE_TERMS {
+        return Err(PrescriptionError::new(
+            map.surface(i, "coefficients"),
+            Problem::TooManyAsphereTerms { found: terms.len() },
+        ));
+    }
+    for a in terms {
+        finite(*a, map.surface(i, "coefficients"))?;
+    }
+    finite(s.thickness, map.surface(i, "thickness"))?;
+    finite(s.semi_aperture, map.surface(i, "semi_aperture"))?;
+    if s.semi_aperture <= 0.0 {
+        return Err(PrescriptionError::new(
+            map.surface(i, "semi_aperture"),
+            Problem::NonPositiveAperture { value: s.semi_aperture },
+        ));
+    }
+    check_medium(&s.medium, map.surface(i, "medium"))?;
+
+    let conic = s.shape.conic();
+    let limit_sq = (1.0 + conic) * curvature * curvature;
+    if limit_sq > 0.0 {
+        let limit = 1.0 / limit_sq.sqrt();
+        if s.semi_aperture > limit {
+            let problem = if matches!(s.shape, Shape::Sphere { .. }) {
+                Problem::ApertureExceedsRadius {
+                    semi_aperture: s.semi_aperture,
+                    radius: limit,
+                }
+            } else {
+                Problem::ApertureExceedsConic {
+                    semi_aperture: s.semi_aperture,
+                    limit,
+                }
+            };
+            return Err(PrescriptionError::new(map.surface(i, "semi_aperture"), problem));
+        }
+    }
+    if let Some(StopShape::Blades { count, rotation_deg, blade_curvature }) = &s.stop {
+        if *count < 3 {
+            return Err(PrescriptionError::new(
+                map.surface(i, "stop"),
+                Problem::TooFewBlades { count: *count },
+            ));
+        }
+        finite(*rotation_deg, map.surface(i, "stop"))?;
+        finite(*blade_curvature, map.surface(i, "stop"))?;
+    }
+    Ok(())
+}
+
+use super::model::Surface;
+
+fn check_stop(p: &Prescription, map: &SourceMap) -> Result<(), PrescriptionError> {
+    let stops: Vec<usize> = p
+        .surfaces
+        .iter()
+        .enumerate()
+        .filter(|(_, s)| s.stop.is_some())
+        .map(|(i, _)| i + 1)
+        .collect();
+    match stops.len() {
+        0 => Err(PrescriptionError::new(map.whole_file(), Problem::NoStop)),
+        1 => Ok(()),
+        _ => Err(PrescriptionError::new(
+            map.surface(stops[1] - 1, "stop"),
+            Problem::MultipleStops { surfaces: stops },
+        )),
+    }
+}
+
+/// Neighbouring surfaces must not cross within the smaller of their clear apertures: the gap
+/// z_next(r) - z_this(r) stays non-negative for every sampled r.
+fn check_crossings(p: &Prescription, map: &SourceMap) -> Result<(), PrescriptionError> {
+    let z = p.vertex_z();
+    for i in 0..p.surfaces.len().saturating_sub(1) {
+        let (a, b) = (&p.surfaces[i], &p.surfaces[i + 1]);
+        let r_max = a.semi_aperture.min(b.semi_aperture);
+        for k in 0..=CROSSING_SAMPLES {
+            let r = r_max * k as f64 / CROSSING_SAMPLES as f64;
+            let (Some(sag_a), Some(sag_b)) = (a.shape.sag(r), b.shape.sag(r)) else {
+                continue;
+            };
+            let gap = (z[i + 1] + sag_b) - (z[i] + sag_a);
+            // A relative tolerance lets touching edges (a cemented flat rim) pass.
+            let tolerance = 1e-9 * (1.0 + z[i + 1].abs());
+            if gap < -tolerance {
+                return Err(PrescriptionError::new(
+                    map.surface(i, "thickness"),
+                    Problem::SurfacesCross {
+                        next: i + 2,
+                        radius: r,
+                        gap,
+                    },
+                ));
+            }
+        }
+    }
+    Ok(())
+}

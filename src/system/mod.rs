@@ -1,0 +1,169 @@
+//! The validated lens system and its per-wavelength view.
+//!
+//! `LensSystem` owns a validated prescription with every medium resolved to a dispersion
+//! formula. `SystemAt` freezes it at one wavelength into the flat numbers that paraxial,
+//! third-order and real-ray code all read, so those analyses see the same lens by construction.
+
+use crate::glass::Dispersion;
+use crate::prescription::{
+    Location, Prescription, PrescriptionError, Shape, SourceMap, StopShape, validate,
+};
+
+/// Wavelength used when a lens states no design wavelength (helium d line, nm).
+pub const DEFAULT_WAVELENGTH_NM: f64 = 587.56;
+
+/// A prescription that passed validation, with its media resolved.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LensSystem {
+    pub prescription: Prescription,
+    pub object_dispersion: Dispersion,
+    /// Dispersion of the medium after each surface.
+    pub dispersions: Vec<Dispersion>,
+    /// 0-based index of the stop surface.
+    pub stop: usize,
+}
+
+impl LensSystem {
+    /// Validates and resolves `prescription`; `map` locates surfaces in their source file.
+    pub fn new(prescription: Prescription, map: &SourceMap) -> Result<LensSystem, PrescriptionError> {
+        validate(&prescription, map)?;
+        let object_dispersion = Dispersion::of(&prescription.object_medium).map_err(|problem| {
+            PrescriptionError::new(
+                Location {
+                    file: map.file.clone(),
+                    field: Some("object_medium".into()),
+                    ..Location::default()
+                },
+                problem,
+            )
+        })?;
+        let dispersions = prescription
+            .surfaces
+            .iter()
+            .enumerate()
+            .map(|(i, s)| {
+                Dispersion::of(&s.medium)
+                    .map_err(|problem| PrescriptionError::new(map.surface(i, "medium"), problem))
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        let stop = prescription
+            .stop_index()
+            .expect("validate guarantees exactly one stop");
+        Ok(LensSystem {
+            prescription,
+            object_dispersion,
+            dispersions,
+            stop,
+        })
+    }
+
+    /// Validates a prescription that has no source file (built in code or from a bundled lens).
+    pub fn from_prescription(prescription: Prescription) -> Result<LensSystem, PrescriptionError> {
+        LensSystem::new(prescription, &SourceMap::default())
+    }
+
+    /// The design wavelength, or the d line when the source states none.
+    pub fn design_wavelength_nm(&self) -> f64 {
+        self.prescription
+            .provenance
+            .design_wavelength_nm
+            .unwrap_or(DEFAULT_WAVELENGTH_NM)
+    }
+
+    /// Whether any medium's index changes with wavelength.
+    pub fn disperses(&self) -> bool {
+        self.object_dispersion.disperses() || self.dispersions.iter().any(Dispersion::disperses)
+    }
+
+    /// The lens frozen at one wavelength.
+    pub fn at(&self, wavelength_nm: f64) -> SystemAt {
+        let mut z = 0.0;
+        let surfaces = self
+            .prescription
+            .surfaces
+            .iter()
+            .zip(&self.dispersions)
+            .map(|(s, d)| {
+                let vertex_z = z;
+                z += s.thickness;
+                SurfaceAt {
+                    vertex_z,
+                    thickness: s.thickness,
+                    index_after: d.index(wavelength_nm),
+                    semi_aperture: s.semi_aperture,
+                    stop: s.stop.clone(),
+                    shape: s.shape.clone(),
+                }
+            })
+            .collect();
+        SystemAt {
+            wavelength_nm,
+            object_index: self.object_dispersion.index(wavelength_nm),
+            surfaces,
+            stop: self.stop,
+        }
+    }
+}
+
+/// One surface at one wavelength, in the lens frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SurfaceAt {
+    pub shape: Shape,
+    /// z of the vertex in the lens frame (surface 1 at 0).
+    pub vertex_z: f64,
+    /// Distance to the next vertex (for the last surface: to the film as the source gives it).
+    pub thickness: f64,
+    /// Refractive index after the surface.
+    pub index_after: f64,
+    pub semi_aperture: f64,
+    pub stop: Option<StopShape>,
+}
+
+impl SurfaceAt {
+    pub fn curvature(&self) -> f64 {
+        self.shape.curvature()
+    }
+
+    pub fn is_stop(&self) -> bool {
+        self.stop.is_some()
+    }
+}
+
+/// The lens at one wavelength: the one description every analysis iterates over.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SystemAt {
+    pub wavelength_nm: f64,
+    pub object_index: f64,
+    pub surfaces: Vec<SurfaceAt>,
+    /// 0-based index of the stop surface.
+    pub stop: usize,
+}
+
+impl SystemAt {
+    /// Index of the medium before surface `i` (0-based).
+    pub fn index_before(&self, i: usize) -> f64 {
+        if i == 0 {
+            self.object_index
+        } else {
+            self.surfaces[i - 1].index_after
+        }
+    }
+
+    /// Index of image space (after the last surface).
+    pub fn image_index(&self) -> f64 {
+        self.surfaces.last().map_or(self.object_index, |s| s.index_after)
+    }
+
+    /// z of the last vertex.
+    pub fn last_vertex_z(&self) -> f64 {
+        self.surfaces.last().map_or(0.0, |s| s.vertex_z)
+    }
+
+    /// Each surface with the indices on both sides: the path every analysis walks.
+    pub fn path(&self) -> impl Iterator<Item = (usize, &SurfaceAt, f64, f64)> + '_ {
+        self.surfaces
+            .iter()
+            .enumerate()
+            .map(|(i, s)| (i, s, self.index_before(i), s.index_after))
+    }
+}
