@@ -8,3 +8,4 @@
 pub mod glass;
 pub mod prescription;
 pub mod system;
+pub mod lenses;
