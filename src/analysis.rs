@@ -189,9 +189,14 @@ fn first_non_finite(value: &impl Serialize) -> Option<String> {
             _ => None,
         }
     }
-    let text = ron::to_string(value).ok()?;
-    let tree: ron::Value = ron::from_str(&text).ok()?;
-    walk(&tree, "analysis")
+    // A report that cannot be checked is treated as failing the check.
+    let tree = ron::to_string(value)
+        .map_err(|e| e.to_string())
+        .and_then(|text| ron::from_str::<ron::Value>(&text).map_err(|e| e.to_string()));
+    match tree {
+        Ok(tree) => walk(&tree, "analysis"),
+        Err(e) => Some(format!("analysis (unreadable for the check: {e})")),
+    }
 }
 
 #[cfg(test)]
