@@ -5,7 +5,10 @@
 //! [`system::SystemAt`] (one wavelength) -> analyses, trace, bake, render. The library never
 //! prints; every failure is a typed error.
 
+pub mod analysis;
 pub mod glass;
+pub mod paraxial;
 pub mod prescription;
+pub mod seidel;
 pub mod system;
 pub mod lenses;

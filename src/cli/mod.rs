@@ -1,5 +1,6 @@
 //! One module per subcommand; each turns parsed arguments into library calls and prints.
 
+mod analyze;
 mod lens;
 
 use clap::{Parser, Subcommand};
@@ -16,10 +17,13 @@ pub enum Command {
     /// Read, validate, convert and list lens prescriptions.
     #[command(subcommand)]
     Lens(lens::LensCommand),
+    /// First-order data, pupils and Seidel sums of a lens.
+    Analyze(analyze::AnalyzeArgs),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Lens(command) => lens::run(command),
+        Command::Analyze(args) => analyze::run(args),
     }
 }
