@@ -1,11 +1,4 @@
-//! Lenses bundled with lensbake, embedded in the binary so a name works from any directory, and
-//! the loader that accepts either a lens file or a bundled lens's name.
-
-use crate::prescription::formats::{Format, LoadOptions, Loaded, read_file, read_str};
-use crate::prescription::{Location, PrescriptionError, Problem};
-use crate::system::LensSystem;
-use std::fmt;
-use std::path::{Path, PathBuf};
+//! Lenses bundled with lensbake, embedded in the binary so a name works from any directory.
 
 /// A bundled lens: its short name and its canonical RON text.
 #[derive(Clone, Copy, Debug)]
@@ -16,6 +9,14 @@ pub struct BundledLens {
 
 /// Every bundled lens, sorted by name. The files live in lenses/<name>.ron.
 pub const BUNDLED: &[BundledLens] = &[];
+
+// The loader: a lens named by a file path or by a bundled lens's name.
+
+use crate::prescription::formats::{Format, LoadOptions, Loaded, read_file, read_str};
+use crate::prescription::{Location, PrescriptionError, Problem};
+use crate::system::LensSystem;
+use std::fmt;
+use std::path::{Path, PathBuf};
 
 /// The bundled lens called `name`.
 pub fn find(name: &str) -> Option<&'static BundledLens> {

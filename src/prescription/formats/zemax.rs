@@ -40,6 +40,10 @@ const HARMLESS_SURFACE: &[&str] = &[
     "VPAR", "VDSZ", "VCON", "XDAT",
 ];
 
+/// OpticStudio holds at most 24 wavelengths; the bound also keeps a corrupt number from
+/// allocating without limit.
+const MAX_WAVELENGTHS: usize = 24;
+
 /// Even-asphere terms a Zemax EVENASPH surface holds (PARM 1..8: r^2 .. r^16).
 const PARM_TERMS: usize = 8;
 
@@ -303,10 +307,12 @@ impl Reader {
             "WAVM" => {
                 let number = index(0)?;
                 let um = value(1)?;
-                if number == 0 {
+                if !(1..=MAX_WAVELENGTHS).contains(&number) {
                     return Err(PrescriptionError::new(
                         at("WAVM"),
-                        Problem::Syntax("wavelength numbers start at 1".into()),
+                        Problem::Syntax(format!(
+                            "wavelength number {number} is outside 1..={MAX_WAVELENGTHS}"
+                        )),
                     ));
                 }
                 if self.wavelengths.len() < number {
