@@ -2,12 +2,12 @@
 //!
 //! Commands are separated by `;` or line ends; `!` starts a comment; quoted strings keep spaces.
 //!
-//! Read: `RDM` (Y = radii, the default; N = curvatures), `TITLE` (or `TIT`), `DIM` (M, C, I: converted to
-//! mm), `EPD`, `FNO`, `WL` (nm) with `REF` (the design wavelength), `XAN`/`YAN` (field angles),
-//! `VUY`/`VLY`/`VUX`/`VLX` (vignetting factors), `SO` (object: distance, medium), `S value
-//! thickness [glass]`, `SI` (image), `STO`, `CIR` (clear aperture radius), `K` (conic),
-//! `A` `B` `C` `D` `E` `F` `G` `H` `J` (even-asphere terms r^4 .. r^20), `RDY`, `CUY`, `THI`,
-//! `GLA`, `GO` (end of input).
+//! Read: `RDM` (Y = radii, the default; N = curvatures), `TITLE` (or `TIT`), `DIM` (M, C, I:
+//! converted to mm), `EPD`, `FNO`, `WL` (nm) with `REF` (the design wavelength; the first `WL`
+//! when `REF` is absent, as rayoptics reads it), `XAN`/`YAN` (field angles), `VUY`/`VLY`/`VUX`/
+//! `VLX` (vignetting factors), `SO` (object: distance, medium), `S value thickness [glass]`, `SI`
+//! (image), `STO`, `CIR` (clear aperture radius), `K` (conic), `A` `B` `C` `D` `E` `F` `G` `H`
+//! `J` (even-asphere terms r^4 .. r^20), `RDY`, `CUY`, `THI`, `GLA`, `GO` (end of input).
 //!
 //! Ignored as harmless (they change no surface): `LEN`, `WTW`, `WTF`, `INI`, `POL`, `CCY`,
 //! `THC`, `GLC` (optimisation variables), `PIM` (the paraxial image solve; the file still states
@@ -478,7 +478,7 @@ impl Reader {
             .map(|s| {
                 let curvature = match (s.radius_mode, s.value) {
                     (false, c) => c,
-                    (true, r) if r == 0.0 => 0.0,
+                    (true, 0.0) => 0.0,
                     (true, r) => 1.0 / r,
                 };
                 Surface {

@@ -150,7 +150,7 @@ pub enum LoadNote {
     /// a vertex, which is typical of an unscaled `axpos` file read the wrong way.
     PbrtFirstThicknessZero,
     /// The file gave no clear aperture for these surfaces (1-based); they were derived from
-    /// paraxial rays (see [`apertures`](self) in the module docs of `formats::apertures`).
+    /// the paraxial marginal and chief rays of the file's beams (CODE V and Zemax files only).
     AperturesDerived { surfaces: Vec<usize> },
 }
 
