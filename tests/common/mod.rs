@@ -8,13 +8,36 @@ use lensbake::prescription::{Medium, Prescription, Provenance, Shape, StopShape,
 use serde_json::Value;
 use std::path::PathBuf;
 
-/// `../shared/testdata` beside the crate (CI layout), else `/work/shared/testdata` (worktrees).
-pub fn testdata_dir() -> PathBuf {
-    let beside = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/testdata");
+/// `../shared` beside the crate (CI layout), else `/work/shared` (helper worktrees).
+pub fn shared_dir() -> PathBuf {
+    let beside = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared");
     if beside.is_dir() {
         beside
     } else {
-        PathBuf::from("/work/shared/testdata")
+        PathBuf::from("/work/shared")
+    }
+}
+
+pub fn testdata_dir() -> PathBuf {
+    shared_dir().join("testdata")
+}
+
+/// A lens file of the shared test data.
+pub fn lens_file(name: &str) -> PathBuf {
+    testdata_dir().join("lenses").join(name)
+}
+
+/// A file of this crate's own test data (tests/data).
+pub fn test_data(name: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data").join(name)
+}
+
+/// Relative difference, safe at zero.
+pub fn relative(a: f64, b: f64) -> f64 {
+    if a == b {
+        0.0
+    } else {
+        (a - b).abs() / a.abs().max(b.abs())
     }
 }
 
@@ -247,6 +270,11 @@ pub fn oracle_json(file: &str) -> Value {
     let text = std::fs::read_to_string(&path)
         .unwrap_or_else(|e| panic!("cannot read {}: {e}", path.display()));
     serde_json::from_str(&text).unwrap_or_else(|e| panic!("bad JSON in {}: {e}", path.display()))
+}
+
+/// The prescription table of an oracle file (`lenses[0].prescription`).
+pub fn oracle_table(file: &str) -> Value {
+    oracle_json(file)["lenses"][0]["prescription"].clone()
 }
 
 /// The surfaces of the first lens of an oracle file.
