@@ -75,6 +75,19 @@ pub enum LensOrigin {
     Bundled(&'static str),
 }
 
+impl LensOrigin {
+    /// Short name for reports and output folders: the bundled name, or the file's stem.
+    pub fn name(&self) -> String {
+        match self {
+            LensOrigin::File(path) => path.file_stem().map_or_else(
+                || path.display().to_string(),
+                |stem| stem.to_string_lossy().into_owned(),
+            ),
+            LensOrigin::Bundled(name) => (*name).to_string(),
+        }
+    }
+}
+
 impl fmt::Display for LensOrigin {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {

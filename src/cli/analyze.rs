@@ -1,18 +1,16 @@
 //! `lensbake analyze`: first-order data, pupils and Seidel sums as a readable report or JSON.
 
 use anyhow::Context;
+use super::lens::LensArgs;
 use clap::Args;
 use lensbake::analysis::{Analysis, AnalyzeOptions, analyze};
 use lensbake::paraxial::StopChoice;
-use lensbake::prescription::{Prescription, SourceMap};
-use lensbake::system::LensSystem;
 use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
 
 #[derive(Args, Debug)]
 pub struct AnalyzeArgs {
-    /// Lens file (RON prescription).
-    pub lens: PathBuf,
+    #[command(flatten)]
+    pub lens: LensArgs,
     /// Wavelength in nm [default: the lens's design wavelength, else 587.56].
     #[arg(long, allow_negative_numbers = true)]
     pub wavelength_nm: Option<f64>,
@@ -35,7 +33,8 @@ pub struct AnalyzeArgs {
 }
 
 pub fn run(args: AnalyzeArgs) -> anyhow::Result<()> {
-    let (name, system) = load(&args.lens)?;
+    let lens = args.lens.load()?;
+    let name = lens.source.origin.name();
     let options = AnalyzeOptions {
         wavelength_nm: args.wavelength_nm,
         field_deg: args.field_deg,
@@ -47,30 +46,14 @@ pub fn run(args: AnalyzeArgs) -> anyhow::Result<()> {
             StopChoice::Marked
         },
     };
-    let analysis = analyze(&name, &system, &options)
-        .with_context(|| format!("analysing {}", args.lens.display()))?;
+    let analysis = analyze(&name, &lens.system, &options)
+        .with_context(|| format!("analysing {}", lens.source.origin))?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&analysis)?);
     } else {
         print!("{}", report(&analysis));
     }
     Ok(())
-}
-
-/// TEMPORARY until the shared lens loader (src/lenses.rs, formats helper) lands: reads a RON
-/// prescription file directly. Replace with the loader that also takes bundled names and the
-/// other file formats.
-fn load(path: &Path) -> anyhow::Result<(String, LensSystem)> {
-    let text = std::fs::read_to_string(path)
-        .with_context(|| format!("{}: cannot read file", path.display()))?;
-    let prescription: Prescription =
-        ron::from_str(&text).map_err(|e| anyhow::anyhow!("{}:{e}", path.display()))?;
-    let system = LensSystem::new(prescription, &SourceMap::for_file(path))?;
-    let name = path.file_stem().map_or_else(
-        || path.display().to_string(),
-        |s| s.to_string_lossy().into_owned(),
-    );
-    Ok((name, system))
 }
 
 /// The human-readable report: conditions, first-order table, rays and Seidel table.
