@@ -6,6 +6,7 @@
 //! prints; every failure is a typed error.
 
 pub mod glass;
-pub mod prescription;
-pub mod system;
 pub mod lenses;
+pub mod prescription;
+pub mod render;
+pub mod system;
