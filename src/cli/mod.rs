@@ -1,6 +1,7 @@
 //! One module per subcommand; each turns parsed arguments into library calls and prints.
 
 mod lens;
+mod render;
 
 use clap::{Parser, Subcommand};
 
@@ -20,10 +21,13 @@ pub enum Command {
     /// Read, validate, convert and list lens prescriptions.
     #[command(subcommand)]
     Lens(lens::LensCommand),
+    /// Render depth of field through a lens model (image-based ray tracing).
+    Render(render::RenderArgs),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Lens(command) => lens::run(command),
+        Command::Render(args) => render::run(args),
     }
 }

@@ -85,8 +85,8 @@ impl Scene {
         let chart = Panel {
             distance_mm: 2000.0,
             outline: Outline::Rect {
-                min: [-600.0, -350.0],
-                max: [250.0, 300.0],
+                min: [-450.0, -250.0],
+                max: [300.0, 250.0],
             },
             texture: Texture::Checker {
                 a: [0.80, 0.75, 0.55],
@@ -97,8 +97,8 @@ impl Scene {
         let post = Panel {
             distance_mm: 900.0,
             outline: Outline::Rect {
-                min: [120.0, -1000.0],
-                max: [200.0, 1000.0],
+                min: [100.0, -1000.0],
+                max: [170.0, 1000.0],
             },
             texture: Texture::Solid([0.35, 0.04, 0.03]),
         };
@@ -112,10 +112,10 @@ impl Scene {
         };
         let mut panels = vec![wall, chart, post, bar];
         let far_lights = [
-            ([1200.0, 900.0], [40.0, 30.0, 12.0]),
-            ([1700.0, 500.0], [12.0, 30.0, 45.0]),
-            ([900.0, -700.0], [45.0, 12.0, 30.0]),
-            ([-1500.0, 1000.0], [35.0, 35.0, 35.0]),
+            ([1500.0, 800.0], [40.0, 30.0, 12.0]),
+            ([1400.0, -900.0], [12.0, 30.0, 45.0]),
+            ([-1500.0, 950.0], [45.0, 12.0, 30.0]),
+            ([-1600.0, -950.0], [35.0, 35.0, 35.0]),
         ];
         for (centre, radiance) in far_lights {
             panels.push(Panel {
