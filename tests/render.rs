@@ -347,3 +347,39 @@ fn out_of_focus_occluder_edge_shows_the_background() {
         "no pixel showed background through the blurred occluder"
     );
 }
+
+#[test]
+fn ibrt_converges_to_true_geometry_reference_as_layers_refine() {
+    use lensbake::render::reference::{psnr, render_reference};
+    let settings = RenderSettings {
+        width: 160,
+        height: 120,
+        samples_per_pixel: 64,
+        seed: 5,
+        max_layers: 8,
+    };
+    let camera = thin_camera(2.0, 2000.0, Film::full_frame_for(160, 120));
+    let scene = Scene::demo();
+    let reference = render_reference(&camera, &scene, &settings).unwrap();
+    // Same samples on both sides, so what remains is the layers' point sampling of textures
+    // and silhouettes: at the output's pixel pitch every checker edge moves by up to half a
+    // pixel (measured 23.7 dB); it must fall away as the layers are refined (34.6 dB at 4x).
+    let mut scores = Vec::new();
+    for refine in [1, 4] {
+        let mut view = layer_view(&camera, &settings, scene.nearest_distance_mm().unwrap());
+        view.width *= refine;
+        view.height *= refine;
+        let ibrt =
+            render_layers(&camera, &scene.peel(view, 8), &settings, Backend::Cpu, None).unwrap();
+        scores.push(psnr(&ibrt, &reference));
+    }
+    eprintln!(
+        "IBRT vs true-geometry reference: PSNR {:.1} dB (layers at pixel pitch), {:.1} dB (4x finer)",
+        scores[0], scores[1]
+    );
+    assert!(scores[0] > 22.0, "{scores:?}");
+    assert!(
+        scores[1] > 33.0 && scores[1] > scores[0] + 8.0,
+        "{scores:?}"
+    );
+}

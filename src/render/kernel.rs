@@ -263,35 +263,37 @@ fn trace_layers(frame: &FrameParams, layers: &LayerData, ray: &ObjectRay) -> Opt
     None
 }
 
+/// The per-pixel sample decorrelation: lens and pixel-jitter scrambles from the seed and the
+/// pixel index, so every backend and lens model draws the same samples.
+pub(crate) struct PixelScrambles {
+    lens: [u32; 2],
+    jitter: [u32; 2],
+}
+
+impl PixelScrambles {
+    pub(crate) fn new(seed: u32, pixel: u32) -> PixelScrambles {
+        let key = mix_bits(pixel ^ mix_bits(seed));
+        PixelScrambles {
+            lens: [mix_bits(key.wrapping_add(1)), mix_bits(key.wrapping_add(2))],
+            jitter: [mix_bits(key.wrapping_add(3)), mix_bits(key.wrapping_add(4))],
+        }
+    }
+
+    /// Sample `index` of `count`: (unit-square lens sample, jitter within the pixel).
+    pub(crate) fn sample(&self, index: u32, count: u32) -> (Vec2, Vec2) {
+        let lens_u = lattice_point(index, count, self.lens[0], self.lens[1]);
+        let j = lattice_point(index, count, self.jitter[0], self.jitter[1]);
+        (lens_u, [j[1], j[0]])
+    }
+}
+
 /// Weighted radiance summed over this dispatch's samples for output pixel (x, y): the body of
 /// the shader's `render` entry point.
 fn render_pixel(frame: &FrameParams, layers: &LayerData, x: u32, y: u32) -> Vec3 {
-    let pixel = y * frame.width + x;
-    let pixel_key = mix_bits(pixel ^ mix_bits(frame.seed));
-    let lens_scramble = [
-        mix_bits(pixel_key.wrapping_add(1)),
-        mix_bits(pixel_key.wrapping_add(2)),
-    ];
-    let jitter_scramble = [
-        mix_bits(pixel_key.wrapping_add(3)),
-        mix_bits(pixel_key.wrapping_add(4)),
-    ];
+    let scrambles = PixelScrambles::new(frame.seed, y * frame.width + x);
     let mut sum = [0.0f32; 3];
     for s in 0..frame.sample_count {
-        let index = frame.sample_offset + s;
-        let lens_u = lattice_point(
-            index,
-            frame.samples_per_pixel,
-            lens_scramble[0],
-            lens_scramble[1],
-        );
-        let jitter_xy = lattice_point(
-            index,
-            frame.samples_per_pixel,
-            jitter_scramble[0],
-            jitter_scramble[1],
-        );
-        let jitter = [jitter_xy[1], jitter_xy[0]];
+        let (lens_u, jitter) = scrambles.sample(frame.sample_offset + s, frame.samples_per_pixel);
         let film = [
             frame.film_origin_x + (x as f32 + jitter[0]) * frame.film_step_x,
             frame.film_origin_y + (y as f32 + jitter[1]) * frame.film_step_y,

@@ -13,6 +13,7 @@ pub mod gpu_types;
 pub mod image;
 pub mod kernel;
 pub mod layers;
+pub mod reference;
 pub mod scene;
 
 use camera::Camera;
@@ -56,7 +57,7 @@ pub struct RenderSettings {
 }
 
 impl RenderSettings {
-    fn check(&self) -> Result<(), RenderError> {
+    pub(crate) fn check(&self) -> Result<(), RenderError> {
         if self.width == 0
             || self.height == 0
             || self.samples_per_pixel == 0
