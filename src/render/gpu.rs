@@ -43,6 +43,8 @@ impl GpuRenderer {
             ..Default::default()
         }))
         .map_err(|e| RenderError::Gpu(e.to_string()))?;
+        // Capture validation errors instead of letting wgpu's default handler panic.
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("ibrt.wgsl"),
             source: wgpu::ShaderSource::Wgsl(IBRT_SHADER.into()),
@@ -55,6 +57,11 @@ impl GpuRenderer {
             compilation_options: Default::default(),
             cache: None,
         });
+        if let Some(error) = pollster::block_on(scope.pop()) {
+            return Err(RenderError::Gpu(format!(
+                "building the IBRT pipeline: {error}"
+            )));
+        }
         Ok(GpuRenderer {
             device,
             queue,
@@ -95,6 +102,7 @@ impl GpuRenderer {
             usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
+        let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
         let mut offset = 0;
         while offset < frame.samples_per_pixel {
             let chunk = FrameParams {
@@ -152,6 +160,9 @@ impl GpuRenderer {
         let mut encoder = self.device.create_command_encoder(&Default::default());
         encoder.copy_buffer_to_buffer(&output, 0, &readback, 0, output_bytes);
         self.queue.submit([encoder.finish()]);
+        if let Some(error) = pollster::block_on(scope.pop()) {
+            return Err(RenderError::Gpu(format!("dispatching IBRT: {error}")));
+        }
         readback.map_async(wgpu::MapMode::Read, .., |_| {});
         self.device
             .poll(wgpu::PollType::wait_indefinitely())
