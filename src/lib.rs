@@ -7,8 +7,9 @@
 
 pub mod analysis;
 pub mod glass;
+pub mod lenses;
 pub mod paraxial;
 pub mod prescription;
+pub mod render;
 pub mod seidel;
 pub mod system;
-pub mod lenses;

@@ -2,11 +2,16 @@
 
 mod analyze;
 mod lens;
+mod render;
 
 use clap::{Parser, Subcommand};
 
 #[derive(Parser, Debug)]
-#[command(name = "lensbake", version, about = "Lens design analysis and LRTF precomputation")]
+#[command(
+    name = "lensbake",
+    version,
+    about = "Lens design analysis and LRTF precomputation"
+)]
 pub struct Cli {
     #[command(subcommand)]
     pub command: Command,
@@ -19,11 +24,14 @@ pub enum Command {
     Lens(lens::LensCommand),
     /// First-order data, pupils and Seidel sums of a lens.
     Analyze(analyze::AnalyzeArgs),
+    /// Render depth of field through a lens model (image-based ray tracing).
+    Render(render::RenderArgs),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Lens(command) => lens::run(command),
         Command::Analyze(args) => analyze::run(args),
+        Command::Render(args) => render::run(args),
     }
 }
