@@ -6,6 +6,7 @@
 //! prints; every failure is a typed error.
 
 pub mod glass;
+pub mod lenses;
+pub mod plot;
 pub mod prescription;
 pub mod system;
-pub mod lenses;
