@@ -9,4 +9,5 @@ pub mod glass;
 pub mod lenses;
 pub mod plot;
 pub mod prescription;
+pub mod report;
 pub mod system;

@@ -1,6 +1,7 @@
 //! One module per subcommand; each turns parsed arguments into library calls and prints.
 
 mod lens;
+mod plot;
 
 use clap::{Parser, Subcommand};
 
@@ -20,10 +21,16 @@ pub enum Command {
     /// Read, validate, convert and list lens prescriptions.
     #[command(subcommand)]
     Lens(lens::LensCommand),
+    /// Draw one aberration plot of a lens as PNG or SVG.
+    Plot(plot::PlotArgs),
+    /// Write a lens's report (tables and every plot) to a directory.
+    Report(plot::ReportArgs),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Lens(command) => lens::run(command),
+        Command::Plot(args) => plot::run_plot(args),
+        Command::Report(args) => plot::run_report(args),
     }
 }
