@@ -223,3 +223,117 @@ fn files_are_written_whole_and_the_format_follows_the_extension() {
     assert!(leftovers.is_empty(), "temporary files left: {leftovers:?}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn curve_views_draw_their_data_with_labelled_series() {
+    use lensbake::plot::{
+        DistortionPlot, FieldCurve, FieldCurvesPlot, LateralColorPlot, Spot, SpotField, SpotPlot,
+        VignettingPlot,
+    };
+    let json = common::oracle(COOKE);
+    let distortion: Vec<(f64, f64)> = json["lenses"][0]["quick_reference"]["distortion_percent"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| (p[0].as_f64().unwrap(), p[1].as_f64().unwrap()))
+        .collect();
+    let view = DistortionPlot {
+        lens: "Cooke triplet".into(),
+        wavelength_nm: 587.56,
+        reference: "f·tan θ".into(),
+        points: distortion.clone(),
+    };
+    let drawn = check_both_formats(&view, "Cooke triplet: distortion", "distortion");
+    let series = &drawn.panels[0].series[0];
+    assert_eq!(series.label, "587.6 nm, against f·tan θ");
+    let swapped: Vec<(f64, f64)> = distortion.iter().map(|&(f, d)| (d, f)).collect();
+    assert_eq!(series.points, swapped, "percent across, field up");
+
+    let fields = [0.0, 10.0, 20.0];
+    let view = FieldCurvesPlot {
+        lens: "Cooke triplet".into(),
+        curves: [486.13, 587.56, 656.27]
+            .iter()
+            .map(|&w| FieldCurve {
+                wavelength_nm: w,
+                points: fields
+                    .iter()
+                    .map(|&f: &f64| (f, -0.001 * f * f, 0.002 * f * f))
+                    .collect(),
+            })
+            .collect(),
+    };
+    let drawn = check_both_formats(&view, "astigmatic field curves", "field-curves");
+    assert_eq!(
+        drawn.panels[0].series.len(),
+        6,
+        "S and T at three wavelengths"
+    );
+    assert_eq!(
+        drawn.series("field", "T 587.6 nm").unwrap().points[2],
+        (0.8, 20.0)
+    );
+
+    let view = LateralColorPlot {
+        lens: "Cooke triplet".into(),
+        reference_nm: 587.56,
+        curves: vec![WavelengthCurve {
+            wavelength_nm: 486.13,
+            points: vec![(0.0, 0.0), (10.0, 0.002), (20.0, 0.005)],
+        }],
+    };
+    let drawn = check_both_formats(&view, "lateral colour", "lateral-color");
+    assert_eq!(
+        drawn.series("lateral", "486.1 nm").unwrap().points[2],
+        (20.0, 5.0),
+        "µm"
+    );
+
+    let view = VignettingPlot {
+        lens: "Cooke triplet".into(),
+        points: vec![(0.0, 1.0, 1.0), (10.0, 0.93, 1.0), (20.0, 0.7, 0.82)],
+    };
+    let drawn = check_both_formats(&view, "relative illumination", "vignetting");
+    assert_eq!(drawn.panels[0].series.len(), 2);
+
+    let ring = |r: f64| -> Vec<(f64, f64)> {
+        (0..200)
+            .map(|i| i as f64 * 0.1)
+            .map(|a| (r * a.cos(), r * a.sin()))
+            .collect()
+    };
+    let view = SpotPlot {
+        lens: "Cooke triplet".into(),
+        fields: vec![
+            SpotField {
+                field_deg: 20.0,
+                spots: vec![Spot {
+                    wavelength_nm: 587.56,
+                    points: vec![],
+                    rms_radius_mm: 0.0,
+                    geometric_radius_mm: 0.0,
+                    airy_radius_mm: 0.0036,
+                }],
+            },
+            SpotField {
+                field_deg: 0.0,
+                spots: vec![Spot {
+                    wavelength_nm: 587.56,
+                    points: ring(0.01),
+                    rms_radius_mm: 0.01,
+                    geometric_radius_mm: 0.01,
+                    airy_radius_mm: 0.0036,
+                }],
+            },
+        ],
+    };
+    let drawn = check_both_formats(&view, "spot diagrams", "spot");
+    assert_eq!(drawn.panels[0].messages, ["All rays vignetted at 20.00°"]);
+    assert!(drawn.panels[1].messages[0].starts_with("RMS 10.00 µm"));
+    let far = drawn.panels[1].series[0]
+        .points
+        .iter()
+        .map(|p| p.0.hypot(p.1))
+        .fold(0.0, f64::max);
+    assert!((far - 10.0).abs() < 1e-9, "spots are drawn in µm");
+}

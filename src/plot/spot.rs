@@ -32,6 +32,9 @@ pub struct SpotPlot {
 }
 
 const CELL: u32 = 330;
+const MARGIN: u32 = 8;
+const X_LABELS: u32 = 44;
+const Y_LABELS: u32 = 54;
 
 impl SpotPlot {
     fn columns(&self) -> usize {
@@ -47,7 +50,7 @@ impl SpotPlot {
 impl View for SpotPlot {
     fn size(&self) -> (u32, u32) {
         (
-            CELL * self.columns() as u32,
+            (CELL * self.columns() as u32).max(720),
             60 + (CELL + 40) * self.fields.len().max(1) as u32,
         )
     }
@@ -91,12 +94,28 @@ fn draw_spot<DB: DrawingBackend>(
     spot: &Spot,
     half: f64,
 ) -> Result<PanelDrawn, PlotError> {
+    // Equal µm per pixel on both axes, so the Airy disk is drawn round: predict the plotting
+    // area the way plotters lays it out (margins, caption, label areas) and widen one range.
+    let caption = TextStyle::from((FONT_FAMILY, 18).into_font());
+    let (_, text_height) = area
+        .estimate_text_size(&title, &caption)
+        .map_err(draw_error)?;
+    let caption_height = text_height as f64 + 2.0 * (text_height as f64 / 2.0).min(5.0).floor();
+    let (width, height) = area.dim_in_pixel();
+    let plot_width = (width as f64 - 2.0 * MARGIN as f64 - Y_LABELS as f64).max(1.0);
+    let plot_height =
+        (height as f64 - 2.0 * MARGIN as f64 - X_LABELS as f64 - caption_height).max(1.0);
+    let (x_half, y_half) = if plot_width > plot_height {
+        (half * plot_width / plot_height, half)
+    } else {
+        (half, half * plot_height / plot_width)
+    };
     let mut chart = ChartBuilder::on(area)
-        .caption(&title, (FONT_FAMILY, 18))
-        .margin(8)
-        .x_label_area_size(44)
-        .y_label_area_size(54)
-        .build_cartesian_2d(-half..half, -half..half)
+        .caption(&title, caption)
+        .margin(MARGIN)
+        .x_label_area_size(X_LABELS)
+        .y_label_area_size(Y_LABELS)
+        .build_cartesian_2d(-x_half..x_half, -y_half..y_half)
         .map_err(draw_error)?;
     chart
         .configure_mesh()
@@ -149,7 +168,7 @@ fn draw_spot<DB: DrawingBackend>(
     );
     area.draw(&Text::new(
         note.clone(),
-        (64, 34),
+        (72, 36),
         (FONT_FAMILY, LABEL_SIZE - 4).into_font().color(&BLACK),
     ))
     .map_err(draw_error)?;
