@@ -8,4 +8,5 @@
 pub mod glass;
 pub mod prescription;
 pub mod system;
+pub mod trace;
 pub mod lenses;
