@@ -11,3 +11,4 @@ pub mod plot;
 pub mod prescription;
 pub mod report;
 pub mod system;
+pub mod trace;

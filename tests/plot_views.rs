@@ -61,7 +61,7 @@ fn check_both_formats<V: View>(view: &V, title: &str, preview_name: &str) -> Dra
 
 #[test]
 fn layout_draws_every_surface_within_its_clear_aperture() {
-    let prescription = common::oracle_prescription(COOKE);
+    let prescription = common::oracle_prescription(&common::oracle(COOKE)["lenses"][0]);
     let system = LensSystem::from_prescription(prescription.clone()).unwrap();
     let view = LayoutPlot::of_system("Cooke triplet", &system.at(587.56));
     let drawn = check_both_formats(&view, "Cooke triplet: layout", "layout");

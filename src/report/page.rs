@@ -212,6 +212,7 @@ fn prescription_table(system: &LensSystem) -> Table {
 fn medium_name(medium: &crate::prescription::Medium) -> String {
     use crate::prescription::Medium;
     match medium {
+        _ if medium.is_air() => "air".into(),
         Medium::Air => "air".into(),
         Medium::Index(n) => format!("n = {n}"),
         Medium::Glass(name) => name.clone(),
