@@ -111,6 +111,21 @@ pub enum Problem {
         "wavelength {nm} nm is outside the range where this medium's dispersion formula is defined"
     )]
     WavelengthOutOfRange { nm: f64 },
+    #[error("the file is not text: invalid UTF-8 at byte {byte_offset}")]
+    NotText { byte_offset: usize },
+    #[error("cannot tell the lens format from {}; name the format (ron, pbrt, table, codev, zemax)", describe_extension(.extension))]
+    UnknownFormat { extension: Option<String> },
+    #[error("the first row's thickness is {value}, but in the distance-from-previous (axpos) reading the first surface has no previous surface and must be 0")]
+    FirstAxialPositionNotZero { value: f64 },
+    #[error("no clear semi-aperture is given and none can be derived: {reason}")]
+    CannotDeriveApertures { reason: String },
+}
+
+fn describe_extension(extension: &Option<String>) -> String {
+    match extension {
+        Some(e) => format!("the extension `.{e}`"),
+        None => "a file name without extension".to_string(),
+    }
 }
 
 fn suggest(suggestions: &[String]) -> String {

@@ -176,7 +176,7 @@ fn check_surface(i: usize, s: &Surface, map: &SourceMap) -> Result<(), Prescript
 
 use super::model::Surface;
 
-fn check_stop(p: &Prescription, map: &SourceMap) -> Result<(), PrescriptionError> {
+pub(crate) fn check_stop(p: &Prescription, map: &SourceMap) -> Result<(), PrescriptionError> {
     let stops: Vec<usize> = p
         .surfaces
         .iter()
