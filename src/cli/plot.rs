@@ -1,10 +1,10 @@
 //! `lensbake plot` and `lensbake report`.
 
-use anyhow::{Context, bail};
+use anyhow::bail;
 use clap::Args;
-use lensbake::lenses::BUNDLED;
+use lensbake::lenses::{self, BUNDLED, LensOrigin};
 use lensbake::plot::write_plot;
-use lensbake::prescription::{Prescription, SourceMap};
+use lensbake::prescription::formats::LoadOptions;
 use lensbake::report::{FigureOptions, PlotKind, figure, write_report};
 use lensbake::system::LensSystem;
 use std::path::{Path, PathBuf};
@@ -94,23 +94,17 @@ fn check_options(options: &FigureOptions) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// A bundled lens by name, or a native RON lens file; returns the name used in titles.
+/// The lens `spec` names (a file or a bundled lens) and the name its plots carry.
 fn load_lens(spec: &str) -> anyhow::Result<(String, LensSystem)> {
-    if let Some(bundled) = BUNDLED.iter().find(|b| b.name == spec) {
-        let prescription: Prescription =
-            ron::from_str(bundled.ron).with_context(|| format!("bundled lens {spec}"))?;
-        let system = LensSystem::new(prescription, &SourceMap::default())
-            .with_context(|| format!("bundled lens {spec}"))?;
-        return Ok((spec.to_string(), system));
+    let lens = lenses::load(spec, &LoadOptions::default())?;
+    for note in &lens.source.loaded.notes {
+        eprintln!("note: {}: {note}", lens.source.origin);
     }
-    let path = Path::new(spec);
-    let text = std::fs::read_to_string(path)
-        .with_context(|| format!("{spec}: neither a readable lens file nor a bundled lens name"))?;
-    let prescription: Prescription =
-        ron::from_str(&text).with_context(|| format!("{spec}: not a lens prescription"))?;
-    let system = LensSystem::new(prescription, &SourceMap::for_file(path))?;
-    let name = path
-        .file_stem()
-        .map_or_else(|| spec.to_string(), |s| s.to_string_lossy().into_owned());
-    Ok((name, system))
+    let name = match &lens.source.origin {
+        LensOrigin::Bundled(name) => name.to_string(),
+        LensOrigin::File(path) => path
+            .file_stem()
+            .map_or_else(|| spec.to_string(), |s| s.to_string_lossy().into_owned()),
+    };
+    Ok((name, lens.system))
 }
