@@ -1,10 +1,11 @@
 //! Which plots exist and how each is filled from the analyses of one lens.
 
 use crate::plot::{
-    DistortionPlot, Drawn, FieldCurvesPlot, LateralColorPlot, LayoutPlot, LsaPlot, PlotError,
-    RayFanPlot, SeidelPlot, SpotPlot, View, VignettingPlot,
+    DistortionPlot, Drawn, FieldCurvesPlot, LateralColorPlot, LayoutPlot, LayoutRay, LsaPlot,
+    PlotError, RayFanPlot, SeidelPlot, SpotPlot, View, VignettingPlot,
 };
-use crate::system::LensSystem;
+use crate::system::{LensSystem, SystemAt};
+use crate::trace::{Apertures, RaySource, Tracer, Travel, aim_at_stop, traceable_field_deg};
 use plotters::coord::Shift;
 use plotters::prelude::{DrawingArea, DrawingBackend};
 use std::fmt;
@@ -164,10 +165,32 @@ pub fn figure(
         .copied()
         .unwrap_or_else(|| system.design_wavelength_nm());
     match kind {
-        PlotKind::Layout => Ok(Figure::Layout(LayoutPlot::of_system(
-            lens,
-            &system.at(wavelength_nm),
-        ))),
+        PlotKind::Layout => {
+            let at = system.at(wavelength_nm);
+            let tracer = Tracer::new(&at);
+            let max_field = max_field_deg(&tracer, options);
+            let mut plot = LayoutPlot::of_system(lens, &at);
+            for fraction in [0.0, 0.7, 1.0] {
+                plot.rays.extend(layout_rays(
+                    &tracer,
+                    &at,
+                    fraction * max_field,
+                    plot.image_z,
+                ));
+            }
+            // The image plane as tall as the bundles that reach it.
+            let reached = plot
+                .rays
+                .iter()
+                .filter(|r| !r.vignetted)
+                .filter_map(|r| r.path.last())
+                .map(|p| p.1.abs())
+                .fold(0.0, f64::max);
+            if reached > 0.0 {
+                plot.image_half_height = 1.05 * reached;
+            }
+            Ok(Figure::Layout(plot))
+        }
         PlotKind::Seidel => Err(FigureError::NotAvailable {
             kind,
             analysis: "paraxial analysis",
@@ -177,4 +200,71 @@ pub fn figure(
             analysis: "real-ray analyses",
         }),
     }
+}
+
+/// The field the user asked for, else the largest whose real chief ray passes the lens.
+fn max_field_deg(tracer: &Tracer, options: &FigureOptions) -> f64 {
+    options
+        .field_deg
+        .unwrap_or_else(|| traceable_field_deg(tracer, FIELD_SCAN_DEG))
+}
+
+/// Step of the scan for the largest traceable field (degrees); bisection refines it.
+const FIELD_SCAN_DEG: f64 = 1.0;
+
+/// Where layout rays cross the stop, as fractions of its radius (meridional plane). Just inside
+/// the rim, so the marginal rays are not lost to round-off at the stop's edge.
+const LAYOUT_STOP_HEIGHTS: [f64; 5] = [-0.999, -0.5, 0.0, 0.5, 0.999];
+
+/// The meridional rays of one field for the layout, from in front of the lens to the image
+/// plane or to the surface that stops them. Rays that cannot be aimed are left out.
+fn layout_rays(tracer: &Tracer, at: &SystemAt, field_deg: f64, image_z: f64) -> Vec<LayoutRay> {
+    let angle = field_deg.to_radians();
+    let source = RaySource::Collimated {
+        direction: [0.0, angle.sin(), angle.cos()],
+        start_z: tracer.front_start_z(),
+    };
+    let stop_radius = at.surfaces[at.stop].semi_aperture;
+    let largest = at
+        .surfaces
+        .iter()
+        .map(|s| s.semi_aperture)
+        .fold(0.0, f64::max);
+    // Incoming rays start 1.5 apertures in front of the lens, or later where a steep ray would
+    // otherwise run far outside the lens's height and dwarf the drawing.
+    let draw_from = |ray: &crate::trace::Ray| {
+        let [_, y, z] = ray.position();
+        let [_, dy, dz] = ray.direction();
+        let earliest = at.surfaces[0].vertex_z - 1.5 * largest;
+        if dy == 0.0 {
+            return earliest;
+        }
+        let limit = 1.3 * largest * dy.signum();
+        earliest.max(z + (-limit - y) * dz / dy)
+    };
+    LAYOUT_STOP_HEIGHTS
+        .iter()
+        .filter_map(|&h| aim_at_stop(tracer, &source, [0.0, h * stop_radius]).ok())
+        .map(|ray| {
+            let traced = tracer.trace_path(ray, Travel::Forward, Apertures::Checked);
+            let mut path: Vec<(f64, f64)> = ray
+                .point_at_z(draw_from(&ray))
+                .into_iter()
+                .chain(traced.crossings.iter().map(|c| c.point))
+                .map(|p| (p[2], p[1]))
+                .collect();
+            let vignetted = !traced.traced.outcome.is_ok();
+            if vignetted {
+                let stopped = traced.traced.ray.position();
+                path.push((stopped[2], stopped[1]));
+            } else if let Some(end) = traced.traced.ray.point_at_z(image_z) {
+                path.push((end[2], end[1]));
+            }
+            LayoutRay {
+                field_deg,
+                path,
+                vignetted,
+            }
+        })
+        .collect()
 }
