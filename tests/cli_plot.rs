@@ -14,8 +14,7 @@ fn scratch(name: &str) -> PathBuf {
 
 /// The Cooke triplet of the truth data as a native lens file.
 fn cooke_file(dir: &Path) -> PathBuf {
-    let prescription =
-        common::oracle_prescription(&common::oracle("optiland_cooke_triplet.json")["lenses"][0]);
+    let prescription = common::load_oracle("optiland_cooke_triplet").prescription;
     let path = dir.join("cooke.ron");
     std::fs::write(
         &path,

@@ -10,7 +10,7 @@ use lensbake::plot::{
 };
 use lensbake::system::LensSystem;
 
-const COOKE: &str = "optiland_cooke_triplet.json";
+const COOKE: &str = "optiland_cooke_triplet";
 
 /// Decodes a PNG and returns (width, height, RGB pixels).
 fn decode_png(bytes: &[u8]) -> (u32, u32, Vec<u8>) {
@@ -61,7 +61,7 @@ fn check_both_formats<V: View>(view: &V, title: &str, preview_name: &str) -> Dra
 
 #[test]
 fn layout_draws_every_surface_within_its_clear_aperture() {
-    let prescription = common::oracle_prescription(&common::oracle(COOKE)["lenses"][0]);
+    let prescription = common::load_oracle(COOKE).prescription;
     let system = LensSystem::from_prescription(prescription.clone()).unwrap();
     let view = LayoutPlot::of_system("Cooke triplet", &system.at(587.56));
     let drawn = check_both_formats(&view, "Cooke triplet: layout", "layout");
@@ -94,7 +94,7 @@ fn layout_draws_every_surface_within_its_clear_aperture() {
 
 #[test]
 fn seidel_bars_are_the_per_surface_terms_and_their_sums() {
-    let json = common::oracle(COOKE);
+    let json = common::load_oracle(COOKE).json;
     let seidel = &json["lenses"][0]["infinite_conjugate"]["seidel"]["rayoptics"];
     let terms =
         |v: &serde_json::Value| -> [f64; 5] { std::array::from_fn(|k| v[k].as_f64().unwrap()) };
@@ -126,7 +126,7 @@ fn seidel_bars_are_the_per_surface_terms_and_their_sums() {
 
 #[test]
 fn lsa_is_drawn_with_pupil_height_up() {
-    let json = common::oracle(COOKE);
+    let json = common::load_oracle(COOKE).json;
     let points: Vec<(f64, f64)> = json["lenses"][0]["quick_reference"]["lsa"]
         .as_array()
         .unwrap()
@@ -230,7 +230,7 @@ fn curve_views_draw_their_data_with_labelled_series() {
         DistortionPlot, FieldCurve, FieldCurvesPlot, LateralColorPlot, Spot, SpotField, SpotPlot,
         VignettingPlot,
     };
-    let json = common::oracle(COOKE);
+    let json = common::load_oracle(COOKE).json;
     let distortion: Vec<(f64, f64)> = json["lenses"][0]["quick_reference"]["distortion_percent"]
         .as_array()
         .unwrap()

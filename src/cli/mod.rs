@@ -1,5 +1,6 @@
 //! One module per subcommand; each turns parsed arguments into library calls and prints.
 
+mod analyze;
 mod lens;
 mod plot;
 
@@ -21,6 +22,8 @@ pub enum Command {
     /// Read, validate, convert and list lens prescriptions.
     #[command(subcommand)]
     Lens(lens::LensCommand),
+    /// First-order data, pupils and Seidel sums of a lens.
+    Analyze(analyze::AnalyzeArgs),
     /// Draw one aberration plot of a lens as PNG or SVG.
     Plot(plot::PlotArgs),
     /// Write a lens's report (tables and every plot) to a directory.
@@ -30,6 +33,7 @@ pub enum Command {
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Lens(command) => lens::run(command),
+        Command::Analyze(args) => analyze::run(args),
         Command::Plot(args) => plot::run_plot(args),
         Command::Report(args) => plot::run_report(args),
     }
