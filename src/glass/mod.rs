@@ -32,6 +32,12 @@ pub enum Dispersion {
         a: f64,
         b: f64,
     },
+    /// The Schott power series (Zemax "Schott" formula), l in micrometres:
+    /// n^2 = A0 + A1 l^2 + A2 l^-2 + A3 l^-4 + A4 l^-6 + A5 l^-8. Older catalogues (HIKARI among
+    /// them) publish their glasses in this form.
+    PowerSeries {
+        a: [f64; 6],
+    },
 }
 
 impl Dispersion {
@@ -69,6 +75,11 @@ impl Dispersion {
                 (1.0 + sum).sqrt()
             }
             Dispersion::Cauchy { a, b } => a + b / l2,
+            Dispersion::PowerSeries { a } => {
+                let inv = 1.0 / l2;
+                let n2 = a[0] + a[1] * l2 + inv * (a[2] + inv * (a[3] + inv * (a[4] + inv * a[5])));
+                n2.sqrt()
+            }
         }
     }
 

@@ -302,3 +302,21 @@ pub fn vec3(v: &Value) -> [f64; 3] {
         .unwrap_or_else(|| panic!("expected a 3-vector, found {v}"));
     [num(&a[0]), num(&a[1]), num(&a[2])]
 }
+
+/// Parses one file of the shared test data as JSON.
+#[allow(dead_code)]
+pub fn oracle_json(name: &str) -> serde_json::Value {
+    let path = testdata_dir().join("oracle").join(name);
+    let text = std::fs::read_to_string(&path)
+        .unwrap_or_else(|e| panic!("cannot read {}: {e}", path.display()));
+    serde_json::from_str(&text).unwrap_or_else(|e| panic!("bad JSON in {}: {e}", path.display()))
+}
+
+/// The surfaces of the first lens of an oracle file.
+#[allow(dead_code)]
+pub fn oracle_surfaces(name: &str) -> Vec<serde_json::Value> {
+    oracle_json(name)["lenses"][0]["prescription"]["surfaces"]
+        .as_array()
+        .expect("oracle prescription has surfaces")
+        .clone()
+}
