@@ -1,8 +1,9 @@
 //! Which plots exist and how each is filled from the analyses of one lens.
 
+use crate::analysis::{AnalysisError, AnalyzeOptions, analyze};
 use crate::plot::{
     DistortionPlot, Drawn, FieldCurvesPlot, LateralColorPlot, LayoutPlot, LayoutRay, LsaPlot,
-    PlotError, RayFanPlot, SeidelPlot, SpotPlot, View, VignettingPlot,
+    PlotError, RayFanPlot, SeidelBar, SeidelPlot, SpotPlot, View, VignettingPlot,
 };
 use crate::system::{LensSystem, SystemAt};
 use crate::trace::{Apertures, RaySource, Tracer, Travel, aim_at_stop, traceable_field_deg};
@@ -105,6 +106,8 @@ pub enum FigureError {
         analysis: &'static str,
     },
     #[error(transparent)]
+    Analysis(#[from] AnalysisError),
+    #[error(transparent)]
     Plot(#[from] PlotError),
 }
 
@@ -191,10 +194,23 @@ pub fn figure(
             }
             Ok(Figure::Layout(plot))
         }
-        PlotKind::Seidel => Err(FigureError::NotAvailable {
-            kind,
-            analysis: "paraxial analysis",
-        }),
+        PlotKind::Seidel => {
+            let analysis = analyze(lens, system, &analyze_options(options, wavelength_nm))?;
+            Ok(Figure::Seidel(SeidelPlot {
+                lens: lens.to_string(),
+                wavelength_nm: analysis.wavelength_nm,
+                surfaces: analysis
+                    .seidel
+                    .surfaces
+                    .iter()
+                    .map(|s| SeidelBar {
+                        surface: s.surface,
+                        terms: s.terms.as_array(),
+                    })
+                    .collect(),
+                sums: analysis.seidel.sums.as_array(),
+            }))
+        }
         _ => Err(FigureError::NotAvailable {
             kind,
             analysis: "real-ray analyses",
@@ -267,4 +283,13 @@ fn layout_rays(tracer: &Tracer, at: &SystemAt, field_deg: f64, image_z: f64) -> 
             }
         })
         .collect()
+}
+
+/// The paraxial analysis at the plotted wavelength and field.
+pub(crate) fn analyze_options(options: &FigureOptions, wavelength_nm: f64) -> AnalyzeOptions {
+    AnalyzeOptions {
+        wavelength_nm: Some(wavelength_nm),
+        field_deg: options.field_deg,
+        ..AnalyzeOptions::default()
+    }
 }

@@ -5,7 +5,7 @@ mod figures;
 mod page;
 
 pub use figures::{Figure, FigureError, FigureOptions, PlotKind, figure};
-pub use page::{Page, PlotEntry, Table};
+pub use page::{Page, PlotEntry, Table, analysis_tables};
 
 use crate::plot::{PlotError, write_atomic, write_plot};
 use crate::system::LensSystem;
@@ -49,6 +49,21 @@ pub fn write_report(
         source,
     })?;
     let mut page = Page::for_lens(lens, system);
+    let wavelength_nm = options
+        .wavelengths_nm
+        .first()
+        .copied()
+        .unwrap_or_else(|| system.design_wavelength_nm());
+    match crate::analysis::analyze(
+        lens,
+        system,
+        &figures::analyze_options(options, wavelength_nm),
+    ) {
+        Ok(analysis) => page.tables.extend(analysis_tables(&analysis)),
+        Err(error) => page
+            .notes
+            .push(format!("Paraxial analysis failed: {error}.")),
+    }
     let mut written = Written {
         directory: directory.to_path_buf(),
         files: Vec::new(),

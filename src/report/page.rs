@@ -231,3 +231,86 @@ fn escape(text: &str) -> String {
         .replace('>', "&gt;")
         .replace('"', "&quot;")
 }
+
+/// First-order data, pupils and Seidel sums per surface as report tables.
+pub fn analysis_tables(analysis: &crate::analysis::Analysis) -> Vec<Table> {
+    let f = &analysis.first_order;
+    let mm = |v: f64| format!("{v:.6}");
+    let row = |name: &str, value: String| vec![name.to_string(), value];
+    let mut first_order = vec![
+        row("effective focal length (mm)", mm(f.efl)),
+        row("back focal length (mm)", mm(f.bfl)),
+        row("front focal length (mm)", mm(f.ffl)),
+        row("front focal point z (mm)", mm(f.z_front_focal)),
+        row("rear focal point z (mm)", mm(f.z_rear_focal)),
+        row("front principal point z (mm)", mm(f.z_front_principal)),
+        row("rear principal point z (mm)", mm(f.z_rear_principal)),
+        row("front nodal point z (mm)", mm(f.z_front_nodal)),
+        row("rear nodal point z (mm)", mm(f.z_rear_nodal)),
+        row("paraxial image z (mm)", mm(f.z_paraxial_image)),
+        row("f-number", format!("{:.4}", f.f_number)),
+        row("Lagrange invariant (mm)", mm(f.lagrange_invariant)),
+    ];
+    first_order.push(row(
+        "half-field angle used (deg)",
+        format!("{:.4}", analysis.field_deg),
+    ));
+    let mut pupils = vec![
+        row("stop surface", f.stop_surface.to_string()),
+        row("entrance pupil z (mm)", mm(f.entrance_pupil.z)),
+        row(
+            "entrance pupil diameter (mm)",
+            mm(f.entrance_pupil.diameter),
+        ),
+    ];
+    match &f.exit_pupil {
+        Some(exit) => {
+            pupils.push(row("exit pupil z (mm)", mm(exit.z)));
+            pupils.push(row("exit pupil diameter (mm)", mm(exit.diameter)));
+        }
+        None => pupils.push(row(
+            "exit pupil",
+            "at infinity (image-space telecentric)".into(),
+        )),
+    }
+    let terms = |t: [f64; 5]| t.map(|v| format!("{v:.6e}")).to_vec();
+    let mut seidel: Vec<Vec<String>> = analysis
+        .seidel
+        .surfaces
+        .iter()
+        .map(|s| {
+            let mut cells = vec![s.surface.to_string()];
+            cells.extend(terms(s.terms.as_array()));
+            cells
+        })
+        .collect();
+    let mut sum = vec!["sum".to_string()];
+    sum.extend(terms(analysis.seidel.sums.as_array()));
+    seidel.push(sum);
+    let quantity = ["quantity", "value"].map(String::from).to_vec();
+    vec![
+        Table {
+            title: format!(
+                "First-order data ({:.2} nm, object at {})",
+                analysis.wavelength_nm,
+                analysis
+                    .object_distance_mm
+                    .map_or("infinity".to_string(), |d| format!("{d} mm"))
+            ),
+            header: quantity.clone(),
+            rows: first_order,
+        },
+        Table {
+            title: "Stop and pupils".into(),
+            header: quantity,
+            rows: pupils,
+        },
+        Table {
+            title: "Seidel sums per surface (Welford, mm)".into(),
+            header: ["surface", "S_I", "S_II", "S_III", "S_IV", "S_V"]
+                .map(String::from)
+                .to_vec(),
+            rows: seidel,
+        },
+    ]
+}
