@@ -3,6 +3,7 @@
 mod analyze;
 mod lens;
 mod render;
+mod plot;
 
 use clap::{Parser, Subcommand};
 
@@ -26,6 +27,10 @@ pub enum Command {
     Analyze(analyze::AnalyzeArgs),
     /// Render depth of field through a lens model (image-based ray tracing).
     Render(render::RenderArgs),
+    /// Draw one aberration plot of a lens as PNG or SVG.
+    Plot(plot::PlotArgs),
+    /// Write a lens's report (tables and every plot) to a directory.
+    Report(plot::ReportArgs),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
@@ -33,5 +38,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Lens(command) => lens::run(command),
         Command::Analyze(args) => analyze::run(args),
         Command::Render(args) => render::run(args),
+        Command::Plot(args) => plot::run_plot(args),
+        Command::Report(args) => plot::run_report(args),
     }
 }

@@ -115,7 +115,9 @@ pub enum Problem {
     NotText { byte_offset: usize },
     #[error("cannot tell the lens format from {}; name the format (ron, pbrt, table, codev, zemax)", describe_extension(.extension))]
     UnknownFormat { extension: Option<String> },
-    #[error("the first row's thickness is {value}, but in the distance-from-previous (axpos) reading the first surface has no previous surface and must be 0")]
+    #[error(
+        "the first row's thickness is {value}, but in the distance-from-previous (axpos) reading the first surface has no previous surface and must be 0"
+    )]
     FirstAxialPositionNotZero { value: f64 },
     #[error("no clear semi-aperture is given and none can be derived: {reason}")]
     CannotDeriveApertures { reason: String },

@@ -121,36 +121,7 @@ pub fn load_oracle(name: &str) -> OracleLens {
     let lens = &json["lenses"][0];
     let table = &lens["prescription"];
     let rows = table["surfaces"].as_array().expect("prescription.surfaces");
-    let surfaces = rows
-        .iter()
-        .map(|row| {
-            let curvature = num(&row["curvature"]);
-            Surface {
-                shape: if curvature == 0.0 {
-                    Shape::Plane
-                } else {
-                    Shape::Sphere { curvature }
-                },
-                thickness: num(&row["thickness"]),
-                medium: Medium::Index(num(&row["n"])),
-                semi_aperture: num(&row["semi_aperture"]),
-                stop: row["stop"]
-                    .as_bool()
-                    .expect("stop flag")
-                    .then_some(StopShape::Circle),
-            }
-        })
-        .collect();
-    let prescription = Prescription {
-        provenance: Provenance {
-            title: lens["name"].as_str().unwrap_or(name).to_string(),
-            source: lens["source"].as_str().map(str::to_string),
-            design_wavelength_nm: Some(num(&lens["wavelength_nm"])),
-            ..Provenance::default()
-        },
-        object_medium: Medium::Index(num(&table["object_space_index"])),
-        surfaces,
-    };
+    let prescription = oracle_prescription(lens);
     let lines = line_indices(table, rows);
     OracleLens {
         name: name.to_string(),
@@ -283,4 +254,67 @@ pub fn oracle_surfaces(file: &str) -> Vec<Value> {
         .as_array()
         .expect("oracle prescription has surfaces")
         .clone()
+}
+
+/// Every oracle file, parsed, with its file stem.
+pub fn oracle_files() -> Vec<(String, Value)> {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(oracle_dir())
+        .expect("oracle directory is readable")
+        .map(|entry| entry.expect("directory entry").path())
+        .filter(|path| path.extension().is_some_and(|e| e == "json"))
+        .collect();
+    files.sort();
+    assert!(
+        !files.is_empty(),
+        "no oracle files in {}",
+        oracle_dir().display()
+    );
+    files
+        .into_iter()
+        .map(|path| {
+            let text = std::fs::read_to_string(&path).expect("oracle file is readable");
+            let stem = path.file_stem().unwrap().to_string_lossy().into_owned();
+            (
+                stem,
+                serde_json::from_str(&text).expect("oracle file is JSON"),
+            )
+        })
+        .collect()
+}
+
+/// The constant-index prescription of an oracle lens (`lenses[i]`), as the oracle used it.
+pub fn oracle_prescription(lens: &Value) -> Prescription {
+    let table = &lens["prescription"];
+    let surfaces = table["surfaces"]
+        .as_array()
+        .expect("surfaces array")
+        .iter()
+        .map(|s| Surface {
+            shape: match num(&s["curvature"]) {
+                0.0 => Shape::Plane,
+                curvature => Shape::Sphere { curvature },
+            },
+            thickness: num(&s["thickness"]),
+            medium: Medium::Index(num(&s["n"])),
+            semi_aperture: num(&s["semi_aperture"]),
+            stop: s["stop"].as_bool().unwrap().then_some(StopShape::Circle),
+        })
+        .collect();
+    Prescription {
+        provenance: Provenance {
+            title: lens["name"].as_str().unwrap_or("oracle lens").to_string(),
+            source: lens["source"].as_str().map(str::to_string),
+            design_wavelength_nm: lens["wavelength_nm"].as_f64(),
+            ..Provenance::default()
+        },
+        object_medium: Medium::Index(num(&table["object_space_index"])),
+        surfaces,
+    }
+}
+
+pub fn vec3(v: &Value) -> [f64; 3] {
+    let a = v
+        .as_array()
+        .unwrap_or_else(|| panic!("expected a 3-vector, found {v}"));
+    [num(&a[0]), num(&a[1]), num(&a[2])]
 }

@@ -1,0 +1,136 @@
+//! Turning a view into PNG or SVG bytes, and writing files atomically.
+
+use super::font::{FONT_FAMILY, ensure_registered};
+use super::{Drawn, PlotError, View, draw_error};
+use plotters::prelude::{BitMapBackend, IntoDrawingArea, SVGBackend, WHITE};
+use std::io::Write;
+use std::path::Path;
+
+/// Output format, chosen by the file extension.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Format {
+    Png,
+    Svg,
+}
+
+impl Format {
+    /// The format a file name asks for (`.png` or `.svg`, any case).
+    pub fn of_path(path: &Path) -> Result<Format, PlotError> {
+        let extension = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase);
+        match extension.as_deref() {
+            Some("png") => Ok(Format::Png),
+            Some("svg") => Ok(Format::Svg),
+            _ => Err(PlotError::UnknownFormat {
+                path: path.display().to_string(),
+            }),
+        }
+    }
+}
+
+/// An encoded plot and the summary of what was drawn on it.
+#[derive(Clone, Debug)]
+pub struct Rendered {
+    pub bytes: Vec<u8>,
+    pub drawn: Drawn,
+}
+
+/// Draws `view` and encodes it.
+pub fn render<V: View>(view: &V, format: Format) -> Result<Rendered, PlotError> {
+    ensure_registered()?;
+    let (width, height) = view.size();
+    match format {
+        Format::Png => {
+            let mut pixels = vec![0u8; width as usize * height as usize * 3];
+            let drawn = {
+                let root =
+                    BitMapBackend::with_buffer(&mut pixels, (width, height)).into_drawing_area();
+                root.fill(&WHITE).map_err(draw_error)?;
+                let drawn = view.draw(&root)?;
+                root.present().map_err(draw_error)?;
+                drawn
+            };
+            Ok(Rendered {
+                bytes: encode_png(&pixels, width, height)?,
+                drawn,
+            })
+        }
+        Format::Svg => {
+            let mut text = String::new();
+            let drawn = {
+                let root = SVGBackend::with_string(&mut text, (width, height)).into_drawing_area();
+                root.fill(&WHITE).map_err(draw_error)?;
+                let drawn = view.draw(&root)?;
+                root.present().map_err(draw_error)?;
+                drawn
+            };
+            // The SVG cannot carry the embedded font, so give viewers without DejaVu Sans a
+            // generic family of the same kind instead of their default (often serif) face.
+            let text = text.replace(
+                &format!("font-family=\"{FONT_FAMILY}\""),
+                &format!("font-family=\"{FONT_FAMILY}, sans-serif\""),
+            );
+            Ok(Rendered {
+                bytes: text.into_bytes(),
+                drawn,
+            })
+        }
+    }
+}
+
+fn encode_png(rgb: &[u8], width: u32, height: u32) -> Result<Vec<u8>, PlotError> {
+    let mut bytes = Vec::new();
+    let mut encoder = png::Encoder::new(&mut bytes, width, height);
+    encoder.set_color(png::ColorType::Rgb);
+    encoder.set_depth(png::BitDepth::Eight);
+    let mut writer = encoder
+        .write_header()
+        .map_err(|e| PlotError::Encode(e.to_string()))?;
+    writer
+        .write_image_data(rgb)
+        .map_err(|e| PlotError::Encode(e.to_string()))?;
+    writer
+        .finish()
+        .map_err(|e| PlotError::Encode(e.to_string()))?;
+    Ok(bytes)
+}
+
+/// Draws `view` into `path` (format from its extension), atomically.
+pub fn write_plot<V: View>(view: &V, path: &Path) -> Result<Drawn, PlotError> {
+    let rendered = render(view, Format::of_path(path)?)?;
+    write_atomic(path, &rendered.bytes)?;
+    Ok(rendered.drawn)
+}
+
+/// Writes `bytes` to a temporary file beside `path` and renames it into place, so a reader
+/// never sees a half-written file.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), PlotError> {
+    let io_error = |source| PlotError::Io {
+        path: path.display().to_string(),
+        source,
+    };
+    let directory = match path.parent() {
+        Some(parent) if !parent.as_os_str().is_empty() => parent,
+        _ => Path::new("."),
+    };
+    let name = path
+        .file_name()
+        .ok_or_else(|| io_error(std::io::Error::other("not a file name")))?;
+    let temporary = directory.join(format!(
+        ".{}.{}.tmp",
+        name.to_string_lossy(),
+        std::process::id()
+    ));
+    let result = std::fs::File::create(&temporary)
+        .and_then(|mut file| {
+            file.write_all(bytes)?;
+            file.sync_all()
+        })
+        .and_then(|()| std::fs::rename(&temporary, path));
+    if result.is_err() {
+        let _ = std::fs::remove_file(&temporary);
+    }
+    result.map_err(io_error)
+}

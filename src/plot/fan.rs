@@ -1,0 +1,84 @@
+//! Transverse ray aberration fans: tangential and sagittal, per field, all wavelengths.
+
+use super::chart::{Panel, Series, draw_panel, symmetric_range, titled_grid};
+use super::color::wavelength_color;
+use super::{Drawn, PlotError, View};
+use plotters::coord::Shift;
+use plotters::prelude::{DrawingArea, DrawingBackend};
+
+/// One fan at one wavelength: (relative pupil coordinate -1..1, transverse aberration in mm at the
+/// image plane, relative to the chief ray). Vignetted rays are simply absent.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FanCurve {
+    pub wavelength_nm: f64,
+    pub points: Vec<(f64, f64)>,
+}
+
+/// The tangential (y error against pupil y) and sagittal (x error against pupil x) fans at one
+/// field angle.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FanField {
+    pub field_deg: f64,
+    pub tangential: Vec<FanCurve>,
+    pub sagittal: Vec<FanCurve>,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct RayFanPlot {
+    pub lens: String,
+    /// Drawn top to bottom in the order given (designers put the largest field on top).
+    pub fields: Vec<FanField>,
+}
+
+impl View for RayFanPlot {
+    fn size(&self) -> (u32, u32) {
+        (1200, 60 + 330 * self.fields.len().max(1) as u32)
+    }
+
+    fn draw<DB: DrawingBackend>(&self, area: &DrawingArea<DB, Shift>) -> Result<Drawn, PlotError> {
+        let title = format!("{}: transverse ray aberration", self.lens);
+        let cells = titled_grid(area, &title, self.fields.len(), 2)?;
+        // One error scale for every panel, so fields compare at a glance.
+        let scale = symmetric_range(
+            self.fields
+                .iter()
+                .flat_map(|f| f.tangential.iter().chain(&f.sagittal))
+                .flat_map(|c| c.points.iter().map(|p| p.1)),
+        );
+        let mut drawn = Drawn::default();
+        for (field, row) in self.fields.iter().zip(cells.chunks(2)) {
+            for (cell, (name, axis, curves)) in row.iter().zip([
+                ("tangential", "ey", &field.tangential),
+                ("sagittal", "ex", &field.sagittal),
+            ]) {
+                let y_label = format!("{axis} (mm)");
+                let x_label = if axis == "ey" {
+                    "relative pupil py"
+                } else {
+                    "relative pupil px"
+                };
+                let panel = Panel {
+                    title: format!("{name}, field {:.2}°", field.field_deg),
+                    x_label,
+                    y_label: &y_label,
+                    series: curves
+                        .iter()
+                        .map(|c| Series {
+                            label: format!("{:.1} nm", c.wavelength_nm),
+                            color: wavelength_color(c.wavelength_nm),
+                            dashed: false,
+                            markers: false,
+                            points: c.points.clone(),
+                        })
+                        .collect(),
+                    empty_message: format!("All rays vignetted at {:.2}°", field.field_deg),
+                    x_range: Some(-1.05..1.05),
+                    y_range: Some(scale.clone()),
+                    title_size: 20,
+                };
+                drawn.panels.push(draw_panel(cell, panel)?);
+            }
+        }
+        Ok(drawn)
+    }
+}

@@ -1,0 +1,66 @@
+//! Plots: plotters views over plain result structs, written as PNG or SVG.
+//!
+//! Each view (`LayoutPlot`, `RayFanPlot`, ...) is plain data that an analysis fills in; this
+//! module only draws it. Drawing returns a [`Drawn`] summary of what actually reached the canvas
+//! (series, points, messages) so tests can check the plotted data and not just the file.
+//!
+//! Text is set in DejaVu Sans, embedded in the binary (see [`font`]), so a PNG looks the same on
+//! a machine without fonts. SVG keeps text as `<text>` elements that name the family
+//! "DejaVu Sans" with a generic sans-serif fallback; the font itself is not embedded in the SVG.
+
+mod canvas;
+mod chart;
+mod color;
+mod curves;
+mod fan;
+pub mod font;
+mod layout;
+mod seidel;
+mod spot;
+
+pub use canvas::{Format, Rendered, render, write_atomic, write_plot};
+pub use chart::{Drawn, PanelDrawn, SeriesDrawn};
+pub use color::wavelength_color;
+pub use curves::{
+    DistortionPlot, FieldCurve, FieldCurvesPlot, LateralColorPlot, LsaPlot, VignettingPlot,
+    WavelengthCurve,
+};
+pub use fan::{FanCurve, FanField, RayFanPlot};
+pub use layout::{LayoutElement, LayoutPlot, LayoutRay, LayoutSurface};
+pub use seidel::{SeidelBar, SeidelPlot};
+pub use spot::{Spot, SpotField, SpotPlot};
+
+use plotters::coord::Shift;
+use plotters::prelude::{DrawingArea, DrawingBackend};
+
+/// Everything that can go wrong while drawing or writing a plot.
+#[derive(Debug, thiserror::Error)]
+pub enum PlotError {
+    #[error("{path}: unknown plot format (use a .png or .svg file name)")]
+    UnknownFormat { path: String },
+    #[error("the embedded plot font could not be loaded")]
+    Font,
+    #[error("drawing failed: {0}")]
+    Draw(String),
+    #[error("PNG encoding failed: {0}")]
+    Encode(String),
+    #[error("{path}: {source}")]
+    Io {
+        path: String,
+        #[source]
+        source: std::io::Error,
+    },
+}
+
+/// A plot that can draw itself on any plotters backend.
+pub trait View {
+    /// Canvas size in pixels (width, height).
+    fn size(&self) -> (u32, u32);
+    /// Draws the whole plot on `area` and reports what it drew.
+    fn draw<DB: DrawingBackend>(&self, area: &DrawingArea<DB, Shift>) -> Result<Drawn, PlotError>;
+}
+
+/// Converts any plotters drawing error into ours (plotters' error types are backend generic).
+pub(crate) fn draw_error<E: std::fmt::Display>(error: E) -> PlotError {
+    PlotError::Draw(error.to_string())
+}

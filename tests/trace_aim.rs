@@ -1,0 +1,128 @@
+//! Ray aiming, the paraxial entrance pupil and the traceable field against the oracle files.
+
+mod common;
+
+use common::{num, oracle_files, oracle_prescription, vec3};
+use lensbake::system::LensSystem;
+use lensbake::trace::{RaySource, Tracer, aim_at_stop, traceable_field_deg};
+use serde_json::Value;
+
+fn tracer(lens: &Value) -> Tracer {
+    let system = LensSystem::from_prescription(oracle_prescription(lens)).unwrap();
+    Tracer::new(&system.at(system.design_wavelength_nm()))
+}
+
+#[test]
+fn paraxial_entrance_pupil_matches_oracle() {
+    for (name, file) in oracle_files() {
+        let lens = &file["lenses"][0];
+        let pupil = tracer(lens).paraxial_entrance_pupil();
+        let quick = &lens["quick_reference"];
+        // The oracle agrees with itself (rayoptics vs optiland) to ~1e-8 relative here.
+        let z = num(&quick["z_entrance_pupil"]);
+        assert!(
+            (pupil.z - z).abs() < 1e-6 * (1.0 + z.abs()),
+            "{name}: EP z {} vs {z}",
+            pupil.z
+        );
+        // Where the aperture is the stop's own size, the pupil diameter follows from it.
+        if lens["system"]["aperture_spec"]["type"] == "stop_semi_aperture" {
+            let epd = num(&quick["epd"]);
+            assert!(
+                (2.0 * pupil.radius - epd).abs() < 1e-7 * epd,
+                "{name}: EPD {} vs {epd}",
+                2.0 * pupil.radius
+            );
+        }
+    }
+}
+
+/// The oracle's aimed rays: real chief rays through the stop centre at each distortion field
+/// (rayoptics, by root finding) and rays aimed at a stop height.
+#[test]
+fn aimed_rays_match_oracle_start_points() {
+    let mut checked = 0;
+    for (name, file) in oracle_files() {
+        let lens = &file["lenses"][0];
+        let tracer = tracer(lens);
+        let stop_radius =
+            num(&lens["prescription"]["surfaces"][tracer.stop_surface() - 1]["semi_aperture"]);
+        let mut cases: Vec<(Value, f64)> = lens["infinite_conjugate"]["distortion"]["points"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|p| (p["rayoptics"].clone(), 0.0))
+            .collect();
+        for ray in lens["infinite_conjugate"]["real_rays"]["rays"]
+            .as_array()
+            .unwrap()
+        {
+            let id = ray["id"].as_str().unwrap();
+            if let Some(fraction) = id.split("_stop").nth(1) {
+                cases.push((ray.clone(), fraction.parse::<f64>().unwrap() * stop_radius));
+            }
+        }
+        assert!(cases.len() >= 4, "{name}: aimed rays present");
+        for (ray, stop_y) in cases {
+            let start = vec3(&ray["start_point"]);
+            let direction = vec3(&ray["start_dir"]);
+            let source = RaySource::Collimated {
+                direction,
+                start_z: start[2],
+            };
+            let aimed = aim_at_stop(&tracer, &source, [0.0, stop_y]).unwrap();
+            let got = aimed.position();
+            assert!(
+                (got[0] - start[0]).abs() < 1e-9 && (got[1] - start[1]).abs() < 1e-9,
+                "{name}: aimed start {got:?}, oracle {start:?}"
+            );
+            checked += 1;
+        }
+    }
+    assert!(checked >= 16);
+}
+
+#[test]
+fn aiming_a_point_source_off_axis_in_both_stop_coordinates() {
+    // A skew aim from a finite object point: the ray found must cross the stop where asked.
+    for (_, file) in oracle_files() {
+        let lens = &file["lenses"][0];
+        let tracer = tracer(lens);
+        let stop = tracer.stop_surface();
+        let stop_radius = num(&lens["prescription"]["surfaces"][stop - 1]["semi_aperture"]);
+        let source = RaySource::Point {
+            position: [30.0, -120.0, -1000.0],
+        };
+        let target = [0.4 * stop_radius, -0.5 * stop_radius];
+        let ray = aim_at_stop(&tracer, &source, target).unwrap();
+        let at_stop = tracer
+            .trace_to(
+                ray,
+                lensbake::trace::Travel::Forward,
+                stop,
+                lensbake::trace::Apertures::Ignored,
+            )
+            .ray
+            .position();
+        assert!((at_stop[0] - target[0]).abs() < 1e-11 && (at_stop[1] - target[1]).abs() < 1e-11);
+        assert_eq!(ray.position(), [30.0, -120.0, -1000.0]);
+    }
+}
+
+#[test]
+fn traceable_field_within_oracle_bracket() {
+    for (name, file) in oracle_files() {
+        let lens = &file["lenses"][0];
+        let bracket =
+            &lens["infinite_conjugate"]["max_field_with_traceable_chief_ray"]["with_apertures"];
+        let (ok, fail) = (
+            num(&bracket["last_ok_deg"]),
+            num(&bracket["first_fail_deg"]),
+        );
+        let field = traceable_field_deg(&tracer(lens), 0.5);
+        assert!(
+            field >= ok - 1e-6 && field <= fail + 1e-6,
+            "{name}: {field} not in [{ok}, {fail}]"
+        );
+    }
+}
