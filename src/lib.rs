@@ -6,6 +6,8 @@
 //! prints; every failure is a typed error.
 
 pub mod glass;
-pub mod prescription;
-pub mod system;
 pub mod lenses;
+pub mod lrtf;
+pub mod prescription;
+pub mod pupil;
+pub mod system;

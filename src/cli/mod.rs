@@ -5,7 +5,11 @@ mod lens;
 use clap::{Parser, Subcommand};
 
 #[derive(Parser, Debug)]
-#[command(name = "lensbake", version, about = "Lens design analysis and LRTF precomputation")]
+#[command(
+    name = "lensbake",
+    version,
+    about = "Lens design analysis and LRTF precomputation"
+)]
 pub struct Cli {
     #[command(subcommand)]
     pub command: Command,

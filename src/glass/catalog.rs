@@ -17,7 +17,10 @@ pub struct CatalogGlass {
 
 impl CatalogGlass {
     pub fn dispersion(&self) -> Dispersion {
-        Dispersion::Sellmeier { b: self.b, c: self.c }
+        Dispersion::Sellmeier {
+            b: self.b,
+            c: self.c,
+        }
     }
 }
 
@@ -38,7 +41,11 @@ fn key(name: &str) -> String {
         .next()
         .unwrap_or_default()
         .to_string();
-    let stem = if ["SCHOTT", "OHARA", "HOYA", "CDGM"].iter().any(|m| upper.ends_with(m)) && stem != upper {
+    let stem = if ["SCHOTT", "OHARA", "HOYA", "CDGM"]
+        .iter()
+        .any(|m| upper.ends_with(m))
+        && stem != upper
+    {
         stem
     } else {
         upper
@@ -82,7 +89,11 @@ fn edit_distance(a: &str, b: &str) -> usize {
         row[0] = i + 1;
         for j in 0..b.len() {
             let cur = row[j + 1];
-            row[j + 1] = if ca == b[j] { prev } else { 1 + prev.min(row[j]).min(row[j + 1]) };
+            row[j + 1] = if ca == b[j] {
+                prev
+            } else {
+                1 + prev.min(row[j]).min(row[j + 1])
+            };
             prev = cur;
         }
     }

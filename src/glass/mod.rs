@@ -5,7 +5,7 @@
 
 mod catalog;
 
-pub use catalog::{CatalogGlass, CATALOG, lookup, suggestions};
+pub use catalog::{CATALOG, CatalogGlass, lookup, suggestions};
 
 use crate::prescription::{Medium, Problem};
 
@@ -21,11 +21,17 @@ pub const C_LINE_NM: f64 = 656.2725;
 pub enum Dispersion {
     Constant(f64),
     /// Sellmeier with three terms, wavelengths in micrometres.
-    Sellmeier { b: [f64; 3], c: [f64; 3] },
+    Sellmeier {
+        b: [f64; 3],
+        c: [f64; 3],
+    },
     /// Two-term Cauchy n = A + B / l^2 (l in micrometres), fitted so that n(d) = nd and
     /// n(F) - n(C) = (nd - 1) / vd: the simplest formula that honours both numbers a model glass
     /// gives. It is smooth and monotonic over the visible range, which is all a model glass claims.
-    Cauchy { a: f64, b: f64 },
+    Cauchy {
+        a: f64,
+        b: f64,
+    },
 }
 
 impl Dispersion {

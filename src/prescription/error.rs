@@ -86,11 +86,15 @@ pub enum Problem {
     NonPositiveAperture { value: f64 },
     #[error("semi-aperture {semi_aperture} mm is larger than |radius| {radius} mm")]
     ApertureExceedsRadius { semi_aperture: f64, radius: f64 },
-    #[error("the conic surface is undefined beyond r = {limit} mm, inside its semi-aperture {semi_aperture} mm")]
+    #[error(
+        "the conic surface is undefined beyond r = {limit} mm, inside its semi-aperture {semi_aperture} mm"
+    )]
     ApertureExceedsConic { semi_aperture: f64, limit: f64 },
     #[error("more than {max} even-asphere terms ({found})", max = super::model::MAX_ASPHERE_TERMS)]
     TooManyAsphereTerms { found: usize },
-    #[error("surface crosses the next surface {next} within the clear aperture (gap {gap:.6} mm at r = {radius:.3} mm)")]
+    #[error(
+        "surface crosses the next surface {next} within the clear aperture (gap {gap:.6} mm at r = {radius:.3} mm)"
+    )]
     SurfacesCross { next: usize, radius: f64, gap: f64 },
     #[error("no surface is marked as the aperture stop")]
     NoStop,
@@ -103,7 +107,9 @@ pub enum Problem {
         name: String,
         suggestions: Vec<String>,
     },
-    #[error("wavelength {nm} nm is outside the range where this medium's dispersion formula is defined")]
+    #[error(
+        "wavelength {nm} nm is outside the range where this medium's dispersion formula is defined"
+    )]
     WavelengthOutOfRange { nm: f64 },
 }
 

@@ -178,7 +178,11 @@ impl Medium {
 impl Prescription {
     /// 0-based index of the stop surface, if exactly one surface is marked as stop.
     pub fn stop_index(&self) -> Option<usize> {
-        let mut stops = self.surfaces.iter().enumerate().filter(|(_, s)| s.stop.is_some());
+        let mut stops = self
+            .surfaces
+            .iter()
+            .enumerate()
+            .filter(|(_, s)| s.stop.is_some());
         match (stops.next(), stops.next()) {
             (Some((i, _)), None) => Some(i),
             _ => None,
