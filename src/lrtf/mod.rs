@@ -2,6 +2,7 @@
 //! rotationally symmetric lens into a 3D table of 8 channels, store it as OpenEXR + RON sidecar,
 //! and sample it exactly the way the renderer's shader does. Design and file layout: docs/lrtf.md.
 
+pub mod io;
 pub mod param;
 pub mod table;
 
