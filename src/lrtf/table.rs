@@ -75,6 +75,22 @@ pub struct LrtfTable {
     pub layers: Vec<Layer>,
 }
 
+/// The WGSL uniform `LrtfParams` (48 bytes, std140-compatible; layout checked against naga).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GpuParams {
+    pub rear_plane_z: f32,
+    pub film_plane_z: f32,
+    pub max_film_radius: f32,
+    pub max_rear_radius: f32,
+    pub max_polar_angle: f32,
+    pub stop_radius_sq: f32,
+    pub parameterisation: u32,
+    pub pupil_count: u32,
+    pub dims: [u32; 3],
+    pub pad: u32,
+}
+
 /// What the table says about one film-side ray.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Lookup {
@@ -163,6 +179,24 @@ impl LrtfTable {
             origin: [exit[0], exit[1], v[7]],
             direction: [d_xy[0], d_xy[1], d[2]],
         })
+    }
+
+    /// The uniform block `LrtfParams` of `lrtf_sample.wgsl` for one layer and stop radius.
+    pub fn gpu_params(&self, layer: usize, stop_radius: f64) -> GpuParams {
+        let l = &self.layers[layer];
+        let [n0, n1, n2] = self.info.resolution;
+        GpuParams {
+            rear_plane_z: l.frame.rear_plane_z as f32,
+            film_plane_z: l.frame.film_plane_z as f32,
+            max_film_radius: l.frame.max_film_radius as f32,
+            max_rear_radius: l.frame.max_rear_radius as f32,
+            max_polar_angle: l.frame.max_polar_angle as f32,
+            stop_radius_sq: (stop_radius * stop_radius) as f32,
+            parameterisation: self.info.parameterisation.shader_id(),
+            pupil_count: l.pupil.circles.len() as u32,
+            dims: [n0 as u32, n1 as u32, n2 as u32],
+            pad: 0,
+        }
     }
 
     /// Bytes of the entries as stored (both textures, all layers).
