@@ -11,3 +11,4 @@ pub mod lrtf;
 pub mod prescription;
 pub mod pupil;
 pub mod system;
+pub mod trace;

@@ -1,0 +1,241 @@
+//! Ray aiming: the real ray from a field point that crosses the stop surface at a chosen point.
+//!
+//! The unknowns are two numbers that fix the ray (its start point on the start plane for a
+//! collimated beam, its direction tangents for a point source); the residual is where the ray
+//! meets the stop surface minus the target. Newton's method with a finite-difference Jacobian
+//! solves it, and every step is halved until the ray still reaches the stop and the residual
+//! shrinks, so a step never jumps to a ray that misses the lens.
+
+use super::{Apertures, Outcome, Ray, Tracer, Travel, Vec3};
+
+/// Where the rays of one field point come from.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum RaySource {
+    /// An object at infinity: every ray has this unit direction and starts on the plane
+    /// z = `start_z` (in front of the lens).
+    Collimated { direction: Vec3, start_z: f64 },
+    /// A point object at `position`; rays leave it towards +z.
+    Point { position: Vec3 },
+}
+
+/// Why no ray could be aimed.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum AimError {
+    #[error("the first guess does not reach the stop surface ({0:?})")]
+    NoStartingRay(Outcome),
+    #[error("aiming did not converge: {residual:e} mm from the target on the stop")]
+    NoConvergence { residual: f64 },
+}
+
+/// Entrance pupil from a paraxial trace: axial position (lens frame) and radius, mm.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EntrancePupil {
+    pub z: f64,
+    pub radius: f64,
+}
+
+/// Residual below which the stop hit is taken as exact, relative to the stop's size.
+const AIM_TOLERANCE: f64 = 1e-13;
+const AIM_MAX_ITERATIONS: usize = 60;
+const AIM_MAX_HALVINGS: usize = 40;
+
+impl RaySource {
+    /// The ray fixed by the two unknowns `v`.
+    fn ray(&self, v: [f64; 2]) -> Option<Ray> {
+        match *self {
+            RaySource::Collimated { direction, start_z } => {
+                Ray::new([v[0], v[1], start_z], direction).ok()
+            }
+            RaySource::Point { position } => Ray::new(position, [v[0], v[1], 1.0]).ok(),
+        }
+    }
+
+    /// Unknowns of the ray that would pass the axial point z = `z` at height (x, y) if the lens
+    /// were not there; the paraxial entrance pupil makes this a good first guess.
+    fn unknowns_through(&self, point: Vec3) -> [f64; 2] {
+        match *self {
+            RaySource::Collimated { direction, start_z } => {
+                let back = (point[2] - start_z) / direction[2];
+                [
+                    point[0] - back * direction[0],
+                    point[1] - back * direction[1],
+                ]
+            }
+            RaySource::Point { position } => {
+                let dz = point[2] - position[2];
+                [(point[0] - position[0]) / dz, (point[1] - position[1]) / dz]
+            }
+        }
+    }
+}
+
+impl Tracer {
+    /// Paraxial entrance pupil: the image of the stop through the surfaces in front of it.
+    /// Two paraxial rays from surface 1 (one parallel to the axis at unit height, one through
+    /// the vertex with unit slope) give the stop height as a linear function of the object-space
+    /// ray; the pupil is where the ray through the stop centre crosses the axis.
+    pub fn paraxial_entrance_pupil(&self) -> EntrancePupil {
+        let n0 = self.surfaces[0].index_before;
+        let height_at_stop = |y1: f64, slope: f64| {
+            let (mut y, mut nu) = (y1, n0 * slope);
+            for i in 0..self.stop {
+                let s = &self.surfaces[i];
+                nu -= y * (s.index_after - s.index_before) * s.paraxial_curvature(self);
+                let gap = self.surfaces[i + 1].vertex_z - s.vertex_z;
+                y += gap * nu / s.index_after;
+            }
+            y
+        };
+        let axial = height_at_stop(1.0, 0.0);
+        let through_vertex = height_at_stop(0.0, 1.0);
+        let stop_radius = self.surfaces[self.stop].semi_aperture_sq.sqrt();
+        EntrancePupil {
+            z: self.surfaces[0].vertex_z + through_vertex / axial,
+            radius: stop_radius / axial.abs(),
+        }
+    }
+
+    /// A plane in front of surface 1 that every forward ray may start on: one semi-aperture
+    /// plus 1 mm before its vertex (a sphere's sag never exceeds its semi-aperture).
+    pub fn front_start_z(&self) -> f64 {
+        let first = &self.surfaces[0];
+        first.vertex_z - first.semi_aperture_sq.sqrt() - 1.0
+    }
+}
+
+/// The real ray from `source` that crosses the stop surface at `(x, y)` (lens frame, mm),
+/// found with apertures ignored. Returns the ray as it leaves the source.
+pub fn aim_at_stop(tracer: &Tracer, source: &RaySource, target: [f64; 2]) -> Result<Ray, AimError> {
+    let pupil = tracer.paraxial_entrance_pupil();
+    let stop_radius = tracer.surfaces[tracer.stop].semi_aperture_sq.sqrt();
+    // Scale the stop target into the paraxial entrance pupil for the first guess.
+    let magnification = pupil.radius / stop_radius;
+    let guess = source.unknowns_through([
+        target[0] * magnification,
+        target[1] * magnification,
+        pupil.z,
+    ]);
+    let scale = 1.0 + stop_radius;
+    let residual_at = |v: [f64; 2]| -> Result<[f64; 2], Outcome> {
+        let ray = source.ray(v).ok_or(Outcome::Missed { surface: 1 })?;
+        let traced = tracer.trace_to(ray, Travel::Forward, tracer.stop + 1, Apertures::Ignored);
+        if !traced.outcome.is_ok() {
+            return Err(traced.outcome);
+        }
+        let p = traced.ray.position();
+        Ok([p[0] - target[0], p[1] - target[1]])
+    };
+    let norm = |r: [f64; 2]| r[0].hypot(r[1]);
+    let mut v = guess;
+    let mut r = residual_at(v).map_err(AimError::NoStartingRay)?;
+    for _ in 0..AIM_MAX_ITERATIONS {
+        if norm(r) <= AIM_TOLERANCE * scale {
+            return Ok(source.ray(v).expect("a ray that traced is a valid ray"));
+        }
+        let Some(step) = newton_step(&residual_at, v, r) else {
+            break;
+        };
+        let mut lambda = 1.0;
+        let mut accepted = None;
+        for _ in 0..AIM_MAX_HALVINGS {
+            let trial = [v[0] + lambda * step[0], v[1] + lambda * step[1]];
+            if let Ok(rt) = residual_at(trial) {
+                if norm(rt) < norm(r) {
+                    accepted = Some((trial, rt));
+                    break;
+                }
+            }
+            lambda *= 0.5;
+        }
+        match accepted {
+            Some((trial, rt)) => (v, r) = (trial, rt),
+            None => break,
+        }
+    }
+    if norm(r) <= AIM_TOLERANCE * scale * 1e3 {
+        // Stalled within rounding of the target: the best f64 can do for this ray.
+        return Ok(source.ray(v).expect("a ray that traced is a valid ray"));
+    }
+    Err(AimError::NoConvergence { residual: norm(r) })
+}
+
+/// Newton step from a forward-difference Jacobian; None when the Jacobian is singular or a
+/// difference ray fails to trace.
+fn newton_step(
+    residual_at: &impl Fn([f64; 2]) -> Result<[f64; 2], Outcome>,
+    v: [f64; 2],
+    r: [f64; 2],
+) -> Option<[f64; 2]> {
+    let mut jacobian = [[0.0; 2]; 2];
+    for k in 0..2 {
+        let h = 1e-7 * (1.0 + v[k].abs());
+        let mut shifted = v;
+        shifted[k] += h;
+        // Step the other way when the forward difference leaves the lens.
+        let (rs, h) = match residual_at(shifted) {
+            Ok(rs) => (rs, h),
+            Err(_) => {
+                shifted[k] = v[k] - h;
+                (residual_at(shifted).ok()?, -h)
+            }
+        };
+        jacobian[0][k] = (rs[0] - r[0]) / h;
+        jacobian[1][k] = (rs[1] - r[1]) / h;
+    }
+    // In a meridional aim one unknown does not move the residual at all to first order in the
+    // other: solve each decoupled equation alone rather than failing on a singular matrix.
+    let det = jacobian[0][0] * jacobian[1][1] - jacobian[0][1] * jacobian[1][0];
+    let step = if det.abs() > 1e-300 {
+        [
+            -(jacobian[1][1] * r[0] - jacobian[0][1] * r[1]) / det,
+            -(jacobian[0][0] * r[1] - jacobian[1][0] * r[0]) / det,
+        ]
+    } else {
+        let solve = |row: usize, k: usize| {
+            if jacobian[row][k] != 0.0 {
+                -r[row] / jacobian[row][k]
+            } else {
+                0.0
+            }
+        };
+        [solve(0, 0), solve(1, 1)]
+    };
+    step.iter().all(|s| s.is_finite()).then_some(step)
+}
+
+/// The largest field angle (degrees, in the y-z plane) up to which the real chief ray, aimed at
+/// the stop centre, passes every clear aperture: scanned upward in `scan_deg` steps from the
+/// axis, then bisected to 1e-9 degrees. Stops at 89.9 degrees.
+pub fn traceable_field_deg(tracer: &Tracer, scan_deg: f64) -> f64 {
+    let start_z = tracer.front_start_z();
+    let passes = |deg: f64| {
+        let a = deg.to_radians();
+        let source = RaySource::Collimated {
+            direction: [0.0, a.sin(), a.cos()],
+            start_z,
+        };
+        aim_at_stop(tracer, &source, [0.0, 0.0])
+            .is_ok_and(|ray| tracer.trace(ray, Travel::Forward).outcome.is_ok())
+    };
+    const LIMIT_DEG: f64 = 89.9;
+    let mut ok = 0.0;
+    let mut fail = loop {
+        let next = (ok + scan_deg).min(LIMIT_DEG);
+        if !passes(next) {
+            break next;
+        }
+        if next >= LIMIT_DEG {
+            return LIMIT_DEG;
+        }
+        ok = next;
+    };
+    while fail - ok > 1e-9 {
+        let mid = 0.5 * (ok + fail);
+        if passes(mid) {
+            ok = mid;
+        } else {
+            fail = mid;
+        }
+    }
+    ok
+}

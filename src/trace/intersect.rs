@@ -1,0 +1,392 @@
+//! Where a ray meets a surface.
+//!
+//! Every function works in the surface's vertex frame (vertex at the origin, axis along z) and
+//! takes a unit direction `d` and the travel sense `sense` (+1 forward, -1 backward).
+//!
+//! # Which root
+//!
+//! A sphere or conic `c (x^2 + y^2 + e z^2) - 2 z = 0` (e = 1 + k) meets a line twice. Its
+//! gradient over two, `N = (c x, c y, c e z - 1)`, points towards -z (the object side) everywhere
+//! on the sheet that contains the vertex (there `c e z < 1`) and towards +z on the far sheet.
+//! The sequential model wants the crossing of the vertex sheet in the travel sense: from the
+//! object side to the image side going forward (`N . d <= 0`), the other way going backward.
+//! Writing the line as `p + t d` gives `a t^2 - 2 B t + C = 0` with `N . d = a t - B` at a root,
+//! so the two roots carry `N . d = +-sqrt(B^2 - a C)` and the wanted one is the root with
+//! `N . d = -sense * sqrt(B^2 - a C)`, i.e. `t = (B - sense sqrt(D)) / a = C / (B + sense sqrt(D))`.
+//! We evaluate whichever of the two forms adds numbers of the same sign (no cancellation); the
+//! second form stays finite as the curvature, or `a` itself (k = -1 with an axial ray), goes to
+//! zero and then reduces to the plane or to the linear equation. A hit that lands on the far
+//! sheet counts as a miss: that point is outside the surface the prescription describes.
+//!
+//! The line is extended both ways, as in every sequential design program: a ray that starts
+//! just behind a vertex (a cemented pair with zero gap, a start plane chosen inside a deep
+//! front curve) still meets the surface it is meant to meet.
+
+use super::Vec3;
+
+/// Surface profile in the vertex frame, with the numbers the hot loop needs precomputed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum Profile {
+    Plane,
+    Sphere {
+        curvature: f64,
+    },
+    Conic {
+        curvature: f64,
+        /// 1 + k.
+        conic_factor: f64,
+    },
+    EvenAsphere {
+        curvature: f64,
+        conic_factor: f64,
+        /// Index into the tracer's table of aspheric coefficient sets.
+        terms: usize,
+    },
+}
+
+/// Even-asphere polynomial in r^2: `coefficients[i] * (r^2)^(i + 1)`, padded with zeros.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct AsphereTerms {
+    pub coefficients: [f64; crate::prescription::MAX_ASPHERE_TERMS],
+    pub len: usize,
+    /// Largest radial height the Newton search may wander to (the clear aperture, doubled).
+    pub search_radius: f64,
+}
+
+/// A surface crossing: the point in the vertex frame and the unit surface normal pointing to the
+/// object side (negative z component).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Hit {
+    pub point: Vec3,
+    pub normal: Vec3,
+}
+
+/// Most Newton steps an asphere intersection may take before it is declared missed.
+const ASPHERE_MAX_STEPS: usize = 40;
+
+/// Meets a plane z = 0: only when the ray crosses it in the travel sense.
+#[inline(always)]
+pub(crate) fn plane(p: Vec3, d: Vec3, sense: f64) -> Option<Vec3> {
+    if !(d[2] * sense > 0.0) {
+        return None;
+    }
+    let t = -p[2] / d[2];
+    Some([p[0] + t * d[0], p[1] + t * d[1], 0.0])
+}
+
+/// The wanted root of `a t^2 - 2 B t + C = 0` (see the module notes), or None when the line
+/// misses or the root is not a finite number.
+#[inline(always)]
+fn quadratic_root(a: f64, b: f64, c: f64, sense: f64) -> Option<f64> {
+    let disc = b * b - a * c;
+    if !(disc >= 0.0) {
+        return None;
+    }
+    let root = disc.sqrt();
+    let t = if sense * b >= 0.0 {
+        c / (b + sense * root)
+    } else {
+        (b - sense * root) / a
+    };
+    t.is_finite().then_some(t)
+}
+
+/// Meets the sphere `c (x^2 + y^2 + z^2) - 2 z = 0` on its vertex sheet. The normal
+/// `(c x, c y, c z - 1)` has unit length on the sphere, so it needs no normalisation.
+#[inline(always)]
+pub(crate) fn sphere(p: Vec3, d: Vec3, curvature: f64, sense: f64) -> Option<Hit> {
+    let c = curvature;
+    let b = d[2] - c * (p[0] * d[0] + p[1] * d[1] + p[2] * d[2]);
+    let cc = c * (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]) - 2.0 * p[2];
+    let t = quadratic_root(c, b, cc, sense)?;
+    let q = [p[0] + t * d[0], p[1] + t * d[1], p[2] + t * d[2]];
+    let nz = c * q[2] - 1.0;
+    if !(nz < 0.0) {
+        return None;
+    }
+    Some(Hit {
+        point: q,
+        normal: [c * q[0], c * q[1], nz],
+    })
+}
+
+/// Meets the conic `c (x^2 + y^2 + e z^2) - 2 z = 0` (e = 1 + k) on its vertex sheet.
+#[inline]
+pub(crate) fn conic(
+    p: Vec3,
+    d: Vec3,
+    curvature: f64,
+    conic_factor: f64,
+    sense: f64,
+) -> Option<Hit> {
+    let (c, e) = (curvature, conic_factor);
+    let a = c * (d[0] * d[0] + d[1] * d[1] + e * d[2] * d[2]);
+    let b = d[2] - c * (p[0] * d[0] + p[1] * d[1] + e * p[2] * d[2]);
+    let cc = c * (p[0] * p[0] + p[1] * p[1] + e * p[2] * p[2]) - 2.0 * p[2];
+    let t = quadratic_root(a, b, cc, sense)?;
+    let q = [p[0] + t * d[0], p[1] + t * d[1], p[2] + t * d[2]];
+    let nz = c * e * q[2] - 1.0;
+    if !(nz < 0.0) {
+        return None;
+    }
+    Some(Hit {
+        point: q,
+        normal: normalised([c * q[0], c * q[1], nz]),
+    })
+}
+
+/// Sag of the conic base and of the whole asphere, and d(sag)/d(r^2), at `rho = r^2`; None
+/// beyond the rim of the conic base.
+#[inline]
+pub(crate) fn asphere_sag(
+    rho: f64,
+    curvature: f64,
+    conic_factor: f64,
+    terms: &AsphereTerms,
+) -> Option<(f64, f64)> {
+    let c = curvature;
+    let under = 1.0 - conic_factor * c * c * rho;
+    if !(under > 0.0) {
+        return None;
+    }
+    let root = under.sqrt();
+    let mut sag = c * rho / (1.0 + root);
+    let mut slope = 0.5 * c / root;
+    // Horner in rho for both the polynomial and its derivative.
+    let mut poly = 0.0;
+    let mut dpoly = 0.0;
+    for i in (0..terms.len).rev() {
+        let a = terms.coefficients[i];
+        poly = poly * rho + a;
+        dpoly = dpoly * rho + (i + 1) as f64 * a;
+    }
+    sag += poly * rho;
+    slope += dpoly;
+    Some((sag, slope))
+}
+
+/// Meets an even asphere by Newton's method on the ray parameter, started at the crossing of
+/// its conic base (or of the vertex plane when the base is missed). Newton steps are limited to
+/// the size of the search region, and once two iterates straddle the surface every step stays
+/// inside that bracket (a step that would leave it bisects instead). No convergence within
+/// [`ASPHERE_MAX_STEPS`], or a crossing in the wrong sense, is a miss.
+pub(crate) fn even_asphere(
+    p: Vec3,
+    d: Vec3,
+    curvature: f64,
+    conic_factor: f64,
+    terms: &AsphereTerms,
+    sense: f64,
+) -> Option<Hit> {
+    let start = conic(p, d, curvature, conic_factor, sense)
+        .map(|hit| hit.point)
+        .or_else(|| plane(p, d, sense))?;
+    let along = |q: Vec3| (q[0] - p[0]) * d[0] + (q[1] - p[1]) * d[1] + (q[2] - p[2]) * d[2];
+    let mut t = along(start);
+    let max_step = terms.search_radius;
+    let max_rho = terms.search_radius * terms.search_radius;
+    let scale = 1.0 + terms.search_radius;
+    // Ray parameters known to lie on the object side (g > 0) and on the image side (g < 0) of
+    // the surface; NaN until found. Once both are known they bracket the crossing.
+    let (mut t_object, mut t_image) = (f64::NAN, f64::NAN);
+    let mut last_inside = f64::NAN;
+    for _ in 0..ASPHERE_MAX_STEPS {
+        let q = [p[0] + t * d[0], p[1] + t * d[1], p[2] + t * d[2]];
+        let rho = q[0] * q[0] + q[1] * q[1];
+        let Some((sag, slope)) = (rho <= max_rho)
+            .then(|| asphere_sag(rho, curvature, conic_factor, terms))
+            .flatten()
+        else {
+            // Outside the region where the surface exists: fall back towards known ground.
+            t = if t_object.is_finite() && t_image.is_finite() {
+                0.5 * (t_object + t_image)
+            } else if last_inside.is_finite() {
+                0.5 * (t + last_inside)
+            } else {
+                return None;
+            };
+            continue;
+        };
+        last_inside = t;
+        // g(t) = sag(r(t)) - z(t): positive while the point is on the object side.
+        let g = sag - q[2];
+        let gradient = [2.0 * slope * q[0], 2.0 * slope * q[1], -1.0];
+        if g.abs() <= 1e-15 * scale {
+            return finish_asphere(q, gradient, d, sense);
+        }
+        if g > 0.0 {
+            t_object = t;
+        } else {
+            t_image = t;
+        }
+        let dg = 2.0 * slope * (q[0] * d[0] + q[1] * d[1]) - d[2];
+        let step = -g / dg;
+        if step.is_nan() {
+            return None;
+        }
+        let mut next = t + step.clamp(-max_step, max_step);
+        if t_object.is_finite() && t_image.is_finite() {
+            let (lo, hi) = (t_object.min(t_image), t_object.max(t_image));
+            if !(next > lo && next < hi) {
+                next = 0.5 * (lo + hi);
+            }
+        }
+        if (next - t).abs() <= 1e-14 * (1.0 + t.abs()) {
+            return finish_asphere(q, gradient, d, sense);
+        }
+        t = next;
+    }
+    None
+}
+
+/// Accepts an asphere crossing only in the travel sense (object side to image side forward).
+fn finish_asphere(q: Vec3, gradient: Vec3, d: Vec3, sense: f64) -> Option<Hit> {
+    let normal = normalised(gradient);
+    let towards = normal[0] * d[0] + normal[1] * d[1] + normal[2] * d[2];
+    (sense * towards < 0.0).then_some(Hit { point: q, normal })
+}
+
+#[inline(always)]
+fn normalised(v: Vec3) -> Vec3 {
+    let inv = 1.0 / (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    [v[0] * inv, v[1] * inv, v[2] * inv]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn unit(v: Vec3) -> Vec3 {
+        normalised(v)
+    }
+
+    fn on_conic(q: Vec3, c: f64, e: f64) -> f64 {
+        c * (q[0] * q[0] + q[1] * q[1] + e * q[2] * q[2]) - 2.0 * q[2]
+    }
+
+    #[test]
+    fn axial_ray_meets_sphere_at_vertex_both_ways() {
+        for c in [0.05, -0.05] {
+            let hit = sphere([0.0, 0.0, -5.0], [0.0, 0.0, 1.0], c, 1.0).unwrap();
+            assert_eq!(hit.point, [0.0, 0.0, 0.0]);
+            assert_eq!(hit.normal, [0.0, 0.0, -1.0]);
+            let hit = sphere([0.0, 0.0, 5.0], [0.0, 0.0, -1.0], c, -1.0).unwrap();
+            assert_eq!(hit.point, [0.0, 0.0, 0.0]);
+        }
+    }
+
+    #[test]
+    fn sphere_hit_is_on_vertex_sheet_at_expected_height() {
+        // Axis-parallel ray at height h meets the sphere at sag R - sqrt(R^2 - h^2).
+        let (radius, h) = (20.0, 12.0);
+        let hit = sphere([0.0, h, -3.0], [0.0, 0.0, 1.0], 1.0 / radius, 1.0).unwrap();
+        let sag = radius - (radius * radius - h * h).sqrt();
+        assert!((hit.point[2] - sag).abs() < 1e-14);
+        assert!((hit.point[1] - h).abs() < 1e-15);
+        // Backward from behind the far sheet: still the vertex-sheet point.
+        let hit = sphere([0.0, h, 100.0], [0.0, 0.0, -1.0], 1.0 / radius, -1.0).unwrap();
+        assert!((hit.point[2] - sag).abs() < 1e-13);
+    }
+
+    #[test]
+    fn ray_through_far_sheet_only_is_missed() {
+        // A sphere of radius 10: a ray at z = 15 (beyond the centre) crossing sideways meets only
+        // the far sheet.
+        let c = 0.1;
+        assert!(sphere([-30.0, 0.0, 15.0], [1.0, 0.0, 0.0], c, 1.0).is_none());
+        // And a ray missing the sphere entirely.
+        assert!(sphere([0.0, 11.0, -5.0], [0.0, 0.0, 1.0], c, 1.0).is_none());
+    }
+
+    #[test]
+    fn near_flat_sphere_matches_plane() {
+        let p = [1.0, -2.0, -7.0];
+        let d = unit([0.1, 0.2, 1.0]);
+        let flat = plane(p, d, 1.0).unwrap();
+        let hit = sphere(p, d, 1e-15, 1.0).unwrap();
+        for k in 0..3 {
+            assert!((hit.point[k] - flat[k]).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn conic_with_zero_conic_constant_is_the_sphere() {
+        let p = [0.3, 2.0, -4.0];
+        let d = unit([0.02, -0.1, 1.0]);
+        let s = sphere(p, d, 0.04, 1.0).unwrap();
+        let k = conic(p, d, 0.04, 1.0, 1.0).unwrap();
+        for i in 0..3 {
+            assert!((s.point[i] - k.point[i]).abs() < 1e-13);
+            assert!((s.normal[i] - k.normal[i]).abs() < 1e-13);
+        }
+    }
+
+    #[test]
+    fn paraboloid_axial_ray_degenerate_quadratic() {
+        // k = -1 and an axis-parallel ray: a = 0, the equation is linear.
+        let c = 0.02;
+        let h = 7.0;
+        for sense in [1.0, -1.0] {
+            let hit = conic([0.0, h, -5.0 * sense], [0.0, 0.0, sense], c, 0.0, sense).unwrap();
+            assert!((hit.point[2] - 0.5 * c * h * h).abs() < 1e-14);
+            assert!(on_conic(hit.point, c, 0.0).abs() < 1e-14);
+        }
+        // On axis exactly.
+        let hit = conic([0.0, 0.0, -5.0], [0.0, 0.0, 1.0], c, 0.0, 1.0).unwrap();
+        assert_eq!(hit.point, [0.0, 0.0, 0.0]);
+    }
+
+    #[test]
+    fn hyperboloid_far_sheet_is_not_taken() {
+        // k = -3: second sheet at z = 2 / (c (1 + k)) = -50 for c = 0.02. A backward ray coming
+        // from +z along the axis must stop at the vertex, never at the far sheet.
+        let c = 0.02;
+        let hit = conic([0.0, 1.0, 10.0], [0.0, 0.0, -1.0], c, -2.0, -1.0).unwrap();
+        assert!(hit.point[2].abs() < 0.1);
+        assert!(hit.normal[2] < 0.0);
+    }
+
+    #[test]
+    fn asphere_newton_lands_on_surface() {
+        let mut coefficients = [0.0; crate::prescription::MAX_ASPHERE_TERMS];
+        coefficients[0] = 1e-3; // r^2
+        coefficients[1] = -2e-5; // r^4
+        coefficients[2] = 3e-8; // r^6
+        let terms = AsphereTerms {
+            coefficients,
+            len: 3,
+            search_radius: 30.0,
+        };
+        let (c, e) = (0.03, 0.4);
+        for (y, dy) in [(0.0, 0.0), (5.0, 0.05), (-9.0, 0.2), (12.0, -0.3)] {
+            let d = unit([0.01, dy, 1.0]);
+            let hit = even_asphere([0.2, y, -6.0], d, c, e, &terms, 1.0).unwrap();
+            let q = hit.point;
+            let (sag, _) = asphere_sag(q[0] * q[0] + q[1] * q[1], c, e, &terms).unwrap();
+            assert!((sag - q[2]).abs() < 1e-13, "residual {}", sag - q[2]);
+        }
+    }
+
+    #[test]
+    fn asphere_without_terms_is_the_conic() {
+        let terms = AsphereTerms {
+            coefficients: [0.0; crate::prescription::MAX_ASPHERE_TERMS],
+            len: 0,
+            search_radius: 20.0,
+        };
+        let p = [0.5, 3.0, -2.0];
+        let d = unit([0.0, -0.15, 1.0]);
+        let a = even_asphere(p, d, -0.05, 0.3, &terms, 1.0).unwrap();
+        let k = conic(p, d, -0.05, 0.3, 1.0).unwrap();
+        for i in 0..3 {
+            assert!((a.point[i] - k.point[i]).abs() < 1e-13);
+            assert!((a.normal[i] - k.normal[i]).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn parallel_ray_misses_plane() {
+        assert!(plane([0.0, 0.0, -1.0], [1.0, 0.0, 0.0], 1.0).is_none());
+        assert!(plane([0.0, 0.0, -1.0], [0.0, 0.0, -1.0], 1.0).is_none());
+    }
+}

@@ -1,0 +1,511 @@
+//! Exact sequential ray trace in f64.
+//!
+//! A [`Tracer`] is a [`SystemAt`] (the lens at one wavelength) flattened into one small array of
+//! surfaces with everything the inner loop needs precomputed. The same array serves both travel
+//! directions: forward rays start in object space travelling +z and meet surfaces 1..N; backward
+//! rays start on the film side travelling -z (the renderer's direction, as in pbrt) and meet
+//! surfaces N..1 with the media on each side swapped.
+//!
+//! Every ray ends with a typed [`Outcome`]. At each surface the tracer intersects (a miss is
+//! [`Outcome::Missed`]), checks the hit against the clear semi-aperture and, on the stop, the
+//! diaphragm's shape (outside is [`Outcome::Vignetted`]), and only then refracts (a negative
+//! Snell radicand is [`Outcome::Tir`]). Every intermediate value that could turn into NaN or
+//! infinity is tested before it is used, so no NaN ever leaves the tracer.
+
+mod aim;
+mod aperture;
+mod batch;
+mod bundle;
+mod intersect;
+mod refract;
+
+pub use aim::{AimError, EntrancePupil, RaySource, aim_at_stop, traceable_field_deg};
+pub use batch::{BatchTrace, RayBatch};
+pub use bundle::FieldBundle;
+
+use crate::prescription::Shape;
+use crate::system::{LensSystem, SystemAt};
+use aperture::Diaphragm;
+use intersect::{AsphereTerms, Profile};
+
+/// A point or direction in the lens frame (mm; z along the axis, origin at surface 1's vertex).
+pub type Vec3 = [f64; 3];
+
+/// A ray: a finite position and a unit direction, both in the lens frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ray {
+    position: Vec3,
+    direction: Vec3,
+}
+
+/// Why a ray could not be built.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum RayError {
+    #[error("ray {what} {value:?} has a component that is not a finite number")]
+    NonFinite { what: &'static str, value: Vec3 },
+    #[error("ray direction {0:?} has zero length")]
+    ZeroDirection(Vec3),
+}
+
+impl Ray {
+    /// A ray from `position` along `direction` (any non-zero length; it is normalised).
+    pub fn new(position: Vec3, direction: Vec3) -> Result<Ray, RayError> {
+        for (what, value) in [("position", position), ("direction", direction)] {
+            if !value.iter().all(|v| v.is_finite()) {
+                return Err(RayError::NonFinite { what, value });
+            }
+        }
+        let length = dot(direction, direction).sqrt();
+        if !(length > 0.0 && length.is_finite()) {
+            return Err(RayError::ZeroDirection(direction));
+        }
+        let direction = if length == 1.0 {
+            direction
+        } else {
+            direction.map(|v| v / length)
+        };
+        Ok(Ray {
+            position,
+            direction,
+        })
+    }
+
+    pub fn position(&self) -> Vec3 {
+        self.position
+    }
+
+    /// Unit direction cosines.
+    pub fn direction(&self) -> Vec3 {
+        self.direction
+    }
+
+    /// Where the ray's line crosses the plane z = `z`; None when it runs parallel to the plane.
+    pub fn point_at_z(&self, z: f64) -> Option<Vec3> {
+        let t = (z - self.position[2]) / self.direction[2];
+        t.is_finite().then(|| {
+            [
+                self.position[0] + t * self.direction[0],
+                self.position[1] + t * self.direction[1],
+                z,
+            ]
+        })
+    }
+}
+
+/// How a ray's trace ended. Surfaces are numbered 1..N from the object side, whatever the
+/// travel direction.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Outcome {
+    /// Crossed every surface.
+    Ok,
+    /// Hit `surface` outside its clear semi-aperture (or, at the stop, outside the blades).
+    Vignetted { surface: usize },
+    /// Total internal reflection at `surface`.
+    Tir { surface: usize },
+    /// No crossing with `surface` in the travel sense (the line misses it, or meets only the
+    /// far sheet of a sphere or conic, or an asphere search failed).
+    Missed { surface: usize },
+}
+
+impl Outcome {
+    pub fn is_ok(self) -> bool {
+        self == Outcome::Ok
+    }
+
+    /// The surface where the ray stopped; None for [`Outcome::Ok`].
+    pub fn surface(self) -> Option<usize> {
+        match self {
+            Outcome::Ok => None,
+            Outcome::Vignetted { surface }
+            | Outcome::Tir { surface }
+            | Outcome::Missed { surface } => Some(surface),
+        }
+    }
+
+    /// Lower-case name used in JSON output: ok, vignetted, tir, missed.
+    pub fn status(self) -> &'static str {
+        match self {
+            Outcome::Ok => "ok",
+            Outcome::Vignetted { .. } => "vignetted",
+            Outcome::Tir { .. } => "tir",
+            Outcome::Missed { .. } => "missed",
+        }
+    }
+}
+
+/// Which way rays run through the lens.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Travel {
+    /// Object space to image space (+z), surfaces 1..N.
+    Forward,
+    /// Image space to object space (-z), surfaces N..1: the renderer's direction.
+    Backward,
+}
+
+/// Whether clear apertures and the stop shape stop rays.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Apertures {
+    #[default]
+    Checked,
+    /// Pure geometry: rays pass any height a surface exists at (for aiming and diagnostics).
+    Ignored,
+}
+
+/// A traced ray. For [`Outcome::Ok`] `ray` is the ray just after the last surface crossed
+/// (surface N forward, surface 1 backward). For vignetting and TIR it is the hit point on the
+/// surface where it happened with the direction arriving there; for a miss it is the ray after
+/// the last surface it did cross (the input ray if that was none).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Traced {
+    pub outcome: Outcome,
+    pub ray: Ray,
+}
+
+/// One surface crossed on a recorded path.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Crossing {
+    /// 1-based surface number.
+    pub surface: usize,
+    /// Hit point in the lens frame.
+    pub point: Vec3,
+    /// Unit direction after refraction.
+    pub direction: Vec3,
+}
+
+/// A traced ray with every surface it crossed, in travel order.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TracedPath {
+    pub traced: Traced,
+    pub crossings: Vec<Crossing>,
+}
+
+/// The wavelengths (nm) of [`rgb_tracers`]: the ISO 7944 secondary lines F' (cadmium, blue),
+/// e (mercury, green) and C' (cadmium, red), in R, G, B order. They are the standard lens-design
+/// lines of the visible band, near the dominant wavelengths of sRGB's primaries, and catalogue
+/// glasses quote indices at exactly these lines.
+pub const RGB_WAVELENGTHS_NM: [f64; 3] = [643.8469, 546.0740, 479.9914];
+
+/// One tracer per colour channel at [`RGB_WAVELENGTHS_NM`], for rendering lateral and axial
+/// colour.
+pub fn rgb_tracers(system: &LensSystem) -> [Tracer; 3] {
+    RGB_WAVELENGTHS_NM.map(|nm| Tracer::new(&system.at(nm)))
+}
+
+/// One surface as the inner loop reads it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct FlatSurface {
+    vertex_z: f64,
+    profile: Profile,
+    semi_aperture_sq: f64,
+    index_before: f64,
+    index_after: f64,
+    /// n_before / n_after, the Snell ratio going forward (its inverse going backward).
+    mu_forward: f64,
+    mu_backward: f64,
+    /// Whether the stop's blades must be tested here.
+    bladed: bool,
+}
+
+/// A lens at one wavelength, flattened for tracing.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Tracer {
+    surfaces: Vec<FlatSurface>,
+    asphere_terms: Vec<AsphereTerms>,
+    diaphragm: Option<Diaphragm>,
+    /// 0-based stop index.
+    stop: usize,
+    wavelength_nm: f64,
+}
+
+impl Tracer {
+    pub fn new(system: &SystemAt) -> Tracer {
+        let mut asphere_terms = Vec::new();
+        let mut diaphragm = None;
+        let surfaces = system
+            .path()
+            .map(|(i, s, index_before, index_after)| {
+                let profile = match &s.shape {
+                    Shape::Plane => Profile::Plane,
+                    Shape::Sphere { curvature } if *curvature == 0.0 => Profile::Plane,
+                    Shape::Sphere { curvature } => Profile::Sphere {
+                        curvature: *curvature,
+                    },
+                    Shape::Conic { curvature, conic } => Profile::Conic {
+                        curvature: *curvature,
+                        conic_factor: 1.0 + conic,
+                    },
+                    Shape::EvenAsphere {
+                        curvature,
+                        conic,
+                        coefficients,
+                    } => {
+                        let mut terms = AsphereTerms {
+                            coefficients: [0.0; crate::prescription::MAX_ASPHERE_TERMS],
+                            len: coefficients.len(),
+                            search_radius: 2.0 * s.semi_aperture,
+                        };
+                        terms.coefficients[..coefficients.len()].copy_from_slice(coefficients);
+                        asphere_terms.push(terms);
+                        Profile::EvenAsphere {
+                            curvature: *curvature,
+                            conic_factor: 1.0 + conic,
+                            terms: asphere_terms.len() - 1,
+                        }
+                    }
+                };
+                let blades = s
+                    .stop
+                    .as_ref()
+                    .and_then(|shape| Diaphragm::new(shape, s.semi_aperture));
+                let bladed = blades.is_some();
+                if bladed {
+                    diaphragm = blades;
+                }
+                debug_assert!(!bladed || i == system.stop);
+                FlatSurface {
+                    vertex_z: s.vertex_z,
+                    profile,
+                    semi_aperture_sq: s.semi_aperture * s.semi_aperture,
+                    index_before,
+                    index_after,
+                    mu_forward: index_before / index_after,
+                    mu_backward: index_after / index_before,
+                    bladed,
+                }
+            })
+            .collect();
+        Tracer {
+            surfaces,
+            asphere_terms,
+            diaphragm,
+            stop: system.stop,
+            wavelength_nm: system.wavelength_nm,
+        }
+    }
+
+    pub fn wavelength_nm(&self) -> f64 {
+        self.wavelength_nm
+    }
+
+    /// Number of surfaces N.
+    pub fn surface_count(&self) -> usize {
+        self.surfaces.len()
+    }
+
+    /// 1-based number of the stop surface.
+    pub fn stop_surface(&self) -> usize {
+        self.stop + 1
+    }
+
+    /// Traces through every surface with apertures checked.
+    pub fn trace(&self, ray: Ray, travel: Travel) -> Traced {
+        self.trace_with(ray, travel, Apertures::Checked)
+    }
+
+    pub fn trace_with(&self, ray: Ray, travel: Travel, apertures: Apertures) -> Traced {
+        let (traced, _) = self.run(
+            ray,
+            travel,
+            0..self.surfaces.len(),
+            apertures,
+            &mut |_, _| {},
+        );
+        traced
+    }
+
+    /// Traces from the first surface in travel order up to and including surface `last`
+    /// (1-based); the ray returned for [`Outcome::Ok`] is the one leaving `last`.
+    pub fn trace_to(&self, ray: Ray, travel: Travel, last: usize, apertures: Apertures) -> Traced {
+        let n = self.surfaces.len();
+        let last = last.clamp(1, n);
+        let steps = match travel {
+            Travel::Forward => 0..last,
+            Travel::Backward => 0..n + 1 - last,
+        };
+        self.run(ray, travel, steps, apertures, &mut |_, _| {}).0
+    }
+
+    /// Traces and records every surface crossed.
+    pub fn trace_path(&self, ray: Ray, travel: Travel, apertures: Apertures) -> TracedPath {
+        let mut crossings = Vec::with_capacity(self.surfaces.len());
+        let (traced, _) = self.run(
+            ray,
+            travel,
+            0..self.surfaces.len(),
+            apertures,
+            &mut |i, ray| {
+                crossings.push(Crossing {
+                    surface: i + 1,
+                    point: ray.position,
+                    direction: ray.direction,
+                })
+            },
+        );
+        TracedPath { traced, crossings }
+    }
+
+    /// Traces over `steps` (positions in travel order) and returns the result with the number of
+    /// ray-surface intersections computed. `visit` sees each surface crossed (0-based index and
+    /// the ray leaving it).
+    #[inline]
+    pub(crate) fn run(
+        &self,
+        ray: Ray,
+        travel: Travel,
+        steps: std::ops::Range<usize>,
+        apertures: Apertures,
+        visit: &mut impl FnMut(usize, &Ray),
+    ) -> (Traced, u32) {
+        let check = apertures == Apertures::Checked;
+        match travel {
+            Travel::Forward => self.run_in::<true>(ray, steps, check, visit),
+            Travel::Backward => self.run_in::<false>(ray, steps, check, visit),
+        }
+    }
+
+    #[inline(always)]
+    fn run_in<const FORWARD: bool>(
+        &self,
+        mut ray: Ray,
+        steps: std::ops::Range<usize>,
+        check_apertures: bool,
+        visit: &mut impl FnMut(usize, &Ray),
+    ) -> (Traced, u32) {
+        let n = self.surfaces.len();
+        let mut count = 0u32;
+        for step in steps {
+            let i = if FORWARD { step } else { n - 1 - step };
+            let s = &self.surfaces[i];
+            count += 1;
+            match self.cross::<FORWARD>(s, &ray, check_apertures) {
+                Ok(next) => {
+                    ray = next;
+                    visit(i, &ray);
+                }
+                Err((event, at)) => {
+                    let surface = i + 1;
+                    let outcome = match event {
+                        Event::Missed => Outcome::Missed { surface },
+                        Event::Vignetted => Outcome::Vignetted { surface },
+                        Event::Tir => Outcome::Tir { surface },
+                    };
+                    return (Traced { outcome, ray: at }, count);
+                }
+            }
+        }
+        (
+            Traced {
+                outcome: Outcome::Ok,
+                ray,
+            },
+            count,
+        )
+    }
+
+    /// One surface: intersect, check the aperture, refract.
+    #[inline(always)]
+    fn cross<const FORWARD: bool>(
+        &self,
+        s: &FlatSurface,
+        ray: &Ray,
+        check_apertures: bool,
+    ) -> Result<Ray, (Event, Ray)> {
+        let sense = if FORWARD { 1.0 } else { -1.0 };
+        let d = ray.direction;
+        let p = [
+            ray.position[0],
+            ray.position[1],
+            ray.position[2] - s.vertex_z,
+        ];
+        let (q, normal) = match s.profile {
+            Profile::Plane => match intersect::plane(p, d, sense) {
+                Some(q) => (q, None),
+                None => return Err((Event::Missed, *ray)),
+            },
+            Profile::Sphere { curvature } => match intersect::sphere(p, d, curvature, sense) {
+                Some(hit) => (hit.point, Some(hit.normal)),
+                None => return Err((Event::Missed, *ray)),
+            },
+            Profile::Conic {
+                curvature,
+                conic_factor,
+            } => match intersect::conic(p, d, curvature, conic_factor, sense) {
+                Some(hit) => (hit.point, Some(hit.normal)),
+                None => return Err((Event::Missed, *ray)),
+            },
+            Profile::EvenAsphere {
+                curvature,
+                conic_factor,
+                terms,
+            } => {
+                let terms = &self.asphere_terms[terms];
+                match intersect::even_asphere(p, d, curvature, conic_factor, terms, sense) {
+                    Some(hit) => (hit.point, Some(hit.normal)),
+                    None => return Err((Event::Missed, *ray)),
+                }
+            }
+        };
+        let at = Ray {
+            position: [q[0], q[1], q[2] + s.vertex_z],
+            direction: d,
+        };
+        if check_apertures {
+            let r_sq = q[0] * q[0] + q[1] * q[1];
+            if r_sq > s.semi_aperture_sq {
+                return Err((Event::Vignetted, at));
+            }
+            if s.bladed
+                && !self
+                    .diaphragm
+                    .as_ref()
+                    .is_some_and(|b| b.contains(q[0], q[1]))
+            {
+                return Err((Event::Vignetted, at));
+            }
+        }
+        let (n_in, n_out, mu) = if FORWARD {
+            (s.index_before, s.index_after, s.mu_forward)
+        } else {
+            (s.index_after, s.index_before, s.mu_backward)
+        };
+        if n_in == n_out {
+            return Ok(at);
+        }
+        let refracted = match normal {
+            None => refract::refract_plane(d, mu),
+            Some(normal) => refract::refract(d, normal, mu),
+        };
+        match refracted {
+            Some(direction) => Ok(Ray {
+                position: at.position,
+                direction,
+            }),
+            None => Err((Event::Tir, at)),
+        }
+    }
+}
+
+impl FlatSurface {
+    /// Curvature of the paraxial (r^2) part of the profile: an asphere's r^2 term adds 2 a_1.
+    fn paraxial_curvature(&self, tracer: &Tracer) -> f64 {
+        match self.profile {
+            Profile::Plane => 0.0,
+            Profile::Sphere { curvature } | Profile::Conic { curvature, .. } => curvature,
+            Profile::EvenAsphere {
+                curvature, terms, ..
+            } => curvature + 2.0 * tracer.asphere_terms[terms].coefficients[0],
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Event {
+    Missed,
+    Vignetted,
+    Tir,
+}
+
+#[inline(always)]
+fn dot(a: Vec3, b: Vec3) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}

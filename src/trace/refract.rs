@@ -1,0 +1,95 @@
+//! Snell's law in vector form.
+//!
+//! With unit incident direction `d`, unit normal `n` (either orientation) and `mu = n1 / n2`,
+//! the refracted direction is `mu d + (s sqrt(1 - mu^2 (1 - (n.d)^2)) - mu (n.d)) n` where `s`
+//! is the sign of `n.d`: the tangential component scales by `mu`, the normal component keeps its
+//! side. A negative radicand is total internal reflection.
+
+use super::Vec3;
+
+/// Refracted unit direction, or None on total internal reflection.
+#[inline(always)]
+pub(crate) fn refract(d: Vec3, normal: Vec3, mu: f64) -> Option<Vec3> {
+    let cos_signed = normal[0] * d[0] + normal[1] * d[1] + normal[2] * d[2];
+    let radicand = 1.0 - mu * mu * (1.0 - cos_signed * cos_signed);
+    if !(radicand >= 0.0) {
+        return None;
+    }
+    let along = radicand.sqrt().copysign(cos_signed) - mu * cos_signed;
+    Some([
+        mu * d[0] + along * normal[0],
+        mu * d[1] + along * normal[1],
+        mu * d[2] + along * normal[2],
+    ])
+}
+
+/// Refraction at a plane z = const, where the normal is the axis: the transverse components
+/// scale by `mu` and z keeps its sign.
+#[inline(always)]
+pub(crate) fn refract_plane(d: Vec3, mu: f64) -> Option<Vec3> {
+    let (x, y) = (mu * d[0], mu * d[1]);
+    let radicand = 1.0 - (x * x + y * y);
+    if !(radicand >= 0.0) {
+        return None;
+    }
+    Some([x, y, radicand.sqrt().copysign(d[2])])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cross(a: Vec3, b: Vec3) -> Vec3 {
+        [
+            a[1] * b[2] - a[2] * b[1],
+            a[2] * b[0] - a[0] * b[2],
+            a[0] * b[1] - a[1] * b[0],
+        ]
+    }
+
+    fn unit(v: Vec3) -> Vec3 {
+        let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+        [v[0] / l, v[1] / l, v[2] / l]
+    }
+
+    #[test]
+    fn snell_invariant_and_unit_length() {
+        // n1 (d x N) = n2 (d' x N) for both normal orientations, and |d'| = 1.
+        let (n1, n2) = (1.0, 1.7);
+        let d = unit([0.1, -0.3, 1.0]);
+        for normal in [unit([0.05, 0.2, -1.0]), unit([-0.05, -0.2, 1.0])] {
+            let out = refract(d, normal, n1 / n2).unwrap();
+            let (a, b) = (cross(d, normal), cross(out, normal));
+            for k in 0..3 {
+                assert!((n1 * a[k] - n2 * b[k]).abs() < 1e-15);
+            }
+            let len = out.iter().map(|v| v * v).sum::<f64>();
+            assert!((len - 1.0).abs() < 1e-15);
+            assert!(out[2] > 0.0, "stays on the far side");
+        }
+    }
+
+    #[test]
+    fn angle_of_refraction_matches_scalar_snell() {
+        let theta: f64 = 0.6;
+        let d = [theta.sin(), 0.0, theta.cos()];
+        let out = refract(d, [0.0, 0.0, -1.0], 1.0 / 1.5).unwrap();
+        let expected = (theta.sin() / 1.5).asin();
+        assert!((out[0].atan2(out[2]) - expected).abs() < 1e-15);
+        let flat = refract_plane(d, 1.0 / 1.5).unwrap();
+        for k in 0..3 {
+            assert!((flat[k] - out[k]).abs() < 1e-15);
+        }
+    }
+
+    #[test]
+    fn total_internal_reflection_beyond_critical_angle() {
+        let critical = (1.0f64 / 1.5).asin();
+        let above = critical + 1e-6;
+        let below = critical - 1e-6;
+        let dir = |a: f64| [a.sin(), 0.0, a.cos()];
+        assert!(refract(dir(above), [0.0, 0.0, -1.0], 1.5).is_none());
+        assert!(refract_plane(dir(above), 1.5).is_none());
+        assert!(refract(dir(below), [0.0, 0.0, -1.0], 1.5).is_some());
+    }
+}
