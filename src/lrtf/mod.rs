@@ -2,7 +2,9 @@
 //! rotationally symmetric lens into a 3D table of 8 channels, store it as OpenEXR + RON sidecar,
 //! and sample it exactly the way the renderer's shader does. Design and file layout: docs/lrtf.md.
 
+pub mod bake;
 pub mod io;
+pub mod measure;
 pub mod param;
 pub mod table;
 

@@ -115,8 +115,8 @@ pub struct PupilFitSettings {
 impl Default for PupilFitSettings {
     fn default() -> Self {
         PupilFitSettings {
-            grid: 48,
-            boundary_directions: 96,
+            grid: 32,
+            boundary_directions: 48,
             relative_margin: 0.01,
         }
     }
@@ -169,7 +169,7 @@ pub fn fit_pupil(
             }
         }
         let (mut lo, mut hi) = (last_in, last_in + step * 0.5);
-        for _ in 0..30 {
+        for _ in 0..24 {
             let mid = 0.5 * (lo + hi);
             if passes(at(mid)) {
                 lo = mid;
