@@ -46,10 +46,10 @@ pub struct Sidecar {
 
 #[derive(Debug, thiserror::Error)]
 pub enum TableError {
-    #[error("{path}: {source}")]
+    #[error("{path}: {cause}")]
     Io {
         path: PathBuf,
-        source: std::io::Error,
+        cause: std::io::Error,
     },
     #[error("{path}: not a readable LRTF sidecar: {message}")]
     Sidecar { path: PathBuf, message: String },
@@ -91,9 +91,9 @@ pub fn prescription_hash(prescription: &Prescription) -> String {
 }
 
 fn io_error(path: &Path) -> impl FnOnce(std::io::Error) -> TableError + '_ {
-    move |source| TableError::Io {
+    move |cause| TableError::Io {
         path: path.to_path_buf(),
-        source,
+        cause,
     }
 }
 
