@@ -42,7 +42,7 @@ impl Default for BakeRequest {
     fn default() -> Self {
         BakeRequest {
             parameterisation: Parameterisation::PupilPlanes,
-            resolution: [64, 64, 32],
+            resolution: [128, 128, 128],
             precision: Precision::F32,
             wavelengths_nm: Vec::new(),
             f_number: None,
