@@ -8,11 +8,13 @@
 pub mod analysis;
 pub mod glass;
 pub mod lenses;
+pub mod lrtf;
 pub mod paraxial;
 pub mod plot;
 pub mod prescription;
+pub mod pupil;
 pub mod render;
+pub mod report;
 pub mod seidel;
 pub mod system;
-pub mod report;
 pub mod trace;

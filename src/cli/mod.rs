@@ -4,6 +4,7 @@ mod analyze;
 mod lens;
 mod render;
 mod plot;
+mod lrtf;
 
 use clap::{Parser, Subcommand};
 
@@ -31,6 +32,11 @@ pub enum Command {
     Plot(plot::PlotArgs),
     /// Write a lens's report (tables and every plot) to a directory.
     Report(plot::ReportArgs),
+    /// Bake a lens ray transfer function table and its effective-pupil bounds.
+    Bake(lrtf::BakeArgs),
+    /// Evaluate or describe baked LRTF tables.
+    #[command(subcommand)]
+    Lrtf(lrtf::LrtfCommand),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
@@ -40,5 +46,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Render(args) => render::run(args),
         Command::Plot(args) => plot::run_plot(args),
         Command::Report(args) => plot::run_report(args),
+        Command::Bake(args) => lrtf::run_bake(args),
+        Command::Lrtf(command) => lrtf::run(command),
     }
 }

@@ -1,0 +1,330 @@
+//! Table files: `lrtf.exr` (entries) and `lrtf.ron` (sidecar: meaning, domain, pupil, hash).
+//! Layout in docs/lrtf.md. Both files are written to a temporary name in the target directory
+//! and renamed into place, so a reader never sees half a table.
+
+use std::path::{Path, PathBuf};
+
+use exr::prelude::{
+    AnyChannel, AnyChannels, Encoding, FlatSamples, Image, ImageAttributes, IntegerBounds,
+    LayerAttributes, ReadChannels, ReadLayers, SmallVec, Vec2, WritableImage, f16, read,
+};
+use serde::{Deserialize, Serialize};
+
+use super::param::{CHANNEL_NAMES, CHANNELS, Frame};
+use super::table::{Layer, LrtfTable, Precision, TableInfo};
+use crate::prescription::Prescription;
+use crate::pupil::PupilTable;
+
+/// Version of the file layout (channel set, image packing, sidecar fields).
+pub const FORMAT_VERSION: u32 = 1;
+pub const SIDECAR_FILE: &str = "lrtf.ron";
+pub const DATA_FILE: &str = "lrtf.exr";
+
+/// Per-wavelength facts in the sidecar.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct LayerInfo {
+    /// EXR layer name holding this wavelength's entries.
+    pub exr_layer: String,
+    pub wavelength_nm: f64,
+    pub frame: Frame,
+    pub pupil: PupilTable,
+    pub stop_semi_aperture: f64,
+}
+
+/// The RON sidecar.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Sidecar {
+    pub format_version: u32,
+    pub parameterisation_version: u32,
+    /// Lens name or file the table was baked from (for the rebake hint).
+    pub lens: String,
+    /// [`prescription_hash`] of the lens baked.
+    pub prescription_hash: String,
+    pub info: TableInfo,
+    pub layers: Vec<LayerInfo>,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum TableError {
+    #[error("{path}: {cause}")]
+    Io {
+        path: PathBuf,
+        cause: std::io::Error,
+    },
+    #[error("{path}: not a readable LRTF sidecar: {message}")]
+    Sidecar { path: PathBuf, message: String },
+    #[error("{path}: not a readable LRTF data file: {message}")]
+    Data { path: PathBuf, message: String },
+    #[error(
+        "{path}: table has {what} {found}, this lensbake expects {expected}; rebake it with `lensbake bake {lens} --out {dir}`"
+    )]
+    Version {
+        path: PathBuf,
+        what: &'static str,
+        found: u32,
+        expected: u32,
+        lens: String,
+        dir: PathBuf,
+    },
+    #[error(
+        "{path}: table was baked from a different prescription (hash {found}, lens now hashes to {expected}); rebake it with `lensbake bake {lens} --out {dir}`"
+    )]
+    StaleHash {
+        path: PathBuf,
+        found: String,
+        expected: String,
+        lens: String,
+        dir: PathBuf,
+    },
+}
+
+/// FNV-1a 64 of the prescription's canonical RON text, as 16 hex digits. Any change to a surface,
+/// medium, aperture or stop changes it.
+pub fn prescription_hash(prescription: &Prescription) -> String {
+    let text = ron::to_string(prescription).unwrap_or_default();
+    let mut hash: u64 = 0xcbf2_9ce4_8422_2325;
+    for byte in text.bytes() {
+        hash ^= byte as u64;
+        hash = hash.wrapping_mul(0x0100_0000_01b3);
+    }
+    format!("{hash:016x}")
+}
+
+fn io_error(path: &Path) -> impl FnOnce(std::io::Error) -> TableError + '_ {
+    move |cause| TableError::Io {
+        path: path.to_path_buf(),
+        cause,
+    }
+}
+
+/// Writes `bytes_writer`'s output to `path` through a temporary file in the same directory.
+fn write_atomically(
+    path: &Path,
+    write: impl FnOnce(&Path) -> Result<(), TableError>,
+) -> Result<(), TableError> {
+    let dir = path.parent().unwrap_or(Path::new("."));
+    let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("table");
+    let temp = dir.join(format!(".{name}.tmp-{}", std::process::id()));
+    let result = write(&temp).and_then(|()| std::fs::rename(&temp, path).map_err(io_error(path)));
+    if result.is_err() {
+        let _ = std::fs::remove_file(&temp);
+    }
+    result
+}
+
+/// Writes `table` into `dir` (created if missing) as lrtf.exr + lrtf.ron.
+pub fn write_table(
+    table: &LrtfTable,
+    lens: &str,
+    prescription: &Prescription,
+    dir: &Path,
+) -> Result<(), TableError> {
+    std::fs::create_dir_all(dir).map_err(io_error(dir))?;
+    let [n0, n1, n2] = table.info.resolution;
+    let size = Vec2(n0, n1 * n2);
+    let exr_layers: Vec<exr::image::Layer<AnyChannels<FlatSamples>>> = table
+        .layers
+        .iter()
+        .enumerate()
+        .map(|(k, layer)| {
+            let channels = (0..CHANNELS)
+                .map(|c| {
+                    let values = layer.entries.iter().map(|e| e[c]);
+                    let samples = match table.info.precision {
+                        Precision::F32 => FlatSamples::F32(values.collect()),
+                        Precision::F16 => FlatSamples::F16(values.map(f16::from_f32).collect()),
+                    };
+                    AnyChannel::new(CHANNEL_NAMES[c], samples)
+                })
+                .collect::<Vec<_>>();
+            exr::image::Layer::new(
+                size,
+                LayerAttributes::named(layer_name(k).as_str()),
+                Encoding::FAST_LOSSLESS,
+                AnyChannels::sort(SmallVec::from_vec(channels)),
+            )
+        })
+        .collect();
+    let image = Image::from_layers(
+        ImageAttributes::new(IntegerBounds::from_dimensions(size)),
+        SmallVec::from_vec(exr_layers),
+    );
+    let data_path = dir.join(DATA_FILE);
+    write_atomically(&data_path, |temp| {
+        image.write().to_file(temp).map_err(|e| TableError::Data {
+            path: data_path.clone(),
+            message: e.to_string(),
+        })
+    })?;
+    let sidecar = Sidecar {
+        format_version: FORMAT_VERSION,
+        parameterisation_version: table.info.parameterisation.version(),
+        lens: lens.to_string(),
+        prescription_hash: prescription_hash(prescription),
+        info: table.info.clone(),
+        layers: table
+            .layers
+            .iter()
+            .enumerate()
+            .map(|(k, l)| LayerInfo {
+                exr_layer: layer_name(k),
+                wavelength_nm: l.wavelength_nm,
+                frame: l.frame.clone(),
+                pupil: l.pupil.clone(),
+                stop_semi_aperture: l.stop_semi_aperture,
+            })
+            .collect(),
+    };
+    let text = ron::ser::to_string_pretty(&sidecar, ron::ser::PrettyConfig::default())
+        .expect("sidecar is plain data");
+    let sidecar_path = dir.join(SIDECAR_FILE);
+    write_atomically(&sidecar_path, |temp| {
+        std::fs::write(temp, text).map_err(io_error(temp))
+    })
+}
+
+fn layer_name(k: usize) -> String {
+    format!("wl{k}")
+}
+
+/// Reads the sidecar alone (for `lrtf info`), checking nothing but its syntax.
+pub fn read_sidecar(dir: &Path) -> Result<Sidecar, TableError> {
+    let path = dir.join(SIDECAR_FILE);
+    let text = std::fs::read_to_string(&path).map_err(io_error(&path))?;
+    ron::from_str(&text).map_err(|e| TableError::Sidecar {
+        path: path.clone(),
+        message: e.to_string(),
+    })
+}
+
+/// Loads a table, refusing one whose format or parameterisation version differs from this
+/// build's, or (when `prescription` is given) one baked from another prescription.
+pub fn read_table(
+    dir: &Path,
+    prescription: Option<&Prescription>,
+) -> Result<LrtfTable, TableError> {
+    let sidecar = read_sidecar(dir)?;
+    let sidecar_path = dir.join(SIDECAR_FILE);
+    let version_error = |what, found, expected| TableError::Version {
+        path: sidecar_path.clone(),
+        what,
+        found,
+        expected,
+        lens: sidecar.lens.clone(),
+        dir: dir.to_path_buf(),
+    };
+    if sidecar.format_version != FORMAT_VERSION {
+        return Err(version_error(
+            "format version",
+            sidecar.format_version,
+            FORMAT_VERSION,
+        ));
+    }
+    let expected_param = sidecar.info.parameterisation.version();
+    if sidecar.parameterisation_version != expected_param {
+        return Err(version_error(
+            "parameterisation version",
+            sidecar.parameterisation_version,
+            expected_param,
+        ));
+    }
+    if let Some(prescription) = prescription {
+        let expected = prescription_hash(prescription);
+        if expected != sidecar.prescription_hash {
+            return Err(TableError::StaleHash {
+                path: sidecar_path,
+                found: sidecar.prescription_hash,
+                expected,
+                lens: sidecar.lens,
+                dir: dir.to_path_buf(),
+            });
+        }
+    }
+    let data_path = dir.join(DATA_FILE);
+    let data_error = |message: String| TableError::Data {
+        path: data_path.clone(),
+        message,
+    };
+    let [n0, n1, n2] = sidecar.info.resolution;
+    if n0 < 2 || n1 < 2 || n2 < 2 {
+        return Err(TableError::Sidecar {
+            path: dir.join(SIDECAR_FILE),
+            message: format!("resolution {n0}x{n1}x{n2} needs at least 2 nodes per axis"),
+        });
+    }
+    // Reading reports corrupted or truncated files as errors; catch_unwind guards against a
+    // decoder panic on hostile input so a bad file can never abort the caller.
+    let image = std::panic::catch_unwind(|| {
+        read()
+            .no_deep_data()
+            .largest_resolution_level()
+            .all_channels()
+            .all_layers()
+            .all_attributes()
+            .from_file(&data_path)
+    })
+    .map_err(|_| data_error("the EXR decoder failed on this file".into()))?
+    .map_err(|e| data_error(e.to_string()))?;
+    let mut layers = Vec::with_capacity(sidecar.layers.len());
+    for info in &sidecar.layers {
+        let exr_layer = image
+            .layer_data
+            .iter()
+            .find(|l| {
+                l.attributes.layer_name.as_ref().map(|n| n.to_string())
+                    == Some(info.exr_layer.clone())
+            })
+            .ok_or_else(|| {
+                data_error(format!(
+                    "layer {} named in the sidecar is missing",
+                    info.exr_layer
+                ))
+            })?;
+        if exr_layer.size != Vec2(n0, n1 * n2) {
+            return Err(data_error(format!(
+                "layer {} is {}x{}, the sidecar's resolution {n0}x{n1}x{n2} needs {n0}x{}",
+                info.exr_layer,
+                exr_layer.size.0,
+                exr_layer.size.1,
+                n1 * n2
+            )));
+        }
+        let mut entries = vec![[0.0f32; CHANNELS]; n0 * n1 * n2];
+        for (c, name) in CHANNEL_NAMES.iter().enumerate() {
+            let channel = exr_layer
+                .channel_data
+                .list
+                .iter()
+                .find(|ch| ch.name.to_string() == *name)
+                .ok_or_else(|| {
+                    data_error(format!("layer {} lacks channel {name}", info.exr_layer))
+                })?;
+            for (entry, value) in entries.iter_mut().zip(channel.sample_data.values_as_f32()) {
+                if !value.is_finite() {
+                    return Err(data_error(format!(
+                        "layer {} channel {name} holds a non-finite value",
+                        info.exr_layer
+                    )));
+                }
+                entry[c] = value;
+            }
+        }
+        layers.push(Layer {
+            wavelength_nm: info.wavelength_nm,
+            frame: info.frame.clone(),
+            pupil: info.pupil.clone(),
+            stop_semi_aperture: info.stop_semi_aperture,
+            entries,
+        });
+    }
+    if layers.is_empty() {
+        return Err(TableError::Sidecar {
+            path: dir.join(SIDECAR_FILE),
+            message: "no wavelength layers listed".into(),
+        });
+    }
+    Ok(LrtfTable {
+        info: sidecar.info,
+        layers,
+    })
+}

@@ -1,0 +1,12 @@
+//! Lens ray transfer function (LRTF) tables: bake the exact film-to-scene transfer of a
+//! rotationally symmetric lens into a 3D table of 8 channels, store it as OpenEXR + RON sidecar,
+//! and sample it exactly the way the renderer's shader does. Design and file layout: docs/lrtf.md.
+
+pub mod bake;
+pub mod io;
+pub mod measure;
+pub mod param;
+pub mod table;
+
+pub use param::{Frame, Parameterisation, Ray, Transfer};
+pub use table::{GpuParams, Layer, Lookup, LrtfTable, Precision, TableInfo};

@@ -1,0 +1,263 @@
+//! A baked table in memory and the one sampler that reads it (the CPU twin of
+//! `lrtf_sample.wgsl`: same addressing, same trilinear weights, same validity threshold).
+
+use serde::{Deserialize, Serialize};
+
+use super::param::{CHANNELS, Frame, Located, Parameterisation, Ray, VALID, to_lens_frame};
+use crate::pupil::PupilTable;
+
+/// Sample format on disk. In memory values are f32 either way; an f16 table holds the values
+/// rounded to f16, so sampling it in memory gives exactly the error of the file.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Precision {
+    F32,
+    F16,
+}
+
+impl Precision {
+    pub fn name(self) -> &'static str {
+        match self {
+            Precision::F32 => "f32",
+            Precision::F16 => "f16",
+        }
+    }
+
+    pub fn from_name(name: &str) -> Option<Precision> {
+        [Precision::F32, Precision::F16]
+            .into_iter()
+            .find(|p| p.name() == name)
+    }
+
+    pub fn bytes(self) -> usize {
+        match self {
+            Precision::F32 => 4,
+            Precision::F16 => 2,
+        }
+    }
+
+    /// The value as this precision stores it.
+    pub fn round(self, value: f32) -> f32 {
+        match self {
+            Precision::F32 => value,
+            Precision::F16 => half::f16::from_f32(value).to_f32(),
+        }
+    }
+}
+
+/// One wavelength's table: its frame, effective pupil and entries.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Layer {
+    pub wavelength_nm: f64,
+    pub frame: Frame,
+    pub pupil: PupilTable,
+    /// Stop semi-aperture the table was baked with (mm).
+    pub stop_semi_aperture: f64,
+    /// Entries, index `i0 + n0 * (i1 + n1 * i2)`.
+    pub entries: Vec<[f32; CHANNELS]>,
+}
+
+/// Everything that fixes what a table means; stored in the RON sidecar.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TableInfo {
+    pub parameterisation: Parameterisation,
+    pub resolution: [usize; 3],
+    pub precision: Precision,
+    /// f-number the table was baked at (wide open by default); it serves this and above.
+    pub f_number: f64,
+    /// Object distance in focus (mm from surface 1), None for infinity.
+    pub focus_mm: Option<f64>,
+}
+
+/// A whole table: one layer per wavelength.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LrtfTable {
+    pub info: TableInfo,
+    pub layers: Vec<Layer>,
+}
+
+/// The WGSL uniform `LrtfParams` (48 bytes, std140-compatible; layout checked against naga).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GpuParams {
+    pub rear_plane_z: f32,
+    pub film_plane_z: f32,
+    pub max_film_radius: f32,
+    pub max_rear_radius: f32,
+    pub max_polar_angle: f32,
+    pub stop_radius_sq: f32,
+    pub parameterisation: u32,
+    pub pupil_count: u32,
+    pub dims: [u32; 3],
+    pub pad: u32,
+}
+
+/// What the table says about one film-side ray.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Lookup {
+    /// The ray passes; `ray.origin` is where it leaves surface 1, `ray.direction` where it goes.
+    Passes(Ray),
+    /// Blocked somewhere in the lens (vignetted, TIR or missed: the table does not say which).
+    Blocked,
+    /// The ray falls outside what the table covers (film radius beyond its domain, or it never
+    /// reaches the rear plane).
+    OutsideDomain,
+}
+
+/// Trilinear addressing of a coordinate in [0,1] on `n` nodes: base index and fraction.
+/// Nodes sit at k / (n - 1), so both ends of the domain are sampled exactly.
+pub fn address(coord: f64, n: usize) -> (usize, f64) {
+    let t = coord.clamp(0.0, 1.0) * (n - 1) as f64;
+    let i = (t.floor() as usize).min(n - 2);
+    (i, t - i as f64)
+}
+
+impl Layer {
+    /// Trilinear interpolation of every channel at table coordinates.
+    pub fn fetch(&self, dims: [usize; 3], coords: [f64; 3]) -> [f64; CHANNELS] {
+        let (i0, f0) = address(coords[0], dims[0]);
+        let (i1, f1) = address(coords[1], dims[1]);
+        let (i2, f2) = address(coords[2], dims[2]);
+        let mut out = [0.0; CHANNELS];
+        for corner in 0..8 {
+            let (d0, d1, d2) = (corner & 1, (corner >> 1) & 1, (corner >> 2) & 1);
+            let w = if d0 == 1 { f0 } else { 1.0 - f0 }
+                * if d1 == 1 { f1 } else { 1.0 - f1 }
+                * if d2 == 1 { f2 } else { 1.0 - f2 };
+            let entry = &self.entries[(i0 + d0) + dims[0] * ((i1 + d1) + dims[1] * (i2 + d2))];
+            for (o, v) in out.iter_mut().zip(entry) {
+                *o += w * *v as f64;
+            }
+        }
+        out
+    }
+}
+
+impl LrtfTable {
+    pub fn dims(&self) -> [usize; 3] {
+        self.info.resolution
+    }
+
+    /// Stop radius that realises `f_number` (the stop scales as 1 / f-number, paraxially exact);
+    /// None when it asks for more aperture than the table was baked with.
+    pub fn stop_radius(&self, layer: usize, f_number: f64) -> Option<f64> {
+        (f_number >= self.info.f_number * (1.0 - 1e-12))
+            .then(|| self.layers[layer].stop_semi_aperture * self.info.f_number / f_number)
+    }
+
+    /// Where `ray` lands in layer `layer`'s coordinates.
+    pub fn locate(&self, layer: usize, ray: &Ray) -> Option<Located> {
+        let l = &self.layers[layer];
+        self.info.parameterisation.locate(&l.frame, &l.pupil, ray)
+    }
+
+    /// The outgoing ray for a film-side ray travelling -z, through a stop of radius
+    /// `stop_radius` (from [`LrtfTable::stop_radius`]). This is exactly what the shader does.
+    pub fn lookup(&self, layer: usize, ray: &Ray, stop_radius: f64) -> Lookup {
+        let Some(at) = self.locate(layer, ray) else {
+            return Lookup::OutsideDomain;
+        };
+        if !at.in_domain {
+            // Beyond the film radius the table covers (pupil-planes), nothing is known; elsewhere
+            // out of range means outside the conservative pupil bound, hence blocked.
+            let beyond_film =
+                self.info.parameterisation == Parameterisation::PupilPlanes && at.coords[0] > 1.0;
+            return if beyond_film {
+                Lookup::OutsideDomain
+            } else {
+                Lookup::Blocked
+            };
+        }
+        let v = self.layers[layer].fetch(self.dims(), at.coords);
+        let stop_ok = v[5] * v[5] + v[6] * v[6] <= stop_radius * stop_radius;
+        if v[VALID] < 0.5 || !stop_ok {
+            return Lookup::Blocked;
+        }
+        let exit = to_lens_frame([v[0], v[1]], &at);
+        let d = self.info.parameterisation.decode_direction([v[2], v[3]]);
+        let d_xy = to_lens_frame([d[0], d[1]], &at);
+        Lookup::Passes(Ray {
+            origin: [exit[0], exit[1], v[7]],
+            direction: [d_xy[0], d_xy[1], d[2]],
+        })
+    }
+
+    /// The uniform block `LrtfParams` of `lrtf_sample.wgsl` for one layer and stop radius.
+    pub fn gpu_params(&self, layer: usize, stop_radius: f64) -> GpuParams {
+        let l = &self.layers[layer];
+        let [n0, n1, n2] = self.info.resolution;
+        GpuParams {
+            rear_plane_z: l.frame.rear_plane_z as f32,
+            film_plane_z: l.frame.film_plane_z as f32,
+            max_film_radius: l.frame.max_film_radius as f32,
+            max_rear_radius: l.frame.max_rear_radius as f32,
+            max_polar_angle: l.frame.max_polar_angle as f32,
+            stop_radius_sq: (stop_radius * stop_radius) as f32,
+            parameterisation: self.info.parameterisation.shader_id(),
+            pupil_count: l.pupil.circles.len() as u32,
+            dims: [n0 as u32, n1 as u32, n2 as u32],
+            pad: 0,
+        }
+    }
+
+    /// Bytes of the entries as stored (both textures, all layers).
+    pub fn entry_bytes(&self) -> usize {
+        self.layers.iter().map(|l| l.entries.len()).sum::<usize>()
+            * CHANNELS
+            * self.info.precision.bytes()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn address_puts_nodes_at_both_ends() {
+        assert_eq!(address(0.0, 5), (0, 0.0));
+        assert_eq!(address(1.0, 5), (3, 1.0));
+        let (i, f) = address(0.6, 5);
+        assert_eq!(i, 2);
+        assert!((f - 0.4).abs() < 1e-12);
+    }
+
+    #[test]
+    fn fetch_reproduces_a_trilinear_function_exactly() {
+        // A function that is linear in each coordinate is reproduced to rounding by trilinear
+        // interpolation: this pins down the index layout and the weights.
+        let dims = [4, 3, 5];
+        let f = |c: [f64; 3]| 1.0 + 2.0 * c[0] - 3.0 * c[1] + 0.5 * c[2] + c[0] * c[1] * c[2];
+        let mut entries = Vec::new();
+        for i2 in 0..dims[2] {
+            for i1 in 0..dims[1] {
+                for i0 in 0..dims[0] {
+                    let c = [i0 as f64 / 3.0, i1 as f64 / 2.0, i2 as f64 / 4.0];
+                    let mut e = [0.0f32; CHANNELS];
+                    e[0] = f(c) as f32;
+                    entries.push(e);
+                }
+            }
+        }
+        let layer = Layer {
+            wavelength_nm: 587.56,
+            frame: Frame {
+                rear_plane_z: 0.0,
+                film_plane_z: 1.0,
+                max_film_radius: 1.0,
+                max_rear_radius: 1.0,
+                max_polar_angle: 1.0,
+            },
+            pupil: PupilTable {
+                max_film_radius: 1.0,
+                circles: vec![crate::pupil::PupilCircle {
+                    centre_x: 0.0,
+                    radius: 1.0,
+                }],
+            },
+            stop_semi_aperture: 1.0,
+            entries,
+        };
+        for c in [[0.1, 0.7, 0.33], [0.99, 0.01, 0.5], [0.5, 0.5, 1.0]] {
+            assert!((layer.fetch(dims, c)[0] - f(c)).abs() < 1e-5);
+        }
+    }
+}

@@ -1,0 +1,195 @@
+//! Table files: round trip, refusal of stale or mismatched tables, and clear errors (no panic)
+//! for truncated or corrupted data.
+
+use lensbake::lrtf::io::{DATA_FILE, SIDECAR_FILE, TableError, read_table, write_table};
+use lensbake::lrtf::param::{CHANNELS, Frame};
+use lensbake::lrtf::{Layer, LrtfTable, Parameterisation, Precision, TableInfo};
+use lensbake::prescription::{Medium, Prescription, Provenance, Shape, StopShape, Surface};
+use lensbake::pupil::{PupilCircle, PupilTable};
+
+fn singlet(radius: f64) -> Prescription {
+    Prescription {
+        provenance: Provenance {
+            title: "test singlet".into(),
+            ..Provenance::default()
+        },
+        object_medium: Medium::Air,
+        surfaces: vec![
+            Surface {
+                shape: Shape::from_radius(radius),
+                thickness: 5.0,
+                medium: Medium::Index(1.5),
+                semi_aperture: 10.0,
+                stop: Some(StopShape::Circle),
+            },
+            Surface {
+                shape: Shape::from_radius(-radius),
+                thickness: 95.0,
+                medium: Medium::Air,
+                semi_aperture: 10.0,
+                stop: None,
+            },
+        ],
+    }
+}
+
+fn synthetic_table(precision: Precision) -> LrtfTable {
+    let resolution = [5, 4, 3];
+    let n: usize = resolution.iter().product();
+    // Values spanning several magnitudes, so f16 rounding is visible.
+    let entries = (0..n)
+        .map(|k| {
+            std::array::from_fn::<f32, CHANNELS, _>(|c| {
+                precision.round((k * CHANNELS + c) as f32 * 0.137 - 3.0)
+            })
+        })
+        .collect();
+    LrtfTable {
+        info: TableInfo {
+            parameterisation: Parameterisation::PupilPlanes,
+            resolution,
+            precision,
+            f_number: 2.0,
+            focus_mm: None,
+        },
+        layers: vec![Layer {
+            wavelength_nm: 587.56,
+            frame: Frame {
+                rear_plane_z: 5.0,
+                film_plane_z: 100.0,
+                max_film_radius: 20.0,
+                max_rear_radius: 11.0,
+                max_polar_angle: 0.3,
+            },
+            pupil: PupilTable {
+                max_film_radius: 20.0,
+                circles: vec![
+                    PupilCircle {
+                        centre_x: 0.0,
+                        radius: 10.0,
+                    },
+                    PupilCircle {
+                        centre_x: -1.5,
+                        radius: 8.25,
+                    },
+                ],
+            },
+            stop_semi_aperture: 10.0,
+            entries,
+        }],
+    }
+}
+
+fn temp_dir(name: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("lensbake-lrtf-io-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    dir
+}
+
+#[test]
+fn write_then_read_round_trips_exactly_in_both_precisions() {
+    for precision in [Precision::F32, Precision::F16] {
+        let dir = temp_dir(precision.name());
+        let table = synthetic_table(precision);
+        let lens = singlet(50.0);
+        write_table(&table, "singlet", &lens, &dir).unwrap();
+        let back = read_table(&dir, Some(&lens)).unwrap();
+        assert_eq!(back, table);
+        // No temporary files are left behind.
+        let names: Vec<_> = std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        assert_eq!(names.len(), 2, "{names:?}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
+
+#[test]
+fn a_table_of_another_prescription_is_refused_with_a_rebake_hint() {
+    let dir = temp_dir("stale");
+    write_table(
+        &synthetic_table(Precision::F32),
+        "singlet",
+        &singlet(50.0),
+        &dir,
+    )
+    .unwrap();
+    let error = read_table(&dir, Some(&singlet(51.0))).unwrap_err();
+    assert!(matches!(error, TableError::StaleHash { .. }), "{error:?}");
+    let message = error.to_string();
+    assert!(message.contains("lensbake bake singlet --out"), "{message}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn a_table_of_another_version_is_refused() {
+    let dir = temp_dir("version");
+    let lens = singlet(50.0);
+    write_table(&synthetic_table(Precision::F32), "singlet", &lens, &dir).unwrap();
+    let sidecar = dir.join(SIDECAR_FILE);
+    let text = std::fs::read_to_string(&sidecar).unwrap();
+    std::fs::write(
+        &sidecar,
+        text.replace("parameterisation_version: 1", "parameterisation_version: 0"),
+    )
+    .unwrap();
+    let error = read_table(&dir, Some(&lens)).unwrap_err();
+    assert!(
+        matches!(
+            error,
+            TableError::Version {
+                found: 0,
+                expected: 1,
+                ..
+            }
+        ),
+        "{error:?}"
+    );
+    assert!(error.to_string().contains("rebake"), "{error}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn truncated_corrupted_and_mismatched_files_give_errors_not_panics() {
+    let lens = singlet(50.0);
+    let dir = temp_dir("broken");
+    write_table(&synthetic_table(Precision::F32), "singlet", &lens, &dir).unwrap();
+    let data = dir.join(DATA_FILE);
+    let original = std::fs::read(&data).unwrap();
+
+    std::fs::write(&data, &original[..original.len() / 2]).unwrap();
+    let error = read_table(&dir, Some(&lens)).unwrap_err();
+    assert!(
+        matches!(error, TableError::Data { .. }),
+        "truncated: {error:?}"
+    );
+
+    let mut corrupted = original.clone();
+    for byte in corrupted.iter_mut().skip(8).step_by(7) {
+        *byte ^= 0x5a;
+    }
+    std::fs::write(&data, &corrupted).unwrap();
+    let error = read_table(&dir, Some(&lens)).unwrap_err();
+    assert!(
+        matches!(error, TableError::Data { .. }),
+        "corrupted: {error:?}"
+    );
+
+    // A sidecar whose resolution disagrees with the data names both sizes.
+    std::fs::write(&data, &original).unwrap();
+    let sidecar = dir.join(SIDECAR_FILE);
+    let text = std::fs::read_to_string(&sidecar).unwrap();
+    std::fs::write(
+        &sidecar,
+        text.replacen("resolution: (5, 4, 3)", "resolution: (5, 4, 4)", 1),
+    )
+    .unwrap();
+    let error = read_table(&dir, Some(&lens)).unwrap_err();
+    assert!(error.to_string().contains("needs 5x16"), "{error}");
+
+    std::fs::write(&sidecar, "not ron at all (").unwrap();
+    let error = read_table(&dir, Some(&lens)).unwrap_err();
+    assert!(matches!(error, TableError::Sidecar { .. }), "{error:?}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
