@@ -18,6 +18,7 @@
 //! them needs the real-ray trace, which runs on a validated system; a later stage can refine the
 //! derived apertures that way (the `AperturesDerived` note says which surfaces to refine).
 
+use super::{Format, LoadNote, Loaded};
 use crate::glass::Dispersion;
 use crate::prescription::error::{PrescriptionError, Problem};
 use crate::prescription::model::Prescription;
@@ -59,7 +60,32 @@ pub(super) struct BeamSpec {
 pub(super) const INFINITE_OBJECT_MM: f64 = 1e10;
 
 /// Sets the semi-aperture of each surface in `missing` (0-based) from paraxial boundary rays.
-pub(super) fn derive(
+/// Fills the apertures the file left out and wraps the result, noting which surfaces were
+/// derived so `lens check` can say so.
+pub(super) fn complete(
+    mut prescription: Prescription,
+    missing: &[usize],
+    beams: &BeamSpec,
+    map: SourceMap,
+    format: Format,
+) -> Result<Loaded, PrescriptionError> {
+    derive(&mut prescription, missing, beams, &map)?;
+    let notes = if missing.is_empty() {
+        Vec::new()
+    } else {
+        vec![LoadNote::AperturesDerived {
+            surfaces: missing.iter().map(|i| i + 1).collect(),
+        }]
+    };
+    Ok(Loaded {
+        prescription,
+        map,
+        format,
+        notes,
+    })
+}
+
+fn derive(
     p: &mut Prescription,
     missing: &[usize],
     beams: &BeamSpec,

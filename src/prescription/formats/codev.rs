@@ -31,8 +31,7 @@
 
 use super::apertures::{self, BeamSpec, FieldPoint, INFINITE_OBJECT_MM, PupilSize};
 use super::{
-    AsphereTerms, Format, LoadNote, Loaded, Source, finite, named_medium, number, scale_to_mm,
-    shape,
+    AsphereTerms, Format, Loaded, Source, finite, named_medium, number, scale_to_mm, shape,
 };
 use crate::prescription::error::{Location, PrescriptionError, Problem};
 use crate::prescription::model::{
@@ -551,20 +550,7 @@ impl Reader {
             fields: self.field_points(),
             wavelength_nm: wavelength.unwrap_or(DEFAULT_WAVELENGTH_NM),
         };
-        apertures::derive(&mut prescription, &missing, &beams, &map)?;
-        let notes = if missing.is_empty() {
-            Vec::new()
-        } else {
-            vec![LoadNote::AperturesDerived {
-                surfaces: missing.iter().map(|i| i + 1).collect(),
-            }]
-        };
-        Ok(Loaded {
-            prescription,
-            map,
-            format: Format::CodeV,
-            notes,
-        })
+        apertures::complete(prescription, &missing, &beams, map, Format::CodeV)
     }
 
     fn field_points(&self) -> Result<Vec<FieldPoint>, String> {

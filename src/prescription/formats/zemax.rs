@@ -21,7 +21,7 @@
 //! listed here.
 
 use super::apertures::{self, BeamSpec, FieldPoint, INFINITE_OBJECT_MM, PupilSize};
-use super::{Format, LoadNote, Loaded, Source, finite, named_medium, number, scale_to_mm, shape};
+use super::{Format, Loaded, Source, finite, named_medium, number, scale_to_mm, shape};
 use crate::prescription::error::{PrescriptionError, Problem};
 use crate::prescription::model::{
     MAX_ASPHERE_TERMS, Medium, Prescription, Provenance, StopShape, Surface,
@@ -427,20 +427,7 @@ impl Reader {
             fields: self.field_points(),
             wavelength_nm: wavelength_nm.unwrap_or(DEFAULT_WAVELENGTH_NM),
         };
-        apertures::derive(&mut prescription, &missing, &beams, &map)?;
-        let notes = if missing.is_empty() {
-            Vec::new()
-        } else {
-            vec![LoadNote::AperturesDerived {
-                surfaces: missing.iter().map(|i| i + 1).collect(),
-            }]
-        };
-        Ok(Loaded {
-            prescription,
-            map,
-            format: Format::Zemax,
-            notes,
-        })
+        apertures::complete(prescription, &missing, &beams, map, Format::Zemax)
     }
 
     fn field_points(&self) -> Result<Vec<FieldPoint>, String> {
