@@ -312,3 +312,44 @@ fn random_sweep_reaches_every_outcome() {
         );
     }
 }
+
+#[test]
+fn batch_equals_single_rays_for_every_outcome_and_direction() {
+    // The batch path runs several rays in lockstep through vector kernels; it must give the
+    // one-ray results bit for bit, whatever happens to the rays and in which lane.
+    let mut state = 0x9e37_79b9_7f4a_7c15u64;
+    let mut unit = move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    };
+    for tracer in tracers() {
+        for travel in [Travel::Forward, Travel::Backward] {
+            for apertures in [Apertures::Checked, Apertures::Ignored] {
+                let sense = if travel == Travel::Forward { 1.0 } else { -1.0 };
+                let start_z = if sense > 0.0 { -20.0 } else { 150.0 };
+                let rays: RayBatch = (0..3001)
+                    .filter_map(|_| {
+                        let p = [30.0 * unit() - 15.0, 30.0 * unit() - 15.0, start_z];
+                        let d = [
+                            0.6 * unit() - 0.3,
+                            0.6 * unit() - 0.3,
+                            sense * (unit() - 0.05),
+                        ];
+                        Ray::new(p, d).ok()
+                    })
+                    .collect();
+                let batch = tracer.trace_batch(&rays, travel, apertures);
+                let mut kinds = std::collections::HashSet::new();
+                for (i, ray) in rays.iter().enumerate() {
+                    let single = tracer.trace_with(ray, travel, apertures);
+                    assert_eq!(batch.outcomes[i], single.outcome, "ray {i} {travel:?}");
+                    assert_eq!(batch.rays.get(i).unwrap(), single.ray, "ray {i} {travel:?}");
+                    kinds.insert(single.outcome.status());
+                }
+                assert!(kinds.len() >= 2, "a mix of outcomes: {kinds:?}");
+            }
+        }
+    }
+}

@@ -139,11 +139,11 @@ pub fn aim_at_stop(tracer: &Tracer, source: &RaySource, target: [f64; 2]) -> Res
         let mut accepted = None;
         for _ in 0..AIM_MAX_HALVINGS {
             let trial = [v[0] + lambda * step[0], v[1] + lambda * step[1]];
-            if let Ok(rt) = residual_at(trial) {
-                if norm(rt) < norm(r) {
-                    accepted = Some((trial, rt));
-                    break;
-                }
+            if let Ok(rt) = residual_at(trial)
+                && norm(rt) < norm(r)
+            {
+                accepted = Some((trial, rt));
+                break;
             }
             lambda *= 0.5;
         }

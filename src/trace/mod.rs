@@ -17,6 +17,7 @@ mod aperture;
 mod batch;
 mod bundle;
 mod intersect;
+mod lanes;
 mod refract;
 
 pub use aim::{AimError, EntrancePupil, RaySource, aim_at_stop, traceable_field_deg};
@@ -68,6 +69,14 @@ impl Ray {
             position,
             direction,
         })
+    }
+
+    /// A ray from parts already known to be finite with a unit direction.
+    pub(crate) fn from_parts(position: Vec3, direction: Vec3) -> Ray {
+        Ray {
+            position,
+            direction,
+        }
     }
 
     pub fn position(&self) -> Vec3 {
@@ -383,12 +392,7 @@ impl Tracer {
                     visit(i, &ray);
                 }
                 Err((event, at)) => {
-                    let surface = i + 1;
-                    let outcome = match event {
-                        Event::Missed => Outcome::Missed { surface },
-                        Event::Vignetted => Outcome::Vignetted { surface },
-                        Event::Tir => Outcome::Tir { surface },
-                    };
+                    let outcome = event.outcome(i + 1);
                     return (Traced { outcome, ray: at }, count);
                 }
             }
@@ -445,6 +449,10 @@ impl Tracer {
                 }
             }
         };
+        // A hit far enough out to overflow is no hit.
+        if !(q[0].is_finite() && q[1].is_finite() && q[2].is_finite()) {
+            return Err((Event::Missed, *ray));
+        }
         let at = Ray {
             position: [q[0], q[1], q[2] + s.vertex_z],
             direction: d,
@@ -503,6 +511,17 @@ enum Event {
     Missed,
     Vignetted,
     Tir,
+}
+
+impl Event {
+    /// The outcome of this event at 1-based `surface`.
+    fn outcome(self, surface: usize) -> Outcome {
+        match self {
+            Event::Missed => Outcome::Missed { surface },
+            Event::Vignetted => Outcome::Vignetted { surface },
+            Event::Tir => Outcome::Tir { surface },
+        }
+    }
 }
 
 #[inline(always)]
