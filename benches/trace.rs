@@ -5,7 +5,7 @@
 #[path = "../tests/common/mod.rs"]
 mod common;
 
-use common::{oracle_dir, oracle_prescription};
+use common::load_oracle;
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use lensbake::system::LensSystem;
 use lensbake::trace::{Apertures, FieldBundle, Tracer, Travel};
@@ -13,10 +13,8 @@ use lensbake::trace::{Apertures, FieldBundle, Tracer, Travel};
 const RAYS: usize = 100_000;
 
 fn trace(c: &mut Criterion) {
-    let path = oracle_dir().join("pbrt_dgauss_50mm.json");
-    let file: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
-    let system = LensSystem::from_prescription(oracle_prescription(&file["lenses"][0])).unwrap();
+    let system =
+        LensSystem::from_prescription(load_oracle("pbrt_dgauss_50mm").prescription).unwrap();
     let tracer = Tracer::new(&system.at(system.design_wavelength_nm()));
     let rays = FieldBundle::over_traceable_field(&tracer).sample(RAYS, 1);
     let ray_surfaces = tracer

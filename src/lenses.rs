@@ -8,4 +8,163 @@ pub struct BundledLens {
 }
 
 /// Every bundled lens, sorted by name. The files live in lenses/<name>.ron.
-pub const BUNDLED: &[BundledLens] = &[];
+pub const BUNDLED: &[BundledLens] = &[
+    BundledLens {
+        name: "asph-50mm-f1.8",
+        ron: include_str!("../lenses/asph-50mm-f1.8.ron"),
+    },
+    BundledLens {
+        name: "biconvex-singlet",
+        ron: include_str!("../lenses/biconvex-singlet.ron"),
+    },
+    BundledLens {
+        name: "codev-dgauss-f2",
+        ron: include_str!("../lenses/codev-dgauss-f2.ron"),
+    },
+    BundledLens {
+        name: "cooke-triplet",
+        ron: include_str!("../lenses/cooke-triplet.ron"),
+    },
+    BundledLens {
+        name: "dgauss-50mm",
+        ron: include_str!("../lenses/dgauss-50mm.ron"),
+    },
+    BundledLens {
+        name: "fisheye-10mm",
+        ron: include_str!("../lenses/fisheye-10mm.ron"),
+    },
+    BundledLens {
+        name: "kolb-dgauss",
+        ron: include_str!("../lenses/kolb-dgauss.ron"),
+    },
+    BundledLens {
+        name: "petzval",
+        ron: include_str!("../lenses/petzval.ron"),
+    },
+    BundledLens {
+        name: "telephoto-250mm",
+        ron: include_str!("../lenses/telephoto-250mm.ron"),
+    },
+    BundledLens {
+        name: "tessar",
+        ron: include_str!("../lenses/tessar.ron"),
+    },
+    BundledLens {
+        name: "wide-22mm",
+        ron: include_str!("../lenses/wide-22mm.ron"),
+    },
+];
+
+// The loader: a lens named by a file path or by a bundled lens's name.
+
+use crate::prescription::formats::{Format, LoadOptions, Loaded, read_file, read_str};
+use crate::prescription::{Location, PrescriptionError, Problem};
+use crate::system::LensSystem;
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+/// The bundled lens called `name`.
+pub fn find(name: &str) -> Option<&'static BundledLens> {
+    BUNDLED.iter().find(|lens| lens.name == name)
+}
+
+/// Where a lens came from.
+#[derive(Clone, Debug, PartialEq)]
+pub enum LensOrigin {
+    File(PathBuf),
+    Bundled(&'static str),
+}
+
+impl LensOrigin {
+    /// Short name for reports and output folders: the bundled name, or the file's stem.
+    pub fn name(&self) -> String {
+        match self {
+            LensOrigin::File(path) => path.file_stem().map_or_else(
+                || path.display().to_string(),
+                |stem| stem.to_string_lossy().into_owned(),
+            ),
+            LensOrigin::Bundled(name) => (*name).to_string(),
+        }
+    }
+}
+
+impl fmt::Display for LensOrigin {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            LensOrigin::File(path) => write!(f, "{}", path.display()),
+            LensOrigin::Bundled(name) => write!(f, "bundled lens `{name}`"),
+        }
+    }
+}
+
+/// A lens as read, before validation.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LensSource {
+    pub origin: LensOrigin,
+    pub loaded: Loaded,
+}
+
+/// A lens read and validated into a system.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LoadedLens {
+    pub source: LensSource,
+    pub system: LensSystem,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum LensError {
+    #[error(transparent)]
+    Prescription(#[from] PrescriptionError),
+    #[error("`{spec}` is neither a lens file nor a bundled lens; bundled lenses: {}", list(.bundled))]
+    NotFound {
+        spec: String,
+        bundled: Vec<&'static str>,
+    },
+}
+
+fn list(names: &[&str]) -> String {
+    if names.is_empty() {
+        "(none)".to_string()
+    } else {
+        names.join(", ")
+    }
+}
+
+/// Reads the lens `spec` names: an existing file (format from `options` or its extension), or
+/// else a bundled lens by name. A file wins over a bundled lens of the same name.
+pub fn read(spec: &str, options: &LoadOptions) -> Result<LensSource, LensError> {
+    let path = Path::new(spec);
+    if path.exists() {
+        return Ok(LensSource {
+            origin: LensOrigin::File(path.to_path_buf()),
+            loaded: read_file(path, options)?,
+        });
+    }
+    let Some(lens) = find(spec) else {
+        return Err(LensError::NotFound {
+            spec: spec.to_string(),
+            bundled: BUNDLED.iter().map(|l| l.name).collect(),
+        });
+    };
+    let label = PathBuf::from(format!("lenses/{}.ron", lens.name));
+    if let Some(format) = options.format.filter(|f| *f != Format::Ron) {
+        return Err(PrescriptionError::new(
+            Location::file(&label),
+            Problem::Unsupported(format!(
+                "bundled lenses are RON; they cannot be read as {format}"
+            )),
+        )
+        .into());
+    }
+    Ok(LensSource {
+        origin: LensOrigin::Bundled(lens.name),
+        loaded: read_str(lens.ron, Some(&label), Format::Ron, options)?,
+    })
+}
+
+/// Reads and validates the lens `spec` names (see [`read`]).
+pub fn load(spec: &str, options: &LoadOptions) -> Result<LoadedLens, LensError> {
+    let source = read(spec, options)?;
+    let system = LensSystem::new(source.loaded.prescription.clone(), &source.loaded.map)?;
+    Ok(LoadedLens { source, system })
+}

@@ -5,8 +5,12 @@
 //! [`system::SystemAt`] (one wavelength) -> analyses, trace, bake, render. The library never
 //! prints; every failure is a typed error.
 
+pub mod analysis;
 pub mod glass;
+pub mod lenses;
+pub mod paraxial;
 pub mod prescription;
+pub mod render;
+pub mod seidel;
 pub mod system;
 pub mod trace;
-pub mod lenses;

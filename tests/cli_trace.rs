@@ -2,7 +2,7 @@
 
 mod common;
 
-use common::{oracle_dir, oracle_prescription, vec3};
+use common::{load_oracle, vec3};
 use lensbake::system::LensSystem;
 use lensbake::trace::{Ray, Tracer, Travel};
 use serde_json::Value;
@@ -11,14 +11,12 @@ use std::process::{Command, Output};
 
 /// The oracle's 50 mm double Gauss written as a RON lens file in a fresh temporary directory.
 fn lens_file(tag: &str) -> (PathBuf, Value) {
-    let text = std::fs::read_to_string(oracle_dir().join("pbrt_dgauss_50mm.json")).unwrap();
-    let file: Value = serde_json::from_str(&text).unwrap();
-    let lens = file["lenses"][0].clone();
+    let oracle = load_oracle("pbrt_dgauss_50mm");
     let dir = std::env::temp_dir().join(format!("lensbake-cli-trace-{}-{tag}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("dgauss50.ron");
-    std::fs::write(&path, ron::to_string(&oracle_prescription(&lens)).unwrap()).unwrap();
-    (path, lens)
+    std::fs::write(&path, ron::to_string(&oracle.prescription).unwrap()).unwrap();
+    (path, oracle.lens().clone())
 }
 
 fn lensbake(args: &[&str], stdin: Option<&str>) -> Output {
@@ -39,7 +37,8 @@ fn lensbake(args: &[&str], stdin: Option<&str>) -> Output {
 #[test]
 fn trace_json_matches_library_forward_and_backward() {
     let (path, lens) = lens_file("both");
-    let system = LensSystem::from_prescription(oracle_prescription(&lens)).unwrap();
+    let system =
+        LensSystem::from_prescription(load_oracle("pbrt_dgauss_50mm").prescription).unwrap();
     let tracer = Tracer::new(&system.at(system.design_wavelength_nm()));
     for (travel, key, start) in [
         (Travel::Forward, "infinite_conjugate", "start_point"),

@@ -2,21 +2,25 @@
 
 mod common;
 
-use common::{num, oracle_files, oracle_prescription, vec3};
+use common::{ORACLE_LENSES, OracleLens, load_oracle, num, vec3};
 use lensbake::system::LensSystem;
 use lensbake::trace::{RaySource, Tracer, aim_at_stop, traceable_field_deg};
 use serde_json::Value;
 
-fn tracer(lens: &Value) -> Tracer {
-    let system = LensSystem::from_prescription(oracle_prescription(lens)).unwrap();
+fn tracer(oracle: &OracleLens) -> Tracer {
+    let system = LensSystem::from_prescription(oracle.prescription.clone()).unwrap();
     Tracer::new(&system.at(system.design_wavelength_nm()))
+}
+
+fn oracles() -> impl Iterator<Item = OracleLens> {
+    ORACLE_LENSES.into_iter().map(load_oracle)
 }
 
 #[test]
 fn paraxial_entrance_pupil_matches_oracle() {
-    for (name, file) in oracle_files() {
-        let lens = &file["lenses"][0];
-        let pupil = tracer(lens).paraxial_entrance_pupil();
+    for oracle in oracles() {
+        let (name, lens) = (&oracle.name, oracle.lens());
+        let pupil = tracer(&oracle).paraxial_entrance_pupil();
         let quick = &lens["quick_reference"];
         // The oracle agrees with itself (rayoptics vs optiland) to ~1e-8 relative here.
         let z = num(&quick["z_entrance_pupil"]);
@@ -42,9 +46,9 @@ fn paraxial_entrance_pupil_matches_oracle() {
 #[test]
 fn aimed_rays_match_oracle_start_points() {
     let mut checked = 0;
-    for (name, file) in oracle_files() {
-        let lens = &file["lenses"][0];
-        let tracer = tracer(lens);
+    for oracle in oracles() {
+        let (name, lens) = (&oracle.name, oracle.lens());
+        let tracer = tracer(&oracle);
         let stop_radius =
             num(&lens["prescription"]["surfaces"][tracer.stop_surface() - 1]["semi_aperture"]);
         let mut cases: Vec<(Value, f64)> = lens["infinite_conjugate"]["distortion"]["points"]
@@ -85,9 +89,9 @@ fn aimed_rays_match_oracle_start_points() {
 #[test]
 fn aiming_a_point_source_off_axis_in_both_stop_coordinates() {
     // A skew aim from a finite object point: the ray found must cross the stop where asked.
-    for (_, file) in oracle_files() {
-        let lens = &file["lenses"][0];
-        let tracer = tracer(lens);
+    for oracle in oracles() {
+        let lens = oracle.lens();
+        let tracer = tracer(&oracle);
         let stop = tracer.stop_surface();
         let stop_radius = num(&lens["prescription"]["surfaces"][stop - 1]["semi_aperture"]);
         let source = RaySource::Point {
@@ -111,15 +115,15 @@ fn aiming_a_point_source_off_axis_in_both_stop_coordinates() {
 
 #[test]
 fn traceable_field_within_oracle_bracket() {
-    for (name, file) in oracle_files() {
-        let lens = &file["lenses"][0];
+    for oracle in oracles() {
+        let (name, lens) = (&oracle.name, oracle.lens());
         let bracket =
             &lens["infinite_conjugate"]["max_field_with_traceable_chief_ray"]["with_apertures"];
         let (ok, fail) = (
             num(&bracket["last_ok_deg"]),
             num(&bracket["first_fail_deg"]),
         );
-        let field = traceable_field_deg(&tracer(lens), 0.5);
+        let field = traceable_field_deg(&tracer(&oracle), 0.5);
         assert!(
             field >= ok - 1e-6 && field <= fail + 1e-6,
             "{name}: {field} not in [{ok}, {fail}]"

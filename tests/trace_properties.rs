@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::{oracle_files, oracle_prescription};
+use common::{ORACLE_LENSES, load_oracle};
 use lensbake::prescription::{Medium, Prescription, Provenance, Shape, StopShape, Surface};
 use lensbake::system::LensSystem;
 use lensbake::trace::{Apertures, Outcome, Ray, RayBatch, Tracer, Travel, Vec3};
@@ -84,9 +84,9 @@ fn exotic_lens() -> Prescription {
 fn tracers() -> &'static Vec<Tracer> {
     static TRACERS: OnceLock<Vec<Tracer>> = OnceLock::new();
     TRACERS.get_or_init(|| {
-        let mut prescriptions: Vec<Prescription> = oracle_files()
-            .iter()
-            .map(|(_, file)| oracle_prescription(&file["lenses"][0]))
+        let mut prescriptions: Vec<Prescription> = ORACLE_LENSES
+            .into_iter()
+            .map(|name| load_oracle(name).prescription)
             .collect();
         prescriptions.push(exotic_lens());
         prescriptions

@@ -1,13 +1,256 @@
-use clap::Subcommand;
+//! `lensbake lens ...`: check, convert and list lens prescriptions.
+
+use anyhow::{Context, bail};
+use clap::{Args, Subcommand};
+use lensbake::lenses::{self, BUNDLED, LensError, LoadedLens};
+use lensbake::prescription::formats::{
+    Format, LoadOptions, PbrtThickness, read_str, write_ron_file,
+};
+use lensbake::prescription::{Medium, Shape};
+use lensbake::system::LensSystem;
+use std::path::{Path, PathBuf};
 
 #[derive(Subcommand, Debug)]
 pub enum LensCommand {
+    /// Read and validate a lens, then print a one-screen summary of it.
+    Check(LensArgs),
+    /// Convert a lens to lensbake's RON format (validated first; written atomically).
+    Convert {
+        #[command(flatten)]
+        input: LensArgs,
+        /// Output file; must end in .ron.
+        #[arg(value_name = "OUT.ron")]
+        output: PathBuf,
+    },
     /// List the bundled lenses.
     List,
 }
 
+/// A lens argument as every subcommand that takes a lens accepts it.
+#[derive(Args, Debug, Clone)]
+pub struct LensArgs {
+    /// A lens file (.ron, .dat, .txt/.tsv/.csv, .seq, .zmx) or the name of a bundled lens.
+    #[arg(value_name = "LENS")]
+    pub lens: String,
+    #[command(flatten)]
+    pub read: ReadArgs,
+}
+
+/// How to read a lens file.
+#[derive(Args, Debug, Clone, Default)]
+pub struct ReadArgs {
+    /// Read the file as this format instead of the one its extension implies
+    /// (ron, pbrt, table, codev, zemax).
+    #[arg(long, value_name = "FORMAT", value_parser = parse_format)]
+    pub format: Option<Format>,
+    /// pbrt .dat files only: the thickness column is the distance from the PREVIOUS surface
+    /// (first row 0), as in the unscaled pbrt-v4-scenes files (dgauss.dat, wide.dat, ...).
+    #[arg(long)]
+    pub pbrt_from_previous: bool,
+}
+
+fn parse_format(text: &str) -> Result<Format, String> {
+    text.parse()
+}
+
+impl ReadArgs {
+    pub fn options(&self) -> LoadOptions {
+        LoadOptions {
+            format: self.format,
+            pbrt_thickness: if self.pbrt_from_previous {
+                PbrtThickness::FromPrevious
+            } else {
+                PbrtThickness::ToNext
+            },
+        }
+    }
+}
+
+impl LensArgs {
+    /// Reads and validates the lens. A failure carries the reading notes (e.g. the pbrt
+    /// thickness hint) after the error itself.
+    pub fn load(&self) -> anyhow::Result<LoadedLens> {
+        let options = self.read.options();
+        let source = lenses::read(&self.lens, &options).map_err(with_hint)?;
+        match LensSystem::new(source.loaded.prescription.clone(), &source.loaded.map) {
+            Ok(system) => Ok(LoadedLens { source, system }),
+            Err(error) => {
+                let mut message = error.to_string();
+                for note in &source.loaded.notes {
+                    message.push_str(&format!("\nnote: {note}"));
+                }
+                bail!(message)
+            }
+        }
+    }
+}
+
+fn with_hint(error: LensError) -> anyhow::Error {
+    match error {
+        LensError::NotFound { .. } => {
+            anyhow::anyhow!("{error}\nnote: `lensbake lens list` shows the bundled lenses")
+        }
+        other => other.into(),
+    }
+}
+
 pub fn run(command: LensCommand) -> anyhow::Result<()> {
     match command {
-        LensCommand::List => Ok(()),
+        LensCommand::Check(args) => {
+            let lens = args.load()?;
+            print!("{}", summary(&lens));
+            Ok(())
+        }
+        LensCommand::Convert { input, output } => convert(&input, &output),
+        LensCommand::List => list(),
+    }
+}
+
+fn convert(input: &LensArgs, output: &Path) -> anyhow::Result<()> {
+    if Format::from_path(output).ok() != Some(Format::Ron) {
+        bail!(
+            "{}: the output must be a .ron file (RON is the only format lensbake writes)",
+            output.display()
+        );
+    }
+    let lens = input.load()?;
+    write_ron_file(output, &lens.system.prescription)?;
+    for note in &lens.source.loaded.notes {
+        eprintln!("note: {note}");
+    }
+    println!(
+        "wrote {} ({} surfaces, from {})",
+        output.display(),
+        lens.system.prescription.surfaces.len(),
+        lens.source.origin
+    );
+    Ok(())
+}
+
+fn list() -> anyhow::Result<()> {
+    if BUNDLED.is_empty() {
+        println!("no bundled lenses");
+    }
+    let width = BUNDLED.iter().map(|l| l.name.len()).max().unwrap_or(0);
+    for lens in BUNDLED {
+        let label = PathBuf::from(format!("lenses/{}.ron", lens.name));
+        let loaded = read_str(lens.ron, Some(&label), Format::Ron, &LoadOptions::default())
+            .with_context(|| format!("bundled lens `{}`", lens.name))?;
+        println!(
+            "{:width$}  {}",
+            lens.name, loaded.prescription.provenance.title
+        );
+    }
+    Ok(())
+}
+
+/// The one-screen summary `lens check` prints.
+fn summary(lens: &LoadedLens) -> String {
+    let system = &lens.system;
+    let p = &system.prescription;
+    let wavelength = system.design_wavelength_nm();
+    let at = system.at(wavelength);
+    let mut out = String::new();
+    let mut line = |text: String| {
+        out.push_str(&text);
+        out.push('\n');
+    };
+    line(if p.provenance.title.is_empty() {
+        "(untitled lens)".to_string()
+    } else {
+        p.provenance.title.clone()
+    });
+    line(format!(
+        "  read from:   {} ({})",
+        lens.source.origin,
+        lens.source.loaded.format.describe()
+    ));
+    if let Some(source) = &p.provenance.source {
+        line(format!("  source:      {source}"));
+    }
+    let stated = if p.provenance.design_wavelength_nm.is_some() {
+        "design"
+    } else {
+        "none stated; d line"
+    };
+    line(format!("  wavelength:  {wavelength} nm ({stated})"));
+    line(format!(
+        "  object:      {} (n = {:.6})",
+        describe_medium(&p.object_medium),
+        at.object_index
+    ));
+    if let Some(f) = p.provenance.claimed_focal_length_mm {
+        line(format!("  claimed EFL: {f} mm"));
+    }
+    if let Some(n) = p.provenance.claimed_f_number {
+        line(format!("  claimed F/#: {n}"));
+    }
+    line(String::new());
+    line(format!(
+        "  {:>3} {:4} {:>12} {:>11} {:7} {:16} {:>9} {:>9}",
+        "#",
+        "",
+        "radius",
+        "thickness",
+        "shape",
+        "medium after",
+        format!("n@{wavelength}"),
+        "semi-ap"
+    ));
+    for (i, (s, s_at)) in p.surfaces.iter().zip(&at.surfaces).enumerate() {
+        let radius = match s.shape {
+            Shape::Plane => "flat".to_string(),
+            _ => format!("{:.4}", s.shape.radius()),
+        };
+        let kind = match s.shape {
+            Shape::Plane => "plane",
+            Shape::Sphere { .. } => "sphere",
+            Shape::Conic { .. } => "conic",
+            Shape::EvenAsphere { .. } => "asphere",
+        };
+        line(format!(
+            "  {:>3} {:4} {:>12} {:>11.4} {:7} {:16} {:>9.6} {:>9.4}",
+            i + 1,
+            if s.stop.is_some() { "STO" } else { "" },
+            radius,
+            s.thickness,
+            kind,
+            describe_medium(&s.medium),
+            s_at.index_after,
+            s.semi_aperture
+        ));
+    }
+    line(String::new());
+    let stop = &p.surfaces[system.stop];
+    line(format!(
+        "  stop:        surface {} ({}), semi-aperture {:.4} mm",
+        system.stop + 1,
+        match &stop.stop {
+            Some(lensbake::prescription::StopShape::Blades { count, .. }) =>
+                format!("{count} blades"),
+            _ => "circle".to_string(),
+        },
+        stop.semi_aperture
+    ));
+    let last = p.surfaces.last().expect("a validated lens has surfaces");
+    line(format!(
+        "  total track: {:.4} mm (vertex 1 to vertex {}); last gap {:.4} mm",
+        p.total_track(),
+        p.surfaces.len(),
+        last.thickness
+    ));
+    for note in &lens.source.loaded.notes {
+        line(format!("note: {note}"));
+    }
+    out
+}
+
+fn describe_medium(medium: &Medium) -> String {
+    match medium {
+        Medium::Air => "air".to_string(),
+        Medium::Index(n) => format!("n = {n}"),
+        Medium::Glass(name) => name.clone(),
+        Medium::Sellmeier { .. } => "Sellmeier".to_string(),
+        Medium::Model { nd, vd } => format!("model {nd}/{vd}"),
     }
 }

@@ -1,13 +1,19 @@
 //! One module per subcommand; each turns parsed arguments into library calls and prints.
 
+mod analyze;
 mod bench;
 mod lens;
+mod render;
 mod trace;
 
 use clap::{Parser, Subcommand};
 
 #[derive(Parser, Debug)]
-#[command(name = "lensbake", version, about = "Lens design analysis and LRTF precomputation")]
+#[command(
+    name = "lensbake",
+    version,
+    about = "Lens design analysis and LRTF precomputation"
+)]
 pub struct Cli {
     #[command(subcommand)]
     pub command: Command,
@@ -18,6 +24,10 @@ pub enum Command {
     /// Read, validate, convert and list lens prescriptions.
     #[command(subcommand)]
     Lens(lens::LensCommand),
+    /// First-order data, pupils and Seidel sums of a lens.
+    Analyze(analyze::AnalyzeArgs),
+    /// Render depth of field through a lens model (image-based ray tracing).
+    Render(render::RenderArgs),
     /// Trace exact rays through a lens (JSON in, JSON out).
     Trace(trace::TraceArgs),
     /// Measure throughput.
@@ -28,6 +38,8 @@ pub enum Command {
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Lens(command) => lens::run(command),
+        Command::Analyze(args) => analyze::run(args),
+        Command::Render(args) => render::run(args),
         Command::Trace(args) => trace::run(args),
         Command::Bench(command) => bench::run(command),
     }

@@ -5,7 +5,7 @@
 
 mod catalog;
 
-pub use catalog::{CatalogGlass, CATALOG, lookup, suggestions};
+pub use catalog::{CATALOG, CatalogGlass, lookup, suggestions};
 
 use crate::prescription::{Medium, Problem};
 
@@ -21,11 +21,23 @@ pub const C_LINE_NM: f64 = 656.2725;
 pub enum Dispersion {
     Constant(f64),
     /// Sellmeier with three terms, wavelengths in micrometres.
-    Sellmeier { b: [f64; 3], c: [f64; 3] },
+    Sellmeier {
+        b: [f64; 3],
+        c: [f64; 3],
+    },
     /// Two-term Cauchy n = A + B / l^2 (l in micrometres), fitted so that n(d) = nd and
     /// n(F) - n(C) = (nd - 1) / vd: the simplest formula that honours both numbers a model glass
     /// gives. It is smooth and monotonic over the visible range, which is all a model glass claims.
-    Cauchy { a: f64, b: f64 },
+    Cauchy {
+        a: f64,
+        b: f64,
+    },
+    /// The Schott power series (Zemax "Schott" formula), l in micrometres:
+    /// n^2 = A0 + A1 l^2 + A2 l^-2 + A3 l^-4 + A4 l^-6 + A5 l^-8. Older catalogues (HIKARI among
+    /// them) publish their glasses in this form.
+    PowerSeries {
+        a: [f64; 6],
+    },
 }
 
 impl Dispersion {
@@ -63,6 +75,11 @@ impl Dispersion {
                 (1.0 + sum).sqrt()
             }
             Dispersion::Cauchy { a, b } => a + b / l2,
+            Dispersion::PowerSeries { a } => {
+                let inv = 1.0 / l2;
+                let n2 = a[0] + a[1] * l2 + inv * (a[2] + inv * (a[3] + inv * (a[4] + inv * a[5])));
+                n2.sqrt()
+            }
         }
     }
 

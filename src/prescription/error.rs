@@ -86,11 +86,15 @@ pub enum Problem {
     NonPositiveAperture { value: f64 },
     #[error("semi-aperture {semi_aperture} mm is larger than |radius| {radius} mm")]
     ApertureExceedsRadius { semi_aperture: f64, radius: f64 },
-    #[error("the conic surface is undefined beyond r = {limit} mm, inside its semi-aperture {semi_aperture} mm")]
+    #[error(
+        "the conic surface is undefined beyond r = {limit} mm, inside its semi-aperture {semi_aperture} mm"
+    )]
     ApertureExceedsConic { semi_aperture: f64, limit: f64 },
     #[error("more than {max} even-asphere terms ({found})", max = super::model::MAX_ASPHERE_TERMS)]
     TooManyAsphereTerms { found: usize },
-    #[error("surface crosses the next surface {next} within the clear aperture (gap {gap:.6} mm at r = {radius:.3} mm)")]
+    #[error(
+        "surface crosses the next surface {next} within the clear aperture (gap {gap:.6} mm at r = {radius:.3} mm)"
+    )]
     SurfacesCross { next: usize, radius: f64, gap: f64 },
     #[error("no surface is marked as the aperture stop")]
     NoStop,
@@ -103,8 +107,25 @@ pub enum Problem {
         name: String,
         suggestions: Vec<String>,
     },
-    #[error("wavelength {nm} nm is outside the range where this medium's dispersion formula is defined")]
+    #[error(
+        "wavelength {nm} nm is outside the range where this medium's dispersion formula is defined"
+    )]
     WavelengthOutOfRange { nm: f64 },
+    #[error("the file is not text: invalid UTF-8 at byte {byte_offset}")]
+    NotText { byte_offset: usize },
+    #[error("cannot tell the lens format from {}; name the format (ron, pbrt, table, codev, zemax)", describe_extension(.extension))]
+    UnknownFormat { extension: Option<String> },
+    #[error("the first row's thickness is {value}, but in the distance-from-previous (axpos) reading the first surface has no previous surface and must be 0")]
+    FirstAxialPositionNotZero { value: f64 },
+    #[error("no clear semi-aperture is given and none can be derived: {reason}")]
+    CannotDeriveApertures { reason: String },
+}
+
+fn describe_extension(extension: &Option<String>) -> String {
+    match extension {
+        Some(e) => format!("the extension `.{e}`"),
+        None => "a file name without extension".to_string(),
+    }
 }
 
 fn suggest(suggestions: &[String]) -> String {

@@ -1,6 +1,7 @@
 //! Lens prescriptions: the data model, its validation, and the file formats that produce it.
 
 mod error;
+pub mod formats;
 mod model;
 mod validate;
 

@@ -7,6 +7,7 @@ use serde::{Deserialize, Serialize};
 
 /// A whole lens prescription: the surface table plus where it came from.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Prescription {
     pub provenance: Provenance,
     /// Medium the object sits in (air for almost every camera lens).
@@ -18,6 +19,7 @@ pub struct Prescription {
 
 /// What the source says about the lens; kept so reports can cite it and compare against it.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Provenance {
     pub title: String,
     /// Patent, book page or file the table was taken from.
@@ -36,6 +38,7 @@ pub struct Provenance {
 
 /// One refracting (or dummy) surface and the gap after it.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Surface {
     pub shape: Shape,
     /// Axial distance from this vertex to the next one (mm); for the last surface, to the film.
@@ -52,6 +55,7 @@ pub struct Surface {
 /// Surface profile. Curvature c = 1/R (plane: 0); positive when the centre of curvature lies at
 /// larger z.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub enum Shape {
     Plane,
     Sphere {
@@ -138,6 +142,7 @@ impl Shape {
 
 /// Shape of the aperture stop's opening, for bokeh. Its size is the stop surface's semi-aperture.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub enum StopShape {
     Circle,
     /// A polygonal diaphragm of `count` blades. `blade_curvature` bends each edge outward
@@ -151,6 +156,7 @@ pub enum StopShape {
 
 /// Optical medium after a surface (or around the object).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub enum Medium {
     /// Index exactly 1 at every wavelength (optical-design convention: indices relative to air).
     Air,
@@ -178,7 +184,11 @@ impl Medium {
 impl Prescription {
     /// 0-based index of the stop surface, if exactly one surface is marked as stop.
     pub fn stop_index(&self) -> Option<usize> {
-        let mut stops = self.surfaces.iter().enumerate().filter(|(_, s)| s.stop.is_some());
+        let mut stops = self
+            .surfaces
+            .iter()
+            .enumerate()
+            .filter(|(_, s)| s.stop.is_some());
         match (stops.next(), stops.next()) {
             (Some((i, _)), None) => Some(i),
             _ => None,

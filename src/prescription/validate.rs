@@ -1,7 +1,7 @@
 //! Checks a prescription before anything computes with it.
 
 use super::error::{Location, PrescriptionError, Problem};
-use super::model::{Medium, Prescription, Shape, StopShape, MAX_ASPHERE_TERMS};
+use super::model::{MAX_ASPHERE_TERMS, Medium, Prescription, Shape, StopShape};
 use std::path::PathBuf;
 
 /// Where each surface came from in its file, so errors found after parsing still cite lines.
@@ -49,11 +49,14 @@ pub fn validate(p: &Prescription, map: &SourceMap) -> Result<(), PrescriptionErr
     if p.surfaces.is_empty() {
         return Err(PrescriptionError::new(map.whole_file(), Problem::Empty));
     }
-    check_medium(&p.object_medium, Location {
-        file: map.file.clone(),
-        field: Some("object_medium".into()),
-        ..Location::default()
-    })?;
+    check_medium(
+        &p.object_medium,
+        Location {
+            file: map.file.clone(),
+            field: Some("object_medium".into()),
+            ..Location::default()
+        },
+    )?;
     for (i, s) in p.surfaces.iter().enumerate() {
         check_surface(i, s, map)?;
     }
@@ -65,7 +68,10 @@ fn finite(value: f64, location: Location) -> Result<(), PrescriptionError> {
     if value.is_finite() {
         Ok(())
     } else {
-        Err(PrescriptionError::new(location, Problem::NonFinite { value }))
+        Err(PrescriptionError::new(
+            location,
+            Problem::NonFinite { value },
+        ))
     }
 }
 
@@ -75,7 +81,10 @@ fn check_medium(medium: &Medium, location: Location) -> Result<(), PrescriptionE
         Medium::Index(n) => {
             finite(*n, location.clone())?;
             if *n < 1.0 {
-                return Err(PrescriptionError::new(location, Problem::IndexBelowOne { index: *n }));
+                return Err(PrescriptionError::new(
+                    location,
+                    Problem::IndexBelowOne { index: *n },
+                ));
             }
             Ok(())
         }
@@ -89,7 +98,10 @@ fn check_medium(medium: &Medium, location: Location) -> Result<(), PrescriptionE
             finite(*nd, location.clone())?;
             finite(*vd, location.clone())?;
             if *nd < 1.0 {
-                return Err(PrescriptionError::new(location, Problem::IndexBelowOne { index: *nd }));
+                return Err(PrescriptionError::new(
+                    location,
+                    Problem::IndexBelowOne { index: *nd },
+                ));
             }
             Ok(())
         }
@@ -115,7 +127,9 @@ fn check_surface(i: usize, s: &Surface, map: &SourceMap) -> Result<(), Prescript
     if s.semi_aperture <= 0.0 {
         return Err(PrescriptionError::new(
             map.surface(i, "semi_aperture"),
-            Problem::NonPositiveAperture { value: s.semi_aperture },
+            Problem::NonPositiveAperture {
+                value: s.semi_aperture,
+            },
         ));
     }
     check_medium(&s.medium, map.surface(i, "medium"))?;
@@ -136,10 +150,18 @@ fn check_surface(i: usize, s: &Surface, map: &SourceMap) -> Result<(), Prescript
                     limit,
                 }
             };
-            return Err(PrescriptionError::new(map.surface(i, "semi_aperture"), problem));
+            return Err(PrescriptionError::new(
+                map.surface(i, "semi_aperture"),
+                problem,
+            ));
         }
     }
-    if let Some(StopShape::Blades { count, rotation_deg, blade_curvature }) = &s.stop {
+    if let Some(StopShape::Blades {
+        count,
+        rotation_deg,
+        blade_curvature,
+    }) = &s.stop
+    {
         if *count < 3 {
             return Err(PrescriptionError::new(
                 map.surface(i, "stop"),
@@ -154,7 +176,7 @@ fn check_surface(i: usize, s: &Surface, map: &SourceMap) -> Result<(), Prescript
 
 use super::model::Surface;
 
-fn check_stop(p: &Prescription, map: &SourceMap) -> Result<(), PrescriptionError> {
+pub(crate) fn check_stop(p: &Prescription, map: &SourceMap) -> Result<(), PrescriptionError> {
     let stops: Vec<usize> = p
         .surfaces
         .iter()

@@ -25,7 +25,10 @@ pub struct LensSystem {
 
 impl LensSystem {
     /// Validates and resolves `prescription`; `map` locates surfaces in their source file.
-    pub fn new(prescription: Prescription, map: &SourceMap) -> Result<LensSystem, PrescriptionError> {
+    pub fn new(
+        prescription: Prescription,
+        map: &SourceMap,
+    ) -> Result<LensSystem, PrescriptionError> {
         validate(&prescription, map)?;
         let object_dispersion = Dispersion::of(&prescription.object_medium).map_err(|problem| {
             PrescriptionError::new(
@@ -151,7 +154,9 @@ impl SystemAt {
 
     /// Index of image space (after the last surface).
     pub fn image_index(&self) -> f64 {
-        self.surfaces.last().map_or(self.object_index, |s| s.index_after)
+        self.surfaces
+            .last()
+            .map_or(self.object_index, |s| s.index_after)
     }
 
     /// z of the last vertex.

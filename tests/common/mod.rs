@@ -1,85 +1,295 @@
-//! Shared helpers for integration tests that read the reference data in ../shared.
-
+//! Shared helpers for the truth-data tests: locating ../shared/testdata and turning an oracle
+//! JSON lens table into a Prescription.
+//!
+//! Each integration test compiles this module on its own and uses only part of it.
 #![allow(dead_code)]
 
 use lensbake::prescription::{Medium, Prescription, Provenance, Shape, StopShape, Surface};
 use serde_json::Value;
 use std::path::PathBuf;
 
-/// The oracle directory: `../shared/testdata/oracle` beside the crate (CI), else the shared
-/// checkout at /work/shared (worktrees).
-pub fn oracle_dir() -> PathBuf {
-    let beside = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/testdata/oracle");
+/// `../shared` beside the crate (CI layout), else `/work/shared` (helper worktrees).
+pub fn shared_dir() -> PathBuf {
+    let beside = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared");
     if beside.is_dir() {
         beside
     } else {
-        PathBuf::from("/work/shared/testdata/oracle")
+        PathBuf::from("/work/shared")
     }
 }
 
-/// Every oracle file, parsed, with its file stem.
-pub fn oracle_files() -> Vec<(String, Value)> {
-    let mut files: Vec<PathBuf> = std::fs::read_dir(oracle_dir())
-        .expect("oracle directory is readable")
-        .map(|entry| entry.expect("directory entry").path())
-        .filter(|path| path.extension().is_some_and(|e| e == "json"))
-        .collect();
-    files.sort();
-    assert!(
-        !files.is_empty(),
-        "no oracle files in {}",
-        oracle_dir().display()
-    );
-    files
-        .into_iter()
-        .map(|path| {
-            let text = std::fs::read_to_string(&path).expect("oracle file is readable");
-            let stem = path.file_stem().unwrap().to_string_lossy().into_owned();
-            (
-                stem,
-                serde_json::from_str(&text).expect("oracle file is JSON"),
-            )
-        })
+pub fn testdata_dir() -> PathBuf {
+    shared_dir().join("testdata")
+}
+
+/// A lens file of the shared test data.
+pub fn lens_file(name: &str) -> PathBuf {
+    testdata_dir().join("lenses").join(name)
+}
+
+/// A file of this crate's own test data (tests/data).
+pub fn test_data(name: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data")
+        .join(name)
+}
+
+/// Relative difference, safe at zero.
+pub fn relative(a: f64, b: f64) -> f64 {
+    if a == b {
+        0.0
+    } else {
+        (a - b).abs() / a.abs().max(b.abs())
+    }
+}
+
+pub fn oracle_dir() -> PathBuf {
+    testdata_dir().join("oracle")
+}
+
+/// The four oracle lenses.
+pub const ORACLE_LENSES: [&str; 4] = [
+    "codev_ag_dblgauss",
+    "kolb_dgauss_1995_nobj1",
+    "optiland_cooke_triplet",
+    "pbrt_dgauss_50mm",
+];
+
+/// Indices at the F and C lines of every medium, from the table's nF/nC columns.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LineIndices {
+    pub f_nm: f64,
+    pub c_nm: f64,
+    pub object_f: f64,
+    pub object_c: f64,
+    /// After each surface.
+    pub f: Vec<f64>,
+    pub c: Vec<f64>,
+}
+
+/// One oracle lens: its whole JSON file and the prescription built from `lenses[0]`.
+pub struct OracleLens {
+    pub name: String,
+    pub json: Value,
+    /// Constant indices at the lens wavelength (Medium::Index), stop marked as in the table.
+    pub prescription: Prescription,
+    /// Present when the table gives nF and nC for every medium.
+    pub lines: Option<LineIndices>,
+}
+
+impl OracleLens {
+    /// `lenses[0]` of the file.
+    pub fn lens(&self) -> &Value {
+        &self.json["lenses"][0]
+    }
+
+    pub fn wavelength_nm(&self) -> f64 {
+        num(&self.lens()["wavelength_nm"])
+    }
+
+    pub fn epd_used(&self) -> f64 {
+        num(&self.lens()["system"]["epd_used"])
+    }
+
+    pub fn max_field_angle_deg(&self) -> f64 {
+        num(&self.lens()["system"]["max_field_angle_deg"])
+    }
+}
+
+/// A JSON number (panics with the value when it is not one: test data is trusted to be).
+pub fn num(value: &Value) -> f64 {
+    value
+        .as_f64()
+        .unwrap_or_else(|| panic!("expected a number, found {value}"))
+}
+
+/// A JSON array of numbers.
+pub fn nums(value: &Value) -> Vec<f64> {
+    value
+        .as_array()
+        .unwrap_or_else(|| panic!("expected an array, found {value}"))
+        .iter()
+        .map(num)
         .collect()
 }
 
-/// The constant-index prescription of an oracle lens (`lenses[i]`), as the oracle used it.
-pub fn oracle_prescription(lens: &Value) -> Prescription {
+/// Reads `oracle/<name>.json`.
+pub fn load_oracle(name: &str) -> OracleLens {
+    let path = oracle_dir().join(format!("{name}.json"));
+    let text = std::fs::read_to_string(&path)
+        .unwrap_or_else(|e| panic!("cannot read {}: {e}", path.display()));
+    let json: Value = serde_json::from_str(&text)
+        .unwrap_or_else(|e| panic!("cannot parse {}: {e}", path.display()));
+    let lens = &json["lenses"][0];
     let table = &lens["prescription"];
-    let surfaces = table["surfaces"]
-        .as_array()
-        .expect("surfaces array")
+    let rows = table["surfaces"].as_array().expect("prescription.surfaces");
+    let surfaces = rows
         .iter()
-        .map(|s| Surface {
-            shape: match num(&s["curvature"]) {
-                0.0 => Shape::Plane,
-                curvature => Shape::Sphere { curvature },
-            },
-            thickness: num(&s["thickness"]),
-            medium: Medium::Index(num(&s["n"])),
-            semi_aperture: num(&s["semi_aperture"]),
-            stop: s["stop"].as_bool().unwrap().then_some(StopShape::Circle),
+        .map(|row| {
+            let curvature = num(&row["curvature"]);
+            Surface {
+                shape: if curvature == 0.0 {
+                    Shape::Plane
+                } else {
+                    Shape::Sphere { curvature }
+                },
+                thickness: num(&row["thickness"]),
+                medium: Medium::Index(num(&row["n"])),
+                semi_aperture: num(&row["semi_aperture"]),
+                stop: row["stop"]
+                    .as_bool()
+                    .expect("stop flag")
+                    .then_some(StopShape::Circle),
+            }
         })
         .collect();
-    Prescription {
+    let prescription = Prescription {
         provenance: Provenance {
-            title: lens["name"].as_str().unwrap_or("oracle lens").to_string(),
-            design_wavelength_nm: lens["wavelength_nm"].as_f64(),
+            title: lens["name"].as_str().unwrap_or(name).to_string(),
+            source: lens["source"].as_str().map(str::to_string),
+            design_wavelength_nm: Some(num(&lens["wavelength_nm"])),
             ..Provenance::default()
         },
         object_medium: Medium::Index(num(&table["object_space_index"])),
         surfaces,
+    };
+    let lines = line_indices(table, rows);
+    OracleLens {
+        name: name.to_string(),
+        json,
+        prescription,
+        lines,
     }
 }
 
-pub fn num(v: &Value) -> f64 {
-    v.as_f64()
-        .unwrap_or_else(|| panic!("expected a number, found {v}"))
+fn line_indices(table: &Value, rows: &[Value]) -> Option<LineIndices> {
+    let wavelengths = &table["index_wavelengths_nm"];
+    let column = |key: &str| {
+        rows.iter()
+            .map(|r| r[key].as_f64())
+            .collect::<Option<Vec<_>>>()
+    };
+    Some(LineIndices {
+        f_nm: wavelengths["nF"].as_f64()?,
+        c_nm: wavelengths["nC"].as_f64()?,
+        object_f: table["object_space_index_F"].as_f64()?,
+        object_c: table["object_space_index_C"].as_f64()?,
+        f: column("nF")?,
+        c: column("nC")?,
+    })
 }
 
-pub fn vec3(v: &Value) -> [f64; 3] {
-    let a = v
+/// |actual - expected| <= rel * |expected| + abs, with a message naming the quantity.
+pub fn assert_close(actual: f64, expected: f64, rel: f64, abs: f64, what: &str) {
+    let error = (actual - expected).abs();
+    assert!(
+        error <= rel * expected.abs() + abs,
+        "{what}: got {actual:.15e}, expected {expected:.15e} (error {error:.3e}, allowed \
+         {rel:e} relative + {abs:e} absolute)"
+    );
+}
+
+/// The value as printed with `decimals` digits after the point matches `printed`.
+pub fn assert_printed(actual: f64, printed: f64, decimals: i32, what: &str) {
+    assert_printed_within(actual, printed, decimals, 0.0, what);
+}
+
+/// As [`assert_printed`], widened by `input_uncertainty`: what our value inherits from an input
+/// that was itself only known to its printed digits.
+pub fn assert_printed_within(
+    actual: f64,
+    printed: f64,
+    decimals: i32,
+    input_uncertainty: f64,
+    what: &str,
+) {
+    // Half a unit in the last printed place, plus a hair for the printed value's own binary
+    // representation.
+    let half_unit = 0.5 * 10f64.powi(-decimals) * (1.0 + 1e-9);
+    let allowed = half_unit + input_uncertainty;
+    assert!(
+        (actual - printed).abs() <= allowed,
+        "{what}: got {actual:.10}, printed {printed} ({decimals} decimals, allowed {allowed:.2e})"
+    );
+}
+
+/// Largest deviations seen per class of quantity, for the report the tests print.
+#[derive(Default)]
+pub struct Tally {
+    worst: std::collections::BTreeMap<String, (f64, String)>,
+}
+
+impl Tally {
+    /// Checks like [`assert_close`] and records the deviation under `class`: relative where
+    /// |expected| >= 1e-3, absolute (in the quantity's unit) below that.
+    pub fn check(
+        &mut self,
+        class: &str,
+        actual: f64,
+        expected: f64,
+        rel: f64,
+        abs: f64,
+        what: &str,
+    ) {
+        assert_close(actual, expected, rel, abs, what);
+        let error = (actual - expected).abs();
+        let (key, measure) = if expected.abs() >= 1e-3 {
+            (format!("{class} [relative]"), error / expected.abs())
+        } else {
+            (format!("{class} [absolute, |x| < 1e-3]"), error)
+        };
+        let entry = self.worst.entry(key).or_insert((0.0, String::new()));
+        if measure >= entry.0 {
+            *entry = (measure, what.to_string());
+        }
+    }
+
+    /// Prints the table (visible with `cargo test -- --nocapture`).
+    pub fn print(&self, title: &str) {
+        eprintln!("largest deviations, {title}:");
+        for (class, (measure, what)) in &self.worst {
+            eprintln!("  {class:<58} {measure:.2e}  ({what})");
+        }
+    }
+}
+
+/// The value at a dotted path ("a.b.0.c"; numeric parts index arrays); panics naming the path
+/// when it is missing.
+pub fn get<'a>(value: &'a Value, path: &str) -> &'a Value {
+    path.split('.').fold(value, |v, key| {
+        let next = match key.parse::<usize>() {
+            Ok(i) if v.is_array() => &v[i],
+            _ => &v[key],
+        };
+        assert!(!next.is_null(), "missing {path} (at `{key}`)");
+        next
+    })
+}
+
+/// Parses one oracle file (name with extension) as JSON.
+pub fn oracle_json(file: &str) -> Value {
+    let path = oracle_dir().join(file);
+    let text = std::fs::read_to_string(&path)
+        .unwrap_or_else(|e| panic!("cannot read {}: {e}", path.display()));
+    serde_json::from_str(&text).unwrap_or_else(|e| panic!("bad JSON in {}: {e}", path.display()))
+}
+
+/// The prescription table of an oracle file (`lenses[0].prescription`).
+pub fn oracle_table(file: &str) -> Value {
+    oracle_json(file)["lenses"][0]["prescription"].clone()
+}
+
+/// The surfaces of the first lens of an oracle file.
+pub fn oracle_surfaces(file: &str) -> Vec<Value> {
+    oracle_json(file)["lenses"][0]["prescription"]["surfaces"]
         .as_array()
-        .unwrap_or_else(|| panic!("expected a 3-vector, found {v}"));
-    [num(&a[0]), num(&a[1]), num(&a[2])]
+        .expect("oracle prescription has surfaces")
+        .clone()
+}
+
+/// A JSON array of three numbers (a point or direction).
+pub fn vec3(value: &Value) -> [f64; 3] {
+    let v = nums(value);
+    assert_eq!(v.len(), 3, "expected a 3-vector, found {value}");
+    [v[0], v[1], v[2]]
 }

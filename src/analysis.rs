@@ -1,0 +1,230 @@
+//! The `analyze` report: first-order data, pupils, paraxial rays and Seidel sums of one lens
+//! at one wavelength, field, aperture and object distance, as one serialisable value.
+
+use crate::paraxial::{
+    Aperture, Field, ObjectPosition, Paraxial, ParaxialError, ParaxialOptions, Pupil, RayAtSurface,
+    StopChoice,
+};
+use crate::seidel::{IndexDifferences, Seidel};
+use crate::system::LensSystem;
+use serde::Serialize;
+
+/// What to analyse; `None` picks the documented default.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct AnalyzeOptions {
+    /// Default: the lens's design wavelength (587.56 nm when it states none).
+    pub wavelength_nm: Option<f64>,
+    /// Half-field angle; default: the largest whose paraxial chief ray passes every clear
+    /// aperture.
+    pub field_deg: Option<f64>,
+    /// Entrance-pupil diameter; default: the stop's clear aperture imaged to object space.
+    pub epd_mm: Option<f64>,
+    /// Object distance from surface 1; default: infinity.
+    pub object_distance_mm: Option<f64>,
+    pub stop: StopChoice,
+}
+
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum AnalysisError {
+    #[error("wavelength must be positive and finite, got {0} nm")]
+    InvalidWavelength(f64),
+    #[error(transparent)]
+    Paraxial(#[from] ParaxialError),
+    #[error("{quantity} is not finite: the lens is too close to a degenerate case to analyse")]
+    NonFinite { quantity: String },
+}
+
+/// First-order data as `lensbake analyze --json` prints it (mm, absolute z in the lens frame).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct FirstOrderReport {
+    pub efl: f64,
+    pub bfl: f64,
+    pub ffl: f64,
+    pub z_front_focal: f64,
+    pub z_rear_focal: f64,
+    pub z_front_principal: f64,
+    pub z_rear_principal: f64,
+    pub z_front_nodal: f64,
+    pub z_rear_nodal: f64,
+    pub z_paraxial_image: f64,
+    /// 1-based.
+    pub stop_surface: usize,
+    pub entrance_pupil: Pupil,
+    /// null when the exit pupil is at infinity (image-space telecentric).
+    pub exit_pupil: Option<Pupil>,
+    pub f_number: f64,
+    pub lagrange_invariant: f64,
+    /// 1/mm.
+    pub power: f64,
+    pub fl_object: f64,
+    pub working_f_number: f64,
+    /// Lateral magnification; null for an object at infinity.
+    pub magnification: Option<f64>,
+    /// Paraxial chief-ray height in the paraxial image plane.
+    pub image_height: f64,
+    /// Height of the object point at the analysed field; null for an object at infinity.
+    pub object_height: Option<f64>,
+    /// Largest half field whose paraxial chief ray passes every clear aperture; null when no
+    /// aperture limits it.
+    pub max_field_deg_paraxial: Option<f64>,
+    pub object_index: f64,
+    pub image_index: f64,
+    pub z_last_vertex: f64,
+}
+
+/// Paraxial marginal and chief ray at every surface.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct RaysReport {
+    pub marginal: Vec<RayAtSurface>,
+    pub chief: Vec<RayAtSurface>,
+}
+
+/// Everything `lensbake analyze` reports.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Analysis {
+    pub lens: String,
+    pub wavelength_nm: f64,
+    pub field_deg: f64,
+    /// null for an object at infinity.
+    pub object_distance_mm: Option<f64>,
+    pub first_order: FirstOrderReport,
+    pub seidel: Seidel,
+    pub paraxial_rays: RaysReport,
+}
+
+/// Analyses `system` under `options`; `lens` names it in the report.
+pub fn analyze(
+    lens: &str,
+    system: &LensSystem,
+    options: &AnalyzeOptions,
+) -> Result<Analysis, AnalysisError> {
+    let wavelength_nm = options
+        .wavelength_nm
+        .unwrap_or_else(|| system.design_wavelength_nm());
+    if !(wavelength_nm.is_finite() && wavelength_nm > 0.0) {
+        return Err(AnalysisError::InvalidWavelength(wavelength_nm));
+    }
+    let at = system.at(wavelength_nm);
+    let paraxial_options = ParaxialOptions {
+        object: options
+            .object_distance_mm
+            .map_or(ObjectPosition::Infinite, |distance| {
+                ObjectPosition::Finite { distance }
+            }),
+        aperture: options
+            .epd_mm
+            .map_or(Aperture::StopClearAperture, Aperture::EntrancePupilDiameter),
+        field: options
+            .field_deg
+            .map_or(Field::LargestUnvignetted, |deg| Field::Angle { deg }),
+        stop: options.stop,
+    };
+    let paraxial = Paraxial::new(&at, &paraxial_options)?;
+    let colour = IndexDifferences::fraunhofer(system);
+    let seidel = Seidel::new(&at, &paraxial, colour.as_ref());
+    let f = &paraxial.first_order;
+    let analysis = Analysis {
+        lens: lens.to_string(),
+        wavelength_nm,
+        field_deg: paraxial.field_angle_deg,
+        object_distance_mm: paraxial.object_distance,
+        first_order: FirstOrderReport {
+            efl: f.efl,
+            bfl: f.bfl,
+            ffl: f.ffl,
+            z_front_focal: f.z_front_focal,
+            z_rear_focal: f.z_rear_focal,
+            z_front_principal: f.z_front_principal,
+            z_rear_principal: f.z_rear_principal,
+            z_front_nodal: f.z_front_nodal,
+            z_rear_nodal: f.z_rear_nodal,
+            z_paraxial_image: paraxial.z_image,
+            stop_surface: paraxial.stop_surface(),
+            entrance_pupil: paraxial.entrance_pupil,
+            exit_pupil: paraxial.exit_pupil,
+            f_number: paraxial.f_number,
+            lagrange_invariant: paraxial.lagrange_invariant,
+            power: f.power,
+            fl_object: f.fl_object,
+            working_f_number: paraxial.working_f_number,
+            magnification: paraxial.magnification,
+            image_height: paraxial.image_height,
+            object_height: paraxial.object_height,
+            max_field_deg_paraxial: paraxial.max_field_angle_deg,
+            object_index: f.object_index,
+            image_index: f.image_index,
+            z_last_vertex: f.z_last_vertex,
+        },
+        seidel,
+        paraxial_rays: RaysReport {
+            marginal: paraxial.marginal.surfaces.clone(),
+            chief: paraxial.chief.surfaces.clone(),
+        },
+    };
+    match first_non_finite(&analysis) {
+        Some(quantity) => Err(AnalysisError::NonFinite { quantity }),
+        None => Ok(analysis),
+    }
+}
+
+/// Path of the first NaN or infinite number in `value`, if any. JSON cannot carry such values
+/// (serde_json prints them as null, indistinguishable from a missing value), so the report is
+/// checked as a whole: RON keeps them as NaN/inf and its value tree names where they sit.
+fn first_non_finite(value: &impl Serialize) -> Option<String> {
+    fn walk(value: &ron::Value, path: &str) -> Option<String> {
+        match value {
+            ron::Value::Number(n) => (!n.into_f64().is_finite()).then(|| path.to_string()),
+            ron::Value::Option(Some(inner)) => walk(inner, path),
+            ron::Value::Seq(items) => items
+                .iter()
+                .enumerate()
+                .find_map(|(i, v)| walk(v, &format!("{path}[{i}]"))),
+            ron::Value::Map(map) => map.iter().find_map(|(key, v)| {
+                let key = match key {
+                    ron::Value::String(s) => s.clone(),
+                    other => format!("{other:?}"),
+                };
+                walk(v, &format!("{path}.{key}"))
+            }),
+            _ => None,
+        }
+    }
+    // A report that cannot be checked is treated as failing the check.
+    let tree = ron::to_string(value)
+        .map_err(|e| e.to_string())
+        .and_then(|text| ron::from_str::<ron::Value>(&text).map_err(|e| e.to_string()));
+    match tree {
+        Ok(tree) => walk(&tree, "analysis"),
+        Err(e) => Some(format!("analysis (unreadable for the check: {e})")),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[derive(Serialize)]
+    struct Sample {
+        good: f64,
+        nested: Vec<Option<f64>>,
+    }
+
+    #[test]
+    fn non_finite_numbers_are_found_with_their_path() {
+        let finite = Sample {
+            good: 1.5,
+            nested: vec![None, Some(2.0)],
+        };
+        assert_eq!(first_non_finite(&finite), None);
+        for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+            let sample = Sample {
+                good: 1.5,
+                nested: vec![None, Some(bad)],
+            };
+            assert_eq!(
+                first_non_finite(&sample).as_deref(),
+                Some("analysis.nested[1]")
+            );
+        }
+    }
+}

@@ -1,0 +1,272 @@
+//! `lensbake analyze`: first-order data, pupils and Seidel sums as a readable report or JSON.
+
+use anyhow::Context;
+use super::lens::LensArgs;
+use clap::Args;
+use lensbake::analysis::{Analysis, AnalyzeOptions, analyze};
+use lensbake::paraxial::StopChoice;
+use std::fmt::Write as _;
+
+#[derive(Args, Debug)]
+pub struct AnalyzeArgs {
+    #[command(flatten)]
+    pub lens: LensArgs,
+    /// Wavelength in nm [default: the lens's design wavelength, else 587.56].
+    #[arg(long, allow_negative_numbers = true)]
+    pub wavelength_nm: Option<f64>,
+    /// Half-field angle in degrees [default: the largest whose paraxial chief ray passes every
+    /// clear aperture].
+    #[arg(long, allow_negative_numbers = true)]
+    pub field_deg: Option<f64>,
+    /// Entrance-pupil diameter in mm [default: the stop's clear aperture imaged to object space].
+    #[arg(long, allow_negative_numbers = true)]
+    pub epd_mm: Option<f64>,
+    /// Object distance from the first vertex in mm [default: infinity].
+    #[arg(long, allow_negative_numbers = true)]
+    pub object_distance_mm: Option<f64>,
+    /// Take as aperture stop the surface that limits the axial beam, not the marked one.
+    #[arg(long)]
+    pub find_stop: bool,
+    /// Print one JSON object instead of the report.
+    #[arg(long)]
+    pub json: bool,
+}
+
+pub fn run(args: AnalyzeArgs) -> anyhow::Result<()> {
+    let lens = args.lens.load()?;
+    let name = lens.source.origin.name();
+    let options = AnalyzeOptions {
+        wavelength_nm: args.wavelength_nm,
+        field_deg: args.field_deg,
+        epd_mm: args.epd_mm,
+        object_distance_mm: args.object_distance_mm,
+        stop: if args.find_stop {
+            StopChoice::LimitingAxialBeam
+        } else {
+            StopChoice::Marked
+        },
+    };
+    let analysis = analyze(&name, &lens.system, &options)
+        .with_context(|| format!("analysing {}", lens.source.origin))?;
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&analysis)?);
+    } else {
+        print!("{}", report(&analysis));
+    }
+    Ok(())
+}
+
+/// The human-readable report: conditions, first-order table, rays and Seidel table.
+fn report(a: &Analysis) -> String {
+    let f = &a.first_order;
+    let s = &a.seidel;
+    let mut out = String::new();
+    let object = a.object_distance_mm.map_or("at infinity".to_string(), |d| {
+        format!("{d:.4} mm before surface 1")
+    });
+    let _ = writeln!(out, "{}", a.lens);
+    let _ = writeln!(
+        out,
+        "wavelength {} nm   half field {:.4} deg   object {object}",
+        a.wavelength_nm, a.field_deg
+    );
+    let _ = writeln!(
+        out,
+        "\nFirst order (z absolute from the vertex of surface 1)"
+    );
+    let mut row = |label: &str, value: String, unit: &str| {
+        let _ = writeln!(out, "  {label:<34} {value:>16} {unit}");
+    };
+    row("power", format!("{:.9}", f.power), "1/mm");
+    row("EFL (image side, n'/power)", format!("{:.6}", f.efl), "mm");
+    row(
+        "object-side focal length",
+        format!("{:.6}", f.fl_object),
+        "mm",
+    );
+    row("BFL (last vertex to F')", format!("{:.6}", f.bfl), "mm");
+    row("FFL (first vertex to F)", format!("{:.6}", f.ffl), "mm");
+    row(
+        "z front focal point F",
+        format!("{:.6}", f.z_front_focal),
+        "mm",
+    );
+    row(
+        "z rear focal point F'",
+        format!("{:.6}", f.z_rear_focal),
+        "mm",
+    );
+    row(
+        "z front principal point P",
+        format!("{:.6}", f.z_front_principal),
+        "mm",
+    );
+    row(
+        "z rear principal point P'",
+        format!("{:.6}", f.z_rear_principal),
+        "mm",
+    );
+    row(
+        "z front nodal point N",
+        format!("{:.6}", f.z_front_nodal),
+        "mm",
+    );
+    row(
+        "z rear nodal point N'",
+        format!("{:.6}", f.z_rear_nodal),
+        "mm",
+    );
+    row("z last vertex", format!("{:.6}", f.z_last_vertex), "mm");
+    let virtual_image = if f.z_paraxial_image <= f.z_last_vertex {
+        "mm (virtual)"
+    } else {
+        "mm"
+    };
+    row(
+        "z paraxial image",
+        format!("{:.6}", f.z_paraxial_image),
+        virtual_image,
+    );
+    row(
+        "paraxial image height",
+        format!("{:.6}", f.image_height),
+        "mm",
+    );
+    if let (Some(m), Some(h)) = (f.magnification, f.object_height) {
+        row("object height", format!("{h:.6}"), "mm");
+        row("lateral magnification", format!("{m:.8}"), "");
+    }
+    row("stop surface", f.stop_surface.to_string(), "");
+    row(
+        "entrance pupil z",
+        format!("{:.6}", f.entrance_pupil.z),
+        "mm",
+    );
+    row(
+        "entrance pupil diameter",
+        format!("{:.6}", f.entrance_pupil.diameter),
+        "mm",
+    );
+    match f.exit_pupil {
+        Some(xp) => {
+            row("exit pupil z", format!("{:.6}", xp.z), "mm");
+            row("exit pupil diameter", format!("{:.6}", xp.diameter), "mm");
+        }
+        None => row("exit pupil", "at infinity".into(), "(telecentric)"),
+    }
+    row("f-number (EFL / EPD)", format!("{:.6}", f.f_number), "");
+    row(
+        "working f-number 1/(2 n' |u'|)",
+        format!("{:.6}", f.working_f_number),
+        "",
+    );
+    row(
+        "Lagrange invariant",
+        format!("{:.8}", f.lagrange_invariant),
+        "mm",
+    );
+    match f.max_field_deg_paraxial {
+        Some(deg) => row(
+            "max unvignetted half field (paraxial)",
+            format!("{deg:.4}"),
+            "deg",
+        ),
+        None => row(
+            "max unvignetted half field (paraxial)",
+            "unlimited".into(),
+            "",
+        ),
+    }
+
+    let _ = writeln!(
+        out,
+        "\nParaxial rays (y in mm; u' = slope after the surface; A = n i)"
+    );
+    let _ = writeln!(
+        out,
+        "  {:>4} {:>12} {:>11} {:>11} {:>12} {:>11} {:>11}",
+        "surf", "marginal y", "u'", "A", "chief y", "u'", "A"
+    );
+    for (k, (m, c)) in a
+        .paraxial_rays
+        .marginal
+        .iter()
+        .zip(&a.paraxial_rays.chief)
+        .enumerate()
+    {
+        let label = if k + 1 == f.stop_surface {
+            "STO".to_string()
+        } else {
+            (k + 1).to_string()
+        };
+        let _ = writeln!(
+            out,
+            "  {label:>4} {:>12.6} {:>11.6} {:>11.6} {:>12.6} {:>11.6} {:>11.6}",
+            m.y, m.u_after, m.incidence, c.y, c.u_after, c.incidence
+        );
+    }
+
+    let _ = writeln!(
+        out,
+        "\nSeidel sums (Welford, mm; positive S1 = undercorrected spherical)"
+    );
+    let colour = s.colour.is_some();
+    let _ = write!(
+        out,
+        "  {:>4} {:>12} {:>12} {:>12} {:>12} {:>12}",
+        "surf", "S1", "S2", "S3", "S4", "S5"
+    );
+    if colour {
+        let _ = write!(out, " {:>12} {:>12}", "C1", "C2");
+    }
+    out.push('\n');
+    let mut seidel_row = |label: String, terms: [f64; 5], colour: Option<[f64; 2]>| {
+        let _ = write!(out, "  {label:>4}");
+        for v in terms.iter().chain(colour.iter().flatten()) {
+            let _ = write!(out, " {v:>12.7}");
+        }
+        out.push('\n');
+    };
+    for surface in &s.surfaces {
+        seidel_row(
+            surface.surface.to_string(),
+            surface.terms.as_array(),
+            surface.colour.map(|c| [c.axial, c.lateral]),
+        );
+    }
+    seidel_row(
+        "sum".into(),
+        s.sums.as_array(),
+        s.colour.map(|c| [c.axial, c.lateral]),
+    );
+
+    let t = &s.transverse;
+    let _ = writeln!(
+        out,
+        "\nTransverse third-order aberrations in the image (mm)"
+    );
+    let _ = writeln!(
+        out,
+        "  TSA {:.6}  TCO {:.6}  TAS {:.6}  SAS {:.6}  PTB {:.6}  DST {:.6}",
+        t.tsa, t.tco, t.tas, t.sas, t.ptb, t.dst
+    );
+    if let (Some(tc), Some([short, long])) = (s.transverse_colour, s.colour_wavelengths_nm) {
+        let _ = writeln!(
+            out,
+            "  axial colour AX {:.6}  lateral colour LAT {:.6}  ({short:.1} - {long:.1} nm)",
+            tc.ax, tc.lat
+        );
+    }
+    let w = &s.wavefront;
+    let _ = writeln!(
+        out,
+        "\nWavefront coefficients (waves at {} nm)",
+        a.wavelength_nm
+    );
+    let _ = writeln!(
+        out,
+        "  W040 {:.4}  W131 {:.4}  W222 {:.4}  W220 {:.4}  W311 {:.4}",
+        w.w040, w.w131, w.w222, w.w220, w.w311
+    );
+    out
+}

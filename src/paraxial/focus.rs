@@ -1,0 +1,45 @@
+//! Focusing by moving the sensor: the paraxial conjugates of the thick-lens equivalent.
+
+use super::matrix::FirstOrder;
+use super::{ObjectPosition, ParaxialError};
+use crate::system::SystemAt;
+
+/// Absolute z of the sensor plane that images `object` sharply (paraxially).
+///
+/// Fails when the image is at infinity (object in the front focal plane) or virtual (object
+/// inside the front focal length, or a diverging lens), since no sensor can catch it.
+pub fn sensor_z(system: &SystemAt, object: ObjectPosition) -> Result<f64, ParaxialError> {
+    let first = FirstOrder::of(system)?;
+    let z_image = match object.checked()? {
+        ObjectPosition::Infinite => first.z_rear_focal,
+        ObjectPosition::Finite { distance } => first
+            .image_z(-distance)
+            .ok_or(ParaxialError::ObjectAtFrontFocalPlane)?,
+    };
+    if z_image <= first.z_last_vertex {
+        return Err(ParaxialError::VirtualImage {
+            z_image,
+            z_last_vertex: first.z_last_vertex,
+        });
+    }
+    Ok(z_image)
+}
+
+/// The object in focus on a sensor at absolute `z_sensor`: infinity when the sensor is in the
+/// rear focal plane, else a real object in front of surface 1.
+pub fn object_in_focus(system: &SystemAt, z_sensor: f64) -> Result<ObjectPosition, ParaxialError> {
+    let first = FirstOrder::of(system)?;
+    if !(z_sensor.is_finite() && z_sensor > first.z_last_vertex) {
+        return Err(ParaxialError::SensorInsideLens {
+            z_sensor,
+            z_last_vertex: first.z_last_vertex,
+        });
+    }
+    match first.object_z(z_sensor) {
+        None => Ok(ObjectPosition::Infinite),
+        Some(z_object) if z_object < 0.0 => Ok(ObjectPosition::Finite {
+            distance: -z_object,
+        }),
+        Some(z_object) => Err(ParaxialError::NoRealObject { z_sensor, z_object }),
+    }
+}

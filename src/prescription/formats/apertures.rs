@@ -1,0 +1,207 @@
+//! Clear apertures for CODE V and Zemax files that give none.
+//!
+//! CODE V and OpticStudio compute clear apertures themselves, from real rays: for every field,
+//! the chief ray and the rays at the edges of the (vignetted) entrance pupil, in the meridional
+//! and sagittal directions; a surface's clear aperture is the largest height any of them reaches
+//! there. Their files therefore often carry none (`ag_dblgauss.seq` has no `CIR`).
+//!
+//! A reader cannot trace real rays (that needs the validated system this reader feeds), so it
+//! traces the same ray set paraxially: marginal ray y (axial object point, pupil edge) and chief
+//! ray ȳ (field angle, pupil centre), combined linearly. For pupil point (px, py) at one field the
+//! height is hypot(px y, ȳ + py y). Paraxial heights differ from real ones where the beam is fast
+//! and the field wide; for the F/2, 14° CODE V double Gauss the derived apertures lie within about
+//! 10% of the real-ray ones (documented in tests/formats.rs). Apertures the file gives are kept.
+//!
+//! For reference: the semi-apertures in ../shared/testdata/oracle/codev_ag_dblgauss.json (28.18,
+//! 27.14, 24.63, ...) are rayoptics 0.9.8's real-ray clear apertures for that ray set (28.1719,
+//! 27.1359, 24.6262, ... mm, chief rays aimed at the stop centre) rounded up to 0.01 mm. Matching
+//! them needs the real-ray trace, which runs on a validated system; a later stage can refine the
+//! derived apertures that way (the `AperturesDerived` note says which surfaces to refine).
+
+use crate::glass::Dispersion;
+use crate::prescription::error::{PrescriptionError, Problem};
+use crate::prescription::model::Prescription;
+use crate::prescription::validate::{SourceMap, check_stop};
+
+/// How big the entrance pupil is.
+#[derive(Clone, Debug, PartialEq)]
+pub(super) enum PupilSize {
+    Diameter(f64),
+    /// Image-space F-number for an object at infinity: EPD = EFL / F.
+    FNumber(f64),
+    /// The stop's own semi-aperture sets the beam (Zemax "float by stop size").
+    FloatByStop,
+    /// No usable aperture specification; the reason, as a sentence fragment for the error.
+    Unusable(String),
+}
+
+/// One field point: its angle and the part of the entrance pupil it fills (relative pupil
+/// coordinates, lower edge <= 0 <= upper edge; 1 means the full pupil radius).
+#[derive(Clone, Debug, PartialEq)]
+pub(super) struct FieldPoint {
+    pub angle_deg: f64,
+    pub pupil_y: (f64, f64),
+    pub pupil_x: (f64, f64),
+}
+
+/// What the file says about the beams, in mm and nm.
+#[derive(Clone, Debug, PartialEq)]
+pub(super) struct BeamSpec {
+    pub pupil: PupilSize,
+    /// Distance from the object to surface 1; None for an object at infinity.
+    pub object_distance: Option<f64>,
+    /// Field points; an empty list means the axial beam only.
+    pub fields: Result<Vec<FieldPoint>, String>,
+    pub wavelength_nm: f64,
+}
+
+/// Object distances at least this large (mm) are infinite, as CODE V and rayoptics treat them.
+pub(super) const INFINITE_OBJECT_MM: f64 = 1e10;
+
+/// Sets the semi-aperture of each surface in `missing` (0-based) from paraxial boundary rays.
+pub(super) fn derive(
+    p: &mut Prescription,
+    missing: &[usize],
+    beams: &BeamSpec,
+    map: &SourceMap,
+) -> Result<(), PrescriptionError> {
+    let Some(&first) = missing.first() else {
+        return Ok(());
+    };
+    let cannot = |reason: String| {
+        PrescriptionError::new(
+            map.surface(first, "semi_aperture"),
+            Problem::CannotDeriveApertures { reason },
+        )
+    };
+    check_stop(p, map)?;
+    let stop = p.stop_index().expect("check_stop found exactly one stop");
+    let indices = indices(p, beams.wavelength_nm, map)?;
+    let fields = beams.fields.clone().map_err(cannot)?;
+
+    // Heights are linear in (y1, u0): trace the two unit rays once.
+    let unit_height = trace(p, &indices, 1.0, 0.0);
+    let unit_slope = trace(p, &indices, 0.0, 1.0);
+    let (a, b) = (unit_height.heights[stop], unit_slope.heights[stop]);
+    if a == 0.0 || !a.is_finite() || !b.is_finite() {
+        return Err(cannot(
+            "a ray parallel to the axis never reaches the stop off axis".into(),
+        ));
+    }
+    // The entrance pupil: a ray with slope 1 crosses the axis at z = b/a and passes the stop centre.
+    let pupil_z = b / a;
+
+    // The axial marginal ray as (y1, u0).
+    let (y1, u0) = match (&beams.pupil, beams.object_distance) {
+        (PupilSize::Diameter(d), None) => (d / 2.0, 0.0),
+        (PupilSize::Diameter(d), Some(distance)) => {
+            let reach = pupil_z + distance;
+            if reach <= 0.0 {
+                return Err(cannot("the entrance pupil lies before the object".into()));
+            }
+            let u = d / 2.0 / reach;
+            (u * distance, u)
+        }
+        (PupilSize::FNumber(f), None) => {
+            let final_slope = unit_height.final_slope;
+            if final_slope == 0.0 || !final_slope.is_finite() {
+                return Err(cannot("an F-number needs a lens with focal power".into()));
+            }
+            let efl = -1.0 / final_slope;
+            (efl.abs() / f / 2.0, 0.0)
+        }
+        (PupilSize::FNumber(_), Some(_)) => {
+            return Err(cannot(
+                "an F-number aperture needs an object at infinity".into(),
+            ));
+        }
+        (PupilSize::FloatByStop, distance) => {
+            let stop_radius = p.surfaces[stop].semi_aperture;
+            if missing.contains(&stop) || stop_radius <= 0.0 {
+                return Err(cannot(
+                    "the aperture floats by stop size but the stop has no size".into(),
+                ));
+            }
+            match distance {
+                None => (stop_radius / a, 0.0),
+                Some(distance) => {
+                    let u = stop_radius / (a * distance + b);
+                    (u * distance, u)
+                }
+            }
+        }
+        (PupilSize::Unusable(reason), _) => return Err(cannot(reason.clone())),
+    };
+    let marginal = trace(p, &indices, y1, u0).heights;
+    let mut chiefs = Vec::new();
+    for field in &fields {
+        let slope = field.angle_deg.to_radians().tan();
+        chiefs.push((field, trace(p, &indices, -pupil_z * slope, slope).heights));
+    }
+
+    for &i in missing {
+        let y = marginal[i];
+        let mut radius = y.abs();
+        for (field, chief) in &chiefs {
+            let ybar = chief[i];
+            for px in [field.pupil_x.0, field.pupil_x.1] {
+                radius = radius.max((px * y).hypot(ybar));
+            }
+            for py in [field.pupil_y.0, field.pupil_y.1] {
+                radius = radius.max((ybar + py * y).abs());
+            }
+        }
+        if !(radius.is_finite() && radius > 0.0) {
+            return Err(PrescriptionError::new(
+                map.surface(i, "semi_aperture"),
+                Problem::CannotDeriveApertures {
+                    reason: format!("the paraxial rays give height {radius} here"),
+                },
+            ));
+        }
+        p.surfaces[i].semi_aperture = radius;
+    }
+    Ok(())
+}
+
+/// Index before surface 1 (entry 0) and after each surface, at one wavelength.
+fn indices(
+    p: &Prescription,
+    wavelength_nm: f64,
+    map: &SourceMap,
+) -> Result<Vec<f64>, PrescriptionError> {
+    let object = Dispersion::of(&p.object_medium).map_err(|problem| {
+        let mut location = map.whole_file();
+        location.field = Some("object medium".into());
+        PrescriptionError::new(location, problem)
+    })?;
+    let mut n = vec![object.index(wavelength_nm)];
+    for (i, s) in p.surfaces.iter().enumerate() {
+        let dispersion = Dispersion::of(&s.medium)
+            .map_err(|problem| PrescriptionError::new(map.surface(i, "glass"), problem))?;
+        n.push(dispersion.index(wavelength_nm));
+    }
+    Ok(n)
+}
+
+struct Trace {
+    /// Height at each surface.
+    heights: Vec<f64>,
+    /// Slope after the last surface.
+    final_slope: f64,
+}
+
+/// Paraxial y-u trace from height `y` at surface 1 with slope `u` before it.
+fn trace(p: &Prescription, n: &[f64], mut y: f64, mut u: f64) -> Trace {
+    let mut heights = Vec::with_capacity(p.surfaces.len());
+    for (i, s) in p.surfaces.iter().enumerate() {
+        heights.push(y);
+        let (before, after) = (n[i], n[i + 1]);
+        u = (before * u - y * s.shape.curvature() * (after - before)) / after;
+        y += s.thickness * u;
+    }
+    Trace {
+        heights,
+        final_slope: u,
+    }
+}

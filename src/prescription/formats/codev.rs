@@ -1,0 +1,641 @@
+//! CODE V sequence files (`.seq`), the common sequential subset.
+//!
+//! Commands are separated by `;` or line ends; `!` starts a comment; quoted strings keep spaces.
+//!
+//! Read: `RDM` (Y = radii, the default; N = curvatures), `TITLE` (or `TIT`), `DIM` (M, C, I:
+//! converted to mm), `EPD`, `FNO`, `WL` (nm) with `REF` (the design wavelength; the first `WL`
+//! when `REF` is absent, as rayoptics reads it), `XAN`/`YAN` (field angles), `VUY`/`VLY`/`VUX`/
+//! `VLX` (vignetting factors), `SO` (object: distance, medium), `S value thickness [glass]`, `SI`
+//! (image), `STO`, `CIR` (clear aperture radius), `K` (conic), `A` `B` `C` `D` `E` `F` `G` `H`
+//! `J` (even-asphere terms r^4 .. r^20), `RDY`, `CUY`, `THI`, `GLA`, `GO` (end of input).
+//!
+//! Ignored as harmless (they change no surface): `LEN`, `WTW`, `WTF`, `INI`, `POL`, `CCY`,
+//! `THC`, `GLC` (optimisation variables), `PIM` (the paraxial image solve; the file still states
+//! the thickness it produced), `DER`, `SLB` (labels), `SPH`, `CON`, `ASP` (surface-type words
+//! whose data arrive through `K` and `A`..`J`).
+//!
+//! Refused with a message naming the command and line: every other command (decentres, tilts,
+//! pickups, zoom positions, mirrors (`REFL`), non-circular apertures, ...), a curved object or
+//! image surface, and `CIR` forms other than a plain radius. Field types other than angles
+//! (`YOB`, `YIM`, ...) and numerical-aperture specifications are refused only when a clear
+//! aperture must be derived from them (see `apertures`).
+//!
+//! Glass names stay names ([`crate::prescription::Medium::Glass`]); the catalogue resolves them
+//! when the lens system is built, and reports unknown ones with suggestions. A fictitious glass
+//! code `NNNNNN.VVVV` is a model glass with nd = 1.NNNNNN and Vd = VV.VV. Six-digit glass codes
+//! without a fraction (which CODE V looks up in its catalogues) are refused.
+//!
+//! When a surface has no `CIR`, its clear aperture is derived (see `apertures`), which needs the
+//! index of every medium at the design wavelength: the catalogue is consulted then, and an unknown
+//! glass is reported by the reader, with the line of its surface.
+
+use super::apertures::{self, BeamSpec, FieldPoint, INFINITE_OBJECT_MM, PupilSize};
+use super::{
+    AsphereTerms, Format, LoadNote, Loaded, Source, finite, named_medium, number, scale_to_mm,
+    shape,
+};
+use crate::prescription::error::{Location, PrescriptionError, Problem};
+use crate::prescription::model::{
+    MAX_ASPHERE_TERMS, Medium, Prescription, Provenance, StopShape, Surface,
+};
+use crate::prescription::validate::SourceMap;
+use crate::system::DEFAULT_WAVELENGTH_NM;
+
+/// One command with its words; quoted strings are single words without their quotes.
+struct Command {
+    line: usize,
+    name: String,
+    args: Vec<String>,
+}
+
+fn commands(text: &str) -> Vec<Command> {
+    let mut out = Vec::new();
+    for (index, raw) in text.lines().enumerate() {
+        let line = index + 1;
+        let mut words: Vec<String> = Vec::new();
+        let mut word = String::new();
+        let mut in_word = false;
+        let mut quote: Option<char> = None;
+        let flush = |words: &mut Vec<String>, word: &mut String, in_word: &mut bool| {
+            if *in_word {
+                words.push(std::mem::take(word));
+                *in_word = false;
+            }
+        };
+        let mut end_command = |words: &mut Vec<String>| {
+            if let Some((name, args)) = words.split_first() {
+                out.push(Command {
+                    line,
+                    name: name.to_ascii_uppercase(),
+                    args: args.to_vec(),
+                });
+            }
+            words.clear();
+        };
+        for c in raw.chars() {
+            match quote {
+                Some(q) if c == q => quote = None,
+                Some(_) => word.push(c),
+                None => match c {
+                    '\'' | '"' => {
+                        quote = Some(c);
+                        in_word = true;
+                    }
+                    '!' => break,
+                    ';' => {
+                        flush(&mut words, &mut word, &mut in_word);
+                        end_command(&mut words);
+                    }
+                    c if c.is_whitespace() => flush(&mut words, &mut word, &mut in_word),
+                    c => {
+                        word.push(c);
+                        in_word = true;
+                    }
+                },
+            }
+        }
+        flush(&mut words, &mut word, &mut in_word);
+        end_command(&mut words);
+    }
+    out
+}
+
+struct SeqSurface {
+    line: usize,
+    /// Radius or curvature, as `radius_mode` says.
+    value: f64,
+    radius_mode: bool,
+    thickness: f64,
+    medium: Medium,
+    conic: f64,
+    terms: AsphereTerms,
+    clear_radius: Option<f64>,
+    stop: bool,
+}
+
+#[derive(Clone, Copy, PartialEq)]
+enum Current {
+    Nothing,
+    Object,
+    Surface(usize),
+    Image,
+}
+
+const HARMLESS: &[&str] = &[
+    "LEN", "WTW", "WTF", "INI", "POL", "CCY", "THC", "GLC", "PIM", "DER", "SLB", "SPH", "CON",
+    "ASP",
+];
+
+const ASPHERE_LETTERS: [&str; MAX_ASPHERE_TERMS - 1] =
+    ["A", "B", "C", "D", "E", "F", "G", "H", "J"];
+
+#[derive(Default)]
+struct Reader {
+    radius_mode: bool,
+    mm_per_unit: f64,
+    title: Option<String>,
+    epd: Option<f64>,
+    f_number: Option<f64>,
+    unusable_aperture: Option<String>,
+    wavelengths: Vec<f64>,
+    reference: Option<(usize, usize)>,
+    x_angles: Vec<f64>,
+    y_angles: Vec<f64>,
+    unusable_fields: Option<String>,
+    /// VUY, VLY, VUX, VLX per field.
+    vignetting: [Vec<f64>; 4],
+    object_distance: Option<f64>,
+    object_medium: Option<Medium>,
+    surfaces: Vec<SeqSurface>,
+    current: Option<Current>,
+}
+
+pub(super) fn read(text: &str, source: &Source) -> Result<Loaded, PrescriptionError> {
+    let mut reader = Reader {
+        radius_mode: true,
+        mm_per_unit: 1.0,
+        current: Some(Current::Nothing),
+        ..Reader::default()
+    };
+    for command in commands(text) {
+        if command.name == "GO" {
+            break;
+        }
+        reader.apply(&command, source)?;
+    }
+    reader.finish(source)
+}
+
+impl Reader {
+    fn current(&self) -> Current {
+        self.current.unwrap_or(Current::Nothing)
+    }
+
+    fn location(&self, source: &Source, command: &Command, field: &str) -> Location {
+        let mut location = source.location(Some(command.line)).with_field(field);
+        if let Current::Surface(i) = self.current() {
+            location = location.with_surface(i + 1);
+        }
+        location
+    }
+
+    fn apply(&mut self, c: &Command, source: &Source) -> Result<(), PrescriptionError> {
+        let surface = match self.current() {
+            Current::Surface(i) => Some(i + 1),
+            _ => None,
+        };
+        let at = |field: &str| {
+            let mut location = source.location(Some(c.line)).with_field(field);
+            location.surface = surface;
+            location
+        };
+        let unsupported =
+            |what: String| PrescriptionError::new(at(&c.name), Problem::Unsupported(what));
+        let count = |expected: &str, found: usize| {
+            PrescriptionError::new(
+                at(&c.name),
+                Problem::WrongColumnCount {
+                    expected: format!("{expected} after {}", c.name),
+                    found,
+                },
+            )
+        };
+        let one = |field: &str| -> Result<f64, PrescriptionError> {
+            match c.args.as_slice() {
+                [value] => finite(value, &at(field)),
+                other => Err(count("1 value", other.len())),
+            }
+        };
+        let list = |field: &str| -> Result<Vec<f64>, PrescriptionError> {
+            c.args.iter().map(|a| finite(a, &at(field))).collect()
+        };
+        let name = c.name.as_str();
+        match name {
+            "RDM" => {
+                self.radius_mode = match c.args.first().map(|a| a.to_ascii_uppercase()).as_deref() {
+                    None | Some("Y" | "YES") => true,
+                    Some("N" | "NO") => false,
+                    Some(other) => return Err(unsupported(format!("RDM {other}"))),
+                }
+            }
+            "TITLE" | "TIT" => self.title = Some(c.args.join(" ")),
+            "DIM" => {
+                self.mm_per_unit = match c.args.first().map(|a| a.to_ascii_uppercase()).as_deref() {
+                    Some("M") => 1.0,
+                    Some("C") => 10.0,
+                    Some("I") => 25.4,
+                    Some(other) => return Err(unsupported(format!("DIM {other}"))),
+                    None => return Err(count("1 unit letter", 0)),
+                }
+            }
+            "EPD" => self.epd = Some(one("EPD")?),
+            "FNO" => self.f_number = Some(one("FNO")?),
+            "NA" | "NAO" => {
+                self.unusable_aperture = Some(format!("the aperture is given as {name}"))
+            }
+            "WL" => self.wavelengths = list("WL")?,
+            "REF" => {
+                let value = one("REF")?;
+                if value.fract() != 0.0 || value < 1.0 {
+                    return Err(PrescriptionError::new(
+                        at("REF"),
+                        Problem::Syntax(format!(
+                            "REF must name a wavelength by its number, got {value}"
+                        )),
+                    ));
+                }
+                self.reference = Some((value as usize, c.line));
+            }
+            "XAN" => self.x_angles = list("XAN")?,
+            "YAN" => self.y_angles = list("YAN")?,
+            "XOB" | "YOB" | "XIM" | "YIM" | "XRI" | "YRI" => {
+                self.unusable_fields =
+                    Some(format!("the fields are given as {name}, not as angles"))
+            }
+            "VUY" => self.vignetting[0] = list(name)?,
+            "VLY" => self.vignetting[1] = list(name)?,
+            "VUX" => self.vignetting[2] = list(name)?,
+            "VLX" => self.vignetting[3] = list(name)?,
+            "SO" => {
+                let (value, thickness, medium) = self.surface_words(c, source)?;
+                if value != 0.0 {
+                    return Err(unsupported("a curved object surface".into()));
+                }
+                self.object_distance = Some(thickness);
+                self.object_medium = medium;
+                self.current = Some(Current::Object);
+            }
+            "S" => {
+                if self.current() == Current::Image {
+                    return Err(PrescriptionError::new(
+                        at("S"),
+                        Problem::Syntax("a surface after the image surface (SI)".into()),
+                    ));
+                }
+                self.current = Some(Current::Surface(self.surfaces.len()));
+                let (value, thickness, medium) = self.surface_words(c, source)?;
+                self.surfaces.push(SeqSurface {
+                    line: c.line,
+                    value,
+                    radius_mode: self.radius_mode,
+                    thickness,
+                    medium: medium.unwrap_or(Medium::Air),
+                    conic: 0.0,
+                    terms: [0.0; MAX_ASPHERE_TERMS],
+                    clear_radius: None,
+                    stop: false,
+                });
+            }
+            "SI" => {
+                let (value, _, _) = self.surface_words(c, source)?;
+                if value != 0.0 {
+                    return Err(unsupported("a curved image surface".into()));
+                }
+                self.current = Some(Current::Image);
+            }
+            "STO" => match self.current() {
+                Current::Surface(i) => self.surfaces[i].stop = true,
+                _ => {
+                    return Err(PrescriptionError::new(
+                        at("STO"),
+                        Problem::Syntax("STO must follow a lens surface (S)".into()),
+                    ));
+                }
+            },
+            "CIR" => {
+                let Some(first) = c.args.first() else {
+                    return Err(count("1 value", 0));
+                };
+                if first.parse::<f64>().is_err() || c.args.len() > 1 {
+                    return Err(unsupported(format!("CIR {}", c.args.join(" "))));
+                }
+                let radius = one("CIR")?;
+                if let Current::Surface(i) = self.current() {
+                    self.surfaces[i].clear_radius = Some(radius);
+                }
+            }
+            "K" => {
+                let value = one("K")?;
+                self.on_surface(
+                    c,
+                    source,
+                    "a conic object or image surface",
+                    value != 0.0,
+                    |s| s.conic = value,
+                )?;
+            }
+            letter if ASPHERE_LETTERS.contains(&letter) => {
+                let value = one(letter)?;
+                let term = 1 + ASPHERE_LETTERS
+                    .iter()
+                    .position(|l| *l == letter)
+                    .unwrap_or_default();
+                self.on_surface(
+                    c,
+                    source,
+                    "an aspheric object or image surface",
+                    value != 0.0,
+                    |s| s.terms[term] = value,
+                )?;
+            }
+            "RDY" | "CUY" => {
+                let value = one(name)?;
+                let radius_mode = name == "RDY";
+                self.on_surface(
+                    c,
+                    source,
+                    "a curved object or image surface",
+                    value != 0.0,
+                    |s| {
+                        s.value = value;
+                        s.radius_mode = radius_mode;
+                    },
+                )?;
+            }
+            "THI" => {
+                let value = match c.args.as_slice() {
+                    [value] => object_distance(value, &at("THI"))?,
+                    other => return Err(count("1 value", other.len())),
+                };
+                match self.current() {
+                    Current::Object => self.object_distance = Some(value),
+                    Current::Surface(i) => {
+                        self.surfaces[i].thickness = finite(&c.args[0], &at("THI"))?;
+                    }
+                    // The image surface's thickness is a defocus, not part of the lens.
+                    Current::Image | Current::Nothing => {}
+                }
+            }
+            "GLA" => {
+                let medium = match c.args.as_slice() {
+                    [glass] => glass_medium(glass, &at("GLA"))?,
+                    other => return Err(count("1 glass name", other.len())),
+                };
+                match self.current() {
+                    Current::Object => self.object_medium = Some(medium),
+                    Current::Surface(i) => self.surfaces[i].medium = medium,
+                    Current::Image | Current::Nothing => {}
+                }
+            }
+            harmless if HARMLESS.contains(&harmless) => {}
+            other => return Err(unsupported(format!("CODE V command `{other}`"))),
+        }
+        Ok(())
+    }
+
+    /// `S value thickness [glass]` and its relatives `SO` and `SI`.
+    fn surface_words(
+        &self,
+        c: &Command,
+        source: &Source,
+    ) -> Result<(f64, f64, Option<Medium>), PrescriptionError> {
+        let at = |field: &str| self.location(source, c, field);
+        if !(2..=3).contains(&c.args.len()) {
+            return Err(PrescriptionError::new(
+                at(&c.name),
+                Problem::WrongColumnCount {
+                    expected: format!(
+                        "2 or 3 values after {} ({}, thickness, optional glass)",
+                        c.name,
+                        if self.radius_mode {
+                            "radius"
+                        } else {
+                            "curvature"
+                        }
+                    ),
+                    found: c.args.len(),
+                },
+            ));
+        }
+        let value_field = if self.radius_mode {
+            "radius"
+        } else {
+            "curvature"
+        };
+        let value = finite(&c.args[0], &at(value_field))?;
+        // The object distance may be infinite; anything else must be finite.
+        let thickness = if c.name == "SO" {
+            object_distance(&c.args[1], &at("thickness"))?
+        } else {
+            finite(&c.args[1], &at("thickness"))?
+        };
+        let medium = match c.args.get(2) {
+            Some(glass) => Some(glass_medium(glass, &at("glass"))?),
+            None => None,
+        };
+        Ok((value, thickness, medium))
+    }
+
+    /// Applies a surface modifier to the current lens surface; on the object or image surface a
+    /// non-trivial value is refused as `what`.
+    fn on_surface(
+        &mut self,
+        c: &Command,
+        source: &Source,
+        what: &str,
+        nontrivial: bool,
+        change: impl FnOnce(&mut SeqSurface),
+    ) -> Result<(), PrescriptionError> {
+        match self.current() {
+            Current::Surface(i) => {
+                change(&mut self.surfaces[i]);
+                Ok(())
+            }
+            Current::Object | Current::Image if nontrivial => Err(PrescriptionError::new(
+                self.location(source, c, &c.name),
+                Problem::Unsupported(what.to_string()),
+            )),
+            Current::Object | Current::Image => Ok(()),
+            Current::Nothing => Err(PrescriptionError::new(
+                self.location(source, c, &c.name),
+                Problem::Syntax(format!("{} before the first surface", c.name)),
+            )),
+        }
+    }
+
+    fn finish(self, source: &Source) -> Result<Loaded, PrescriptionError> {
+        if self.surfaces.is_empty() {
+            return Err(source.error(None, Problem::Empty));
+        }
+        let wavelength = match self.reference {
+            Some((reference, line)) => match self.wavelengths.get(reference - 1) {
+                Some(&nm) => Some(nm),
+                None => {
+                    return Err(PrescriptionError::new(
+                        source.location(Some(line)).with_field("REF"),
+                        Problem::Syntax(format!(
+                            "REF {reference} names no wavelength; WL lists {}",
+                            self.wavelengths.len()
+                        )),
+                    ));
+                }
+            },
+            None => self.wavelengths.first().copied(),
+        };
+        let surfaces: Vec<Surface> = self
+            .surfaces
+            .iter()
+            .map(|s| {
+                let curvature = match (s.radius_mode, s.value) {
+                    (false, c) => c,
+                    (true, 0.0) => 0.0,
+                    (true, r) => 1.0 / r,
+                };
+                Surface {
+                    shape: shape(curvature, s.conic, &s.terms),
+                    thickness: s.thickness,
+                    medium: s.medium.clone(),
+                    semi_aperture: s.clear_radius.unwrap_or(0.0),
+                    stop: s.stop.then_some(StopShape::Circle),
+                }
+            })
+            .collect();
+        let missing: Vec<usize> = (0..surfaces.len())
+            .filter(|&i| self.surfaces[i].clear_radius.is_none())
+            .collect();
+        let mm = self.mm_per_unit;
+        let object_distance = self
+            .object_distance
+            .map(|d| d * mm)
+            .filter(|d| d.abs() < INFINITE_OBJECT_MM);
+
+        let mut notes_text = Vec::new();
+        if let Some(epd) = self.epd {
+            notes_text.push(format!("entrance pupil diameter {} mm", epd * mm));
+        }
+        if !self.y_angles.is_empty() || !self.x_angles.is_empty() {
+            let angles = |a: &[f64]| a.iter().map(f64::to_string).collect::<Vec<_>>().join(", ");
+            notes_text.push(format!(
+                "field angles (deg) x: [{}], y: [{}]",
+                angles(&self.x_angles),
+                angles(&self.y_angles)
+            ));
+        }
+        if let Some(d) = object_distance {
+            notes_text.push(format!("object distance {d} mm"));
+        }
+        if !missing.is_empty() {
+            notes_text.push(
+                "clear apertures not in the file were derived by lensbake from paraxial rays"
+                    .into(),
+            );
+        }
+
+        let mut prescription = Prescription {
+            provenance: Provenance {
+                title: self.title.clone().unwrap_or_else(|| source.default_title()),
+                source: source.file_name(),
+                design_wavelength_nm: wavelength,
+                claimed_f_number: self.f_number,
+                notes: Some(notes_text.join("; ")).filter(|n| !n.is_empty()),
+                ..Provenance::default()
+            },
+            object_medium: self.object_medium.clone().unwrap_or(Medium::Air),
+            surfaces,
+        };
+        scale_to_mm(&mut prescription, mm);
+        let map = SourceMap {
+            file: source.file.map(|f| f.to_path_buf()),
+            surface_lines: self.surfaces.iter().map(|s| Some(s.line)).collect(),
+        };
+        let beams = BeamSpec {
+            pupil: match (self.epd, self.f_number, &self.unusable_aperture) {
+                (Some(epd), _, _) => PupilSize::Diameter(epd * mm),
+                (None, Some(f), _) => PupilSize::FNumber(f),
+                (None, None, Some(reason)) => PupilSize::Unusable(reason.clone()),
+                (None, None, None) => {
+                    PupilSize::Unusable("the file has neither CIR nor EPD or FNO".into())
+                }
+            },
+            object_distance,
+            fields: self.field_points(),
+            wavelength_nm: wavelength.unwrap_or(DEFAULT_WAVELENGTH_NM),
+        };
+        apertures::derive(&mut prescription, &missing, &beams, &map)?;
+        let notes = if missing.is_empty() {
+            Vec::new()
+        } else {
+            vec![LoadNote::AperturesDerived {
+                surfaces: missing.iter().map(|i| i + 1).collect(),
+            }]
+        };
+        Ok(Loaded {
+            prescription,
+            map,
+            format: Format::CodeV,
+            notes,
+        })
+    }
+
+    fn field_points(&self) -> Result<Vec<FieldPoint>, String> {
+        if let Some(reason) = &self.unusable_fields {
+            return Err(reason.clone());
+        }
+        let count = self.x_angles.len().max(self.y_angles.len());
+        let get = |list: &[f64], k: usize| list.get(k).copied().unwrap_or(0.0);
+        Ok((0..count)
+            .map(|k| {
+                let (tx, ty) = (
+                    get(&self.x_angles, k).to_radians().tan(),
+                    get(&self.y_angles, k).to_radians().tan(),
+                );
+                let [vuy, vly, vux, vlx] = [0, 1, 2, 3].map(|v| get(&self.vignetting[v], k));
+                FieldPoint {
+                    angle_deg: tx.hypot(ty).atan().to_degrees(),
+                    pupil_y: (-(1.0 - vly), 1.0 - vuy),
+                    pupil_x: (-(1.0 - vlx), 1.0 - vux),
+                }
+            })
+            .collect())
+    }
+}
+
+/// An object distance: a number, possibly infinite, never NaN.
+fn object_distance(text: &str, at: &Location) -> Result<f64, PrescriptionError> {
+    let value = number(text, at)?;
+    if value.is_nan() {
+        return Err(PrescriptionError::new(
+            at.clone(),
+            Problem::NonFinite { value },
+        ));
+    }
+    Ok(value)
+}
+
+/// The medium a glass word names: a catalogue name, or a CODE V fictitious glass code
+/// `NNNNNN.VVVV` (nd = 1.NNNNNN, Vd = VV.VV; Vd 0 means a constant index).
+fn glass_medium(glass: &str, at: &Location) -> Result<Medium, PrescriptionError> {
+    let refuse = |what: String| {
+        Err(PrescriptionError::new(
+            at.clone(),
+            Problem::Unsupported(what),
+        ))
+    };
+    if glass.eq_ignore_ascii_case("REFL") {
+        return refuse("mirrors (REFL): lensbake models refracting lenses only".into());
+    }
+    let all_digits = |s: &str| !s.is_empty() && s.bytes().all(|b| b.is_ascii_digit());
+    match glass.split_once('.') {
+        Some((index_digits, abbe_digits))
+            if all_digits(index_digits) && all_digits(abbe_digits) =>
+        {
+            // Digit strings behind "1." and "0." always parse as f64.
+            let nd = format!("1.{index_digits}")
+                .parse::<f64>()
+                .unwrap_or(f64::NAN);
+            let vd = format!("0.{abbe_digits}")
+                .parse::<f64>()
+                .unwrap_or(f64::NAN)
+                * 100.0;
+            Ok(if vd == 0.0 {
+                Medium::Index(nd)
+            } else {
+                Medium::Model { nd, vd }
+            })
+        }
+        None if all_digits(glass) => refuse(format!(
+            "six-digit glass code {glass}; name the glass, or give a fictitious glass as nnnnnn.vvvv"
+        )),
+        _ => Ok(named_medium(glass)),
+    }
+}

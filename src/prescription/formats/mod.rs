@@ -1,0 +1,472 @@
+//! Lens file formats in, canonical RON out.
+//!
+//! | format | extensions | module |
+//! |---|---|---|
+//! | native RON ([`Format::Ron`]) | `.ron` | `native` |
+//! | pbrt lens table ([`Format::Pbrt`]) | `.dat` | `columns` |
+//! | plain table as printed in papers ([`Format::Table`]) | `.txt`, `.tsv`, `.csv`, `.tab`, `.lens` | `columns` |
+//! | CODE V sequence file ([`Format::CodeV`]) | `.seq` | `codev` |
+//! | Zemax sequential file ([`Format::Zemax`]) | `.zmx` | `zemax` |
+//!
+//! The pbrt and plain-table formats share one column reader because they share one layout
+//! (radius, thickness, index, aperture diameter); they differ in what marks the stop, what a zero
+//! radius means and which thickness readings they allow. A `.dat` file whose stop row says `N/A`
+//! (the Kolb table as distributed with this project) is therefore read as pbrt without fuss.
+//!
+//! Every reader returns the prescription exactly as the file describes it plus a [`SourceMap`]
+//! (surface -> line), so validation errors found later still cite the line. Readers never guess:
+//! anything a reader cannot honour is refused with [`Problem::Unsupported`] naming it, and facts
+//! the user should know about the reading (a derived clear aperture, a suspicious pbrt first
+//! row) come back as [`LoadNote`]s for the caller to show.
+
+mod apertures;
+mod codev;
+mod columns;
+mod native;
+mod zemax;
+
+use super::error::{Location, PrescriptionError, Problem};
+use super::model::{MAX_ASPHERE_TERMS, Medium, Prescription, Shape};
+use super::validate::SourceMap;
+use std::fmt;
+use std::path::{Path, PathBuf};
+use std::str::FromStr;
+
+/// A lens file format.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Format {
+    /// lensbake's own RON serialisation of [`Prescription`]; the only format written.
+    Ron,
+    /// pbrt `RealisticCamera` lens table: radius, thickness, index, aperture diameter.
+    Pbrt,
+    /// A plain surface table as printed in papers (e.g. Kolb et al. 1995, seed 000 Table 2.1).
+    Table,
+    /// CODE V sequence file (`.seq`), common sequential subset.
+    CodeV,
+    /// Zemax OpticStudio sequential file (`.zmx`), common subset.
+    Zemax,
+}
+
+impl Format {
+    pub const ALL: [Format; 5] = [
+        Format::Ron,
+        Format::Pbrt,
+        Format::Table,
+        Format::CodeV,
+        Format::Zemax,
+    ];
+
+    /// The short name used on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Format::Ron => "ron",
+            Format::Pbrt => "pbrt",
+            Format::Table => "table",
+            Format::CodeV => "codev",
+            Format::Zemax => "zemax",
+        }
+    }
+
+    /// A human description for summaries.
+    pub fn describe(self) -> &'static str {
+        match self {
+            Format::Ron => "lensbake RON",
+            Format::Pbrt => "pbrt lens table",
+            Format::Table => "plain lens table",
+            Format::CodeV => "CODE V sequence file",
+            Format::Zemax => "Zemax sequential file",
+        }
+    }
+
+    /// The format a file name implies, from its extension (case-insensitive).
+    pub fn from_path(path: &Path) -> Result<Format, Problem> {
+        let extension = path
+            .extension()
+            .map(|e| e.to_string_lossy().to_ascii_lowercase());
+        let format = match extension.as_deref() {
+            Some("ron") => Some(Format::Ron),
+            Some("dat") => Some(Format::Pbrt),
+            Some("txt" | "tsv" | "csv" | "tab" | "lens") => Some(Format::Table),
+            Some("seq") => Some(Format::CodeV),
+            Some("zmx") => Some(Format::Zemax),
+            _ => None,
+        };
+        format.ok_or(Problem::UnknownFormat { extension })
+    }
+}
+
+impl fmt::Display for Format {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for Format {
+    type Err = String;
+
+    /// Accepts the format names and, as aliases, their usual extensions.
+    fn from_str(s: &str) -> Result<Format, String> {
+        match s.to_ascii_lowercase().as_str() {
+            "ron" => Ok(Format::Ron),
+            "pbrt" | "dat" => Ok(Format::Pbrt),
+            "table" | "txt" | "tsv" | "csv" => Ok(Format::Table),
+            "codev" | "code-v" | "seq" => Ok(Format::CodeV),
+            "zemax" | "zmx" => Ok(Format::Zemax),
+            _ => Err(format!(
+                "unknown lens format `{s}`; expected one of ron, pbrt, table, codev, zemax"
+            )),
+        }
+    }
+}
+
+/// How the thickness column of a pbrt `.dat` file is read. Both readings exist in the wild and
+/// a file does not say which it uses, so the caller chooses; nothing switches automatically.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum PbrtThickness {
+    /// pbrt's own reading (and that of the scaled `*.NNmm.dat` files): each row's thickness is
+    /// the distance from this vertex to the NEXT one.
+    #[default]
+    ToNext,
+    /// The `axpos` column of the unscaled pbrt-v4-scenes files (`dgauss.dat`, `wide.dat`, ...):
+    /// each row's value is the distance from the PREVIOUS vertex, the first row's is 0, and the
+    /// gap after the last surface is unknown (taken as 0, as in the scaled files).
+    FromPrevious,
+}
+
+/// Choices the caller makes when reading a lens file.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct LoadOptions {
+    /// Overrides the format the extension implies.
+    pub format: Option<Format>,
+    /// Only meaningful for [`Format::Pbrt`]; asking for [`PbrtThickness::FromPrevious`] with any
+    /// other format is an error rather than silently ignored.
+    pub pbrt_thickness: PbrtThickness,
+}
+
+/// Something the user should know about how a file was read; not an error.
+#[derive(Clone, Debug, PartialEq)]
+pub enum LoadNote {
+    /// A pbrt file read thickness-to-next whose first row has thickness 0: surfaces 1 and 2 share
+    /// a vertex, which is typical of an unscaled `axpos` file read the wrong way.
+    PbrtFirstThicknessZero,
+    /// The file gave no clear aperture for these surfaces (1-based); they were derived from
+    /// the paraxial marginal and chief rays of the file's beams (CODE V and Zemax files only).
+    AperturesDerived { surfaces: Vec<usize> },
+}
+
+impl fmt::Display for LoadNote {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            LoadNote::PbrtFirstThicknessZero => write!(
+                f,
+                "the first row's thickness is 0, so surfaces 1 and 2 share a vertex; if this is an \
+                 unscaled pbrt-v4-scenes file whose thickness column is the distance from the \
+                 previous surface (axpos), read it with the distance-from-previous option \
+                 (--pbrt-from-previous)"
+            ),
+            LoadNote::AperturesDerived { surfaces } => write!(
+                f,
+                "the file gives no clear aperture for surface{} {}; derived from paraxial marginal \
+                 and chief rays at the file's entrance pupil, fields and vignetting factors \
+                 (real-ray clear apertures, as CODE V or Zemax compute them, can differ by several \
+                 percent at wide fields)",
+                if surfaces.len() == 1 { "" } else { "s" },
+                list_ranges(surfaces)
+            ),
+        }
+    }
+}
+
+/// "1-4, 6, 9-11" for [1, 2, 3, 4, 6, 9, 10, 11].
+fn list_ranges(numbers: &[usize]) -> String {
+    let mut parts = Vec::new();
+    let mut i = 0;
+    while i < numbers.len() {
+        let mut j = i;
+        while j + 1 < numbers.len() && numbers[j + 1] == numbers[j] + 1 {
+            j += 1;
+        }
+        parts.push(if i == j {
+            numbers[i].to_string()
+        } else {
+            format!("{}-{}", numbers[i], numbers[j])
+        });
+        i = j + 1;
+    }
+    parts.join(", ")
+}
+
+/// A prescription read from a file, with where each surface came from.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Loaded {
+    pub prescription: Prescription,
+    pub map: SourceMap,
+    /// The format the text was read as.
+    pub format: Format,
+    pub notes: Vec<LoadNote>,
+}
+
+/// Reads a prescription from text in a known format. `file` only labels error locations.
+/// The result is parsed, not validated: pass it to [`crate::system::LensSystem::new`].
+pub fn read_str(
+    text: &str,
+    file: Option<&Path>,
+    format: Format,
+    options: &LoadOptions,
+) -> Result<Loaded, PrescriptionError> {
+    let source = Source { file };
+    if options.pbrt_thickness == PbrtThickness::FromPrevious && format != Format::Pbrt {
+        return Err(source.error(
+            None,
+            Problem::Unsupported(format!(
+                "the distance-from-previous thickness reading applies only to pbrt .dat files, \
+                 not to a {}",
+                format.describe()
+            )),
+        ));
+    }
+    let mut loaded = match format {
+        Format::Ron => native::read(text, &source)?,
+        Format::Pbrt => columns::read(
+            text,
+            &source,
+            columns::Dialect::Pbrt(options.pbrt_thickness),
+        )?,
+        Format::Table => columns::read(text, &source, columns::Dialect::Table)?,
+        Format::CodeV => codev::read(text, &source)?,
+        Format::Zemax => zemax::read(text, &source)?,
+    };
+    loaded.map.file = file.map(Path::to_path_buf);
+    Ok(loaded)
+}
+
+/// Reads a prescription from raw file contents: UTF-8 (with or without a byte-order mark) or
+/// UTF-16 with a byte-order mark (OpticStudio writes `.zmx` files that way).
+pub fn read_bytes(
+    bytes: &[u8],
+    file: Option<&Path>,
+    format: Format,
+    options: &LoadOptions,
+) -> Result<Loaded, PrescriptionError> {
+    let text =
+        decode_text(bytes).map_err(|(line, problem)| Source { file }.error(line, problem))?;
+    read_str(&text, file, format, options)
+}
+
+/// Reads a lens file, choosing the format from `options.format` or else the extension.
+pub fn read_file(path: &Path, options: &LoadOptions) -> Result<Loaded, PrescriptionError> {
+    let format = match options.format {
+        Some(format) => format,
+        None => Format::from_path(path)
+            .map_err(|problem| PrescriptionError::new(Location::file(path), problem))?,
+    };
+    let bytes = std::fs::read(path)
+        .map_err(|e| PrescriptionError::new(Location::file(path), Problem::Io(e.to_string())))?;
+    read_bytes(&bytes, Some(path), format, options)
+}
+
+/// The canonical RON text of a prescription: pretty, stable, and exact (reading it back gives
+/// the same prescription, every f64 bit for bit).
+pub fn write_ron(p: &Prescription) -> String {
+    native::write(p)
+}
+
+/// Writes the canonical RON of `p` to `path` atomically: the text goes to a temporary file in the
+/// same directory, which then replaces `path` in one rename, so a reader never sees half a file.
+pub fn write_ron_file(path: &Path, p: &Prescription) -> Result<(), PrescriptionError> {
+    let io_error = |e: std::io::Error| {
+        PrescriptionError::new(Location::file(path), Problem::Io(e.to_string()))
+    };
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let name = path
+        .file_name()
+        .ok_or_else(|| io_error(std::io::Error::other("the output path names no file")))?;
+    let temp = dir.join(format!(
+        ".{}.tmp-{}",
+        name.to_string_lossy(),
+        std::process::id()
+    ));
+    let result = (|| {
+        use std::io::Write;
+        let mut f = std::fs::File::create(&temp)?;
+        f.write_all(write_ron(p).as_bytes())?;
+        f.sync_all()?;
+        std::fs::rename(&temp, path)
+    })();
+    if result.is_err() {
+        // Best effort: the temporary file is ours and useless after a failure.
+        let _ = std::fs::remove_file(&temp);
+    }
+    result.map_err(io_error)
+}
+
+/// Decodes file bytes to text; on failure, the 1-based line of the first bad byte.
+fn decode_text(bytes: &[u8]) -> Result<String, (Option<usize>, Problem)> {
+    let utf16 = |units: Vec<u16>| {
+        String::from_utf16(&units).map_err(|_| (None, Problem::NotText { byte_offset: 0 }))
+    };
+    if let Some(rest) = bytes.strip_prefix(&[0xFF, 0xFE]) {
+        return utf16(
+            rest.chunks(2)
+                .map(|c| u16::from_le_bytes([c[0], *c.get(1).unwrap_or(&0)]))
+                .collect(),
+        );
+    }
+    if let Some(rest) = bytes.strip_prefix(&[0xFE, 0xFF]) {
+        return utf16(
+            rest.chunks(2)
+                .map(|c| u16::from_be_bytes([c[0], *c.get(1).unwrap_or(&0)]))
+                .collect(),
+        );
+    }
+    let bytes = bytes.strip_prefix(&[0xEF, 0xBB, 0xBF]).unwrap_or(bytes);
+    match std::str::from_utf8(bytes) {
+        Ok(text) => Ok(text.to_string()),
+        Err(e) => {
+            let offset = e.valid_up_to();
+            let line = 1 + bytes[..offset].iter().filter(|&&b| b == b'\n').count();
+            Err((
+                Some(line),
+                Problem::NotText {
+                    byte_offset: offset,
+                },
+            ))
+        }
+    }
+}
+
+/// The file being read, for building locations.
+struct Source<'a> {
+    file: Option<&'a Path>,
+}
+
+impl Source<'_> {
+    fn location(&self, line: Option<usize>) -> Location {
+        Location {
+            file: self.file.map(Path::to_path_buf),
+            line,
+            ..Location::default()
+        }
+    }
+
+    fn error(&self, line: Option<usize>, problem: Problem) -> PrescriptionError {
+        PrescriptionError::new(self.location(line), problem)
+    }
+
+    /// The title to use when the file states none: its name without extension.
+    fn default_title(&self) -> String {
+        self.file
+            .and_then(|f| f.file_stem())
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default()
+    }
+
+    fn file_name(&self) -> Option<String> {
+        self.file
+            .and_then(|f| f.file_name())
+            .map(|s| s.to_string_lossy().into_owned())
+    }
+}
+
+/// Parses a number; infinities and NaN parse too (see [`finite`]).
+fn number(text: &str, at: &Location) -> Result<f64, PrescriptionError> {
+    text.trim().parse::<f64>().map_err(|_| {
+        PrescriptionError::new(
+            at.clone(),
+            Problem::NotANumber {
+                text: text.to_string(),
+            },
+        )
+    })
+}
+
+/// Parses a number that must be finite.
+fn finite(text: &str, at: &Location) -> Result<f64, PrescriptionError> {
+    let value = number(text, at)?;
+    if value.is_finite() {
+        Ok(value)
+    } else {
+        Err(PrescriptionError::new(
+            at.clone(),
+            Problem::NonFinite { value },
+        ))
+    }
+}
+
+/// The simplest shape that describes a surface: a plane when flat without aspheric terms, a
+/// sphere without conic or terms, and so on. Trailing zero aspheric terms are dropped.
+fn shape(curvature: f64, conic: f64, coefficients: &[f64]) -> Shape {
+    let used = coefficients
+        .iter()
+        .rposition(|&a| a != 0.0)
+        .map_or(0, |last| last + 1);
+    if used > 0 {
+        Shape::EvenAsphere {
+            curvature,
+            conic,
+            coefficients: coefficients[..used].to_vec(),
+        }
+    } else if curvature == 0.0 {
+        // A conic constant changes nothing on a flat surface.
+        Shape::Plane
+    } else if conic != 0.0 {
+        Shape::Conic { curvature, conic }
+    } else {
+        Shape::Sphere { curvature }
+    }
+}
+
+/// Converts a prescription given in some length unit to mm; `mm_per_unit` is 1 for mm.
+/// An even-asphere term a r^(2j) is a length, so its coefficient scales as unit^(1-2j).
+fn scale_to_mm(p: &mut Prescription, mm_per_unit: f64) {
+    if mm_per_unit == 1.0 {
+        return;
+    }
+    for s in &mut p.surfaces {
+        s.thickness *= mm_per_unit;
+        s.semi_aperture *= mm_per_unit;
+        s.shape = match &s.shape {
+            Shape::Plane => Shape::Plane,
+            Shape::Sphere { curvature } => Shape::Sphere {
+                curvature: curvature / mm_per_unit,
+            },
+            Shape::Conic { curvature, conic } => Shape::Conic {
+                curvature: curvature / mm_per_unit,
+                conic: *conic,
+            },
+            Shape::EvenAsphere {
+                curvature,
+                conic,
+                coefficients,
+            } => Shape::EvenAsphere {
+                curvature: curvature / mm_per_unit,
+                conic: *conic,
+                coefficients: coefficients
+                    .iter()
+                    .enumerate()
+                    .map(|(i, a)| a * mm_per_unit.powi(-(2 * i as i32 + 1)))
+                    .collect(),
+            },
+        };
+    }
+}
+
+/// The medium a glass name in a CODE V or Zemax file stands for. Names the catalogue knows are
+/// stored under the catalogue's spelling ("NSSK2_SCHOTT" -> "N-SSK2"); unknown names are kept as
+/// written so that resolving the lens reports them with suggestions.
+fn named_medium(name: &str) -> Medium {
+    let name = name.trim().trim_matches(|c| c == '\'' || c == '"');
+    if name.is_empty() || name.eq_ignore_ascii_case("AIR") {
+        return Medium::Air;
+    }
+    match crate::glass::lookup(name) {
+        Ok(glass) => Medium::Glass(glass.name.to_string()),
+        Err(_) => Medium::Glass(name.to_string()),
+    }
+}
+
+/// Room for every even-asphere term the model holds (r^2 .. r^20).
+type AsphereTerms = [f64; MAX_ASPHERE_TERMS];

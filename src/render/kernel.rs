@@ -1,0 +1,375 @@
+//! The CPU twin of `shaders/ibrt.wgsl`: the same algorithm, statement by statement, in f32.
+//!
+//! It is the test oracle for the GPU path and the fallback where no adapter exists. Each
+//! function here has a namesake in the shader; change both together.
+
+use super::gpu_types::{FrameParams, LayerData};
+use rayon::prelude::*;
+
+const PI: f32 = std::f32::consts::PI;
+const FOOTPRINT_CLAMP_ITERATIONS: u32 = 3;
+const DEPTH_TOLERANCE: f32 = 1e-5;
+const NO_CROSSING: f32 = 1e30;
+
+type Vec2 = [f32; 2];
+type Vec3 = [f32; 3];
+
+/// WGSL's `mix`: a * (1 - t) + b * t.
+fn mix3(a: Vec3, b: Vec3, t: f32) -> Vec3 {
+    let u = 1.0 - t;
+    [
+        a[0] * u + b[0] * t,
+        a[1] * u + b[1] * t,
+        a[2] * u + b[2] * t,
+    ]
+}
+
+pub(crate) fn mix_bits(x: u32) -> u32 {
+    let mut h = x;
+    h ^= h >> 16;
+    h = h.wrapping_mul(0x7feb352d);
+    h ^= h >> 15;
+    h = h.wrapping_mul(0x846ca68b);
+    h ^= h >> 16;
+    h
+}
+
+fn unit_from_bits(bits: u32) -> f32 {
+    (bits >> 8) as f32 * (1.0 / 16_777_216.0)
+}
+
+/// Rank-1 lattice point `index` of `count`, shifted modulo 1 by the scrambles (see the shader).
+pub(crate) fn lattice_point(index: u32, count: u32, scramble_x: u32, scramble_y: u32) -> Vec2 {
+    let stratum = 0xffff_ffff / count.max(1);
+    let x_bits = index.wrapping_mul(stratum).wrapping_add(scramble_x);
+    let y_bits = index.wrapping_mul(0x9e37_79b9).wrapping_add(scramble_y);
+    [unit_from_bits(x_bits), unit_from_bits(y_bits)]
+}
+
+pub(crate) fn concentric_disc(u: Vec2) -> Vec2 {
+    let a = [2.0 * u[0] - 1.0, 2.0 * u[1] - 1.0];
+    if a[0] == 0.0 && a[1] == 0.0 {
+        return [0.0, 0.0];
+    }
+    let (r, phi) = if a[0].abs() > a[1].abs() {
+        (a[0], (PI / 4.0) * (a[1] / a[0]))
+    } else {
+        (a[1], PI / 2.0 - (PI / 4.0) * (a[0] / a[1]))
+    };
+    [r * phi.cos(), r * phi.sin()]
+}
+
+#[derive(Clone, Copy, Debug)]
+struct ObjectRay {
+    origin: Vec3,
+    direction: Vec3,
+    valid: bool,
+}
+
+fn paraxial_lens_ray(frame: &FrameParams, film: Vec3, pupil: Vec3) -> ObjectRay {
+    let to_pupil = [pupil[0] - film[0], pupil[1] - film[1], pupil[2] - film[2]];
+    let t = (frame.rear_principal_z - film[2]) / to_pupil[2];
+    let height = [film[0] + t * to_pupil[0], film[1] + t * to_pupil[1]];
+    let image_distance = film[2] - frame.rear_principal_z;
+    let image_slope = [
+        (film[0] - height[0]) / image_distance,
+        (film[1] - height[1]) / image_distance,
+    ];
+    let object_slope = [
+        image_slope[0] + height[0] / frame.focal_length,
+        image_slope[1] + height[1] / frame.focal_length,
+    ];
+    ObjectRay {
+        origin: [height[0], height[1], frame.front_principal_z],
+        direction: [object_slope[0], object_slope[1], 1.0],
+        valid: true,
+    }
+}
+
+fn project(frame: &FrameParams, ray: &ObjectRay, depth: f32) -> Vec3 {
+    let z = frame.eye_z - depth;
+    let t = (z - ray.origin[2]) / ray.direction[2];
+    let p = [
+        ray.origin[0] + t * ray.direction[0],
+        ray.origin[1] + t * ray.direction[1],
+    ];
+    let inverse_depth = 1.0 / depth;
+    let column = (p[0] * inverse_depth / frame.tan_half_x + 1.0) * 0.5 * frame.layer_width as f32;
+    let row = (1.0 - p[1] * inverse_depth / frame.tan_half_y) * 0.5 * frame.layer_height as f32;
+    [column, row, inverse_depth]
+}
+
+fn pyramid_texel(
+    frame: &FrameParams,
+    layers: &LayerData,
+    level: u32,
+    column: u32,
+    row: u32,
+) -> Vec2 {
+    let mut offset = 0;
+    for l in 0..level {
+        let w = (frame.layer_width + (1 << l) - 1) >> l;
+        let h = (frame.layer_height + (1 << l) - 1) >> l;
+        offset += w * h;
+    }
+    let w = (frame.layer_width + (1 << level) - 1) >> level;
+    layers.depth_bounds[(offset + (row >> level) * w + (column >> level)) as usize]
+}
+
+fn footprint_bounds(frame: &FrameParams, layers: &LayerData, c: [u32; 2], r: [u32; 2]) -> Vec2 {
+    let mut level = 0;
+    while level + 1 < frame.pyramid_levels
+        && (((c[1] >> level) - (c[0] >> level)) > 1 || ((r[1] >> level) - (r[0] >> level)) > 1)
+    {
+        level += 1;
+    }
+    let a = pyramid_texel(frame, layers, level, c[0], r[0]);
+    let b = pyramid_texel(frame, layers, level, c[1], r[0]);
+    let cc = pyramid_texel(frame, layers, level, c[0], r[1]);
+    let d = pyramid_texel(frame, layers, level, c[1], r[1]);
+    [
+        a[0].min(b[0]).min(cc[0].min(d[0])),
+        a[1].max(b[1]).max(cc[1].max(d[1])),
+    ]
+}
+
+fn hit_in_pixel(
+    frame: &FrameParams,
+    layers: &LayerData,
+    pixel: u32,
+    w_in: f32,
+    w_out: f32,
+) -> Option<Vec3> {
+    let pixels = frame.layer_width * frame.layer_height;
+    let upper = w_in * (1.0 + DEPTH_TOLERANCE);
+    let lower = w_out * (1.0 - DEPTH_TOLERANCE);
+    for group in 0..frame.layer_groups {
+        let depths = layers.depths[(group * pixels + pixel) as usize];
+        for (k, &w) in depths.iter().enumerate() {
+            let layer = group * 4 + k as u32;
+            if layer >= frame.layer_count || w < 0.0 || w < lower {
+                return None;
+            }
+            if w <= upper {
+                let c = layers.colours[(layer * pixels + pixel) as usize];
+                return Some([c[0], c[1], c[2]]);
+            }
+        }
+    }
+    None
+}
+
+fn clip_axis(a: f32, b: f32, extent: f32, range: Vec2) -> Vec2 {
+    let d = b - a;
+    if d == 0.0 {
+        if a < 0.0 || a > extent {
+            return [1.0, 0.0];
+        }
+        return range;
+    }
+    let t0 = (0.0 - a) / d;
+    let t1 = (extent - a) / d;
+    [range[0].max(t0.min(t1)), range[1].min(t0.max(t1))]
+}
+
+fn axis_crossing(position: f32, direction: f32, cell: i32) -> f32 {
+    if direction > 0.0 {
+        return ((cell + 1) as f32 - position) / direction;
+    }
+    if direction < 0.0 {
+        return (cell as f32 - position) / direction;
+    }
+    NO_CROSSING
+}
+
+fn trace_layers(frame: &FrameParams, layers: &LayerData, ray: &ObjectRay) -> Option<Vec3> {
+    if !ray.valid || ray.direction[2] <= 0.0 {
+        return None;
+    }
+    let a = project(frame, ray, frame.near_depth);
+    let b = project(frame, ray, frame.far_depth);
+    let lw = frame.layer_width as f32;
+    let lh = frame.layer_height as f32;
+    let mut range = clip_axis(a[0], b[0], lw, [0.0, 1.0]);
+    range = clip_axis(a[1], b[1], lh, range);
+    if range[0] >= range[1] {
+        return None;
+    }
+    let dw = b[2] - a[2];
+    for _ in 0..FOOTPRINT_CLAMP_ITERATIONS {
+        let p = mix3(a, b, range[0]);
+        let q = mix3(a, b, range[1]);
+        let cell = |v: f32, extent: f32| v.floor().clamp(0.0, extent - 1.0) as u32;
+        let c = [cell(p[0].min(q[0]), lw), cell(p[0].max(q[0]), lw)];
+        let r = [cell(p[1].min(q[1]), lh), cell(p[1].max(q[1]), lh)];
+        let bounds = footprint_bounds(frame, layers, c, r);
+        if bounds[0] > bounds[1] {
+            return None;
+        }
+        let enter = (bounds[1] * (1.0 + DEPTH_TOLERANCE) - a[2]) / dw;
+        let leave = (bounds[0] * (1.0 - DEPTH_TOLERANCE) - a[2]) / dw;
+        range = [range[0].max(enter), range[1].min(leave)];
+        if range[0] > range[1] {
+            return None;
+        }
+    }
+    let start = mix3(a, b, range[0]);
+    let end = mix3(a, b, range[1]);
+    let last_column = frame.layer_width as i32 - 1;
+    let last_row = frame.layer_height as i32 - 1;
+    let mut cell = [
+        (start[0].floor() as i32).clamp(0, last_column),
+        (start[1].floor() as i32).clamp(0, last_row),
+    ];
+    let end_cell = [
+        (end[0].floor() as i32).clamp(0, last_column),
+        (end[1].floor() as i32).clamp(0, last_row),
+    ];
+    let step_x = if b[0] > a[0] { 1 } else { -1 };
+    let step_y = if b[1] > a[1] { 1 } else { -1 };
+    let mut next_x = axis_crossing(a[0], b[0] - a[0], cell[0]);
+    let mut next_y = axis_crossing(a[1], b[1] - a[1], cell[1]);
+    let delta_x = if b[0] != a[0] {
+        1.0 / (b[0] - a[0]).abs()
+    } else {
+        NO_CROSSING
+    };
+    let delta_y = if b[1] != a[1] {
+        1.0 / (b[1] - a[1]).abs()
+    } else {
+        NO_CROSSING
+    };
+    let steps = ((end_cell[0] - cell[0]).abs() + (end_cell[1] - cell[1]).abs()) as u32 + 1;
+    let mut s_in = range[0];
+    for _ in 0..steps {
+        let s_out = next_x.min(next_y).min(range[1]);
+        let pixel = cell[1] as u32 * frame.layer_width + cell[0] as u32;
+        let found = hit_in_pixel(frame, layers, pixel, a[2] + s_in * dw, a[2] + s_out * dw);
+        if found.is_some() {
+            return found;
+        }
+        if next_x < next_y {
+            cell[0] += step_x;
+            next_x += delta_x;
+        } else {
+            cell[1] += step_y;
+            next_y += delta_y;
+        }
+        if cell[0] < 0 || cell[0] > last_column || cell[1] < 0 || cell[1] > last_row {
+            return None;
+        }
+        s_in = s_out;
+    }
+    None
+}
+
+/// The per-pixel sample decorrelation: lens and pixel-jitter scrambles from the seed and the
+/// pixel index, so every backend and lens model draws the same samples.
+pub(crate) struct PixelScrambles {
+    lens: [u32; 2],
+    jitter: [u32; 2],
+}
+
+impl PixelScrambles {
+    pub(crate) fn new(seed: u32, pixel: u32) -> PixelScrambles {
+        let key = mix_bits(pixel ^ mix_bits(seed));
+        PixelScrambles {
+            lens: [mix_bits(key.wrapping_add(1)), mix_bits(key.wrapping_add(2))],
+            jitter: [mix_bits(key.wrapping_add(3)), mix_bits(key.wrapping_add(4))],
+        }
+    }
+
+    /// Sample `index` of `count`: (unit-square lens sample, jitter within the pixel).
+    pub(crate) fn sample(&self, index: u32, count: u32) -> (Vec2, Vec2) {
+        let lens_u = lattice_point(index, count, self.lens[0], self.lens[1]);
+        let j = lattice_point(index, count, self.jitter[0], self.jitter[1]);
+        (lens_u, [j[1], j[0]])
+    }
+}
+
+/// Weighted radiance summed over this dispatch's samples for output pixel (x, y): the body of
+/// the shader's `render` entry point.
+fn render_pixel(frame: &FrameParams, layers: &LayerData, x: u32, y: u32) -> Vec3 {
+    let scrambles = PixelScrambles::new(frame.seed, y * frame.width + x);
+    let mut sum = [0.0f32; 3];
+    for s in 0..frame.sample_count {
+        let (lens_u, jitter) = scrambles.sample(frame.sample_offset + s, frame.samples_per_pixel);
+        let film = [
+            frame.film_origin_x + (x as f32 + jitter[0]) * frame.film_step_x,
+            frame.film_origin_y + (y as f32 + jitter[1]) * frame.film_step_y,
+            frame.film_z,
+        ];
+        let disc = concentric_disc(lens_u);
+        let pupil = [
+            disc[0] * frame.pupil_radius,
+            disc[1] * frame.pupil_radius,
+            frame.pupil_z,
+        ];
+        let to_pupil = [pupil[0] - film[0], pupil[1] - film[1], pupil[2] - film[2]];
+        let length =
+            (to_pupil[0] * to_pupil[0] + to_pupil[1] * to_pupil[1] + to_pupil[2] * to_pupil[2])
+                .sqrt();
+        let cos_theta = to_pupil[2].abs() / length;
+        let cos2 = cos_theta * cos_theta;
+        let weight = frame.pupil_weight * cos2 * cos2;
+        let ray = paraxial_lens_ray(frame, film, pupil);
+        if let Some(colour) = trace_layers(frame, layers, &ray) {
+            for (acc, c) in sum.iter_mut().zip(colour) {
+                *acc += weight * c;
+            }
+        }
+    }
+    sum
+}
+
+/// Adds this dispatch's weighted samples into `radiance_sum` (one RGBA entry per output pixel,
+/// row-major), in parallel over rows.
+pub fn accumulate(frame: &FrameParams, layers: &LayerData, radiance_sum: &mut [[f32; 4]]) {
+    let width = frame.width as usize;
+    radiance_sum
+        .par_chunks_mut(width)
+        .enumerate()
+        .for_each(|(y, row)| {
+            for (x, out) in row.iter_mut().enumerate() {
+                let s = render_pixel(frame, layers, x as u32, y as u32);
+                out[0] += s[0];
+                out[1] += s[1];
+                out[2] += s[2];
+            }
+        });
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn lattice_points_are_one_per_shifted_stratum() {
+        // x is i/N shifted modulo 1: sorted, consecutive points sit exactly 1/N apart, so each
+        // of N equal strata (shifted with the points) holds one point.
+        let n = 64;
+        let mut xs: Vec<f32> = (0..n)
+            .map(|i| lattice_point(i, n, 0x1234_5678, 99)[0])
+            .collect();
+        xs.sort_by(f32::total_cmp);
+        assert!(xs.iter().all(|x| (0.0..1.0).contains(x)));
+        for pair in xs.windows(2) {
+            assert!(
+                (pair[1] - pair[0] - 1.0 / n as f32).abs() < 1e-6,
+                "{pair:?}"
+            );
+        }
+        assert!((xs[0] + 1.0 - xs[n as usize - 1] - 1.0 / n as f32).abs() < 1e-6);
+    }
+
+    #[test]
+    fn concentric_disc_preserves_area_fraction() {
+        // The map is area-preserving: the inner square of half side 0.5 (a quarter of the area)
+        // lands inside radius 0.5 (a quarter of the disc).
+        for &(u, expect) in &[([0.75, 0.5], 0.5), ([1.0, 1.0], 1.0), ([0.5, 0.5], 0.0)] {
+            let d = concentric_disc(u);
+            let r = (d[0] * d[0] + d[1] * d[1]).sqrt();
+            assert!((r - expect).abs() < 1e-6, "{u:?} -> {d:?}");
+        }
+    }
+}

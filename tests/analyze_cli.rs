@@ -1,0 +1,246 @@
+//! `lensbake analyze` end to end: the JSON shape issue 3 specifies, its numbers against the
+//! oracle, the text report, and exit status 2 with `error:` on bad input.
+
+mod common;
+
+use common::{assert_close, get, load_oracle, num};
+use serde_json::Value;
+use std::path::PathBuf;
+use std::process::{Command, Output};
+
+fn lensbake(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_lensbake"))
+        .args(args)
+        .output()
+        .expect("run lensbake")
+}
+
+/// Writes `text` to a file in this test binary's scratch directory.
+fn scratch_file(name: &str, text: &str) -> PathBuf {
+    let path = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(name);
+    std::fs::write(&path, text).expect("write scratch file");
+    path
+}
+
+/// The Cooke triplet as a RON lens file; each test writes its own copy (tests run in
+/// parallel), under the same file stem so the report names it alike.
+fn cooke_ron(test: &str) -> PathBuf {
+    let oracle = load_oracle("optiland_cooke_triplet");
+    let text = ron::ser::to_string_pretty(&oracle.prescription, Default::default()).unwrap();
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(test);
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("cooke_triplet.ron");
+    std::fs::write(&path, text).expect("write lens file");
+    path
+}
+
+fn stdout_json(output: &Output) -> Value {
+    assert!(
+        output.status.success(),
+        "lensbake failed: {}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    serde_json::from_slice(&output.stdout).expect("stdout is one JSON object")
+}
+
+#[test]
+fn json_has_the_issue_shape_and_the_oracle_numbers() {
+    let lens = cooke_ron("json_has_the_issue_shape_and_the_oracle_numbers");
+    let json = stdout_json(&lensbake(&[
+        "analyze",
+        lens.to_str().unwrap(),
+        "--epd-mm",
+        "10",
+        "--field-deg",
+        "20",
+        "--json",
+    ]));
+    assert_eq!(json["lens"], "cooke_triplet");
+    assert_eq!(
+        num(&json["wavelength_nm"]),
+        587.5618,
+        "design wavelength by default"
+    );
+    assert_eq!(num(&json["field_deg"]), 20.0);
+    assert!(json["object_distance_mm"].is_null());
+    let first = &json["first_order"];
+    for key in [
+        "efl",
+        "bfl",
+        "ffl",
+        "z_front_focal",
+        "z_rear_focal",
+        "z_front_principal",
+        "z_rear_principal",
+        "z_front_nodal",
+        "z_rear_nodal",
+        "z_paraxial_image",
+        "entrance_pupil.z",
+        "entrance_pupil.diameter",
+        "exit_pupil.z",
+        "exit_pupil.diameter",
+        "f_number",
+        "lagrange_invariant",
+    ] {
+        assert!(get(first, key).is_f64(), "first_order.{key} is a number");
+    }
+    assert_eq!(
+        first["stop_surface"].as_u64(),
+        Some(4),
+        "1-based stop surface"
+    );
+    let oracle = load_oracle("optiland_cooke_triplet");
+    let reference = get(
+        oracle.lens(),
+        "infinite_conjugate.first_order.optiland.lens_frame",
+    );
+    for (ours, theirs) in [
+        ("z_rear_principal", "z_rear_principal_point"),
+        ("z_front_focal", "z_front_focal_point"),
+        ("exit_pupil.z", "z_exit_pupil"),
+        ("exit_pupil.diameter", "exit_pupil_diameter"),
+    ] {
+        assert_close(
+            num(get(first, ours)),
+            num(get(reference, theirs)),
+            1e-12,
+            0.0,
+            ours,
+        );
+    }
+    let seidel = &json["seidel"];
+    let expected_sums = get(oracle.lens(), "quick_reference.seidel_sums_S1_S5");
+    for (j, key) in ["S1", "S2", "S3", "S4", "S5"].iter().enumerate() {
+        // quick_reference is rayoptics (object at 1e10 mm): ~1e-7 relative.
+        assert_close(
+            num(&seidel["sums"][key]),
+            num(&expected_sums[j]),
+            1e-6,
+            0.0,
+            key,
+        );
+    }
+    let surfaces = seidel["surfaces"].as_array().unwrap();
+    assert_eq!(surfaces.len(), 6);
+    for (k, surface) in surfaces.iter().enumerate() {
+        assert_eq!(surface["surface"].as_u64(), Some(k as u64 + 1));
+        for key in ["S1", "S2", "S3", "S4", "S5"] {
+            assert!(surface[key].is_f64(), "surface {} {key}", k + 1);
+        }
+    }
+}
+
+#[test]
+fn defaults_and_finite_object() {
+    let lens = cooke_ron("defaults_and_finite_object");
+    let lens = lens.to_str().unwrap();
+    let json = stdout_json(&lensbake(&["analyze", lens, "--json"]));
+    let first = &json["first_order"];
+    // Default EPD: the stop's clear aperture (r = 3.87 mm) imaged to object space; default
+    // field: the paraxial limit.
+    assert!(num(get(first, "entrance_pupil.diameter")) > 2.0 * 3.87);
+    assert_eq!(
+        num(&json["field_deg"]),
+        num(&first["max_field_deg_paraxial"])
+    );
+
+    let json = stdout_json(&lensbake(&[
+        "analyze",
+        lens,
+        "--object-distance-mm",
+        "1000",
+        "--epd-mm",
+        "10",
+        "--json",
+    ]));
+    assert_eq!(num(&json["object_distance_mm"]), 1000.0);
+    let oracle = load_oracle("optiland_cooke_triplet");
+    let conjugate = get(
+        oracle.lens(),
+        "finite_conjugate.first_order.rayoptics.raw_fod",
+    );
+    let first = &json["first_order"];
+    assert_close(
+        num(&first["magnification"]),
+        num(get(conjugate, "m")),
+        1e-12,
+        0.0,
+        "m",
+    );
+    assert_close(
+        num(&first["working_f_number"]),
+        num(get(conjugate, "fno")),
+        1e-12,
+        0.0,
+        "fno",
+    );
+}
+
+#[test]
+fn text_report_has_tables_with_units() {
+    let lens = cooke_ron("text_report_has_tables_with_units");
+    let output = lensbake(&[
+        "analyze",
+        lens.to_str().unwrap(),
+        "--epd-mm",
+        "10",
+        "--field-deg",
+        "20",
+    ]);
+    assert!(output.status.success());
+    let text = String::from_utf8(output.stdout).unwrap();
+    for needle in [
+        "EFL (image side, n'/power)                50.021597 mm",
+        "entrance pupil z                          11.505797 mm",
+        "   sum    0.0071438   -0.0012421   -0.0090385    0.0258274   -0.0017790",
+        "TSA -0.035734",
+        "W040 1.5198",
+    ] {
+        assert!(text.contains(needle), "report lacks `{needle}`:\n{text}");
+    }
+}
+
+#[test]
+fn bad_input_exits_2_with_an_error_line() {
+    let lens = cooke_ron("bad_input_exits_2_with_an_error_line");
+    let lens = lens.to_str().unwrap();
+    let broken = scratch_file(
+        "broken.ron",
+        "(provenance: (title: \"x\"), surfaces: [ (shape: Plane, ",
+    );
+    let missing = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("no_such_lens.ron");
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (
+            vec!["analyze", missing.to_str().unwrap()],
+            "no_such_lens.ron",
+        ),
+        (vec!["analyze", broken.to_str().unwrap()], "broken.ron"),
+        (
+            vec!["analyze", lens, "--epd-mm", "-3"],
+            "entrance-pupil diameter",
+        ),
+        (
+            vec!["analyze", lens, "--field-deg", "90"],
+            "below 90 degrees",
+        ),
+        (vec!["analyze", lens, "--wavelength-nm", "0"], "wavelength"),
+        (
+            vec!["analyze", lens, "--object-distance-mm", "0"],
+            "object distance",
+        ),
+    ];
+    for (args, mention) in cases {
+        let output = lensbake(&args);
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert_eq!(output.status.code(), Some(2), "{args:?}: {stderr}");
+        assert!(stderr.starts_with("error: "), "{args:?}: {stderr}");
+        assert!(
+            stderr.contains(mention),
+            "{args:?} should mention `{mention}`: {stderr}"
+        );
+        assert!(
+            output.stdout.is_empty(),
+            "{args:?} printed a partial report"
+        );
+    }
+}

@@ -1,0 +1,191 @@
+//! The `lensbake lens` commands as a user runs them: exit codes, stdout, stderr.
+
+mod common;
+
+use common::lens_file;
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn lensbake(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_lensbake"))
+        .args(args)
+        .output()
+        .expect("run lensbake")
+}
+
+fn stdout(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn temp_dir(name: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("lensbake-cli-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+#[test]
+fn check_prints_a_summary() {
+    let path = lens_file("dgauss.50mm.dat");
+    let o = lensbake(&["lens", "check", path.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let out = stdout(&o);
+    assert!(out.starts_with("D-GAUSS F/2 22deg HFOV\n"), "{out}");
+    assert!(
+        out.contains("    6 STO          flat      4.5000 plane   air"),
+        "{out}"
+    );
+    assert!(
+        out.contains("stop:        surface 6 (circle), semi-aperture 8.5500 mm"),
+        "{out}"
+    );
+    // 3.76 + 0.12 + 4.025 + 3.275 + 5.705 + 4.5 + 1.18 + 6.065 + 0.19 + 3.22 = 32.04
+    assert!(out.contains("total track: 32.0400 mm"), "{out}");
+    assert_eq!(
+        out.lines()
+            .filter(|l| l.trim_start().starts_with(char::is_numeric))
+            .count(),
+        11,
+        "{out}"
+    );
+    assert!(stderr(&o).is_empty());
+}
+
+#[test]
+fn a_bad_file_exits_2_naming_file_and_line() {
+    let dir = temp_dir("bad");
+    let path = dir.join("bad.dat");
+    std::fs::write(&path, "# a lens\n50 5 1.5 20\n0 2 zero 10\n").unwrap();
+    let o = lensbake(&["lens", "check", path.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = stderr(&o);
+    assert!(
+        err.starts_with(&format!(
+            "error: {}:3, surface 2, field `index`: cannot parse `zero`",
+            path.display()
+        )),
+        "{err}"
+    );
+    assert!(stdout(&o).is_empty());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn the_pbrt_hint_follows_the_error() {
+    let path = lens_file("dgauss.dat");
+    let o = lensbake(&["lens", "check", path.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = stderr(&o);
+    assert!(
+        err.starts_with(&format!("error: {}:5, surface 1", path.display())),
+        "{err}"
+    );
+    assert!(
+        err.contains("\nnote: ") && err.contains("--pbrt-from-previous"),
+        "{err}"
+    );
+    let o = lensbake(&[
+        "lens",
+        "check",
+        path.to_str().unwrap(),
+        "--pbrt-from-previous",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(stdout(&o).contains("total track: 64.0800 mm"));
+}
+
+#[test]
+fn unknown_lens_names_list_the_bundled_ones() {
+    let o = lensbake(&["lens", "check", "no-such-lens"]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = stderr(&o);
+    assert!(
+        err.starts_with(
+            "error: `no-such-lens` is neither a lens file nor a bundled lens; bundled lenses: "
+        ),
+        "{err}"
+    );
+    for lens in lensbake::lenses::BUNDLED {
+        assert!(err.contains(lens.name), "{err}");
+    }
+}
+
+#[test]
+fn format_flag_overrides_the_extension() {
+    let dir = temp_dir("format");
+    let path = dir.join("kolb.lens.txt");
+    std::fs::copy(lens_file("kolb_dgauss_1995_nobj1.dat"), &path).unwrap();
+    // As a plain table, radius 0 is a plane and index 0 is not a stop's: refused.
+    let o = lensbake(&["lens", "check", path.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("refractive index 0 is below 1"),
+        "{}",
+        stderr(&o)
+    );
+    let o = lensbake(&["lens", "check", path.to_str().unwrap(), "--format", "pbrt"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let o = lensbake(&["lens", "check", path.to_str().unwrap(), "--format", "pdf"]);
+    assert_eq!(o.status.code(), Some(2), "clap refuses an unknown format");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn convert_writes_ron_that_checks_the_same() {
+    let dir = temp_dir("convert");
+    let input = lens_file("kolb_dgauss_1995.dat");
+    let output = dir.join("kolb.ron");
+    let o = lensbake(&[
+        "lens",
+        "convert",
+        input.to_str().unwrap(),
+        output.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let before = stdout(&lensbake(&["lens", "check", input.to_str().unwrap()]));
+    let after = stdout(&lensbake(&["lens", "check", output.to_str().unwrap()]));
+    let table = |s: &str| {
+        s.lines()
+            .filter(|l| !l.contains("read from:"))
+            .map(String::from)
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(table(&before), table(&after));
+    // Only RON is written, and a refused conversion leaves no file.
+    let wrong = dir.join("kolb.dat");
+    let o = lensbake(&[
+        "lens",
+        "convert",
+        input.to_str().unwrap(),
+        wrong.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).starts_with("error: "), "{}", stderr(&o));
+    assert!(!Path::new(&wrong).exists());
+    // An invalid lens is not converted.
+    let invalid = dir.join("invalid.ron");
+    let o = lensbake(&[
+        "lens",
+        "convert",
+        lens_file("dgauss.dat").to_str().unwrap(),
+        invalid.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(!invalid.exists());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn list_names_every_bundled_lens() {
+    let o = lensbake(&["lens", "list"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let out = stdout(&o);
+    for lens in lensbake::lenses::BUNDLED {
+        assert!(out.lines().any(|l| l.starts_with(lens.name)), "{out}");
+        let o = lensbake(&["lens", "check", lens.name]);
+        assert_eq!(o.status.code(), Some(0), "{}: {}", lens.name, stderr(&o));
+    }
+}

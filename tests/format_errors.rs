@@ -1,0 +1,403 @@
+//! Each class of malformed input gets its own Problem, located by file, line, surface and field.
+
+mod common;
+
+use common::lens_file;
+use lensbake::prescription::formats::{
+    Format, LoadOptions, PbrtThickness, read_bytes, read_file, read_str,
+};
+use lensbake::prescription::{Location, PrescriptionError, Problem};
+use lensbake::system::LensSystem;
+use std::path::{Path, PathBuf};
+
+const FILE: &str = "bad.lens";
+
+/// Reads `text` as `format` under the file name `bad.lens`, then validates and resolves it.
+fn load(text: &str, format: Format) -> Result<LensSystem, PrescriptionError> {
+    load_with(text, format, &LoadOptions::default())
+}
+
+fn load_with(
+    text: &str,
+    format: Format,
+    options: &LoadOptions,
+) -> Result<LensSystem, PrescriptionError> {
+    let loaded = read_str(text, Some(Path::new(FILE)), format, options)?;
+    LensSystem::new(loaded.prescription, &loaded.map)
+}
+
+fn error(text: &str, format: Format) -> PrescriptionError {
+    match load(text, format) {
+        Ok(_) => panic!("accepted:\n{text}"),
+        Err(e) => e,
+    }
+}
+
+/// Asserts where an error points: line, surface and field (None = not given).
+fn assert_at(
+    e: &PrescriptionError,
+    line: Option<usize>,
+    surface: Option<usize>,
+    field: Option<&str>,
+) {
+    assert_eq!(e.location.file.as_deref(), Some(Path::new(FILE)), "{e}");
+    assert_eq!(
+        (
+            e.location.line,
+            e.location.surface,
+            e.location.field.as_deref()
+        ),
+        (line, surface, field),
+        "{e}"
+    );
+}
+
+const PBRT_OK: &str = "# radius thickness index diameter\n50 5 1.5 20\n0 2 0 10\n-50 40 1 20\n";
+
+#[test]
+fn the_valid_base_file_loads() {
+    load(PBRT_OK, Format::Pbrt).unwrap();
+}
+
+#[test]
+fn empty_file() {
+    for (text, format) in [
+        ("", Format::Pbrt),
+        ("# only a comment\n\n", Format::Pbrt),
+        ("  \n", Format::Table),
+        ("", Format::Ron),
+        ("RDM N\nEPD 10\n", Format::CodeV),
+        ("MODE SEQ\nSURF 0\nSURF 1\n", Format::Zemax),
+    ] {
+        let e = error(text, format);
+        assert_eq!(e.problem, Problem::Empty, "{format}: {e}");
+        assert_at(&e, None, None, None);
+    }
+}
+
+#[test]
+fn wrong_column_count() {
+    let e = error("50 5 1.5 20\n0 2 0\n", Format::Pbrt);
+    assert!(
+        matches!(e.problem, Problem::WrongColumnCount { found: 3, .. }),
+        "{e}"
+    );
+    assert_at(&e, Some(2), Some(2), None);
+    let e = error("EPD 10\nS 0.02\n", Format::CodeV);
+    assert!(
+        matches!(e.problem, Problem::WrongColumnCount { found: 1, .. }),
+        "{e}"
+    );
+    assert_at(&e, Some(2), Some(1), Some("S"));
+}
+
+#[test]
+fn not_a_number() {
+    let e = error("50 5 1.5 20\n0 2,5 0 10\n", Format::Pbrt);
+    assert_eq!(e.problem, Problem::NotANumber { text: "2,5".into() });
+    assert_at(&e, Some(2), Some(2), Some("thickness"));
+    let e = error("MODE SEQ\nSURF 0\nSURF 1\n  CURV abc\n", Format::Zemax);
+    assert_eq!(e.problem, Problem::NotANumber { text: "abc".into() });
+    assert_at(&e, Some(4), Some(1), Some("CURV"));
+}
+
+#[test]
+fn non_finite_number() {
+    let e = error("50 5 1.5 20\n0 2 0 10\n-50 inf 1 20\n", Format::Pbrt);
+    assert!(
+        matches!(e.problem, Problem::NonFinite { value } if value.is_infinite()),
+        "{e}"
+    );
+    assert_at(&e, Some(3), Some(3), Some("thickness"));
+    let e = error("NaN 5 1.5 20\n", Format::Table);
+    assert!(
+        matches!(e.problem, Problem::NonFinite { value } if value.is_nan()),
+        "{e}"
+    );
+    assert_at(&e, Some(1), Some(1), Some("radius"));
+    // Non-finite values that RON can spell are caught by validation, at the surface's line.
+    let ron = lensbake::prescription::formats::write_ron(
+        &load(PBRT_OK, Format::Pbrt).unwrap().prescription,
+    )
+    .replacen("thickness: 2.0", "thickness: inf", 1);
+    let e = error(&ron, Format::Ron);
+    assert!(matches!(e.problem, Problem::NonFinite { .. }), "{e}");
+    assert_eq!(
+        (e.location.surface, e.location.field.as_deref()),
+        (Some(2), Some("thickness"))
+    );
+    assert!(e.location.line.is_some());
+}
+
+#[test]
+fn index_below_one() {
+    let e = error("50 5 0.9 20\n0 2 0 10\n-50 40 1 20\n", Format::Pbrt);
+    assert_eq!(e.problem, Problem::IndexBelowOne { index: 0.9 });
+    assert_at(&e, Some(1), Some(1), Some("medium"));
+}
+
+#[test]
+fn non_positive_aperture() {
+    let e = error("50 5 1.5 20\n0 2 0 0\n-50 40 1 20\n", Format::Pbrt);
+    assert_eq!(e.problem, Problem::NonPositiveAperture { value: 0.0 });
+    assert_at(&e, Some(2), Some(2), Some("semi_aperture"));
+}
+
+#[test]
+fn semi_aperture_larger_than_radius() {
+    let e = error("50 5 1.5 20\n0 2 0 10\n-8 40 1 20\n", Format::Pbrt);
+    assert_eq!(
+        e.problem,
+        Problem::ApertureExceedsRadius {
+            semi_aperture: 10.0,
+            radius: 8.0
+        }
+    );
+    assert_at(&e, Some(3), Some(3), Some("semi_aperture"));
+}
+
+#[test]
+fn surfaces_crossing() {
+    // A 0.5 mm thick biconvex lens of 20 mm diameter: its faces cross at the rim.
+    let e = error("50 0.5 1.5 20\n-50 2 1 20\n0 40 0 10\n", Format::Pbrt);
+    assert!(
+        matches!(e.problem, Problem::SurfacesCross { next: 2, .. }),
+        "{e}"
+    );
+    assert_at(&e, Some(1), Some(1), Some("thickness"));
+}
+
+#[test]
+fn no_stop() {
+    let e = error("50 5 1.5 20\n-50 40 1 20\n", Format::Pbrt);
+    assert_eq!(e.problem, Problem::NoStop);
+    assert_at(&e, None, None, None);
+}
+
+#[test]
+fn several_stops() {
+    let e = error(
+        "50 5 1.5 20\nN/A 2 1 10\n-50 4 1 20\n0 40 0 10\n",
+        Format::Pbrt,
+    );
+    assert_eq!(
+        e.problem,
+        Problem::MultipleStops {
+            surfaces: vec![2, 4]
+        }
+    );
+    assert_at(&e, Some(4), Some(4), Some("stop"));
+}
+
+#[test]
+fn unknown_glass() {
+    let text = "RDM N\nS 0.02 5 NOSUCHGLASS\nCIR 10\nSTO\nS -0.02 40\nCIR 10\n";
+    let e = error(text, Format::CodeV);
+    assert!(
+        matches!(&e.problem, Problem::UnknownGlass { name, .. } if name == "NOSUCHGLASS"),
+        "{e}"
+    );
+    assert_at(&e, Some(2), Some(1), Some("medium"));
+    // Without CIR the reader needs the index to derive apertures, and says so at the same line.
+    let e = error(
+        "RDM N\nS 0.02 5 NOSUCHGLASS\nSTO\nS -0.02 40\nEPD 10\n",
+        Format::CodeV,
+    );
+    assert!(matches!(e.problem, Problem::UnknownGlass { .. }), "{e}");
+    assert_at(&e, Some(2), Some(1), Some("glass"));
+    // Close names are suggested.
+    let e = error(
+        "RDM N\nS 0.02 5 NBK8\nCIR 10\nSTO\nS -0.02 40\nCIR 10\n",
+        Format::CodeV,
+    );
+    assert!(
+        matches!(&e.problem, Problem::UnknownGlass { suggestions, .. } if suggestions.contains(&"N-BK7".to_string())),
+        "{e}"
+    );
+}
+
+#[test]
+fn syntax_errors() {
+    let e = error(
+        "(\n  provenance: (title: \"x\"),\n  surfaces: [\n    ( shape: Plane,\n",
+        Format::Ron,
+    );
+    assert!(matches!(e.problem, Problem::Syntax(_)), "{e}");
+    assert_eq!(e.location.line, Some(4), "{e}");
+    let e = error("MODE SEQ\nSURF 0\nSURF 2\n", Format::Zemax);
+    assert!(matches!(e.problem, Problem::Syntax(_)), "{e}");
+    assert_at(&e, Some(3), None, Some("SURF"));
+    let e = error("MODE SEQ\nWAVM 99999999999 0.55 1\n", Format::Zemax);
+    assert!(matches!(e.problem, Problem::Syntax(_)), "{e}");
+    assert_at(&e, Some(2), None, Some("WAVM"));
+    let e = error("STO\nS 1 1\n", Format::CodeV);
+    assert!(matches!(e.problem, Problem::Syntax(_)), "{e}");
+    assert_at(&e, Some(1), None, Some("STO"));
+}
+
+#[test]
+fn unsupported_input_is_refused_by_name() {
+    let cases = [
+        ("EPD 10\nS 0.02 5 N-BK7\nXDE 1.0\n", Format::CodeV, 3, "XDE"),
+        ("EPD 10\nS 0.02 5 REFL\n", Format::CodeV, 2, "mirrors"),
+        (
+            "EPD 10\nS 0.02 5\nCIR EDG 10\n",
+            Format::CodeV,
+            3,
+            "CIR EDG",
+        ),
+        ("SO 0.1 100\n", Format::CodeV, 1, "curved object"),
+        (
+            "MODE SEQ\nSURF 0\nSURF 1\n  TYPE COORDBRK\n",
+            Format::Zemax,
+            4,
+            "COORDBRK",
+        ),
+        (
+            "MODE SEQ\nSURF 0\nSURF 1\n  GLAS MIRROR\n",
+            Format::Zemax,
+            4,
+            "mirrors",
+        ),
+        ("MODE NSC\n", Format::Zemax, 1, "NSC"),
+        (
+            "MODE SEQ\nMNUM 3 1\n",
+            Format::Zemax,
+            2,
+            "multi-configuration",
+        ),
+        (
+            "MODE SEQ\nSURF 0\nSURF 1\n  CLAP 1 5\n",
+            Format::Zemax,
+            4,
+            "annular",
+        ),
+        ("MODE SEQ\nFOOB 1\n", Format::Zemax, 2, "FOOB"),
+    ];
+    for (text, format, line, what) in cases {
+        let e = read_str(text, Some(Path::new(FILE)), format, &LoadOptions::default()).unwrap_err();
+        assert!(
+            matches!(&e.problem, Problem::Unsupported(message) if message.contains(what)),
+            "{e}"
+        );
+        assert_eq!(e.location.line, Some(line), "{e}");
+    }
+}
+
+#[test]
+fn first_axial_position_not_zero() {
+    let options = LoadOptions {
+        pbrt_thickness: PbrtThickness::FromPrevious,
+        ..LoadOptions::default()
+    };
+    let e = read_file(&lens_file("dgauss.50mm.dat"), &options).unwrap_err();
+    assert_eq!(
+        e.problem,
+        Problem::FirstAxialPositionNotZero { value: 3.76 }
+    );
+    assert_eq!(
+        (
+            e.location.line,
+            e.location.surface,
+            e.location.field.as_deref()
+        ),
+        (Some(6), Some(1), Some("thickness"))
+    );
+    // The option belongs to pbrt files only; elsewhere it is refused, not ignored.
+    let e = load_with("50 5 1.5 20\n", Format::Table, &options).unwrap_err();
+    assert!(matches!(e.problem, Problem::Unsupported(_)), "{e}");
+}
+
+#[test]
+fn unknown_format_and_io() {
+    let e = read_file(Path::new("lens.xyz"), &LoadOptions::default()).unwrap_err();
+    assert_eq!(
+        e.problem,
+        Problem::UnknownFormat {
+            extension: Some("xyz".into())
+        }
+    );
+    assert_eq!(e.location.file, Some(PathBuf::from("lens.xyz")));
+    let missing = lens_file("no-such-file.dat");
+    let e = read_file(&missing, &LoadOptions::default()).unwrap_err();
+    assert!(matches!(e.problem, Problem::Io(_)), "{e}");
+    assert_eq!(e.location, Location::file(&missing));
+}
+
+#[test]
+fn not_text() {
+    let e = read_bytes(
+        b"50 5 1.5 20\n0 2 \xff\xfe 10\n",
+        Some(Path::new(FILE)),
+        Format::Pbrt,
+        &LoadOptions::default(),
+    )
+    .unwrap_err();
+    assert_eq!(e.problem, Problem::NotText { byte_offset: 16 });
+    assert_at(&e, Some(2), None, None);
+}
+
+#[test]
+fn apertures_that_cannot_be_derived() {
+    let e = error(
+        "RDM N\nS 0.02 5 517000.6420\nSTO\nS -0.02 40\n",
+        Format::CodeV,
+    );
+    assert!(
+        matches!(e.problem, Problem::CannotDeriveApertures { .. }),
+        "{e}"
+    );
+    assert_at(&e, Some(2), Some(1), Some("semi_aperture"));
+    let e = error(
+        "RDM N\nEPD 10\nYOB 0 10\nS 0.02 5\nSTO\nS -0.02 40\n",
+        Format::CodeV,
+    );
+    assert!(
+        matches!(&e.problem, Problem::CannotDeriveApertures { reason } if reason.contains("YOB")),
+        "{e}"
+    );
+}
+
+#[test]
+fn model_errors_that_only_ron_can_express() {
+    let base = lensbake::prescription::formats::write_ron(
+        &load(PBRT_OK, Format::Pbrt).unwrap().prescription,
+    );
+    let asphere = base.replacen(
+        "shape: Sphere(\n                curvature: 0.02,\n            )",
+        "shape: EvenAsphere(curvature: 0.02, conic: 0.0, coefficients: [0,0,0,0,0,0,0,0,0,0,1e-30])",
+        1,
+    );
+    assert_ne!(asphere, base, "the RON layout changed; update this test");
+    let e = error(&asphere, Format::Ron);
+    assert_eq!(e.problem, Problem::TooManyAsphereTerms { found: 11 });
+    let first_surface_line = asphere
+        .lines()
+        .position(|l| l.trim() == "surfaces: [")
+        .unwrap()
+        + 2;
+    assert_eq!(
+        (e.location.surface, e.location.line),
+        (Some(1), Some(first_surface_line)),
+        "{e}"
+    );
+    let conic = base.replacen(
+        "shape: Sphere(\n                curvature: 0.02,\n            )",
+        "shape: Conic(curvature: 0.02, conic: 50.0)",
+        1,
+    );
+    let e = error(&conic, Format::Ron);
+    assert!(
+        matches!(e.problem, Problem::ApertureExceedsConic { .. }),
+        "{e}"
+    );
+    let blades = base.replacen(
+        "stop: Some(Circle)",
+        "stop: Some(Blades(count: 2, rotation_deg: 0.0, blade_curvature: 0.0))",
+        1,
+    );
+    assert_ne!(blades, base, "the RON layout changed; update this test");
+    let e = error(&blades, Format::Ron);
+    assert_eq!(e.problem, Problem::TooFewBlades { count: 2 });
+    assert_eq!(e.location.surface, Some(2));
+}
