@@ -16,7 +16,9 @@ fn trace(c: &mut Criterion) {
     let system =
         LensSystem::from_prescription(load_oracle("pbrt_dgauss_50mm").prescription).unwrap();
     let tracer = Tracer::new(&system.at(system.design_wavelength_nm()));
-    let rays = FieldBundle::over_traceable_field(&tracer).sample(RAYS, 1);
+    let rays = FieldBundle::over_traceable_field(&tracer)
+        .unwrap()
+        .sample(RAYS, 1);
     let ray_surfaces = tracer
         .trace_batch(&rays, Travel::Forward, Apertures::Checked)
         .ray_surfaces;

@@ -167,12 +167,12 @@ proptest! {
         // A forward ray through the entrance pupil; reversing the ray that leaves the lens must
         // lead back along the ray that entered (Helmholtz reciprocity of the geometric path).
         let tracer = &tracers()[lens];
-        let pupil = tracer.paraxial_entrance_pupil();
+        let pupil = tracer.paraxial_entrance_pupil().unwrap();
         let start_z = tracer.front_start_z();
         let d = [0.0, field.sin(), field.cos()];
         let back = (pupil.z - start_z) / d[2];
         let start = Ray::new(
-            [0.7 * pupil.radius * px, 0.7 * pupil.radius * py - back * d[1], start_z],
+            [0.35 * pupil.diameter * px, 0.35 * pupil.diameter * py - back * d[1], start_z],
             d,
         ).unwrap();
         let forward = tracer.trace(start, Travel::Forward);
@@ -248,7 +248,7 @@ fn blades_vignette_between_circle_and_polygon() {
 #[test]
 fn batch_equals_single_rays() {
     let tracer = &tracers()[3];
-    let bundle = lensbake::trace::FieldBundle::over_traceable_field(tracer);
+    let bundle = lensbake::trace::FieldBundle::over_traceable_field(tracer).unwrap();
     let rays = bundle.sample(5000, 7);
     let batch = tracer.trace_batch(&rays, Travel::Forward, Apertures::Checked);
     assert_eq!(batch.outcomes.len(), rays.len());

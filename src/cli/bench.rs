@@ -1,6 +1,6 @@
 //! `lensbake bench`: throughput measurements.
 
-use super::trace::load_lens;
+use super::lens::LensArgs;
 use anyhow::Context;
 use clap::Subcommand;
 use lensbake::trace::{Apertures, FieldBundle, Tracer, Travel};
@@ -16,8 +16,8 @@ pub enum BenchCommand {
     /// Trace N forward rays (field uniform over the traceable field in the y-z plane, pupil
     /// point uniform over the entrance pupil, apertures on) and time the trace.
     Trace {
-        /// Lens file (RON prescription).
-        lens: String,
+        #[command(flatten)]
+        lens: LensArgs,
         /// Number of rays.
         #[arg(long)]
         rays: usize,
@@ -41,10 +41,15 @@ pub fn run(command: BenchCommand) -> anyhow::Result<()> {
     }
 }
 
-fn bench_trace(lens: &str, n: usize, threads: Option<usize>, json: bool) -> anyhow::Result<()> {
-    let system = load_lens(lens)?;
+fn bench_trace(
+    lens: &LensArgs,
+    n: usize,
+    threads: Option<usize>,
+    json: bool,
+) -> anyhow::Result<()> {
+    let system = lens.load()?.system;
     let tracer = Tracer::new(&system.at(system.design_wavelength_nm()));
-    let bundle = FieldBundle::over_traceable_field(&tracer);
+    let bundle = FieldBundle::over_traceable_field(&tracer)?;
     let rays = bundle.sample(n, BUNDLE_SEED);
     let mut pool = rayon::ThreadPoolBuilder::new();
     if let Some(threads) = threads {
@@ -66,11 +71,11 @@ fn bench_trace(lens: &str, n: usize, threads: Option<usize>, json: bool) -> anyh
         );
     } else {
         println!(
-            "{n} rays (field 0..{:.4} deg, entrance pupil radius {:.4} mm at z = {:.4} mm), \
+            "{n} rays (field 0..{:.4} deg, entrance pupil diameter {:.4} mm at z = {:.4} mm), \
              {ray_surfaces} ray-surface intersections in {seconds:.4} s on {} threads: \
              {:.1} M ray-surfaces/s",
             bundle.max_field_deg,
-            bundle.pupil.radius,
+            bundle.pupil.diameter,
             bundle.pupil.z,
             pool.current_num_threads(),
             ray_surfaces as f64 / seconds / 1e6,

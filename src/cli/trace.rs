@@ -1,18 +1,17 @@
 //! `lensbake trace`: exact rays through a lens, JSON in and out.
 
+use super::lens::LensArgs;
 use anyhow::{Context, bail};
 use clap::Args;
-use lensbake::prescription::{Prescription, SourceMap};
 use lensbake::system::LensSystem;
 use lensbake::trace::{Ray, Tracer, Travel};
 use serde::{Deserialize, Serialize};
 use std::io::Read;
-use std::path::Path;
 
 #[derive(Args, Debug)]
 pub struct TraceArgs {
-    /// Lens file (RON prescription).
-    pub lens: String,
+    #[command(flatten)]
+    pub lens: LensArgs,
     /// JSON array of {"origin": [x, y, z], "direction": [dx, dy, dz]} in the lens frame (mm);
     /// `-` reads standard input.
     #[arg(long)]
@@ -21,7 +20,7 @@ pub struct TraceArgs {
     #[arg(long)]
     pub backward: bool,
     /// Wavelength in nm (default: the lens's design wavelength).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub wavelength_nm: Option<f64>,
     /// Print JSON (one object per input ray, in order).
     #[arg(long)]
@@ -44,7 +43,7 @@ struct RayOutput {
 }
 
 pub fn run(args: TraceArgs) -> anyhow::Result<()> {
-    let system = load_lens(&args.lens)?;
+    let system = args.lens.load()?.system;
     let wavelength_nm = wavelength(args.wavelength_nm, &system)?;
     let tracer = Tracer::new(&system.at(wavelength_nm));
     let rays = read_rays(&args.rays)?;
@@ -110,19 +109,4 @@ fn read_rays(source: &str) -> anyhow::Result<Vec<Ray>> {
         .enumerate()
         .map(|(i, r)| Ray::new(r.origin, r.direction).with_context(|| format!("{name}: ray {i}")))
         .collect()
-}
-
-/// Reads a lens from a RON prescription file.
-///
-/// STAND-IN until the shared loader (src/lenses.rs: file path or bundled lens name, every
-/// format) reaches this branch; the lead replaces this function with it at merge.
-pub(super) fn load_lens(path: &str) -> anyhow::Result<LensSystem> {
-    let text =
-        std::fs::read_to_string(path).with_context(|| format!("cannot read lens file {path}"))?;
-    let prescription: Prescription =
-        ron::from_str(&text).with_context(|| format!("{path}: not a RON lens prescription"))?;
-    Ok(LensSystem::new(
-        prescription,
-        &SourceMap::for_file(Path::new(path)),
-    )?)
 }

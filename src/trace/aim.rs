@@ -25,13 +25,8 @@ pub enum AimError {
     NoStartingRay(Outcome),
     #[error("aiming did not converge: {residual:e} mm from the target on the stop")]
     NoConvergence { residual: f64 },
-}
-
-/// Entrance pupil from a paraxial trace: axial position (lens frame) and radius, mm.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct EntrancePupil {
-    pub z: f64,
-    pub radius: f64,
+    #[error("the entrance pupil lies at infinity: there is no collimated beam to fill it")]
+    EntrancePupilAtInfinity,
 }
 
 /// Residual below which the stop hit is taken as exact, relative to the stop's size.
@@ -70,31 +65,6 @@ impl RaySource {
 }
 
 impl Tracer {
-    /// Paraxial entrance pupil: the image of the stop through the surfaces in front of it.
-    /// Two paraxial rays from surface 1 (one parallel to the axis at unit height, one through
-    /// the vertex with unit slope) give the stop height as a linear function of the object-space
-    /// ray; the pupil is where the ray through the stop centre crosses the axis.
-    pub fn paraxial_entrance_pupil(&self) -> EntrancePupil {
-        let n0 = self.surfaces[0].index_before;
-        let height_at_stop = |y1: f64, slope: f64| {
-            let (mut y, mut nu) = (y1, n0 * slope);
-            for i in 0..self.stop {
-                let s = &self.surfaces[i];
-                nu -= y * (s.index_after - s.index_before) * s.paraxial_curvature(self);
-                let gap = self.surfaces[i + 1].vertex_z - s.vertex_z;
-                y += gap * nu / s.index_after;
-            }
-            y
-        };
-        let axial = height_at_stop(1.0, 0.0);
-        let through_vertex = height_at_stop(0.0, 1.0);
-        let stop_radius = self.surfaces[self.stop].semi_aperture_sq.sqrt();
-        EntrancePupil {
-            z: self.surfaces[0].vertex_z + through_vertex / axial,
-            radius: stop_radius / axial.abs(),
-        }
-    }
-
     /// A plane in front of surface 1 that every forward ray may start on: one semi-aperture
     /// plus 1 mm before its vertex (a sphere's sag never exceeds its semi-aperture).
     pub fn front_start_z(&self) -> f64 {
@@ -106,15 +76,13 @@ impl Tracer {
 /// The real ray from `source` that crosses the stop surface at `(x, y)` (lens frame, mm),
 /// found with apertures ignored. Returns the ray as it leaves the source.
 pub fn aim_at_stop(tracer: &Tracer, source: &RaySource, target: [f64; 2]) -> Result<Ray, AimError> {
-    let pupil = tracer.paraxial_entrance_pupil();
     let stop_radius = tracer.surfaces[tracer.stop].semi_aperture_sq.sqrt();
-    // Scale the stop target into the paraxial entrance pupil for the first guess.
-    let magnification = pupil.radius / stop_radius;
-    let guess = source.unknowns_through([
-        target[0] * magnification,
-        target[1] * magnification,
-        pupil.z,
-    ]);
+    // First guess: the target imaged into the paraxial entrance pupil; where that pupil is at
+    // infinity, the target itself on the stop's vertex plane.
+    let guess = source.unknowns_through(match tracer.stop_image {
+        Some(image) => [target[0] / image.scale, target[1] / image.scale, image.z],
+        None => [target[0], target[1], tracer.surfaces[tracer.stop].vertex_z],
+    });
     let scale = 1.0 + stop_radius;
     let residual_at = |v: [f64; 2]| -> Result<[f64; 2], Outcome> {
         let ray = source.ray(v).ok_or(Outcome::Missed { surface: 1 })?;

@@ -20,10 +20,11 @@ mod intersect;
 mod lanes;
 mod refract;
 
-pub use aim::{AimError, EntrancePupil, RaySource, aim_at_stop, traceable_field_deg};
+pub use aim::{AimError, RaySource, aim_at_stop, traceable_field_deg};
 pub use batch::{BatchTrace, RayBatch};
 pub use bundle::FieldBundle;
 
+use crate::paraxial::Pupil;
 use crate::prescription::Shape;
 use crate::system::{LensSystem, SystemAt};
 use aperture::Diaphragm;
@@ -223,7 +224,17 @@ pub struct Tracer {
     diaphragm: Option<Diaphragm>,
     /// 0-based stop index.
     stop: usize,
+    /// The stop's paraxial image in object space; None when it lies at infinity.
+    stop_image: Option<StopImage>,
     wavelength_nm: f64,
+}
+
+/// The paraxial entrance pupil as [`crate::paraxial::entrance_pupil`] gives it: its z, and the
+/// scale that maps stop heights to pupil heights (divide by it).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct StopImage {
+    z: f64,
+    scale: f64,
 }
 
 impl Tracer {
@@ -283,11 +294,15 @@ impl Tracer {
                 }
             })
             .collect();
+        let stop_image = crate::paraxial::entrance_pupil(system, system.stop)
+            .ok()
+            .map(|(z, scale)| StopImage { z, scale });
         Tracer {
             surfaces,
             asphere_terms,
             diaphragm,
             stop: system.stop,
+            stop_image,
             wavelength_nm: system.wavelength_nm,
         }
     }
@@ -304,6 +319,15 @@ impl Tracer {
     /// 1-based number of the stop surface.
     pub fn stop_surface(&self) -> usize {
         self.stop + 1
+    }
+
+    /// The paraxial entrance pupil that the stop's clear aperture fills; None when it lies at
+    /// infinity.
+    pub fn paraxial_entrance_pupil(&self) -> Option<Pupil> {
+        self.stop_image.map(|image| Pupil {
+            z: image.z,
+            diameter: 2.0 * self.surfaces[self.stop].semi_aperture_sq.sqrt() / image.scale.abs(),
+        })
     }
 
     /// Traces through every surface with apertures checked.
@@ -489,19 +513,6 @@ impl Tracer {
                 direction,
             }),
             None => Err((Event::Tir, at)),
-        }
-    }
-}
-
-impl FlatSurface {
-    /// Curvature of the paraxial (r^2) part of the profile: an asphere's r^2 term adds 2 a_1.
-    fn paraxial_curvature(&self, tracer: &Tracer) -> f64 {
-        match self.profile {
-            Profile::Plane => 0.0,
-            Profile::Sphere { curvature } | Profile::Conic { curvature, .. } => curvature,
-            Profile::EvenAsphere {
-                curvature, terms, ..
-            } => curvature + 2.0 * tracer.asphere_terms[terms].coefficients[0],
         }
     }
 }
