@@ -4,7 +4,9 @@ mod common;
 
 use common::{ORACLE_LENSES, OracleLens, load_oracle, num, vec3};
 use lensbake::system::LensSystem;
-use lensbake::trace::{RaySource, Tracer, aim_at_stop, traceable_field_deg};
+use lensbake::trace::{
+    Apertures, Ray, RaySource, Tracer, Travel, aim_at_stop, traceable_field_deg,
+};
 use serde_json::Value;
 
 fn tracer(oracle: &OracleLens) -> Tracer {
@@ -104,4 +106,34 @@ fn traceable_field_within_oracle_bracket() {
             "{name}: {field} not in [{ok}, {fail}]"
         );
     }
+}
+
+#[test]
+fn aiming_finds_the_chief_ray_where_the_paraxial_guess_fails() {
+    // A fisheye: at 70 degrees the paraxial entrance pupil is far from the real one, and the
+    // ray through its centre misses the lens; the search must still find the chief ray.
+    let lens = lensbake::lenses::load("fisheye-10mm", &Default::default()).unwrap();
+    let tracer = Tracer::new(&lens.system.at(lens.system.design_wavelength_nm()));
+    let angle = 70f64.to_radians();
+    let direction = [0.0, angle.sin(), angle.cos()];
+    let start_z = tracer.front_start_z();
+    let pupil = tracer.paraxial_entrance_pupil().unwrap();
+    let back = (pupil.z - start_z) / direction[2];
+    let paraxial_guess = Ray::new([0.0, -back * direction[1], start_z], direction).unwrap();
+    let stop = tracer.stop_surface();
+    let guess_at_stop = tracer.trace_to(paraxial_guess, Travel::Forward, stop, Apertures::Ignored);
+    assert!(
+        !guess_at_stop.outcome.is_ok(),
+        "the paraxial guess must fail for this test to mean anything"
+    );
+    let source = RaySource::Collimated { direction, start_z };
+    let chief = aim_at_stop(&tracer, &source, [0.0, 0.0]).unwrap();
+    let at_stop = tracer
+        .trace_to(chief, Travel::Forward, stop, Apertures::Ignored)
+        .ray
+        .position();
+    assert!(
+        at_stop[0].abs() < 1e-11 && at_stop[1].abs() < 1e-11,
+        "{at_stop:?}"
+    );
 }

@@ -21,7 +21,7 @@ pub enum RaySource {
 /// Why no ray could be aimed.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum AimError {
-    #[error("the first guess does not reach the stop surface ({0:?})")]
+    #[error("no ray from this source reaches the stop surface (the paraxial guess ends {0:?})")]
     NoStartingRay(Outcome),
     #[error("aiming did not converge: {residual:e} mm from the target on the stop")]
     NoConvergence { residual: f64 },
@@ -94,8 +94,11 @@ pub fn aim_at_stop(tracer: &Tracer, source: &RaySource, target: [f64; 2]) -> Res
         Ok([p[0] - target[0], p[1] - target[1]])
     };
     let norm = |r: [f64; 2]| r[0].hypot(r[1]);
-    let mut v = guess;
-    let mut r = residual_at(v).map_err(AimError::NoStartingRay)?;
+    let (mut v, mut r) = match residual_at(guess) {
+        Ok(r) => (guess, r),
+        Err(outcome) => search_start(tracer, source, guess, &residual_at)
+            .ok_or(AimError::NoStartingRay(outcome))?,
+    };
     for _ in 0..AIM_MAX_ITERATIONS {
         if norm(r) <= AIM_TOLERANCE * scale {
             return Ok(source.ray(v).expect("a ray that traced is a valid ray"));
@@ -125,6 +128,42 @@ pub fn aim_at_stop(tracer: &Tracer, source: &RaySource, target: [f64; 2]) -> Res
         return Ok(source.ray(v).expect("a ray that traced is a valid ray"));
     }
     Err(AimError::NoConvergence { residual: norm(r) })
+}
+
+/// Rings of starting points tried around a first guess that does not reach the stop.
+const SEARCH_RINGS: usize = 12;
+
+/// When the paraxial first guess fails (pupil aberration is large in wide-angle lenses), a
+/// search: rings of candidate rays around the guess, out to twice the first surface's
+/// semi-aperture, keeping the one that reaches the stop closest to the target.
+fn search_start(
+    tracer: &Tracer,
+    source: &RaySource,
+    guess: [f64; 2],
+    residual_at: &impl Fn([f64; 2]) -> Result<[f64; 2], Outcome>,
+) -> Option<([f64; 2], [f64; 2])> {
+    let first = &tracer.surfaces[0];
+    let reach = 2.0 * first.semi_aperture_sq.sqrt();
+    // The unknowns are lengths on the start plane for a collimated beam and direction tangents
+    // for a point object: scale the search to sweep the same region of surface 1.
+    let radius = match *source {
+        RaySource::Collimated { .. } => reach,
+        RaySource::Point { position } => reach / (first.vertex_z - position[2]).abs().max(1e-9),
+    };
+    let mut best: Option<([f64; 2], [f64; 2])> = None;
+    for ring in 1..=SEARCH_RINGS {
+        let r = radius * ring as f64 / SEARCH_RINGS as f64;
+        for k in 0..8 * ring {
+            let a = std::f64::consts::TAU * k as f64 / (8 * ring) as f64;
+            let v = [guess[0] + r * a.cos(), guess[1] + r * a.sin()];
+            if let Ok(res) = residual_at(v)
+                && best.is_none_or(|(_, b)| res[0].hypot(res[1]) < b[0].hypot(b[1]))
+            {
+                best = Some((v, res));
+            }
+        }
+    }
+    best
 }
 
 /// Newton step from a forward-difference Jacobian; None when the Jacobian is singular or a

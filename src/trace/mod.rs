@@ -13,6 +13,7 @@
 //! infinity is tested before it is used, so no NaN ever leaves the tracer.
 
 mod aim;
+pub mod analyses;
 mod aperture;
 mod batch;
 mod bundle;
@@ -103,8 +104,9 @@ impl Ray {
 }
 
 /// How a ray's trace ended. Surfaces are numbered 1..N from the object side, whatever the
-/// travel direction.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+/// travel direction. Serialises as {"status": "ok"} or {"status": "vignetted", "surface": 3}.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+#[serde(tag = "status", rename_all = "lowercase")]
 pub enum Outcome {
     /// Crossed every surface.
     Ok,
@@ -319,6 +321,17 @@ impl Tracer {
     /// 1-based number of the stop surface.
     pub fn stop_surface(&self) -> usize {
         self.stop + 1
+    }
+
+    /// Whether the point (x, y) of the stop surface lies inside its clear semi-aperture and,
+    /// for a bladed stop, inside the blades.
+    pub fn stop_admits(&self, x: f64, y: f64) -> bool {
+        let inside = x * x + y * y <= self.surfaces[self.stop].semi_aperture_sq;
+        inside
+            && self
+                .diaphragm
+                .as_ref()
+                .is_none_or(|blades| blades.contains(x, y))
     }
 
     /// The paraxial entrance pupil that the stop's clear aperture fills; None when it lies at
