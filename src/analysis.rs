@@ -7,6 +7,7 @@ use crate::paraxial::{
 };
 use crate::seidel::{IndexDifferences, Seidel};
 use crate::system::LensSystem;
+use crate::trace::analyses::{RealRays, RealReport};
 use serde::Serialize;
 
 /// What to analyse; `None` picks the documented default.
@@ -90,6 +91,8 @@ pub struct Analysis {
     pub first_order: FirstOrderReport,
     pub seidel: Seidel,
     pub paraxial_rays: RaysReport,
+    /// Real-ray distortion and longitudinal spherical aberration.
+    pub real: RealReport,
 }
 
 /// Analyses `system` under `options`; `lens` names it in the report.
@@ -122,6 +125,7 @@ pub fn analyze(
     let paraxial = Paraxial::new(&at, &paraxial_options)?;
     let colour = IndexDifferences::fraunhofer(system);
     let seidel = Seidel::new(&at, &paraxial, colour.as_ref());
+    let real = RealReport::new(&RealRays::new(&at, paraxial.clone()));
     let f = &paraxial.first_order;
     let analysis = Analysis {
         lens: lens.to_string(),
@@ -160,6 +164,7 @@ pub fn analyze(
             marginal: paraxial.marginal.surfaces.clone(),
             chief: paraxial.chief.surfaces.clone(),
         },
+        real,
     };
     match first_non_finite(&analysis) {
         Some(quantity) => Err(AnalysisError::NonFinite { quantity }),

@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{num, oracle_files, oracle_prescription, vec3};
+use common::{ORACLE_LENSES, load_oracle, num, vec3};
 use lensbake::system::LensSystem;
 use lensbake::trace::{Apertures, Outcome, Ray, Tracer, Travel, Vec3};
 use serde_json::Value;
@@ -223,9 +223,11 @@ impl Check<'_> {
 fn oracle_rays_reproduced() {
     let mut total = 0;
     let mut report = Vec::new();
-    for (name, file) in oracle_files() {
-        for lens in file["lenses"].as_array().unwrap() {
-            let prescription = oracle_prescription(lens);
+    for name in ORACLE_LENSES {
+        let oracle = load_oracle(name);
+        {
+            let lens = oracle.lens();
+            let prescription = oracle.prescription.clone();
             let vertex_z = prescription.vertex_z();
             let system = LensSystem::from_prescription(prescription).expect("oracle lens is valid");
             let tracer = Tracer::new(&system.at(system.design_wavelength_nm()));

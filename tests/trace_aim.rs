@@ -2,39 +2,20 @@
 
 mod common;
 
-use common::{num, oracle_files, oracle_prescription, vec3};
+use common::{ORACLE_LENSES, OracleLens, load_oracle, num, vec3};
 use lensbake::system::LensSystem;
-use lensbake::trace::{RaySource, Tracer, aim_at_stop, traceable_field_deg};
+use lensbake::trace::{
+    Apertures, Ray, RaySource, Tracer, Travel, aim_at_stop, traceable_field_deg,
+};
 use serde_json::Value;
 
-fn tracer(lens: &Value) -> Tracer {
-    let system = LensSystem::from_prescription(oracle_prescription(lens)).unwrap();
+fn tracer(oracle: &OracleLens) -> Tracer {
+    let system = LensSystem::from_prescription(oracle.prescription.clone()).unwrap();
     Tracer::new(&system.at(system.design_wavelength_nm()))
 }
 
-#[test]
-fn paraxial_entrance_pupil_matches_oracle() {
-    for (name, file) in oracle_files() {
-        let lens = &file["lenses"][0];
-        let pupil = tracer(lens).paraxial_entrance_pupil();
-        let quick = &lens["quick_reference"];
-        // The oracle agrees with itself (rayoptics vs optiland) to ~1e-8 relative here.
-        let z = num(&quick["z_entrance_pupil"]);
-        assert!(
-            (pupil.z - z).abs() < 1e-6 * (1.0 + z.abs()),
-            "{name}: EP z {} vs {z}",
-            pupil.z
-        );
-        // Where the aperture is the stop's own size, the pupil diameter follows from it.
-        if lens["system"]["aperture_spec"]["type"] == "stop_semi_aperture" {
-            let epd = num(&quick["epd"]);
-            assert!(
-                (2.0 * pupil.radius - epd).abs() < 1e-7 * epd,
-                "{name}: EPD {} vs {epd}",
-                2.0 * pupil.radius
-            );
-        }
-    }
+fn oracles() -> impl Iterator<Item = OracleLens> {
+    ORACLE_LENSES.into_iter().map(load_oracle)
 }
 
 /// The oracle's aimed rays: real chief rays through the stop centre at each distortion field
@@ -42,9 +23,9 @@ fn paraxial_entrance_pupil_matches_oracle() {
 #[test]
 fn aimed_rays_match_oracle_start_points() {
     let mut checked = 0;
-    for (name, file) in oracle_files() {
-        let lens = &file["lenses"][0];
-        let tracer = tracer(lens);
+    for oracle in oracles() {
+        let (name, lens) = (&oracle.name, oracle.lens());
+        let tracer = tracer(&oracle);
         let stop_radius =
             num(&lens["prescription"]["surfaces"][tracer.stop_surface() - 1]["semi_aperture"]);
         let mut cases: Vec<(Value, f64)> = lens["infinite_conjugate"]["distortion"]["points"]
@@ -85,9 +66,9 @@ fn aimed_rays_match_oracle_start_points() {
 #[test]
 fn aiming_a_point_source_off_axis_in_both_stop_coordinates() {
     // A skew aim from a finite object point: the ray found must cross the stop where asked.
-    for (_, file) in oracle_files() {
-        let lens = &file["lenses"][0];
-        let tracer = tracer(lens);
+    for oracle in oracles() {
+        let lens = oracle.lens();
+        let tracer = tracer(&oracle);
         let stop = tracer.stop_surface();
         let stop_radius = num(&lens["prescription"]["surfaces"][stop - 1]["semi_aperture"]);
         let source = RaySource::Point {
@@ -111,18 +92,48 @@ fn aiming_a_point_source_off_axis_in_both_stop_coordinates() {
 
 #[test]
 fn traceable_field_within_oracle_bracket() {
-    for (name, file) in oracle_files() {
-        let lens = &file["lenses"][0];
+    for oracle in oracles() {
+        let (name, lens) = (&oracle.name, oracle.lens());
         let bracket =
             &lens["infinite_conjugate"]["max_field_with_traceable_chief_ray"]["with_apertures"];
         let (ok, fail) = (
             num(&bracket["last_ok_deg"]),
             num(&bracket["first_fail_deg"]),
         );
-        let field = traceable_field_deg(&tracer(lens), 0.5);
+        let field = traceable_field_deg(&tracer(&oracle), 0.5);
         assert!(
             field >= ok - 1e-6 && field <= fail + 1e-6,
             "{name}: {field} not in [{ok}, {fail}]"
         );
     }
+}
+
+#[test]
+fn aiming_finds_the_chief_ray_where_the_paraxial_guess_fails() {
+    // A fisheye: at 70 degrees the paraxial entrance pupil is far from the real one, and the
+    // ray through its centre misses the lens; the search must still find the chief ray.
+    let lens = lensbake::lenses::load("fisheye-10mm", &Default::default()).unwrap();
+    let tracer = Tracer::new(&lens.system.at(lens.system.design_wavelength_nm()));
+    let angle = 70f64.to_radians();
+    let direction = [0.0, angle.sin(), angle.cos()];
+    let start_z = tracer.front_start_z();
+    let pupil = tracer.paraxial_entrance_pupil().unwrap();
+    let back = (pupil.z - start_z) / direction[2];
+    let paraxial_guess = Ray::new([0.0, -back * direction[1], start_z], direction).unwrap();
+    let stop = tracer.stop_surface();
+    let guess_at_stop = tracer.trace_to(paraxial_guess, Travel::Forward, stop, Apertures::Ignored);
+    assert!(
+        !guess_at_stop.outcome.is_ok(),
+        "the paraxial guess must fail for this test to mean anything"
+    );
+    let source = RaySource::Collimated { direction, start_z };
+    let chief = aim_at_stop(&tracer, &source, [0.0, 0.0]).unwrap();
+    let at_stop = tracer
+        .trace_to(chief, Travel::Forward, stop, Apertures::Ignored)
+        .ray
+        .position();
+    assert!(
+        at_stop[0].abs() < 1e-11 && at_stop[1].abs() < 1e-11,
+        "{at_stop:?}"
+    );
 }

@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::{oracle_files, oracle_prescription};
+use common::{ORACLE_LENSES, load_oracle};
 use lensbake::prescription::{Medium, Prescription, Provenance, Shape, StopShape, Surface};
 use lensbake::system::LensSystem;
 use lensbake::trace::{Apertures, Outcome, Ray, RayBatch, Tracer, Travel, Vec3};
@@ -84,9 +84,9 @@ fn exotic_lens() -> Prescription {
 fn tracers() -> &'static Vec<Tracer> {
     static TRACERS: OnceLock<Vec<Tracer>> = OnceLock::new();
     TRACERS.get_or_init(|| {
-        let mut prescriptions: Vec<Prescription> = oracle_files()
-            .iter()
-            .map(|(_, file)| oracle_prescription(&file["lenses"][0]))
+        let mut prescriptions: Vec<Prescription> = ORACLE_LENSES
+            .into_iter()
+            .map(|name| load_oracle(name).prescription)
             .collect();
         prescriptions.push(exotic_lens());
         prescriptions
@@ -167,12 +167,12 @@ proptest! {
         // A forward ray through the entrance pupil; reversing the ray that leaves the lens must
         // lead back along the ray that entered (Helmholtz reciprocity of the geometric path).
         let tracer = &tracers()[lens];
-        let pupil = tracer.paraxial_entrance_pupil();
+        let pupil = tracer.paraxial_entrance_pupil().unwrap();
         let start_z = tracer.front_start_z();
         let d = [0.0, field.sin(), field.cos()];
         let back = (pupil.z - start_z) / d[2];
         let start = Ray::new(
-            [0.7 * pupil.radius * px, 0.7 * pupil.radius * py - back * d[1], start_z],
+            [0.35 * pupil.diameter * px, 0.35 * pupil.diameter * py - back * d[1], start_z],
             d,
         ).unwrap();
         let forward = tracer.trace(start, Travel::Forward);
@@ -248,7 +248,7 @@ fn blades_vignette_between_circle_and_polygon() {
 #[test]
 fn batch_equals_single_rays() {
     let tracer = &tracers()[3];
-    let bundle = lensbake::trace::FieldBundle::over_traceable_field(tracer);
+    let bundle = lensbake::trace::FieldBundle::over_traceable_field(tracer).unwrap();
     let rays = bundle.sample(5000, 7);
     let batch = tracer.trace_batch(&rays, Travel::Forward, Apertures::Checked);
     assert_eq!(batch.outcomes.len(), rays.len());
@@ -310,5 +310,46 @@ fn random_sweep_reaches_every_outcome() {
             4,
             "{travel:?}: ok, vignetted, TIR and missed all occur: {seen:?}"
         );
+    }
+}
+
+#[test]
+fn batch_equals_single_rays_for_every_outcome_and_direction() {
+    // The batch path runs several rays in lockstep through vector kernels; it must give the
+    // one-ray results bit for bit, whatever happens to the rays and in which lane.
+    let mut state = 0x9e37_79b9_7f4a_7c15u64;
+    let mut unit = move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    };
+    for tracer in tracers() {
+        for travel in [Travel::Forward, Travel::Backward] {
+            for apertures in [Apertures::Checked, Apertures::Ignored] {
+                let sense = if travel == Travel::Forward { 1.0 } else { -1.0 };
+                let start_z = if sense > 0.0 { -20.0 } else { 150.0 };
+                let rays: RayBatch = (0..3001)
+                    .filter_map(|_| {
+                        let p = [30.0 * unit() - 15.0, 30.0 * unit() - 15.0, start_z];
+                        let d = [
+                            0.6 * unit() - 0.3,
+                            0.6 * unit() - 0.3,
+                            sense * (unit() - 0.05),
+                        ];
+                        Ray::new(p, d).ok()
+                    })
+                    .collect();
+                let batch = tracer.trace_batch(&rays, travel, apertures);
+                let mut kinds = std::collections::HashSet::new();
+                for (i, ray) in rays.iter().enumerate() {
+                    let single = tracer.trace_with(ray, travel, apertures);
+                    assert_eq!(batch.outcomes[i], single.outcome, "ray {i} {travel:?}");
+                    assert_eq!(batch.rays.get(i).unwrap(), single.ray, "ray {i} {travel:?}");
+                    kinds.insert(single.outcome.status());
+                }
+                assert!(kinds.len() >= 2, "a mix of outcomes: {kinds:?}");
+            }
+        }
     }
 }

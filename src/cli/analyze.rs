@@ -257,6 +257,19 @@ fn report(a: &Analysis) -> String {
             tc.ax, tc.lat
         );
     }
+    let _ = writeln!(
+        out,
+        "\nReal rays (paraxial image plane; chief ray aimed at the stop centre)"
+    );
+    for [deg, percent] in &a.real.distortion_percent {
+        let _ = writeln!(out, "  distortion at {deg:8.4} deg   {percent:>12.6} %");
+    }
+    for [rho, lsa] in &a.real.lsa {
+        let _ = writeln!(out, "  LSA at rho {rho:6.4}          {lsa:>12.6} mm");
+    }
+    for note in &a.real.notes {
+        let _ = writeln!(out, "  note: {note}");
+    }
     let w = &s.wavefront;
     let _ = writeln!(
         out,

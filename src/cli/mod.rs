@@ -1,10 +1,12 @@
 //! One module per subcommand; each turns parsed arguments into library calls and prints.
 
 mod analyze;
+mod bench;
 mod lens;
 mod lrtf;
 mod plot;
 mod render;
+mod trace;
 
 use clap::{Parser, Subcommand};
 
@@ -37,6 +39,11 @@ pub enum Command {
     /// Evaluate or describe baked LRTF tables.
     #[command(subcommand)]
     Lrtf(lrtf::LrtfCommand),
+    /// Trace exact rays through a lens (JSON in, JSON out).
+    Trace(trace::TraceArgs),
+    /// Measure throughput.
+    #[command(subcommand)]
+    Bench(bench::BenchCommand),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
@@ -48,5 +55,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Report(args) => plot::run_report(args),
         Command::Bake(args) => lrtf::run_bake(args),
         Command::Lrtf(command) => lrtf::run(command),
+        Command::Trace(args) => trace::run(args),
+        Command::Bench(command) => bench::run(command),
     }
 }

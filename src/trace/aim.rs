@@ -21,17 +21,12 @@ pub enum RaySource {
 /// Why no ray could be aimed.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum AimError {
-    #[error("the first guess does not reach the stop surface ({0:?})")]
+    #[error("no ray from this source reaches the stop surface (the paraxial guess ends {0:?})")]
     NoStartingRay(Outcome),
     #[error("aiming did not converge: {residual:e} mm from the target on the stop")]
     NoConvergence { residual: f64 },
-}
-
-/// Entrance pupil from a paraxial trace: axial position (lens frame) and radius, mm.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct EntrancePupil {
-    pub z: f64,
-    pub radius: f64,
+    #[error("the entrance pupil lies at infinity: there is no collimated beam to fill it")]
+    EntrancePupilAtInfinity,
 }
 
 /// Residual below which the stop hit is taken as exact, relative to the stop's size.
@@ -70,31 +65,6 @@ impl RaySource {
 }
 
 impl Tracer {
-    /// Paraxial entrance pupil: the image of the stop through the surfaces in front of it.
-    /// Two paraxial rays from surface 1 (one parallel to the axis at unit height, one through
-    /// the vertex with unit slope) give the stop height as a linear function of the object-space
-    /// ray; the pupil is where the ray through the stop centre crosses the axis.
-    pub fn paraxial_entrance_pupil(&self) -> EntrancePupil {
-        let n0 = self.surfaces[0].index_before;
-        let height_at_stop = |y1: f64, slope: f64| {
-            let (mut y, mut nu) = (y1, n0 * slope);
-            for i in 0..self.stop {
-                let s = &self.surfaces[i];
-                nu -= y * (s.index_after - s.index_before) * s.paraxial_curvature(self);
-                let gap = self.surfaces[i + 1].vertex_z - s.vertex_z;
-                y += gap * nu / s.index_after;
-            }
-            y
-        };
-        let axial = height_at_stop(1.0, 0.0);
-        let through_vertex = height_at_stop(0.0, 1.0);
-        let stop_radius = self.surfaces[self.stop].semi_aperture_sq.sqrt();
-        EntrancePupil {
-            z: self.surfaces[0].vertex_z + through_vertex / axial,
-            radius: stop_radius / axial.abs(),
-        }
-    }
-
     /// A plane in front of surface 1 that every forward ray may start on: one semi-aperture
     /// plus 1 mm before its vertex (a sphere's sag never exceeds its semi-aperture).
     pub fn front_start_z(&self) -> f64 {
@@ -106,15 +76,13 @@ impl Tracer {
 /// The real ray from `source` that crosses the stop surface at `(x, y)` (lens frame, mm),
 /// found with apertures ignored. Returns the ray as it leaves the source.
 pub fn aim_at_stop(tracer: &Tracer, source: &RaySource, target: [f64; 2]) -> Result<Ray, AimError> {
-    let pupil = tracer.paraxial_entrance_pupil();
     let stop_radius = tracer.surfaces[tracer.stop].semi_aperture_sq.sqrt();
-    // Scale the stop target into the paraxial entrance pupil for the first guess.
-    let magnification = pupil.radius / stop_radius;
-    let guess = source.unknowns_through([
-        target[0] * magnification,
-        target[1] * magnification,
-        pupil.z,
-    ]);
+    // First guess: the target imaged into the paraxial entrance pupil; where that pupil is at
+    // infinity, the target itself on the stop's vertex plane.
+    let guess = source.unknowns_through(match tracer.stop_image {
+        Some(image) => [target[0] / image.scale, target[1] / image.scale, image.z],
+        None => [target[0], target[1], tracer.surfaces[tracer.stop].vertex_z],
+    });
     let scale = 1.0 + stop_radius;
     let residual_at = |v: [f64; 2]| -> Result<[f64; 2], Outcome> {
         let ray = source.ray(v).ok_or(Outcome::Missed { surface: 1 })?;
@@ -126,8 +94,11 @@ pub fn aim_at_stop(tracer: &Tracer, source: &RaySource, target: [f64; 2]) -> Res
         Ok([p[0] - target[0], p[1] - target[1]])
     };
     let norm = |r: [f64; 2]| r[0].hypot(r[1]);
-    let mut v = guess;
-    let mut r = residual_at(v).map_err(AimError::NoStartingRay)?;
+    let (mut v, mut r) = match residual_at(guess) {
+        Ok(r) => (guess, r),
+        Err(outcome) => search_start(tracer, source, guess, &residual_at)
+            .ok_or(AimError::NoStartingRay(outcome))?,
+    };
     for _ in 0..AIM_MAX_ITERATIONS {
         if norm(r) <= AIM_TOLERANCE * scale {
             return Ok(source.ray(v).expect("a ray that traced is a valid ray"));
@@ -139,11 +110,11 @@ pub fn aim_at_stop(tracer: &Tracer, source: &RaySource, target: [f64; 2]) -> Res
         let mut accepted = None;
         for _ in 0..AIM_MAX_HALVINGS {
             let trial = [v[0] + lambda * step[0], v[1] + lambda * step[1]];
-            if let Ok(rt) = residual_at(trial) {
-                if norm(rt) < norm(r) {
-                    accepted = Some((trial, rt));
-                    break;
-                }
+            if let Ok(rt) = residual_at(trial)
+                && norm(rt) < norm(r)
+            {
+                accepted = Some((trial, rt));
+                break;
             }
             lambda *= 0.5;
         }
@@ -157,6 +128,42 @@ pub fn aim_at_stop(tracer: &Tracer, source: &RaySource, target: [f64; 2]) -> Res
         return Ok(source.ray(v).expect("a ray that traced is a valid ray"));
     }
     Err(AimError::NoConvergence { residual: norm(r) })
+}
+
+/// Rings of starting points tried around a first guess that does not reach the stop.
+const SEARCH_RINGS: usize = 12;
+
+/// When the paraxial first guess fails (pupil aberration is large in wide-angle lenses), a
+/// search: rings of candidate rays around the guess, out to twice the first surface's
+/// semi-aperture, keeping the one that reaches the stop closest to the target.
+fn search_start(
+    tracer: &Tracer,
+    source: &RaySource,
+    guess: [f64; 2],
+    residual_at: &impl Fn([f64; 2]) -> Result<[f64; 2], Outcome>,
+) -> Option<([f64; 2], [f64; 2])> {
+    let first = &tracer.surfaces[0];
+    let reach = 2.0 * first.semi_aperture_sq.sqrt();
+    // The unknowns are lengths on the start plane for a collimated beam and direction tangents
+    // for a point object: scale the search to sweep the same region of surface 1.
+    let radius = match *source {
+        RaySource::Collimated { .. } => reach,
+        RaySource::Point { position } => reach / (first.vertex_z - position[2]).abs().max(1e-9),
+    };
+    let mut best: Option<([f64; 2], [f64; 2])> = None;
+    for ring in 1..=SEARCH_RINGS {
+        let r = radius * ring as f64 / SEARCH_RINGS as f64;
+        for k in 0..8 * ring {
+            let a = std::f64::consts::TAU * k as f64 / (8 * ring) as f64;
+            let v = [guess[0] + r * a.cos(), guess[1] + r * a.sin()];
+            if let Ok(res) = residual_at(v)
+                && best.is_none_or(|(_, b)| res[0].hypot(res[1]) < b[0].hypot(b[1]))
+            {
+                best = Some((v, res));
+            }
+        }
+    }
+    best
 }
 
 /// Newton step from a forward-difference Jacobian; None when the Jacobian is singular or a

@@ -1,5 +1,6 @@
 //! Many rays at once: a structure-of-arrays batch traced in parallel with rayon.
 
+use super::lanes::{LANES, Lanes};
 use super::{Apertures, Outcome, Ray, Tracer, Travel};
 use rayon::prelude::*;
 
@@ -114,7 +115,7 @@ impl Tracer {
         let n = rays.len();
         let mut out = RayBatch::zeroed(n);
         let mut outcomes = vec![Outcome::Ok; n];
-        let surfaces = 0..self.surface_count();
+        let check = apertures == Apertures::Checked;
         let ray_surfaces = outcomes
             .par_chunks_mut(CHUNK)
             .zip(out.x.par_chunks_mut(CHUNK))
@@ -127,15 +128,26 @@ impl Tracer {
             .map(|(chunk, ((((((outcome, x), y), z), dx), dy), dz))| {
                 let start = chunk * CHUNK;
                 let mut count = 0u64;
-                for j in 0..outcome.len() {
-                    let ray = rays.get(start + j).expect("output chunks mirror the input");
-                    let (traced, crossed) =
-                        self.run(ray, travel, surfaces.clone(), apertures, &mut |_, _| {});
-                    count += u64::from(crossed);
-                    outcome[j] = traced.outcome;
-                    let (p, d) = (traced.ray.position, traced.ray.direction);
-                    (x[j], y[j], z[j]) = (p[0], p[1], p[2]);
-                    (dx[j], dy[j], dz[j]) = (d[0], d[1], d[2]);
+                for group in (0..outcome.len()).step_by(LANES) {
+                    let width = LANES.min(outcome.len() - group);
+                    let first = start + group;
+                    let mut lanes = Lanes::new(
+                        (first..first + width)
+                            .map(|i| rays.get(i).expect("output chunks mirror the input")),
+                    );
+                    match travel {
+                        Travel::Forward => self.run_lanes::<true>(&mut lanes, check),
+                        Travel::Backward => self.run_lanes::<false>(&mut lanes, check),
+                    }
+                    for l in 0..width {
+                        let j = group + l;
+                        let (ended, ray, crossed) = lanes.result(l);
+                        count += u64::from(crossed);
+                        outcome[j] = ended;
+                        let (p, d) = (ray.position, ray.direction);
+                        (x[j], y[j], z[j]) = (p[0], p[1], p[2]);
+                        (dx[j], dy[j], dz[j]) = (d[0], d[1], d[2]);
+                    }
                 }
                 count
             })

@@ -1,8 +1,9 @@
 //! The standard forward ray bundle used to measure throughput: field angle uniform over the
 //! traceable field in the y-z plane, pupil point uniform over the paraxial entrance pupil.
 
-use super::aim::{EntrancePupil, traceable_field_deg};
-use super::{Ray, RayBatch, Tracer};
+use super::aim::traceable_field_deg;
+use super::{AimError, Ray, RayBatch, Tracer};
+use crate::paraxial::Pupil;
 
 /// Scan step (degrees) when searching for the traceable field.
 const FIELD_SCAN_DEG: f64 = 0.5;
@@ -12,19 +13,23 @@ const FIELD_SCAN_DEG: f64 = 0.5;
 pub struct FieldBundle {
     /// Field angles are drawn from [0, max_field_deg].
     pub max_field_deg: f64,
-    pub pupil: EntrancePupil,
+    /// The paraxial entrance pupil the stop fills.
+    pub pupil: Pupil,
     /// Plane the rays start on.
     pub start_z: f64,
 }
 
 impl FieldBundle {
-    /// The bundle over the lens's whole traceable field (see [`traceable_field_deg`]).
-    pub fn over_traceable_field(tracer: &Tracer) -> FieldBundle {
-        FieldBundle {
+    /// The bundle over the lens's whole traceable field (see [`traceable_field_deg`]); fails
+    /// when the entrance pupil lies at infinity.
+    pub fn over_traceable_field(tracer: &Tracer) -> Result<FieldBundle, AimError> {
+        Ok(FieldBundle {
+            pupil: tracer
+                .paraxial_entrance_pupil()
+                .ok_or(AimError::EntrancePupilAtInfinity)?,
             max_field_deg: traceable_field_deg(tracer, FIELD_SCAN_DEG),
-            pupil: tracer.paraxial_entrance_pupil(),
             start_z: tracer.front_start_z(),
-        }
+        })
     }
 
     /// `n` rays drawn with a fixed-seed generator, so runs are repeatable. Pupil points are
@@ -34,7 +39,7 @@ impl FieldBundle {
         (0..n)
             .map(|_| {
                 let field = (random.unit() * self.max_field_deg).to_radians();
-                let radius = self.pupil.radius * random.unit().sqrt();
+                let radius = 0.5 * self.pupil.diameter * random.unit().sqrt();
                 let azimuth = std::f64::consts::TAU * random.unit();
                 let direction = [0.0, field.sin(), field.cos()];
                 let back = (self.pupil.z - self.start_z) / direction[2];

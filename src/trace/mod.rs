@@ -13,16 +13,19 @@
 //! infinity is tested before it is used, so no NaN ever leaves the tracer.
 
 mod aim;
+pub mod analyses;
 mod aperture;
 mod batch;
 mod bundle;
 mod intersect;
+mod lanes;
 mod refract;
 
-pub use aim::{AimError, EntrancePupil, RaySource, aim_at_stop, traceable_field_deg};
+pub use aim::{AimError, RaySource, aim_at_stop, traceable_field_deg};
 pub use batch::{BatchTrace, RayBatch};
 pub use bundle::FieldBundle;
 
+use crate::paraxial::Pupil;
 use crate::prescription::Shape;
 use crate::system::{LensSystem, SystemAt};
 use aperture::Diaphragm;
@@ -70,6 +73,14 @@ impl Ray {
         })
     }
 
+    /// A ray from parts already known to be finite with a unit direction.
+    pub(crate) fn from_parts(position: Vec3, direction: Vec3) -> Ray {
+        Ray {
+            position,
+            direction,
+        }
+    }
+
     pub fn position(&self) -> Vec3 {
         self.position
     }
@@ -93,8 +104,9 @@ impl Ray {
 }
 
 /// How a ray's trace ended. Surfaces are numbered 1..N from the object side, whatever the
-/// travel direction.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+/// travel direction. Serialises as {"status": "ok"} or {"status": "vignetted", "surface": 3}.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+#[serde(tag = "status", rename_all = "lowercase")]
 pub enum Outcome {
     /// Crossed every surface.
     Ok,
@@ -214,7 +226,17 @@ pub struct Tracer {
     diaphragm: Option<Diaphragm>,
     /// 0-based stop index.
     stop: usize,
+    /// The stop's paraxial image in object space; None when it lies at infinity.
+    stop_image: Option<StopImage>,
     wavelength_nm: f64,
+}
+
+/// The paraxial entrance pupil as [`crate::paraxial::entrance_pupil`] gives it: its z, and the
+/// scale that maps stop heights to pupil heights (divide by it).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct StopImage {
+    z: f64,
+    scale: f64,
 }
 
 impl Tracer {
@@ -274,11 +296,15 @@ impl Tracer {
                 }
             })
             .collect();
+        let stop_image = crate::paraxial::entrance_pupil(system, system.stop)
+            .ok()
+            .map(|(z, scale)| StopImage { z, scale });
         Tracer {
             surfaces,
             asphere_terms,
             diaphragm,
             stop: system.stop,
+            stop_image,
             wavelength_nm: system.wavelength_nm,
         }
     }
@@ -295,6 +321,26 @@ impl Tracer {
     /// 1-based number of the stop surface.
     pub fn stop_surface(&self) -> usize {
         self.stop + 1
+    }
+
+    /// Whether the point (x, y) of the stop surface lies inside its clear semi-aperture and,
+    /// for a bladed stop, inside the blades.
+    pub fn stop_admits(&self, x: f64, y: f64) -> bool {
+        let inside = x * x + y * y <= self.surfaces[self.stop].semi_aperture_sq;
+        inside
+            && self
+                .diaphragm
+                .as_ref()
+                .is_none_or(|blades| blades.contains(x, y))
+    }
+
+    /// The paraxial entrance pupil that the stop's clear aperture fills; None when it lies at
+    /// infinity.
+    pub fn paraxial_entrance_pupil(&self) -> Option<Pupil> {
+        self.stop_image.map(|image| Pupil {
+            z: image.z,
+            diameter: 2.0 * self.surfaces[self.stop].semi_aperture_sq.sqrt() / image.scale.abs(),
+        })
     }
 
     /// Traces through every surface with apertures checked.
@@ -383,12 +429,7 @@ impl Tracer {
                     visit(i, &ray);
                 }
                 Err((event, at)) => {
-                    let surface = i + 1;
-                    let outcome = match event {
-                        Event::Missed => Outcome::Missed { surface },
-                        Event::Vignetted => Outcome::Vignetted { surface },
-                        Event::Tir => Outcome::Tir { surface },
-                    };
+                    let outcome = event.outcome(i + 1);
                     return (Traced { outcome, ray: at }, count);
                 }
             }
@@ -445,6 +486,10 @@ impl Tracer {
                 }
             }
         };
+        // A hit far enough out to overflow is no hit.
+        if !(q[0].is_finite() && q[1].is_finite() && q[2].is_finite()) {
+            return Err((Event::Missed, *ray));
+        }
         let at = Ray {
             position: [q[0], q[1], q[2] + s.vertex_z],
             direction: d,
@@ -485,24 +530,22 @@ impl Tracer {
     }
 }
 
-impl FlatSurface {
-    /// Curvature of the paraxial (r^2) part of the profile: an asphere's r^2 term adds 2 a_1.
-    fn paraxial_curvature(&self, tracer: &Tracer) -> f64 {
-        match self.profile {
-            Profile::Plane => 0.0,
-            Profile::Sphere { curvature } | Profile::Conic { curvature, .. } => curvature,
-            Profile::EvenAsphere {
-                curvature, terms, ..
-            } => curvature + 2.0 * tracer.asphere_terms[terms].coefficients[0],
-        }
-    }
-}
-
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Event {
     Missed,
     Vignetted,
     Tir,
+}
+
+impl Event {
+    /// The outcome of this event at 1-based `surface`.
+    fn outcome(self, surface: usize) -> Outcome {
+        match self {
+            Event::Missed => Outcome::Missed { surface },
+            Event::Vignetted => Outcome::Vignetted { surface },
+            Event::Tir => Outcome::Tir { surface },
+        }
+    }
 }
 
 #[inline(always)]

@@ -1,0 +1,45 @@
+//! Ray-surface intersections per second of the exact trace, on one core and on all cores, for
+//! the oracle's 50 mm double Gauss (11 surfaces) with the `lensbake bench trace` ray bundle.
+//! Criterion's throughput line reads "elements/s" = ray-surface intersections per second.
+
+#[path = "../tests/common/mod.rs"]
+mod common;
+
+use common::load_oracle;
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use lensbake::system::LensSystem;
+use lensbake::trace::{Apertures, FieldBundle, Tracer, Travel};
+
+const RAYS: usize = 100_000;
+
+fn trace(c: &mut Criterion) {
+    let system =
+        LensSystem::from_prescription(load_oracle("pbrt_dgauss_50mm").prescription).unwrap();
+    let tracer = Tracer::new(&system.at(system.design_wavelength_nm()));
+    let rays = FieldBundle::over_traceable_field(&tracer)
+        .unwrap()
+        .sample(RAYS, 1);
+    let ray_surfaces = tracer
+        .trace_batch(&rays, Travel::Forward, Apertures::Checked)
+        .ray_surfaces;
+
+    let mut group = c.benchmark_group("trace_dgauss50");
+    group.throughput(Throughput::Elements(ray_surfaces));
+    group.sample_size(20);
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    for (name, threads) in [("one_core", 1), ("all_cores", cores)] {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        group.bench_function(name, |b| {
+            b.iter(|| {
+                pool.install(|| tracer.trace_batch(&rays, Travel::Forward, Apertures::Checked))
+            })
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, trace);
+criterion_main!(benches);

@@ -1,0 +1,112 @@
+//! `lensbake trace`: exact rays through a lens, JSON in and out.
+
+use super::lens::LensArgs;
+use anyhow::{Context, bail};
+use clap::Args;
+use lensbake::system::LensSystem;
+use lensbake::trace::{Ray, Tracer, Travel};
+use serde::{Deserialize, Serialize};
+use std::io::Read;
+
+#[derive(Args, Debug)]
+pub struct TraceArgs {
+    #[command(flatten)]
+    pub lens: LensArgs,
+    /// JSON array of {"origin": [x, y, z], "direction": [dx, dy, dz]} in the lens frame (mm);
+    /// `-` reads standard input.
+    #[arg(long)]
+    pub rays: String,
+    /// Trace from the film side towards the object (-z, surfaces N..1).
+    #[arg(long)]
+    pub backward: bool,
+    /// Wavelength in nm (default: the lens's design wavelength).
+    #[arg(long, allow_negative_numbers = true)]
+    pub wavelength_nm: Option<f64>,
+    /// Print JSON (one object per input ray, in order).
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RayInput {
+    origin: [f64; 3],
+    direction: [f64; 3],
+}
+
+#[derive(Serialize)]
+struct RayOutput {
+    status: &'static str,
+    surface: Option<usize>,
+    position: [f64; 3],
+    direction: [f64; 3],
+}
+
+pub fn run(args: TraceArgs) -> anyhow::Result<()> {
+    let system = args.lens.load()?.system;
+    let wavelength_nm = wavelength(args.wavelength_nm, &system)?;
+    let tracer = Tracer::new(&system.at(wavelength_nm));
+    let rays = read_rays(&args.rays)?;
+    let travel = if args.backward {
+        Travel::Backward
+    } else {
+        Travel::Forward
+    };
+    let traced: Vec<RayOutput> = rays
+        .into_iter()
+        .map(|ray| {
+            let traced = tracer.trace(ray, travel);
+            RayOutput {
+                status: traced.outcome.status(),
+                surface: traced.outcome.surface(),
+                position: traced.ray.position(),
+                direction: traced.ray.direction(),
+            }
+        })
+        .collect();
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&traced)?);
+    } else {
+        for (i, t) in traced.iter().enumerate() {
+            let surface = t
+                .surface
+                .map_or(String::new(), |s| format!(" at surface {s}"));
+            println!(
+                "ray {i}: {}{surface}  position {:?}  direction {:?}",
+                t.status, t.position, t.direction
+            );
+        }
+    }
+    Ok(())
+}
+
+/// The requested wavelength, checked, or the lens's design wavelength.
+pub(super) fn wavelength(requested: Option<f64>, system: &LensSystem) -> anyhow::Result<f64> {
+    match requested {
+        None => Ok(system.design_wavelength_nm()),
+        Some(nm) if nm.is_finite() && nm > 0.0 => Ok(nm),
+        Some(nm) => bail!("--wavelength-nm must be a positive number of nanometres, got {nm}"),
+    }
+}
+
+fn read_rays(source: &str) -> anyhow::Result<Vec<Ray>> {
+    let (name, text) = if source == "-" {
+        let mut text = String::new();
+        std::io::stdin()
+            .read_to_string(&mut text)
+            .context("cannot read rays from standard input")?;
+        ("<stdin>".to_string(), text)
+    } else {
+        let text = std::fs::read_to_string(source)
+            .with_context(|| format!("cannot read rays file {source}"))?;
+        (source.to_string(), text)
+    };
+    let inputs: Vec<RayInput> = serde_json::from_str(&text).with_context(|| {
+        format!("{name}: expected a JSON array of {{\"origin\": [x, y, z], \"direction\": [dx, dy, dz]}}")
+    })?;
+    inputs
+        .into_iter()
+        .enumerate()
+        .map(|(i, r)| Ray::new(r.origin, r.direction).with_context(|| format!("{name}: ray {i}")))
+        .collect()
+}
