@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 
 use super::bake::exact_transfer;
 use super::param::Ray;
-use super::table::{Lookup, LrtfTable};
+use super::table::{Corners, Lookup, LrtfTable};
 use crate::plot::{LrtfErrorCurve, LrtfErrorLens, LrtfErrorPlot};
 use crate::pupil::PupilTable;
 use crate::trace::Tracer;
@@ -203,6 +203,21 @@ pub fn table_error(
     count: usize,
     seed: u64,
 ) -> TableError {
+    table_error_from(table, layer, tracer, efl, pixels, count, seed, Corners::All)
+}
+
+/// [`table_error`] with the sampler's values interpolated from `corners`.
+#[allow(clippy::too_many_arguments)]
+pub fn table_error_from(
+    table: &LrtfTable,
+    layer: usize,
+    tracer: &Tracer,
+    efl: f64,
+    pixels: f64,
+    count: usize,
+    seed: u64,
+    corners: Corners,
+) -> TableError {
     let l = &table.layers[layer];
     let rays = renderer_rays(
         &l.pupil,
@@ -217,7 +232,7 @@ pub fn table_error(
         .par_iter()
         .map(|ray| {
             let (exact, passes) = exact_transfer(tracer, ray);
-            let looked = table.lookup(layer, ray, stop);
+            let looked = table.lookup_from(layer, ray, stop, corners);
             match (passes.then_some(exact).flatten(), looked) {
                 (Some(t), Lookup::Passes(r)) => (
                     false,
