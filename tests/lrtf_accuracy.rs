@@ -3,9 +3,9 @@
 
 mod common;
 
-use lensbake::lrtf::bake::{BakeRequest, bake, near_axial_first_order};
-use lensbake::lrtf::measure::table_error;
-use lensbake::lrtf::{Parameterisation, Precision};
+use lensbake::lrtf::bake::{BakeRequest, bake, first_order};
+use lensbake::lrtf::measure::{table_error, table_error_from};
+use lensbake::lrtf::{Corners, Parameterisation, Precision};
 use lensbake::system::LensSystem;
 use lensbake::trace::Tracer;
 
@@ -22,7 +22,7 @@ fn pupil_planes_table_matches_the_exact_trace_within_measured_bounds() {
     let system = dgauss();
     let design = system.at(system.design_wavelength_nm());
     let tracer = Tracer::new(&design);
-    let efl = near_axial_first_order(&tracer, &design, None).unwrap().efl;
+    let efl = first_order(&design, None).unwrap().first_order.efl;
     let request = BakeRequest {
         parameterisation: Parameterisation::PupilPlanes,
         resolution: [32, 32, 32],
@@ -54,4 +54,59 @@ fn pupil_planes_table_matches_the_exact_trace_within_measured_bounds() {
         s.direction_mrad.p99 > 10.0 * e.direction_mrad.p99,
         "{s:?} vs {e:?}"
     );
+}
+
+/// Issue 6's targets for the default table (128^3, pupil-planes, f32, wide open, infinity focus)
+/// of the bundled 50 mm double Gauss, on 20k held-out renderer rays: p99 image error under
+/// 0.5 px of a 1920-pixel frame and validity agreement above 99.5 %. Also pins the two measured
+/// comparisons docs/lrtf.md reports at this size: the spherical baseline and renormalised
+/// valid-corner weights are both clearly worse. About 5 s of CPU in release.
+#[test]
+fn default_double_gauss_table_meets_the_issue_targets() {
+    let system = lensbake::lenses::load(
+        "dgauss-50mm",
+        &lensbake::prescription::formats::LoadOptions::default(),
+    )
+    .unwrap()
+    .system;
+    let design = system.at(system.design_wavelength_nm());
+    let tracer = Tracer::new(&design);
+    let efl = first_order(&design, None).unwrap().first_order.efl;
+    let request = BakeRequest::default();
+    assert_eq!(request.resolution, [128, 128, 128]);
+    let table = bake(&system, &request, &|_| {}).unwrap();
+    let rays = 20_000;
+    let e = table_error(&table, 0, &tracer, efl, 1920.0, rays, 0xfeed);
+    eprintln!("default: {e:?}");
+    // Measured: p99 0.010 px, agreement 99.5-99.6 % depending on the ray seed.
+    assert!(e.image_px.p99 < 0.5, "{e:?}");
+    assert!(1.0 - e.validity_mismatch > 0.995, "{e:?}");
+    let renormalised = table_error_from(
+        &table,
+        0,
+        &tracer,
+        efl,
+        1920.0,
+        rays,
+        0xfeed,
+        Corners::ValidOnly,
+    );
+    // Measured 1.0 px against 0.010 px.
+    assert!(
+        renormalised.image_px.p99 > 20.0 * e.image_px.p99,
+        "{renormalised:?} vs {e:?}"
+    );
+    let spherical = bake(
+        &system,
+        &BakeRequest {
+            parameterisation: Parameterisation::Spherical,
+            ..request
+        },
+        &|_| {},
+    )
+    .unwrap();
+    let s = table_error(&spherical, 0, &tracer, efl, 1920.0, rays, 0xfeed);
+    eprintln!("spherical: {s:?}");
+    // Measured 0.15 px against 0.010 px.
+    assert!(s.image_px.p99 > 5.0 * e.image_px.p99, "{s:?} vs {e:?}");
 }

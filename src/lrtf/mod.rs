@@ -9,4 +9,4 @@ pub mod param;
 pub mod table;
 
 pub use param::{Frame, Parameterisation, Ray, Transfer};
-pub use table::{GpuParams, Layer, Lookup, LrtfTable, Precision, TableInfo};
+pub use table::{Corners, GpuParams, Layer, Lookup, LrtfTable, Precision, TableInfo};

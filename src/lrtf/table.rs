@@ -111,13 +111,37 @@ pub fn address(coord: f64, n: usize) -> (usize, f64) {
     (i, t - i as f64)
 }
 
+/// Which corners of the enclosing cell the transfer values are interpolated from.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Corners {
+    /// All eight, trilinearly (what the shader does): blocked corners hold the geometric
+    /// continuation, so no sentinel is mixed in.
+    #[default]
+    All,
+    /// Only the corners whose validity is 1, weights renormalised to sum to 1: the alternative
+    /// measured in docs/lrtf.md. Validity itself is interpolated from all eight either way.
+    ValidOnly,
+}
+
 impl Layer {
     /// Trilinear interpolation of every channel at table coordinates.
     pub fn fetch(&self, dims: [usize; 3], coords: [f64; 3]) -> [f64; CHANNELS] {
+        self.fetch_from(dims, coords, Corners::All)
+    }
+
+    /// Interpolation at table coordinates with the values taken from `corners`.
+    pub fn fetch_from(
+        &self,
+        dims: [usize; 3],
+        coords: [f64; 3],
+        corners: Corners,
+    ) -> [f64; CHANNELS] {
         let (i0, f0) = address(coords[0], dims[0]);
         let (i1, f1) = address(coords[1], dims[1]);
         let (i2, f2) = address(coords[2], dims[2]);
         let mut out = [0.0; CHANNELS];
+        let mut valid_out = [0.0; CHANNELS];
+        let mut valid_weight = 0.0;
         for corner in 0..8 {
             let (d0, d1, d2) = (corner & 1, (corner >> 1) & 1, (corner >> 2) & 1);
             let w = if d0 == 1 { f0 } else { 1.0 - f0 }
@@ -127,6 +151,17 @@ impl Layer {
             for (o, v) in out.iter_mut().zip(entry) {
                 *o += w * *v as f64;
             }
+            if corners == Corners::ValidOnly && entry[VALID] == 1.0 {
+                valid_weight += w;
+                for (o, v) in valid_out.iter_mut().zip(entry) {
+                    *o += w * *v as f64;
+                }
+            }
+        }
+        if corners == Corners::ValidOnly && valid_weight > 0.0 {
+            let validity = out[VALID];
+            out = valid_out.map(|v| v / valid_weight);
+            out[VALID] = validity;
         }
         out
     }
@@ -153,6 +188,18 @@ impl LrtfTable {
     /// The outgoing ray for a film-side ray travelling -z, through a stop of radius
     /// `stop_radius` (from [`LrtfTable::stop_radius`]). This is exactly what the shader does.
     pub fn lookup(&self, layer: usize, ray: &Ray, stop_radius: f64) -> Lookup {
+        self.lookup_from(layer, ray, stop_radius, Corners::All)
+    }
+
+    /// [`LrtfTable::lookup`] with the transfer values interpolated from `corners` (for
+    /// measuring the alternative; the shader implements [`Corners::All`]).
+    pub fn lookup_from(
+        &self,
+        layer: usize,
+        ray: &Ray,
+        stop_radius: f64,
+        corners: Corners,
+    ) -> Lookup {
         let Some(at) = self.locate(layer, ray) else {
             return Lookup::OutsideDomain;
         };
@@ -167,7 +214,7 @@ impl LrtfTable {
                 Lookup::Blocked
             };
         }
-        let v = self.layers[layer].fetch(self.dims(), at.coords);
+        let v = self.layers[layer].fetch_from(self.dims(), at.coords, corners);
         let stop_ok = v[5] * v[5] + v[6] * v[6] <= stop_radius * stop_radius;
         if v[VALID] < 0.5 || !stop_ok {
             return Lookup::Blocked;

@@ -1,0 +1,68 @@
+//! LRTF cost: baking the bundled 50 mm double Gauss at 32^3 and 64^3 (the 128^3 default takes
+//! about 8x the 64^3 time), and sampler lookups per second over the renderer's ray distribution.
+//!
+//! cargo bench --bench lrtf
+
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use lensbake::lenses;
+use lensbake::lrtf::bake::{BakeRequest, bake};
+use lensbake::lrtf::measure::renderer_rays;
+use lensbake::lrtf::{Lookup, LrtfTable};
+use lensbake::prescription::formats::LoadOptions;
+use lensbake::system::LensSystem;
+use std::hint::black_box;
+use std::time::Duration;
+
+fn dgauss() -> LensSystem {
+    lenses::load("dgauss-50mm", &LoadOptions::default())
+        .expect("bundled double Gauss")
+        .system
+}
+
+fn baked(system: &LensSystem, n: usize) -> LrtfTable {
+    let request = BakeRequest {
+        resolution: [n, n, n],
+        ..BakeRequest::default()
+    };
+    bake(system, &request, &|_| {}).expect("the double Gauss bakes")
+}
+
+fn bench_bake(c: &mut Criterion) {
+    let system = dgauss();
+    let mut group = c.benchmark_group("lrtf_bake_dgauss");
+    group
+        .sample_size(10)
+        .measurement_time(Duration::from_secs(8));
+    for n in [32, 64] {
+        group.throughput(Throughput::Elements((n * n * n) as u64));
+        group.bench_function(format!("{n}^3"), |b| b.iter(|| baked(&system, n)));
+    }
+    group.finish();
+}
+
+fn bench_lookup(c: &mut Criterion) {
+    let table = baked(&dgauss(), 64);
+    let layer = &table.layers[0];
+    let rays = renderer_rays(
+        &layer.pupil,
+        layer.frame.max_film_radius,
+        layer.frame.film_plane_z,
+        layer.frame.rear_plane_z,
+        10_000,
+        1,
+    );
+    let stop = layer.stop_semi_aperture;
+    let mut group = c.benchmark_group("lrtf_lookup_dgauss_64");
+    group.throughput(Throughput::Elements(rays.len() as u64));
+    group.bench_function("one_thread", |b| {
+        b.iter(|| {
+            rays.iter()
+                .filter(|ray| matches!(table.lookup(0, black_box(ray), stop), Lookup::Passes(_)))
+                .count()
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(benches, bench_bake, bench_lookup);
+criterion_main!(benches);
