@@ -1,7 +1,7 @@
 //! `lensbake analyze`: first-order data, pupils and Seidel sums as a readable report or JSON.
 
-use anyhow::Context;
 use super::lens::LensArgs;
+use anyhow::Context;
 use clap::Args;
 use lensbake::analysis::{Analysis, AnalyzeOptions, analyze};
 use lensbake::paraxial::StopChoice;

@@ -2,9 +2,9 @@
 
 mod analyze;
 mod lens;
-mod render;
-mod plot;
 mod lrtf;
+mod plot;
+mod render;
 
 use clap::{Parser, Subcommand};
 
