@@ -173,7 +173,13 @@ pub fn load_or_bake(
     let prescription = &lens.source.loaded.prescription;
     if dir.join(SIDECAR_FILE).exists() {
         let table = read_table(dir, Some(prescription))?;
-        if table.info.focus_mm != focus_mm {
+        let same_focus = match (table.info.focus_mm, focus_mm) {
+            (None, None) => true,
+            // The render derives its focus from the film position: equal to rounding.
+            (Some(a), Some(b)) => (a - b).abs() <= 1e-6 * a.abs().max(b.abs()),
+            _ => false,
+        };
+        if !same_focus {
             bail!(
                 "table {} is focused at {:?} mm, the render at {:?} mm; pass --table or rebake",
                 dir.display(),
