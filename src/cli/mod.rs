@@ -2,6 +2,7 @@
 
 mod analyze;
 mod bench;
+mod demo;
 mod lens;
 mod lrtf;
 mod plot;
@@ -30,6 +31,9 @@ pub enum Command {
     Analyze(analyze::AnalyzeArgs),
     /// Render depth of field through a lens model (image-based ray tracing).
     Render(render::RenderArgs),
+    /// The main job: analyse the default lens, bake its table, render traced and baked, and
+    /// write images, error map, timings and plots to notebooks-out/demo/.
+    Demo(demo::DemoArgs),
     /// Draw one aberration plot of a lens as PNG or SVG.
     Plot(plot::PlotArgs),
     /// Write a lens's report (tables and every plot) to a directory.
@@ -51,6 +55,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Lens(command) => lens::run(command),
         Command::Analyze(args) => analyze::run(args),
         Command::Render(args) => render::run(args),
+        Command::Demo(args) => demo::run(args),
         Command::Plot(args) => plot::run_plot(args),
         Command::Report(args) => plot::run_report(args),
         Command::Bake(args) => lrtf::run_bake(args),

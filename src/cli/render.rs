@@ -1,20 +1,35 @@
 //! `lensbake render`: depth of field through a lens model by image-based ray tracing.
 
+use super::lens::ReadArgs;
 use anyhow::{Context, bail};
 use clap::{Args, ValueEnum};
+use lensbake::lenses::LoadedLens;
+use lensbake::lrtf::bake::{BakeProgress, BakeRequest, bake};
+use lensbake::lrtf::io::{SIDECAR_FILE, read_table, write_table};
+use lensbake::lrtf::{LrtfTable, Precision};
+use lensbake::paraxial::{ObjectPosition, object_in_focus};
 use lensbake::render::camera::{Camera, Film, Focus, LensModel, ParaxialLens};
 use lensbake::render::gpu::GpuRenderer;
 use lensbake::render::image::{read_exr_rgbz, write_exr, write_png};
 use lensbake::render::layers::LayeredDepthImage;
+use lensbake::render::models::{BakedLens, FirstOrderModels, TracedLens};
 use lensbake::render::scene::Scene;
 use lensbake::render::{Backend, RenderError, RenderSettings, layer_view, render_layers};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+/// Which lens model maps film rays to scene rays. The default is `traced`: exact, and it needs
+/// no table; `baked` is the fast one once a table exists (it bakes one when missing).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum ModelArg {
     Thin,
+    Thick,
+    Traced,
+    Baked,
 }
+
+/// Film radii at which a traced render fits its effective pupil.
+const PUPIL_NODES: usize = 32;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum BackendArg {
@@ -25,11 +40,23 @@ pub enum BackendArg {
 
 #[derive(Args, Debug)]
 pub struct RenderArgs {
-    /// Lens: `ideal:<EFL_MM>` for an ideal thin lens of that focal length.
+    /// Lens: a lens file or bundled lens name (see `lensbake lens list`), or `ideal:<EFL_MM>`
+    /// for an ideal thin lens of that focal length (thin and thick models only).
     #[arg(long)]
     lens: String,
-    #[arg(long, value_enum, default_value = "thin")]
+    #[command(flatten)]
+    read: ReadArgs,
+    /// Lens model: thin and thick from the paraxial data, traced (the exact trace in the
+    /// kernel), baked (an LRTF table lookup).
+    #[arg(long, value_enum, default_value = "traced")]
     model: ModelArg,
+    /// Table directory for `--model baked`; default tables/<lens>/ (focused at infinity) or
+    /// tables/<lens>/focus-<D>mm/, baked there when missing.
+    #[arg(long)]
+    table: Option<PathBuf>,
+    /// Nodes per axis when a table has to be baked.
+    #[arg(long, default_value_t = 64)]
+    bake_resolution: usize,
     /// `demo` or an OpenEXR file with R, G, B and Z (mm from the entrance pupil) channels.
     #[arg(long, default_value = "demo")]
     scene: String,
@@ -42,8 +69,9 @@ pub struct RenderArgs {
     width: u32,
     #[arg(long, default_value_t = 600)]
     height: u32,
-    #[arg(long, default_value_t = 2.8)]
-    f_number: f64,
+    /// f-number; default: the lens wide open (f/2.8 for `ideal:`).
+    #[arg(long)]
+    f_number: Option<f64>,
     /// Focus on the plane this far in front of the first vertex (mm).
     #[arg(long, conflicts_with_all = ["focus_pixel", "sensor_mm"])]
     focus_mm: Option<f64>,
@@ -78,20 +106,99 @@ fn parse_pair<T: std::str::FromStr>(text: &str) -> Result<(T, T), String> {
     Ok((parse(a)?, parse(b)?))
 }
 
-fn lens_model(args: &RenderArgs) -> anyhow::Result<LensModel> {
-    let Some(efl) = args.lens.strip_prefix("ideal:") else {
-        bail!(
-            "lens `{}`: only `ideal:<EFL_MM>` is supported by render so far (thin and thick \
-             models of prescriptions need the paraxial stage)",
-            args.lens
-        );
-    };
-    let efl: f64 = efl
-        .parse()
-        .with_context(|| format!("lens `{}`: bad focal length", args.lens))?;
-    match args.model {
-        ModelArg::Thin => Ok(LensModel::Thin(ParaxialLens::thin(efl, args.f_number)?)),
+/// A lens as the command line names it.
+pub enum RenderLens {
+    Ideal { focal_length_mm: f64 },
+    Real(Box<LoadedLens>),
+}
+
+impl RenderLens {
+    pub fn parse(spec: &str, read: &ReadArgs) -> anyhow::Result<RenderLens> {
+        if let Some(efl) = spec.strip_prefix("ideal:") {
+            let focal_length_mm = efl
+                .parse()
+                .with_context(|| format!("lens `{spec}`: bad focal length"))?;
+            return Ok(RenderLens::Ideal { focal_length_mm });
+        }
+        let lens = super::lens::LensArgs {
+            lens: spec.to_string(),
+            read: read.clone(),
+        }
+        .load()?;
+        Ok(RenderLens::Real(Box::new(lens)))
     }
+
+    /// Thin and thick first-order models and the f-number used (wide open when None).
+    pub fn first_order(&self, f_number: Option<f64>) -> anyhow::Result<(FirstOrderModels, f64)> {
+        match self {
+            RenderLens::Ideal { focal_length_mm } => {
+                let f_number = f_number.unwrap_or(2.8);
+                let thin = ParaxialLens::thin(*focal_length_mm, f_number)?;
+                let models = FirstOrderModels {
+                    thick: thin.clone(),
+                    thin,
+                    wide_open_f_number: f_number,
+                    f_number,
+                };
+                Ok((models, f_number))
+            }
+            RenderLens::Real(lens) => {
+                let models = FirstOrderModels::of(&lens.system, f_number)?;
+                let f_number = models.f_number;
+                Ok((models, f_number))
+            }
+        }
+    }
+}
+
+/// Where `--model baked` keeps the table of `lens` focused at `focus_mm` (None: infinity).
+pub fn default_table_dir(lens_name: &str, focus_mm: Option<f64>) -> PathBuf {
+    let base = Path::new("tables").join(lens_name);
+    match focus_mm {
+        None => base,
+        Some(d) => base.join(format!("focus-{d:.0}mm")),
+    }
+}
+
+/// Loads the table in `dir`, or bakes one there (focused at `focus_mm`, covering film radii up to
+/// `max_film_radius`) when the directory holds none. `progress` sees the bake's node counts.
+pub fn load_or_bake(
+    lens: &LoadedLens,
+    dir: &Path,
+    focus_mm: Option<f64>,
+    max_film_radius: f64,
+    resolution: usize,
+    progress: &(dyn Fn(BakeProgress) + Sync),
+) -> anyhow::Result<(LrtfTable, bool)> {
+    let prescription = &lens.source.loaded.prescription;
+    if dir.join(SIDECAR_FILE).exists() {
+        let table = read_table(dir, Some(prescription))?;
+        let same_focus = match (table.info.focus_mm, focus_mm) {
+            (None, None) => true,
+            // The render derives its focus from the film position: equal to rounding.
+            (Some(a), Some(b)) => (a - b).abs() <= 1e-6 * a.abs().max(b.abs()),
+            _ => false,
+        };
+        if !same_focus {
+            bail!(
+                "table {} is focused at {:?} mm, the render at {:?} mm; pass --table or rebake",
+                dir.display(),
+                table.info.focus_mm,
+                focus_mm
+            );
+        }
+        return Ok((table, false));
+    }
+    let request = BakeRequest {
+        resolution: [resolution; 3],
+        precision: Precision::F32,
+        focus_mm,
+        max_film_radius: Some(max_film_radius),
+        ..BakeRequest::default()
+    };
+    let table = bake(&lens.system, &request, progress)?;
+    write_table(&table, &lens.source.origin.name(), prescription, dir)?;
+    Ok((table, true))
 }
 
 enum SceneSource {
@@ -118,7 +225,13 @@ impl SceneSource {
 }
 
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
-    let model = lens_model(&args)?;
+    let lens = RenderLens::parse(&args.lens, &args.read)?;
+    let (first_order, f_number) = lens.first_order(args.f_number)?;
+    // Focus is found with the first-order model; traced and baked use the thick one.
+    let model = match args.model {
+        ModelArg::Thin => LensModel::Thin(first_order.thin.clone()),
+        _ => LensModel::Thick(first_order.thick.clone()),
+    };
     let settings = RenderSettings {
         width: args.width,
         height: args.height,
@@ -180,6 +293,56 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         (None, None, None) => Focus::ObjectDistance(2000.0),
     };
     let camera = Camera::new(model, film, focus)?;
+    let camera = match (args.model, &lens) {
+        (ModelArg::Thin | ModelArg::Thick, _) => camera,
+        (_, RenderLens::Ideal { .. }) => {
+            bail!("`--lens ideal:...` has no surfaces to trace or bake: use --model thin or thick")
+        }
+        (ModelArg::Traced, RenderLens::Real(real)) => {
+            let traced = TracedLens::fitted(
+                &real.system,
+                &first_order,
+                f_number,
+                camera.film_z,
+                camera.film_corner_radius(),
+                PUPIL_NODES,
+            )?;
+            Camera::new(
+                LensModel::Traced(Box::new(traced)),
+                film,
+                Focus::FilmZ(camera.film_z),
+            )?
+        }
+        (ModelArg::Baked, RenderLens::Real(real)) => {
+            let design = real.system.at(real.system.design_wavelength_nm());
+            let focus_mm = match object_in_focus(&design, camera.film_z)? {
+                ObjectPosition::Infinite => None,
+                ObjectPosition::Finite { distance } => Some(distance),
+            };
+            let dir = args
+                .table
+                .clone()
+                .unwrap_or_else(|| default_table_dir(&real.source.origin.name(), focus_mm));
+            let (table, baked) = load_or_bake(
+                real,
+                &dir,
+                focus_mm,
+                camera.film_corner_radius(),
+                args.bake_resolution,
+                &|_| {},
+            )?;
+            if baked {
+                println!("baked {}", dir.display());
+            }
+            let baked = BakedLens::new(table, &first_order, f_number)?;
+            let film_z = baked.film_z();
+            Camera::new(
+                LensModel::Baked(Box::new(baked)),
+                film,
+                Focus::FilmZ(film_z),
+            )?
+        }
+    };
     let started = Instant::now();
     let ldi = source.layers(&camera, &settings)?;
     let peel_time = started.elapsed();

@@ -134,7 +134,7 @@ pub fn exact_transfer(tracer: &Tracer, ray: &Ray) -> (Option<Transfer>, bool) {
 
 /// Whether the ray from film point (film_radius, 0, film_z) through rear-plane point `rear`
 /// passes the lens with apertures on.
-fn passes_from_film(
+pub fn passes_from_film(
     tracer: &Tracer,
     film_radius: f64,
     film_z: f64,
@@ -148,7 +148,7 @@ fn passes_from_film(
 
 /// Radius of the rear-plane disk searched for passing rays: the last clear aperture plus room
 /// for rays that cross the rear plane outside it but meet the curved surface inside.
-fn rear_search_radius(system: &SystemAt) -> f64 {
+pub fn rear_search_radius(system: &SystemAt) -> f64 {
     let last = system
         .surfaces
         .last()
@@ -219,7 +219,7 @@ pub fn chief_ray_film_radius(tracer: &Tracer, system: &SystemAt, film_z: f64) ->
 const OPEN_STOP: f64 = 1e6;
 
 /// The lens at `wavelength_nm` with its stop closed down to `stop_semi_aperture`.
-fn stopped_down(system: &LensSystem, wavelength_nm: f64, stop_semi_aperture: f64) -> SystemAt {
+pub fn stopped_down(system: &LensSystem, wavelength_nm: f64, stop_semi_aperture: f64) -> SystemAt {
     let mut at = system.at(wavelength_nm);
     let stop = at.stop;
     at.surfaces[stop].semi_aperture = stop_semi_aperture;

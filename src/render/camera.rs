@@ -2,6 +2,7 @@
 //! lens frame (z along the axis, light towards +z, origin at the first vertex).
 
 use super::RenderError;
+use super::models::{BakedLens, PupilSampling, TracedLens};
 
 /// A lens reduced to first order: power and unit-magnification principal planes, with its pupils.
 /// A thin lens is the case where both principal planes and both pupils coincide.
@@ -81,6 +82,10 @@ pub enum LensModel {
     Thin(ParaxialLens),
     /// First-order thick lens: separate principal planes and real pupil positions.
     Thick(ParaxialLens),
+    /// The exact sequential trace through every surface.
+    Traced(Box<TracedLens>),
+    /// A baked lens ray transfer function table.
+    Baked(Box<BakedLens>),
 }
 
 impl LensModel {
@@ -88,12 +93,39 @@ impl LensModel {
         match self {
             LensModel::Thin(_) => "thin",
             LensModel::Thick(_) => "thick",
+            LensModel::Traced(_) => "traced",
+            LensModel::Baked(_) => "baked",
         }
     }
 
+    /// The first-order description: the model itself for thin and thick, the thick model of the
+    /// lens for traced and baked (it places the eye and sizes the field and layer margins).
     pub fn paraxial(&self) -> &ParaxialLens {
         match self {
             LensModel::Thin(lens) | LensModel::Thick(lens) => lens,
+            LensModel::Traced(lens) => &lens.paraxial,
+            LensModel::Baked(lens) => &lens.paraxial,
+        }
+    }
+
+    /// Where lens samples are drawn: the exit pupil for thin and thick, the effective pupil on
+    /// the rear vertex plane for traced and baked.
+    pub fn pupil_sampling(&self) -> PupilSampling {
+        match self {
+            LensModel::Thin(lens) | LensModel::Thick(lens) => {
+                PupilSampling::disc(lens.exit_pupil_z, lens.exit_pupil_radius_mm)
+            }
+            LensModel::Traced(lens) => PupilSampling {
+                z: lens.rear_plane_z,
+                circles: lens.pupil.clone(),
+            },
+            LensModel::Baked(lens) => {
+                let layer = &lens.table.layers[0];
+                PupilSampling {
+                    z: layer.frame.rear_plane_z,
+                    circles: layer.pupil.clone(),
+                }
+            }
         }
     }
 }
@@ -157,6 +189,12 @@ impl Camera {
             film,
             film_z,
         })
+    }
+
+    /// Largest distance of a film point from the axis (the film corner, shift included).
+    pub fn film_corner_radius(&self) -> f64 {
+        let f = &self.film;
+        (f.width_mm / 2.0 + f.shift_mm[0].abs()).hypot(f.height_mm / 2.0 + f.shift_mm[1].abs())
     }
 
     /// Lens-frame z of the eye: the entrance-pupil centre, the point layers are peeled from.

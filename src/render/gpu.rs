@@ -1,10 +1,18 @@
 //! The wgpu backend: runs `shaders/ibrt.wgsl` as a compute shader.
 
 use super::RenderError;
-use super::gpu_types::{FrameParams, LayerData};
+use super::gpu_types::{FrameParams, LayerData, LensData, LensParams, LensSurface};
 use wgpu::util::DeviceExt;
 
-pub const IBRT_SHADER: &str = include_str!("shaders/ibrt.wgsl");
+/// The lens trace alone (bind groups 2 and 3), with the `trace_lens_rays` test entry point.
+pub const LENS_TRACE_SHADER: &str = include_str!("shaders/lens_trace.wgsl");
+/// The renderer: the LRTF sampler (group 0), the lens trace (group 2) and the IBRT kernel
+/// (group 1), one module.
+pub const IBRT_SHADER: &str = concat!(
+    include_str!("../lrtf/lrtf_sample.wgsl"),
+    include_str!("shaders/lens_trace.wgsl"),
+    include_str!("shaders/ibrt.wgsl")
+);
 
 /// Samples per pixel per dispatch: keeps each submission short on slow (software) adapters.
 const SAMPLES_PER_DISPATCH: u32 = 32;
@@ -15,6 +23,7 @@ pub struct GpuRenderer {
     device: wgpu::Device,
     queue: wgpu::Queue,
     pipeline: wgpu::ComputePipeline,
+    trace_pipeline: wgpu::ComputePipeline,
     /// The adapter's name and backend, for reports.
     pub adapter_description: String,
 }
@@ -38,6 +47,10 @@ impl GpuRenderer {
             required_limits: wgpu::Limits {
                 max_storage_buffer_binding_size: limits.max_storage_buffer_binding_size,
                 max_buffer_size: limits.max_buffer_size,
+                // Layers (4), pupil circles and lens surfaces.
+                max_storage_buffers_per_shader_stage:
+                    limits.max_storage_buffers_per_shader_stage.max(6),
+                max_bind_groups: limits.max_bind_groups.max(4),
                 ..wgpu::Limits::downlevel_defaults()
             },
             ..Default::default()
@@ -45,18 +58,22 @@ impl GpuRenderer {
         .map_err(|e| RenderError::Gpu(e.to_string()))?;
         // Capture validation errors instead of letting wgpu's default handler panic.
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("ibrt.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(IBRT_SHADER.into()),
-        });
-        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("ibrt"),
-            layout: None,
-            module: &module,
-            entry_point: Some("render"),
-            compilation_options: Default::default(),
-            cache: None,
-        });
+        let pipeline_for = |source: &str, entry: &str| {
+            let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some(entry),
+                source: wgpu::ShaderSource::Wgsl(source.into()),
+            });
+            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(entry),
+                layout: None,
+                module: &module,
+                entry_point: Some(entry),
+                compilation_options: Default::default(),
+                cache: None,
+            })
+        };
+        let pipeline = pipeline_for(IBRT_SHADER, "render");
+        let trace_pipeline = pipeline_for(LENS_TRACE_SHADER, "trace_lens_rays");
         if let Some(error) = pollster::block_on(scope.pop()) {
             return Err(RenderError::Gpu(format!(
                 "building the IBRT pipeline: {error}"
@@ -66,28 +83,183 @@ impl GpuRenderer {
             device,
             queue,
             pipeline,
+            trace_pipeline,
             adapter_description,
         })
     }
 
-    /// Runs every sample of `frame` over `layers`; returns the per-pixel sum of weighted radiance
-    /// (RGBA, alpha unused), exactly what the CPU twin's `accumulate` produces.
+    fn storage(&self, label: &str, contents: &[u8]) -> wgpu::Buffer {
+        self.device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents,
+                usage: wgpu::BufferUsages::STORAGE,
+            })
+    }
+
+    fn uniform(&self, label: &str, contents: &[u8]) -> wgpu::Buffer {
+        self.device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents,
+                usage: wgpu::BufferUsages::UNIFORM,
+            })
+    }
+
+    fn bind_group(
+        &self,
+        pipeline: &wgpu::ComputePipeline,
+        group: u32,
+        buffers: &[wgpu::BindingResource],
+    ) -> wgpu::BindGroup {
+        let entries: Vec<wgpu::BindGroupEntry> = buffers
+            .iter()
+            .enumerate()
+            .map(|(i, resource)| wgpu::BindGroupEntry {
+                binding: i as u32,
+                resource: resource.clone(),
+            })
+            .collect();
+        self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: None,
+            layout: &pipeline.get_bind_group_layout(group),
+            entries: &entries,
+        })
+    }
+
+    /// Bind group 2: the lens surfaces and stop.
+    fn lens_group(
+        &self,
+        pipeline: &wgpu::ComputePipeline,
+        params: &LensParams,
+        surfaces: &[LensSurface],
+    ) -> wgpu::BindGroup {
+        let surfaces = self.storage("lens surfaces", bytemuck::cast_slice(surfaces));
+        let params = self.uniform("lens params", bytemuck::bytes_of(params));
+        self.bind_group(
+            pipeline,
+            2,
+            &[surfaces.as_entire_binding(), params.as_entire_binding()],
+        )
+    }
+
+    fn texture_3d(&self, label: &str, dims: [u32; 3], texels: &[[f32; 4]]) -> wgpu::TextureView {
+        let size = wgpu::Extent3d {
+            width: dims[0],
+            height: dims[1],
+            depth_or_array_layers: dims[2],
+        };
+        let texture = self.device.create_texture(&wgpu::TextureDescriptor {
+            label: Some(label),
+            size,
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D3,
+            format: wgpu::TextureFormat::Rgba32Float,
+            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+            view_formats: &[],
+        });
+        self.queue.write_texture(
+            texture.as_image_copy(),
+            bytemuck::cast_slice(texels),
+            wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(dims[0] * 16),
+                rows_per_image: Some(dims[1]),
+            },
+            size,
+        );
+        texture.create_view(&Default::default())
+    }
+
+    /// Reads back `buffer` (of `bytes` bytes) after the submitted work.
+    fn read_back(&self, buffer: &wgpu::Buffer, bytes: u64) -> Result<Vec<[f32; 4]>, RenderError> {
+        let readback = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("readback"),
+            size: bytes,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let mut encoder = self.device.create_command_encoder(&Default::default());
+        encoder.copy_buffer_to_buffer(buffer, 0, &readback, 0, bytes);
+        self.queue.submit([encoder.finish()]);
+        readback.map_async(wgpu::MapMode::Read, .., |_| {});
+        self.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| RenderError::Gpu(e.to_string()))?;
+        let view = readback
+            .get_mapped_range(..)
+            .map_err(|e| RenderError::Gpu(e.to_string()))?;
+        Ok(bytemuck::cast_slice(&view).to_vec())
+    }
+
+    /// Traces film-side rays (origin, direction; travelling -z) backward through the lens with
+    /// the shader's `trace_lens`. Returns per ray (origin, status) and (direction, surface): the
+    /// test hook that compares the port with the f64 tracer.
+    pub fn trace_rays(
+        &self,
+        params: &LensParams,
+        surfaces: &[LensSurface],
+        rays: &[[[f32; 3]; 2]],
+    ) -> Result<Vec<[[f32; 4]; 2]>, RenderError> {
+        if rays.is_empty() {
+            return Ok(Vec::new());
+        }
+        let input: Vec<[f32; 4]> = rays
+            .iter()
+            .flat_map(|[o, d]| [[o[0], o[1], o[2], 0.0], [d[0], d[1], d[2], 0.0]])
+            .collect();
+        let bytes = (input.len() * 16) as u64;
+        let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let rays_in = self.storage("rays in", bytemuck::cast_slice(&input));
+        let rays_out = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("rays out"),
+            size: bytes,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let pipeline = &self.trace_pipeline;
+        let empty = |group| self.bind_group(pipeline, group, &[]);
+        let groups = [
+            empty(0),
+            empty(1),
+            self.lens_group(pipeline, params, surfaces),
+            self.bind_group(
+                pipeline,
+                3,
+                &[rays_in.as_entire_binding(), rays_out.as_entire_binding()],
+            ),
+        ];
+        let mut encoder = self.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            pass.set_pipeline(pipeline);
+            for (i, group) in groups.iter().enumerate() {
+                pass.set_bind_group(i as u32, group, &[]);
+            }
+            pass.dispatch_workgroups((rays.len() as u32).div_ceil(64), 1, 1);
+        }
+        self.queue.submit([encoder.finish()]);
+        if let Some(error) = pollster::block_on(scope.pop()) {
+            return Err(RenderError::Gpu(format!("tracing rays: {error}")));
+        }
+        let out = self.read_back(&rays_out, bytes)?;
+        Ok(out.chunks(2).map(|pair| [pair[0], pair[1]]).collect())
+    }
+
+    /// Runs every sample of `frame` over `layers` through `lens`; returns the per-pixel sum of
+    /// weighted radiance (RGBA, alpha unused), exactly what the CPU twin's `accumulate` produces.
     pub fn accumulate(
         &self,
         frame: &FrameParams,
         layers: &LayerData,
+        lens: &LensData,
     ) -> Result<Vec<[f32; 4]>, RenderError> {
-        let storage = |label: &str, contents: &[u8]| {
-            self.device
-                .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                    label: Some(label),
-                    contents,
-                    usage: wgpu::BufferUsages::STORAGE,
-                })
-        };
-        let depths = storage("layer depths", bytemuck::cast_slice(&layers.depths));
-        let colours = storage("layer colours", bytemuck::cast_slice(&layers.colours));
-        let bounds = storage("depth bounds", bytemuck::cast_slice(&layers.depth_bounds));
+        let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let pipeline = &self.pipeline;
+        let depths = self.storage("layer depths", bytemuck::cast_slice(&layers.depths));
+        let colours = self.storage("layer colours", bytemuck::cast_slice(&layers.colours));
+        let bounds = self.storage("depth bounds", bytemuck::cast_slice(&layers.depth_bounds));
         let pixels = (frame.width * frame.height) as u64;
         let output_bytes = pixels * 16;
         let output = self.device.create_buffer(&wgpu::BufferDescriptor {
@@ -96,13 +268,21 @@ impl GpuRenderer {
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         });
-        let readback = self.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("readback"),
-            size: output_bytes,
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let transfer = self.texture_3d("lrtf transfer", lens.dims, &lens.transfer);
+        let aux = self.texture_3d("lrtf aux", lens.dims, &lens.aux);
+        let pupil = self.storage("pupil circles", bytemuck::cast_slice(&lens.pupil));
+        let lrtf = self.uniform("lrtf params", bytemuck::bytes_of(&lens.lrtf));
+        let lrtf_group = self.bind_group(
+            pipeline,
+            0,
+            &[
+                wgpu::BindingResource::TextureView(&transfer),
+                wgpu::BindingResource::TextureView(&aux),
+                pupil.as_entire_binding(),
+                lrtf.as_entire_binding(),
+            ],
+        );
+        let lens_group = self.lens_group(pipeline, &lens.params, &lens.surfaces);
         let mut offset = 0;
         while offset < frame.samples_per_pixel {
             let chunk = FrameParams {
@@ -110,44 +290,25 @@ impl GpuRenderer {
                 sample_count: SAMPLES_PER_DISPATCH.min(frame.samples_per_pixel - offset),
                 ..*frame
             };
-            let uniform = self
-                .device
-                .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                    label: Some("frame"),
-                    contents: bytemuck::bytes_of(&chunk),
-                    usage: wgpu::BufferUsages::UNIFORM,
-                });
-            let bind_group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("ibrt"),
-                layout: &self.pipeline.get_bind_group_layout(0),
-                entries: &[
-                    wgpu::BindGroupEntry {
-                        binding: 0,
-                        resource: uniform.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 1,
-                        resource: depths.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 2,
-                        resource: colours.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 3,
-                        resource: bounds.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 4,
-                        resource: output.as_entire_binding(),
-                    },
+            let uniform = self.uniform("frame", bytemuck::bytes_of(&chunk));
+            let layer_group = self.bind_group(
+                pipeline,
+                1,
+                &[
+                    uniform.as_entire_binding(),
+                    depths.as_entire_binding(),
+                    colours.as_entire_binding(),
+                    bounds.as_entire_binding(),
+                    output.as_entire_binding(),
                 ],
-            });
+            );
             let mut encoder = self.device.create_command_encoder(&Default::default());
             {
                 let mut pass = encoder.begin_compute_pass(&Default::default());
-                pass.set_pipeline(&self.pipeline);
-                pass.set_bind_group(0, &bind_group, &[]);
+                pass.set_pipeline(pipeline);
+                pass.set_bind_group(0, &lrtf_group, &[]);
+                pass.set_bind_group(1, &layer_group, &[]);
+                pass.set_bind_group(2, &lens_group, &[]);
                 pass.dispatch_workgroups(
                     frame.width.div_ceil(WORKGROUP_SIZE),
                     frame.height.div_ceil(WORKGROUP_SIZE),
@@ -157,19 +318,9 @@ impl GpuRenderer {
             self.queue.submit([encoder.finish()]);
             offset += chunk.sample_count;
         }
-        let mut encoder = self.device.create_command_encoder(&Default::default());
-        encoder.copy_buffer_to_buffer(&output, 0, &readback, 0, output_bytes);
-        self.queue.submit([encoder.finish()]);
         if let Some(error) = pollster::block_on(scope.pop()) {
             return Err(RenderError::Gpu(format!("dispatching IBRT: {error}")));
         }
-        readback.map_async(wgpu::MapMode::Read, .., |_| {});
-        self.device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .map_err(|e| RenderError::Gpu(e.to_string()))?;
-        let view = readback
-            .get_mapped_range(..)
-            .map_err(|e| RenderError::Gpu(e.to_string()))?;
-        Ok(bytemuck::cast_slice(&view).to_vec())
+        self.read_back(&output, output_bytes)
     }
 }

@@ -2,7 +2,7 @@
 //! byte for byte with `shaders/ibrt.wgsl`; their layout is checked against naga's in the tests.
 
 use super::RenderError;
-use super::camera::Camera;
+use super::camera::{Camera, LensModel};
 use super::layers::LayeredDepthImage;
 use bytemuck::{Pod, Zeroable};
 
@@ -12,6 +12,19 @@ pub const EMPTY_INVERSE_DEPTH: f32 = -1.0;
 pub const EMPTY_BOUNDS: [f32; 2] = [1e30, -1e30];
 /// Which lens function the kernel applies (`FrameParams::model`).
 pub const MODEL_PARAXIAL: u32 = 0;
+pub const MODEL_TRACED: u32 = 1;
+pub const MODEL_BAKED: u32 = 2;
+/// Surface profiles (`LensSurface::kind`).
+pub const SURFACE_PLANE: u32 = 0;
+pub const SURFACE_SPHERE: u32 = 1;
+pub const SURFACE_CONIC: u32 = 2;
+pub const SURFACE_ASPHERE: u32 = 3;
+/// Outcome codes of the shader's `trace_lens` (`TracedRay::status`), in the order of
+/// [`crate::trace::Outcome`].
+pub const TRACE_OK: u32 = 0;
+pub const TRACE_VIGNETTED: u32 = 1;
+pub const TRACE_TIR: u32 = 2;
+pub const TRACE_MISSED: u32 = 3;
 
 /// Uniform block of one dispatch. Mirrors `FrameParams` in the shader.
 #[repr(C)]
@@ -34,8 +47,10 @@ pub struct FrameParams {
     pub film_step_x: f32,
     pub film_step_y: f32,
     pub film_z: f32,
+    /// Plane the lens samples lie on (exit pupil or rear vertex plane).
     pub pupil_z: f32,
-    pub pupil_radius: f32,
+    /// pi / (reference projected solid angle * (pupil_z - film_z)^2): times a circle's squared
+    /// radius it is the circle's projected solid angle relative to the paraxial exit pupil's.
     pub pupil_weight: f32,
     pub focal_length: f32,
     pub front_principal_z: f32,
@@ -143,6 +158,13 @@ pub fn frame_params(
         -camera.film.width_mm / width as f64,
         camera.film.height_mm / height as f64,
     ];
+    let sampling = camera.model.pupil_sampling();
+    // Every model's weights are relative to the paraxial exit pupil seen from the film, so an
+    // unvignetted axial pixel of a thin or thick lens gets weight cos^4 = 1.
+    let exit_distance = camera.film_z - lens.exit_pupil_z;
+    let reference =
+        std::f64::consts::PI * lens.exit_pupil_radius_mm.powi(2) / exit_distance.powi(2);
+    let sample_distance = camera.film_z - sampling.z;
     FrameParams {
         width,
         height,
@@ -155,16 +177,19 @@ pub fn frame_params(
         pyramid_levels: layers.pyramid_levels,
         sample_offset: 0,
         sample_count: samples_per_pixel,
-        model: MODEL_PARAXIAL,
+        model: match camera.model {
+            LensModel::Thin(_) | LensModel::Thick(_) => MODEL_PARAXIAL,
+            LensModel::Traced(_) => MODEL_TRACED,
+            LensModel::Baked(_) => MODEL_BAKED,
+        },
         film_origin_x: origin[0] as f32,
         film_origin_y: origin[1] as f32,
         film_step_x: step[0] as f32,
         film_step_y: step[1] as f32,
         film_z: camera.film_z as f32,
-        pupil_z: lens.exit_pupil_z as f32,
-        pupil_radius: lens.exit_pupil_radius_mm as f32,
-        // Uniform sampling of the whole exit pupil: the pdf cancels the pupil's solid angle.
-        pupil_weight: 1.0,
+        pupil_z: sampling.z as f32,
+        pupil_weight: (std::f64::consts::PI / (reference * sample_distance * sample_distance))
+            as f32,
         focal_length: lens.focal_length_mm as f32,
         front_principal_z: lens.front_principal_z as f32,
         rear_principal_z: lens.rear_principal_z as f32,
@@ -175,6 +200,234 @@ pub fn frame_params(
         near_depth: layers.depth_range[0] * 0.999,
         far_depth: layers.depth_range[1] * 1.001,
     }
+}
+
+/// One lens surface as `trace_lens` in the shader reads it (storage buffer, 88 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct LensSurface {
+    pub vertex_z: f32,
+    pub curvature: f32,
+    /// 1 + conic constant.
+    pub conic_factor: f32,
+    pub semi_aperture_sq: f32,
+    /// Snell ratio going backward: index after the surface over index before it.
+    pub mu: f32,
+    /// Asphere Newton search bound (twice the clear semi-aperture).
+    pub search_radius: f32,
+    pub kind: u32,
+    pub asphere_terms: u32,
+    /// 1 when both sides have the same index (no refraction).
+    pub same_medium: u32,
+    /// 1 on the stop when its blades must be tested.
+    pub bladed: u32,
+    pub pad: [u32; 2],
+    /// Even-asphere coefficients of r^2, r^4, ...
+    pub coefficients: [f32; crate::prescription::MAX_ASPHERE_TERMS],
+}
+
+/// Uniform block `LensParams`: the surface count and the stop's blades (see
+/// `crate::trace` aperture notes: corners on the stop circle, edges bulging by arcs).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct LensParams {
+    pub surface_count: u32,
+    pub blade_count: u32,
+    pub has_arc: u32,
+    pub pad: u32,
+    pub blade_rotation: f32,
+    pub blade_apothem: f32,
+    /// Distance of each edge arc's centre along the edge's outward direction.
+    pub arc_centre: f32,
+    pub arc_radius_sq: f32,
+}
+
+/// `LrtfParams` of src/lrtf/lrtf_sample.wgsl, as bytes (mirrors [`crate::lrtf::GpuParams`]).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct LrtfUniform {
+    pub rear_plane_z: f32,
+    pub film_plane_z: f32,
+    pub max_film_radius: f32,
+    pub max_rear_radius: f32,
+    pub max_polar_angle: f32,
+    pub stop_radius_sq: f32,
+    pub parameterisation: u32,
+    pub pupil_count: u32,
+    pub dims: [u32; 3],
+    pub pad: u32,
+}
+
+/// Everything the kernel knows about the lens: the surfaces (traced), the table (baked, else a
+/// 2x2x2 placeholder so the bindings stay the same), and the pupil circles lens samples are
+/// drawn in (every model).
+#[derive(Clone, Debug, PartialEq)]
+pub struct LensData {
+    pub params: LensParams,
+    /// At least one entry (a placeholder when the model traces nothing).
+    pub surfaces: Vec<LensSurface>,
+    pub lrtf: LrtfUniform,
+    /// (centre_x, radius) at film radii `lrtf.max_film_radius * k / (n - 1)`.
+    pub pupil: Vec<[f32; 2]>,
+    pub transfer: Vec<[f32; 4]>,
+    pub aux: Vec<[f32; 4]>,
+    pub dims: [u32; 3],
+}
+
+impl LensData {
+    pub fn of(model: &LensModel) -> LensData {
+        let sampling = model.pupil_sampling();
+        let pupil: Vec<[f32; 2]> = sampling
+            .circles
+            .circles
+            .iter()
+            .map(|c| [c.centre_x as f32, c.radius as f32])
+            .collect();
+        let placeholder_lrtf = LrtfUniform {
+            rear_plane_z: sampling.z as f32,
+            film_plane_z: 0.0,
+            max_film_radius: sampling.circles.max_film_radius as f32,
+            max_rear_radius: 1.0,
+            max_polar_angle: 1.0,
+            stop_radius_sq: 0.0,
+            parameterisation: 1,
+            pupil_count: pupil.len() as u32,
+            dims: [2, 2, 2],
+            pad: 0,
+        };
+        let placeholder_texels = vec![[0.0f32; 4]; 8];
+        let (params, surfaces) = match model {
+            LensModel::Traced(lens) => lens_surfaces(&lens.system),
+            _ => (LensParams::zeroed(), vec![LensSurface::zeroed()]),
+        };
+        match model {
+            LensModel::Baked(lens) => {
+                let g = lens.table.gpu_params(0, lens.stop_radius);
+                let layer = &lens.table.layers[0];
+                let split = |range: std::ops::Range<usize>| -> Vec<[f32; 4]> {
+                    layer
+                        .entries
+                        .iter()
+                        .map(|e| {
+                            [
+                                e[range.start],
+                                e[range.start + 1],
+                                e[range.start + 2],
+                                e[range.start + 3],
+                            ]
+                        })
+                        .collect()
+                };
+                LensData {
+                    params,
+                    surfaces,
+                    lrtf: LrtfUniform {
+                        rear_plane_z: g.rear_plane_z,
+                        film_plane_z: g.film_plane_z,
+                        max_film_radius: g.max_film_radius,
+                        max_rear_radius: g.max_rear_radius,
+                        max_polar_angle: g.max_polar_angle,
+                        stop_radius_sq: g.stop_radius_sq,
+                        parameterisation: g.parameterisation,
+                        pupil_count: g.pupil_count,
+                        dims: g.dims,
+                        pad: 0,
+                    },
+                    pupil,
+                    transfer: split(0..4),
+                    aux: split(4..8),
+                    dims: g.dims,
+                }
+            }
+            _ => LensData {
+                params,
+                surfaces,
+                lrtf: placeholder_lrtf,
+                pupil,
+                transfer: placeholder_texels.clone(),
+                aux: placeholder_texels,
+                dims: [2, 2, 2],
+            },
+        }
+    }
+}
+
+/// The f32 surfaces and stop blades of a lens at one wavelength, in surface order.
+pub fn lens_surfaces(system: &crate::system::SystemAt) -> (LensParams, Vec<LensSurface>) {
+    use crate::prescription::{Shape, StopShape};
+    let mut params = LensParams {
+        surface_count: system.surfaces.len() as u32,
+        ..LensParams::zeroed()
+    };
+    let surfaces = system
+        .path()
+        .map(|(i, s, index_before, index_after)| {
+            let mut out = LensSurface {
+                vertex_z: s.vertex_z as f32,
+                semi_aperture_sq: (s.semi_aperture * s.semi_aperture) as f32,
+                mu: (index_after / index_before) as f32,
+                search_radius: (2.0 * s.semi_aperture) as f32,
+                conic_factor: 1.0,
+                same_medium: u32::from(index_before == index_after),
+                ..LensSurface::zeroed()
+            };
+            match &s.shape {
+                Shape::Plane => out.kind = SURFACE_PLANE,
+                Shape::Sphere { curvature } if *curvature == 0.0 => out.kind = SURFACE_PLANE,
+                Shape::Sphere { curvature } => {
+                    out.kind = SURFACE_SPHERE;
+                    out.curvature = *curvature as f32;
+                }
+                Shape::Conic { curvature, conic } => {
+                    out.kind = SURFACE_CONIC;
+                    out.curvature = *curvature as f32;
+                    out.conic_factor = (1.0 + conic) as f32;
+                }
+                Shape::EvenAsphere {
+                    curvature,
+                    conic,
+                    coefficients,
+                } => {
+                    out.kind = SURFACE_ASPHERE;
+                    out.curvature = *curvature as f32;
+                    out.conic_factor = (1.0 + conic) as f32;
+                    out.asphere_terms = coefficients.len() as u32;
+                    for (o, c) in out.coefficients.iter_mut().zip(coefficients) {
+                        *o = *c as f32;
+                    }
+                }
+            }
+            if let Some(StopShape::Blades {
+                count,
+                rotation_deg,
+                blade_curvature,
+            }) = s.stop
+            {
+                if i == system.stop {
+                    out.bladed = 1;
+                    let count = count.max(3);
+                    let half = std::f64::consts::PI / f64::from(count);
+                    let radius = s.semi_aperture;
+                    let apothem = radius * half.cos();
+                    params.blade_count = count;
+                    params.blade_rotation = rotation_deg.to_radians() as f32;
+                    params.blade_apothem = apothem as f32;
+                    let curvature = blade_curvature.clamp(0.0, 1.0) / radius;
+                    if curvature > 0.0 {
+                        let arc_radius = 1.0 / curvature;
+                        let half_chord = radius * half.sin();
+                        params.has_arc = 1;
+                        params.arc_centre = (apothem
+                            - (arc_radius * arc_radius - half_chord * half_chord).sqrt())
+                            as f32;
+                        params.arc_radius_sq = (arc_radius * arc_radius) as f32;
+                    }
+                }
+            }
+            out
+        })
+        .collect();
+    (params, surfaces)
 }
 
 #[cfg(test)]

@@ -1,9 +1,15 @@
 //! The CPU twin of `shaders/ibrt.wgsl`: the same algorithm, statement by statement, in f32.
 //!
 //! It is the test oracle for the GPU path and the fallback where no adapter exists. Each
-//! function here has a namesake in the shader; change both together.
+//! function here has a namesake in the shader; change both together. The one deliberate
+//! difference: the traced and baked lens functions are not f32 ports here but the library's own
+//! f64 tracer ([`crate::trace`]) and table sampler ([`LrtfTable::lookup`]), so the CPU twin *is*
+//! the oracle the shader's ports are measured against.
 
-use super::gpu_types::{FrameParams, LayerData};
+use super::camera::LensModel;
+use super::gpu_types::{FrameParams, LayerData, LensData};
+use crate::lrtf::{self, Lookup, LrtfTable};
+use crate::trace::{Tracer, Travel};
 use rayon::prelude::*;
 
 const PI: f32 = std::f32::consts::PI;
@@ -287,9 +293,141 @@ impl PixelScrambles {
     }
 }
 
+/// How the CPU twin turns film-side rays into object rays.
+#[derive(Clone, Copy, Debug)]
+pub enum LensRays<'a> {
+    /// The shader's `paraxial_lens_ray`, in f32.
+    Paraxial,
+    /// The exact f64 trace.
+    Traced(&'a Tracer),
+    /// The f64 table sampler, through a stop of `stop_radius` mm.
+    Baked {
+        table: &'a LrtfTable,
+        stop_radius: f64,
+    },
+}
+
+impl LensRays<'_> {
+    pub fn of(model: &LensModel) -> LensRays<'_> {
+        match model {
+            LensModel::Thin(_) | LensModel::Thick(_) => LensRays::Paraxial,
+            LensModel::Traced(lens) => LensRays::Traced(&lens.tracer),
+            LensModel::Baked(lens) => LensRays::Baked {
+                table: &lens.table,
+                stop_radius: lens.stop_radius,
+            },
+        }
+    }
+}
+
+fn to_f64(v: Vec3) -> [f64; 3] {
+    v.map(f64::from)
+}
+
+/// The object-space ray for the film-side ray from `film` through `pupil`; invalid when the lens
+/// blocks it (vignetted, TIR, missed; or outside the table).
+fn lens_ray(frame: &FrameParams, rays: LensRays, film: Vec3, pupil: Vec3) -> ObjectRay {
+    let blocked = ObjectRay {
+        origin: [0.0; 3],
+        direction: [0.0, 0.0, 1.0],
+        valid: false,
+    };
+    let towards = [pupil[0] - film[0], pupil[1] - film[1], pupil[2] - film[2]];
+    let object = |origin: [f64; 3], direction: [f64; 3]| ObjectRay {
+        origin: origin.map(|v| v as f32),
+        // Light travels towards +z, against the traced direction.
+        direction: direction.map(|v| -v as f32),
+        valid: true,
+    };
+    match rays {
+        LensRays::Paraxial => paraxial_lens_ray(frame, film, pupil),
+        LensRays::Traced(tracer) => {
+            let Ok(ray) = crate::trace::Ray::new(to_f64(film), to_f64(towards)) else {
+                return blocked;
+            };
+            let traced = tracer.trace(ray, Travel::Backward);
+            if traced.outcome.is_ok() {
+                object(traced.ray.position(), traced.ray.direction())
+            } else {
+                blocked
+            }
+        }
+        LensRays::Baked { table, stop_radius } => {
+            let d = to_f64(towards);
+            let length = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+            let ray = lrtf::Ray {
+                origin: to_f64(film),
+                direction: d.map(|v| v / length),
+            };
+            match table.lookup(0, &ray, stop_radius) {
+                Lookup::Passes(out) => object(out.origin, out.direction),
+                Lookup::Blocked | Lookup::OutsideDomain => blocked,
+            }
+        }
+    }
+}
+
+/// The shader's `lrtf_pupil_at`: the pupil circle (centre_x, radius) for a film radius, linear
+/// between the stored film radii.
+fn pupil_at(lens: &LensData, film_radius: f32) -> Vec2 {
+    let n = lens.lrtf.pupil_count;
+    if n == 1 || lens.lrtf.max_film_radius <= 0.0 {
+        return lens.pupil[0];
+    }
+    let t = (film_radius / lens.lrtf.max_film_radius).clamp(0.0, 1.0) * (n - 1) as f32;
+    let i = (t.floor() as u32).min(n - 2);
+    let f = t - i as f32;
+    let (a, b) = (lens.pupil[i as usize], lens.pupil[i as usize + 1]);
+    [a[0] * (1.0 - f) + b[0] * f, a[1] * (1.0 - f) + b[1] * f]
+}
+
+/// A lens sample: the point on the sampling plane for unit-square sample `lens_u` from `film`,
+/// uniform over the film radius's pupil circle, and its
+/// weight (cos^4 times the circle's projected solid angle relative to the paraxial exit pupil).
+///
+/// Only the circle's centre turns with the film point's azimuth; the disc sample itself does
+/// not (the circle is symmetric), so neighbouring pixels on either side of the axis keep the
+/// same stratification.
+pub(crate) fn pupil_sample(
+    frame: &FrameParams,
+    lens: &LensData,
+    film: Vec3,
+    lens_u: Vec2,
+) -> (Vec3, f32) {
+    let film_radius = (film[0] * film[0] + film[1] * film[1]).sqrt();
+    let azimuth = if film_radius > 0.0 {
+        [film[0] / film_radius, film[1] / film_radius]
+    } else {
+        [1.0, 0.0]
+    };
+    let circle = pupil_at(lens, film_radius);
+    let disc = concentric_disc(lens_u);
+    let pupil = [
+        azimuth[0] * circle[0] + circle[1] * disc[0],
+        azimuth[1] * circle[0] + circle[1] * disc[1],
+        frame.pupil_z,
+    ];
+    let to_pupil = [pupil[0] - film[0], pupil[1] - film[1], pupil[2] - film[2]];
+    let length =
+        (to_pupil[0] * to_pupil[0] + to_pupil[1] * to_pupil[1] + to_pupil[2] * to_pupil[2]).sqrt();
+    let cos_theta = to_pupil[2].abs() / length;
+    let cos2 = cos_theta * cos_theta;
+    (
+        pupil,
+        frame.pupil_weight * circle[1] * circle[1] * cos2 * cos2,
+    )
+}
+
 /// Weighted radiance summed over this dispatch's samples for output pixel (x, y): the body of
 /// the shader's `render` entry point.
-fn render_pixel(frame: &FrameParams, layers: &LayerData, x: u32, y: u32) -> Vec3 {
+fn render_pixel(
+    frame: &FrameParams,
+    layers: &LayerData,
+    lens: &LensData,
+    rays: LensRays,
+    x: u32,
+    y: u32,
+) -> Vec3 {
     let scrambles = PixelScrambles::new(frame.seed, y * frame.width + x);
     let mut sum = [0.0f32; 3];
     for s in 0..frame.sample_count {
@@ -299,20 +437,8 @@ fn render_pixel(frame: &FrameParams, layers: &LayerData, x: u32, y: u32) -> Vec3
             frame.film_origin_y + (y as f32 + jitter[1]) * frame.film_step_y,
             frame.film_z,
         ];
-        let disc = concentric_disc(lens_u);
-        let pupil = [
-            disc[0] * frame.pupil_radius,
-            disc[1] * frame.pupil_radius,
-            frame.pupil_z,
-        ];
-        let to_pupil = [pupil[0] - film[0], pupil[1] - film[1], pupil[2] - film[2]];
-        let length =
-            (to_pupil[0] * to_pupil[0] + to_pupil[1] * to_pupil[1] + to_pupil[2] * to_pupil[2])
-                .sqrt();
-        let cos_theta = to_pupil[2].abs() / length;
-        let cos2 = cos_theta * cos_theta;
-        let weight = frame.pupil_weight * cos2 * cos2;
-        let ray = paraxial_lens_ray(frame, film, pupil);
+        let (pupil, weight) = pupil_sample(frame, lens, film, lens_u);
+        let ray = lens_ray(frame, rays, film, pupil);
         if let Some(colour) = trace_layers(frame, layers, &ray) {
             for (acc, c) in sum.iter_mut().zip(colour) {
                 *acc += weight * c;
@@ -324,14 +450,20 @@ fn render_pixel(frame: &FrameParams, layers: &LayerData, x: u32, y: u32) -> Vec3
 
 /// Adds this dispatch's weighted samples into `radiance_sum` (one RGBA entry per output pixel,
 /// row-major), in parallel over rows.
-pub fn accumulate(frame: &FrameParams, layers: &LayerData, radiance_sum: &mut [[f32; 4]]) {
+pub fn accumulate(
+    frame: &FrameParams,
+    layers: &LayerData,
+    lens: &LensData,
+    rays: LensRays,
+    radiance_sum: &mut [[f32; 4]],
+) {
     let width = frame.width as usize;
     radiance_sum
         .par_chunks_mut(width)
         .enumerate()
         .for_each(|(y, row)| {
             for (x, out) in row.iter_mut().enumerate() {
-                let s = render_pixel(frame, layers, x as u32, y as u32);
+                let s = render_pixel(frame, layers, lens, rays, x as u32, y as u32);
                 out[0] += s[0];
                 out[1] += s[1];
                 out[2] += s[2];

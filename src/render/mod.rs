@@ -13,11 +13,12 @@ pub mod gpu_types;
 pub mod image;
 pub mod kernel;
 pub mod layers;
+pub mod models;
 pub mod reference;
 pub mod scene;
 
 use camera::Camera;
-use gpu_types::{LayerData, frame_params};
+use gpu_types::{LayerData, LensData, frame_params};
 use image::RgbImage;
 use layers::{LayeredDepthImage, View};
 use std::path::PathBuf;
@@ -114,12 +115,14 @@ pub fn render_layers(
         settings.samples_per_pixel,
         settings.seed,
     );
+    let lens = LensData::of(&camera.model);
     let sums = match (backend, gpu) {
-        (Backend::Gpu, Some(renderer)) => renderer.accumulate(&frame, &layers)?,
-        (Backend::Gpu, None) => gpu::GpuRenderer::new()?.accumulate(&frame, &layers)?,
+        (Backend::Gpu, Some(renderer)) => renderer.accumulate(&frame, &layers, &lens)?,
+        (Backend::Gpu, None) => gpu::GpuRenderer::new()?.accumulate(&frame, &layers, &lens)?,
         (Backend::Cpu, _) => {
             let mut sums = vec![[0.0f32; 4]; (settings.width * settings.height) as usize];
-            kernel::accumulate(&frame, &layers, &mut sums);
+            let rays = kernel::LensRays::of(&camera.model);
+            kernel::accumulate(&frame, &layers, &lens, rays, &mut sums);
             sums
         }
     };

@@ -3,14 +3,51 @@
 //! samples the IBRT kernel draws, so the difference between the two images is the cost of the
 //! layered representation, not sampling noise.
 
-use super::camera::Camera;
+use super::camera::{Camera, LensModel};
 use super::image::RgbImage;
 use super::kernel::{PixelScrambles, concentric_disc};
 use super::scene::Scene;
 use super::{RenderError, RenderSettings};
+use crate::lrtf::{self, Lookup};
+use crate::trace::Travel;
 use rayon::prelude::*;
 
-/// Renders `scene` through `camera` with `settings.samples_per_pixel` samples per pixel.
+/// The object ray (a point on it and the direction light travels, towards +z) for the film-side
+/// ray from `film` through `pupil`, by the camera's model in f64; None when the lens blocks it.
+fn object_ray(model: &LensModel, film: [f64; 3], pupil: [f64; 3]) -> Option<([f64; 3], [f64; 3])> {
+    let towards = [pupil[0] - film[0], pupil[1] - film[1], pupil[2] - film[2]];
+    let reversed = |d: [f64; 3]| d.map(|v| -v);
+    match model {
+        LensModel::Thin(lens) | LensModel::Thick(lens) => {
+            let (origin, slope) = lens.object_ray(film, pupil);
+            Some((origin, [slope[0], slope[1], 1.0]))
+        }
+        LensModel::Traced(lens) => {
+            let ray = crate::trace::Ray::new(film, towards).ok()?;
+            let traced = lens.tracer.trace(ray, Travel::Backward);
+            traced
+                .outcome
+                .is_ok()
+                .then(|| (traced.ray.position(), reversed(traced.ray.direction())))
+        }
+        LensModel::Baked(lens) => {
+            let length = (towards[0].powi(2) + towards[1].powi(2) + towards[2].powi(2)).sqrt();
+            let ray = lrtf::Ray {
+                origin: film,
+                direction: towards.map(|v| v / length),
+            };
+            match lens.table.lookup(0, &ray, lens.stop_radius) {
+                Lookup::Passes(out) => Some((out.origin, reversed(out.direction))),
+                Lookup::Blocked | Lookup::OutsideDomain => None,
+            }
+        }
+    }
+}
+
+/// Renders `scene` through `camera` with `settings.samples_per_pixel` samples per pixel, in f64,
+/// with the kernel's samples and weights (pupil circle per film radius, cos^4 times the circle's
+/// projected solid angle relative to the paraxial exit pupil). With a traced camera this is the
+/// exact lens against the true geometry: the yardstick for every model and for the layers.
 pub fn render_reference(
     camera: &Camera,
     scene: &Scene,
@@ -18,6 +55,13 @@ pub fn render_reference(
 ) -> Result<RgbImage, RenderError> {
     settings.check()?;
     let lens = camera.model.paraxial();
+    let sampling = camera.model.pupil_sampling();
+    let exit_distance = camera.film_z - lens.exit_pupil_z;
+    let reference_solid_angle =
+        std::f64::consts::PI * lens.exit_pupil_radius_mm.powi(2) / exit_distance.powi(2);
+    let sample_distance = camera.film_z - sampling.z;
+    let weight_scale =
+        std::f64::consts::PI / (reference_solid_angle * sample_distance * sample_distance);
     let (width, height, spp) = (settings.width, settings.height, settings.samples_per_pixel);
     let pixels = (0..width * height)
         .into_par_iter()
@@ -33,17 +77,26 @@ pub fn render_reference(
                     x as f64 + jitter[0] as f64,
                     y as f64 + jitter[1] as f64,
                 );
+                let film_radius = film[0].hypot(film[1]);
+                let azimuth = if film_radius > 0.0 {
+                    [film[0] / film_radius, film[1] / film_radius]
+                } else {
+                    [1.0, 0.0]
+                };
+                let circle = sampling.circles.circle_at(film_radius);
                 let disc = concentric_disc(lens_u);
                 let pupil = [
-                    disc[0] as f64 * lens.exit_pupil_radius_mm,
-                    disc[1] as f64 * lens.exit_pupil_radius_mm,
-                    lens.exit_pupil_z,
+                    azimuth[0] * circle.centre_x + circle.radius * disc[0] as f64,
+                    azimuth[1] * circle.centre_x + circle.radius * disc[1] as f64,
+                    sampling.z,
                 ];
                 let d = [pupil[0] - film[0], pupil[1] - film[1], pupil[2] - film[2]];
                 let cos_theta = d[2].abs() / (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-                let weight = cos_theta.powi(4);
-                let (origin, slope) = lens.object_ray(film, pupil);
-                let radiance = scene.radiance_along(origin, [slope[0], slope[1], 1.0]);
+                let weight = weight_scale * circle.radius * circle.radius * cos_theta.powi(4);
+                let Some((origin, direction)) = object_ray(&camera.model, film, pupil) else {
+                    continue;
+                };
+                let radiance = scene.radiance_along(origin, direction);
                 for (acc, c) in sum.iter_mut().zip(radiance) {
                     *acc += weight * c as f64;
                 }

@@ -5,6 +5,10 @@
 // depth range the min/max pyramid allows and walks its footprint over the layers, testing every
 // layer of every visited pixel as a square at constant depth. The Rust twin is
 // src/render/kernel.rs; keep the two in step statement by statement.
+//
+// This file is compiled after src/lrtf/lrtf_sample.wgsl (bind group 0: the baked table and the
+// pupil circles every model samples in) and lens_trace.wgsl (group 2: the surfaces); see
+// IBRT_SHADER in gpu.rs.
 
 struct FrameParams {
     width: u32,
@@ -25,7 +29,6 @@ struct FrameParams {
     film_step_y: f32,
     film_z: f32,
     pupil_z: f32,
-    pupil_radius: f32,
     pupil_weight: f32,
     focal_length: f32,
     front_principal_z: f32,
@@ -37,17 +40,20 @@ struct FrameParams {
     far_depth: f32,
 }
 
-@group(0) @binding(0) var<uniform> frame: FrameParams;
+@group(1) @binding(0) var<uniform> frame: FrameParams;
 // Inverse depth (1/mm from the eye) of four layers per pixel; negative = no surface.
-@group(0) @binding(1) var<storage, read> layer_depths: array<vec4<f32>>;
+@group(1) @binding(1) var<storage, read> layer_depths: array<vec4<f32>>;
 // Linear RGB radiance per layer per pixel (alpha unused).
-@group(0) @binding(2) var<storage, read> layer_colours: array<vec4<f32>>;
+@group(1) @binding(2) var<storage, read> layer_colours: array<vec4<f32>>;
 // Min/max inverse depth over all layers, a pyramid of 2x2 reductions, level 0 first.
-@group(0) @binding(3) var<storage, read> depth_bounds: array<vec2<f32>>;
+@group(1) @binding(3) var<storage, read> depth_bounds: array<vec2<f32>>;
 // Running sum of weighted radiance per output pixel.
-@group(0) @binding(4) var<storage, read_write> radiance_sum: array<vec4<f32>>;
+@group(1) @binding(4) var<storage, read_write> radiance_sum: array<vec4<f32>>;
 
 const PI: f32 = 3.14159265358979;
+const MODEL_PARAXIAL: u32 = 0u;
+const MODEL_TRACED: u32 = 1u;
+const MODEL_BAKED: u32 = 2u;
 const FOOTPRINT_CLAMP_ITERATIONS: u32 = 3u;
 const DEPTH_TOLERANCE: f32 = 1e-5;
 const NO_CROSSING: f32 = 1e30;
@@ -113,6 +119,53 @@ fn paraxial_lens_ray(film: vec3<f32>, pupil: vec3<f32>) -> ObjectRay {
         vec3<f32>(object_slope, 1.0),
         true,
     );
+}
+
+fn blocked_ray() -> ObjectRay {
+    return ObjectRay(vec3<f32>(0.0), vec3<f32>(0.0, 0.0, 1.0), false);
+}
+
+// The object-space ray for the film-side ray from `film` through `pupil`, by the frame's model;
+// invalid when the lens blocks it.
+fn lens_ray(film: vec3<f32>, pupil: vec3<f32>) -> ObjectRay {
+    if frame.model == MODEL_TRACED {
+        let traced = trace_lens(film, pupil - film);
+        if traced.status != TRACE_OK {
+            return blocked_ray();
+        }
+        return ObjectRay(traced.origin, -traced.direction, true);
+    }
+    if frame.model == MODEL_BAKED {
+        let baked = lrtf_sample(film, normalize(pupil - film));
+        if baked.status != LRTF_PASSES {
+            return blocked_ray();
+        }
+        return ObjectRay(baked.origin, -baked.direction, true);
+    }
+    return paraxial_lens_ray(film, pupil);
+}
+
+struct PupilSample {
+    point: vec3<f32>,
+    weight: f32,
+}
+
+// Uniform over the film radius's pupil circle, its centre turned to the film point's azimuth
+// (the disc sample is not turned, so stratification does not flip across the axis); weight
+// cos^4 times the circle's projected solid angle relative to the paraxial exit pupil's.
+fn pupil_sample(film: vec3<f32>, lens_u: vec2<f32>) -> PupilSample {
+    let film_radius = sqrt(film.x * film.x + film.y * film.y);
+    var azimuth = vec2<f32>(1.0, 0.0);
+    if film_radius > 0.0 {
+        azimuth = film.xy / film_radius;
+    }
+    let circle = lrtf_pupil_at(film_radius);
+    let disc = concentric_disc(lens_u);
+    let pupil = vec3<f32>(azimuth * circle.x + circle.y * disc, frame.pupil_z);
+    let to_pupil = pupil - film;
+    let cos_theta = abs(to_pupil.z) / length(to_pupil);
+    let cos2 = cos_theta * cos_theta;
+    return PupilSample(pupil, frame.pupil_weight * circle.y * circle.y * cos2 * cos2);
 }
 
 // Layer-image coordinates (column, row, inverse depth) of the ray's point at `depth` from the eye.
@@ -295,14 +348,10 @@ fn render(@builtin(global_invocation_id) id: vec3<u32>) {
         let film_xy = vec2<f32>(frame.film_origin_x, frame.film_origin_y)
             + (vec2<f32>(f32(id.x), f32(id.y)) + jitter) * vec2<f32>(frame.film_step_x, frame.film_step_y);
         let film = vec3<f32>(film_xy, frame.film_z);
-        let pupil = vec3<f32>(concentric_disc(lens_u) * frame.pupil_radius, frame.pupil_z);
-        let to_pupil = pupil - film;
-        let cos_theta = abs(to_pupil.z) / length(to_pupil);
-        let cos2 = cos_theta * cos_theta;
-        let weight = frame.pupil_weight * cos2 * cos2;
-        let found = trace_layers(paraxial_lens_ray(film, pupil));
+        let sample = pupil_sample(film, lens_u);
+        let found = trace_layers(lens_ray(film, sample.point));
         if (found.hit) {
-            sum += weight * found.colour;
+            sum += sample.weight * found.colour;
         }
     }
     radiance_sum[pixel] += vec4<f32>(sum, 0.0);

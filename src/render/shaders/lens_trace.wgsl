@@ -1,0 +1,348 @@
+// The exact sequential trace through a lens, backward (film side to object side, travelling -z),
+// in f32: the port of src/trace (intersect.rs, refract.rs, aperture.rs, Tracer::cross). The Rust
+// f64 tracer is its oracle (tests/render_traced.rs compares them ray by ray).
+//
+// Per surface, as in the Rust tracer: intersect the vertex sheet in the travel sense (a miss is
+// TRACE_MISSED), test the clear semi-aperture and, on the stop, the blades (TRACE_VIGNETTED),
+// then refract (a negative Snell radicand is TRACE_TIR). No NaN leaves: every division that
+// could produce one is guarded and turns into a miss.
+
+struct LensSurface {
+    vertex_z: f32,
+    curvature: f32,
+    conic_factor: f32,
+    semi_aperture_sq: f32,
+    mu: f32,
+    search_radius: f32,
+    kind: u32,
+    asphere_terms: u32,
+    same_medium: u32,
+    bladed: u32,
+    pad0: u32,
+    pad1: u32,
+    coefficients: array<f32, 10>,
+}
+
+struct LensParams {
+    surface_count: u32,
+    blade_count: u32,
+    has_arc: u32,
+    pad: u32,
+    blade_rotation: f32,
+    blade_apothem: f32,
+    arc_centre: f32,
+    arc_radius_sq: f32,
+}
+
+@group(2) @binding(0) var<storage, read> lens_surfaces: array<LensSurface>;
+@group(2) @binding(1) var<uniform> lens: LensParams;
+
+const SURFACE_PLANE: u32 = 0u;
+const SURFACE_SPHERE: u32 = 1u;
+const SURFACE_CONIC: u32 = 2u;
+const SURFACE_ASPHERE: u32 = 3u;
+const TRACE_OK: u32 = 0u;
+const TRACE_VIGNETTED: u32 = 1u;
+const TRACE_TIR: u32 = 2u;
+const TRACE_MISSED: u32 = 3u;
+const ASPHERE_MAX_STEPS: u32 = 40u;
+// f32 counterparts of the f64 tracer's 1e-15 (sag residual, relative to the search scale) and
+// 1e-14 (Newton step): a few ulps of the quantities involved.
+const ASPHERE_SAG_TOLERANCE: f32 = 4e-7;
+const ASPHERE_STEP_TOLERANCE: f32 = 1e-6;
+const TRACE_PI: f32 = 3.14159265358979;
+
+struct SurfaceHit {
+    point: vec3<f32>,
+    normal: vec3<f32>,
+    hit: bool,
+}
+
+struct TracedRay {
+    // For TRACE_OK the ray leaving surface 1; otherwise where the trace stopped.
+    origin: vec3<f32>,
+    direction: vec3<f32>,
+    status: u32,
+    // 1-based surface where the trace stopped (0 for TRACE_OK).
+    surface: u32,
+}
+
+fn no_hit() -> SurfaceHit {
+    return SurfaceHit(vec3<f32>(0.0), vec3<f32>(0.0), false);
+}
+
+fn intersect_plane(p: vec3<f32>, d: vec3<f32>, sense: f32) -> SurfaceHit {
+    if !(d.z * sense > 0.0) {
+        return no_hit();
+    }
+    let t = -p.z / d.z;
+    return SurfaceHit(vec3<f32>(p.xy + t * d.xy, 0.0), vec3<f32>(0.0, 0.0, -1.0), true);
+}
+
+// The root of a t^2 - 2 b t + c = 0 on the vertex sheet in the travel sense (see
+// src/trace/intersect.rs); x = t, y = 1 when it exists.
+fn quadratic_root(a: f32, b: f32, c: f32, sense: f32) -> vec2<f32> {
+    let disc = b * b - a * c;
+    if !(disc >= 0.0) {
+        return vec2<f32>(0.0, 0.0);
+    }
+    let root = sqrt(disc);
+    if sense * b >= 0.0 {
+        let denominator = b + sense * root;
+        if denominator == 0.0 {
+            return vec2<f32>(0.0, 0.0);
+        }
+        return vec2<f32>(c / denominator, 1.0);
+    }
+    if a == 0.0 {
+        return vec2<f32>(0.0, 0.0);
+    }
+    return vec2<f32>((b - sense * root) / a, 1.0);
+}
+
+fn intersect_conic(p: vec3<f32>, d: vec3<f32>, c: f32, e: f32, sense: f32) -> SurfaceHit {
+    let a = c * (d.x * d.x + d.y * d.y + e * d.z * d.z);
+    let b = d.z - c * (p.x * d.x + p.y * d.y + e * p.z * d.z);
+    let cc = c * (p.x * p.x + p.y * p.y + e * p.z * p.z) - 2.0 * p.z;
+    let root = quadratic_root(a, b, cc, sense);
+    if root.y == 0.0 {
+        return no_hit();
+    }
+    let q = p + root.x * d;
+    let nz = c * e * q.z - 1.0;
+    if !(nz < 0.0) {
+        return no_hit();
+    }
+    return SurfaceHit(q, normalize(vec3<f32>(c * q.x, c * q.y, nz)), true);
+}
+
+// Sag and d(sag)/d(r^2) at rho = r^2 (z = 1 when the conic base exists there).
+fn asphere_sag(rho: f32, s: LensSurface) -> vec3<f32> {
+    let c = s.curvature;
+    let under = 1.0 - s.conic_factor * c * c * rho;
+    if !(under > 0.0) {
+        return vec3<f32>(0.0, 0.0, 0.0);
+    }
+    let root = sqrt(under);
+    var sag = c * rho / (1.0 + root);
+    var slope = 0.5 * c / root;
+    var poly = 0.0;
+    var dpoly = 0.0;
+    for (var k = 0u; k < s.asphere_terms; k += 1u) {
+        let i = s.asphere_terms - 1u - k;
+        let a = s.coefficients[i];
+        poly = poly * rho + a;
+        dpoly = dpoly * rho + f32(i + 1u) * a;
+    }
+    sag += poly * rho;
+    slope += dpoly;
+    return vec3<f32>(sag, slope, 1.0);
+}
+
+fn finish_asphere(q: vec3<f32>, gradient: vec3<f32>, d: vec3<f32>, sense: f32) -> SurfaceHit {
+    let normal = normalize(gradient);
+    if sense * dot(normal, d) < 0.0 {
+        return SurfaceHit(q, normal, true);
+    }
+    return no_hit();
+}
+
+// Newton on the ray parameter from the conic base's crossing, steps bounded by the search
+// radius, bisection once two iterates bracket the surface (src/trace/intersect.rs).
+fn intersect_asphere(p: vec3<f32>, d: vec3<f32>, s: LensSurface, sense: f32) -> SurfaceHit {
+    var start = intersect_conic(p, d, s.curvature, s.conic_factor, sense);
+    if !start.hit {
+        start = intersect_plane(p, d, sense);
+        if !start.hit {
+            return no_hit();
+        }
+    }
+    var t = dot(start.point - p, d);
+    let max_step = s.search_radius;
+    let max_rho = s.search_radius * s.search_radius;
+    let scale = 1.0 + s.search_radius;
+    var t_object = 0.0;
+    var t_image = 0.0;
+    var have_object = false;
+    var have_image = false;
+    var last_inside = 0.0;
+    var have_inside = false;
+    for (var step = 0u; step < ASPHERE_MAX_STEPS; step += 1u) {
+        let q = p + t * d;
+        let rho = q.x * q.x + q.y * q.y;
+        var sag = vec3<f32>(0.0);
+        if rho <= max_rho {
+            sag = asphere_sag(rho, s);
+        }
+        if sag.z == 0.0 {
+            if have_object && have_image {
+                t = 0.5 * (t_object + t_image);
+            } else if have_inside {
+                t = 0.5 * (t + last_inside);
+            } else {
+                return no_hit();
+            }
+            continue;
+        }
+        last_inside = t;
+        have_inside = true;
+        let g = sag.x - q.z;
+        let gradient = vec3<f32>(2.0 * sag.y * q.x, 2.0 * sag.y * q.y, -1.0);
+        if abs(g) <= ASPHERE_SAG_TOLERANCE * scale {
+            return finish_asphere(q, gradient, d, sense);
+        }
+        if g > 0.0 {
+            t_object = t;
+            have_object = true;
+        } else {
+            t_image = t;
+            have_image = true;
+        }
+        let dg = 2.0 * sag.y * (q.x * d.x + q.y * d.y) - d.z;
+        var newton = -sign(g) * sign(dg) * max_step;
+        if dg != 0.0 {
+            newton = -g / dg;
+        }
+        var next = t + clamp(newton, -max_step, max_step);
+        if have_object && have_image {
+            let lo = min(t_object, t_image);
+            let hi = max(t_object, t_image);
+            if !(next > lo && next < hi) {
+                next = 0.5 * (lo + hi);
+            }
+        }
+        if abs(next - t) <= ASPHERE_STEP_TOLERANCE * (1.0 + abs(t)) {
+            return finish_asphere(q, gradient, d, sense);
+        }
+        t = next;
+    }
+    return no_hit();
+}
+
+fn intersect_surface(p: vec3<f32>, d: vec3<f32>, s: LensSurface, sense: f32) -> SurfaceHit {
+    switch s.kind {
+        case SURFACE_SPHERE: {
+            // The sphere's normal (c x, c y, c z - 1) is unit on the sphere: the conic with e = 1.
+            let c = s.curvature;
+            let b = d.z - c * dot(p, d);
+            let cc = c * dot(p, p) - 2.0 * p.z;
+            let root = quadratic_root(c, b, cc, sense);
+            if root.y == 0.0 {
+                return no_hit();
+            }
+            let q = p + root.x * d;
+            let nz = c * q.z - 1.0;
+            if !(nz < 0.0) {
+                return no_hit();
+            }
+            return SurfaceHit(q, vec3<f32>(c * q.x, c * q.y, nz), true);
+        }
+        case SURFACE_CONIC: {
+            return intersect_conic(p, d, s.curvature, s.conic_factor, sense);
+        }
+        case SURFACE_ASPHERE: {
+            return intersect_asphere(p, d, s, sense);
+        }
+        default: {
+            return intersect_plane(p, d, sense);
+        }
+    }
+}
+
+// Whether stop-plane point q passes the blades (src/trace/aperture.rs): the edge with the
+// largest outward projection holds the point; inside its wedge the opening is bounded by the
+// edge (or its arc).
+fn blades_contain(q: vec2<f32>) -> bool {
+    let half = TRACE_PI / f32(lens.blade_count);
+    var along = -1e30;
+    var best = vec2<f32>(1.0, 0.0);
+    for (var j = 0u; j < lens.blade_count; j += 1u) {
+        let angle = lens.blade_rotation + f32(2u * j + 1u) * half;
+        let edge = vec2<f32>(cos(angle), sin(angle));
+        let u = dot(q, edge);
+        if u > along {
+            along = u;
+            best = edge;
+        }
+    }
+    if lens.has_arc == 0u {
+        return along <= lens.blade_apothem;
+    }
+    let across = -q.x * best.y + q.y * best.x;
+    let u = along - lens.arc_centre;
+    return u * u + across * across <= lens.arc_radius_sq;
+}
+
+// Snell's law with unit d and unit normal n (either orientation), mu = n_in / n_out;
+// w = 0 on total internal reflection.
+fn refract_ray(d: vec3<f32>, n: vec3<f32>, mu: f32) -> vec4<f32> {
+    let cos_signed = dot(n, d);
+    let radicand = 1.0 - mu * mu * (1.0 - cos_signed * cos_signed);
+    if !(radicand >= 0.0) {
+        return vec4<f32>(0.0);
+    }
+    let root = sqrt(radicand);
+    let along = select(-root, root, cos_signed >= 0.0) - mu * cos_signed;
+    return vec4<f32>(mu * d + along * n, 1.0);
+}
+
+fn refract_plane(d: vec3<f32>, mu: f32) -> vec4<f32> {
+    let xy = mu * d.xy;
+    let radicand = 1.0 - dot(xy, xy);
+    if !(radicand >= 0.0) {
+        return vec4<f32>(0.0);
+    }
+    let z = sqrt(radicand);
+    return vec4<f32>(xy, select(-z, z, d.z >= 0.0), 1.0);
+}
+
+// Backward trace of the ray from `origin` along `direction` (towards -z) through surfaces N..1.
+fn trace_lens(origin: vec3<f32>, direction: vec3<f32>) -> TracedRay {
+    var position = origin;
+    var d = normalize(direction);
+    let sense = -1.0;
+    for (var k = 0u; k < lens.surface_count; k += 1u) {
+        let i = lens.surface_count - 1u - k;
+        let s = lens_surfaces[i];
+        let p = position - vec3<f32>(0.0, 0.0, s.vertex_z);
+        let hit = intersect_surface(p, d, s, sense);
+        if !hit.hit {
+            return TracedRay(position, d, TRACE_MISSED, i + 1u);
+        }
+        let q = hit.point;
+        let at = q + vec3<f32>(0.0, 0.0, s.vertex_z);
+        if q.x * q.x + q.y * q.y > s.semi_aperture_sq || (s.bladed != 0u && !blades_contain(q.xy)) {
+            return TracedRay(at, d, TRACE_VIGNETTED, i + 1u);
+        }
+        position = at;
+        if s.same_medium == 0u {
+            var refracted: vec4<f32>;
+            if s.kind == SURFACE_PLANE {
+                refracted = refract_plane(d, s.mu);
+            } else {
+                refracted = refract_ray(d, hit.normal, s.mu);
+            }
+            if refracted.w == 0.0 {
+                return TracedRay(at, d, TRACE_TIR, i + 1u);
+            }
+            d = refracted.xyz;
+        }
+    }
+    return TracedRay(position, d, TRACE_OK, 0u);
+}
+
+// Ray-by-ray access for tests: rays_in holds (origin, direction) pairs as two vec4 each,
+// rays_out (origin, status) and (direction, surface) as two vec4 each.
+@group(3) @binding(0) var<storage, read> rays_in: array<vec4<f32>>;
+@group(3) @binding(1) var<storage, read_write> rays_out: array<vec4<f32>>;
+
+@compute @workgroup_size(64, 1, 1)
+fn trace_lens_rays(@builtin(global_invocation_id) id: vec3<u32>) {
+    let n = arrayLength(&rays_in) / 2u;
+    if id.x >= n {
+        return;
+    }
+    let traced = trace_lens(rays_in[2u * id.x].xyz, rays_in[2u * id.x + 1u].xyz);
+    rays_out[2u * id.x] = vec4<f32>(traced.origin, f32(traced.status));
+    rays_out[2u * id.x + 1u] = vec4<f32>(traced.direction, f32(traced.surface));
+}
