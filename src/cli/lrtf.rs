@@ -39,6 +39,12 @@ pub struct BakeArgs {
     /// Output directory (default: tables/<lens>/).
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// Bake the cheapest table keeping the scene's p99 image error (px at 1920 px) under this,
+    /// or none when a first-order or Seidel model already does.
+    #[arg(long)]
+    pub error_budget_px: Option<f64>,
+    #[command(flatten)]
+    pub scene: super::tradeoff::SceneArgs,
 }
 
 #[derive(Subcommand, Debug)]
@@ -92,6 +98,16 @@ fn parse_resolution(text: &str) -> anyhow::Result<[usize; 3]> {
 }
 
 pub fn run_bake(args: BakeArgs) -> anyhow::Result<()> {
+    if let Some(budget) = args.error_budget_px {
+        return super::tradeoff::bake_within_budget(
+            &args.lens,
+            budget,
+            &args.scene,
+            args.focus_mm,
+            args.f_number,
+            args.out,
+        );
+    }
     let (name, prescription) = load_lens(&args.lens)?;
     let system = LensSystem::from_prescription(prescription.clone())?;
     let request = BakeRequest {

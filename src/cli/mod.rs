@@ -5,6 +5,7 @@ mod lens;
 mod lrtf;
 mod plot;
 mod render;
+mod tradeoff;
 
 use clap::{Parser, Subcommand};
 
@@ -37,6 +38,8 @@ pub enum Command {
     /// Evaluate or describe baked LRTF tables.
     #[command(subcommand)]
     Lrtf(lrtf::LrtfCommand),
+    /// Every lens model's cost and error side by side, with a Pareto plot.
+    Tradeoff(tradeoff::TradeoffArgs),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
@@ -48,5 +51,6 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Report(args) => plot::run_report(args),
         Command::Bake(args) => lrtf::run_bake(args),
         Command::Lrtf(command) => lrtf::run(command),
+        Command::Tradeoff(args) => tradeoff::run(args),
     }
 }

@@ -15,6 +15,7 @@ mod curves;
 mod fan;
 pub mod font;
 mod layout;
+mod pareto;
 mod seidel;
 mod spot;
 
@@ -27,6 +28,7 @@ pub use curves::{
 };
 pub use fan::{FanCurve, FanField, RayFanPlot};
 pub use layout::{LayoutElement, LayoutPlot, LayoutRay, LayoutSurface};
+pub use pareto::{ParetoPlot, ParetoPoint, pareto_front};
 pub use seidel::{SeidelBar, SeidelPlot};
 pub use spot::{Spot, SpotField, SpotPlot};
 
