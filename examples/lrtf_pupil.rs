@@ -1,14 +1,14 @@
-//! Effective-pupil tightness (issue 6 item 3): cargo run --release --example lrtf_pupil -- LENS.ron
+//! Effective-pupil tightness (issue 6 item 3): cargo run --release --example lrtf_pupil -- LENS
+//! (LENS: a lens file or a bundled lens name)
+use lensbake::lenses;
 use lensbake::lrtf::bake::{BakeRequest, bake};
 use lensbake::lrtf::measure::pupil_tightness;
-use lensbake::prescription::Prescription;
-use lensbake::system::LensSystem;
+use lensbake::prescription::formats::LoadOptions;
 use lensbake::trace::{Ray, Tracer, Travel};
 
 fn main() {
     let path = std::env::args().nth(1).unwrap();
-    let p: Prescription = ron::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
-    let system = LensSystem::from_prescription(p).unwrap();
+    let system = lenses::load(&path, &LoadOptions::default()).unwrap().system;
     let design = system.at(system.design_wavelength_nm());
     let tracer = Tracer::new(&design);
     let table = bake(

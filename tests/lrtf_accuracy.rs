@@ -3,7 +3,7 @@
 
 mod common;
 
-use lensbake::lrtf::bake::{BakeRequest, bake, near_axial_first_order};
+use lensbake::lrtf::bake::{BakeRequest, bake, first_order};
 use lensbake::lrtf::measure::table_error;
 use lensbake::lrtf::{Parameterisation, Precision};
 use lensbake::system::LensSystem;
@@ -22,7 +22,7 @@ fn pupil_planes_table_matches_the_exact_trace_within_measured_bounds() {
     let system = dgauss();
     let design = system.at(system.design_wavelength_nm());
     let tracer = Tracer::new(&design);
-    let efl = near_axial_first_order(&tracer, &design, None).unwrap().efl;
+    let efl = first_order(&design, None).unwrap().first_order.efl;
     let request = BakeRequest {
         parameterisation: Parameterisation::PupilPlanes,
         resolution: [32, 32, 32],

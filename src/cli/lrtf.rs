@@ -8,18 +8,19 @@ use clap::{Args, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::{Deserialize, Serialize};
 
-use lensbake::lrtf::bake::{BakeRequest, bake, near_axial_first_order};
+use lensbake::lrtf::bake::{BakeRequest, bake, first_order};
 use lensbake::lrtf::io::{read_sidecar, read_table, write_table};
-use lensbake::lrtf::measure::table_error;
+use lensbake::lrtf::measure::{SweepRow, error_plot, table_error};
 use lensbake::lrtf::{Lookup, Parameterisation, Precision, Ray};
-use lensbake::prescription::Prescription;
-use lensbake::system::LensSystem;
+use lensbake::plot::write_plot;
 use lensbake::trace::Tracer;
+
+use super::lens::{LensArgs, ReadArgs};
 
 #[derive(Args, Debug)]
 pub struct BakeArgs {
-    /// Lens file (canonical RON) or bundled lens name.
-    pub lens: String,
+    #[command(flatten)]
+    pub lens: LensArgs,
     /// N (N^3 nodes) or AxBxC.
     #[arg(long, default_value = "128")]
     pub resolution: String,
@@ -60,28 +61,15 @@ pub enum LrtfCommand {
         /// Stop down to this f-number (at or above the baked one).
         #[arg(long)]
         f_number: Option<f64>,
+        /// The lens the table should belong to (file or bundled name): a table baked from a
+        /// different prescription is refused.
+        #[arg(long, value_name = "LENS")]
+        lens: Option<String>,
+        #[command(flatten)]
+        read: ReadArgs,
     },
     /// Print a table's sidecar summary.
     Info { table: PathBuf },
-}
-
-/// Loads a lens from a canonical RON file, else by bundled name.
-pub fn load_lens(spec: &str) -> anyhow::Result<(String, Prescription)> {
-    let path = Path::new(spec);
-    if path.exists() {
-        let text = std::fs::read_to_string(path).with_context(|| format!("reading {spec}"))?;
-        let prescription: Prescription =
-            ron::from_str(&text).map_err(|e| anyhow::anyhow!("{spec}: {e}"))?;
-        let name = path.file_stem().and_then(|s| s.to_str()).unwrap_or(spec);
-        return Ok((name.to_string(), prescription));
-    }
-    let bundled = lensbake::lenses::BUNDLED
-        .iter()
-        .find(|l| l.name == spec)
-        .with_context(|| format!("{spec}: no such file and no bundled lens of that name"))?;
-    let prescription: Prescription =
-        ron::from_str(bundled.ron).map_err(|e| anyhow::anyhow!("bundled lens {spec}: {e}"))?;
-    Ok((spec.to_string(), prescription))
 }
 
 fn parse_resolution(text: &str) -> anyhow::Result<[usize; 3]> {
@@ -98,9 +86,10 @@ fn parse_resolution(text: &str) -> anyhow::Result<[usize; 3]> {
 }
 
 pub fn run_bake(args: BakeArgs) -> anyhow::Result<()> {
+    let lens = args.lens.load()?;
     if let Some(budget) = args.error_budget_px {
         return super::tradeoff::bake_within_budget(
-            &args.lens,
+            &lens,
             budget,
             &args.scene,
             args.focus_mm,
@@ -108,8 +97,11 @@ pub fn run_bake(args: BakeArgs) -> anyhow::Result<()> {
             args.out,
         );
     }
-    let (name, prescription) = load_lens(&args.lens)?;
-    let system = LensSystem::from_prescription(prescription.clone())?;
+    for note in &lens.source.loaded.notes {
+        eprintln!("note: {}: {note}", lens.source.origin);
+    }
+    let name = lens.source.origin.name();
+    let system = &lens.system;
     let request = BakeRequest {
         parameterisation: Parameterisation::from_name(&args.parameterisation)
             .expect("clap restricts the names"),
@@ -130,13 +122,13 @@ pub fn run_bake(args: BakeArgs) -> anyhow::Result<()> {
     );
     bar.set_message(format!("baking {name}"));
     let start = std::time::Instant::now();
-    let table = bake(&system, &request, &|p| {
+    let table = bake(system, &request, &|p| {
         bar.set_length(p.total as u64);
         bar.set_position(p.done as u64);
     })?;
     let seconds = start.elapsed().as_secs_f64();
     bar.finish_and_clear();
-    write_table(&table, &args.lens, &prescription, &out)?;
+    write_table(&table, &args.lens.lens, &system.prescription, &out)?;
     let bytes: u64 = ["lrtf.exr", "lrtf.ron"]
         .iter()
         .filter_map(|f| std::fs::metadata(out.join(f)).ok())
@@ -156,8 +148,8 @@ pub fn run_bake(args: BakeArgs) -> anyhow::Result<()> {
         let mut at_stop = at.clone();
         at_stop.surfaces[at.stop].semi_aperture = layer.stop_semi_aperture;
         let tracer = Tracer::new(&at_stop);
-        let first = near_axial_first_order(&Tracer::new(&at), &at, None)?;
-        let e = table_error(&table, k, &tracer, first.efl, 1920.0, 20_000, 7);
+        let efl = first_order(&at, request.focus_mm)?.first_order.efl;
+        let e = table_error(&table, k, &tracer, efl, 1920.0, 20_000, 7);
         println!(
             "  {:.2} nm: image error p99 {:.3} px (max {:.3}) at 1920 px, direction p99 {:.4} mrad, position p99 {:.2} um, validity agreement {:.2} %",
             layer.wavelength_nm,
@@ -200,8 +192,13 @@ pub fn run(command: LrtfCommand) -> anyhow::Result<()> {
             rays,
             json: _,
             f_number,
+            lens,
+            read,
         } => {
-            let loaded = read_table(&table, None)?;
+            let lens = lens
+                .map(|lens| LensArgs { lens, read }.load())
+                .transpose()?;
+            let loaded = read_table(&table, lens.as_ref().map(|l| &l.system.prescription))?;
             let text = if rays == "-" {
                 let mut s = String::new();
                 std::io::stdin().read_to_string(&mut s)?;
@@ -254,4 +251,26 @@ pub fn run(command: LrtfCommand) -> anyhow::Result<()> {
             Ok(())
         }
     }
+}
+
+/// `lensbake plot lrtf-error MEASUREMENTS.json --out FILE`: the error-against-size plot of a
+/// measurement sweep.
+pub fn plot_error(measurements: &Path, out: &Path) -> anyhow::Result<()> {
+    let text = std::fs::read_to_string(measurements)
+        .with_context(|| format!("reading {}", measurements.display()))?;
+    let rows: Vec<SweepRow> = serde_json::from_str(&text).with_context(|| {
+        format!(
+            "{}: not an LRTF measurement table (the lrtf-error.json the lrtf_sweep example writes)",
+            measurements.display()
+        )
+    })?;
+    if rows.is_empty() {
+        bail!(
+            "{}: the measurement table has no rows",
+            measurements.display()
+        );
+    }
+    write_plot(&error_plot(&rows), out)?;
+    println!("{}", out.display());
+    Ok(())
 }

@@ -11,9 +11,11 @@ use std::path::{Path, PathBuf};
 
 #[derive(Args, Debug)]
 pub struct PlotArgs {
-    /// layout, ray-fan, spot, lsa, field-curves, distortion, lateral-color, vignetting, seidel.
+    /// layout, ray-fan, spot, lsa, field-curves, distortion, lateral-color, vignetting, seidel,
+    /// lrtf-error.
     kind: String,
-    /// A lens file or the name of a bundled lens.
+    /// A lens file or the name of a bundled lens; for lrtf-error the measurement table
+    /// (lrtf-error.json, written by the lrtf_sweep example).
     lens: String,
     /// Output file; .png or .svg.
     #[arg(long)]
@@ -40,6 +42,9 @@ pub struct ReportArgs {
 }
 
 pub fn run_plot(args: PlotArgs) -> anyhow::Result<()> {
+    if args.kind == "lrtf-error" {
+        return super::lrtf::plot_error(Path::new(&args.lens), &args.out);
+    }
     let kind: PlotKind = args.kind.parse()?;
     let (name, system) = load_lens(&args.lens)?;
     let options = FigureOptions {

@@ -9,10 +9,10 @@ use clap::Args;
 use serde::Serialize;
 
 use super::lens::LensArgs;
+use lensbake::lenses::LoadedLens;
 use lensbake::lrtf::io::write_table;
 use lensbake::plot::{ParetoPlot, ParetoPoint, write_atomic, write_plot};
 use lensbake::render::scene::Scene;
-use lensbake::system::LensSystem;
 use lensbake::tradeoff::choose::{Choice, choose_model};
 use lensbake::tradeoff::{Domain, Entry, Measured, SceneRequirements, tradeoff};
 
@@ -253,22 +253,21 @@ fn report(choice: &Choice) {
 /// `bake --error-budget-px`: bake the cheapest table meeting the budget, or say that no table
 /// is needed (a first-order or Seidel model meets it) or that only the trace does.
 pub fn bake_within_budget(
-    lens: &str,
+    lens: &LoadedLens,
     budget_px: f64,
     scene: &SceneArgs,
     focus_mm: Option<f64>,
     f_number: Option<f64>,
     out: Option<PathBuf>,
 ) -> anyhow::Result<()> {
-    let (name, prescription) = super::lrtf::load_lens(lens)?;
-    let system = LensSystem::from_prescription(prescription.clone())?;
+    let name = lens.source.origin.name();
     let req = scene.requirements(focus_mm, f_number)?;
-    let choice = choose_model(&system, &req, budget_px)?;
+    let choice = choose_model(&lens.system, &req, budget_px)?;
     report(&choice);
     match &choice.table {
         Some(table) => {
             let out = out.unwrap_or_else(|| PathBuf::from("tables").join(&name));
-            write_table(table, lens, &prescription, &out)?;
+            write_table(table, &name, &lens.system.prescription, &out)?;
             println!("wrote {}", out.display());
         }
         None => println!("no table written: the {} model needs none", choice.label),

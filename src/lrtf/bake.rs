@@ -13,6 +13,7 @@ use rayon::prelude::*;
 
 use super::param::{CHANNELS, Frame, Parameterisation, Ray, Transfer, VALID};
 use super::table::{Layer, LrtfTable, Precision, TableInfo};
+use crate::paraxial::{Field, ObjectPosition, Paraxial, ParaxialError, ParaxialOptions};
 use crate::pupil::{self, PupilFitSettings, PupilTable};
 use crate::system::{LensSystem, SystemAt};
 use crate::trace::{Apertures, Tracer, Travel};
@@ -56,10 +57,8 @@ impl Default for BakeRequest {
 
 #[derive(Debug, thiserror::Error)]
 pub enum BakeError {
-    #[error(
-        "the lens has no real focus: a near-axial ray from {what} does not cross the axis behind it"
-    )]
-    NoFocus { what: String },
+    #[error("first-order optics of the lens: {0}")]
+    Paraxial(#[from] ParaxialError),
     #[error("f-number {asked} is faster than the lens wide open (f/{wide_open:.3})")]
     FNumber { asked: f64, wide_open: f64 },
     #[error("resolution {0:?} needs at least 2 nodes on every axis")]
@@ -199,69 +198,22 @@ fn stopped_down(system: &LensSystem, wavelength_nm: f64, stop_semi_aperture: f64
     at
 }
 
-/// First-order facts the bake needs, from a near-axial real ray (its limit is the paraxial
-/// ray; at a height of 1e-6 of the aperture the difference is below 1e-12 relative).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct FirstOrderFacts {
-    /// Image-side focal length n' / power (mm).
-    pub efl: f64,
-    /// EFL over entrance-pupil diameter, wide open.
-    pub f_number: f64,
-    /// z of the image of the object in focus (mm, lens frame).
-    pub image_z: f64,
-}
-
-/// EFL, wide-open f-number and image plane from near-axial forward rays (object at infinity,
-/// or `focus_mm` in front of surface 1).
-pub fn near_axial_first_order(
-    tracer: &Tracer,
-    system: &SystemAt,
-    focus_mm: Option<f64>,
-) -> Result<FirstOrderFacts, BakeError> {
-    let h = 1e-6 * system.surfaces[0].semi_aperture.max(1e-3);
-    let no_focus = |what: &str| BakeError::NoFocus {
-        what: what.to_string(),
+/// The paraxial model the bake works from: the design wavelength, the marked stop filled, the
+/// object at infinity or `focus_mm` in front of surface 1 (EFL, wide-open f-number = EFL / EPD,
+/// paraxial image plane).
+pub fn first_order(system: &SystemAt, focus_mm: Option<f64>) -> Result<Paraxial, ParaxialError> {
+    let object = match focus_mm {
+        None => ObjectPosition::Infinite,
+        Some(distance) => ObjectPosition::Finite { distance },
     };
-    let trace = |origin: [f64; 3], direction: [f64; 3]| {
-        let ray = crate::trace::Ray::new(origin, direction).ok()?;
-        let path = tracer.trace_path(ray, Travel::Forward, Apertures::Ignored);
-        path.traced.outcome.is_ok().then_some(path)
-    };
-    let parallel = trace([0.0, h, -1.0], [0.0, 0.0, 1.0]).ok_or_else(|| no_focus("infinity"))?;
-    let out = parallel.traced.ray;
-    let [_, y, z] = out.position();
-    let [_, dy, dz] = out.direction();
-    if dy >= 0.0 {
-        return Err(no_focus("infinity"));
-    }
-    // Paraxially n' u' = -h power, so EFL = n' / power = -h / u' with u' = dy / dz.
-    let efl = -h * dz / dy;
-    let stop_height = parallel
-        .crossings
-        .iter()
-        .find(|c| c.surface == tracer.stop_surface())
-        .map(|c| c.point[1])
-        .ok_or_else(|| no_focus("infinity"))?;
-    let entrance_radius = system.surfaces[system.stop].semi_aperture * h / stop_height.abs();
-    let f_number = efl / (2.0 * entrance_radius);
-    let image_z = match focus_mm {
-        None => z - y * dz / dy,
-        Some(distance) => {
-            let path = trace([0.0, 0.0, -distance], [0.0, h / distance, 1.0])
-                .ok_or_else(|| no_focus(&format!("an object {distance} mm away")))?;
-            let [_, y, z] = path.traced.ray.position();
-            let [_, dy, dz] = path.traced.ray.direction();
-            if dy >= 0.0 {
-                return Err(no_focus(&format!("an object {distance} mm away")));
-            }
-            z - y * dz / dy
-        }
-    };
-    Ok(FirstOrderFacts {
-        efl,
-        f_number,
-        image_z,
-    })
+    Paraxial::new(
+        system,
+        &ParaxialOptions {
+            object,
+            field: Field::Angle { deg: 0.0 },
+            ..ParaxialOptions::default()
+        },
+    )
 }
 
 /// Bakes a table; `progress` is called from worker threads as nodes complete.
@@ -282,8 +234,7 @@ pub fn bake(
         return Err(BakeError::WavelengthCount(wavelengths.len()));
     }
     let design = system.at(system.design_wavelength_nm());
-    let design_tracer_open = Tracer::new(&design);
-    let first = near_axial_first_order(&design_tracer_open, &design, request.focus_mm)?;
+    let first = first_order(&design, request.focus_mm)?;
     let wide_open = first.f_number;
     let f_number = request.f_number.unwrap_or(wide_open);
     if f_number < wide_open * (1.0 - 1e-9) {
@@ -295,7 +246,7 @@ pub fn bake(
     // The stop scales as 1 / f-number (the entrance pupil is its paraxial image).
     let stop_semi_aperture = design.surfaces[design.stop].semi_aperture * wide_open / f_number;
     // One physical film plane for every wavelength: the design wavelength's image plane.
-    let film_z = first.image_z;
+    let film_z = first.z_image;
     let rear_z = design.last_vertex_z();
     if film_z <= rear_z {
         return Err(BakeError::FilmPlane { film_z, rear_z });

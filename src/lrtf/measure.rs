@@ -3,16 +3,17 @@
 //! over that film radius's effective-pupil circle), and how tight the pupil bound is.
 
 use rayon::prelude::*;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use super::bake::exact_transfer;
 use super::param::Ray;
 use super::table::{Lookup, LrtfTable};
+use crate::plot::{LrtfErrorCurve, LrtfErrorLens, LrtfErrorPlot};
 use crate::pupil::PupilTable;
 use crate::trace::Tracer;
 
 /// Median, 99th percentile and maximum of a sample.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Stats {
     pub median: f64,
     pub p99: f64,
@@ -35,7 +36,7 @@ impl Stats {
 }
 
 /// Errors of one table layer against the exact trace.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct TableError {
     pub rays: usize,
     /// Rays where exactly one of table and trace says the ray passes, over all rays.
@@ -48,6 +49,66 @@ pub struct TableError {
     /// Direction error mapped to the image: EFL * angle / pixel pitch (pixels).
     pub image_px: Stats,
 }
+
+/// One row of a measurement sweep (notebooks-out/lrtf/lrtf-error.json): a baked table's cost
+/// and its error against the exact trace.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SweepRow {
+    pub lens: String,
+    pub parameterisation: String,
+    /// Nodes per table axis (the table has resolution^3 entries).
+    pub resolution: usize,
+    pub precision: String,
+    pub bake_seconds: f64,
+    /// Bytes of the entries as stored.
+    pub bytes: usize,
+    /// Focal length used to map direction error to the image (mm).
+    pub efl: f64,
+    pub max_film_radius: f64,
+    pub error: TableError,
+}
+
+/// The `lrtf-error` plot of sweep rows: a panel per lens (in first-seen order), a curve per
+/// parameterisation and precision, points (resolution, p99 image error) sorted by resolution.
+pub fn error_plot(rows: &[SweepRow]) -> LrtfErrorPlot {
+    let mut lenses: Vec<LrtfErrorLens> = Vec::new();
+    for row in rows {
+        let lens = match lenses.iter().position(|l| l.lens == row.lens) {
+            Some(k) => &mut lenses[k],
+            None => {
+                lenses.push(LrtfErrorLens {
+                    lens: row.lens.clone(),
+                    curves: Vec::new(),
+                });
+                lenses.last_mut().expect("just pushed")
+            }
+        };
+        let label = format!("{} {}", row.parameterisation, row.precision);
+        let curve = match lens.curves.iter().position(|c| c.label == label) {
+            Some(k) => &mut lens.curves[k],
+            None => {
+                lens.curves.push(LrtfErrorCurve {
+                    label,
+                    points: Vec::new(),
+                });
+                lens.curves.last_mut().expect("just pushed")
+            }
+        };
+        curve
+            .points
+            .push((row.resolution as f64, row.error.image_px.p99));
+    }
+    for curve in lenses.iter_mut().flat_map(|l| &mut l.curves) {
+        curve.points.sort_by(|a, b| a.0.total_cmp(&b.0));
+    }
+    LrtfErrorPlot {
+        lenses,
+        target_px: IMAGE_ERROR_TARGET_PX,
+    }
+}
+
+/// Issue 6's accuracy target: p99 image error below this many pixels of a 1920-pixel frame.
+pub const IMAGE_ERROR_TARGET_PX: f64 = 0.5;
 
 /// A small deterministic generator (SplitMix64), so measurements repeat exactly.
 #[derive(Clone, Debug)]

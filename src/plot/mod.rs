@@ -15,6 +15,7 @@ mod curves;
 mod fan;
 pub mod font;
 mod layout;
+mod lrtf_error;
 mod pareto;
 mod seidel;
 mod spot;
@@ -28,6 +29,7 @@ pub use curves::{
 };
 pub use fan::{FanCurve, FanField, RayFanPlot};
 pub use layout::{LayoutElement, LayoutPlot, LayoutRay, LayoutSurface};
+pub use lrtf_error::{LrtfErrorCurve, LrtfErrorLens, LrtfErrorPlot, TARGET_LABEL};
 pub use pareto::{ParetoPlot, ParetoPoint, pareto_front};
 pub use seidel::{SeidelBar, SeidelPlot};
 pub use spot::{Spot, SpotField, SpotPlot};

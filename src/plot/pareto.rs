@@ -71,7 +71,9 @@ fn log_range(values: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
 /// The label of point `k`, joined with those of the points drawn at the same place; None for a
 /// point whose place an earlier point already labels.
 fn joined_label(points: &[ParetoPoint], k: usize) -> Option<String> {
-    let same = |a: &ParetoPoint, b: &ParetoPoint| a.cost == b.cost && a.error == b.error;
+    // Equal to plotting precision (thin and thick differ in the last bits at infinity focus).
+    let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.abs().max(b.abs());
+    let same = |a: &ParetoPoint, b: &ParetoPoint| close(a.cost, b.cost) && close(a.error, b.error);
     if points[..k].iter().any(|p| same(p, &points[k])) {
         return None;
     }

@@ -17,9 +17,7 @@ use std::time::Instant;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::lrtf::bake::{
-    BakeError, BakeRequest, bake, chief_ray_film_radius, near_axial_first_order,
-};
+use crate::lrtf::bake::{BakeError, BakeRequest, bake, chief_ray_film_radius, first_order};
 use crate::lrtf::measure::{Stats, angle_between, distance_to_line, pixel_pitch, renderer_rays};
 use crate::lrtf::{LrtfTable, Precision, Ray};
 use crate::paraxial::ParaxialError;
@@ -118,7 +116,7 @@ impl Domain {
     pub fn of(system: &LensSystem, req: &SceneRequirements) -> Result<Domain, TradeoffError> {
         req.check()?;
         let at = system.at(system.design_wavelength_nm());
-        let first = near_axial_first_order(&Tracer::new(&at), &at, req.focus_mm)?;
+        let first = first_order(&at, req.focus_mm)?;
         let f_number = req.f_number.unwrap_or(first.f_number);
         if f_number < first.f_number * (1.0 - 1e-9) {
             return Err(BakeError::FNumber {
@@ -128,14 +126,14 @@ impl Domain {
             .into());
         }
         let stopped = stopped_down(&at, first.f_number / f_number);
-        let full = chief_ray_film_radius(&Tracer::new(&stopped), &at, first.image_z);
+        let full = chief_ray_film_radius(&Tracer::new(&stopped), &at, first.z_image);
         let film_radius = full * req.film_fraction;
         Ok(Domain {
-            film_z: first.image_z,
+            film_z: first.z_image,
             film_radius,
             full_film_radius: full,
             f_number,
-            efl: first.efl,
+            efl: first.first_order.efl,
             pixel_pitch: pixel_pitch(film_radius, req.pixels),
             focus_mm: req.focus_mm,
             nearest_mm: req.nearest_mm,
@@ -350,7 +348,7 @@ pub fn analytic_models(system: &LensSystem, domain: &Domain) -> Result<Vec<Built
 /// The exact trace through the lens stopped down to the domain's f-number.
 fn traced_model(at: &SystemAt, domain: &Domain) -> Built {
     let started = Instant::now();
-    let wide_open = near_axial_first_order(&Tracer::new(at), at, domain.focus_mm)
+    let wide_open = first_order(at, domain.focus_mm)
         .map(|f| f.f_number)
         .unwrap_or(domain.f_number);
     let stopped = stopped_down(at, wide_open / domain.f_number);
