@@ -18,3 +18,4 @@ pub mod report;
 pub mod seidel;
 pub mod system;
 pub mod trace;
+pub mod tradeoff;

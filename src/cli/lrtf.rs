@@ -40,6 +40,12 @@ pub struct BakeArgs {
     /// Output directory (default: tables/<lens>/).
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// Bake the cheapest table keeping the scene's p99 image error (px at 1920 px) under this,
+    /// or none when a first-order or Seidel model already does.
+    #[arg(long)]
+    pub error_budget_px: Option<f64>,
+    #[command(flatten)]
+    pub scene: super::tradeoff::SceneArgs,
 }
 
 #[derive(Subcommand, Debug)]
@@ -81,6 +87,16 @@ fn parse_resolution(text: &str) -> anyhow::Result<[usize; 3]> {
 
 pub fn run_bake(args: BakeArgs) -> anyhow::Result<()> {
     let lens = args.lens.load()?;
+    if let Some(budget) = args.error_budget_px {
+        return super::tradeoff::bake_within_budget(
+            &lens,
+            budget,
+            &args.scene,
+            args.focus_mm,
+            args.f_number,
+            args.out,
+        );
+    }
     for note in &lens.source.loaded.notes {
         eprintln!("note: {}: {note}", lens.source.origin);
     }

@@ -8,6 +8,7 @@ mod lrtf;
 mod plot;
 mod render;
 mod trace;
+mod tradeoff;
 
 use clap::{Parser, Subcommand};
 
@@ -48,6 +49,8 @@ pub enum Command {
     /// Measure throughput.
     #[command(subcommand)]
     Bench(bench::BenchCommand),
+    /// Every lens model's cost and error side by side, with a Pareto plot.
+    Tradeoff(tradeoff::TradeoffArgs),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
@@ -62,5 +65,6 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Lrtf(command) => lrtf::run(command),
         Command::Trace(args) => trace::run(args),
         Command::Bench(command) => bench::run(command),
+        Command::Tradeoff(args) => tradeoff::run(args),
     }
 }

@@ -16,6 +16,7 @@ mod fan;
 pub mod font;
 mod layout;
 mod lrtf_error;
+mod pareto;
 mod seidel;
 mod spot;
 
@@ -29,6 +30,7 @@ pub use curves::{
 pub use fan::{FanCurve, FanField, RayFanPlot};
 pub use layout::{LayoutElement, LayoutPlot, LayoutRay, LayoutSurface};
 pub use lrtf_error::{LrtfErrorCurve, LrtfErrorLens, LrtfErrorPlot, TARGET_LABEL};
+pub use pareto::{ParetoPlot, ParetoPoint, pareto_front};
 pub use seidel::{SeidelBar, SeidelPlot};
 pub use spot::{Spot, SpotField, SpotPlot};
 

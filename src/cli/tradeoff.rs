@@ -1,0 +1,276 @@
+//! `lensbake tradeoff`: every lens model's cost and error side by side, and the error-budget
+//! choice behind `lensbake bake --error-budget-px`.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+use clap::Args;
+use serde::Serialize;
+
+use super::lens::LensArgs;
+use lensbake::lenses::LoadedLens;
+use lensbake::lrtf::io::write_table;
+use lensbake::plot::{ParetoPlot, ParetoPoint, write_atomic, write_plot};
+use lensbake::render::scene::Scene;
+use lensbake::tradeoff::choose::{Choice, choose_model};
+use lensbake::tradeoff::{Domain, Entry, Measured, SceneRequirements, tradeoff};
+
+/// What the scene asks of the lens (shared by `tradeoff` and `bake --error-budget-px`).
+#[derive(Args, Debug, Clone, Default)]
+pub struct SceneArgs {
+    /// `demo`: the renderer's demo scene (focus 2000 mm, its nearest panel). Explicit options
+    /// below override it.
+    #[arg(long)]
+    pub scene: Option<String>,
+    /// Nearest scene surface, mm in front of surface 1 (default: far away).
+    #[arg(long)]
+    pub nearest_mm: Option<f64>,
+    /// Fraction of the default film radius the image uses, in (0, 1].
+    #[arg(long)]
+    pub film_fraction: Option<f64>,
+}
+
+impl SceneArgs {
+    fn requirements(
+        &self,
+        focus_mm: Option<f64>,
+        f_number: Option<f64>,
+    ) -> anyhow::Result<SceneRequirements> {
+        let mut req = SceneRequirements {
+            focus_mm,
+            f_number,
+            ..SceneRequirements::default()
+        };
+        match self.scene.as_deref() {
+            None => {}
+            Some("demo") => {
+                req.focus_mm = req.focus_mm.or(Some(2000.0));
+                req.nearest_mm = Scene::demo().nearest_distance_mm();
+            }
+            Some(other) => anyhow::bail!("--scene {other}: only `demo` is known"),
+        }
+        req.nearest_mm = self.nearest_mm.or(req.nearest_mm);
+        req.film_fraction = self.film_fraction.unwrap_or(req.film_fraction);
+        Ok(req)
+    }
+}
+
+#[derive(Args, Debug)]
+pub struct TradeoffArgs {
+    #[command(flatten)]
+    pub lens: LensArgs,
+    #[command(flatten)]
+    pub scene: SceneArgs,
+    /// Object distance in focus, mm in front of surface 1 (default: infinity).
+    #[arg(long)]
+    pub focus_mm: Option<f64>,
+    /// Default: wide open.
+    #[arg(long)]
+    pub f_number: Option<f64>,
+    /// Random film-side rays every model is measured on.
+    #[arg(long, default_value_t = 20_000)]
+    pub rays: usize,
+    /// Print {"entries": [...]} instead of the table.
+    #[arg(long)]
+    pub json: bool,
+    /// Output directory (default: notebooks-out/tradeoff/<lens>/).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
+
+#[derive(Serialize)]
+struct Entries<'a> {
+    entries: Vec<&'a Entry>,
+}
+
+const RENDER_NOTE: &str = "render_ms_per_frame is null: the renderer cannot yet render thin, \
+     thick, Seidel, baked and traced models of one prescription from the library, so no frame \
+     was timed and no image error against a traced render was measured";
+
+fn markdown(lens: &str, domain: &Domain, measured: &[Measured], rays: usize) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "# Speed against accuracy: {lens}\n");
+    let _ = writeln!(
+        s,
+        "Domain: film at z = {:.4} mm, film radius {:.3} mm (default {:.3} mm), f/{:.3}, EFL {:.3} mm, \
+         focus {}, nearest scene surface {}, {:.2} nm. {rays} random film-side rays drawn as the \
+         renderer draws them; errors over the rays both the model and the exact trace pass. \
+         Image error: EFL x angle / pixel pitch ({:.2} um, a 3:2 frame 1920 px wide in the image \
+         circle){}.\n",
+        domain.film_z,
+        domain.film_radius,
+        domain.full_film_radius,
+        domain.f_number,
+        domain.efl,
+        domain
+            .focus_mm
+            .map_or("infinity".into(), |d| format!("{d} mm")),
+        domain
+            .nearest_mm
+            .map_or("far".into(), |d| format!("{d} mm")),
+        domain.wavelength_nm,
+        domain.pixel_pitch * 1e3,
+        if domain.nearest_mm.is_some() {
+            ", plus the rays' offset over the nearest depth"
+        } else {
+            ""
+        }
+    );
+    let _ = writeln!(
+        s,
+        "| model | bake s | bytes | render ms/frame | direction p99 mrad | direction max mrad | image p50 px | image p99 px | image max px | validity mismatch | rays compared |"
+    );
+    let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    for m in measured {
+        let e = &m.entry;
+        let _ = writeln!(
+            s,
+            "| {} | {:.4} | {} | {} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} % | {} |",
+            m.label,
+            e.bake_seconds,
+            e.table_bytes,
+            e.render_ms_per_frame
+                .map_or("n/a".into(), |v| format!("{v:.1}")),
+            e.ray_error_p99_mrad,
+            m.error.direction_mrad.max,
+            m.error.image_px.median,
+            e.image_error_px_p99,
+            m.error.image_px.max,
+            100.0 * m.error.validity_mismatch,
+            m.error.compared,
+        );
+    }
+    let _ = writeln!(
+        s,
+        "\nNotes:\n\n- traced is the reference: the exact backward trace, zero error by definition.\n\
+         - thin, thick and Seidel have no apertures: their validity mismatch counts the rays the real \
+         lens vignettes (a renderer samples their own exit pupil instead).\n\
+         - f16 tables are the f32 bake rounded to f16, exactly what `bake --precision f16` stores; \
+         they share its bake time.\n\
+         - bytes: the model's data in memory (table entries for baked tables, the surface records \
+         for traced).\n- {RENDER_NOTE}."
+    );
+    s
+}
+
+fn pareto(lens: &str, measured: &[Measured]) -> ParetoPlot {
+    let points = measured
+        .iter()
+        .filter(|m| m.entry.image_error_px_p99 > 0.0)
+        .map(|m| ParetoPoint {
+            label: m.label.clone(),
+            group: match m.entry.precision {
+                Some(p) => format!("baked {p}"),
+                None => m.entry.model.name().to_string(),
+            },
+            cost: m.entry.table_bytes as f64,
+            error: m.entry.image_error_px_p99,
+        })
+        .collect();
+    ParetoPlot {
+        title: format!("{lens}: model data size against image error (p99, 1920 px)"),
+        cost_label: "model data (bytes, log)".into(),
+        error_label: "image error p99 (px at 1920 px, log)".into(),
+        points,
+        notes: vec![
+            "traced: the reference (zero error, not on log axes)".into(),
+            "render time per frame not yet measured: cost is the model's data size".into(),
+        ],
+    }
+}
+
+pub fn run(args: TradeoffArgs) -> anyhow::Result<()> {
+    let loaded = args.lens.load()?;
+    let name = loaded.source.origin.name();
+    let req = args.scene.requirements(args.focus_mm, args.f_number)?;
+    if args.rays == 0 {
+        anyhow::bail!("--rays must be positive");
+    }
+    let (domain, measured) = tradeoff(&loaded.system, &req, args.rays, 7)?;
+    let finite = measured.iter().all(|m| {
+        let e = &m.entry;
+        e.bake_seconds.is_finite()
+            && e.ray_error_p99_mrad.is_finite()
+            && e.image_error_px_p99.is_finite()
+    });
+    if !finite {
+        anyhow::bail!("a model produced a non-finite error; nothing written");
+    }
+    let entries = Entries {
+        entries: measured.iter().map(|m| &m.entry).collect(),
+    };
+    let json = serde_json::to_string_pretty(&entries)?;
+    let out = args
+        .out
+        .unwrap_or_else(|| Path::new("notebooks-out/tradeoff").join(&name));
+    std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
+    write_atomic(&out.join("tradeoff.json"), format!("{json}\n").as_bytes())?;
+    let md = markdown(&name, &domain, &measured, args.rays);
+    write_atomic(&out.join("tradeoff.md"), md.as_bytes())?;
+    write_plot(&pareto(&name, &measured), &out.join("pareto.png"))?;
+    if args.json {
+        println!("{json}");
+    } else {
+        print!("{md}");
+        println!(
+            "\nwrote tradeoff.md, tradeoff.json and pareto.png to {}",
+            out.display()
+        );
+    }
+    Ok(())
+}
+
+/// Prints a choice: the model, its domain, and predicted against measured error.
+fn report(choice: &Choice) {
+    println!(
+        "chose {} for a {:.3} px budget: predicted {:.3} px, measured {:.3} px (p99, 1920 px)",
+        choice.label, choice.budget_px, choice.predicted_px, choice.measured_px
+    );
+    println!(
+        "  domain: film radius {:.3} of {:.3} mm, f/{:.3}, focus {}, wavelengths {:?} nm (lateral colour {:.3} px)",
+        choice.domain.film_radius,
+        choice.domain.full_film_radius,
+        choice.domain.f_number,
+        choice
+            .domain
+            .focus_mm
+            .map_or("infinity".into(), |d| format!("{d} mm")),
+        choice.wavelengths_nm,
+        choice.lateral_colour_px
+    );
+    for c in &choice.considered {
+        println!(
+            "  considered {}: predicted {:.3} px, {}",
+            c.label,
+            c.predicted_px,
+            c.measured_px
+                .map_or("not built".into(), |m| format!("measured {m:.3} px"))
+        );
+    }
+}
+
+/// `bake --error-budget-px`: bake the cheapest table meeting the budget, or say that no table
+/// is needed (a first-order or Seidel model meets it) or that only the trace does.
+pub fn bake_within_budget(
+    lens: &LoadedLens,
+    budget_px: f64,
+    scene: &SceneArgs,
+    focus_mm: Option<f64>,
+    f_number: Option<f64>,
+    out: Option<PathBuf>,
+) -> anyhow::Result<()> {
+    let name = lens.source.origin.name();
+    let req = scene.requirements(focus_mm, f_number)?;
+    let choice = choose_model(&lens.system, &req, budget_px)?;
+    report(&choice);
+    match &choice.table {
+        Some(table) => {
+            let out = out.unwrap_or_else(|| PathBuf::from("tables").join(&name));
+            write_table(table, &name, &lens.system.prescription, &out)?;
+            println!("wrote {}", out.display());
+        }
+        None => println!("no table written: the {} model needs none", choice.label),
+    }
+    Ok(())
+}
