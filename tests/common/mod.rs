@@ -29,7 +29,9 @@ pub fn lens_file(name: &str) -> PathBuf {
 
 /// A file of this crate's own test data (tests/data).
 pub fn test_data(name: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data").join(name)
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data")
+        .join(name)
 }
 
 /// Relative difference, safe at zero.
