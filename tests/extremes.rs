@@ -1383,3 +1383,60 @@ fn closest_focus_approaches_the_front_focal_plane() {
         "baked film plane at the closest focus",
     );
 }
+
+#[test]
+fn a_long_grazing_flight_keeps_the_next_intersection_exact() {
+    // Found by the random-ray property test: a ray leaving the axis 34 mm in front of the lens
+    // with dz = 7e-10 flies 5e10 mm to reach the first (plane, air to air) surface. Solved from
+    // there, the next sphere's quadratic had coefficients of 1e20 that cancelled to a spurious
+    // hit with a non-unit normal: the ray went on with |d| = 2.6 and ended as "TIR" at surface
+    // 3. The line misses the sphere by 5e10 mm.
+    let surface = |shape, thickness, medium, stop| Surface {
+        shape,
+        thickness,
+        medium,
+        semi_aperture: 4.0,
+        stop,
+    };
+    let system = LensSystem::from_prescription(Prescription {
+        provenance: Provenance {
+            title: "plane, sphere, plane".into(),
+            ..Provenance::default()
+        },
+        object_medium: Medium::Air,
+        surfaces: vec![
+            surface(Shape::Plane, 3.0, Medium::Air, Some(StopShape::Circle)),
+            surface(
+                Shape::Sphere {
+                    curvature: 1.0 / 15.0,
+                },
+                3.0,
+                Medium::Index(1.45),
+                None,
+            ),
+            surface(Shape::Plane, 20.0, Medium::Air, None),
+        ],
+    })
+    .unwrap();
+    let tracer = Tracer::new(&system.at(D_LINE_NM));
+    let ray = Ray::new(
+        [0.0, 0.0, -34.036979398375976],
+        [
+            0.3307296271292779,
+            0.8239653228457696,
+            7.084444120458869e-10,
+        ],
+    )
+    .unwrap();
+    let traced = tracer.trace_with(ray, Travel::Forward, Apertures::Ignored);
+    assert_traced_finite(&traced, "grazing flight");
+    assert_eq!(traced.outcome, Outcome::Missed { surface: 2 });
+    // The same line started where it crosses surface 1: the same outcome.
+    let restarted = Ray::new(traced.ray.position(), ray.direction()).unwrap();
+    assert_eq!(
+        tracer
+            .trace_with(restarted, Travel::Forward, Apertures::Ignored)
+            .outcome,
+        Outcome::Missed { surface: 2 }
+    );
+}
