@@ -36,9 +36,16 @@ pub struct PupilSample {
 }
 
 impl PupilTable {
-    /// The interpolated circle at film radius `r` (clamped to the table's range).
+    /// The interpolated circle at film radius `r` (clamped to the table's range). A table with
+    /// no circles (only a hostile file makes one) has the empty circle, where nothing passes.
     pub fn circle_at(&self, film_radius: f64) -> PupilCircle {
         let n = self.circles.len();
+        if n == 0 {
+            return PupilCircle {
+                centre_x: 0.0,
+                radius: 0.0,
+            };
+        }
         if n == 1 || self.max_film_radius <= 0.0 {
             return self.circles[0];
         }
