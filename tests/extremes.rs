@@ -137,11 +137,37 @@ fn lenses_with_catalogue_glasses_analyse_and_trace_at_380_and_780_nm() {
                 "{name} at {nm} nm: real focus {crossing}, paraxial {paraxial}"
             );
         }
-        // Normal dispersion makes a positive lens shorter in the blue; the colour stays a
-        // small fraction of the focal length in a corrected lens.
+        // The focal shift across the whole visible band stays a small fraction of the focal
+        // length in these colour-corrected lenses.
         assert!(
             (efl[0] - efl[2]).abs() < 0.02 * efl[1],
             "{name}: EFL at 380/587/780 nm {efl:?}"
+        );
+        // A table with the band's ends as its outer channels.
+        let request = BakeRequest {
+            resolution: [8, 8, 8],
+            wavelengths_nm: vec![780.0, D_LINE_NM, 380.0],
+            ..BakeRequest::default()
+        };
+        let table = bake(&system, &request, &|_| {}).unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert_table_finite(&table, name);
+    }
+}
+
+#[test]
+#[ignore = "bug in src/lrtf/bake.rs (not this helper's module): bake uses the unchecked view"]
+fn baking_beyond_a_glass_formula_is_refused() {
+    // LensSystem::at_checked refuses these wavelengths; bake still calls LensSystem::at and
+    // bakes the Cooke triplet at 9000 nm (F2 at n = 0.31) and the double Gauss at 150 nm.
+    for (name, nm) in [("cooke-triplet", 9000.0), ("codev-dgauss-f2", 150.0)] {
+        let request = BakeRequest {
+            resolution: [4, 4, 4],
+            wavelengths_nm: vec![nm],
+            ..BakeRequest::default()
+        };
+        assert!(
+            bake(&bundled(name), &request, &|_| {}).is_err(),
+            "{name} baked at {nm} nm"
         );
     }
 }
