@@ -5,6 +5,7 @@ use crate::paraxial::{
     Aperture, Field, ObjectPosition, Paraxial, ParaxialError, ParaxialOptions, Pupil, RayAtSurface,
     StopChoice,
 };
+use crate::prescription::PrescriptionError;
 use crate::seidel::{IndexDifferences, Seidel};
 use crate::system::LensSystem;
 use crate::trace::analyses::{RealRays, RealReport};
@@ -29,6 +30,8 @@ pub struct AnalyzeOptions {
 pub enum AnalysisError {
     #[error("wavelength must be positive and finite, got {0} nm")]
     InvalidWavelength(f64),
+    #[error("at this wavelength: {0}")]
+    Wavelength(#[from] PrescriptionError),
     #[error(transparent)]
     Paraxial(#[from] ParaxialError),
     #[error("{quantity} is not finite: the lens is too close to a degenerate case to analyse")]
@@ -107,7 +110,7 @@ pub fn analyze(
     if !(wavelength_nm.is_finite() && wavelength_nm > 0.0) {
         return Err(AnalysisError::InvalidWavelength(wavelength_nm));
     }
-    let at = system.at(wavelength_nm);
+    let at = system.at_checked(wavelength_nm)?;
     let paraxial_options = ParaxialOptions {
         object: options
             .object_distance_mm

@@ -83,6 +83,48 @@ impl Dispersion {
         }
     }
 
+    /// The open wavelength interval (nm) in which the formula can describe the medium it was
+    /// fitted to. Each Sellmeier term B l^2 / (l^2 - C) is an absorption resonance with a pole at
+    /// l = sqrt(C); across a pole the formula swings through infinity and no longer describes the
+    /// glass (short of the pole it may even give a plausible-looking index), so its range is the
+    /// gap between the resonances that holds the d line. The other formulas have no pole: (0, inf).
+    pub fn resonance_window_nm(&self) -> (f64, f64) {
+        let Dispersion::Sellmeier { b, c } = self else {
+            return (0.0, f64::INFINITY);
+        };
+        let d_line_sq = (D_LINE_NM * 1e-3).powi(2);
+        let mut window = (0.0, f64::INFINITY);
+        for (b, c) in b.iter().zip(c) {
+            if *b == 0.0 || !(*c > 0.0) {
+                continue;
+            }
+            let pole_nm = c.sqrt() * 1e3;
+            if *c < d_line_sq {
+                window.0 = f64::max(window.0, pole_nm);
+            } else {
+                window.1 = f64::min(window.1, pole_nm);
+            }
+        }
+        window
+    }
+
+    /// Refractive index at `wavelength_nm`, or [`Problem::WavelengthOutOfRange`] where the
+    /// formula does not describe a transparent medium there: outside
+    /// [`Dispersion::resonance_window_nm`], or an index that is not finite or is below 1.
+    ///
+    /// The catalogue stores no datasheet validity range, so a wavelength inside the window may
+    /// still lie beyond what the maker measured; every catalogue glass is tested to give a normal
+    /// glass index over 380-780 nm.
+    pub fn checked_index(&self, wavelength_nm: f64) -> Result<f64, Problem> {
+        let (low, high) = self.resonance_window_nm();
+        let n = self.index(wavelength_nm);
+        if wavelength_nm > low && wavelength_nm < high && n.is_finite() && n >= 1.0 {
+            Ok(n)
+        } else {
+            Err(Problem::WavelengthOutOfRange { nm: wavelength_nm })
+        }
+    }
+
     /// Whether the index changes with wavelength.
     pub fn disperses(&self) -> bool {
         !matches!(self, Dispersion::Constant(_))

@@ -36,9 +36,16 @@ pub struct PupilSample {
 }
 
 impl PupilTable {
-    /// The interpolated circle at film radius `r` (clamped to the table's range).
+    /// The interpolated circle at film radius `r` (clamped to the table's range). A table with
+    /// no circles (only a hostile file makes one) has the empty circle, where nothing passes.
     pub fn circle_at(&self, film_radius: f64) -> PupilCircle {
         let n = self.circles.len();
+        if n == 0 {
+            return PupilCircle {
+                centre_x: 0.0,
+                radius: 0.0,
+            };
+        }
         if n == 1 || self.max_film_radius <= 0.0 {
             return self.circles[0];
         }
@@ -132,7 +139,7 @@ pub fn fit_pupil(
     settings: &PupilFitSettings,
 ) -> Option<PupilCircle> {
     let n = settings.grid.max(4);
-    let step = 2.0 * search_radius / (n - 1) as f64;
+    let mut step = 2.0 * search_radius / (n - 1) as f64;
     let mut inside = Vec::new();
     for j in 0..n / 2 + 1 {
         for i in 0..n {
@@ -143,7 +150,11 @@ pub fn fit_pupil(
         }
     }
     if inside.is_empty() {
-        return None;
+        // A pupil smaller than a grid step (a lens stopped far down) falls between the nodes.
+        // It is symmetric about the x axis, so a connected pupil crosses it: scan the axis.
+        let (point, spacing) = scan_axis(passes, search_radius)?;
+        inside.push(point);
+        step = spacing;
     }
     let count = inside.len() as f64;
     // The pupil is symmetric about the x axis: its centroid lies on it.
@@ -185,6 +196,25 @@ pub fn fit_pupil(
     Some(PupilCircle {
         centre_x: circle.centre_x,
         radius: circle.radius * (1.0 + settings.relative_margin) + 0.5 * step * 0.1,
+    })
+}
+
+/// Finest spacing of [`scan_axis`]: the search diameter over 2^14, which resolves the pupil of
+/// a 50 mm lens down to about f/2000.
+const AXIS_SCAN_LEVELS: u32 = 14;
+
+/// The first passing point on the x axis within `search_radius`, probed on ever finer dyadic
+/// grids (each level adds the midpoints of the last), with the spacing it was found at.
+fn scan_axis(
+    passes: &(dyn Fn([f64; 2]) -> bool + Sync),
+    search_radius: f64,
+) -> Option<([f64; 2], f64)> {
+    (1..=AXIS_SCAN_LEVELS).find_map(|level| {
+        let spacing = 2.0 * search_radius / f64::from(1u32 << level);
+        (1..1u32 << level).step_by(2).find_map(|j| {
+            let p = [-search_radius + f64::from(j) * spacing, 0.0];
+            passes(p).then_some((p, spacing))
+        })
     })
 }
 

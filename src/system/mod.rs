@@ -78,6 +78,31 @@ impl LensSystem {
         self.object_dispersion.disperses() || self.dispersions.iter().any(Dispersion::disperses)
     }
 
+    /// The lens frozen at one wavelength, refused where a medium's dispersion formula gives no
+    /// index of a transparent medium there ([`Dispersion::checked_index`]); the error names the
+    /// surface whose medium it is (none for the object medium). [`LensSystem::at`] skips the
+    /// check: a tracer built from such a view stops its rays with TIR at the first affected
+    /// surface, and the paraxial code sees NaN.
+    pub fn at_checked(&self, wavelength_nm: f64) -> Result<SystemAt, PrescriptionError> {
+        self.object_dispersion
+            .checked_index(wavelength_nm)
+            .map_err(|problem| {
+                PrescriptionError::new(
+                    Location {
+                        field: Some("object_medium".into()),
+                        ..Location::default()
+                    },
+                    problem,
+                )
+            })?;
+        for (i, dispersion) in self.dispersions.iter().enumerate() {
+            dispersion.checked_index(wavelength_nm).map_err(|problem| {
+                PrescriptionError::new(SourceMap::default().surface(i, "medium"), problem)
+            })?;
+        }
+        Ok(self.at(wavelength_nm))
+    }
+
     /// The lens frozen at one wavelength.
     pub fn at(&self, wavelength_nm: f64) -> SystemAt {
         let mut z = 0.0;

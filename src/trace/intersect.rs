@@ -20,7 +20,10 @@
 //!
 //! The line is extended both ways, as in every sequential design program: a ray that starts
 //! just behind a vertex (a cemented pair with zero gap, a start plane chosen inside a deep
-//! front curve) still meets the surface it is meant to meet.
+//! front curve) still meets the surface it is meant to meet. So every solver may, and does,
+//! first move the start point along the line to the point nearest the vertex: from a distant
+//! start the quadratic's coefficients grow as the squared distance and cancel to garbage (a
+//! grazing ray that had flown 5e10 mm met a sphere it misses by as much).
 
 use super::Vec3;
 
@@ -91,10 +94,18 @@ fn quadratic_root(a: f64, b: f64, c: f64, sense: f64) -> Option<f64> {
     t.is_finite().then_some(t)
 }
 
+/// The point of the line `p + t d` (d unit) nearest the vertex.
+#[inline(always)]
+fn nearest_to_vertex(p: Vec3, d: Vec3) -> Vec3 {
+    let s = p[0] * d[0] + p[1] * d[1] + p[2] * d[2];
+    [p[0] - s * d[0], p[1] - s * d[1], p[2] - s * d[2]]
+}
+
 /// Meets the sphere `c (x^2 + y^2 + z^2) - 2 z = 0` on its vertex sheet. The normal
 /// `(c x, c y, c z - 1)` has unit length on the sphere, so it needs no normalisation.
 #[inline(always)]
 pub(crate) fn sphere(p: Vec3, d: Vec3, curvature: f64, sense: f64) -> Option<Hit> {
+    let p = nearest_to_vertex(p, d);
     let c = curvature;
     let b = d[2] - c * (p[0] * d[0] + p[1] * d[1] + p[2] * d[2]);
     let cc = c * (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]) - 2.0 * p[2];
@@ -119,6 +130,7 @@ pub(crate) fn conic(
     conic_factor: f64,
     sense: f64,
 ) -> Option<Hit> {
+    let p = nearest_to_vertex(p, d);
     let (c, e) = (curvature, conic_factor);
     let a = c * (d[0] * d[0] + d[1] * d[1] + e * d[2] * d[2]);
     let b = d[2] - c * (p[0] * d[0] + p[1] * d[1] + e * p[2] * d[2]);
@@ -178,6 +190,7 @@ pub(crate) fn even_asphere(
     terms: &AsphereTerms,
     sense: f64,
 ) -> Option<Hit> {
+    let p = nearest_to_vertex(p, d);
     let start = conic(p, d, curvature, conic_factor, sense)
         .map(|hit| hit.point)
         .or_else(|| plane(p, d, sense))?;
