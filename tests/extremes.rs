@@ -155,18 +155,18 @@ fn lenses_with_catalogue_glasses_analyse_and_trace_at_380_and_780_nm() {
 }
 
 #[test]
-#[ignore = "bug in src/lrtf/bake.rs (not this helper's module): bake uses the unchecked view"]
 fn baking_beyond_a_glass_formula_is_refused() {
-    // LensSystem::at_checked refuses these wavelengths; bake still calls LensSystem::at and
-    // bakes the Cooke triplet at 9000 nm (F2 at n = 0.31) and the double Gauss at 150 nm.
+    // Without the check, bake traced the Cooke triplet at 9000 nm (F2 at n = 0.31) and the
+    // double Gauss at 150 nm.
     for (name, nm) in [("cooke-triplet", 9000.0), ("codev-dgauss-f2", 150.0)] {
         let request = BakeRequest {
             resolution: [4, 4, 4],
             wavelengths_nm: vec![nm],
             ..BakeRequest::default()
         };
+        let result = bake(&bundled(name), &request, &|_| {});
         assert!(
-            bake(&bundled(name), &request, &|_| {}).is_err(),
+            matches!(result, Err(BakeError::Wavelength(_))),
             "{name} baked at {nm} nm"
         );
     }
@@ -611,7 +611,9 @@ fn bundled_aspheric_lens_opened_to_f095() {
         "S_I scales as the fourth power of the aperture",
     );
     let tracer = Tracer::new(&system.at(system.design_wavelength_nm()));
-    let pupil = tracer.paraxial_entrance_pupil();
+    let pupil = tracer
+        .paraxial_entrance_pupil()
+        .expect("the stop images to a finite entrance pupil");
     let start_z = tracer.front_start_z();
     let mut counts = std::collections::BTreeMap::new();
     for i in -30..=30 {
@@ -657,9 +659,9 @@ fn fisheye_at_its_largest_traceable_field() {
     let tracer = Tracer::new(&system.at(system.design_wavelength_nm()));
     let widest = traceable_field_deg(&tracer, 1.0);
     // The paraxial chief ray leaves the clear apertures at 43.5 degrees; the real one, bent by
-    // the strongly curved front meniscus, gets to 61.7 degrees.
+    // the strongly curved front meniscus and aimed by the searching aim, gets to 74.8 degrees.
     assert!(
-        (60.0..70.0).contains(&widest),
+        (70.0..80.0).contains(&widest),
         "traceable field {widest} degrees"
     );
     let inside = chief_ray(&tracer, widest - 1e-6).expect("aimed just inside the limit");
@@ -1385,7 +1387,10 @@ fn closest_focus_approaches_the_front_focal_plane() {
         };
         let error = bake(&system, &request, &|_| {}).unwrap_err();
         assert!(
-            matches!(error, BakeError::NoFocus { .. }),
+            matches!(
+                error,
+                BakeError::Paraxial(_) | BakeError::FilmPlane { .. }
+            ),
             "focus {distance}: {error}"
         );
     }

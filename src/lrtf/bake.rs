@@ -14,6 +14,7 @@ use rayon::prelude::*;
 use super::param::{CHANNELS, Frame, Parameterisation, Ray, Transfer, VALID};
 use super::table::{Layer, LrtfTable, Precision, TableInfo};
 use crate::paraxial::{Field, ObjectPosition, Paraxial, ParaxialError, ParaxialOptions};
+use crate::prescription::PrescriptionError;
 use crate::pupil::{self, PupilFitSettings, PupilTable};
 use crate::system::{LensSystem, SystemAt};
 use crate::trace::{Apertures, Tracer, Travel};
@@ -59,6 +60,8 @@ impl Default for BakeRequest {
 pub enum BakeError {
     #[error("first-order optics of the lens: {0}")]
     Paraxial(#[from] ParaxialError),
+    #[error("cannot bake at this wavelength: {0}")]
+    Wavelength(#[from] PrescriptionError),
     #[error("f-number {asked} is faster than the lens wide open (f/{wide_open:.3})")]
     FNumber { asked: f64, wide_open: f64 },
     #[error("resolution {0:?} needs at least 2 nodes on every axis")]
@@ -261,7 +264,12 @@ pub fn bake(
     if wavelengths.len() != 1 && wavelengths.len() != 3 {
         return Err(BakeError::WavelengthCount(wavelengths.len()));
     }
-    let design = system.at(system.design_wavelength_nm());
+    // Every layer is traced through `stopped_down`, which trusts the wavelength: refuse the ones
+    // where a medium's dispersion formula no longer gives an index.
+    for &nm in &wavelengths {
+        system.at_checked(nm)?;
+    }
+    let design = system.at_checked(system.design_wavelength_nm())?;
     let first = first_order(&design, request.focus_mm)?;
     let wide_open = first.f_number;
     let f_number = request.f_number.unwrap_or(wide_open);
