@@ -1387,10 +1387,7 @@ fn closest_focus_approaches_the_front_focal_plane() {
         };
         let error = bake(&system, &request, &|_| {}).unwrap_err();
         assert!(
-            matches!(
-                error,
-                BakeError::Paraxial(_) | BakeError::FilmPlane { .. }
-            ),
+            matches!(error, BakeError::Paraxial(_) | BakeError::FilmPlane { .. }),
             "focus {distance}: {error}"
         );
     }

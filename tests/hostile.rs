@@ -417,10 +417,9 @@ fn sidecars_that_disagree_with_the_data_or_the_lens_are_refused() {
 }
 
 #[test]
-#[ignore = "bug in src/lrtf/io.rs (not this helper's module): read_table accepts these"]
 fn sidecar_numbers_that_cannot_describe_a_table_are_refused() {
-    // Each loads today and yields a table whose wavelength, f-number, frame or pupil is NaN,
-    // negative or zero: a renderer then traces at NaN nm or divides by a zero radius.
+    // Each used to load and yield a table whose wavelength, f-number, frame or pupil is NaN,
+    // negative or zero: a renderer then traced at NaN nm or divided by a zero radius.
     let original = files();
     let sidecar = &original.sidecar;
     let cases = [

@@ -199,6 +199,87 @@ pub fn read_sidecar(dir: &Path) -> Result<Sidecar, TableError> {
 
 /// Loads a table, refusing one whose format or parameterisation version differs from this
 /// build's, or (when `prescription` is given) one baked from another prescription.
+/// The first sidecar number that cannot describe a table (NaN, infinite, or of the wrong sign
+/// where a length, wavelength or f-number must be positive), named by its field.
+fn implausible_number(sidecar: &Sidecar) -> Option<String> {
+    let positive = |value: f64| value.is_finite() && value > 0.0;
+    let info = &sidecar.info;
+    let mut checks: Vec<(String, f64, bool)> = vec![(
+        "info.f_number".into(),
+        info.f_number,
+        positive(info.f_number),
+    )];
+    if let Some(focus) = info.focus_mm {
+        checks.push(("info.focus_mm".into(), focus, positive(focus)));
+    }
+    for (k, layer) in sidecar.layers.iter().enumerate() {
+        let f = &layer.frame;
+        let field = |name: &str| format!("layers[{k}].{name}");
+        checks.extend([
+            (
+                field("wavelength_nm"),
+                layer.wavelength_nm,
+                positive(layer.wavelength_nm),
+            ),
+            (
+                field("stop_semi_aperture"),
+                layer.stop_semi_aperture,
+                positive(layer.stop_semi_aperture),
+            ),
+            (
+                field("frame.rear_plane_z"),
+                f.rear_plane_z,
+                f.rear_plane_z.is_finite(),
+            ),
+            (
+                field("frame.film_plane_z"),
+                f.film_plane_z,
+                f.film_plane_z.is_finite(),
+            ),
+            (
+                field("frame.max_film_radius"),
+                f.max_film_radius,
+                positive(f.max_film_radius),
+            ),
+            (
+                field("frame.max_rear_radius"),
+                f.max_rear_radius,
+                f.max_rear_radius.is_finite() && f.max_rear_radius >= 0.0,
+            ),
+            (
+                field("frame.max_polar_angle"),
+                f.max_polar_angle,
+                f.max_polar_angle.is_finite() && f.max_polar_angle >= 0.0,
+            ),
+            (
+                field("pupil.max_film_radius"),
+                layer.pupil.max_film_radius,
+                positive(layer.pupil.max_film_radius),
+            ),
+        ]);
+        if layer.pupil.circles.len() < 2 {
+            return Some(format!(
+                "{} has {} pupil circles; a table needs at least 2",
+                field("pupil.circles"),
+                layer.pupil.circles.len()
+            ));
+        }
+        for (j, circle) in layer.pupil.circles.iter().enumerate() {
+            let at = |name: &str| field(&format!("pupil.circles[{j}].{name}"));
+            checks.push((at("centre_x"), circle.centre_x, circle.centre_x.is_finite()));
+            checks.push((
+                at("radius"),
+                circle.radius,
+                circle.radius.is_finite() && circle.radius >= 0.0,
+            ));
+        }
+    }
+    checks
+        .into_iter()
+        .find(|(_, _, ok)| !ok)
+        .map(|(name, value, _)| format!("{name} = {value} cannot describe a table"))
+}
+
 pub fn read_table(
     dir: &Path,
     prescription: Option<&Prescription>,
@@ -240,6 +321,12 @@ pub fn read_table(
             });
         }
     }
+    implausible_number(&sidecar).map_or(Ok(()), |message| {
+        Err(TableError::Sidecar {
+            path: dir.join(SIDECAR_FILE),
+            message,
+        })
+    })?;
     let data_path = dir.join(DATA_FILE);
     let data_error = |message: String| TableError::Data {
         path: data_path.clone(),
