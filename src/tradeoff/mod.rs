@@ -21,9 +21,12 @@ use crate::lrtf::bake::{BakeError, BakeRequest, bake, chief_ray_film_radius, fir
 use crate::lrtf::measure::{Stats, angle_between, distance_to_line, pixel_pitch, renderer_rays};
 use crate::lrtf::{LrtfTable, Precision, Ray};
 use crate::paraxial::ParaxialError;
+use crate::render::RenderError;
+use crate::render::camera::ParaxialLens;
+use crate::render::models::FirstOrderModels;
 use crate::system::{LensSystem, SystemAt};
 use crate::trace::Tracer;
-use models::{ModelKind, RayModel, SeidelLens, first_order_lenses, paraxial_for};
+use models::{ModelKind, RayModel, SeidelLens, paraxial_for};
 
 #[derive(Debug, thiserror::Error)]
 pub enum TradeoffError {
@@ -31,8 +34,8 @@ pub enum TradeoffError {
     Bake(#[from] BakeError),
     #[error("first-order model: {0}")]
     Paraxial(#[from] ParaxialError),
-    #[error("the exit pupil is at infinity (image-space telecentric): no thin or thick model")]
-    ExitPupilAtInfinity,
+    #[error(transparent)]
+    Render(#[from] RenderError),
     #[error("{0}")]
     Invalid(String),
 }
@@ -307,15 +310,13 @@ pub fn analytic_models(system: &LensSystem, domain: &Domain) -> Result<Vec<Built
     let at = system.at(domain.wavelength_nm);
     let started = Instant::now();
     let paraxial = paraxial_for(&at, domain.focus_mm)?;
-    let (thin, thick) = first_order_lenses(&paraxial).ok_or(TradeoffError::ExitPupilAtInfinity)?;
-    let film_z = |lens: &crate::render::camera::ParaxialLens| match domain.focus_mm {
+    let FirstOrderModels { thin, thick, .. } = FirstOrderModels::of(system, Some(domain.f_number))?;
+    let film_z = |lens: &ParaxialLens| match domain.focus_mm {
         None => Ok(lens.rear_principal_z + lens.focal_length_mm),
-        Some(d) => lens
-            .film_z_for_object(d)
-            .map_err(|e| TradeoffError::Invalid(e.to_string())),
+        Some(d) => lens.film_z_for_object(d),
     };
     let first_order_seconds = started.elapsed().as_secs_f64();
-    let paraxial_model = |kind: ModelKind, lens: &crate::render::camera::ParaxialLens| {
+    let paraxial_model = |kind: ModelKind, lens: &ParaxialLens| {
         Ok::<_, TradeoffError>(Built {
             model: RayModel::Paraxial {
                 kind,
