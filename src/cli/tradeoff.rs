@@ -14,6 +14,7 @@ use lensbake::lrtf::io::write_table;
 use lensbake::plot::{ParetoPlot, ParetoPoint, write_atomic, write_plot};
 use lensbake::render::scene::Scene;
 use lensbake::tradeoff::choose::{Choice, choose_model};
+use lensbake::tradeoff::models::ModelKind;
 use lensbake::tradeoff::render::RenderBench;
 use lensbake::tradeoff::{Domain, Entry, Measured, SceneRequirements, tradeoff};
 
@@ -214,7 +215,14 @@ fn pareto(lens: &str, measured: &[Measured], bench: &RenderBench) -> ParetoPlot 
         error_label: "image error p99 (px at 1920 px, log)".into(),
         points,
         notes: vec![
-            "traced: the reference (zero error, not on log axes)".into(),
+            format!(
+                "traced: the reference (zero error, not on log axes), {} ms/frame",
+                measured
+                    .iter()
+                    .find(|m| m.entry.model == ModelKind::Traced)
+                    .and_then(|m| m.entry.render_ms_per_frame)
+                    .map_or("n/a".into(), |ms| format!("{ms:.1}"))
+            ),
             "seidel: no renderer kernel, not plotted".into(),
         ],
     }
