@@ -7,6 +7,7 @@ use lensbake::prescription::formats::LoadOptions;
 use lensbake::system::LensSystem;
 use lensbake::tradeoff::choose::choose_model;
 use lensbake::tradeoff::models::ModelKind;
+use lensbake::tradeoff::render::RenderBench;
 use lensbake::tradeoff::{Measured, RaySet, SceneRequirements, model_error, tradeoff};
 
 fn dgauss() -> LensSystem {
@@ -15,13 +16,30 @@ fn dgauss() -> LensSystem {
         .system
 }
 
+/// A frame small enough for tests; rendering is deterministic for a seed, timing is not.
+fn small_frame() -> RenderBench {
+    RenderBench {
+        width: 64,
+        height: 48,
+        samples_per_pixel: 4,
+        frames: 1,
+        seed: 1,
+    }
+}
+
 /// One default-domain trade-off, shared by the tests (it bakes eight tables).
 fn default_run() -> &'static Vec<Measured> {
     static RUN: OnceLock<Vec<Measured>> = OnceLock::new();
     RUN.get_or_init(|| {
-        tradeoff(&dgauss(), &SceneRequirements::default(), 6000, 3)
-            .unwrap()
-            .1
+        tradeoff(
+            &dgauss(),
+            &SceneRequirements::default(),
+            6000,
+            3,
+            &small_frame(),
+        )
+        .unwrap()
+        .1
     })
 }
 
@@ -101,10 +119,61 @@ fn first_order_models_are_ordered_as_the_physics_says() {
         nearest_mm: Some(500.0),
         ..SceneRequirements::default()
     };
-    let (_, run) = tradeoff(&dgauss(), &near, 3000, 5).unwrap();
+    let (_, run) = tradeoff(&dgauss(), &near, 3000, 5, &small_frame()).unwrap();
     let thin = find(&run, "thin").entry.image_error_px_p99;
     let thick = find(&run, "thick").entry.image_error_px_p99;
     assert!(thin > 1.05 * thick, "thin {thin} px, thick {thick} px");
+}
+
+#[test]
+fn every_renderer_model_renders_and_its_frame_approaches_the_traced_one() {
+    let run = default_run();
+    for m in run {
+        let ms = m.entry.render_ms_per_frame;
+        match m.entry.model {
+            // No renderer kernel for the Seidel model: no cost, no image.
+            ModelKind::Seidel => assert!(ms.is_none() && m.render.is_none(), "{}", m.label),
+            _ => assert!(
+                ms.is_some_and(|v| v.is_finite() && v > 0.0),
+                "{}: {ms:?}",
+                m.label
+            ),
+        }
+    }
+    let psnr = |label: &str| {
+        find(run, label)
+            .render
+            .as_ref()
+            .and_then(|r| r.psnr_db)
+            .unwrap()
+    };
+    assert!(
+        find(run, "traced")
+            .render
+            .as_ref()
+            .unwrap()
+            .psnr_db
+            .is_none()
+    );
+    // Traced and baked frames share every lens sample, so the frames differ only by the table's
+    // interpolation error, which falls with resolution (rendering is deterministic per seed).
+    let f32_psnr: Vec<f64> = [16, 32, 64, 128]
+        .iter()
+        .map(|n| psnr(&format!("baked {n}^3 f32")))
+        .collect();
+    assert!(
+        f32_psnr.windows(2).all(|w| w[1] > w[0] + 0.5),
+        "{f32_psnr:?}"
+    );
+    // The first-order models miss the double Gauss's aberrations and vignetting: even the
+    // coarsest table is far closer to the traced frame.
+    for first_order in ["thin", "thick"] {
+        let db = psnr(first_order);
+        assert!(
+            db.is_finite() && db + 10.0 < f32_psnr[0],
+            "{first_order} {db} dB"
+        );
+    }
 }
 
 #[test]
@@ -156,6 +225,14 @@ fn tradeoff_json_has_exactly_the_documented_shape() {
             "--json",
             "--rays",
             "800",
+            "--render-width",
+            "32",
+            "--render-height",
+            "24",
+            "--render-spp",
+            "2",
+            "--render-frames",
+            "1",
             "--out",
         ])
         .arg(&dir)
@@ -193,6 +270,10 @@ fn tradeoff_json_has_exactly_the_documented_shape() {
             assert!(e[k].as_f64().unwrap().is_finite());
         }
         assert!(e["table_bytes"].as_u64().is_some());
+        // Every model the renderer has a kernel for (all but Seidel) rendered a frame.
+        let rendered = e["render_ms_per_frame"].as_f64();
+        assert_eq!(rendered.is_some(), e["model"] != "seidel");
+        assert!(rendered.is_none_or(|ms| ms.is_finite() && ms > 0.0));
         let baked = e["model"] == "baked";
         assert_eq!(e["resolution"].is_u64(), baked);
         assert_eq!(e["precision"].is_string(), baked);

@@ -14,6 +14,8 @@ use lensbake::lrtf::io::write_table;
 use lensbake::plot::{ParetoPlot, ParetoPoint, write_atomic, write_plot};
 use lensbake::render::scene::Scene;
 use lensbake::tradeoff::choose::{Choice, choose_model};
+use lensbake::tradeoff::models::ModelKind;
+use lensbake::tradeoff::render::RenderBench;
 use lensbake::tradeoff::{Domain, Entry, Measured, SceneRequirements, tradeoff};
 
 /// What the scene asks of the lens (shared by `tradeoff` and `bake --error-budget-px`).
@@ -71,6 +73,16 @@ pub struct TradeoffArgs {
     /// Random film-side rays every model is measured on.
     #[arg(long, default_value_t = 20_000)]
     pub rays: usize,
+    /// Width in pixels of the demo-scene frame each model renders (CPU twin).
+    #[arg(long, default_value_t = 160)]
+    pub render_width: u32,
+    #[arg(long, default_value_t = 120)]
+    pub render_height: u32,
+    #[arg(long, default_value_t = 16)]
+    pub render_spp: u32,
+    /// Frames timed per model (the cost is their median).
+    #[arg(long, default_value_t = 3)]
+    pub render_frames: usize,
     /// Print {"entries": [...]} instead of the table.
     #[arg(long)]
     pub json: bool,
@@ -84,11 +96,13 @@ struct Entries<'a> {
     entries: Vec<&'a Entry>,
 }
 
-const RENDER_NOTE: &str = "render_ms_per_frame is null: the renderer cannot yet render thin, \
-     thick, Seidel, baked and traced models of one prescription from the library, so no frame \
-     was timed and no image error against a traced render was measured";
-
-fn markdown(lens: &str, domain: &Domain, measured: &[Measured], rays: usize) -> String {
+fn markdown(
+    lens: &str,
+    domain: &Domain,
+    measured: &[Measured],
+    rays: usize,
+    bench: &RenderBench,
+) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "# Speed against accuracy: {lens}\n");
     let _ = writeln!(
@@ -119,19 +133,28 @@ fn markdown(lens: &str, domain: &Domain, measured: &[Measured], rays: usize) -> 
     );
     let _ = writeln!(
         s,
-        "| model | bake s | bytes | render ms/frame | direction p99 mrad | direction max mrad | image p50 px | image p99 px | image max px | validity mismatch | rays compared |"
+        "| model | bake s | bytes | render ms/frame | image PSNR dB vs traced | direction p99 mrad | direction max mrad | image p50 px | image p99 px | image max px | validity mismatch | rays compared |"
     );
-    let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    let _ = writeln!(
+        s,
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+    );
     for m in measured {
         let e = &m.entry;
         let _ = writeln!(
             s,
-            "| {} | {:.4} | {} | {} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} % | {} |",
+            "| {} | {:.4} | {} | {} | {} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} % | {} |",
             m.label,
             e.bake_seconds,
             e.table_bytes,
             e.render_ms_per_frame
                 .map_or("n/a".into(), |v| format!("{v:.1}")),
+            match &m.render {
+                None => "n/a".to_string(),
+                Some(r) => r
+                    .psnr_db
+                    .map_or("reference".into(), |db| format!("{db:.1}")),
+            },
             e.ray_error_p99_mrad,
             m.error.direction_mrad.max,
             m.error.image_px.median,
@@ -149,33 +172,58 @@ fn markdown(lens: &str, domain: &Domain, measured: &[Measured], rays: usize) -> 
          - f16 tables are the f32 bake rounded to f16, exactly what `bake --precision f16` stores; \
          they share its bake time.\n\
          - bytes: the model's data in memory (table entries for baked tables, the surface records \
-         for traced).\n- {RENDER_NOTE}."
+         for traced).\n\
+         - render ms/frame: median wall clock of {frames} frame(s) of the demo scene, {w}x{h} \
+         pixels, {spp} samples per pixel, seed {seed}, on the CPU twin of the IBRT kernel (2 \
+         shared cores: indicative, not a benchmark); every model renders the same layers with \
+         the same seed, the film a {w}:{h} frame inscribed in the domain's image circle, and \
+         traced and baked draw identical lens samples on the largest table's effective pupil.\n\
+         - image PSNR: the frame against the traced frame (display range 0..1). It is a separate \
+         image error; image p99 px stays the ray-derived error above. Seidel has no renderer \
+         kernel: no render cost, no PSNR.",
+        frames = bench.frames.max(1),
+        w = bench.width,
+        h = bench.height,
+        spp = bench.samples_per_pixel,
+        seed = bench.seed,
     );
     s
 }
 
-fn pareto(lens: &str, measured: &[Measured]) -> ParetoPlot {
+fn pareto(lens: &str, measured: &[Measured], bench: &RenderBench) -> ParetoPlot {
     let points = measured
         .iter()
         .filter(|m| m.entry.image_error_px_p99 > 0.0)
-        .map(|m| ParetoPoint {
-            label: m.label.clone(),
-            group: match m.entry.precision {
-                Some(p) => format!("baked {p}"),
-                None => m.entry.model.name().to_string(),
-            },
-            cost: m.entry.table_bytes as f64,
-            error: m.entry.image_error_px_p99,
+        .filter_map(|m| {
+            Some(ParetoPoint {
+                label: m.label.clone(),
+                group: match m.entry.precision {
+                    Some(p) => format!("baked {p}"),
+                    None => m.entry.model.name().to_string(),
+                },
+                cost: m.entry.render_ms_per_frame?,
+                error: m.entry.image_error_px_p99,
+            })
         })
         .collect();
     ParetoPlot {
-        title: format!("{lens}: model data size against image error (p99, 1920 px)"),
-        cost_label: "model data (bytes, log)".into(),
+        title: format!("{lens}: render time against image error (p99, 1920 px)"),
+        cost_label: format!(
+            "render ms/frame ({}x{}, {} spp, CPU twin, log)",
+            bench.width, bench.height, bench.samples_per_pixel
+        ),
         error_label: "image error p99 (px at 1920 px, log)".into(),
         points,
         notes: vec![
-            "traced: the reference (zero error, not on log axes)".into(),
-            "render time per frame not yet measured: cost is the model's data size".into(),
+            format!(
+                "traced: the reference (zero error, not on log axes), {} ms/frame",
+                measured
+                    .iter()
+                    .find(|m| m.entry.model == ModelKind::Traced)
+                    .and_then(|m| m.entry.render_ms_per_frame)
+                    .map_or("n/a".into(), |ms| format!("{ms:.1}"))
+            ),
+            "seidel: no renderer kernel, not plotted".into(),
         ],
     }
 }
@@ -187,12 +235,24 @@ pub fn run(args: TradeoffArgs) -> anyhow::Result<()> {
     if args.rays == 0 {
         anyhow::bail!("--rays must be positive");
     }
-    let (domain, measured) = tradeoff(&loaded.system, &req, args.rays, 7)?;
+    let bench = RenderBench {
+        width: args.render_width,
+        height: args.render_height,
+        samples_per_pixel: args.render_spp,
+        frames: args.render_frames,
+        ..RenderBench::default()
+    };
+    let (domain, measured) = tradeoff(&loaded.system, &req, args.rays, 7, &bench)?;
     let finite = measured.iter().all(|m| {
         let e = &m.entry;
         e.bake_seconds.is_finite()
             && e.ray_error_p99_mrad.is_finite()
             && e.image_error_px_p99.is_finite()
+            && e.render_ms_per_frame.is_none_or(f64::is_finite)
+            && m.render
+                .as_ref()
+                .and_then(|r| r.psnr_db)
+                .is_none_or(|db| !db.is_nan())
     });
     if !finite {
         anyhow::bail!("a model produced a non-finite error; nothing written");
@@ -206,9 +266,9 @@ pub fn run(args: TradeoffArgs) -> anyhow::Result<()> {
         .unwrap_or_else(|| Path::new("notebooks-out/tradeoff").join(&name));
     std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
     write_atomic(&out.join("tradeoff.json"), format!("{json}\n").as_bytes())?;
-    let md = markdown(&name, &domain, &measured, args.rays);
+    let md = markdown(&name, &domain, &measured, args.rays, &bench);
     write_atomic(&out.join("tradeoff.md"), md.as_bytes())?;
-    write_plot(&pareto(&name, &measured), &out.join("pareto.png"))?;
+    write_plot(&pareto(&name, &measured, &bench), &out.join("pareto.png"))?;
     if args.json {
         println!("{json}");
     } else {

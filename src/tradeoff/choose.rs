@@ -17,7 +17,7 @@
 
 use serde::Serialize;
 
-use super::models::{ModelKind, SeidelLens, first_order_lenses, paraxial_for};
+use super::models::{ModelKind, SeidelLens, paraxial_for};
 use super::{
     Built, Domain, RaySet, SceneRequirements, TradeoffError, analytic_models, bake_timed,
     baked_model, model_error, to_f16,
@@ -25,6 +25,7 @@ use super::{
 use crate::glass::{C_LINE_NM, F_LINE_NM};
 use crate::lrtf::measure::{Stats, angle_between};
 use crate::lrtf::{LrtfTable, Precision};
+use crate::render::models::FirstOrderModels;
 use crate::seidel::{IndexDifferences, Seidel};
 use crate::system::LensSystem;
 
@@ -155,7 +156,7 @@ pub fn choose_model(
 
     let at = system.at(domain.wavelength_nm);
     let paraxial = paraxial_for(&at, domain.focus_mm)?;
-    let (_, thick) = first_order_lenses(&paraxial).ok_or(TradeoffError::ExitPupilAtInfinity)?;
+    let thick = FirstOrderModels::of(system, Some(domain.f_number))?.thick;
     let seidel = SeidelLens::new(&at, &paraxial, thick);
     let thick_predicted = p99_px(&probe, &domain, |k| third_order_mm(&seidel, &probe, k));
     let mut considered = Vec::new();

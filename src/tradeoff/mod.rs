@@ -11,6 +11,7 @@
 
 pub mod choose;
 pub mod models;
+pub mod render;
 
 use std::time::Instant;
 
@@ -21,9 +22,13 @@ use crate::lrtf::bake::{BakeError, BakeRequest, bake, chief_ray_film_radius, fir
 use crate::lrtf::measure::{Stats, angle_between, distance_to_line, pixel_pitch, renderer_rays};
 use crate::lrtf::{LrtfTable, Precision, Ray};
 use crate::paraxial::ParaxialError;
+use crate::render::RenderError;
+use crate::render::camera::ParaxialLens;
+use crate::render::models::FirstOrderModels;
 use crate::system::{LensSystem, SystemAt};
 use crate::trace::Tracer;
-use models::{ModelKind, RayModel, SeidelLens, first_order_lenses, paraxial_for};
+use models::{ModelKind, RayModel, SeidelLens, paraxial_for};
+use render::{RenderBench, RenderCost, render_costs};
 
 #[derive(Debug, thiserror::Error)]
 pub enum TradeoffError {
@@ -31,8 +36,8 @@ pub enum TradeoffError {
     Bake(#[from] BakeError),
     #[error("first-order model: {0}")]
     Paraxial(#[from] ParaxialError),
-    #[error("the exit pupil is at infinity (image-space telecentric): no thin or thick model")]
-    ExitPupilAtInfinity,
+    #[error(transparent)]
+    Render(#[from] RenderError),
     #[error("{0}")]
     Invalid(String),
 }
@@ -265,7 +270,8 @@ pub struct Entry {
     pub bake_seconds: f64,
     /// Bytes of the model's data as held in memory (table entries for a baked table).
     pub table_bytes: usize,
-    /// None until a render of this model is timed (see the report's notes).
+    /// Median wall-clock ms of a frame of the demo scene on the CPU twin ([`RenderBench`]);
+    /// None for the Seidel model, which the renderer has no kernel for.
     pub render_ms_per_frame: Option<f64>,
     pub ray_error_p99_mrad: f64,
     pub image_error_px_p99: f64,
@@ -281,14 +287,14 @@ pub struct Built {
 }
 
 impl Built {
-    pub fn entry(&self, error: &RayError) -> Entry {
+    pub fn entry(&self, error: &RayError, render: Option<&RenderCost>) -> Entry {
         Entry {
             model: self.model.kind(),
             resolution: self.resolution,
             precision: self.precision.map(Precision::name),
             bake_seconds: self.bake_seconds,
             table_bytes: self.table_bytes,
-            render_ms_per_frame: None,
+            render_ms_per_frame: render.map(|r| r.ms_per_frame),
             ray_error_p99_mrad: error.direction_mrad.p99,
             image_error_px_p99: error.image_px.p99,
         }
@@ -307,15 +313,13 @@ pub fn analytic_models(system: &LensSystem, domain: &Domain) -> Result<Vec<Built
     let at = system.at(domain.wavelength_nm);
     let started = Instant::now();
     let paraxial = paraxial_for(&at, domain.focus_mm)?;
-    let (thin, thick) = first_order_lenses(&paraxial).ok_or(TradeoffError::ExitPupilAtInfinity)?;
-    let film_z = |lens: &crate::render::camera::ParaxialLens| match domain.focus_mm {
+    let FirstOrderModels { thin, thick, .. } = FirstOrderModels::of(system, Some(domain.f_number))?;
+    let film_z = |lens: &ParaxialLens| match domain.focus_mm {
         None => Ok(lens.rear_principal_z + lens.focal_length_mm),
-        Some(d) => lens
-            .film_z_for_object(d)
-            .map_err(|e| TradeoffError::Invalid(e.to_string())),
+        Some(d) => lens.film_z_for_object(d),
     };
     let first_order_seconds = started.elapsed().as_secs_f64();
-    let paraxial_model = |kind: ModelKind, lens: &crate::render::camera::ParaxialLens| {
+    let paraxial_model = |kind: ModelKind, lens: &ParaxialLens| {
         Ok::<_, TradeoffError>(Built {
             model: RayModel::Paraxial {
                 kind,
@@ -418,15 +422,19 @@ pub struct Measured {
     pub label: String,
     pub entry: Entry,
     pub error: RayError,
+    /// The frame's cost and PSNR against the traced frame; None for the Seidel model.
+    pub render: Option<RenderCost>,
 }
 
 /// Every model of `system` measured over `rays` rays of the scene's domain: thin, thick, Seidel,
-/// baked at each of [`RESOLUTIONS`] in f32 and f16, and traced (last, the reference).
+/// baked at each of [`RESOLUTIONS`] in f32 and f16, and traced (last, the reference); each
+/// model the renderer supports also renders `bench`'s frame of the demo scene.
 pub fn tradeoff(
     system: &LensSystem,
     req: &SceneRequirements,
     rays: usize,
     seed: u64,
+    bench: &RenderBench,
 ) -> Result<(Domain, Vec<Measured>), TradeoffError> {
     let domain = Domain::of(system, req)?;
     let mut built = analytic_models(system, &domain)?;
@@ -444,14 +452,17 @@ pub fn tradeoff(
     };
     let set = RaySet::new(&probe, &traced.model, &domain, rays, seed);
     built.push(traced);
+    let renders = render_costs(system, &domain, &built, &probe, bench)?;
     let measured = built
         .iter()
-        .map(|b| {
+        .zip(renders)
+        .map(|(b, render)| {
             let error = model_error(&b.model, &set, &domain);
             Measured {
                 label: b.label(),
-                entry: b.entry(&error),
+                entry: b.entry(&error, render.as_ref()),
                 error,
+                render,
             }
         })
         .collect();

@@ -1,5 +1,6 @@
 //! The film-to-scene ray map of every lens model, behind one interface so that their errors are
-//! measured on the same rays: thin and thick (the renderer's [`ParaxialLens`]), the Seidel model
+//! measured on the same rays: thin and thick (the renderer's [`ParaxialLens`] from
+//! [`crate::render::models::FirstOrderModels`]), the Seidel model
 //! (the thick map plus third-order transverse aberration, after Asberg, seed 001 section 3.10),
 //! a baked table ([`LrtfTable::lookup`]) and the exact trace (the reference).
 
@@ -33,32 +34,6 @@ impl ModelKind {
             ModelKind::Traced => "traced",
         }
     }
-}
-
-/// The first-order models of a lens at `at`'s wavelength: `thin` puts one plane (both principal
-/// planes and both pupils) at the entrance pupil, `thick` has the real principal planes and pupils.
-/// None when the exit pupil is at infinity.
-pub fn first_order_lenses(paraxial: &Paraxial) -> Option<(ParaxialLens, ParaxialLens)> {
-    let exit = paraxial.exit_pupil?;
-    let first = &paraxial.first_order;
-    let thick = ParaxialLens {
-        focal_length_mm: first.efl,
-        front_principal_z: first.z_front_principal,
-        rear_principal_z: first.z_rear_principal,
-        entrance_pupil_z: paraxial.entrance_pupil.z,
-        entrance_pupil_radius_mm: paraxial.entrance_pupil.diameter / 2.0,
-        exit_pupil_z: exit.z,
-        exit_pupil_radius_mm: exit.diameter / 2.0,
-    };
-    let z = paraxial.entrance_pupil.z;
-    let thin = ParaxialLens {
-        front_principal_z: z,
-        rear_principal_z: z,
-        exit_pupil_z: z,
-        exit_pupil_radius_mm: thick.entrance_pupil_radius_mm,
-        ..thick.clone()
-    };
-    Some((thin, thick))
 }
 
 /// The thick-lens map plus the third-order transverse aberration of the Seidel sums, for one
@@ -255,10 +230,12 @@ mod tests {
     use super::*;
     use crate::lenses;
     use crate::prescription::formats::LoadOptions;
+    use crate::render::models::FirstOrderModels;
 
-    fn dgauss() -> SystemAt {
+    fn dgauss() -> (SystemAt, ParaxialLens) {
         let lens = lenses::load("dgauss-50mm", &LoadOptions::default()).unwrap();
-        lens.system.at(lens.system.design_wavelength_nm())
+        let thick = FirstOrderModels::of(&lens.system, None).unwrap().thick;
+        (lens.system.at(lens.system.design_wavelength_nm()), thick)
     }
 
     #[test]
@@ -266,9 +243,8 @@ mod tests {
         // At the pupil rim and the edge of the field, the polynomial must give back the transverse
         // forms already checked against CODE V: TSA on axis, TCO and TAS in the meridional plane
         // (their sum, since both act at y = 1), SAS across it, DST through the pupil centre.
-        let at = dgauss();
+        let (at, thick) = dgauss();
         let paraxial = paraxial_for(&at, None).unwrap();
-        let (_, thick) = first_order_lenses(&paraxial).unwrap();
         let lens = SeidelLens::new(&at, &paraxial, thick);
         let t = Seidel::new(&at, &paraxial, None).transverse;
         let edge = [0.0, lens.chief_image_height];
@@ -286,9 +262,8 @@ mod tests {
     fn near_axial_rays_agree_with_the_exact_trace_for_every_model() {
         // Close to the axis every model is the paraxial limit of the real lens, so the scene-side
         // directions must agree to the size of the third-order terms (tiny at 0.05 mm).
-        let at = dgauss();
+        let (at, thick) = dgauss();
         let paraxial = paraxial_for(&at, None).unwrap();
-        let (_, thick) = first_order_lenses(&paraxial).unwrap();
         let film_z = paraxial.z_image;
         let exact = RayModel::Traced(Box::new(Tracer::new(&at)));
         let models = [
