@@ -289,6 +289,9 @@ fn sphere_lanes<const FORWARD: bool, const REFRACTS: bool>(
             current.position[1][l],
             current.position[2][l] - s.vertex_z,
         ];
+        // As the one-ray solver does: start from the line's point nearest the vertex.
+        let along = px * dx + py * dy + pz * dz;
+        let [px, py, pz] = [px - along * dx, py - along * dy, pz - along * dz];
         let b = dz - c * (px * dx + py * dy + pz * dz);
         let cc = c * (px * px + py * py + pz * pz) - 2.0 * pz;
         let disc = b * b - c * cc;
