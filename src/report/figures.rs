@@ -226,6 +226,8 @@ pub fn figure(
 
 /// Fields of the fan and spot plots as fractions of the largest, drawn top to bottom.
 const GRID_FIELD_FRACTIONS: [f64; 3] = [1.0, 0.7, 0.0];
+/// Steps of the search, from the largest field down, for the top field of the fans and spots.
+const GRID_FIELD_SEARCH_STEPS: usize = 200;
 /// Points along the field axis of the curve plots (axis and edge included).
 const CURVE_FIELD_STEPS: usize = 24;
 /// Rays per fan, across the whole pupil (odd, so the pupil centre is one of them).
@@ -306,10 +308,14 @@ impl RealSet {
         })
     }
 
-    fn grid_fields(&self) -> impl Iterator<Item = f64> + '_ {
-        GRID_FIELD_FRACTIONS
-            .map(|f| f * self.max_field_deg)
-            .into_iter()
+    /// The fields of the fan and spot plots, up to the largest whose pupil-centre ray (the fans'
+    /// reference) reaches the image: at a larger field the top row would be empty.
+    fn grid_fields(&self) -> [f64; 3] {
+        let top = (0..=GRID_FIELD_SEARCH_STEPS)
+            .map(|i| self.max_field_deg * (1.0 - i as f64 / GRID_FIELD_SEARCH_STEPS as f64))
+            .find(|&f| self.reference.ray_fan(f, 1).is_ok())
+            .unwrap_or(0.0);
+        GRID_FIELD_FRACTIONS.map(|f| f * top)
     }
 
     /// Evenly spaced fields from the axis to the largest; the axis is moved out to `first`.
@@ -334,6 +340,7 @@ fn ray_fan_plot(
     let set = RealSet::new(system, options)?;
     let fields = set
         .grid_fields()
+        .into_iter()
         .map(|field_deg| {
             let mut field = FanField {
                 field_deg,
@@ -372,6 +379,7 @@ fn spot_plot(
     let set = RealSet::new(system, options)?;
     let fields = set
         .grid_fields()
+        .into_iter()
         .map(|field_deg| {
             // Every colour is drawn around the reference colour's centroid, so lateral colour
             // shows as an offset.
