@@ -277,6 +277,7 @@ fn curve_views_draw_their_data_with_labelled_series() {
     let view = LateralColorPlot {
         lens: "Cooke triplet".into(),
         reference_nm: 587.56,
+        disperses: true,
         curves: vec![WavelengthCurve {
             wavelength_nm: 486.13,
             points: vec![(0.0, 0.0), (10.0, 0.002), (20.0, 0.005)],

@@ -174,6 +174,9 @@ impl View for DistortionPlot {
 pub struct LateralColorPlot {
     pub lens: String,
     pub reference_nm: f64,
+    /// False for a lens of constant indices: it has no colour, and the panel says so rather
+    /// than drawing zeros.
+    pub disperses: bool,
     pub curves: Vec<WavelengthCurve>,
 }
 
@@ -195,7 +198,11 @@ impl View for LateralColorPlot {
                 .iter()
                 .map(|c| wavelength_series(c, false, 1000.0))
                 .collect(),
-            empty_message: "All chief rays vignetted: no lateral colour".into(),
+            empty_message: if self.disperses {
+                "No chief ray reaches the image at a second wavelength: no lateral colour".into()
+            } else {
+                "Constant refractive indices: the lens has no lateral colour".into()
+            },
             x_range: None,
             y_range: None,
             title_size: TITLE_SIZE,

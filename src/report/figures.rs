@@ -1,11 +1,15 @@
 //! Which plots exist and how each is filled from the analyses of one lens.
 
 use crate::analysis::{AnalysisError, AnalyzeOptions, analyze};
+use crate::glass::{C_LINE_NM, F_LINE_NM};
+use crate::paraxial::{Field, Paraxial, ParaxialOptions};
 use crate::plot::{
-    DistortionPlot, Drawn, FieldCurvesPlot, LateralColorPlot, LayoutPlot, LayoutRay, LsaPlot,
-    PlotError, RayFanPlot, SeidelBar, SeidelPlot, SpotPlot, View, VignettingPlot,
+    DistortionPlot, Drawn, FanCurve, FanField, FieldCurve, FieldCurvesPlot, LateralColorPlot,
+    LayoutPlot, LayoutRay, LsaPlot, PlotError, RayFanPlot, SeidelBar, SeidelPlot, Spot, SpotField,
+    SpotPlot, View, VignettingPlot, WavelengthCurve,
 };
 use crate::system::{LensSystem, SystemAt};
+use crate::trace::analyses::{FanPoint, RealRayError, RealRays};
 use crate::trace::{Apertures, RaySource, Tracer, Travel, aim_at_stop, traceable_field_deg};
 use plotters::coord::Shift;
 use plotters::prelude::{DrawingArea, DrawingBackend};
@@ -100,11 +104,6 @@ pub struct FigureOptions {
 pub enum FigureError {
     #[error("unknown plot kind {0:?}; expected one of {names}", names = PlotKind::ALL.map(PlotKind::name).join(", "))]
     UnknownKind(String),
-    #[error("{kind} plots need the {analysis}, which this build does not have yet")]
-    NotAvailable {
-        kind: PlotKind,
-        analysis: &'static str,
-    },
     #[error(transparent)]
     Analysis(#[from] AnalysisError),
     #[error(transparent)]
@@ -211,11 +210,340 @@ pub fn figure(
                 sums: analysis.seidel.sums.as_array(),
             }))
         }
-        _ => Err(FigureError::NotAvailable {
-            kind,
-            analysis: "real-ray analyses",
-        }),
+        PlotKind::RayFan => Ok(Figure::RayFan(ray_fan_plot(lens, system, options)?)),
+        PlotKind::Spot => Ok(Figure::Spot(spot_plot(lens, system, options)?)),
+        PlotKind::Lsa => Ok(Figure::Lsa(lsa_plot(lens, system, options)?)),
+        PlotKind::FieldCurves => Ok(Figure::FieldCurves(field_curves_plot(
+            lens, system, options,
+        )?)),
+        PlotKind::Distortion => Ok(Figure::Distortion(distortion_plot(lens, system, options)?)),
+        PlotKind::LateralColor => Ok(Figure::LateralColor(lateral_color_plot(
+            lens, system, options,
+        )?)),
+        PlotKind::Vignetting => Ok(Figure::Vignetting(vignetting_plot(lens, system, options)?)),
     }
+}
+
+/// Fields of the fan and spot plots as fractions of the largest, drawn top to bottom.
+const GRID_FIELD_FRACTIONS: [f64; 3] = [1.0, 0.7, 0.0];
+/// Steps of the search, from the largest field down, for the top field of the fans and spots.
+const GRID_FIELD_SEARCH_STEPS: usize = 200;
+/// Points along the field axis of the curve plots (axis and edge included).
+const CURVE_FIELD_STEPS: usize = 24;
+/// Rays per fan, across the whole pupil (odd, so the pupil centre is one of them).
+const FAN_SAMPLES: usize = 81;
+/// Hexapolar rings of a spot diagram.
+const SPOT_RINGS: usize = 12;
+/// Pupil heights of the LSA curve.
+const LSA_STEPS: usize = 40;
+/// Pupil lattice per side for relative illumination.
+const ILLUMINATION_GRID: usize = 32;
+/// Where distortion and LSA start, as a fraction of the largest field or pupil height: both are
+/// ratios (of image heights, of a ray's height to its slope), undefined on the axis itself.
+const NEAR_AXIS: f64 = 1e-3;
+
+/// The wavelengths one plot draws, and the one whose paraxial image plane and pupil every
+/// wavelength is measured in.
+struct Spectrum {
+    reference_nm: f64,
+    drawn_nm: Vec<f64>,
+}
+
+impl Spectrum {
+    /// The user's wavelengths (the first is the reference), else F, the design wavelength and C
+    /// for a dispersive lens, else the design wavelength alone.
+    fn of(system: &LensSystem, options: &FigureOptions) -> Spectrum {
+        if let Some(&first) = options.wavelengths_nm.first() {
+            return Spectrum {
+                reference_nm: first,
+                drawn_nm: options.wavelengths_nm.clone(),
+            };
+        }
+        let design = system.design_wavelength_nm();
+        let mut drawn_nm = vec![design];
+        if system.disperses() {
+            drawn_nm = vec![F_LINE_NM, design, C_LINE_NM];
+            drawn_nm.dedup();
+        }
+        Spectrum {
+            reference_nm: design,
+            drawn_nm,
+        }
+    }
+}
+
+/// The real-ray analyses of `system` at each drawn wavelength, all in the paraxial image plane
+/// of the reference wavelength, with the largest field to plot.
+struct RealSet {
+    max_field_deg: f64,
+    reference: RealRays,
+    by_wavelength: Vec<(f64, RealRays)>,
+}
+
+impl RealSet {
+    fn new(system: &LensSystem, options: &FigureOptions) -> Result<RealSet, FigureError> {
+        let spectrum = Spectrum::of(system, options);
+        let paraxial_options = ParaxialOptions {
+            field: options
+                .field_deg
+                .map_or(Field::LargestUnvignetted, |deg| Field::Angle { deg }),
+            ..ParaxialOptions::default()
+        };
+        let real_at = |wavelength_nm: f64| -> Result<RealRays, FigureError> {
+            let at = system.at(wavelength_nm);
+            let paraxial = Paraxial::new(&at, &paraxial_options).map_err(AnalysisError::from)?;
+            Ok(RealRays::new(&at, paraxial))
+        };
+        let reference = real_at(spectrum.reference_nm)?;
+        let z_image = reference.paraxial().z_image;
+        let by_wavelength = spectrum
+            .drawn_nm
+            .iter()
+            .map(|&w| Ok((w, real_at(w)?.with_image_plane(z_image))))
+            .collect::<Result<_, FigureError>>()?;
+        Ok(RealSet {
+            max_field_deg: max_field_deg(reference.tracer(), options),
+            reference,
+            by_wavelength,
+        })
+    }
+
+    /// The fields of the fan and spot plots, up to the largest whose pupil-centre ray (the fans'
+    /// reference) reaches the image: at a larger field the top row would be empty.
+    fn grid_fields(&self) -> [f64; 3] {
+        let top = (0..=GRID_FIELD_SEARCH_STEPS)
+            .map(|i| self.max_field_deg * (1.0 - i as f64 / GRID_FIELD_SEARCH_STEPS as f64))
+            .find(|&f| self.reference.ray_fan(f, 1).is_ok())
+            .unwrap_or(0.0);
+        GRID_FIELD_FRACTIONS.map(|f| f * top)
+    }
+
+    /// Evenly spaced fields from the axis to the largest; the axis is moved out to `first`.
+    fn curve_fields(&self, first: f64) -> Vec<f64> {
+        (0..=CURVE_FIELD_STEPS)
+            .map(|i| (i as f64 / CURVE_FIELD_STEPS as f64).max(first) * self.max_field_deg)
+            .collect()
+    }
+}
+
+/// The results of `analyse` at the samples (fields or pupil heights) where it succeeds; a sample
+/// whose ray fails is left out, so one bad field does not hide the others.
+fn where_traceable<T>(samples: &[f64], analyse: impl Fn(f64) -> Result<T, RealRayError>) -> Vec<T> {
+    samples.iter().filter_map(|&f| analyse(f).ok()).collect()
+}
+
+fn ray_fan_plot(
+    lens: &str,
+    system: &LensSystem,
+    options: &FigureOptions,
+) -> Result<RayFanPlot, FigureError> {
+    let set = RealSet::new(system, options)?;
+    let fields = set
+        .grid_fields()
+        .into_iter()
+        .map(|field_deg| {
+            let mut field = FanField {
+                field_deg,
+                tangential: Vec::new(),
+                sagittal: Vec::new(),
+            };
+            for (wavelength_nm, real) in &set.by_wavelength {
+                // A field whose centre ray is blocked gets no curve: the panel says so.
+                let Ok(fan) = real.ray_fan(field_deg, FAN_SAMPLES) else {
+                    continue;
+                };
+                let curve = |points: &[FanPoint], axis: usize| FanCurve {
+                    wavelength_nm: *wavelength_nm,
+                    points: points
+                        .iter()
+                        .filter_map(|p| p.error.map(|e| (p.rho, e[axis])))
+                        .collect(),
+                };
+                field.tangential.push(curve(&fan.tangential, 1));
+                field.sagittal.push(curve(&fan.sagittal, 0));
+            }
+            field
+        })
+        .collect();
+    Ok(RayFanPlot {
+        lens: lens.to_string(),
+        fields,
+    })
+}
+
+fn spot_plot(
+    lens: &str,
+    system: &LensSystem,
+    options: &FigureOptions,
+) -> Result<SpotPlot, FigureError> {
+    let set = RealSet::new(system, options)?;
+    let fields = set
+        .grid_fields()
+        .into_iter()
+        .map(|field_deg| {
+            // Every colour is drawn around the reference colour's centroid, so lateral colour
+            // shows as an offset.
+            let centre = set
+                .reference
+                .spot(field_deg, SPOT_RINGS)
+                .map(|s| s.centroid)
+                .ok();
+            let spots = set
+                .by_wavelength
+                .iter()
+                .filter_map(|(wavelength_nm, real)| {
+                    let spot = real.spot(field_deg, SPOT_RINGS).ok()?;
+                    let [cx, cy] = centre.unwrap_or(spot.centroid);
+                    Some(Spot {
+                        wavelength_nm: *wavelength_nm,
+                        points: spot.points.iter().map(|p| (p[0] - cx, p[1] - cy)).collect(),
+                        rms_radius_mm: spot.rms_radius,
+                        geometric_radius_mm: spot.geometric_radius,
+                        airy_radius_mm: AIRY_FIRST_ZERO
+                            * wavelength_nm
+                            * NM_TO_MM
+                            * real.paraxial().working_f_number,
+                    })
+                })
+                .collect();
+            SpotField { field_deg, spots }
+        })
+        .collect();
+    Ok(SpotPlot {
+        lens: lens.to_string(),
+        fields,
+    })
+}
+
+/// Radius of the Airy disk's first dark ring in units of wavelength times working f-number.
+const AIRY_FIRST_ZERO: f64 = 1.219_67;
+const NM_TO_MM: f64 = 1e-6;
+
+fn lsa_plot(
+    lens: &str,
+    system: &LensSystem,
+    options: &FigureOptions,
+) -> Result<LsaPlot, FigureError> {
+    let set = RealSet::new(system, options)?;
+    let rhos: Vec<f64> = (0..=LSA_STEPS)
+        .map(|i| (i as f64 / LSA_STEPS as f64).max(NEAR_AXIS))
+        .collect();
+    let curves = set
+        .by_wavelength
+        .iter()
+        .map(|(wavelength_nm, real)| WavelengthCurve {
+            wavelength_nm: *wavelength_nm,
+            points: where_traceable(&rhos, |rho| real.lsa(&[rho]))
+                .into_iter()
+                .flatten()
+                .map(|p| (p.rho, p.lsa))
+                .collect(),
+        })
+        .collect();
+    Ok(LsaPlot {
+        lens: lens.to_string(),
+        curves,
+    })
+}
+
+fn field_curves_plot(
+    lens: &str,
+    system: &LensSystem,
+    options: &FigureOptions,
+) -> Result<FieldCurvesPlot, FigureError> {
+    let set = RealSet::new(system, options)?;
+    let fields = set.curve_fields(0.0);
+    let curves = set
+        .by_wavelength
+        .iter()
+        .map(|(wavelength_nm, real)| FieldCurve {
+            wavelength_nm: *wavelength_nm,
+            points: where_traceable(&fields, |f| real.field_curves(&[f]))
+                .into_iter()
+                .flatten()
+                .map(|p| (p.field, p.sagittal, p.tangential))
+                .collect(),
+        })
+        .collect();
+    Ok(FieldCurvesPlot {
+        lens: lens.to_string(),
+        curves,
+    })
+}
+
+fn distortion_plot(
+    lens: &str,
+    system: &LensSystem,
+    options: &FigureOptions,
+) -> Result<DistortionPlot, FigureError> {
+    let set = RealSet::new(system, options)?;
+    let fields = set.curve_fields(NEAR_AXIS);
+    let points = where_traceable(&fields, |f| set.reference.distortion(&[f]))
+        .into_iter()
+        .flatten()
+        .map(|p| (p.field, p.percent))
+        .collect();
+    Ok(DistortionPlot {
+        lens: lens.to_string(),
+        wavelength_nm: set.reference.paraxial().wavelength_nm,
+        reference: "f·tan θ".into(),
+        points,
+    })
+}
+
+/// Each drawn wavelength's real chief-ray image height minus the reference wavelength's, in
+/// the reference's paraxial image plane.
+fn lateral_color_plot(
+    lens: &str,
+    system: &LensSystem,
+    options: &FigureOptions,
+) -> Result<LateralColorPlot, FigureError> {
+    let set = RealSet::new(system, options)?;
+    let reference_nm = set.reference.paraxial().wavelength_nm;
+    let fields = set.curve_fields(0.0);
+    let height = |real: &RealRays, field: f64| -> Result<f64, RealRayError> {
+        Ok(real.distortion(&[field])?[0].real_height)
+    };
+    let curves = if system.disperses() {
+        set.by_wavelength
+            .iter()
+            .filter(|(wavelength_nm, _)| *wavelength_nm != reference_nm)
+            .map(|(wavelength_nm, real)| WavelengthCurve {
+                wavelength_nm: *wavelength_nm,
+                points: where_traceable(&fields, |f| {
+                    Ok((f, height(real, f)? - height(&set.reference, f)?))
+                }),
+            })
+            .collect()
+    } else {
+        Vec::new()
+    };
+    Ok(LateralColorPlot {
+        lens: lens.to_string(),
+        reference_nm,
+        disperses: system.disperses(),
+        curves,
+    })
+}
+
+fn vignetting_plot(
+    lens: &str,
+    system: &LensSystem,
+    options: &FigureOptions,
+) -> Result<VignettingPlot, FigureError> {
+    let set = RealSet::new(system, options)?;
+    let fields = set.curve_fields(0.0);
+    let points = where_traceable(&fields, |f| {
+        set.reference.illumination(&[f], ILLUMINATION_GRID)
+    })
+    .into_iter()
+    .flatten()
+    .map(|p| (p.field, p.relative, 1.0 - p.vignetted_fraction))
+    .collect();
+    Ok(VignettingPlot {
+        lens: lens.to_string(),
+        points,
+    })
 }
 
 /// The field the user asked for, else the largest whose real chief ray passes the lens.

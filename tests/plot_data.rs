@@ -1,0 +1,181 @@
+//! The real-ray plots carry the data a designer expects: checked on the figures `lensbake plot`
+//! draws for bundled lenses, at the identities that hold whatever the design (chief ray and axis
+//! are aberration-free references) and against the lens's own reported numbers.
+
+use lensbake::lenses::BUNDLED;
+use lensbake::plot::{Format, render};
+use lensbake::report::{Figure, FigureOptions, PlotKind, figure};
+use lensbake::system::LensSystem;
+
+fn system(name: &str) -> LensSystem {
+    let lens = BUNDLED
+        .iter()
+        .find(|l| l.name == name)
+        .unwrap_or_else(|| panic!("no bundled lens {name}"));
+    LensSystem::from_prescription(ron::from_str(lens.ron).unwrap()).unwrap()
+}
+
+fn plot(kind: PlotKind, lens: &str) -> Figure {
+    figure(kind, lens, &system(lens), &FigureOptions::default())
+        .unwrap_or_else(|e| panic!("{kind} of {lens}: {e}"))
+}
+
+const COOKE: &str = "cooke-triplet";
+
+#[test]
+fn ray_fans_pass_through_zero_at_the_chief_ray() {
+    let Figure::RayFan(fan) = plot(PlotKind::RayFan, COOKE) else {
+        panic!("not a fan")
+    };
+    assert_eq!(fan.fields.len(), 3);
+    let mut largest = 0.0f64;
+    for field in &fan.fields {
+        assert_eq!(field.tangential.len(), 3, "F, d, C at {}°", field.field_deg);
+        for curve in field.tangential.iter().chain(&field.sagittal) {
+            let centre = curve
+                .points
+                .iter()
+                .find(|p| p.0 == 0.0)
+                .unwrap_or_else(|| panic!("no pupil-centre ray at {}°", field.field_deg));
+            assert!(centre.1.abs() < 1e-12, "error at pupil centre {}", centre.1);
+            largest = curve
+                .points
+                .iter()
+                .map(|p| p.1.abs())
+                .fold(largest, f64::max);
+        }
+    }
+    // A real triplet at full aperture is aberrated by tens of micrometres: the fans are not flat.
+    assert!(
+        largest > 5e-3 && largest < 1.0,
+        "largest ray error {largest} mm"
+    );
+}
+
+#[test]
+fn lsa_vanishes_at_zero_pupil_height_and_grows_toward_the_rim() {
+    let design_nm = system(COOKE).design_wavelength_nm();
+    let Figure::Lsa(lsa) = plot(PlotKind::Lsa, COOKE) else {
+        panic!("not an LSA plot")
+    };
+    let reference = lsa
+        .curves
+        .iter()
+        .find(|c| (c.wavelength_nm - design_nm).abs() < 1e-9)
+        .expect("a curve at the design wavelength");
+    let (rho0, lsa0) = reference.points[0];
+    let &(rho1, lsa1) = reference.points.last().unwrap();
+    assert!(rho0 <= 1e-3 && rho1 == 1.0);
+    // Spherical aberration is even in the pupil height: ~rho^2 near the axis.
+    assert!(lsa1.abs() > 1e-3, "marginal LSA {lsa1} mm");
+    assert!(
+        lsa0.abs() <= 10.0 * lsa1.abs() * (rho0 / rho1).powi(2) + 1e-9,
+        "LSA {lsa0} mm at pupil height {rho0}"
+    );
+    // The F and C curves start at their paraxial foci: apart from the design wavelength's.
+    for curve in lsa.curves.iter().filter(|c| c.wavelength_nm != design_nm) {
+        assert!(
+            (curve.points[0].1 - lsa0).abs() > 1e-3,
+            "no axial colour at {} nm",
+            curve.wavelength_nm
+        );
+    }
+}
+
+#[test]
+fn distortion_vanishes_on_axis() {
+    for lens in [COOKE, "dgauss-50mm"] {
+        let Figure::Distortion(d) = plot(PlotKind::Distortion, lens) else {
+            panic!("not a distortion plot")
+        };
+        let (f0, d0) = d.points[0];
+        let &(f1, d1) = d.points.last().unwrap();
+        assert!(f0 > 0.0 && f0 < 1e-2 * f1, "{lens}: first field {f0}°");
+        assert!(d1.abs() > 1e-2, "{lens}: {d1} % at the edge");
+        assert!(
+            d0.abs() <= 10.0 * d1.abs() * (f0 / f1).powi(2),
+            "{lens}: {d0} % at {f0}°"
+        );
+    }
+}
+
+#[test]
+fn axial_spot_at_the_paraxial_focus_has_a_finite_radius() {
+    let design_nm = system(COOKE).design_wavelength_nm();
+    let Figure::Spot(spots) = plot(PlotKind::Spot, COOKE) else {
+        panic!("not a spot plot")
+    };
+    let axis = spots.fields.iter().find(|f| f.field_deg == 0.0).unwrap();
+    let design = axis
+        .spots
+        .iter()
+        .find(|s| (s.wavelength_nm - design_nm).abs() < 1e-9)
+        .unwrap();
+    assert!(design.rms_radius_mm.is_finite() && design.rms_radius_mm > 0.0);
+    assert!(design.rms_radius_mm <= design.geometric_radius_mm);
+    assert!(design.rms_radius_mm < 0.1, "{} mm", design.rms_radius_mm);
+    // The axial spot is centred on the axis (its own centroid is the reference).
+    let mean_y = design.points.iter().map(|p| p.1).sum::<f64>() / design.points.len() as f64;
+    assert!(mean_y.abs() < 1e-12);
+    // Airy radius 1.22 lambda N_w: micrometres at visible wavelengths and f/4-ish.
+    assert!(design.airy_radius_mm > 1e-3 && design.airy_radius_mm < 1e-2);
+}
+
+#[test]
+fn field_curves_meet_on_axis() {
+    let Figure::FieldCurves(curves) = plot(PlotKind::FieldCurves, COOKE) else {
+        panic!("not field curves")
+    };
+    for curve in &curves.curves {
+        let (field, s, t) = curve.points[0];
+        assert_eq!(field, 0.0);
+        assert!(
+            (s - t).abs() < 1e-6,
+            "{} nm: S {s} T {t}",
+            curve.wavelength_nm
+        );
+        let &(_, s_edge, t_edge) = curve.points.last().unwrap();
+        assert!((s_edge - t_edge).abs() > 1e-3, "no astigmatism at the edge");
+    }
+}
+
+#[test]
+fn nothing_is_vignetted_on_axis() {
+    // The Cooke triplet's axial beam passes whole (dgauss-50mm's clear apertures clip 1.4 % of
+    // it, so it would not do here).
+    for lens in [COOKE] {
+        let Figure::Vignetting(v) = plot(PlotKind::Vignetting, lens) else {
+            panic!("not a vignetting plot")
+        };
+        let (field, relative, unvignetted) = v.points[0];
+        assert_eq!(field, 0.0);
+        assert_eq!(relative, 1.0);
+        assert!((unvignetted - 1.0).abs() < 1e-12, "{lens}: {unvignetted}");
+        // Relative illumination falls off toward the edge of the field.
+        assert!(v.points.last().unwrap().1 < 1.0);
+    }
+}
+
+#[test]
+fn lateral_colour_is_zero_on_axis_and_absent_without_dispersion() {
+    let Figure::LateralColor(colour) = plot(PlotKind::LateralColor, COOKE) else {
+        panic!("not a lateral colour plot")
+    };
+    assert_eq!(colour.curves.len(), 2, "F and C against d");
+    for curve in &colour.curves {
+        assert_eq!(curve.points[0], (0.0, 0.0));
+        assert!(curve.points.last().unwrap().1.abs() > 1e-5);
+    }
+
+    let plain = plot(PlotKind::LateralColor, "dgauss-50mm");
+    let Figure::LateralColor(colour) = &plain else {
+        panic!("not a lateral colour plot")
+    };
+    assert!(!colour.disperses && colour.curves.is_empty());
+    let drawn = render(&plain, Format::Svg).unwrap().drawn;
+    assert!(
+        drawn.messages().any(|m| m.contains("no lateral colour")),
+        "{:?}",
+        drawn.messages().collect::<Vec<_>>()
+    );
+}
