@@ -233,10 +233,7 @@ pub fn stopped_down(system: &LensSystem, wavelength_nm: f64, stop_semi_aperture:
 /// object at infinity or `focus_mm` in front of surface 1 (EFL, wide-open f-number = EFL / EPD,
 /// paraxial image plane).
 pub fn first_order(system: &SystemAt, focus_mm: Option<f64>) -> Result<Paraxial, ParaxialError> {
-    let object = match focus_mm {
-        None => ObjectPosition::Infinite,
-        Some(distance) => ObjectPosition::Finite { distance },
-    };
+    let object = ObjectPosition::in_focus(focus_mm);
     Paraxial::new(
         system,
         &ParaxialOptions {

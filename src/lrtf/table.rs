@@ -76,8 +76,9 @@ pub struct LrtfTable {
 }
 
 /// The WGSL uniform `LrtfParams` (48 bytes, std140-compatible; layout checked against naga).
+/// The renderer uploads it as is.
 #[repr(C)]
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct GpuParams {
     pub rear_plane_z: f32,
     pub film_plane_z: f32,

@@ -33,6 +33,15 @@ pub enum ObjectPosition {
 }
 
 impl ObjectPosition {
+    /// The object in focus at `focus_mm` in front of surface 1, or at infinity for None.
+    pub fn in_focus(focus_mm: Option<f64>) -> ObjectPosition {
+        focus_mm.map_or(ObjectPosition::Infinite, |distance| {
+            ObjectPosition::Finite { distance }
+        })
+    }
+}
+
+impl ObjectPosition {
     /// Distance from the vertex of surface 1, None at infinity.
     pub fn distance(&self) -> Option<f64> {
         match self {

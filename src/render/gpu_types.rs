@@ -4,6 +4,7 @@
 use super::RenderError;
 use super::camera::{Camera, LensModel};
 use super::layers::LayeredDepthImage;
+use crate::lrtf::GpuParams;
 use bytemuck::{Pod, Zeroable};
 
 /// Inverse depth stored for "no surface" in a packed layer (any negative value means empty).
@@ -242,22 +243,6 @@ pub struct LensParams {
     pub arc_radius_sq: f32,
 }
 
-/// `LrtfParams` of src/lrtf/lrtf_sample.wgsl, as bytes (mirrors [`crate::lrtf::GpuParams`]).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
-pub struct LrtfUniform {
-    pub rear_plane_z: f32,
-    pub film_plane_z: f32,
-    pub max_film_radius: f32,
-    pub max_rear_radius: f32,
-    pub max_polar_angle: f32,
-    pub stop_radius_sq: f32,
-    pub parameterisation: u32,
-    pub pupil_count: u32,
-    pub dims: [u32; 3],
-    pub pad: u32,
-}
-
 /// Everything the kernel knows about the lens: the surfaces (traced), the table (baked, else a
 /// 2x2x2 placeholder so the bindings stay the same), and the pupil circles lens samples are
 /// drawn in (every model).
@@ -266,7 +251,7 @@ pub struct LensData {
     pub params: LensParams,
     /// At least one entry (a placeholder when the model traces nothing).
     pub surfaces: Vec<LensSurface>,
-    pub lrtf: LrtfUniform,
+    pub lrtf: GpuParams,
     /// (centre_x, radius) at film radii `lrtf.max_film_radius * k / (n - 1)`.
     pub pupil: Vec<[f32; 2]>,
     pub transfer: Vec<[f32; 4]>,
@@ -283,7 +268,7 @@ impl LensData {
             .iter()
             .map(|c| [c.centre_x as f32, c.radius as f32])
             .collect();
-        let placeholder_lrtf = LrtfUniform {
+        let placeholder_lrtf = GpuParams {
             rear_plane_z: sampling.z as f32,
             film_plane_z: 0.0,
             max_film_radius: sampling.circles.max_film_radius as f32,
@@ -321,18 +306,7 @@ impl LensData {
                 LensData {
                     params,
                     surfaces,
-                    lrtf: LrtfUniform {
-                        rear_plane_z: g.rear_plane_z,
-                        film_plane_z: g.film_plane_z,
-                        max_film_radius: g.max_film_radius,
-                        max_rear_radius: g.max_rear_radius,
-                        max_polar_angle: g.max_polar_angle,
-                        stop_radius_sq: g.stop_radius_sq,
-                        parameterisation: g.parameterisation,
-                        pupil_count: g.pupil_count,
-                        dims: g.dims,
-                        pad: 0,
-                    },
+                    lrtf: g,
                     pupil,
                     transfer: split(0..4),
                     aux: split(4..8),

@@ -212,10 +212,7 @@ impl RayModel {
 /// The paraxial setup for an object in focus at `focus_mm` (None: infinity), wide open, at the
 /// largest unvignetted field.
 pub fn paraxial_for(system: &SystemAt, focus_mm: Option<f64>) -> Result<Paraxial, ParaxialError> {
-    let object = match focus_mm {
-        None => ObjectPosition::Infinite,
-        Some(distance) => ObjectPosition::Finite { distance },
-    };
+    let object = ObjectPosition::in_focus(focus_mm);
     Paraxial::new(
         system,
         &ParaxialOptions {
