@@ -400,4 +400,12 @@ fn model_errors_that_only_ron_can_express() {
     let e = error(&blades, Format::Ron);
     assert_eq!(e.problem, Problem::TooFewBlades { count: 2 });
     assert_eq!(e.location.surface, Some(2));
+    let bent = base.replacen(
+        "stop: Some(Circle)",
+        "stop: Some(Blades(count: 6, rotation_deg: 0.0, blade_curvature: 1.5))",
+        1,
+    );
+    let e = error(&bent, Format::Ron);
+    assert_eq!(e.problem, Problem::BladeCurvatureOutOfRange { value: 1.5 });
+    assert_eq!(e.location.field.as_deref(), Some("stop"));
 }

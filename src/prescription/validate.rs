@@ -170,6 +170,14 @@ fn check_surface(i: usize, s: &Surface, map: &SourceMap) -> Result<(), Prescript
         }
         finite(*rotation_deg, map.surface(i, "stop"))?;
         finite(*blade_curvature, map.surface(i, "stop"))?;
+        if !(0.0..=1.0).contains(blade_curvature) {
+            return Err(PrescriptionError::new(
+                map.surface(i, "stop"),
+                Problem::BladeCurvatureOutOfRange {
+                    value: *blade_curvature,
+                },
+            ));
+        }
     }
     Ok(())
 }
