@@ -78,45 +78,21 @@ fn report(a: &Analysis) -> String {
         let _ = writeln!(out, "  {label:<34} {value:>16} {unit}");
     };
     row("power", format!("{:.9}", f.power), "1/mm");
-    row("EFL (image side, n'/power)", format!("{:.6}", f.efl), "mm");
-    row(
-        "object-side focal length",
-        format!("{:.6}", f.fl_object),
-        "mm",
-    );
-    row("BFL (last vertex to F')", format!("{:.6}", f.bfl), "mm");
-    row("FFL (first vertex to F)", format!("{:.6}", f.ffl), "mm");
-    row(
-        "z front focal point F",
-        format!("{:.6}", f.z_front_focal),
-        "mm",
-    );
-    row(
-        "z rear focal point F'",
-        format!("{:.6}", f.z_rear_focal),
-        "mm",
-    );
-    row(
-        "z front principal point P",
-        format!("{:.6}", f.z_front_principal),
-        "mm",
-    );
-    row(
-        "z rear principal point P'",
-        format!("{:.6}", f.z_rear_principal),
-        "mm",
-    );
-    row(
-        "z front nodal point N",
-        format!("{:.6}", f.z_front_nodal),
-        "mm",
-    );
-    row(
-        "z rear nodal point N'",
-        format!("{:.6}", f.z_rear_nodal),
-        "mm",
-    );
-    row("z last vertex", format!("{:.6}", f.z_last_vertex), "mm");
+    for (label, value) in [
+        ("EFL (image side, n'/power)", f.efl),
+        ("object-side focal length", f.fl_object),
+        ("BFL (last vertex to F')", f.bfl),
+        ("FFL (first vertex to F)", f.ffl),
+        ("z front focal point F", f.z_front_focal),
+        ("z rear focal point F'", f.z_rear_focal),
+        ("z front principal point P", f.z_front_principal),
+        ("z rear principal point P'", f.z_rear_principal),
+        ("z front nodal point N", f.z_front_nodal),
+        ("z rear nodal point N'", f.z_rear_nodal),
+        ("z last vertex", f.z_last_vertex),
+    ] {
+        row(label, format!("{value:.6}"), "mm");
+    }
     let virtual_image = if f.z_paraxial_image <= f.z_last_vertex {
         "mm (virtual)"
     } else {
