@@ -28,6 +28,9 @@ pub enum BenchCommand {
         #[arg(long)]
         json: bool,
     },
+    /// Render the demo scene with every lens model on each backend at several samples per
+    /// pixel; time each frame and measure its error against the exact reference.
+    Render(super::bench_render::RenderBenchArgs),
 }
 
 pub fn run(command: BenchCommand) -> anyhow::Result<()> {
@@ -38,6 +41,7 @@ pub fn run(command: BenchCommand) -> anyhow::Result<()> {
             threads,
             json,
         } => bench_trace(&lens, rays, threads, json),
+        BenchCommand::Render(args) => super::bench_render::run(args),
     }
 }
 

@@ -7,10 +7,12 @@ use super::render::{RenderLens, default_table_dir, load_or_bake};
 use anyhow::Context;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
+use lensbake::lenses::LoadedLens;
+use lensbake::lrtf::bake::BakeProgress;
 use lensbake::render::camera::{Camera, Film, Focus, LensModel};
 use lensbake::render::gpu::GpuRenderer;
 use lensbake::render::image::{RgbImage, write_exr, write_png};
-use lensbake::render::models::{BakedLens, TracedLens};
+use lensbake::render::models::{BakedLens, FirstOrderModels, TracedLens};
 use lensbake::render::reference::psnr;
 use lensbake::render::scene::Scene;
 use lensbake::render::{Backend, RenderSettings, layer_view, render_layers};
@@ -58,7 +60,6 @@ struct Timings {
     table_baked_now: bool,
     analysis_seconds: f64,
     bake_or_load_seconds: f64,
-    pupil_fit_seconds: f64,
     peel_seconds: f64,
     layers: usize,
     traced_render_seconds: f64,
@@ -111,6 +112,56 @@ fn write_text(path: &Path, text: &str) -> anyhow::Result<()> {
 /// Exposure applied to the error map so one-percent errors are visible.
 const ERROR_MAP_EXPOSURE: f32 = 10.0;
 
+/// The traced and the baked camera of a real lens focused at `focus_mm`, drawing identical lens
+/// samples: both sample the table's effective-pupil circles on its film plane, so the difference
+/// between their images is the table's error, not noise. The table comes from tables/<lens>/,
+/// baked there first when missing.
+pub(super) struct TracedAndBaked {
+    pub traced: Camera,
+    pub baked: Camera,
+    pub baked_now: bool,
+}
+
+impl TracedAndBaked {
+    pub(super) fn new(
+        real: &LoadedLens,
+        first_order: &FirstOrderModels,
+        f_number: f64,
+        film: Film,
+        focus_mm: f64,
+        bake_resolution: usize,
+        progress: &(dyn Fn(BakeProgress) + Sync),
+    ) -> anyhow::Result<TracedAndBaked> {
+        let corner = (film.width_mm / 2.0).hypot(film.height_mm / 2.0);
+        let table_dir = default_table_dir(&real.source.origin.name(), Some(focus_mm));
+        let (table, baked_now) = load_or_bake(
+            real,
+            &table_dir,
+            Some(focus_mm),
+            corner,
+            bake_resolution,
+            progress,
+        )?;
+        let pupil = table.layers[0].pupil.clone();
+        let baked = BakedLens::new(table, first_order, f_number)?;
+        let film_z = baked.film_z();
+        let traced = TracedLens::new(&real.system, first_order, f_number, pupil);
+        Ok(TracedAndBaked {
+            traced: Camera::new(
+                LensModel::Traced(Box::new(traced)),
+                film,
+                Focus::FilmZ(film_z),
+            )?,
+            baked: Camera::new(
+                LensModel::Baked(Box::new(baked)),
+                film,
+                Focus::FilmZ(film_z),
+            )?,
+            baked_now,
+        })
+    }
+}
+
 pub fn run(args: DemoArgs) -> anyhow::Result<()> {
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
@@ -132,7 +183,6 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
     let analysis_seconds = done(bar, "analysis and plots", started);
 
     let film = Film::full_frame_for(args.width, args.height);
-    let corner = (film.width_mm / 2.0).hypot(film.height_mm / 2.0);
     let table_dir = default_table_dir(&name, Some(args.focus_mm));
     let started = Instant::now();
     let bar = ProgressBar::new(1);
@@ -140,37 +190,32 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
         ProgressStyle::with_template("{msg} [{bar:40}] {percent}% {elapsed}").expect("template"),
     );
     bar.set_message(format!("table {}", table_dir.display()));
-    let (table, baked_now) = load_or_bake(
+    let cameras = TracedAndBaked::new(
         real,
-        &table_dir,
-        Some(args.focus_mm),
-        corner,
+        &first_order,
+        f_number,
+        film,
+        args.focus_mm,
         args.bake_resolution,
         &|p| {
             bar.set_length(p.total as u64);
             bar.set_position(p.done as u64);
         },
     )?;
-    let bake_seconds = done(bar, if baked_now { "bake" } else { "table load" }, started);
-
-    // Both models sample the table's pupil circles on its film plane: identical lens samples,
-    // so the error map shows the table's error, not noise.
-    let started = Instant::now();
-    let pupil = table.layers[0].pupil.clone();
-    let baked = BakedLens::new(table, &first_order, f_number)?;
-    let film_z = baked.film_z();
-    let traced = TracedLens::new(&real.system, &first_order, f_number, pupil);
-    let traced = Camera::new(
-        LensModel::Traced(Box::new(traced)),
-        film,
-        Focus::FilmZ(film_z),
-    )?;
-    let baked = Camera::new(
-        LensModel::Baked(Box::new(baked)),
-        film,
-        Focus::FilmZ(film_z),
-    )?;
-    let pupil_fit_seconds = started.elapsed().as_secs_f64();
+    let bake_seconds = done(
+        bar,
+        if cameras.baked_now {
+            "bake and camera set-up"
+        } else {
+            "table load and camera set-up"
+        },
+        started,
+    );
+    let TracedAndBaked {
+        traced,
+        baked,
+        baked_now,
+    } = cameras;
 
     let settings = RenderSettings {
         width: args.width,
@@ -230,7 +275,6 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
         table_baked_now: baked_now,
         analysis_seconds,
         bake_or_load_seconds: bake_seconds,
-        pupil_fit_seconds,
         peel_seconds,
         layers: ldi.layers.len(),
         traced_render_seconds: traced_seconds,
@@ -258,7 +302,6 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
          | stage | seconds |\n|---|---|\n\
          | analysis and plots (analysis/) | {analysis:.2} |\n\
          | {bake_what} | {bake:.2} |\n\
-         | camera set-up | {setup:.3} |\n\
          | depth peeling ({layers} layers) | {peel:.3} |\n\
          | traced render | {traced:.2} |\n\
          | baked render | {baked:.2} |\n\n\
@@ -275,12 +318,11 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
         exposure = ERROR_MAP_EXPOSURE,
         analysis = t.analysis_seconds,
         bake_what = if t.table_baked_now {
-            "bake"
+            "bake and camera set-up"
         } else {
-            "table load"
+            "table load and camera set-up"
         },
         bake = t.bake_or_load_seconds,
-        setup = t.pupil_fit_seconds,
         layers = t.layers,
         peel = t.peel_seconds,
         traced = t.traced_render_seconds,

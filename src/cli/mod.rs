@@ -2,6 +2,7 @@
 
 mod analyze;
 mod bench;
+mod bench_render;
 mod demo;
 mod lens;
 mod lrtf;

@@ -1,0 +1,331 @@
+//! `lensbake bench render`: time per frame and error against the exact reference for every lens
+//! model, backend and sample count, on the demo scene (issue 7, item 8).
+//!
+//! Results accumulate in `<out>/timings.json` across runs of the same frame (lens, size, focus,
+//! layers), a row per (model, backend, samples per pixel), so the expensive cells can be measured
+//! in separate runs; `<out>/timings.md` is rewritten from all rows each time.
+
+use super::demo::TracedAndBaked;
+use super::lens::ReadArgs;
+use super::render::RenderLens;
+use anyhow::Context;
+use clap::Args;
+use indicatif::{ProgressBar, ProgressStyle};
+use lensbake::render::camera::{Camera, Film, Focus, LensModel};
+use lensbake::render::gpu::GpuRenderer;
+use lensbake::render::image::RgbImage;
+use lensbake::render::reference::{psnr, render_reference};
+use lensbake::render::scene::Scene;
+use lensbake::render::{Backend, RenderSettings, layer_view, render_layers};
+use serde::{Deserialize, Serialize};
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+#[derive(Args, Debug)]
+pub struct RenderBenchArgs {
+    /// Lens file or bundled lens name.
+    #[arg(long, default_value = "dgauss-50mm")]
+    lens: String,
+    #[command(flatten)]
+    read: ReadArgs,
+    /// Lens models to time: thin, thick, traced, baked.
+    #[arg(long, value_delimiter = ',', default_value = "thin,thick,traced,baked")]
+    models: Vec<String>,
+    /// Backends to time: cpu (the rayon twin), gpu (wgpu; lavapipe where no GPU exists).
+    #[arg(long, value_delimiter = ',', default_value = "cpu,gpu")]
+    backends: Vec<String>,
+    /// Samples per pixel, one frame per value.
+    #[arg(long, value_delimiter = ',', default_value = "64,256,1024")]
+    spp: Vec<u32>,
+    #[arg(long, default_value_t = 800)]
+    width: u32,
+    #[arg(long, default_value_t = 600)]
+    height: u32,
+    /// Focus distance in front of the first vertex (mm): the demo scene's chart.
+    #[arg(long, default_value_t = 2000.0)]
+    focus_mm: f64,
+    /// Nodes per axis of the baked table (tables/<lens>/focus-<D>mm/, baked when missing).
+    #[arg(long, default_value_t = 64)]
+    bake_resolution: usize,
+    /// Most depth-peeled layers per pixel.
+    #[arg(long, default_value_t = 4)]
+    max_layers: usize,
+    #[arg(long, default_value_t = 1)]
+    seed: u32,
+    #[arg(long, default_value = "notebooks-out/render")]
+    out: PathBuf,
+}
+
+/// What every row of one timings file shares; rows of another frame are not mixed in.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+struct Frame {
+    lens: String,
+    width: u32,
+    height: u32,
+    focus_mm: f64,
+    f_number: f64,
+    layers: usize,
+    bake_resolution: usize,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+struct Row {
+    model: String,
+    /// `cpu`, `gpu (<adapter>)`, or `reference` (the f64 tracer against the true geometry).
+    backend: String,
+    samples_per_pixel: u32,
+    seconds: f64,
+    /// PSNR (dB) against the reference at the same samples per pixel; None for the reference.
+    psnr_vs_reference_db: Option<f64>,
+    /// Mean over pixels and channels of |image - reference| (linear radiance).
+    mean_abs_error: Option<f64>,
+    /// Unix time of the measurement, to tell runs apart.
+    measured_at: u64,
+}
+
+#[derive(Serialize, Deserialize)]
+struct Timings {
+    frame: Frame,
+    rows: Vec<Row>,
+}
+
+fn mean_abs_error(image: &RgbImage, reference: &RgbImage) -> f64 {
+    let sum: f64 = image
+        .pixels
+        .iter()
+        .zip(&reference.pixels)
+        .map(|(a, b)| (0..3).map(|c| (a[c] - b[c]).abs() as f64).sum::<f64>())
+        .sum();
+    sum / (3 * image.pixels.len()).max(1) as f64
+}
+
+fn spinner(message: String) -> ProgressBar {
+    let bar = ProgressBar::new_spinner();
+    bar.set_style(ProgressStyle::with_template("{spinner} {msg} {elapsed}").expect("template"));
+    bar.set_message(message);
+    bar.enable_steady_tick(Duration::from_millis(200));
+    bar
+}
+
+fn now_unix() -> u64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_secs())
+        .unwrap_or(0)
+}
+
+pub fn run(args: RenderBenchArgs) -> anyhow::Result<()> {
+    let lens = RenderLens::parse(&args.lens, &args.read)?;
+    let RenderLens::Real(real) = &lens else {
+        anyhow::bail!("bench render needs a real lens (a file or bundled name), not `ideal:`");
+    };
+    let (first_order, f_number) = lens.first_order(None)?;
+    let film = Film::full_frame_for(args.width, args.height);
+    let matched = TracedAndBaked::new(
+        real,
+        &first_order,
+        f_number,
+        film,
+        args.focus_mm,
+        args.bake_resolution,
+        &|_| {},
+    )?;
+    let focus = Focus::ObjectDistance(args.focus_mm);
+    let mut cameras: Vec<(String, Camera)> = Vec::new();
+    for model in &args.models {
+        let camera = match model.as_str() {
+            "thin" => Camera::new(LensModel::Thin(first_order.thin.clone()), film, focus)?,
+            "thick" => Camera::new(LensModel::Thick(first_order.thick.clone()), film, focus)?,
+            "traced" => matched.traced.clone(),
+            "baked" => matched.baked.clone(),
+            other => anyhow::bail!("--models: `{other}` is not thin, thick, traced or baked"),
+        };
+        cameras.push((model.clone(), camera));
+    }
+    let gpu = if args.backends.iter().any(|b| b == "gpu") {
+        Some(GpuRenderer::new()?)
+    } else {
+        None
+    };
+    let mut backends = Vec::new();
+    for name in &args.backends {
+        match (name.as_str(), &gpu) {
+            ("cpu", _) => backends.push((Backend::Cpu, "cpu".to_string())),
+            ("gpu", Some(g)) => {
+                backends.push((Backend::Gpu, format!("gpu ({})", g.adapter_description)))
+            }
+            (other, _) => anyhow::bail!("--backends: `{other}` is not cpu or gpu"),
+        }
+    }
+
+    let scene = Scene::demo();
+    let reference_camera = &matched.traced;
+    let base = RenderSettings {
+        width: args.width,
+        height: args.height,
+        samples_per_pixel: 1,
+        seed: args.seed,
+        max_layers: args.max_layers,
+    };
+    // Every model's camera puts its eye at the entrance pupil of the same lens: one set of layers.
+    let nearest = scene.nearest_distance_mm().unwrap_or(1000.0) + reference_camera.eye_z();
+    let ldi = scene.peel(
+        layer_view(reference_camera, &base, nearest),
+        base.max_layers,
+    );
+    let frame = Frame {
+        lens: real.source.origin.name(),
+        width: args.width,
+        height: args.height,
+        focus_mm: args.focus_mm,
+        f_number,
+        layers: ldi.layers.len(),
+        bake_resolution: args.bake_resolution,
+    };
+
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("creating {}", args.out.display()))?;
+    let json_path = args.out.join("timings.json");
+    let mut timings = match std::fs::read_to_string(&json_path) {
+        Ok(text) => match serde_json::from_str::<Timings>(&text) {
+            Ok(t) if t.frame == frame => t,
+            _ => Timings {
+                frame: frame.clone(),
+                rows: Vec::new(),
+            },
+        },
+        Err(_) => Timings {
+            frame: frame.clone(),
+            rows: Vec::new(),
+        },
+    };
+
+    for &spp in &args.spp {
+        let settings = RenderSettings {
+            samples_per_pixel: spp,
+            ..base
+        };
+        let bar = spinner(format!("reference, {spp} spp"));
+        let started = Instant::now();
+        let reference = render_reference(reference_camera, &scene, &settings)?;
+        let seconds = started.elapsed().as_secs_f64();
+        bar.finish_and_clear();
+        println!("reference {spp} spp: {seconds:.1} s");
+        record(
+            &mut timings,
+            Row {
+                model: "traced".into(),
+                backend: "reference".into(),
+                samples_per_pixel: spp,
+                seconds,
+                psnr_vs_reference_db: None,
+                mean_abs_error: None,
+                measured_at: now_unix(),
+            },
+        );
+        for (backend, backend_name) in &backends {
+            for (model, camera) in &cameras {
+                let bar = spinner(format!("{model} on {backend_name}, {spp} spp"));
+                let started = Instant::now();
+                let image = render_layers(camera, &ldi, &settings, *backend, gpu.as_ref())?;
+                let seconds = started.elapsed().as_secs_f64();
+                bar.finish_and_clear();
+                let db = psnr(&image, &reference);
+                let row = Row {
+                    model: model.clone(),
+                    backend: backend_name.clone(),
+                    samples_per_pixel: spp,
+                    seconds,
+                    psnr_vs_reference_db: Some(db),
+                    mean_abs_error: Some(mean_abs_error(&image, &reference)),
+                    measured_at: now_unix(),
+                };
+                println!(
+                    "{model} on {backend_name}, {spp} spp: {seconds:.2} s, {db:.1} dB against the reference"
+                );
+                record(&mut timings, row);
+                // Written after every frame: a long run stopped part-way keeps what it measured.
+                write_atomically(&json_path, &serde_json::to_string_pretty(&timings)?)?;
+                write_atomically(&args.out.join("timings.md"), &markdown(&timings))?;
+            }
+        }
+        write_atomically(&json_path, &serde_json::to_string_pretty(&timings)?)?;
+    }
+    write_atomically(&args.out.join("timings.md"), &markdown(&timings))?;
+    println!("wrote {} and timings.md", json_path.display());
+    Ok(())
+}
+
+/// Replaces the row of the same model, backend and sample count, or appends.
+fn record(timings: &mut Timings, row: Row) {
+    let key = |r: &Row| (r.model.clone(), r.backend.clone(), r.samples_per_pixel);
+    match timings.rows.iter_mut().find(|r| key(r) == key(&row)) {
+        Some(existing) => *existing = row,
+        None => timings.rows.push(row),
+    }
+}
+
+fn write_atomically(path: &std::path::Path, text: &str) -> anyhow::Result<()> {
+    let temp = path.with_extension("tmp");
+    std::fs::write(&temp, text).with_context(|| format!("writing {}", temp.display()))?;
+    std::fs::rename(&temp, path).with_context(|| format!("writing {}", path.display()))?;
+    Ok(())
+}
+
+fn markdown(timings: &Timings) -> String {
+    let f = &timings.frame;
+    let mut rows = timings.rows.clone();
+    rows.sort_by(|a, b| {
+        (
+            a.backend.as_str(),
+            a.samples_per_pixel,
+            model_rank(&a.model),
+        )
+            .cmp(&(
+                b.backend.as_str(),
+                b.samples_per_pixel,
+                model_rank(&b.model),
+            ))
+    });
+    let mut text = format!(
+        "# Render timings: {lens}, {w}x{h}\n\n\
+         Demo scene, focused at {focus:.0} mm, f/{fnum:.2} (wide open), {layers} depth-peeled \
+         layers, baked table {res}^3 f32. Seconds are wall clock for the whole frame (the kernel, \
+         plus upload and read-back on the GPU; layer peeling excluded). The error is against the \
+         reference: the f64 exact trace through the lens into the scene's true geometry (not its \
+         layers), drawing the same lens samples as traced and baked, so for those two the \
+         difference is the model's and the layers', not noise; thin and thick sample their own \
+         exit pupil, so their error also holds sampling noise.\n\n\
+         Reproduce: `lensbake bench render --models M --backends B --spp N` (rows accumulate in \
+         timings.json).\n\n\
+         | backend | spp | model | seconds | PSNR vs reference (dB) | mean abs error |\n\
+         |---|---|---|---|---|---|\n",
+        lens = f.lens,
+        w = f.width,
+        h = f.height,
+        focus = f.focus_mm,
+        fnum = f.f_number,
+        layers = f.layers,
+        res = f.bake_resolution,
+    );
+    for r in &rows {
+        let db = r
+            .psnr_vs_reference_db
+            .map_or("-".to_string(), |v| format!("{v:.1}"));
+        let mae = r
+            .mean_abs_error
+            .map_or("-".to_string(), |v| format!("{v:.2e}"));
+        text += &format!(
+            "| {} | {} | {} | {:.2} | {db} | {mae} |\n",
+            r.backend, r.samples_per_pixel, r.model, r.seconds
+        );
+    }
+    text
+}
+
+fn model_rank(model: &str) -> usize {
+    ["thin", "thick", "traced", "baked"]
+        .iter()
+        .position(|m| *m == model)
+        .unwrap_or(4)
+}
