@@ -7,7 +7,7 @@
 
 use super::demo::TracedAndBaked;
 use super::lens::ReadArgs;
-use super::render::RenderLens;
+use super::render::{RenderLens, default_table_dir};
 use anyhow::Context;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -44,7 +44,10 @@ pub struct RenderBenchArgs {
     /// Focus distance in front of the first vertex (mm): the demo scene's chart.
     #[arg(long, default_value_t = 2000.0)]
     focus_mm: f64,
-    /// Nodes per axis of the baked table (tables/<lens>/focus-<D>mm/, baked when missing).
+    /// Table directory for the baked model; default tables/<lens>/focus-<D>mm/.
+    #[arg(long)]
+    table: Option<PathBuf>,
+    /// Nodes per axis when the table has to be baked.
     #[arg(long, default_value_t = 64)]
     bake_resolution: usize,
     /// Most depth-peeled layers per pixel.
@@ -65,7 +68,8 @@ struct Frame {
     focus_mm: f64,
     f_number: f64,
     layers: usize,
-    bake_resolution: usize,
+    /// Nodes per axis of the baked model's table.
+    table_resolution: [usize; 3],
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -121,12 +125,17 @@ pub fn run(args: RenderBenchArgs) -> anyhow::Result<()> {
     };
     let (first_order, f_number) = lens.first_order(None)?;
     let film = Film::full_frame_for(args.width, args.height);
+    let table_dir = args
+        .table
+        .clone()
+        .unwrap_or_else(|| default_table_dir(&real.source.origin.name(), Some(args.focus_mm)));
     let matched = TracedAndBaked::new(
         real,
         &first_order,
         f_number,
         film,
         args.focus_mm,
+        &table_dir,
         args.bake_resolution,
         &|_| {},
     )?;
@@ -180,7 +189,7 @@ pub fn run(args: RenderBenchArgs) -> anyhow::Result<()> {
         focus_mm: args.focus_mm,
         f_number,
         layers: ldi.layers.len(),
-        bake_resolution: args.bake_resolution,
+        table_resolution: matched.table_resolution,
     };
 
     std::fs::create_dir_all(&args.out)
@@ -290,7 +299,7 @@ fn markdown(timings: &Timings) -> String {
     let mut text = format!(
         "# Render timings: {lens}, {w}x{h}\n\n\
          Demo scene, focused at {focus:.0} mm, f/{fnum:.2} (wide open), {layers} depth-peeled \
-         layers, baked table {res}^3 f32. Seconds are wall clock for the whole frame (the kernel, \
+         layers, baked table {res} nodes, f32. Seconds are wall clock for the whole frame (the kernel, \
          plus upload and read-back on the GPU; layer peeling excluded). The error is against the \
          reference: the f64 exact trace through the lens into the scene's true geometry (not its \
          layers), drawing the same lens samples as traced and baked, so for those two the \
@@ -306,7 +315,7 @@ fn markdown(timings: &Timings) -> String {
         focus = f.focus_mm,
         fnum = f.f_number,
         layers = f.layers,
-        res = f.bake_resolution,
+        res = f.table_resolution.map(|n| n.to_string()).join("x"),
     );
     for r in &rows {
         let db = r

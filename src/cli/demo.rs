@@ -114,12 +114,13 @@ const ERROR_MAP_EXPOSURE: f32 = 10.0;
 
 /// The traced and the baked camera of a real lens focused at `focus_mm`, drawing identical lens
 /// samples: both sample the table's effective-pupil circles on its film plane, so the difference
-/// between their images is the table's error, not noise. The table comes from tables/<lens>/,
+/// between their images is the table's error, not noise. The table comes from `table_dir`,
 /// baked there first when missing.
 pub(super) struct TracedAndBaked {
     pub traced: Camera,
     pub baked: Camera,
     pub baked_now: bool,
+    pub table_resolution: [usize; 3],
 }
 
 impl TracedAndBaked {
@@ -129,20 +130,21 @@ impl TracedAndBaked {
         f_number: f64,
         film: Film,
         focus_mm: f64,
+        table_dir: &Path,
         bake_resolution: usize,
         progress: &(dyn Fn(BakeProgress) + Sync),
     ) -> anyhow::Result<TracedAndBaked> {
         let corner = (film.width_mm / 2.0).hypot(film.height_mm / 2.0);
-        let table_dir = default_table_dir(&real.source.origin.name(), Some(focus_mm));
         let (table, baked_now) = load_or_bake(
             real,
-            &table_dir,
+            table_dir,
             Some(focus_mm),
             corner,
             bake_resolution,
             progress,
         )?;
         let pupil = table.layers[0].pupil.clone();
+        let table_resolution = table.info.resolution;
         let baked = BakedLens::new(table, first_order, f_number)?;
         let film_z = baked.film_z();
         let traced = TracedLens::new(&real.system, first_order, f_number, pupil);
@@ -158,6 +160,7 @@ impl TracedAndBaked {
                 Focus::FilmZ(film_z),
             )?,
             baked_now,
+            table_resolution,
         })
     }
 }
@@ -196,6 +199,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
         f_number,
         film,
         args.focus_mm,
+        &table_dir,
         args.bake_resolution,
         &|p| {
             bar.set_length(p.total as u64);
@@ -215,6 +219,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
         traced,
         baked,
         baked_now,
+        ..
     } = cameras;
 
     let settings = RenderSettings {
