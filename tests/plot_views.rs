@@ -49,6 +49,19 @@ fn check_both_formats<V: View>(view: &V, title: &str, preview_name: &str) -> Dra
         "{preview_name}: SVG lacks the title {title:?}"
     );
     assert!(text.contains("font-family=\"DejaVu Sans, sans-serif\""));
+    // The font itself travels in the file: an @font-face rule right inside the root element
+    // whose data URL holds the whole TrueType file (base64 of 0x00010000, the sfnt version).
+    let root_end = text.find('>').unwrap() + 1;
+    assert!(
+        text[root_end..].starts_with(
+            "<style>@font-face{font-family:\"DejaVu Sans\";src:url(data:font/ttf;base64,AAEAAA"
+        ),
+        "{preview_name}: SVG does not embed its font"
+    );
+    assert!(
+        text.len() > 1_000_000,
+        "{preview_name}: embedded font truncated"
+    );
     assert_eq!(png.drawn, svg.drawn, "both backends draw the same data");
     if let Some(dir) = std::env::var_os("LENSBAKE_PLOT_PREVIEW") {
         let dir = std::path::PathBuf::from(dir);

@@ -1,6 +1,6 @@
 //! Turning a view into PNG or SVG bytes, and writing files atomically.
 
-use super::font::{FONT_FAMILY, ensure_registered};
+use super::font::{FONT_FAMILY, ensure_registered, svg_font_face};
 use super::{Drawn, PlotError, View, draw_error};
 use plotters::prelude::{BitMapBackend, IntoDrawingArea, SVGBackend, WHITE};
 use std::io::Write;
@@ -66,17 +66,34 @@ pub fn render<V: View>(view: &V, format: Format) -> Result<Rendered, PlotError> 
                 root.present().map_err(draw_error)?;
                 drawn
             };
-            // The SVG cannot carry the embedded font, so give viewers without DejaVu Sans a
-            // generic family of the same kind instead of their default (often serif) face.
+            // The font travels inside the file; the generic family only matters to viewers
+            // that ignore @font-face.
             let text = text.replace(
                 &format!("font-family=\"{FONT_FAMILY}\""),
                 &format!("font-family=\"{FONT_FAMILY}, sans-serif\""),
             );
+            let text = embed_font(&text);
             Ok(Rendered {
                 bytes: text.into_bytes(),
                 drawn,
             })
         }
+    }
+}
+
+/// `svg` with the embedded font's `@font-face` rule as the root element's first child.
+fn embed_font(svg: &str) -> String {
+    match svg
+        .find("<svg")
+        .and_then(|start| svg[start..].find('>').map(|end| start + end + 1))
+    {
+        Some(after_root) => format!(
+            "{}{}{}",
+            &svg[..after_root],
+            svg_font_face(),
+            &svg[after_root..]
+        ),
+        None => svg.to_string(),
     }
 }
 

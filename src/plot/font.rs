@@ -1,7 +1,9 @@
 //! The embedded plot font: DejaVu Sans (Bitstream Vera licence, assets/fonts/LICENSE-DejaVu.txt).
 //!
 //! plotters' ab_glyph backend looks fonts up by family name in a process-wide table; registering
-//! our bytes there once means no plot ever asks the operating system for a font.
+//! our bytes there once means no plot ever asks the operating system for a font. SVG output
+//! carries the same bytes in an `@font-face` rule ([`svg_font_face`]), so it renders alike on
+//! machines without the font, at the cost of about 1 MB per file.
 
 use super::PlotError;
 use std::sync::OnceLock;
@@ -19,4 +21,53 @@ pub(crate) fn ensure_registered() -> Result<(), PlotError> {
             .is_ok()
     });
     if ok { Ok(()) } else { Err(PlotError::Font) }
+}
+
+/// A `<style>` element defining [`FONT_FAMILY`] from the embedded font's bytes (a base64 data
+/// URL), for the start of an SVG document.
+pub(crate) fn svg_font_face() -> String {
+    format!(
+        "<style>@font-face{{font-family:\"{FONT_FAMILY}\";src:url(data:font/ttf;base64,{})format(\"truetype\");}}</style>",
+        base64(DEJAVU_SANS)
+    )
+}
+
+/// Standard base64 (RFC 4648, with padding).
+fn base64(bytes: &[u8]) -> String {
+    const ALPHABET: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut out = String::with_capacity(bytes.len().div_ceil(3) * 4);
+    for chunk in bytes.chunks(3) {
+        let group = (chunk[0] as u32) << 16
+            | (*chunk.get(1).unwrap_or(&0) as u32) << 8
+            | *chunk.get(2).unwrap_or(&0) as u32;
+        for (k, shift) in [18, 12, 6, 0].into_iter().enumerate() {
+            if k <= chunk.len() {
+                out.push(ALPHABET[(group >> shift & 63) as usize] as char);
+            } else {
+                out.push('=');
+            }
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::base64;
+
+    #[test]
+    fn base64_matches_rfc_4648_test_vectors() {
+        let vectors = [
+            ("", ""),
+            ("f", "Zg=="),
+            ("fo", "Zm8="),
+            ("foo", "Zm9v"),
+            ("foob", "Zm9vYg=="),
+            ("fooba", "Zm9vYmE="),
+            ("foobar", "Zm9vYmFy"),
+        ];
+        for (plain, encoded) in vectors {
+            assert_eq!(base64(plain.as_bytes()), encoded, "{plain:?}");
+        }
+    }
 }

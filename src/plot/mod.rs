@@ -5,8 +5,8 @@
 //! (series, points, messages) so tests can check the plotted data and not just the file.
 //!
 //! Text is set in DejaVu Sans, embedded in the binary (see [`font`]), so a PNG looks the same on
-//! a machine without fonts. SVG keeps text as `<text>` elements that name the family
-//! "DejaVu Sans" with a generic sans-serif fallback; the font itself is not embedded in the SVG.
+//! a machine without fonts. SVG keeps text as `<text>` elements in the family "DejaVu Sans" and
+//! carries the font file itself in an `@font-face` rule.
 
 mod canvas;
 mod chart;
