@@ -549,22 +549,6 @@ pub struct PeelData {
     pub texels: Vec<[f32; 4]>,
 }
 
-fn sub3(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-fn cross3(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
-fn dot3(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
 /// Clips the eye-space polygon to depth >= [`NEAR_CLIP_MM`] (Sutherland-Hodgman, one plane).
 fn clip_near(polygon: &[[f64; 3]]) -> Vec<[f64; 3]> {
     let mut out = Vec::with_capacity(polygon.len() + 1);
@@ -595,6 +579,7 @@ impl PeelData {
         view: &super::layers::View,
         peeling: super::raster::Peeling,
     ) -> PeelData {
+        use super::mesh::{cross3, dot3, sub3};
         use super::raster::{PEEL_SEPARATION, Peeling};
         let mut vertices = Vec::new();
         let mut triangles = Vec::new();

@@ -2,7 +2,7 @@
 //! hierarchy): the true geometry the reference renderer traces for meshes.
 
 use super::gpu_types::PeelTexture;
-use super::mesh::MeshScene;
+use super::mesh::{MeshScene, cross3, dot3, sub3};
 use super::raster::sample_texture;
 
 /// Triangles per leaf.
@@ -97,26 +97,25 @@ impl<'a> TracedMesh<'a> {
     ) -> Option<(f64, f64, f64)> {
         let tri = &self.scene.triangles[triangle];
         let [a, b, c] = tri.corners;
-        let e1 = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
-        let e2 = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
-        let p = cross(direction, e2);
-        let det = dot(e1, p);
+        let (e1, e2) = (sub3(b, a), sub3(c, a));
+        let p = cross3(direction, e2);
+        let det = dot3(e1, p);
         let double_sided = self.scene.materials[tri.material].double_sided;
         // det > 0: the ray meets the counter-clockwise (front) side.
         if det == 0.0 || !(det > 0.0 || double_sided) {
             return None;
         }
-        let s = [origin[0] - a[0], origin[1] - a[1], origin[2] - a[2]];
-        let u = dot(s, p) / det;
+        let s = sub3(origin, a);
+        let u = dot3(s, p) / det;
         if !(0.0..=1.0).contains(&u) {
             return None;
         }
-        let q = cross(s, e1);
-        let v = dot(direction, q) / det;
+        let q = cross3(s, e1);
+        let v = dot3(direction, q) / det;
         if v < 0.0 || u + v > 1.0 {
             return None;
         }
-        let t = dot(e2, q) / det;
+        let t = dot3(e2, q) / det;
         (t > 0.0).then_some((t, u, v))
     }
 
@@ -188,18 +187,6 @@ fn slab_hit(node: &Node, origin: [f64; 3], inverse: [f64; 3], limit: f64) -> boo
         far = far.min(t0.max(t1));
     }
     near <= far
-}
-
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
 #[cfg(test)]

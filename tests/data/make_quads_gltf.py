@@ -110,18 +110,20 @@ embedded = dict(document, buffers=[{"uri": data_uri("application/octet-stream", 
                 images=[{"uri": data_uri("image/png", checker)}])
 write_json("quads_embedded.gltf", embedded)
 
+def write_glb(name, doc):
+    """Binary glTF: the JSON chunk, then the current `binary` as the BIN chunk (buffer 0)."""
+    while len(binary) % 4:
+        binary.append(0)
+    doc = dict(doc, bufferViews=views, accessors=accessors, buffers=[{"byteLength": len(binary)}])
+    json_chunk = json.dumps(doc).encode()
+    json_chunk += b" " * (-len(json_chunk) % 4)
+    glb = (struct.pack("<I4s", len(json_chunk), b"JSON") + json_chunk
+           + struct.pack("<I4s", len(binary), b"BIN\0") + bytes(binary))
+    with open(name, "wb") as f:
+        f.write(struct.pack("<4sII", b"glTF", 2, 12 + len(glb)) + glb)
+
 image_view = add_view(checker)
-glb_doc = dict(document, bufferViews=views, buffers=[{"byteLength": len(binary)}],
-               images=[{"bufferView": image_view, "mimeType": "image/png"}])
-while len(binary) % 4:
-    binary.append(0)
-glb_doc["buffers"][0]["byteLength"] = len(binary)
-json_chunk = json.dumps(glb_doc).encode()
-json_chunk += b" " * (-len(json_chunk) % 4)
-glb = (struct.pack("<I4s", len(json_chunk), b"JSON") + json_chunk
-       + struct.pack("<I4s", len(binary), b"BIN\0") + bytes(binary))
-with open("quads.glb", "wb") as f:
-    f.write(struct.pack("<4sII", b"glTF", 2, 12 + len(glb)) + glb)
+write_glb("quads.glb", dict(document, images=[{"bufferView": image_view, "mimeType": "image/png"}]))
 
 # cards.glb: twelve double-sided 0.4 m cards facing the camera (default view: the origin looking
 # down -z) at 3.0, 3.1, ..., 4.1 m, each shifted 2 cm right of the one before, in front of a
@@ -150,13 +152,5 @@ cards = {
         {"name": "card", "doubleSided": True, "pbrMetallicRoughness": {"baseColorFactor": [0.9, 0.7, 0.2, 1.0]}},
         {"name": "wall", "pbrMetallicRoughness": {"baseColorFactor": [0.3, 0.3, 0.35, 1.0]}},
     ],
-    "bufferViews": views,
-    "accessors": accessors,
-    "buffers": [{"byteLength": len(binary)}],
 }
-json_chunk = json.dumps(cards).encode()
-json_chunk += b" " * (-len(json_chunk) % 4)
-glb = (struct.pack("<I4s", len(json_chunk), b"JSON") + json_chunk
-       + struct.pack("<I4s", len(binary), b"BIN\0") + bytes(binary))
-with open("cards.glb", "wb") as f:
-    f.write(struct.pack("<4sII", b"glTF", 2, 12 + len(glb)) + glb)
+write_glb("cards.glb", cards)
