@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
-"""Writes the tiny glTF test scene `quads` three ways: quads.gltf (+ quads.bin, checker.png
-beside it), quads_embedded.gltf (data URIs) and quads.glb. Run from this directory; the outputs
-are committed, so this only documents (and can regenerate) them.
+"""Writes the tiny glTF test scenes: `quads` three ways, quads.gltf (+ quads.bin, checker.png
+beside it), quads_embedded.gltf (data URIs) and quads.glb; and cards.glb (see its notes below).
+Run from this directory; the outputs are committed, so this only documents (and can regenerate)
+them.
 
 World, in metres: a camera rig at x = +0.5 whose camera child is turned 90 degrees about +y, so
 it looks down world -x with world -z to its right. A "stage" node at x = -1 holds quads facing +x:
