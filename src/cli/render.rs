@@ -9,12 +9,16 @@ use lensbake::lrtf::io::{SIDECAR_FILE, read_table, write_table};
 use lensbake::lrtf::{LrtfTable, Precision};
 use lensbake::paraxial::{ObjectPosition, object_in_focus};
 use lensbake::render::camera::{Camera, Film, Focus, LensModel, ParaxialLens};
+use lensbake::render::gltf_scene::{gltf_path, load_gltf};
 use lensbake::render::gpu::GpuRenderer;
+use lensbake::render::gpu_peel::GpuPeeler;
 use lensbake::render::image::{read_exr_rgbz, write_exr, write_png};
 use lensbake::render::layers::LayeredDepthImage;
+use lensbake::render::mesh::MeshScene;
 use lensbake::render::models::{BakedLens, FirstOrderModels, TracedLens};
+use lensbake::render::raster::{Peeling, mesh_layer_view, peel_mesh, surfel_count};
 use lensbake::render::scene::Scene;
-use lensbake::render::{Backend, RenderError, RenderSettings, layer_view, render_layers};
+use lensbake::render::{Backend, RenderError, RenderSettings, render_layers};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -38,6 +42,12 @@ pub enum BackendArg {
     Auto,
 }
 
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum PeelArg {
+    Plain,
+    Umbra,
+}
+
 #[derive(Args, Debug)]
 pub struct RenderArgs {
     /// Lens: a lens file or bundled lens name (see `lensbake lens list`), or `ideal:<EFL_MM>`
@@ -57,9 +67,14 @@ pub struct RenderArgs {
     /// Nodes per axis when a table has to be baked.
     #[arg(long, default_value_t = 64)]
     bake_resolution: usize,
-    /// `demo` or an OpenEXR file with R, G, B and Z (mm from the entrance pupil) channels.
+    /// `demo`, a glTF 2.0 file (.gltf or .glb; metres, seen from its first camera node), or an
+    /// OpenEXR file with R, G, B and Z (mm from the entrance pupil) channels.
     #[arg(long, default_value = "demo")]
     scene: String,
+    /// Depth peeling of mesh scenes: `umbra` skips surfaces hidden from the whole entrance
+    /// pupil behind a nearer layer's pixel (fewer layers), `plain` keeps every surface.
+    #[arg(long, value_enum, default_value = "umbra")]
+    peel: PeelArg,
     #[arg(long, value_enum, default_value = "auto")]
     backend: BackendArg,
     /// Samples per pixel.
@@ -202,7 +217,12 @@ pub fn load_or_bake(
 }
 
 enum SceneSource {
-    Demo(Scene),
+    /// The demo (as meshes) or a glTF file, peeled by rasterisation.
+    Mesh {
+        scene: MeshScene,
+        peel: PeelArg,
+        gpu: Option<GpuPeeler>,
+    },
     Exr(PathBuf),
 }
 
@@ -213,9 +233,13 @@ impl SceneSource {
         settings: &RenderSettings,
     ) -> Result<LayeredDepthImage, RenderError> {
         match self {
-            SceneSource::Demo(scene) => {
-                let nearest = scene.nearest_distance_mm().unwrap_or(1000.0) + camera.eye_z();
-                Ok(scene.peel(layer_view(camera, settings, nearest), settings.max_layers))
+            SceneSource::Mesh { scene, peel, gpu } => {
+                let peeling = match peel {
+                    PeelArg::Plain => Peeling::Plain,
+                    PeelArg::Umbra => Peeling::umbra_for(camera),
+                };
+                let view = mesh_layer_view(camera, settings, scene)?;
+                peel_mesh(scene, view, peeling, settings.max_layers, gpu.as_ref())
             }
             SceneSource::Exr(path) => {
                 read_exr_rgbz(path, camera.eye_z(), camera.half_field_tangents())
@@ -243,9 +267,34 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         shift_mm: [args.shift_mm.0, args.shift_mm.1],
         ..Film::full_frame_for(args.width, args.height)
     };
-    let source = match args.scene.as_str() {
-        "demo" => SceneSource::Demo(Scene::demo()),
-        path => SceneSource::Exr(PathBuf::from(path)),
+    let mesh = match (args.scene.as_str(), gltf_path(&args.scene)) {
+        ("demo", _) => Some(MeshScene::from_panels(&Scene::demo())),
+        (_, Some(path)) => Some(load_gltf(&path)?),
+        _ => None,
+    };
+    let source = match mesh {
+        Some(scene) => {
+            // Peel where the kernel runs; the CPU twin when there is no adapter.
+            let gpu = match args.backend {
+                BackendArg::Cpu => None,
+                BackendArg::Gpu => Some(GpuPeeler::new()?),
+                BackendArg::Auto => GpuPeeler::new().ok(),
+            };
+            println!(
+                "scene: {} triangles, peeled on {}",
+                scene.triangles.len(),
+                gpu.as_ref().map_or("the cpu".to_string(), |g| format!(
+                    "the gpu ({})",
+                    g.adapter_description
+                ))
+            );
+            SceneSource::Mesh {
+                scene,
+                peel: args.peel,
+                gpu,
+            }
+        }
+        None => SceneSource::Exr(PathBuf::from(&args.scene)),
     };
     let focus = match (args.focus_mm, args.focus_pixel, args.sensor_mm) {
         (Some(d), _, _) => Focus::ObjectDistance(d),
@@ -346,6 +395,15 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let started = Instant::now();
     let ldi = source.layers(&camera, &settings)?;
     let peel_time = started.elapsed();
+    if let SceneSource::Mesh { peel, .. } = &source {
+        println!(
+            "peeled {} layers ({:?}, cap {}), {} surfels",
+            ldi.layers.len(),
+            peel,
+            settings.max_layers,
+            surfel_count(&ldi)
+        );
+    }
 
     let gpu = match args.backend {
         BackendArg::Cpu => None,

@@ -18,6 +18,38 @@ pub const IBRT_SHADER: &str = concat!(
 const SAMPLES_PER_DISPATCH: u32 = 32;
 const WORKGROUP_SIZE: u32 = 8;
 
+/// Opens the first GPU adapter wgpu finds (honouring WGPU_BACKEND and friends) with the limits
+/// the renderer and the peeler need: the device, its queue, and the adapter's name and backend.
+pub(crate) fn open_device(label: &str) -> Result<(wgpu::Device, wgpu::Queue, String), RenderError> {
+    let descriptor = wgpu::InstanceDescriptor::new_without_display_handle().with_env();
+    let instance = wgpu::Instance::new(descriptor);
+    let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
+        power_preference: wgpu::PowerPreference::HighPerformance,
+        ..Default::default()
+    }))
+    .map_err(|e| RenderError::NoAdapter(e.to_string()))?;
+    let info = adapter.get_info();
+    let adapter_description = format!("{} ({:?})", info.name, info.backend);
+    let limits = adapter.limits();
+    let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+        label: Some(label),
+        required_limits: wgpu::Limits {
+            max_storage_buffer_binding_size: limits.max_storage_buffer_binding_size,
+            max_buffer_size: limits.max_buffer_size,
+            // Layers (4), pupil circles and lens surfaces.
+            max_storage_buffers_per_shader_stage:
+                limits.max_storage_buffers_per_shader_stage.max(6),
+            max_bind_groups: limits.max_bind_groups.max(4),
+            // Peeled layers are as wide as the layer view.
+            max_texture_dimension_2d: limits.max_texture_dimension_2d,
+            ..wgpu::Limits::downlevel_defaults()
+        },
+        ..Default::default()
+    }))
+    .map_err(|e| RenderError::Gpu(e.to_string()))?;
+    Ok((device, queue, adapter_description))
+}
+
 /// A device with the IBRT pipeline built.
 pub struct GpuRenderer {
     device: wgpu::Device,
@@ -32,30 +64,7 @@ impl GpuRenderer {
     /// Opens the first GPU adapter wgpu finds (honouring WGPU_BACKEND and friends), or
     /// `RenderError::NoAdapter` when there is none.
     pub fn new() -> Result<GpuRenderer, RenderError> {
-        let descriptor = wgpu::InstanceDescriptor::new_without_display_handle().with_env();
-        let instance = wgpu::Instance::new(descriptor);
-        let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
-            power_preference: wgpu::PowerPreference::HighPerformance,
-            ..Default::default()
-        }))
-        .map_err(|e| RenderError::NoAdapter(e.to_string()))?;
-        let info = adapter.get_info();
-        let adapter_description = format!("{} ({:?})", info.name, info.backend);
-        let limits = adapter.limits();
-        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
-            label: Some("lensbake ibrt"),
-            required_limits: wgpu::Limits {
-                max_storage_buffer_binding_size: limits.max_storage_buffer_binding_size,
-                max_buffer_size: limits.max_buffer_size,
-                // Layers (4), pupil circles and lens surfaces.
-                max_storage_buffers_per_shader_stage:
-                    limits.max_storage_buffers_per_shader_stage.max(6),
-                max_bind_groups: limits.max_bind_groups.max(4),
-                ..wgpu::Limits::downlevel_defaults()
-            },
-            ..Default::default()
-        }))
-        .map_err(|e| RenderError::Gpu(e.to_string()))?;
+        let (device, queue, adapter_description) = open_device("lensbake ibrt")?;
         // Capture validation errors instead of letting wgpu's default handler panic.
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let pipeline_for = |source: &str, entry: &str| {

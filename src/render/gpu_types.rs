@@ -420,3 +420,289 @@ mod tests {
         assert_eq!(all[15 + 3 + 2], [14.0, 14.5]);
     }
 }
+
+// ---- Depth peeling of triangle meshes (`shaders/peel.wgsl`, CPU twin `raster.rs`) ----
+
+/// `PeelParams::peeling`: each layer starts just beyond the previous one.
+pub const PEEL_PLAIN: u32 = 0;
+/// `PeelParams::peeling`: each layer starts beyond the previous one's extended umbra.
+pub const PEEL_UMBRA: u32 = 1;
+/// `PeelTexture::wrap_*` codes (glTF wrap modes).
+pub const WRAP_REPEAT: u32 = 0;
+pub const WRAP_CLAMP: u32 = 1;
+pub const WRAP_MIRROR: u32 = 2;
+/// `PeelTexture::filter_mode` codes.
+pub const FILTER_NEAREST: u32 = 0;
+pub const FILTER_LINEAR: u32 = 1;
+/// `PeelMaterial::texture` of an untextured material.
+pub const NO_TEXTURE: u32 = u32::MAX;
+/// Triangles are clipped this close to the eye (mm) before they reach either rasteriser, so the
+/// GPU never clips and both paths see the same vertices.
+pub const NEAR_CLIP_MM: f64 = 1.0;
+
+/// Uniform block of one peel pass. Mirrors `PeelParams` in `peel.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct PeelParams {
+    pub width: u32,
+    pub height: u32,
+    /// 0 for the nearest layer; later passes read the previous layer.
+    pub pass_index: u32,
+    pub peeling: u32,
+    pub tan_half_x: f32,
+    pub tan_half_y: f32,
+    /// A power of two: depth (mm) times it is the depth-buffer value, exact and below 1.
+    pub inverse_depth_scale: f32,
+    /// The smaller of the view's pixel pitches, in tangent units.
+    pub pixel_tangent: f32,
+    /// Entrance-pupil diameter (mm): the aperture the umbra is cast from.
+    pub aperture_diameter: f32,
+    /// Width of a captured sample for the umbra, in pixel pitches.
+    pub umbra_pixels: f32,
+    /// Plain peeling keeps fragments deeper than previous * (1 + separation).
+    pub separation: f32,
+    pub pad: u32,
+}
+
+/// One clipped triangle corner: eye-space x, y (mm) and depth (mm in front of the eye), and the
+/// index of its source triangle's record.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct PeelVertex {
+    pub position: [f32; 3],
+    pub triangle: u32,
+}
+
+/// What a fragment needs of its triangle, in eye space (x, y, depth): the plane
+/// n . p = c with |n| = 1 and c > 0, and the affine maps p -> u and p -> v.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct PeelTriangle {
+    pub plane: [f32; 4],
+    pub u_map: [f32; 4],
+    pub v_map: [f32; 4],
+    pub material: u32,
+    pub pad: [u32; 3],
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct PeelMaterial {
+    pub base_colour: [f32; 3],
+    /// Index into the textures, or [`NO_TEXTURE`].
+    pub texture: u32,
+    pub emissive: [f32; 3],
+    pub pad: u32,
+}
+
+/// An image inside the shared texel array, with its sampler.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct PeelTexture {
+    pub offset: u32,
+    pub width: u32,
+    pub height: u32,
+    pub wrap_u: u32,
+    pub wrap_v: u32,
+    pub filter_mode: u32,
+    pub pad: [u32; 2],
+}
+
+impl PeelTexture {
+    /// `image` sampled by `sampler`, its texels starting at `offset` in the texel array.
+    pub fn of(
+        image: &super::mesh::Image,
+        sampler: super::mesh::Sampler,
+        offset: u32,
+    ) -> PeelTexture {
+        use super::mesh::{Filter, Wrap};
+        let wrap_code = |w: Wrap| match w {
+            Wrap::Repeat => WRAP_REPEAT,
+            Wrap::ClampToEdge => WRAP_CLAMP,
+            Wrap::MirroredRepeat => WRAP_MIRROR,
+        };
+        PeelTexture {
+            offset,
+            width: image.width,
+            height: image.height,
+            wrap_u: wrap_code(sampler.wrap[0]),
+            wrap_v: wrap_code(sampler.wrap[1]),
+            filter_mode: match sampler.filter {
+                Filter::Nearest => FILTER_NEAREST,
+                Filter::Linear => FILTER_LINEAR,
+            },
+            pad: [0; 2],
+        }
+    }
+}
+
+/// Everything both rasterisers read. `triangles`, `materials`, `textures` and `texels` hold at
+/// least one entry each (placeholders when the scene has none) so the GPU bindings stay valid.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PeelData {
+    pub params: PeelParams,
+    /// Three per clipped triangle, in draw order.
+    pub vertices: Vec<PeelVertex>,
+    pub triangles: Vec<PeelTriangle>,
+    pub materials: Vec<PeelMaterial>,
+    pub textures: Vec<PeelTexture>,
+    pub texels: Vec<[f32; 4]>,
+}
+
+/// Clips the eye-space polygon to depth >= [`NEAR_CLIP_MM`] (Sutherland-Hodgman, one plane).
+fn clip_near(polygon: &[[f64; 3]]) -> Vec<[f64; 3]> {
+    let mut out = Vec::with_capacity(polygon.len() + 1);
+    for (i, &a) in polygon.iter().enumerate() {
+        let b = polygon[(i + 1) % polygon.len()];
+        let (da, db) = (a[2] - NEAR_CLIP_MM, b[2] - NEAR_CLIP_MM);
+        if da >= 0.0 {
+            out.push(a);
+        }
+        if (da >= 0.0) != (db >= 0.0) {
+            let t = da / (da - db);
+            out.push([
+                a[0] + t * (b[0] - a[0]),
+                a[1] + t * (b[1] - a[1]),
+                NEAR_CLIP_MM,
+            ]);
+        }
+    }
+    out
+}
+
+impl PeelData {
+    /// Converts `scene` for peeling from the eye of `view`: single-sided triangles facing away
+    /// from the eye are dropped, the rest clipped to the near plane and reduced to their plane
+    /// and texture maps in eye space (f64 here, f32 from here on).
+    pub fn of(
+        scene: &super::mesh::MeshScene,
+        view: &super::layers::View,
+        peeling: super::raster::Peeling,
+    ) -> PeelData {
+        use super::mesh::{cross3, dot3, sub3};
+        use super::raster::{PEEL_SEPARATION, Peeling};
+        let mut vertices = Vec::new();
+        let mut triangles = Vec::new();
+        let mut farthest: f64 = NEAR_CLIP_MM;
+        for t in &scene.triangles {
+            let normal = cross3(
+                sub3(t.corners[1], t.corners[0]),
+                sub3(t.corners[2], t.corners[0]),
+            );
+            let facing = dot3(normal, sub3([0.0, 0.0, view.eye_z], t.corners[0]));
+            let seen_from_behind = facing < 0.0 && !scene.materials[t.material].double_sided;
+            if !(facing.is_finite() && facing != 0.0) || seen_from_behind {
+                continue;
+            }
+            let eye = t.corners.map(|c| [c[0], c[1], view.eye_z - c[2]]);
+            let clipped = clip_near(&eye);
+            if clipped.len() < 3 {
+                continue;
+            }
+            let (e1, e2) = (sub3(eye[1], eye[0]), sub3(eye[2], eye[0]));
+            let n = cross3(e1, e2);
+            let nn = dot3(n, n);
+            let length = nn.sqrt();
+            let c = dot3(n, eye[0]) / length;
+            let sign = if c > 0.0 { 1.0 } else { -1.0 };
+            // Barycentric weights of corners 1 and 2 are p . a1 + b1 and p . a2 + b2.
+            let a1 = cross3(e2, n).map(|v| v / nn);
+            let a2 = cross3(n, e1).map(|v| v / nn);
+            let map = |k: usize| -> [f32; 4] {
+                let (d1, d2) = (t.uvs[1][k] - t.uvs[0][k], t.uvs[2][k] - t.uvs[0][k]);
+                let row = [
+                    d1 * a1[0] + d2 * a2[0],
+                    d1 * a1[1] + d2 * a2[1],
+                    d1 * a1[2] + d2 * a2[2],
+                ];
+                let offset = t.uvs[0][k] - dot3(row, eye[0]);
+                [row[0] as f32, row[1] as f32, row[2] as f32, offset as f32]
+            };
+            let index = triangles.len() as u32;
+            triangles.push(PeelTriangle {
+                plane: [
+                    (sign * n[0] / length) as f32,
+                    (sign * n[1] / length) as f32,
+                    (sign * n[2] / length) as f32,
+                    (sign * c) as f32,
+                ],
+                u_map: map(0),
+                v_map: map(1),
+                material: t.material as u32,
+                pad: [0; 3],
+            });
+            for k in 1..clipped.len() - 1 {
+                for p in [clipped[0], clipped[k], clipped[k + 1]] {
+                    farthest = farthest.max(p[2]);
+                    vertices.push(PeelVertex {
+                        position: [p[0] as f32, p[1] as f32, p[2] as f32],
+                        triangle: index,
+                    });
+                }
+            }
+        }
+        let mut textures = Vec::new();
+        let mut texels = Vec::new();
+        let mut image_offsets: Vec<Option<u32>> = vec![None; scene.images.len()];
+        let materials = scene
+            .materials
+            .iter()
+            .map(|m| PeelMaterial {
+                base_colour: m.base_colour,
+                texture: m.base_texture.map_or(NO_TEXTURE, |t| {
+                    let image = &scene.images[t.image];
+                    let offset = *image_offsets[t.image].get_or_insert_with(|| {
+                        texels.extend_from_slice(&image.texels);
+                        (texels.len() - image.texels.len()) as u32
+                    });
+                    textures.push(PeelTexture::of(image, t.sampler, offset));
+                    textures.len() as u32 - 1
+                }),
+                emissive: m.emissive,
+                pad: 0,
+            })
+            .collect::<Vec<_>>();
+        fn placeholder<T: Zeroable>(v: &mut Vec<T>) {
+            if v.is_empty() {
+                v.push(T::zeroed());
+            }
+        }
+        let mut materials = materials;
+        placeholder(&mut materials);
+        placeholder(&mut textures);
+        placeholder(&mut triangles);
+        placeholder(&mut texels);
+        let (aperture_diameter, umbra_pixels, peeling) = match peeling {
+            Peeling::Plain => (0.0, 0.0, PEEL_PLAIN),
+            Peeling::Umbra {
+                aperture_diameter_mm,
+                sample_pixels,
+            } => (aperture_diameter_mm, sample_pixels, PEEL_UMBRA),
+        };
+        let pitch = (2.0 * view.tan_half[0] / view.width as f64)
+            .min(2.0 * view.tan_half[1] / view.height as f64);
+        // Fragment depths can overshoot the corners' by rounding: leave a factor of two.
+        let scale = (2.0 * farthest).log2().ceil().exp2();
+        PeelData {
+            params: PeelParams {
+                width: view.width,
+                height: view.height,
+                pass_index: 0,
+                peeling,
+                tan_half_x: view.tan_half[0] as f32,
+                tan_half_y: view.tan_half[1] as f32,
+                inverse_depth_scale: (1.0 / scale) as f32,
+                pixel_tangent: pitch as f32,
+                aperture_diameter: aperture_diameter as f32,
+                umbra_pixels: umbra_pixels as f32,
+                separation: PEEL_SEPARATION as f32,
+                pad: 0,
+            },
+            vertices,
+            triangles,
+            materials,
+            textures,
+            texels,
+        }
+    }
+}

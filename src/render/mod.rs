@@ -1,19 +1,26 @@
 //! Depth-of-field rendering through a lens model by image-based ray tracing (IBRT) over layered
 //! depth images (seed 000 chapter 4, seed 004 section 3).
 //!
-//! Data flows one way: a [`scene::Scene`] (or an RGB + Z EXR) is depth-peeled from the
-//! entrance-pupil centre into a [`layers::LayeredDepthImage`]; [`gpu_types`] packs it and the
+//! Data flows one way: a [`mesh::MeshScene`] (a glTF file via [`gltf_scene`], or the demo's
+//! panels) is depth-peeled from the entrance-pupil centre by rasterisation ([`raster`], on the
+//! GPU by [`gpu_peel`]) into a [`layers::LayeredDepthImage`] (panel scenes and RGB + Z EXRs
+//! have their own exact paths); [`gpu_types`] packs it and the
 //! f64 [`camera::Camera`] into the f32 structs the kernel reads; the kernel runs on the GPU
 //! ([`gpu`], `shaders/ibrt.wgsl`) or on its CPU twin ([`kernel`]); the sum becomes an
 //! [`image::RgbImage`].
 
 pub mod camera;
+pub mod gltf_scene;
 pub mod gpu;
+pub mod gpu_peel;
 pub mod gpu_types;
 pub mod image;
 pub mod kernel;
 pub mod layers;
+pub mod mesh;
+pub mod mesh_trace;
 pub mod models;
+pub mod raster;
 pub mod reference;
 pub mod scene;
 

@@ -6,6 +6,7 @@
 use super::camera::{Camera, LensModel};
 use super::image::RgbImage;
 use super::kernel::{PixelScrambles, concentric_disc};
+use super::mesh_trace::TracedMesh;
 use super::scene::Scene;
 use super::{RenderError, RenderSettings};
 use crate::lrtf::{self, Lookup};
@@ -44,13 +45,32 @@ fn object_ray(model: &LensModel, film: [f64; 3], pupil: [f64; 3]) -> Option<([f6
     }
 }
 
+/// Scene geometry the reference can follow a ray into.
+pub trait TrueGeometry: Sync {
+    /// The radiance seen along the object-space ray through `origin` with `direction` (light
+    /// travelling towards +z), followed back into the scene.
+    fn radiance_along(&self, origin: [f64; 3], direction: [f64; 3]) -> [f32; 3];
+}
+
+impl TrueGeometry for Scene {
+    fn radiance_along(&self, origin: [f64; 3], direction: [f64; 3]) -> [f32; 3] {
+        Scene::radiance_along(self, origin, direction)
+    }
+}
+
+impl TrueGeometry for TracedMesh<'_> {
+    fn radiance_along(&self, origin: [f64; 3], direction: [f64; 3]) -> [f32; 3] {
+        self.radiance_towards(origin, direction.map(|d| -d))
+    }
+}
+
 /// Renders `scene` through `camera` with `settings.samples_per_pixel` samples per pixel, in f64,
 /// with the kernel's samples and weights (pupil circle per film radius, cos^4 times the circle's
 /// projected solid angle relative to the paraxial exit pupil). With a traced camera this is the
 /// exact lens against the true geometry: the yardstick for every model and for the layers.
 pub fn render_reference(
     camera: &Camera,
-    scene: &Scene,
+    scene: &(impl TrueGeometry + ?Sized),
     settings: &RenderSettings,
 ) -> Result<RgbImage, RenderError> {
     settings.check()?;
