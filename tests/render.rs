@@ -3,7 +3,7 @@
 
 use lensbake::lrtf::bake::{BakeRequest, bake};
 use lensbake::render::camera::{Camera, Film, Focus, LensModel, ParaxialLens};
-use lensbake::render::gpu::{GpuRenderer, IBRT_SHADER, LENS_TRACE_SHADER};
+use lensbake::render::gpu::{IBRT_SHADER, LENS_TRACE_SHADER};
 use lensbake::render::gpu_types::{
     FrameParams, TRACE_MISSED, TRACE_OK, TRACE_TIR, TRACE_VIGNETTED, lens_surfaces,
 };
@@ -12,8 +12,11 @@ use lensbake::render::layers::LayeredDepthImage;
 use lensbake::render::models::{BakedLens, FirstOrderModels, PupilSampling, TracedLens};
 use lensbake::render::reference::{psnr, render_reference};
 use lensbake::render::scene::{Outline, Panel, Scene, Texture};
-use lensbake::render::{Backend, RenderError, RenderSettings, layer_view, render_layers};
+use lensbake::render::{Backend, RenderSettings, layer_view, render_layers};
 use lensbake::trace::{Outcome, Ray, Travel};
+
+mod common;
+use common::gpu_or_skip;
 
 #[test]
 fn every_wgsl_module_validates_with_naga() {
@@ -80,19 +83,6 @@ fn frame_params_layout_matches_wgsl() {
     for (member, (name, offset)) in members.iter().zip(rust) {
         assert_eq!(member.name.as_deref(), Some(name));
         assert_eq!(member.offset as usize, offset, "{name}");
-    }
-}
-
-/// The GPU renderer, or None outside CI when this machine has no adapter. In CI a missing
-/// adapter is a failure: CI installs lavapipe precisely so these tests run.
-fn gpu_or_skip(test: &str) -> Option<GpuRenderer> {
-    match GpuRenderer::new() {
-        Ok(gpu) => Some(gpu),
-        Err(RenderError::NoAdapter(why)) if std::env::var("CI").as_deref() != Ok("true") => {
-            eprintln!("SKIPPED {test}: no GPU adapter ({why}); install mesa-vulkan-drivers");
-            None
-        }
-        Err(e) => panic!("{test}: GPU unavailable: {e}"),
     }
 }
 
