@@ -662,3 +662,114 @@ fn auto_mode_follows_dispersion_and_visibility() {
         );
     }
 }
+
+fn lensbake(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_lensbake"))
+        .args(args)
+        .output()
+        .expect("run lensbake")
+}
+
+#[test]
+fn cli_chooses_and_refuses_chromatic_renders() {
+    let dir = std::env::temp_dir().join(format!("lensbake-chromatic-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = dir.join("image.exr");
+    let out = out.to_str().unwrap();
+    let small = [
+        "--width",
+        "32",
+        "--height",
+        "24",
+        "--spp",
+        "4",
+        "--backend",
+        "cpu",
+        "--out",
+        out,
+    ];
+    let run = |extra: &[&str]| {
+        let mut args = vec!["render"];
+        args.extend_from_slice(extra);
+        args.extend_from_slice(&small);
+        lensbake(&args)
+    };
+    let text = |o: &std::process::Output| {
+        format!(
+            "{}{}",
+            String::from_utf8_lossy(&o.stdout),
+            String::from_utf8_lossy(&o.stderr)
+        )
+    };
+    // A dispersing lens, forced on: the default wavelengths are C, design (587.6), F.
+    let on = run(&[
+        "--lens",
+        "codev-dgauss-f2",
+        "--model",
+        "thick",
+        "--chromatic",
+        "on",
+    ]);
+    assert_eq!(on.status.code(), Some(0), "{}", text(&on));
+    assert!(
+        text(&on).contains("chromatic: on, R/G/B at 656.3/587.6/486.1 nm"),
+        "{}",
+        text(&on)
+    );
+    // Off says so; auto on a lens of constant indices stays off and says why.
+    let off = run(&[
+        "--lens",
+        "codev-dgauss-f2",
+        "--model",
+        "thick",
+        "--chromatic",
+        "off",
+    ]);
+    assert!(text(&off).contains("chromatic: off\n"), "{}", text(&off));
+    let constant = run(&["--lens", "dgauss-50mm", "--model", "thick"]);
+    assert_eq!(constant.status.code(), Some(0), "{}", text(&constant));
+    assert!(
+        text(&constant).contains("the lens does not disperse"),
+        "{}",
+        text(&constant)
+    );
+    // Refusals exit 2 with the reason.
+    let ideal = run(&["--lens", "ideal:50", "--model", "thin", "--chromatic", "on"]);
+    assert_eq!(ideal.status.code(), Some(2));
+    assert!(
+        text(&ideal).contains("no glass to disperse"),
+        "{}",
+        text(&ideal)
+    );
+    let two = run(&[
+        "--lens",
+        "codev-dgauss-f2",
+        "--model",
+        "thick",
+        "--wavelengths-nm",
+        "600,500",
+    ]);
+    assert_eq!(two.status.code(), Some(2));
+    assert!(
+        text(&two).contains("takes three wavelengths R,G,B, got 2"),
+        "{}",
+        text(&two)
+    );
+    let far = run(&[
+        "--lens",
+        "codev-dgauss-f2",
+        "--model",
+        "thick",
+        "--chromatic",
+        "on",
+        "--wavelengths-nm",
+        "656,588,20",
+    ]);
+    assert_eq!(far.status.code(), Some(2));
+    assert!(
+        text(&far).contains("cannot render at 20 nm"),
+        "{}",
+        text(&far)
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
