@@ -142,18 +142,8 @@ fn landscape_cameras(
 
 #[test]
 fn channel_params_layout_matches_wgsl() {
-    let module = naga::front::wgsl::parse_str(IBRT_SHADER).unwrap();
-    let (members, span) = module
-        .types
-        .iter()
-        .find_map(|(_, ty)| match (&ty.name, &ty.inner) {
-            (Some(name), naga::TypeInner::Struct { members, span }) if name == "ChannelParams" => {
-                Some((members.clone(), *span))
-            }
-            _ => None,
-        })
-        .expect("ChannelParams in ibrt.wgsl");
-    assert_eq!(span as usize, std::mem::size_of::<ChannelParams>());
+    let (members, span) = common::wgsl_struct(IBRT_SHADER, "ChannelParams");
+    assert_eq!(span, std::mem::size_of::<ChannelParams>());
     let rust = [
         (
             "sampling_block",
@@ -181,11 +171,11 @@ fn channel_params_layout_matches_wgsl() {
         ),
     ];
     for (name, offset) in rust {
-        let member = members
+        let (_, member) = members
             .iter()
-            .find(|m| m.name.as_deref() == Some(name))
+            .find(|(member, _)| member == name)
             .unwrap_or_else(|| panic!("{name} missing from the WGSL struct"));
-        assert_eq!(member.offset as usize, offset, "{name}");
+        assert_eq!(*member, offset, "{name}");
     }
 }
 
@@ -227,15 +217,7 @@ fn gpu_matches_cpu_twin_for_chromatic_renders() {
         let gpu_image = render_layers(&colour, &ldi, &s, Backend::Gpu, Some(&gpu)).unwrap();
         let monochrome = render_layers(&mono, &ldi, &s, Backend::Cpu, None).unwrap();
         let channels = cpu.pixels.len() * 3;
-        let (mut large, mut total_abs) = (0usize, 0.0f64);
-        for (a, b) in cpu.pixels.iter().zip(&gpu_image.pixels) {
-            for c in 0..3 {
-                let d = (a[c] - b[c]).abs();
-                total_abs += d as f64;
-                large += usize::from(d > 1e-3 * (1.0 + a[c].abs()));
-            }
-        }
-        let mean_abs = total_abs / channels as f64;
+        let (large, mean_abs) = common::image_difference(&cpu, &gpu_image);
         let colour_effect = psnr(&cpu, &monochrome);
         eprintln!(
             "{name}: {large} of {channels} channels differ beyond rounding, mean |cpu - gpu| = \
@@ -675,7 +657,6 @@ fn cli_chooses_and_refuses_chromatic_renders() {
     let dir = std::env::temp_dir().join(format!("lensbake-chromatic-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let out = dir.join("image.exr");
-    let out = out.to_str().unwrap();
     let small = [
         "--width",
         "32",
@@ -686,90 +667,56 @@ fn cli_chooses_and_refuses_chromatic_renders() {
         "--backend",
         "cpu",
         "--out",
-        out,
+        out.to_str().unwrap(),
     ];
-    let run = |extra: &[&str]| {
-        let mut args = vec!["render"];
-        args.extend_from_slice(extra);
+    // (lens and flags, exit code, what the output must say)
+    let cases: [(&str, &[&str], i32, &str); 6] = [
+        // A dispersing lens forced on: the default wavelengths are C, design (587.6), F.
+        (
+            "codev-dgauss-f2",
+            &["--chromatic", "on"],
+            0,
+            "chromatic: on, R/G/B at 656.3/587.6/486.1 nm",
+        ),
+        (
+            "codev-dgauss-f2",
+            &["--chromatic", "off"],
+            0,
+            "chromatic: off\n",
+        ),
+        // Auto on a lens of constant indices stays off and says why.
+        ("dgauss-50mm", &[], 0, "the lens does not disperse"),
+        (
+            "ideal:50",
+            &["--chromatic", "on"],
+            2,
+            "no glass to disperse",
+        ),
+        (
+            "codev-dgauss-f2",
+            &["--wavelengths-nm", "600,500"],
+            2,
+            "takes three wavelengths R,G,B, got 2",
+        ),
+        (
+            "codev-dgauss-f2",
+            &["--chromatic", "on", "--wavelengths-nm", "656,588,20"],
+            2,
+            "cannot render at 20 nm",
+        ),
+    ];
+    for (lens, flags, code, says) in cases {
+        let mut args = vec!["render", "--lens", lens, "--model", "thin"];
+        args.extend_from_slice(flags);
         args.extend_from_slice(&small);
-        lensbake(&args)
-    };
-    let text = |o: &std::process::Output| {
-        format!(
+        let o = lensbake(&args);
+        let text = format!(
             "{}{}",
             String::from_utf8_lossy(&o.stdout),
             String::from_utf8_lossy(&o.stderr)
-        )
-    };
-    // A dispersing lens, forced on: the default wavelengths are C, design (587.6), F.
-    let on = run(&[
-        "--lens",
-        "codev-dgauss-f2",
-        "--model",
-        "thick",
-        "--chromatic",
-        "on",
-    ]);
-    assert_eq!(on.status.code(), Some(0), "{}", text(&on));
-    assert!(
-        text(&on).contains("chromatic: on, R/G/B at 656.3/587.6/486.1 nm"),
-        "{}",
-        text(&on)
-    );
-    // Off says so; auto on a lens of constant indices stays off and says why.
-    let off = run(&[
-        "--lens",
-        "codev-dgauss-f2",
-        "--model",
-        "thick",
-        "--chromatic",
-        "off",
-    ]);
-    assert!(text(&off).contains("chromatic: off\n"), "{}", text(&off));
-    let constant = run(&["--lens", "dgauss-50mm", "--model", "thick"]);
-    assert_eq!(constant.status.code(), Some(0), "{}", text(&constant));
-    assert!(
-        text(&constant).contains("the lens does not disperse"),
-        "{}",
-        text(&constant)
-    );
-    // Refusals exit 2 with the reason.
-    let ideal = run(&["--lens", "ideal:50", "--model", "thin", "--chromatic", "on"]);
-    assert_eq!(ideal.status.code(), Some(2));
-    assert!(
-        text(&ideal).contains("no glass to disperse"),
-        "{}",
-        text(&ideal)
-    );
-    let two = run(&[
-        "--lens",
-        "codev-dgauss-f2",
-        "--model",
-        "thick",
-        "--wavelengths-nm",
-        "600,500",
-    ]);
-    assert_eq!(two.status.code(), Some(2));
-    assert!(
-        text(&two).contains("takes three wavelengths R,G,B, got 2"),
-        "{}",
-        text(&two)
-    );
-    let far = run(&[
-        "--lens",
-        "codev-dgauss-f2",
-        "--model",
-        "thick",
-        "--chromatic",
-        "on",
-        "--wavelengths-nm",
-        "656,588,20",
-    ]);
-    assert_eq!(far.status.code(), Some(2));
-    assert!(
-        text(&far).contains("cannot render at 20 nm"),
-        "{}",
-        text(&far)
-    );
+        );
+        assert_eq!(o.status.code(), Some(code), "{args:?}: {text}");
+        assert!(text.contains(says), "{args:?}: {text}");
+    }
     std::fs::remove_dir_all(&dir).ok();
 }
