@@ -3,7 +3,7 @@
 
 use lensbake::lrtf::bake::{BakeRequest, bake};
 use lensbake::render::camera::{Camera, Film, Focus, LensModel, ParaxialLens};
-use lensbake::render::gpu::{GpuRenderer, IBRT_SHADER, LENS_TRACE_SHADER};
+use lensbake::render::gpu::{IBRT_SHADER, LENS_TRACE_SHADER};
 use lensbake::render::gpu_types::{
     FrameParams, TRACE_MISSED, TRACE_OK, TRACE_TIR, TRACE_VIGNETTED, lens_surfaces,
 };
@@ -12,8 +12,11 @@ use lensbake::render::layers::LayeredDepthImage;
 use lensbake::render::models::{BakedLens, FirstOrderModels, PupilSampling, TracedLens};
 use lensbake::render::reference::{psnr, render_reference};
 use lensbake::render::scene::{Outline, Panel, Scene, Texture};
-use lensbake::render::{Backend, RenderError, RenderSettings, layer_view, render_layers};
+use lensbake::render::{Backend, RenderSettings, layer_view, render_layers};
 use lensbake::trace::{Outcome, Ray, Travel};
+
+mod common;
+use common::gpu_or_skip;
 
 #[test]
 fn every_wgsl_module_validates_with_naga() {
@@ -32,18 +35,8 @@ fn every_wgsl_module_validates_with_naga() {
 
 #[test]
 fn frame_params_layout_matches_wgsl() {
-    let module = naga::front::wgsl::parse_str(IBRT_SHADER).unwrap();
-    let (members, span) = module
-        .types
-        .iter()
-        .find_map(|(_, ty)| match (&ty.name, &ty.inner) {
-            (Some(name), naga::TypeInner::Struct { members, span }) if name == "FrameParams" => {
-                Some((members.clone(), *span))
-            }
-            _ => None,
-        })
-        .expect("FrameParams in ibrt.wgsl");
-    assert_eq!(span as usize, std::mem::size_of::<FrameParams>());
+    let (members, span) = common::wgsl_struct(IBRT_SHADER, "FrameParams");
+    assert_eq!(span, std::mem::size_of::<FrameParams>());
     macro_rules! offsets {
         ($($field:ident),*) => { vec![$((stringify!($field), std::mem::offset_of!(FrameParams, $field))),*] };
     }
@@ -77,22 +70,9 @@ fn frame_params_layout_matches_wgsl() {
         far_depth
     );
     assert_eq!(members.len(), rust.len());
-    for (member, (name, offset)) in members.iter().zip(rust) {
-        assert_eq!(member.name.as_deref(), Some(name));
-        assert_eq!(member.offset as usize, offset, "{name}");
-    }
-}
-
-/// The GPU renderer, or None outside CI when this machine has no adapter. In CI a missing
-/// adapter is a failure: CI installs lavapipe precisely so these tests run.
-fn gpu_or_skip(test: &str) -> Option<GpuRenderer> {
-    match GpuRenderer::new() {
-        Ok(gpu) => Some(gpu),
-        Err(RenderError::NoAdapter(why)) if std::env::var("CI").as_deref() != Ok("true") => {
-            eprintln!("SKIPPED {test}: no GPU adapter ({why}); install mesa-vulkan-drivers");
-            None
-        }
-        Err(e) => panic!("{test}: GPU unavailable: {e}"),
+    for ((member, member_offset), (name, offset)) in members.iter().zip(rust) {
+        assert_eq!(member, name);
+        assert_eq!(*member_offset, offset, "{name}");
     }
 }
 
@@ -542,15 +522,7 @@ fn gpu_matches_cpu_twin_for_traced_and_baked_lenses() {
         let cpu = render_layers(camera, &ldi, &settings, Backend::Cpu, None).unwrap();
         let gpu_image = render_layers(camera, &ldi, &settings, Backend::Gpu, Some(&gpu)).unwrap();
         let channels = cpu.pixels.len() * 3;
-        let (mut large, mut total_abs) = (0usize, 0.0f64);
-        for (a, b) in cpu.pixels.iter().zip(&gpu_image.pixels) {
-            for c in 0..3 {
-                let d = (a[c] - b[c]).abs();
-                total_abs += d as f64;
-                large += usize::from(d > 1e-3 * (1.0 + a[c].abs()));
-            }
-        }
-        let mean_abs = total_abs / channels as f64;
+        let (large, mean_abs) = common::image_difference(&cpu, &gpu_image);
         eprintln!(
             "{}: {large} of {channels} channels differ beyond rounding, mean |cpu - gpu| = \
              {mean_abs:.2e}, PSNR {:.1} dB",

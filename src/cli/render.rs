@@ -10,6 +10,9 @@ use lensbake::lrtf::{LrtfTable, Precision};
 use lensbake::paraxial::{ObjectPosition, object_in_focus};
 use lensbake::render::camera::{Camera, Film, Focus, LensModel, ParaxialLens};
 use lensbake::render::gltf_scene::{gltf_path, load_gltf};
+use lensbake::render::chromatic::{
+    CHANNELS, Chromatic, ChromaticMode, ColourSpread, default_wavelengths, wants_chromatic,
+};
 use lensbake::render::gpu::GpuRenderer;
 use lensbake::render::gpu_peel::GpuPeeler;
 use lensbake::render::image::{read_exr_rgbz, write_exr, write_png};
@@ -107,6 +110,95 @@ pub struct RenderArgs {
     /// Output OpenEXR (linear R, G, B); a tone-mapped PNG is written beside it.
     #[arg(long)]
     out: PathBuf,
+    /// Trace R, G and B each at its own wavelength (chromatic aberration): on, off, or auto =
+    /// on when the lens disperses and its colour spread on this film reaches half a pixel.
+    #[arg(long, value_enum, default_value = "auto")]
+    chromatic: ChromaticArg,
+    /// Wavelengths of R,G,B in nm; default: the C line, the design wavelength, the F line.
+    #[arg(long, value_delimiter = ',')]
+    wavelengths_nm: Option<Vec<f64>>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum ChromaticArg {
+    On,
+    Off,
+    Auto,
+}
+
+impl ChromaticArg {
+    fn mode(self) -> ChromaticMode {
+        match self {
+            ChromaticArg::On => ChromaticMode::On,
+            ChromaticArg::Off => ChromaticMode::Off,
+            ChromaticArg::Auto => ChromaticMode::Auto,
+        }
+    }
+}
+
+/// The wavelengths R, G, B of a chromatic render of `lens` through `camera`, or None for a
+/// monochrome one, with the line that says why.
+fn chromatic_wavelengths(
+    args: &RenderArgs,
+    lens: &RenderLens,
+    first_order: &FirstOrderModels,
+    camera: &Camera,
+) -> anyhow::Result<(Option<[f64; CHANNELS]>, String)> {
+    let wavelengths = match &args.wavelengths_nm {
+        Some(list) => Some(<[f64; CHANNELS]>::try_from(list.as_slice()).map_err(|_| {
+            anyhow::anyhow!(
+                "--wavelengths-nm takes three wavelengths R,G,B, got {}",
+                list.len()
+            )
+        })?),
+        None => None,
+    };
+    let real = match (lens, args.chromatic) {
+        (_, ChromaticArg::Off) => return Ok((None, "chromatic: off".into())),
+        (RenderLens::Ideal { .. }, ChromaticArg::On) => {
+            bail!("--chromatic on: an `ideal:` lens has no glass to disperse; use a lens file")
+        }
+        (RenderLens::Ideal { .. }, ChromaticArg::Auto) => {
+            return Ok((None, "chromatic: off (ideal lens)".into()));
+        }
+        (RenderLens::Real(real), _) => real,
+    };
+    let system = &real.system;
+    let wavelengths = wavelengths.unwrap_or_else(|| default_wavelengths(system));
+    let spread = ColourSpread::of(
+        system,
+        first_order,
+        wavelengths,
+        camera.film_z,
+        camera.film_corner_radius(),
+    )?;
+    let pitch = camera.film.width_mm / args.width as f64;
+    let on = wants_chromatic(args.chromatic.mode(), system, &spread, pitch);
+    let why = format!(
+        "lateral colour {:.2} px, axial colour blur {:.2} px{}",
+        spread.lateral_mm / pitch,
+        spread.axial_blur_mm / pitch,
+        if system.disperses() {
+            ""
+        } else {
+            "; the lens does not disperse"
+        }
+    );
+    let nm = wavelengths.map(|w| format!("{w:.1}")).join("/");
+    Ok(if on {
+        (
+            Some(wavelengths),
+            format!("chromatic: on, R/G/B at {nm} nm ({why})"),
+        )
+    } else {
+        (None, format!("chromatic: off ({why})"))
+    })
+}
+
+/// Where `--model baked` keeps a chromatic render's table, beside the monochrome one in `base`.
+fn chromatic_table_dir(base: &Path, wavelengths_nm: [f64; CHANNELS]) -> PathBuf {
+    let [r, g, b] = wavelengths_nm;
+    base.join(format!("rgb-{r:.1}-{g:.1}-{b:.1}nm"))
 }
 
 fn parse_pair<T: std::str::FromStr>(text: &str) -> Result<(T, T), String> {
@@ -185,6 +277,27 @@ pub fn load_or_bake(
     resolution: usize,
     progress: &(dyn Fn(BakeProgress) + Sync),
 ) -> anyhow::Result<(LrtfTable, bool)> {
+    load_or_bake_at(
+        lens,
+        dir,
+        focus_mm,
+        max_film_radius,
+        resolution,
+        Vec::new(),
+        progress,
+    )
+}
+
+/// [`load_or_bake`], baking the layers at `wavelengths_nm` (empty: the design wavelength).
+pub fn load_or_bake_at(
+    lens: &LoadedLens,
+    dir: &Path,
+    focus_mm: Option<f64>,
+    max_film_radius: f64,
+    resolution: usize,
+    wavelengths_nm: Vec<f64>,
+    progress: &(dyn Fn(BakeProgress) + Sync),
+) -> anyhow::Result<(LrtfTable, bool)> {
     let prescription = &lens.source.loaded.prescription;
     if dir.join(SIDECAR_FILE).exists() {
         let table = read_table(dir, Some(prescription))?;
@@ -209,6 +322,7 @@ pub fn load_or_bake(
         precision: Precision::F32,
         focus_mm,
         max_film_radius: Some(max_film_radius),
+        wavelengths_nm,
         ..BakeRequest::default()
     };
     let table = bake(&lens.system, &request, progress)?;
@@ -342,6 +456,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         (None, None, None) => Focus::ObjectDistance(2000.0),
     };
     let camera = Camera::new(model, film, focus)?;
+    let (wavelengths, chromatic_line) = chromatic_wavelengths(&args, &lens, &first_order, &camera)?;
+    println!("{chromatic_line}");
     let camera = match (args.model, &lens) {
         (ModelArg::Thin | ModelArg::Thick, _) => camera,
         (_, RenderLens::Ideal { .. }) => {
@@ -368,22 +484,29 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
                 ObjectPosition::Infinite => None,
                 ObjectPosition::Finite { distance } => Some(distance),
             };
-            let dir = args
-                .table
-                .clone()
-                .unwrap_or_else(|| default_table_dir(&real.source.origin.name(), focus_mm));
-            let (table, baked) = load_or_bake(
+            let dir = args.table.clone().unwrap_or_else(|| {
+                let base = default_table_dir(&real.source.origin.name(), focus_mm);
+                match wavelengths {
+                    Some(nm) => chromatic_table_dir(&base, nm),
+                    None => base,
+                }
+            });
+            let (table, baked) = load_or_bake_at(
                 real,
                 &dir,
                 focus_mm,
                 camera.film_corner_radius(),
                 args.bake_resolution,
+                wavelengths.map(Vec::from).unwrap_or_default(),
                 &|_| {},
             )?;
             if baked {
                 println!("baked {}", dir.display());
             }
-            let baked = BakedLens::new(table, &first_order, f_number)?;
+            // The monochrome reading of the table: the design layer, or in a chromatic render
+            // the green channel's (the channels pick their own layers below).
+            let green = wavelengths.map_or(real.system.design_wavelength_nm(), |nm| nm[1]);
+            let baked = BakedLens::new(table, &first_order, f_number)?.with_wavelength(green)?;
             let film_z = baked.film_z();
             Camera::new(
                 LensModel::Baked(Box::new(baked)),
@@ -391,6 +514,14 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
                 Focus::FilmZ(film_z),
             )?
         }
+    };
+    let camera = match (wavelengths, &lens) {
+        (Some(nm), RenderLens::Real(real)) => {
+            let chromatic =
+                Chromatic::for_camera(&camera, &real.system, &first_order, nm, PUPIL_NODES)?;
+            camera.with_chromatic(chromatic)?
+        }
+        _ => camera,
     };
     let started = Instant::now();
     let ldi = source.layers(&camera, &settings)?;
@@ -419,6 +550,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let backend = match &gpu {
         Some(g) => {
             println!("backend: gpu ({})", g.adapter_description);
+            if camera.chromatic.is_some() {
+                g.prepare_chromatic()?;
+            }
             Backend::Gpu
         }
         None => {

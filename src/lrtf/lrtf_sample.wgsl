@@ -49,15 +49,26 @@ struct LrtfLocated {
     reaches: bool,
 }
 
-fn lrtf_pupil_at(film_radius: f32) -> vec2<f32> {
+// The table layer lookups read. A chromatic render binds one layer per colour channel: layer k's
+// nodes follow layer k - 1's along the textures' third axis, and its pupil circles follow layer
+// k - 1's in lrtf_pupil (blocks of pupil_count). render_chromatic (ibrt.wgsl) sets it per channel.
+var<private> lrtf_layer: u32 = 0u;
+
+// The circle of block `block` of lrtf_pupil at a film radius, linear between the stored radii.
+fn lrtf_circle_at(film_radius: f32, block: u32) -> vec2<f32> {
     let n = lrtf.pupil_count;
+    let first = block * n;
     if n == 1u || lrtf.max_film_radius <= 0.0 {
-        return lrtf_pupil[0];
+        return lrtf_pupil[first];
     }
     let t = clamp(film_radius / lrtf.max_film_radius, 0.0, 1.0) * f32(n - 1u);
     let i = min(u32(floor(t)), n - 2u);
     let f = t - f32(i);
-    return mix(lrtf_pupil[i], lrtf_pupil[i + 1u], f);
+    return mix(lrtf_pupil[first + i], lrtf_pupil[first + i + 1u], f);
+}
+
+fn lrtf_pupil_at(film_radius: f32) -> vec2<f32> {
+    return lrtf_circle_at(film_radius, lrtf_layer);
 }
 
 fn lrtf_crossing(origin: vec3<f32>, direction: vec3<f32>, z: f32) -> vec2<f32> {
@@ -140,7 +151,7 @@ fn lrtf_fetch(coords: vec3<f32>) -> LrtfEntry {
     let a0 = lrtf_address(coords.x, lrtf.dims.x);
     let a1 = lrtf_address(coords.y, lrtf.dims.y);
     let a2 = lrtf_address(coords.z, lrtf.dims.z);
-    let base = vec3<i32>(i32(a0.x), i32(a1.x), i32(a2.x));
+    let base = vec3<i32>(i32(a0.x), i32(a1.x), i32(a2.x) + i32(lrtf_layer * lrtf.dims.z));
     let f = vec3<f32>(a0.y, a1.y, a2.y);
     var out: LrtfEntry;
     out.transfer = vec4<f32>(0.0);

@@ -2,6 +2,7 @@
 //! lens frame (z along the axis, light towards +z, origin at the first vertex).
 
 use super::RenderError;
+use super::chromatic::Chromatic;
 use super::models::{BakedLens, PupilSampling, TracedLens};
 
 /// A lens reduced to first order: power and unit-magnification principal planes, with its pupils.
@@ -119,13 +120,7 @@ impl LensModel {
                 z: lens.rear_plane_z,
                 circles: lens.pupil.clone(),
             },
-            LensModel::Baked(lens) => {
-                let layer = &lens.table.layers[0];
-                PupilSampling {
-                    z: layer.frame.rear_plane_z,
-                    circles: layer.pupil.clone(),
-                }
-            }
+            LensModel::Baked(lens) => lens.pupil(lens.layer),
         }
     }
 }
@@ -170,6 +165,9 @@ pub struct Camera {
     pub model: LensModel,
     pub film: Film,
     pub film_z: f64,
+    /// Each colour channel's lens at its own wavelength; None renders every channel through
+    /// `model` (the monochrome path).
+    pub chromatic: Option<Chromatic>,
 }
 
 impl Camera {
@@ -188,7 +186,27 @@ impl Camera {
             model,
             film,
             film_z,
+            chromatic: None,
         })
+    }
+
+    /// This camera with each colour channel traced through its own wavelength's lens; refused
+    /// when the channels are of another kind of model than `model`.
+    pub fn with_chromatic(self, chromatic: Chromatic) -> Result<Camera, RenderError> {
+        chromatic.check_matches(&self.model)?;
+        Ok(Camera {
+            chromatic: Some(chromatic),
+            ..self
+        })
+    }
+
+    /// Where lens samples are drawn: the channels' common (conservative) pupil in a chromatic
+    /// render, the model's otherwise.
+    pub fn pupil_sampling(&self) -> PupilSampling {
+        match &self.chromatic {
+            Some(chromatic) => chromatic.sampling.clone(),
+            None => self.model.pupil_sampling(),
+        }
     }
 
     /// Largest distance of a film point from the axis (the film corner, shift included).

@@ -1,7 +1,7 @@
 //! The wgpu backend: runs `shaders/ibrt.wgsl` as a compute shader.
 
 use super::RenderError;
-use super::gpu_types::{FrameParams, LayerData, LensData, LensParams, LensSurface};
+use super::gpu_types::{ChannelParams, FrameParams, LayerData, LensData, LensParams, LensSurface};
 use wgpu::util::DeviceExt;
 
 /// The lens trace alone (bind groups 2 and 3), with the `trace_lens_rays` test entry point.
@@ -42,6 +42,8 @@ pub(crate) fn open_device(label: &str) -> Result<(wgpu::Device, wgpu::Queue, Str
             max_bind_groups: limits.max_bind_groups.max(4),
             // Peeled layers are as wide as the layer view.
             max_texture_dimension_2d: limits.max_texture_dimension_2d,
+            // A chromatic baked render stacks three tables along the third axis.
+            max_texture_dimension_3d: limits.max_texture_dimension_3d,
             ..wgpu::Limits::downlevel_defaults()
         },
         ..Default::default()
@@ -56,6 +58,8 @@ pub struct GpuRenderer {
     queue: wgpu::Queue,
     pipeline: wgpu::ComputePipeline,
     trace_pipeline: wgpu::ComputePipeline,
+    /// `render_chromatic`, built on first use so monochrome work never compiles it.
+    chromatic_pipeline: std::sync::OnceLock<wgpu::ComputePipeline>,
     /// The adapter's name and backend, for reports.
     pub adapter_description: String,
 }
@@ -67,22 +71,8 @@ impl GpuRenderer {
         let (device, queue, adapter_description) = open_device("lensbake ibrt")?;
         // Capture validation errors instead of letting wgpu's default handler panic.
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let pipeline_for = |source: &str, entry: &str| {
-            let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some(entry),
-                source: wgpu::ShaderSource::Wgsl(source.into()),
-            });
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(entry),
-                layout: None,
-                module: &module,
-                entry_point: Some(entry),
-                compilation_options: Default::default(),
-                cache: None,
-            })
-        };
-        let pipeline = pipeline_for(IBRT_SHADER, "render");
-        let trace_pipeline = pipeline_for(LENS_TRACE_SHADER, "trace_lens_rays");
+        let pipeline = compute_pipeline(&device, IBRT_SHADER, "render");
+        let trace_pipeline = compute_pipeline(&device, LENS_TRACE_SHADER, "trace_lens_rays");
         if let Some(error) = pollster::block_on(scope.pop()) {
             return Err(RenderError::Gpu(format!(
                 "building the IBRT pipeline: {error}"
@@ -93,8 +83,30 @@ impl GpuRenderer {
             queue,
             pipeline,
             trace_pipeline,
+            chromatic_pipeline: std::sync::OnceLock::new(),
             adapter_description,
         })
+    }
+
+    /// Builds the `render_chromatic` pipeline now rather than on the first chromatic render (it
+    /// takes seconds on a software adapter; callers that time renders build it first).
+    pub fn prepare_chromatic(&self) -> Result<(), RenderError> {
+        self.chromatic_pipeline().map(|_| ())
+    }
+
+    /// The `render_chromatic` pipeline, built the first time it is asked for.
+    fn chromatic_pipeline(&self) -> Result<&wgpu::ComputePipeline, RenderError> {
+        if let Some(pipeline) = self.chromatic_pipeline.get() {
+            return Ok(pipeline);
+        }
+        let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let pipeline = compute_pipeline(&self.device, IBRT_SHADER, "render_chromatic");
+        if let Some(error) = pollster::block_on(scope.pop()) {
+            return Err(RenderError::Gpu(format!(
+                "building the chromatic IBRT pipeline: {error}"
+            )));
+        }
+        Ok(self.chromatic_pipeline.get_or_init(|| pipeline))
     }
 
     fn storage(&self, label: &str, contents: &[u8]) -> wgpu::Buffer {
@@ -264,8 +276,31 @@ impl GpuRenderer {
         layers: &LayerData,
         lens: &LensData,
     ) -> Result<Vec<[f32; 4]>, RenderError> {
+        self.accumulate_channels(frame, layers, lens, None)
+    }
+
+    /// [`GpuRenderer::accumulate`], per colour channel when `channels` is given (`lens` then
+    /// from [`LensData::chromatic`]): the twin of the CPU's `accumulate_chromatic`.
+    pub fn accumulate_channels(
+        &self,
+        frame: &FrameParams,
+        layers: &LayerData,
+        lens: &LensData,
+        channels: Option<&ChannelParams>,
+    ) -> Result<Vec<[f32; 4]>, RenderError> {
+        let limit = self.device.limits().max_texture_dimension_3d;
+        if lens.dims.iter().any(|&n| n > limit) {
+            return Err(RenderError::Gpu(format!(
+                "the table's {}x{}x{} texture exceeds this adapter's 3D texture limit {limit}; \
+                 bake at a lower resolution",
+                lens.dims[0], lens.dims[1], lens.dims[2]
+            )));
+        }
+        let pipeline = match channels {
+            Some(_) => self.chromatic_pipeline()?,
+            None => &self.pipeline,
+        };
         let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let pipeline = &self.pipeline;
         let depths = self.storage("layer depths", bytemuck::cast_slice(&layers.depths));
         let colours = self.storage("layer colours", bytemuck::cast_slice(&layers.colours));
         let bounds = self.storage("depth bounds", bytemuck::cast_slice(&layers.depth_bounds));
@@ -292,6 +327,7 @@ impl GpuRenderer {
             ],
         );
         let lens_group = self.lens_group(pipeline, &lens.params, &lens.surfaces);
+        let channel_uniform = channels.map(|c| self.uniform("channels", bytemuck::bytes_of(c)));
         let mut offset = 0;
         while offset < frame.samples_per_pixel {
             let chunk = FrameParams {
@@ -300,17 +336,17 @@ impl GpuRenderer {
                 ..*frame
             };
             let uniform = self.uniform("frame", bytemuck::bytes_of(&chunk));
-            let layer_group = self.bind_group(
-                pipeline,
-                1,
-                &[
-                    uniform.as_entire_binding(),
-                    depths.as_entire_binding(),
-                    colours.as_entire_binding(),
-                    bounds.as_entire_binding(),
-                    output.as_entire_binding(),
-                ],
-            );
+            let mut layer_entries = vec![
+                uniform.as_entire_binding(),
+                depths.as_entire_binding(),
+                colours.as_entire_binding(),
+                bounds.as_entire_binding(),
+                output.as_entire_binding(),
+            ];
+            if let Some(channel_uniform) = &channel_uniform {
+                layer_entries.push(channel_uniform.as_entire_binding());
+            }
+            let layer_group = self.bind_group(pipeline, 1, &layer_entries);
             let mut encoder = self.device.create_command_encoder(&Default::default());
             {
                 let mut pass = encoder.begin_compute_pass(&Default::default());
@@ -332,4 +368,19 @@ impl GpuRenderer {
         }
         self.read_back(&output, output_bytes)
     }
+}
+
+fn compute_pipeline(device: &wgpu::Device, source: &str, entry: &str) -> wgpu::ComputePipeline {
+    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some(entry),
+        source: wgpu::ShaderSource::Wgsl(source.into()),
+    });
+    device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some(entry),
+        layout: None,
+        module: &module,
+        entry_point: Some(entry),
+        compilation_options: Default::default(),
+        cache: None,
+    })
 }

@@ -3,8 +3,9 @@
 
 use super::RenderError;
 use super::camera::{Camera, LensModel};
+use super::chromatic::{CHANNELS, ChannelLenses, Chromatic, PUPIL_EDGE_TOLERANCE};
 use super::layers::LayeredDepthImage;
-use crate::lrtf::GpuParams;
+use crate::lrtf::{GpuParams, Parameterisation};
 use bytemuck::{Pod, Zeroable};
 
 /// Inverse depth stored for "no surface" in a packed layer (any negative value means empty).
@@ -159,7 +160,7 @@ pub fn frame_params(
         -camera.film.width_mm / width as f64,
         camera.film.height_mm / height as f64,
     ];
-    let sampling = camera.model.pupil_sampling();
+    let sampling = camera.pupil_sampling();
     // Every model's weights are relative to the paraxial exit pupil seen from the film, so an
     // unvignetted axial pixel of a thin or thick lens gets weight cos^4 = 1.
     let exit_distance = camera.film_z - lens.exit_pupil_z;
@@ -402,6 +403,126 @@ pub fn lens_surfaces(system: &crate::system::SystemAt) -> (LensParams, Vec<LensS
         })
         .collect();
     (params, surfaces)
+}
+
+/// Uniform block `ChannelParams` of `render_chromatic` (ibrt.wgsl): which pupil circles lens
+/// samples are drawn from, and the paraxial channels' lenses, one lane per channel (R, G, B in
+/// x, y, z; w unused). Traced and baked channels live in [`LensData`] instead.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct ChannelParams {
+    /// The block of `LensData::pupil` (blocks of `lrtf.pupil_count` circles) samples come from.
+    pub sampling_block: u32,
+    pub pad: [u32; 3],
+    pub focal_length: [f32; 4],
+    pub front_principal_z: [f32; 4],
+    pub rear_principal_z: [f32; 4],
+    pub exit_pupil_z: [f32; 4],
+    /// Squared exit-pupil radius widened by [`PUPIL_EDGE_TOLERANCE`].
+    pub exit_pupil_limit_sq: [f32; 4],
+}
+
+impl LensData {
+    /// The kernel's data for a chromatic render of `camera` through `chromatic`'s channels:
+    /// the sampling pupil, and per channel the surfaces (traced: channel c's surfaces follow
+    /// channel c - 1's) or the table layer (baked: channel c's nodes follow channel c - 1's along
+    /// the textures' third axis, its pupil circles in block c, the sampling circles in block 3).
+    pub fn chromatic(
+        camera: &Camera,
+        chromatic: &Chromatic,
+    ) -> Result<(LensData, ChannelParams), RenderError> {
+        chromatic.check_matches(&camera.model)?;
+        let mut lens = LensData::of(&camera.model);
+        let mut params = ChannelParams::zeroed();
+        let sampling: Vec<[f32; 2]> = chromatic
+            .sampling
+            .circles
+            .circles
+            .iter()
+            .map(|c| [c.centre_x as f32, c.radius as f32])
+            .collect();
+        match (&chromatic.lenses, &camera.model) {
+            (ChannelLenses::Paraxial(lenses), _) => {
+                for (c, l) in lenses.iter().enumerate() {
+                    params.focal_length[c] = l.focal_length_mm as f32;
+                    params.front_principal_z[c] = l.front_principal_z as f32;
+                    params.rear_principal_z[c] = l.rear_principal_z as f32;
+                    params.exit_pupil_z[c] = l.exit_pupil_z as f32;
+                    params.exit_pupil_limit_sq[c] =
+                        (l.exit_pupil_radius_mm.powi(2) * (1.0 + PUPIL_EDGE_TOLERANCE)) as f32;
+                }
+                lens.lrtf.pupil_count = sampling.len() as u32;
+                lens.pupil = sampling;
+            }
+            (ChannelLenses::Traced(lenses), _) => {
+                lens.surfaces.clear();
+                for l in lenses.iter() {
+                    let (channel_params, surfaces) = lens_surfaces(&l.system);
+                    if surfaces.len() as u32 != lens.params.surface_count {
+                        return Err(RenderError::InvalidSetting(
+                            "the channels' lenses have different surface counts".into(),
+                        ));
+                    }
+                    lens.params = channel_params;
+                    lens.surfaces.extend(surfaces);
+                }
+                lens.lrtf.pupil_count = sampling.len() as u32;
+                lens.lrtf.max_film_radius = chromatic.sampling.circles.max_film_radius as f32;
+                lens.pupil = sampling;
+            }
+            (ChannelLenses::Baked(layers), LensModel::Baked(baked)) => {
+                let table = &baked.table;
+                // The shader reads one frame for every layer: the planes and film radius, and
+                // for the spherical parameterisation its ranges too (pupil-planes tables keep
+                // their own pupil circles per layer, which is where their layers differ).
+                let frame = &table.layers[layers[0]].frame;
+                let spherical = table.info.parameterisation == Parameterisation::Spherical;
+                let same_frame = |k: usize| {
+                    let f = &table.layers[k].frame;
+                    f.rear_plane_z == frame.rear_plane_z
+                        && f.film_plane_z == frame.film_plane_z
+                        && f.max_film_radius == frame.max_film_radius
+                        && (!spherical || f == frame)
+                };
+                if !layers.iter().all(|&k| same_frame(k)) {
+                    return Err(RenderError::InvalidSetting(
+                        "the table's layers were baked with different frames (film plane, film \
+                         radius or spherical ranges); a chromatic render needs one frame"
+                            .into(),
+                    ));
+                }
+                let g = table.gpu_params(layers[0], baked.stop_radius);
+                lens.lrtf = g;
+                lens.transfer.clear();
+                lens.aux.clear();
+                lens.pupil.clear();
+                for &k in layers {
+                    let layer = &table.layers[k];
+                    lens.transfer
+                        .extend(layer.entries.iter().map(|e| [e[0], e[1], e[2], e[3]]));
+                    lens.aux
+                        .extend(layer.entries.iter().map(|e| [e[4], e[5], e[6], e[7]]));
+                    lens.pupil.extend(
+                        layer
+                            .pupil
+                            .circles
+                            .iter()
+                            .map(|c| [c.centre_x as f32, c.radius as f32]),
+                    );
+                }
+                lens.pupil.extend(sampling);
+                lens.dims = [g.dims[0], g.dims[1], g.dims[2] * CHANNELS as u32];
+                params.sampling_block = CHANNELS as u32;
+            }
+            (ChannelLenses::Baked(_), _) => {
+                return Err(RenderError::InvalidSetting(format!(
+                    "baked chromatic channels need a baked model, not {}",
+                    camera.model.name()
+                )));
+            }
+        }
+        Ok((lens, params))
+    }
 }
 
 #[cfg(test)]

@@ -6,8 +6,10 @@
 //! f64 tracer ([`crate::trace`]) and table sampler ([`LrtfTable::lookup`]), so the CPU twin *is*
 //! the oracle the shader's ports are measured against.
 
+use super::RenderError;
 use super::camera::LensModel;
-use super::gpu_types::{FrameParams, LayerData, LensData};
+use super::chromatic::{CHANNELS, ChannelLenses, Chromatic};
+use super::gpu_types::{ChannelParams, FrameParams, LayerData, LensData};
 use crate::lrtf::{self, Lookup, LrtfTable};
 use crate::trace::{Tracer, Travel};
 use rayon::prelude::*;
@@ -73,23 +75,72 @@ struct ObjectRay {
 }
 
 fn paraxial_lens_ray(frame: &FrameParams, film: Vec3, pupil: Vec3) -> ObjectRay {
+    paraxial_map(
+        frame.focal_length,
+        frame.front_principal_z,
+        frame.rear_principal_z,
+        film,
+        pupil,
+    )
+}
+
+/// Thin or thick lens: unit magnification between the principal planes, power 1/f.
+fn paraxial_map(
+    focal_length: f32,
+    front_principal_z: f32,
+    rear_principal_z: f32,
+    film: Vec3,
+    pupil: Vec3,
+) -> ObjectRay {
     let to_pupil = [pupil[0] - film[0], pupil[1] - film[1], pupil[2] - film[2]];
-    let t = (frame.rear_principal_z - film[2]) / to_pupil[2];
+    let t = (rear_principal_z - film[2]) / to_pupil[2];
     let height = [film[0] + t * to_pupil[0], film[1] + t * to_pupil[1]];
-    let image_distance = film[2] - frame.rear_principal_z;
+    let image_distance = film[2] - rear_principal_z;
     let image_slope = [
         (film[0] - height[0]) / image_distance,
         (film[1] - height[1]) / image_distance,
     ];
     let object_slope = [
-        image_slope[0] + height[0] / frame.focal_length,
-        image_slope[1] + height[1] / frame.focal_length,
+        image_slope[0] + height[0] / focal_length,
+        image_slope[1] + height[1] / focal_length,
     ];
     ObjectRay {
-        origin: [height[0], height[1], frame.front_principal_z],
+        origin: [height[0], height[1], front_principal_z],
         direction: [object_slope[0], object_slope[1], 1.0],
         valid: true,
     }
+}
+
+fn blocked_ray() -> ObjectRay {
+    ObjectRay {
+        origin: [0.0; 3],
+        direction: [0.0, 0.0, 1.0],
+        valid: false,
+    }
+}
+
+/// Paraxial channel `channel` of a chromatic render: blocked outside the channel's exit pupil,
+/// else the channel's thin or thick lens.
+fn channel_paraxial_ray(
+    channels: &ChannelParams,
+    channel: usize,
+    film: Vec3,
+    pupil: Vec3,
+) -> ObjectRay {
+    let to_pupil = [pupil[0] - film[0], pupil[1] - film[1], pupil[2] - film[2]];
+    let t = (channels.exit_pupil_z[channel] - film[2]) / to_pupil[2];
+    let crossing = [film[0] + t * to_pupil[0], film[1] + t * to_pupil[1]];
+    if crossing[0] * crossing[0] + crossing[1] * crossing[1] > channels.exit_pupil_limit_sq[channel]
+    {
+        return blocked_ray();
+    }
+    paraxial_map(
+        channels.focal_length[channel],
+        channels.front_principal_z[channel],
+        channels.rear_principal_z[channel],
+        film,
+        pupil,
+    )
 }
 
 fn project(frame: &FrameParams, ray: &ObjectRay, depth: f32) -> Vec3 {
@@ -300,10 +351,11 @@ pub enum LensRays<'a> {
     Paraxial,
     /// The exact f64 trace.
     Traced(&'a Tracer),
-    /// The f64 table sampler, through a stop of `stop_radius` mm.
+    /// The f64 table sampler on layer `layer`, through a stop of `stop_radius` mm.
     Baked {
         table: &'a LrtfTable,
         stop_radius: f64,
+        layer: usize,
     },
 }
 
@@ -315,8 +367,31 @@ impl LensRays<'_> {
             LensModel::Baked(lens) => LensRays::Baked {
                 table: &lens.table,
                 stop_radius: lens.stop_radius,
+                layer: lens.layer,
             },
         }
+    }
+
+    /// The lens functions of `chromatic`'s channels, R, G, B, for a camera with `model`
+    /// (paraxial channels read [`ChannelParams`] instead).
+    pub fn channels<'a>(
+        chromatic: &'a Chromatic,
+        model: &'a LensModel,
+    ) -> Result<[LensRays<'a>; CHANNELS], RenderError> {
+        chromatic.check_matches(model)?;
+        Ok(match (&chromatic.lenses, model) {
+            (ChannelLenses::Traced(lenses), _) => {
+                lenses.each_ref().map(|l| LensRays::Traced(&l.tracer))
+            }
+            (ChannelLenses::Baked(layers), LensModel::Baked(lens)) => {
+                layers.map(|layer| LensRays::Baked {
+                    table: &lens.table,
+                    stop_radius: lens.stop_radius,
+                    layer,
+                })
+            }
+            _ => [LensRays::Paraxial; CHANNELS],
+        })
     }
 }
 
@@ -327,11 +402,7 @@ fn to_f64(v: Vec3) -> [f64; 3] {
 /// The object-space ray for the film-side ray from `film` through `pupil`; invalid when the lens
 /// blocks it (vignetted, TIR, missed; or outside the table).
 fn lens_ray(frame: &FrameParams, rays: LensRays, film: Vec3, pupil: Vec3) -> ObjectRay {
-    let blocked = ObjectRay {
-        origin: [0.0; 3],
-        direction: [0.0, 0.0, 1.0],
-        valid: false,
-    };
+    let blocked = blocked_ray();
     let towards = [pupil[0] - film[0], pupil[1] - film[1], pupil[2] - film[2]];
     let object = |origin: [f64; 3], direction: [f64; 3]| ObjectRay {
         origin: origin.map(|v| v as f32),
@@ -352,14 +423,18 @@ fn lens_ray(frame: &FrameParams, rays: LensRays, film: Vec3, pupil: Vec3) -> Obj
                 blocked
             }
         }
-        LensRays::Baked { table, stop_radius } => {
+        LensRays::Baked {
+            table,
+            stop_radius,
+            layer,
+        } => {
             let d = to_f64(towards);
             let length = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
             let ray = lrtf::Ray {
                 origin: to_f64(film),
                 direction: d.map(|v| v / length),
             };
-            match table.lookup(0, &ray, stop_radius) {
+            match table.lookup(layer, &ray, stop_radius) {
                 Lookup::Passes(out) => object(out.origin, out.direction),
                 Lookup::Blocked | Lookup::OutsideDomain => blocked,
             }
@@ -367,22 +442,26 @@ fn lens_ray(frame: &FrameParams, rays: LensRays, film: Vec3, pupil: Vec3) -> Obj
     }
 }
 
-/// The shader's `lrtf_pupil_at`: the pupil circle (centre_x, radius) for a film radius, linear
-/// between the stored film radii.
-fn pupil_at(lens: &LensData, film_radius: f32) -> Vec2 {
+/// The shader's `lrtf_circle_at`: the pupil circle (centre_x, radius) of block `block` for a
+/// film radius, linear between the stored film radii.
+fn pupil_at(lens: &LensData, block: u32, film_radius: f32) -> Vec2 {
     let n = lens.lrtf.pupil_count;
+    let first = (block * n) as usize;
     if n == 1 || lens.lrtf.max_film_radius <= 0.0 {
-        return lens.pupil[0];
+        return lens.pupil[first];
     }
     let t = (film_radius / lens.lrtf.max_film_radius).clamp(0.0, 1.0) * (n - 1) as f32;
     let i = (t.floor() as u32).min(n - 2);
     let f = t - i as f32;
-    let (a, b) = (lens.pupil[i as usize], lens.pupil[i as usize + 1]);
+    let (a, b) = (
+        lens.pupil[first + i as usize],
+        lens.pupil[first + i as usize + 1],
+    );
     [a[0] * (1.0 - f) + b[0] * f, a[1] * (1.0 - f) + b[1] * f]
 }
 
 /// A lens sample: the point on the sampling plane for unit-square sample `lens_u` from `film`,
-/// uniform over the film radius's pupil circle, and its
+/// uniform over the film radius's pupil circle in block `block` of `lens.pupil`, and its
 /// weight (cos^4 times the circle's projected solid angle relative to the paraxial exit pupil).
 ///
 /// Only the circle's centre turns with the film point's azimuth; the disc sample itself does
@@ -391,6 +470,7 @@ fn pupil_at(lens: &LensData, film_radius: f32) -> Vec2 {
 pub(crate) fn pupil_sample(
     frame: &FrameParams,
     lens: &LensData,
+    block: u32,
     film: Vec3,
     lens_u: Vec2,
 ) -> (Vec3, f32) {
@@ -400,7 +480,7 @@ pub(crate) fn pupil_sample(
     } else {
         [1.0, 0.0]
     };
-    let circle = pupil_at(lens, film_radius);
+    let circle = pupil_at(lens, block, film_radius);
     let disc = concentric_disc(lens_u);
     let pupil = [
         azimuth[0] * circle[0] + circle[1] * disc[0],
@@ -418,6 +498,24 @@ pub(crate) fn pupil_sample(
     )
 }
 
+/// Sample `index` of output pixel (x, y): its film point and unit-square lens sample (the
+/// shader's `pixel_sample`).
+fn pixel_sample(
+    frame: &FrameParams,
+    scrambles: &PixelScrambles,
+    x: u32,
+    y: u32,
+    index: u32,
+) -> (Vec3, Vec2) {
+    let (lens_u, jitter) = scrambles.sample(index, frame.samples_per_pixel);
+    let film = [
+        frame.film_origin_x + (x as f32 + jitter[0]) * frame.film_step_x,
+        frame.film_origin_y + (y as f32 + jitter[1]) * frame.film_step_y,
+        frame.film_z,
+    ];
+    (film, lens_u)
+}
+
 /// Weighted radiance summed over this dispatch's samples for output pixel (x, y): the body of
 /// the shader's `render` entry point.
 fn render_pixel(
@@ -431,13 +529,8 @@ fn render_pixel(
     let scrambles = PixelScrambles::new(frame.seed, y * frame.width + x);
     let mut sum = [0.0f32; 3];
     for s in 0..frame.sample_count {
-        let (lens_u, jitter) = scrambles.sample(frame.sample_offset + s, frame.samples_per_pixel);
-        let film = [
-            frame.film_origin_x + (x as f32 + jitter[0]) * frame.film_step_x,
-            frame.film_origin_y + (y as f32 + jitter[1]) * frame.film_step_y,
-            frame.film_z,
-        ];
-        let (pupil, weight) = pupil_sample(frame, lens, film, lens_u);
+        let (film, lens_u) = pixel_sample(frame, &scrambles, x, y, frame.sample_offset + s);
+        let (pupil, weight) = pupil_sample(frame, lens, 0, film, lens_u);
         let ray = lens_ray(frame, rays, film, pupil);
         if let Some(colour) = trace_layers(frame, layers, &ray) {
             for (acc, c) in sum.iter_mut().zip(colour) {
@@ -446,6 +539,68 @@ fn render_pixel(
         }
     }
     sum
+}
+
+/// The shader's `channel_lens_ray`: channel `channel`'s object ray in a chromatic render.
+fn channel_lens_ray(
+    frame: &FrameParams,
+    channels: &ChannelParams,
+    channel: usize,
+    rays: LensRays,
+    film: Vec3,
+    pupil: Vec3,
+) -> ObjectRay {
+    match rays {
+        LensRays::Paraxial => channel_paraxial_ray(channels, channel, film, pupil),
+        _ => lens_ray(frame, rays, film, pupil),
+    }
+}
+
+/// The body of the shader's `render_chromatic`: each sample's film and pupil point traced once
+/// per colour channel through that channel's lens, each channel keeping its own colour.
+fn render_pixel_chromatic(
+    frame: &FrameParams,
+    layers: &LayerData,
+    lens: &LensData,
+    channels: &ChannelParams,
+    rays: &[LensRays; CHANNELS],
+    x: u32,
+    y: u32,
+) -> Vec3 {
+    let scrambles = PixelScrambles::new(frame.seed, y * frame.width + x);
+    let mut sum = [0.0f32; 3];
+    for s in 0..frame.sample_count {
+        let (film, lens_u) = pixel_sample(frame, &scrambles, x, y, frame.sample_offset + s);
+        let (pupil, weight) = pupil_sample(frame, lens, channels.sampling_block, film, lens_u);
+        for (channel, channel_rays) in rays.iter().enumerate() {
+            let ray = channel_lens_ray(frame, channels, channel, *channel_rays, film, pupil);
+            if let Some(colour) = trace_layers(frame, layers, &ray) {
+                sum[channel] += weight * colour[channel];
+            }
+        }
+    }
+    sum
+}
+
+/// Adds `pixel(x, y)` into `radiance_sum` (one RGBA entry per output pixel, row-major), in
+/// parallel over rows.
+fn accumulate_pixels(
+    frame: &FrameParams,
+    radiance_sum: &mut [[f32; 4]],
+    pixel: impl Fn(u32, u32) -> Vec3 + Sync,
+) {
+    let width = frame.width as usize;
+    radiance_sum
+        .par_chunks_mut(width)
+        .enumerate()
+        .for_each(|(y, row)| {
+            for (x, out) in row.iter_mut().enumerate() {
+                let s = pixel(x as u32, y as u32);
+                out[0] += s[0];
+                out[1] += s[1];
+                out[2] += s[2];
+            }
+        });
 }
 
 /// Adds this dispatch's weighted samples into `radiance_sum` (one RGBA entry per output pixel,
@@ -457,18 +612,24 @@ pub fn accumulate(
     rays: LensRays,
     radiance_sum: &mut [[f32; 4]],
 ) {
-    let width = frame.width as usize;
-    radiance_sum
-        .par_chunks_mut(width)
-        .enumerate()
-        .for_each(|(y, row)| {
-            for (x, out) in row.iter_mut().enumerate() {
-                let s = render_pixel(frame, layers, lens, rays, x as u32, y as u32);
-                out[0] += s[0];
-                out[1] += s[1];
-                out[2] += s[2];
-            }
-        });
+    accumulate_pixels(frame, radiance_sum, |x, y| {
+        render_pixel(frame, layers, lens, rays, x, y)
+    });
+}
+
+/// [`accumulate`] for a chromatic render: `lens` and `channels` from [`LensData::chromatic`],
+/// `rays` from [`LensRays::channels`].
+pub fn accumulate_chromatic(
+    frame: &FrameParams,
+    layers: &LayerData,
+    lens: &LensData,
+    channels: &ChannelParams,
+    rays: [LensRays; CHANNELS],
+    radiance_sum: &mut [[f32; 4]],
+) {
+    accumulate_pixels(frame, radiance_sum, |x, y| {
+        render_pixel_chromatic(frame, layers, lens, channels, &rays, x, y)
+    });
 }
 
 #[cfg(test)]

@@ -11,6 +11,7 @@
 
 pub mod camera;
 pub mod gltf_scene;
+pub mod chromatic;
 pub mod gpu;
 pub mod gpu_peel;
 pub mod gpu_types;
@@ -122,14 +123,35 @@ pub fn render_layers(
         settings.samples_per_pixel,
         settings.seed,
     );
-    let lens = LensData::of(&camera.model);
+    let (lens, channels) = match &camera.chromatic {
+        Some(chromatic) => {
+            let (lens, channels) = LensData::chromatic(camera, chromatic)?;
+            (lens, Some(channels))
+        }
+        None => (LensData::of(&camera.model), None),
+    };
     let sums = match (backend, gpu) {
-        (Backend::Gpu, Some(renderer)) => renderer.accumulate(&frame, &layers, &lens)?,
-        (Backend::Gpu, None) => gpu::GpuRenderer::new()?.accumulate(&frame, &layers, &lens)?,
+        (Backend::Gpu, Some(renderer)) => {
+            renderer.accumulate_channels(&frame, &layers, &lens, channels.as_ref())?
+        }
+        (Backend::Gpu, None) => gpu::GpuRenderer::new()?.accumulate_channels(
+            &frame,
+            &layers,
+            &lens,
+            channels.as_ref(),
+        )?,
         (Backend::Cpu, _) => {
             let mut sums = vec![[0.0f32; 4]; (settings.width * settings.height) as usize];
-            let rays = kernel::LensRays::of(&camera.model);
-            kernel::accumulate(&frame, &layers, &lens, rays, &mut sums);
+            match (&camera.chromatic, &channels) {
+                (Some(chromatic), Some(channels)) => {
+                    let rays = kernel::LensRays::channels(chromatic, &camera.model)?;
+                    kernel::accumulate_chromatic(&frame, &layers, &lens, channels, rays, &mut sums);
+                }
+                _ => {
+                    let rays = kernel::LensRays::of(&camera.model);
+                    kernel::accumulate(&frame, &layers, &lens, rays, &mut sums);
+                }
+            }
             sums
         }
     };

@@ -44,28 +44,12 @@ impl FirstOrderModels {
                 "f-number {f_number} is faster than the lens wide open (f/{wide_open:.3})"
             )));
         }
-        let exit = paraxial.exit_pupil.ok_or_else(|| {
-            RenderError::InvalidSetting(
-                "lens: the exit pupil is at infinity; thick and thin models need a finite one"
-                    .into(),
-            )
-        })?;
         // Pupils scale with the stop, as 1 / f-number.
-        let scale = wide_open / f_number;
-        let first = &paraxial.first_order;
-        let thick = ParaxialLens {
-            focal_length_mm: first.efl,
-            front_principal_z: first.z_front_principal,
-            rear_principal_z: first.z_rear_principal,
-            entrance_pupil_z: paraxial.entrance_pupil.z,
-            entrance_pupil_radius_mm: paraxial.entrance_pupil.diameter / 2.0 * scale,
-            exit_pupil_z: exit.z,
-            exit_pupil_radius_mm: exit.diameter / 2.0 * scale,
-        };
+        let thick = thick_model(&paraxial, wide_open / f_number)?;
         let z = paraxial.entrance_pupil.z;
-        let radius = first.efl / (2.0 * f_number);
+        let radius = paraxial.first_order.efl / (2.0 * f_number);
         let thin = ParaxialLens {
-            focal_length_mm: first.efl,
+            focal_length_mm: paraxial.first_order.efl,
             front_principal_z: z,
             rear_principal_z: z,
             entrance_pupil_z: z,
@@ -80,6 +64,49 @@ impl FirstOrderModels {
             f_number,
         })
     }
+
+    /// These models at another wavelength, with the same stop: thick from the paraxial data at
+    /// `wavelength_nm` (focal length, principal planes, pupils), thin keeping its plane and
+    /// aperture with the focal length at `wavelength_nm` (an ideal thin lens has its stop in
+    /// the lens, so only its power disperses).
+    pub fn at_wavelength(
+        &self,
+        system: &LensSystem,
+        wavelength_nm: f64,
+    ) -> Result<FirstOrderModels, RenderError> {
+        let at = system.at_checked(wavelength_nm).map_err(paraxial_error)?;
+        let paraxial = Paraxial::new(&at, &ParaxialOptions::default()).map_err(paraxial_error)?;
+        let thick = thick_model(&paraxial, self.wide_open_f_number / self.f_number)?;
+        let thin = ParaxialLens {
+            focal_length_mm: paraxial.first_order.efl,
+            ..self.thin.clone()
+        };
+        Ok(FirstOrderModels {
+            thin,
+            thick,
+            wide_open_f_number: self.wide_open_f_number,
+            f_number: self.f_number,
+        })
+    }
+}
+
+/// The thick model of `paraxial` with its pupils scaled by `pupil_scale` (the stop's).
+fn thick_model(paraxial: &Paraxial, pupil_scale: f64) -> Result<ParaxialLens, RenderError> {
+    let exit = paraxial.exit_pupil.as_ref().ok_or_else(|| {
+        RenderError::InvalidSetting(
+            "lens: the exit pupil is at infinity; thick and thin models need a finite one".into(),
+        )
+    })?;
+    let first = &paraxial.first_order;
+    Ok(ParaxialLens {
+        focal_length_mm: first.efl,
+        front_principal_z: first.z_front_principal,
+        rear_principal_z: first.z_rear_principal,
+        entrance_pupil_z: paraxial.entrance_pupil.z,
+        entrance_pupil_radius_mm: paraxial.entrance_pupil.diameter / 2.0 * pupil_scale,
+        exit_pupil_z: exit.z,
+        exit_pupil_radius_mm: exit.diameter / 2.0 * pupil_scale,
+    })
 }
 
 /// The exact lens at its design wavelength, stopped down, with the effective pupil of its film
@@ -104,10 +131,29 @@ impl TracedLens {
         f_number: f64,
         pupil: PupilTable,
     ) -> TracedLens {
+        TracedLens::at_wavelength(
+            system,
+            first_order,
+            f_number,
+            system.design_wavelength_nm(),
+            pupil,
+        )
+    }
+
+    /// The lens traced at `wavelength_nm` (the caller checks that every medium has an index
+    /// there), with the stop closed as at the design wavelength: the aperture is one physical
+    /// opening whatever the colour. `paraxial` stays the design wavelength's thick model.
+    pub fn at_wavelength(
+        system: &LensSystem,
+        first_order: &FirstOrderModels,
+        f_number: f64,
+        wavelength_nm: f64,
+        pupil: PupilTable,
+    ) -> TracedLens {
         let design = system.at(system.design_wavelength_nm());
         let stop_semi_aperture =
             design.surfaces[design.stop].semi_aperture * first_order.wide_open_f_number / f_number;
-        let stopped = stopped_down(system, system.design_wavelength_nm(), stop_semi_aperture);
+        let stopped = stopped_down(system, wavelength_nm, stop_semi_aperture);
         TracedLens {
             paraxial: first_order.thick.clone(),
             tracer: Tracer::new(&stopped),
@@ -167,6 +213,10 @@ pub struct BakedLens {
     pub paraxial: ParaxialLens,
     pub table: LrtfTable,
     pub stop_radius: f64,
+    /// The table layer a monochrome render reads: 0 from [`BakedLens::new`], the design
+    /// wavelength's after [`BakedLens::with_wavelength`] (a three-wavelength table lists its
+    /// layers R, G, B or C, d, F, so layer 0 is rarely the design one).
+    pub layer: usize,
 }
 
 impl BakedLens {
@@ -185,13 +235,58 @@ impl BakedLens {
             paraxial: first_order.thick.clone(),
             table,
             stop_radius,
+            layer: 0,
         })
+    }
+
+    /// This lens reading the table's layer baked at `wavelength_nm` (see [`layer_at`]); a
+    /// one-layer table keeps its only layer, whatever wavelength it was baked at.
+    pub fn with_wavelength(self, wavelength_nm: f64) -> Result<BakedLens, RenderError> {
+        if self.table.layers.len() == 1 {
+            return Ok(self);
+        }
+        let layer = layer_at(&self.table, wavelength_nm)?;
+        Ok(BakedLens { layer, ..self })
     }
 
     /// The film plane the table was baked for: the render's film must sit there.
     pub fn film_z(&self) -> f64 {
-        self.table.layers[0].frame.film_plane_z
+        self.table.layers[self.layer].frame.film_plane_z
     }
+
+    /// The effective pupil of layer `layer`.
+    pub fn pupil(&self, layer: usize) -> PupilSampling {
+        let layer = &self.table.layers[layer];
+        PupilSampling {
+            z: layer.frame.rear_plane_z,
+            circles: layer.pupil.clone(),
+        }
+    }
+}
+
+/// Largest difference between an asked wavelength and a table layer's that still selects the
+/// layer (nm). Tables record wavelengths as typed (656.3 or 656.2725 for the C line); half a
+/// nanometre changes a glass index by about 1e-5, below anything a render shows.
+pub const WAVELENGTH_MATCH_NM: f64 = 0.5;
+
+/// The layer of `table` baked at `wavelength_nm` (within [`WAVELENGTH_MATCH_NM`]).
+pub fn layer_at(table: &LrtfTable, wavelength_nm: f64) -> Result<usize, RenderError> {
+    let distance = |k: usize| (table.layers[k].wavelength_nm - wavelength_nm).abs();
+    (0..table.layers.len())
+        .min_by(|&a, &b| distance(a).total_cmp(&distance(b)))
+        .filter(|&k| distance(k) <= WAVELENGTH_MATCH_NM)
+        .ok_or_else(|| {
+            let baked: Vec<String> = table
+                .layers
+                .iter()
+                .map(|l| format!("{}", l.wavelength_nm))
+                .collect();
+            RenderError::InvalidSetting(format!(
+                "the table has no layer at {wavelength_nm} nm (baked at {} nm); rebake with \
+                 --wavelengths-nm",
+                baked.join(", ")
+            ))
+        })
 }
 
 /// Where lens samples are drawn: uniformly over a circle on the plane `z`, the circle looked up

@@ -3,45 +3,87 @@
 //! samples the IBRT kernel draws, so the difference between the two images is the cost of the
 //! layered representation, not sampling noise.
 
-use super::camera::{Camera, LensModel};
+use super::camera::{Camera, LensModel, ParaxialLens};
+use super::chromatic::{ChannelLenses, Chromatic, inside_exit_pupil};
 use super::image::RgbImage;
 use super::kernel::{PixelScrambles, concentric_disc};
 use super::mesh_trace::TracedMesh;
+use super::models::BakedLens;
 use super::scene::Scene;
 use super::{RenderError, RenderSettings};
 use crate::lrtf::{self, Lookup};
-use crate::trace::Travel;
+use crate::trace::{Tracer, Travel};
 use rayon::prelude::*;
 
-/// The object ray (a point on it and the direction light travels, towards +z) for the film-side
-/// ray from `film` through `pupil`, by the camera's model in f64; None when the lens blocks it.
-fn object_ray(model: &LensModel, film: [f64; 3], pupil: [f64; 3]) -> Option<([f64; 3], [f64; 3])> {
+/// A point on an object ray and the direction light travels along it (towards +z).
+type ObjectRay = ([f64; 3], [f64; 3]);
+
+fn paraxial_object_ray(lens: &ParaxialLens, film: [f64; 3], pupil: [f64; 3]) -> ObjectRay {
+    let (origin, slope) = lens.object_ray(film, pupil);
+    (origin, [slope[0], slope[1], 1.0])
+}
+
+fn traced_object_ray(tracer: &Tracer, film: [f64; 3], pupil: [f64; 3]) -> Option<ObjectRay> {
     let towards = [pupil[0] - film[0], pupil[1] - film[1], pupil[2] - film[2]];
-    let reversed = |d: [f64; 3]| d.map(|v| -v);
+    let ray = crate::trace::Ray::new(film, towards).ok()?;
+    let traced = tracer.trace(ray, Travel::Backward);
+    traced
+        .outcome
+        .is_ok()
+        .then(|| (traced.ray.position(), traced.ray.direction().map(|v| -v)))
+}
+
+fn baked_object_ray(
+    lens: &BakedLens,
+    layer: usize,
+    film: [f64; 3],
+    pupil: [f64; 3],
+) -> Option<ObjectRay> {
+    let towards = [pupil[0] - film[0], pupil[1] - film[1], pupil[2] - film[2]];
+    let length = (towards[0].powi(2) + towards[1].powi(2) + towards[2].powi(2)).sqrt();
+    let ray = lrtf::Ray {
+        origin: film,
+        direction: towards.map(|v| v / length),
+    };
+    match lens.table.lookup(layer, &ray, lens.stop_radius) {
+        Lookup::Passes(out) => Some((out.origin, out.direction.map(|v| -v))),
+        Lookup::Blocked | Lookup::OutsideDomain => None,
+    }
+}
+
+/// The object ray for the film-side ray from `film` through `pupil`, by the camera's model in
+/// f64; None when the lens blocks it.
+fn object_ray(model: &LensModel, film: [f64; 3], pupil: [f64; 3]) -> Option<ObjectRay> {
     match model {
         LensModel::Thin(lens) | LensModel::Thick(lens) => {
-            let (origin, slope) = lens.object_ray(film, pupil);
-            Some((origin, [slope[0], slope[1], 1.0]))
+            Some(paraxial_object_ray(lens, film, pupil))
         }
-        LensModel::Traced(lens) => {
-            let ray = crate::trace::Ray::new(film, towards).ok()?;
-            let traced = lens.tracer.trace(ray, Travel::Backward);
-            traced
-                .outcome
-                .is_ok()
-                .then(|| (traced.ray.position(), reversed(traced.ray.direction())))
+        LensModel::Traced(lens) => traced_object_ray(&lens.tracer, film, pupil),
+        LensModel::Baked(lens) => baked_object_ray(lens, lens.layer, film, pupil),
+    }
+}
+
+/// Channel `channel`'s object ray in a chromatic render (paraxial channels pass only rays inside
+/// their own exit pupil, as the kernel's do).
+fn channel_object_ray(
+    model: &LensModel,
+    chromatic: &Chromatic,
+    channel: usize,
+    film: [f64; 3],
+    pupil: [f64; 3],
+) -> Option<ObjectRay> {
+    match (&chromatic.lenses, model) {
+        (ChannelLenses::Paraxial(lenses), _) => {
+            let lens = &lenses[channel];
+            inside_exit_pupil(lens, film, pupil).then(|| paraxial_object_ray(lens, film, pupil))
         }
-        LensModel::Baked(lens) => {
-            let length = (towards[0].powi(2) + towards[1].powi(2) + towards[2].powi(2)).sqrt();
-            let ray = lrtf::Ray {
-                origin: film,
-                direction: towards.map(|v| v / length),
-            };
-            match lens.table.lookup(0, &ray, lens.stop_radius) {
-                Lookup::Passes(out) => Some((out.origin, reversed(out.direction))),
-                Lookup::Blocked | Lookup::OutsideDomain => None,
-            }
+        (ChannelLenses::Traced(lenses), _) => {
+            traced_object_ray(&lenses[channel].tracer, film, pupil)
         }
+        (ChannelLenses::Baked(layers), LensModel::Baked(lens)) => {
+            baked_object_ray(lens, layers[channel], film, pupil)
+        }
+        (ChannelLenses::Baked(_), _) => None,
     }
 }
 
@@ -74,8 +116,11 @@ pub fn render_reference(
     settings: &RenderSettings,
 ) -> Result<RgbImage, RenderError> {
     settings.check()?;
+    if let Some(chromatic) = &camera.chromatic {
+        chromatic.check_matches(&camera.model)?;
+    }
     let lens = camera.model.paraxial();
-    let sampling = camera.model.pupil_sampling();
+    let sampling = camera.pupil_sampling();
     let exit_distance = camera.film_z - lens.exit_pupil_z;
     let reference_solid_angle =
         std::f64::consts::PI * lens.exit_pupil_radius_mm.powi(2) / exit_distance.powi(2);
@@ -113,12 +158,27 @@ pub fn render_reference(
                 let d = [pupil[0] - film[0], pupil[1] - film[1], pupil[2] - film[2]];
                 let cos_theta = d[2].abs() / (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
                 let weight = weight_scale * circle.radius * circle.radius * cos_theta.powi(4);
-                let Some((origin, direction)) = object_ray(&camera.model, film, pupil) else {
-                    continue;
-                };
-                let radiance = scene.radiance_along(origin, direction);
-                for (acc, c) in sum.iter_mut().zip(radiance) {
-                    *acc += weight * c as f64;
+                match &camera.chromatic {
+                    None => {
+                        let Some((origin, direction)) = object_ray(&camera.model, film, pupil)
+                        else {
+                            continue;
+                        };
+                        let radiance = scene.radiance_along(origin, direction);
+                        for (acc, c) in sum.iter_mut().zip(radiance) {
+                            *acc += weight * c as f64;
+                        }
+                    }
+                    Some(chromatic) => {
+                        for (channel, acc) in sum.iter_mut().enumerate() {
+                            let ray =
+                                channel_object_ray(&camera.model, chromatic, channel, film, pupil);
+                            if let Some((origin, direction)) = ray {
+                                let radiance = scene.radiance_along(origin, direction);
+                                *acc += weight * radiance[channel] as f64;
+                            }
+                        }
+                    }
                 }
             }
             sum.map(|s| (s / spp as f64) as f32)

@@ -77,7 +77,8 @@ fn camera_for(
     probe: &LrtfTable,
     film: Film,
 ) -> Result<Option<Camera>, TradeoffError> {
-    let probe_layer = &probe.layers[0];
+    // The design wavelength's layer: a colour probe lists C, design, F.
+    let probe_layer = &probe.layers[super::design_layer(probe, domain.wavelength_nm)];
     let (model, film_z) = match &built.model {
         RayModel::Paraxial { kind, lens, film_z } => match kind {
             ModelKind::Thin => (LensModel::Thin(lens.clone()), *film_z),
@@ -85,7 +86,8 @@ fn camera_for(
         },
         RayModel::Seidel(_) => return Ok(None),
         RayModel::Baked { table, .. } => {
-            let baked = BakedLens::new(table.as_ref().clone(), first, domain.f_number)?;
+            let baked = BakedLens::new(table.as_ref().clone(), first, domain.f_number)?
+                .with_wavelength(domain.wavelength_nm)?;
             let film_z = baked.film_z();
             (LensModel::Baked(Box::new(baked)), film_z)
         }

@@ -320,3 +320,55 @@ pub fn vec3(v: &Value) -> [f64; 3] {
         .unwrap_or_else(|| panic!("expected a 3-vector, found {v}"));
     [num(&a[0]), num(&a[1]), num(&a[2])]
 }
+
+/// The GPU renderer, or None outside CI when this machine has no adapter. In CI a missing
+/// adapter is a failure: CI installs lavapipe precisely so these tests run.
+pub fn gpu_or_skip(test: &str) -> Option<lensbake::render::gpu::GpuRenderer> {
+    use lensbake::render::RenderError;
+    match lensbake::render::gpu::GpuRenderer::new() {
+        Ok(gpu) => Some(gpu),
+        Err(RenderError::NoAdapter(why)) if std::env::var("CI").as_deref() != Ok("true") => {
+            eprintln!("SKIPPED {test}: no GPU adapter ({why}); install mesa-vulkan-drivers");
+            None
+        }
+        Err(e) => panic!("{test}: GPU unavailable: {e}"),
+    }
+}
+
+/// The members (name, byte offset) and the size of struct `name` in WGSL `source`, as naga lays
+/// them out: what a Rust struct shared with the shader must match.
+pub fn wgsl_struct(source: &str, name: &str) -> (Vec<(String, usize)>, usize) {
+    let module = naga::front::wgsl::parse_str(source)
+        .unwrap_or_else(|e| panic!("{}", e.emit_to_string(source)));
+    module
+        .types
+        .iter()
+        .find_map(|(_, ty)| match (&ty.name, &ty.inner) {
+            (Some(found), naga::TypeInner::Struct { members, span }) if found == name => Some((
+                members
+                    .iter()
+                    .map(|m| (m.name.clone().unwrap_or_default(), m.offset as usize))
+                    .collect(),
+                *span as usize,
+            )),
+            _ => None,
+        })
+        .unwrap_or_else(|| panic!("no struct {name} in the WGSL source"))
+}
+
+/// How far two renders of the same frame are apart: the number of channels that differ by more
+/// than 1e-3 relative (plus 1e-3 absolute), and the mean absolute difference per channel.
+pub fn image_difference(
+    a: &lensbake::render::image::RgbImage,
+    b: &lensbake::render::image::RgbImage,
+) -> (usize, f64) {
+    let (mut large, mut total_abs) = (0usize, 0.0f64);
+    for (p, q) in a.pixels.iter().zip(&b.pixels) {
+        for c in 0..3 {
+            let d = (p[c] - q[c]).abs();
+            total_abs += d as f64;
+            large += usize::from(d > 1e-3 * (1.0 + p[c].abs()));
+        }
+    }
+    (large, total_abs / (a.pixels.len() * 3) as f64)
+}

@@ -50,6 +50,23 @@ struct FrameParams {
 // Running sum of weighted radiance per output pixel.
 @group(1) @binding(4) var<storage, read_write> radiance_sum: array<vec4<f32>>;
 
+// A chromatic render's channels (render_chromatic only): which block of lrtf_pupil lens samples
+// come from, and the paraxial channels' lenses, R, G, B in x, y, z.
+struct ChannelParams {
+    sampling_block: u32,
+    pad0: u32,
+    pad1: u32,
+    pad2: u32,
+    focal_length: vec4<f32>,
+    front_principal_z: vec4<f32>,
+    rear_principal_z: vec4<f32>,
+    exit_pupil_z: vec4<f32>,
+    // Squared exit-pupil radius, widened slightly (chromatic.rs, PUPIL_EDGE_TOLERANCE).
+    exit_pupil_limit_sq: vec4<f32>,
+}
+
+@group(1) @binding(5) var<uniform> channels: ChannelParams;
+
 const PI: f32 = 3.14159265358979;
 const MODEL_PARAXIAL: u32 = 0u;
 const MODEL_TRACED: u32 = 1u;
@@ -107,15 +124,25 @@ struct ObjectRay {
     valid: bool,
 }
 
-// Thin or thick lens: unit magnification between the principal planes, power 1/f.
 fn paraxial_lens_ray(film: vec3<f32>, pupil: vec3<f32>) -> ObjectRay {
+    return paraxial_map(frame.focal_length, frame.front_principal_z, frame.rear_principal_z, film, pupil);
+}
+
+// Thin or thick lens: unit magnification between the principal planes, power 1/f.
+fn paraxial_map(
+    focal_length: f32,
+    front_principal_z: f32,
+    rear_principal_z: f32,
+    film: vec3<f32>,
+    pupil: vec3<f32>,
+) -> ObjectRay {
     let to_pupil = pupil - film;
-    let t = (frame.rear_principal_z - film.z) / to_pupil.z;
+    let t = (rear_principal_z - film.z) / to_pupil.z;
     let height = film.xy + t * to_pupil.xy;
-    let image_slope = (film.xy - height) / (film.z - frame.rear_principal_z);
-    let object_slope = image_slope + height / frame.focal_length;
+    let image_slope = (film.xy - height) / (film.z - rear_principal_z);
+    let object_slope = image_slope + height / focal_length;
     return ObjectRay(
-        vec3<f32>(height, frame.front_principal_z),
+        vec3<f32>(height, front_principal_z),
         vec3<f32>(object_slope, 1.0),
         true,
     );
@@ -145,21 +172,51 @@ fn lens_ray(film: vec3<f32>, pupil: vec3<f32>) -> ObjectRay {
     return paraxial_lens_ray(film, pupil);
 }
 
+// Paraxial channel `channel` of a chromatic render: blocked outside the channel's exit pupil,
+// else the channel's thin or thick lens.
+fn channel_paraxial_ray(channel: u32, film: vec3<f32>, pupil: vec3<f32>) -> ObjectRay {
+    let to_pupil = pupil - film;
+    let t = (channels.exit_pupil_z[channel] - film.z) / to_pupil.z;
+    let crossing = film.xy + t * to_pupil.xy;
+    if crossing.x * crossing.x + crossing.y * crossing.y > channels.exit_pupil_limit_sq[channel] {
+        return blocked_ray();
+    }
+    return paraxial_map(
+        channels.focal_length[channel],
+        channels.front_principal_z[channel],
+        channels.rear_principal_z[channel],
+        film,
+        pupil,
+    );
+}
+
+// Channel `channel`'s object ray: traced channels' surfaces and baked channels' table layers
+// follow each other in the lens bindings, R first.
+fn channel_lens_ray(channel: u32, film: vec3<f32>, pupil: vec3<f32>) -> ObjectRay {
+    if frame.model == MODEL_PARAXIAL {
+        return channel_paraxial_ray(channel, film, pupil);
+    }
+    lens_first_surface = channel * lens.surface_count;
+    lrtf_layer = channel;
+    return lens_ray(film, pupil);
+}
+
 struct PupilSample {
     point: vec3<f32>,
     weight: f32,
 }
 
-// Uniform over the film radius's pupil circle, its centre turned to the film point's azimuth
-// (the disc sample is not turned, so stratification does not flip across the axis); weight
-// cos^4 times the circle's projected solid angle relative to the paraxial exit pupil's.
-fn pupil_sample(film: vec3<f32>, lens_u: vec2<f32>) -> PupilSample {
+// Uniform over the film radius's pupil circle in block `block` of lrtf_pupil, its centre turned
+// to the film point's azimuth (the disc sample is not turned, so stratification does not flip
+// across the axis); weight cos^4 times the circle's projected solid angle relative to the
+// paraxial exit pupil's.
+fn pupil_sample(film: vec3<f32>, lens_u: vec2<f32>, block: u32) -> PupilSample {
     let film_radius = sqrt(film.x * film.x + film.y * film.y);
     var azimuth = vec2<f32>(1.0, 0.0);
     if film_radius > 0.0 {
         azimuth = film.xy / film_radius;
     }
-    let circle = lrtf_pupil_at(film_radius);
+    let circle = lrtf_circle_at(film_radius, block);
     let disc = concentric_disc(lens_u);
     let pupil = vec3<f32>(azimuth * circle.x + circle.y * disc, frame.pupil_z);
     let to_pupil = pupil - film;
@@ -331,27 +388,69 @@ fn trace_layers(ray: ObjectRay) -> LayerHit {
     return miss;
 }
 
+struct PixelSample {
+    film: vec3<f32>,
+    lens_u: vec2<f32>,
+}
+
+// Lens scrambles (xy) and jitter scrambles (zw) of output pixel `pixel`.
+fn pixel_scrambles(pixel: u32) -> vec4<u32> {
+    let pixel_key = mix_bits(pixel ^ mix_bits(frame.seed));
+    return vec4<u32>(
+        mix_bits(pixel_key + 1u),
+        mix_bits(pixel_key + 2u),
+        mix_bits(pixel_key + 3u),
+        mix_bits(pixel_key + 4u),
+    );
+}
+
+// Sample `index` of output pixel `id`: its film point and unit-square lens sample.
+fn pixel_sample(id: vec2<u32>, scrambles: vec4<u32>, index: u32) -> PixelSample {
+    let lens_u = lattice_point(index, frame.samples_per_pixel, scrambles.x, scrambles.y);
+    let jitter = lattice_point(index, frame.samples_per_pixel, scrambles.z, scrambles.w).yx;
+    let film_xy = vec2<f32>(frame.film_origin_x, frame.film_origin_y)
+        + (vec2<f32>(f32(id.x), f32(id.y)) + jitter) * vec2<f32>(frame.film_step_x, frame.film_step_y);
+    return PixelSample(vec3<f32>(film_xy, frame.film_z), lens_u);
+}
+
 @compute @workgroup_size(8, 8, 1)
 fn render(@builtin(global_invocation_id) id: vec3<u32>) {
     if (id.x >= frame.width || id.y >= frame.height) {
         return;
     }
     let pixel = id.y * frame.width + id.x;
-    let pixel_key = mix_bits(pixel ^ mix_bits(frame.seed));
-    let lens_scramble = vec2<u32>(mix_bits(pixel_key + 1u), mix_bits(pixel_key + 2u));
-    let jitter_scramble = vec2<u32>(mix_bits(pixel_key + 3u), mix_bits(pixel_key + 4u));
+    let scrambles = pixel_scrambles(pixel);
     var sum = vec3<f32>(0.0);
     for (var s = 0u; s < frame.sample_count; s += 1u) {
-        let index = frame.sample_offset + s;
-        let lens_u = lattice_point(index, frame.samples_per_pixel, lens_scramble.x, lens_scramble.y);
-        let jitter = lattice_point(index, frame.samples_per_pixel, jitter_scramble.x, jitter_scramble.y).yx;
-        let film_xy = vec2<f32>(frame.film_origin_x, frame.film_origin_y)
-            + (vec2<f32>(f32(id.x), f32(id.y)) + jitter) * vec2<f32>(frame.film_step_x, frame.film_step_y);
-        let film = vec3<f32>(film_xy, frame.film_z);
-        let sample = pupil_sample(film, lens_u);
-        let found = trace_layers(lens_ray(film, sample.point));
+        let at = pixel_sample(id.xy, scrambles, frame.sample_offset + s);
+        let sample = pupil_sample(at.film, at.lens_u, 0u);
+        let found = trace_layers(lens_ray(at.film, sample.point));
         if (found.hit) {
             sum += sample.weight * found.colour;
+        }
+    }
+    radiance_sum[pixel] += vec4<f32>(sum, 0.0);
+}
+
+// Chromatic aberration: every sample's film and pupil point traced once per colour channel
+// through that channel's lens (R, G, B at their own wavelengths), each keeping its own colour.
+// The pupil samples come from a pupil that bounds all three channels' (chromatic.rs).
+@compute @workgroup_size(8, 8, 1)
+fn render_chromatic(@builtin(global_invocation_id) id: vec3<u32>) {
+    if (id.x >= frame.width || id.y >= frame.height) {
+        return;
+    }
+    let pixel = id.y * frame.width + id.x;
+    let scrambles = pixel_scrambles(pixel);
+    var sum = vec3<f32>(0.0);
+    for (var s = 0u; s < frame.sample_count; s += 1u) {
+        let at = pixel_sample(id.xy, scrambles, frame.sample_offset + s);
+        let sample = pupil_sample(at.film, at.lens_u, channels.sampling_block);
+        for (var channel = 0u; channel < 3u; channel += 1u) {
+            let found = trace_layers(channel_lens_ray(channel, at.film, sample.point));
+            if (found.hit) {
+                sum[channel] += sample.weight * found.colour[channel];
+            }
         }
     }
     radiance_sum[pixel] += vec4<f32>(sum, 0.0);

@@ -37,6 +37,11 @@ struct LensParams {
 @group(2) @binding(0) var<storage, read> lens_surfaces: array<LensSurface>;
 @group(2) @binding(1) var<uniform> lens: LensParams;
 
+// The entry of lens_surfaces where the traced lens starts. A chromatic render stores one lens per
+// colour channel, each after the one before (surface_count entries each); render_chromatic
+// (ibrt.wgsl) sets it per channel.
+var<private> lens_first_surface: u32 = 0u;
+
 const SURFACE_PLANE: u32 = 0u;
 const SURFACE_SPHERE: u32 = 1u;
 const SURFACE_CONIC: u32 = 2u;
@@ -303,7 +308,7 @@ fn trace_lens(origin: vec3<f32>, direction: vec3<f32>) -> TracedRay {
     let sense = -1.0;
     for (var k = 0u; k < lens.surface_count; k += 1u) {
         let i = lens.surface_count - 1u - k;
-        let s = lens_surfaces[i];
+        let s = lens_surfaces[lens_first_surface + i];
         let p = position - vec3<f32>(0.0, 0.0, s.vertex_z);
         let hit = intersect_surface(p, d, s, sense);
         if !hit.hit {
