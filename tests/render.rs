@@ -1,9 +1,12 @@
 //! Renderer tests: WGSL validity and layout, GPU against its CPU twin, and analytic checks of the
 //! thin-lens render (circle of confusion, partial occlusion at an out-of-focus edge).
 
+mod common;
+
+use common::gpu_or_skip;
 use lensbake::lrtf::bake::{BakeRequest, bake};
 use lensbake::render::camera::{Camera, Film, Focus, LensModel, ParaxialLens};
-use lensbake::render::gpu::{GpuRenderer, IBRT_SHADER, LENS_TRACE_SHADER};
+use lensbake::render::gpu::{IBRT_SHADER, LENS_TRACE_SHADER};
 use lensbake::render::gpu_types::{
     FrameParams, TRACE_MISSED, TRACE_OK, TRACE_TIR, TRACE_VIGNETTED, lens_surfaces,
 };
@@ -12,7 +15,7 @@ use lensbake::render::layers::LayeredDepthImage;
 use lensbake::render::models::{BakedLens, FirstOrderModels, PupilSampling, TracedLens};
 use lensbake::render::reference::{psnr, render_reference};
 use lensbake::render::scene::{Outline, Panel, Scene, Texture};
-use lensbake::render::{Backend, RenderError, RenderSettings, layer_view, render_layers};
+use lensbake::render::{Backend, RenderSettings, layer_view, render_layers};
 use lensbake::trace::{Outcome, Ray, Travel};
 
 #[test]
@@ -74,25 +77,22 @@ fn frame_params_layout_matches_wgsl() {
         tan_half_x,
         tan_half_y,
         near_depth,
-        far_depth
+        far_depth,
+        film_origin_z,
+        film_step_x_y,
+        film_step_x_z,
+        film_step_y_x,
+        film_step_y_z,
+        film_normal_x,
+        film_normal_y,
+        film_normal_z,
+        pupil_lipschitz,
+        pupil_centre_slack
     );
     assert_eq!(members.len(), rust.len());
     for (member, (name, offset)) in members.iter().zip(rust) {
         assert_eq!(member.name.as_deref(), Some(name));
         assert_eq!(member.offset as usize, offset, "{name}");
-    }
-}
-
-/// The GPU renderer, or None outside CI when this machine has no adapter. In CI a missing
-/// adapter is a failure: CI installs lavapipe precisely so these tests run.
-fn gpu_or_skip(test: &str) -> Option<GpuRenderer> {
-    match GpuRenderer::new() {
-        Ok(gpu) => Some(gpu),
-        Err(RenderError::NoAdapter(why)) if std::env::var("CI").as_deref() != Ok("true") => {
-            eprintln!("SKIPPED {test}: no GPU adapter ({why}); install mesa-vulkan-drivers");
-            None
-        }
-        Err(e) => panic!("{test}: GPU unavailable: {e}"),
     }
 }
 
@@ -208,6 +208,7 @@ fn thin_lens_point_emitter_blurs_to_analytic_circle_of_confusion() {
         width_mm: 12.0,
         height_mm: 12.0,
         shift_mm: [0.0, 0.0],
+        tilt_deg: [0.0, 0.0],
     };
     let scene = black_backed_emitter(emitter, 2.0);
     let defocused = thin_camera(f_number, focus, film);
@@ -283,6 +284,7 @@ fn out_of_focus_occluder_edge_shows_the_background() {
         width_mm: 4.0,
         height_mm: 0.5,
         shift_mm: [0.0, 0.0],
+        tilt_deg: [0.0, 0.0],
     };
     let camera = thin_camera(f_number, background, film);
     let lens = camera.model.paraxial().clone();
