@@ -8,6 +8,7 @@
 //! [`image::RgbImage`].
 
 pub mod camera;
+pub mod focus;
 pub mod gpu;
 pub mod gpu_types;
 pub mod image;
