@@ -2,11 +2,12 @@
 //! emitters sharp where the untilted one blurs them by the analytic circle of confusion; shift
 //! moves the image by the shift; three-point focus finds a plane that focuses three emitters;
 //! every focus mode works for every lens model; the effective pupil stays conservative off the
-//! film plane; the CPU twin, the GPU and the reference renderer agree on a tilted sensor.
+//! film plane. tests/render.rs runs its GPU-vs-CPU, IBRT-vs-reference and baked-vs-traced
+//! comparisons on a tilted sensor too.
 
 mod common;
 
-use common::gpu_or_skip;
+use common::dgauss;
 use lensbake::lrtf::bake::{BakeRequest, bake};
 use lensbake::render::camera::{Camera, Film, Focus, LensModel, ParaxialLens};
 use lensbake::render::focus::{
@@ -15,10 +16,8 @@ use lensbake::render::focus::{
 };
 use lensbake::render::image::RgbImage;
 use lensbake::render::layers::LayeredDepthImage;
-use lensbake::render::models::{
-    BakedLens, FirstOrderModels, PupilSampling, TracedLens, pupil_film_radius,
-};
-use lensbake::render::reference::{psnr, render_reference};
+use lensbake::render::models::{BakedLens, PupilSampling, TracedLens, pupil_film_radius};
+use lensbake::render::reference::render_reference;
 use lensbake::render::scene::{Outline, Panel, Scene, Texture};
 use lensbake::render::{Backend, RenderSettings, layer_view, render_layers};
 
@@ -327,13 +326,6 @@ fn shift_moves_the_image_by_the_shift_for_paraxial_and_traced_lenses() {
             "{name}: moved {moved:?}, expected {expected:?}"
         );
     }
-}
-
-/// The double Gauss at the design wavelength, wide open, with its first-order models.
-fn dgauss() -> (lensbake::lenses::LoadedLens, FirstOrderModels) {
-    let lens = lensbake::lenses::load("dgauss-50mm", &Default::default()).unwrap();
-    let first = FirstOrderModels::of(&lens.system, None).unwrap();
-    (lens, first)
 }
 
 /// The output pixel holding `object`'s first-order image on `camera`'s sensor.
@@ -722,179 +714,5 @@ fn every_focus_mode_places_the_sensor_where_every_model_renders_the_point_sharp(
                 );
             }
         }
-    }
-}
-
-const DEMO_TILT_DEG: [f64; 2] = [4.0, -6.0];
-
-fn thin_demo_camera(width: u32, height: u32) -> Camera {
-    let film = Film {
-        tilt_deg: DEMO_TILT_DEG,
-        ..Film::full_frame_for(width, height)
-    };
-    Camera::new(
-        LensModel::Thin(thin_lens(2.0)),
-        film,
-        Focus::ObjectDistance(2000.0),
-    )
-    .unwrap()
-}
-
-/// Traced and baked double Gauss cameras wide open with a tilted full-frame sensor centred on
-/// the 2 m focus: a 32^3 table baked for that focus and for the film radii the tilted sensor's
-/// rays cross its film plane at, the traced lens sampling the table's pupil circles.
-fn dgauss_tilted_cameras(width: u32, height: u32) -> (Camera, Camera) {
-    let (lens, first) = dgauss();
-    let film = Film {
-        tilt_deg: DEMO_TILT_DEG,
-        ..Film::full_frame_for(width, height)
-    };
-    let design = lens.system.at(lens.system.design_wavelength_nm());
-    let thick = Camera::new(
-        LensModel::Thick(first.thick.clone()),
-        film,
-        Focus::ObjectDistance(2000.0),
-    )
-    .unwrap();
-    let reach = pupil_film_radius(
-        &design,
-        thick.film_z,
-        thick.film_corner_radius(),
-        thick.film_off_plane(),
-    );
-    let request = BakeRequest {
-        resolution: [32; 3],
-        focus_mm: Some(2000.0),
-        max_film_radius: Some(reach),
-        ..BakeRequest::default()
-    };
-    let table = bake(&lens.system, &request, &|_| {}).unwrap();
-    let pupil = table.layers[0].pupil.clone();
-    let baked = BakedLens::new(table, &first, first.f_number).unwrap();
-    let film_z = baked.film_z();
-    let traced = TracedLens::new(&lens.system, &first, first.f_number, pupil);
-    let camera = |model| Camera::new(model, film, Focus::FilmZ(film_z)).unwrap();
-    (
-        camera(LensModel::Traced(Box::new(traced))),
-        camera(LensModel::Baked(Box::new(baked))),
-    )
-}
-
-#[test]
-fn tilted_ibrt_converges_to_the_true_geometry_reference() {
-    let settings = RenderSettings {
-        width: 160,
-        height: 120,
-        samples_per_pixel: 64,
-        seed: 5,
-        max_layers: 8,
-    };
-    let camera = thin_demo_camera(settings.width, settings.height);
-    let scene = Scene::demo();
-    let reference = render_reference(&camera, &scene, &settings).unwrap();
-    let mut scores = Vec::new();
-    for refine in [1, 4] {
-        let ldi = peel(&scene, &camera, &settings, refine);
-        let ibrt = render_layers(&camera, &ldi, &settings, Backend::Cpu, None).unwrap();
-        scores.push(psnr(&ibrt, &reference));
-    }
-    eprintln!(
-        "tilted thin lens, IBRT vs true-geometry reference: PSNR {:.1} dB (layers at pixel \
-         pitch), {:.1} dB (4x finer)",
-        scores[0], scores[1]
-    );
-    // As on an untilted sensor (tests/render.rs): what differs is the layers' point sampling
-    // of textures and silhouettes, which falls away as they are refined. Measured 26.4 and
-    // 36.2 dB; a film point or weight that the two renderers computed differently would not
-    // converge.
-    assert!(scores[0] > 22.0, "{scores:?}");
-    assert!(
-        scores[1] > 33.0 && scores[1] > scores[0] + 8.0,
-        "{scores:?}"
-    );
-}
-
-#[test]
-fn tilted_baked_and_traced_agree_and_approach_the_exact_reference() {
-    let settings = RenderSettings {
-        width: 96,
-        height: 64,
-        samples_per_pixel: 32,
-        seed: 5,
-        max_layers: 8,
-    };
-    let (traced, baked) = dgauss_tilted_cameras(settings.width, settings.height);
-    let scene = Scene::demo();
-    let ldi = peel(&scene, &traced, &settings, 1);
-    let traced_image = render_layers(&traced, &ldi, &settings, Backend::Cpu, None).unwrap();
-    let baked_image = render_layers(&baked, &ldi, &settings, Backend::Cpu, None).unwrap();
-    let exact = render_reference(&traced, &scene, &settings).unwrap();
-    let baked_vs_traced = psnr(&baked_image, &traced_image);
-    let traced_vs_exact = psnr(&traced_image, &exact);
-    eprintln!(
-        "tilted: PSNR baked vs traced {baked_vs_traced:.1} dB, traced IBRT vs exact reference \
-         {traced_vs_exact:.1} dB, mean luminance {:.3}",
-        traced_image.mean_luminance()
-    );
-    assert!(traced_image.mean_luminance() > 0.05);
-    // Measured 40.7 dB (untilted 41.6 dB): the baked lens looks rays off its film plane up
-    // where they cross it, as the table's lookup defines; 23.2 dB traced vs exact is the
-    // layers at output pitch, as untilted.
-    assert!(baked_vs_traced > 38.0, "baked vs traced {baked_vs_traced}");
-    assert!(traced_vs_exact > 20.0, "traced vs exact {traced_vs_exact}");
-}
-
-#[test]
-fn gpu_matches_cpu_twin_on_a_tilted_sensor() {
-    let Some(gpu) = gpu_or_skip("gpu_matches_cpu_twin_on_a_tilted_sensor") else {
-        return;
-    };
-    let settings = RenderSettings {
-        width: 64,
-        height: 48,
-        samples_per_pixel: 16,
-        seed: 9,
-        max_layers: 8,
-    };
-    let (traced, baked) = dgauss_tilted_cameras(settings.width, settings.height);
-    let thin = thin_demo_camera(settings.width, settings.height);
-    let scene = Scene::demo();
-    for camera in [&thin, &traced, &baked] {
-        let ldi = peel(&scene, camera, &settings, 1);
-        let cpu = render_layers(camera, &ldi, &settings, Backend::Cpu, None).unwrap();
-        let gpu_image = render_layers(camera, &ldi, &settings, Backend::Gpu, Some(&gpu)).unwrap();
-        let channels = cpu.pixels.len() * 3;
-        let (mut large, mut total_abs) = (0usize, 0.0f64);
-        for (a, b) in cpu.pixels.iter().zip(&gpu_image.pixels) {
-            for c in 0..3 {
-                let d = (a[c] - b[c]).abs();
-                total_abs += d as f64;
-                large += usize::from(d > 1e-3 * (1.0 + a[c].abs()));
-            }
-        }
-        let mean_abs = total_abs / channels as f64;
-        eprintln!(
-            "{} ({}): {large} of {channels} channels differ beyond rounding, mean |cpu - gpu| = \
-             {mean_abs:.2e}, PSNR {:.1} dB",
-            camera.model.name(),
-            gpu.adapter_description,
-            psnr(&gpu_image, &cpu)
-        );
-        // Same samples and f32 arithmetic on both sides except the traced and baked lens
-        // functions (f32 ports against the f64 library): a sample can flip only where its ray
-        // grazes an aperture or layer edge. Measured on lavapipe: thin and baked no channel
-        // beyond 1e-3 (PSNR 165-168 dB), traced 3 of 9216 (64 dB). A film point or weight the
-        // two sides computed differently would move most channels.
-        assert!(
-            large * 100 <= channels,
-            "{}: {large} channels",
-            camera.model.name()
-        );
-        assert!(
-            psnr(&gpu_image, &cpu) > 50.0,
-            "{}: PSNR {}",
-            camera.model.name(),
-            psnr(&gpu_image, &cpu)
-        );
     }
 }
