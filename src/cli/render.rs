@@ -9,16 +9,22 @@ use lensbake::lrtf::io::{SIDECAR_FILE, read_table, write_table};
 use lensbake::lrtf::{LrtfTable, Precision};
 use lensbake::paraxial::{ObjectPosition, object_in_focus};
 use lensbake::render::camera::{Camera, Film, Focus, LensModel, ParaxialLens};
-use lensbake::render::gltf_scene::{gltf_path, load_gltf};
 use lensbake::render::chromatic::{
     CHANNELS, Chromatic, ChromaticMode, ColourSpread, default_wavelengths, wants_chromatic,
 };
+use lensbake::render::focus::{
+    SensorPlacement, film_z_for_pixel, paraxial_focus_plane, real_ray_focus_plane,
+    scene_point_under, spot_rms_on_sensor,
+};
+use lensbake::render::gltf_scene::{gltf_path, load_gltf};
 use lensbake::render::gpu::GpuRenderer;
 use lensbake::render::gpu_peel::GpuPeeler;
 use lensbake::render::image::{read_exr_rgbz, write_exr, write_png};
 use lensbake::render::layers::LayeredDepthImage;
 use lensbake::render::mesh::MeshScene;
-use lensbake::render::models::{BakedLens, FirstOrderModels, TracedLens};
+use lensbake::render::models::{
+    BakedLens, FirstOrderModels, PupilSampling, TracedLens, pupil_film_radius,
+};
 use lensbake::render::raster::{Peeling, mesh_layer_view, peel_mesh, surfel_count};
 use lensbake::render::scene::Scene;
 use lensbake::render::{Backend, RenderError, RenderSettings, render_layers};
@@ -102,6 +108,18 @@ pub struct RenderArgs {
     /// Sensor shift X,Y (mm).
     #[arg(long, value_parser = parse_pair::<f64>, default_value = "0,0")]
     shift_mm: (f64, f64),
+    /// Sensor tilt X,Y (degrees): right-handed rotations about the lens-frame x axis, then the
+    /// y axis, through the sensor centre. X > 0 moves the bottom edge of the image away from the
+    /// lens, Y > 0 its left edge towards the lens. Focus modes place the sensor centre.
+    #[arg(long, value_parser = parse_pair::<f64>, default_value = "0,0", allow_hyphen_values = true)]
+    tilt_deg: (f64, f64),
+    /// Tilt the sensor to focus on the plane through the scene points under three pixels,
+    /// "X1,Y1;X2,Y2;X3,Y3" (quote it), picked in the untilted frame focused at infinity.
+    /// Thin and thick: the paraxial (Scheimpflug) solution; traced and baked: the plane
+    /// through the real-ray best-focus points. Prints the tilt and the sensor distance.
+    #[arg(long, value_parser = parse_focus_points,
+          conflicts_with_all = ["focus_mm", "focus_pixel", "sensor_mm", "tilt_deg"])]
+    focus_points: Option<[(u32, u32); 3]>,
     #[arg(long, default_value_t = 1)]
     seed: u32,
     /// Most depth-peeled layers per pixel.
@@ -211,6 +229,15 @@ fn parse_pair<T: std::str::FromStr>(text: &str) -> Result<(T, T), String> {
             .map_err(|_| format!("not a number: `{s}`"))
     };
     Ok((parse(a)?, parse(b)?))
+}
+
+fn parse_focus_points(text: &str) -> Result<[(u32, u32); 3], String> {
+    let pixels = text
+        .split(';')
+        .map(parse_pair::<u32>)
+        .collect::<Result<Vec<_>, _>>()?;
+    <[(u32, u32); 3]>::try_from(pixels)
+        .map_err(|p| format!("expected three pixels X1,Y1;X2,Y2;X3,Y3, got {}", p.len()))
 }
 
 /// A lens as the command line names it.
@@ -364,6 +391,11 @@ impl SceneSource {
 
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let lens = RenderLens::parse(&args.lens, &args.read)?;
+    if matches!(lens, RenderLens::Ideal { .. })
+        && matches!(args.model, ModelArg::Traced | ModelArg::Baked)
+    {
+        bail!("`--lens ideal:...` has no surfaces to trace or bake: use --model thin or thick");
+    }
     let (first_order, f_number) = lens.first_order(args.f_number)?;
     // Focus is found with the first-order model; traced and baked use the thick one.
     let model = match args.model {
@@ -379,6 +411,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     };
     let film = Film {
         shift_mm: [args.shift_mm.0, args.shift_mm.1],
+        tilt_deg: [args.tilt_deg.0, args.tilt_deg.1],
         ..Film::full_frame_for(args.width, args.height)
     };
     let mesh = match (args.scene.as_str(), gltf_path(&args.scene)) {
@@ -410,66 +443,73 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         }
         None => SceneSource::Exr(PathBuf::from(&args.scene)),
     };
-    let focus = match (args.focus_mm, args.focus_pixel, args.sensor_mm) {
-        (Some(d), _, _) => Focus::ObjectDistance(d),
-        (_, _, Some(z)) => Focus::FilmZ(z),
-        (_, Some((x, y)), _) => {
-            if x >= args.width || y >= args.height {
-                bail!(
-                    "focus pixel {x},{y} lies outside the {}x{} image",
-                    args.width,
-                    args.height
-                );
-            }
-            // Peel once focused at infinity to find what lies under the pixel.
-            let lens = model.paraxial();
-            let probe = Camera::new(
-                model.clone(),
-                film,
-                Focus::FilmZ(lens.rear_principal_z + lens.focal_length_mm),
-            )?;
-            let ldi = source.layers(&probe, &settings)?;
-            let field = probe.half_field_tangents();
-            let to_layer = |p: u32, size: u32, half: f64, layer_half: f64, layer_size: u32| {
-                let tan = half * (2.0 * (p as f64 + 0.5) / size as f64 - 1.0);
-                ((tan / layer_half + 1.0) / 2.0 * layer_size as f64).floor() as u32
+    // Picked pixels are looked up in a frame focused at infinity.
+    let probe = |film: Film| -> anyhow::Result<(Camera, LayeredDepthImage)> {
+        let lens = model.paraxial();
+        let infinity = Focus::FilmZ(lens.rear_principal_z + lens.focal_length_mm);
+        let probe = Camera::new(model.clone(), film, infinity)?;
+        let ldi = source.layers(&probe, &settings)?;
+        Ok((probe, ldi))
+    };
+    let (focus, film) = match (
+        args.focus_points,
+        args.focus_mm,
+        args.focus_pixel,
+        args.sensor_mm,
+    ) {
+        (Some(pixels), ..) => {
+            let untilted = Film {
+                tilt_deg: [0.0, 0.0],
+                ..film
             };
-            let lx = to_layer(
-                x,
-                settings.width,
-                field[0],
-                ldi.view.tan_half[0],
-                ldi.view.width,
-            );
-            let ly = to_layer(
-                y,
-                settings.height,
-                field[1],
-                ldi.view.tan_half[1],
-                ldi.view.height,
-            );
-            let depth = ldi
-                .nearest_depth(lx, ly)
-                .with_context(|| format!("nothing under pixel {x},{y} to focus on"))?;
-            Focus::ObjectDistance(depth as f64 - probe.eye_z())
+            let (probe, ldi) = probe(untilted)?;
+            let mut objects = [[0.0; 3]; 3];
+            for (object, (x, y)) in objects.iter_mut().zip(pixels) {
+                *object = scene_point_under(&probe, &ldi, args.width, args.height, [x, y])?;
+            }
+            let placement = focus_plane(
+                &lens,
+                &first_order,
+                f_number,
+                &untilted,
+                objects,
+                args.model,
+            )?;
+            (
+                Focus::FilmZ(placement.film_z),
+                Film {
+                    tilt_deg: placement.tilt_deg,
+                    ..film
+                },
+            )
         }
-        (None, None, None) => Focus::ObjectDistance(2000.0),
+        (_, Some(d), _, _) => (Focus::ObjectDistance(d), film),
+        (_, _, _, Some(z)) => (Focus::FilmZ(z), film),
+        (_, _, Some((x, y)), _) => {
+            let (probe, ldi) = probe(film)?;
+            let film_z = film_z_for_pixel(&probe, &ldi, args.width, args.height, [x, y])?;
+            (Focus::FilmZ(film_z), film)
+        }
+        (None, None, None, None) => (Focus::ObjectDistance(2000.0), film),
     };
     let camera = Camera::new(model, film, focus)?;
     let (wavelengths, chromatic_line) = chromatic_wavelengths(&args, &lens, &first_order, &camera)?;
     println!("{chromatic_line}");
     let camera = match (args.model, &lens) {
-        (ModelArg::Thin | ModelArg::Thick, _) => camera,
-        (_, RenderLens::Ideal { .. }) => {
-            bail!("`--lens ideal:...` has no surfaces to trace or bake: use --model thin or thick")
-        }
+        (ModelArg::Thin | ModelArg::Thick, _) | (_, RenderLens::Ideal { .. }) => camera,
         (ModelArg::Traced, RenderLens::Real(real)) => {
+            let design = real.system.at(real.system.design_wavelength_nm());
             let traced = TracedLens::fitted(
                 &real.system,
                 &first_order,
                 f_number,
                 camera.film_z,
-                camera.film_corner_radius(),
+                pupil_film_radius(
+                    &design,
+                    camera.film_z,
+                    camera.film_corner_radius(),
+                    camera.film_off_plane(),
+                ),
                 PUPIL_NODES,
             )?;
             Camera::new(
@@ -491,17 +531,32 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
                     None => base,
                 }
             });
+            let film_radius = pupil_film_radius(
+                &design,
+                camera.film_z,
+                camera.film_corner_radius(),
+                camera.film_off_plane(),
+            );
             let (table, baked) = load_or_bake_at(
                 real,
                 &dir,
                 focus_mm,
-                camera.film_corner_radius(),
+                film_radius,
                 args.bake_resolution,
                 wavelengths.map(Vec::from).unwrap_or_default(),
                 &|_| {},
             )?;
             if baked {
                 println!("baked {}", dir.display());
+            }
+            let covered = table.layers[0].frame.max_film_radius;
+            if covered < film_radius * (1.0 - 1e-9) {
+                println!(
+                    "note: table {} covers film radii to {covered:.3} mm, this sensor reaches \
+                     {film_radius:.3} mm: rays from beyond render black (rebake into another \
+                     --table)",
+                    dir.display()
+                );
             }
             // The monochrome reading of the table: the design layer, or in a chromatic render
             // the green channel's (the channels pick their own layers below).
@@ -569,9 +624,12 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let png = args.out.with_extension("png");
     write_png(&image, 1.0, &png)?;
     println!(
-        "model {}, film at z = {:.3} mm, {} layers ({}x{}), {} spp: peel {:.1} ms, trace {:.1} ms",
+        "model {}, film centre at z = {:.3} mm, tilt ({:.3}, {:.3}) deg, {} layers ({}x{}), {} \
+         spp: peel {:.1} ms, trace {:.1} ms",
         camera.model.name(),
         camera.film_z,
+        camera.film.tilt_deg[0],
+        camera.film.tilt_deg[1],
         ldi.layers.len(),
         ldi.view.width,
         ldi.view.height,
@@ -581,4 +639,56 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     );
     println!("wrote {} and {}", args.out.display(), png.display());
     Ok(())
+}
+
+/// The sensor placement focusing the plane through `objects`, printed with what it leaves:
+/// paraxial (Scheimpflug) for an ideal lens and the thin and thick models, the plane through
+/// the real-ray best-focus points for a real lens (with the residual blur of both solutions).
+fn focus_plane(
+    lens: &RenderLens,
+    first_order: &FirstOrderModels,
+    f_number: f64,
+    film: &Film,
+    objects: [[f64; 3]; 3],
+    model: ModelArg,
+) -> anyhow::Result<SensorPlacement> {
+    for (k, p) in objects.iter().enumerate() {
+        println!(
+            "focus point {}: ({:.1}, {:.1}, {:.1}) mm in the lens frame",
+            k + 1,
+            p[0],
+            p[1],
+            p[2]
+        );
+    }
+    let paraxial_lens = match model {
+        ModelArg::Thin => &first_order.thin,
+        _ => &first_order.thick,
+    };
+    let paraxial = paraxial_focus_plane(paraxial_lens, film, objects)?;
+    let placement = match (model, lens) {
+        (ModelArg::Traced | ModelArg::Baked, RenderLens::Real(real)) => {
+            let no_pupil = PupilSampling::disc(0.0, 0.0).circles;
+            let traced = TracedLens::new(&real.system, first_order, f_number, no_pupil);
+            let placement = real_ray_focus_plane(&traced, film, objects)?;
+            for (name, p) in [("real-ray", &placement), ("paraxial", &paraxial)] {
+                let blur = objects
+                    .iter()
+                    .map(|o| spot_rms_on_sensor(&traced, film, p, *o).map(|r| r * 1e3))
+                    .collect::<Result<Vec<_>, _>>()?;
+                println!(
+                    "{name} focus plane: tilt ({:.3}, {:.3}) deg, centre at z = {:.3} mm; RMS \
+                     spot radius of the three points {:.1}, {:.1}, {:.1} um",
+                    p.tilt_deg[0], p.tilt_deg[1], p.film_z, blur[0], blur[1], blur[2]
+                );
+            }
+            placement
+        }
+        _ => paraxial,
+    };
+    println!(
+        "sensor tilt ({:.3}, {:.3}) deg, sensor centre {:.3} mm behind the first vertex",
+        placement.tilt_deg[0], placement.tilt_deg[1], placement.film_z
+    );
+    Ok(placement)
 }

@@ -3,7 +3,7 @@
 
 use super::RenderError;
 use super::chromatic::Chromatic;
-use super::models::{BakedLens, PupilSampling, TracedLens};
+use super::models::{BakedLens, MAX_PUPIL_BOUND_GROWTH, PupilSampling, TracedLens};
 
 /// A lens reduced to first order: power and unit-magnification principal planes, with its pupils.
 /// A thin lens is the case where both principal planes and both pupils coincide.
@@ -46,16 +46,45 @@ impl ParaxialLens {
     /// Film position (lens-frame z) that focuses an object `distance_mm` in front of the first
     /// vertex (Gaussian lens equation about the principal planes).
     pub fn film_z_for_object(&self, distance_mm: f64) -> Result<f64, RenderError> {
-        let object_distance = self.front_principal_z + distance_mm;
-        if !(object_distance > self.focal_length_mm) {
-            return Err(RenderError::InvalidSetting(format!(
-                "cannot focus at {distance_mm} mm: the object must lie beyond the front focal \
-                 point ({:.3} mm in front of the first vertex)",
-                self.focal_length_mm - self.front_principal_z
-            )));
-        }
-        let image_distance = 1.0 / (1.0 / self.focal_length_mm - 1.0 / object_distance);
+        let image_distance = self
+            .image_distance(self.front_principal_z + distance_mm)
+            .ok_or_else(|| {
+                RenderError::InvalidSetting(format!(
+                    "cannot focus at {distance_mm} mm: the object must lie beyond the front focal \
+                     point ({:.3} mm in front of the first vertex)",
+                    self.focal_length_mm - self.front_principal_z
+                ))
+            })?;
         Ok(self.rear_principal_z + image_distance)
+    }
+
+    /// The Gaussian image distance (behind the rear principal plane) of an object
+    /// `object_distance` in front of the front one; None unless it lies beyond the focal length.
+    fn image_distance(&self, object_distance: f64) -> Option<f64> {
+        (object_distance > self.focal_length_mm)
+            .then(|| 1.0 / (1.0 / self.focal_length_mm - 1.0 / object_distance))
+    }
+
+    /// The paraxial image of the lens-frame point `object` (in front of the front focal point):
+    /// the Gaussian equation about the principal planes along z, lateral magnification
+    /// -s'/s across it. Paraxial imaging maps planes to planes, so the images of three points
+    /// fix the image of the plane through them (the Scheimpflug rule).
+    pub fn image_of(&self, object: [f64; 3]) -> Result<[f64; 3], RenderError> {
+        let object_distance = self.front_principal_z - object[2];
+        let image_distance = self.image_distance(object_distance).ok_or_else(|| {
+            RenderError::InvalidSetting(format!(
+                "cannot image the point at z = {:.3} mm: it lies inside the front focal length \
+                 ({:.3} mm in front of the first vertex)",
+                object[2],
+                self.focal_length_mm - self.front_principal_z
+            ))
+        })?;
+        let magnification = -image_distance / object_distance;
+        Ok([
+            magnification * object[0],
+            magnification * object[1],
+            self.rear_principal_z + image_distance,
+        ])
     }
 
     /// The object-space ray for the film-side ray from `film` towards `pupil` (both lens-frame
@@ -134,12 +163,54 @@ pub enum Focus {
     ObjectDistance(f64),
 }
 
-/// The sensor: its size, and its shift off the axis (mm).
+/// The sensor: its size, its shift off the axis (mm), and its tilt about its centre.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Film {
     pub width_mm: f64,
     pub height_mm: f64,
     pub shift_mm: [f64; 2],
+    /// Right-handed rotations (degrees) about the lens-frame x axis, then the y axis, through
+    /// the sensor centre: x > 0 moves the sensor's +y half (the bottom of the output image)
+    /// away from the lens, y > 0 moves its +x half (the left of the image) towards it.
+    pub tilt_deg: [f64; 2],
+}
+
+/// The sensor's orientation: its in-plane axes (along +x and +y of an untilted sensor) and its
+/// normal (towards +z), all unit lens-frame vectors.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FilmAxes {
+    pub across: [f64; 3],
+    pub up: [f64; 3],
+    pub normal: [f64; 3],
+}
+
+/// Steepest sensor tilt accepted (degrees from the axis): beyond it film points near the edge
+/// can reach the lens and a sensor that steep is no longer imaging anything sensible.
+pub const MAX_TILT_DEG: f64 = 45.0;
+
+impl FilmAxes {
+    /// The axes of a sensor rotated by `tilt_deg` (see [`Film::tilt_deg`]): R = R_y(y) R_x(x).
+    pub fn of(tilt_deg: [f64; 2]) -> FilmAxes {
+        let (sx, cx) = tilt_deg[0].to_radians().sin_cos();
+        let (sy, cy) = tilt_deg[1].to_radians().sin_cos();
+        FilmAxes {
+            across: [cy, 0.0, -sy],
+            up: [sy * sx, cx, cy * sx],
+            normal: [sy * cx, -sx, cy * cx],
+        }
+    }
+
+    /// The tilt (degrees) whose sensor normal is `normal` (any length, pointing either way
+    /// along the axis): the inverse of [`FilmAxes::of`].
+    pub fn tilt_deg_for_normal(normal: [f64; 3]) -> [f64; 2] {
+        let length = (normal[0].powi(2) + normal[1].powi(2) + normal[2].powi(2)).sqrt();
+        let sign = if normal[2] < 0.0 { -1.0 } else { 1.0 };
+        let n = normal.map(|v| sign * v / length);
+        [
+            (-n[1]).clamp(-1.0, 1.0).asin().to_degrees(),
+            n[0].atan2(n[2]).to_degrees(),
+        ]
+    }
 }
 
 impl Film {
@@ -155,7 +226,26 @@ impl Film {
             width_mm: w,
             height_mm: h,
             shift_mm: [0.0, 0.0],
+            tilt_deg: [0.0, 0.0],
         }
+    }
+
+    pub fn axes(&self) -> FilmAxes {
+        FilmAxes::of(self.tilt_deg)
+    }
+
+    /// The lens-frame point at sensor coordinates (across, up) mm from the centre, the centre at
+    /// lens-frame z `centre_z`.
+    pub fn point(&self, centre_z: f64, across: f64, up: f64) -> [f64; 3] {
+        let axes = self.axes();
+        let centre = [self.shift_mm[0], self.shift_mm[1], centre_z];
+        std::array::from_fn(|i| centre[i] + across * axes.across[i] + up * axes.up[i])
+    }
+
+    /// The four sensor corners for a centre at z `centre_z`.
+    pub fn corners(&self, centre_z: f64) -> [[f64; 3]; 4] {
+        let (a, b) = (self.width_mm / 2.0, self.height_mm / 2.0);
+        [[-a, -b], [a, -b], [-a, b], [a, b]].map(|[u, v]| self.point(centre_z, u, v))
     }
 }
 
@@ -182,22 +272,27 @@ impl Camera {
                 "film at z = {film_z} mm is not behind the rear principal plane (z = {rear} mm)"
             )));
         }
-        Ok(Camera {
+        let camera = Camera {
             model,
             film,
             film_z,
             chromatic: None,
-        })
+        };
+        camera.check_tilt()?;
+        Ok(camera)
     }
 
     /// This camera with each colour channel traced through its own wavelength's lens; refused
     /// when the channels are of another kind of model than `model`.
     pub fn with_chromatic(self, chromatic: Chromatic) -> Result<Camera, RenderError> {
         chromatic.check_matches(&self.model)?;
-        Ok(Camera {
+        // The channels' common pupil is wider than the model's: the tilt check sees it.
+        let camera = Camera {
             chromatic: Some(chromatic),
             ..self
-        })
+        };
+        camera.check_tilt()?;
+        Ok(camera)
     }
 
     /// Where lens samples are drawn: the channels' common (conservative) pupil in a chromatic
@@ -209,10 +304,60 @@ impl Camera {
         }
     }
 
-    /// Largest distance of a film point from the axis (the film corner, shift included).
+    /// A tilted sensor must stay behind the lens everywhere, and its points off the plane the
+    /// effective pupil was fitted on must stay within reach of the pupil bound.
+    fn check_tilt(&self) -> Result<(), RenderError> {
+        let tilt = self.film.tilt_deg;
+        if !(tilt
+            .iter()
+            .all(|t| t.is_finite() && t.abs() <= MAX_TILT_DEG))
+        {
+            return Err(RenderError::InvalidSetting(format!(
+                "sensor tilt {tilt:?} degrees: each angle must lie within +-{MAX_TILT_DEG}"
+            )));
+        }
+        let sampling = self.pupil_sampling();
+        let behind = self.model.paraxial().rear_principal_z.max(sampling.z);
+        let bound = sampling.off_plane_bound();
+        for corner in self.film.corners(self.film_z) {
+            if corner[2] <= behind {
+                return Err(RenderError::InvalidSetting(format!(
+                    "the tilted sensor's corner at z = {:.3} mm reaches the lens (it must stay \
+                     behind z = {behind:.3} mm)",
+                    corner[2]
+                )));
+            }
+            if bound.growth(corner[2], self.film_z, sampling.z) > MAX_PUPIL_BOUND_GROWTH {
+                return Err(RenderError::InvalidSetting(format!(
+                    "the sensor corner at z = {:.3} mm lies {:.3} mm off the film plane the \
+                     effective pupil was fitted on (z = {:.3} mm): too far for a useful \
+                     conservative pupil bound; tilt less",
+                    corner[2],
+                    corner[2] - self.film_z,
+                    self.film_z
+                )));
+            }
+        }
+        Ok(())
+    }
+
+    /// Largest distance of a film point from the axis (a film corner, shift and tilt included).
     pub fn film_corner_radius(&self) -> f64 {
-        let f = &self.film;
-        (f.width_mm / 2.0 + f.shift_mm[0].abs()).hypot(f.height_mm / 2.0 + f.shift_mm[1].abs())
+        self.film
+            .corners(self.film_z)
+            .iter()
+            .map(|c| c[0].hypot(c[1]))
+            .fold(0.0, f64::max)
+    }
+
+    /// Largest distance of a film point from the film plane z = `film_z` along the axis (zero
+    /// for an untilted sensor).
+    pub fn film_off_plane(&self) -> f64 {
+        self.film
+            .corners(self.film_z)
+            .iter()
+            .map(|c| (c[2] - self.film_z).abs())
+            .fold(0.0, f64::max)
     }
 
     /// Lens-frame z of the eye: the entrance-pupil centre, the point layers are peeled from.
@@ -224,25 +369,31 @@ impl Camera {
     /// The lens inverts the image, so the top-left output pixel lies at +x, -y on the film.
     pub fn film_point(&self, width: u32, height: u32, x: f64, y: f64) -> [f64; 3] {
         let f = &self.film;
-        [
-            f.shift_mm[0] + f.width_mm * (0.5 - x / width as f64),
-            f.shift_mm[1] + f.height_mm * (y / height as f64 - 0.5),
+        f.point(
             self.film_z,
-        ]
+            f.width_mm * (0.5 - x / width as f64),
+            f.height_mm * (y / height as f64 - 0.5),
+        )
+    }
+
+    /// Tangents (x/depth, y/depth) of the direction from the eye towards what the film point
+    /// `film` sees along its first-order chief ray (through the exit-pupil centre).
+    pub fn chief_ray_tangents(&self, film: [f64; 3]) -> [f64; 2] {
+        let lens = self.model.paraxial();
+        let (_, slope) = lens.object_ray(film, [0.0, 0.0, lens.exit_pupil_z]);
+        // Light travels along +z with this slope, so the scene lies at minus it.
+        [-slope[0], -slope[1]]
     }
 
     /// Tangents of the half field of view (x, y) seen from the eye by chief rays from the film
-    /// corners farthest from the axis.
+    /// corners: a chief-ray tangent is a linear-fractional function of the film point, so its
+    /// extremes over the sensor lie at corners.
     pub fn half_field_tangents(&self) -> [f64; 2] {
-        let lens = self.model.paraxial();
-        let f = &self.film;
-        let corner = [
-            f.width_mm / 2.0 + f.shift_mm[0].abs(),
-            f.height_mm / 2.0 + f.shift_mm[1].abs(),
-            self.film_z,
-        ];
-        let (_, slope) = lens.object_ray(corner, [0.0, 0.0, lens.exit_pupil_z]);
-        [slope[0].abs(), slope[1].abs()]
+        self.film
+            .corners(self.film_z)
+            .iter()
+            .map(|&corner| self.chief_ray_tangents(corner).map(f64::abs))
+            .fold([0.0, 0.0], |m, t| [m[0].max(t[0]), m[1].max(t[1])])
     }
 }
 
@@ -281,5 +432,127 @@ mod tests {
         // Lateral magnification -s_o/s' about the principal planes.
         let m = -(1000.0 + 10.0) / (film_z - 25.0);
         assert!((meet[0][0] - 3.0 * m).abs() < 1e-9);
+    }
+
+    #[test]
+    fn film_axes_are_orthonormal_and_invert_to_their_tilt() {
+        for tilt in [
+            [0.0, 0.0],
+            [12.0, 0.0],
+            [0.0, -20.0],
+            [7.5, 31.0],
+            [-40.0, 3.0],
+        ] {
+            let a = FilmAxes::of(tilt);
+            let dot = |u: [f64; 3], v: [f64; 3]| u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
+            for (u, v, want) in [
+                (a.across, a.across, 1.0),
+                (a.up, a.up, 1.0),
+                (a.normal, a.normal, 1.0),
+                (a.across, a.up, 0.0),
+                (a.across, a.normal, 0.0),
+                (a.up, a.normal, 0.0),
+            ] {
+                assert!((dot(u, v) - want).abs() < 1e-15, "{tilt:?}");
+            }
+            // Right-handed: across x up = normal.
+            let c = [
+                a.across[1] * a.up[2] - a.across[2] * a.up[1],
+                a.across[2] * a.up[0] - a.across[0] * a.up[2],
+                a.across[0] * a.up[1] - a.across[1] * a.up[0],
+            ];
+            assert!((0..3).all(|i| (c[i] - a.normal[i]).abs() < 1e-15));
+            let back = FilmAxes::tilt_deg_for_normal(a.normal.map(|v| -3.0 * v));
+            assert!((back[0] - tilt[0]).abs() < 1e-12 && (back[1] - tilt[1]).abs() < 1e-12);
+        }
+        // The documented senses: x > 0 takes +y away from the lens, y > 0 takes +x towards it.
+        assert!(FilmAxes::of([10.0, 0.0]).up[2] > 0.0);
+        assert!(FilmAxes::of([0.0, 10.0]).across[2] < 0.0);
+    }
+
+    #[test]
+    fn tilted_sensor_turns_about_its_shifted_centre() {
+        let lens = ParaxialLens::thin(50.0, 2.0).unwrap();
+        let film = Film {
+            width_mm: 36.0,
+            height_mm: 24.0,
+            shift_mm: [3.0, -2.0],
+            tilt_deg: [6.0, -9.0],
+        };
+        let camera = Camera::new(LensModel::Thin(lens), film, Focus::FilmZ(52.0)).unwrap();
+        let centre = camera.film_point(360, 240, 180.0, 120.0);
+        assert!((centre[0] - 3.0).abs() < 1e-12 && (centre[1] + 2.0).abs() < 1e-12);
+        assert!((centre[2] - 52.0).abs() < 1e-12);
+        // Every film point lies on the plane through the centre with the sensor's normal, and
+        // the corners keep the sensor's size.
+        let n = film.axes().normal;
+        for (x, y) in [(0.0, 0.0), (360.0, 0.0), (0.0, 240.0), (97.0, 13.0)] {
+            let p = camera.film_point(360, 240, x, y);
+            let d = [p[0] - centre[0], p[1] - centre[1], p[2] - centre[2]];
+            assert!((d[0] * n[0] + d[1] * n[1] + d[2] * n[2]).abs() < 1e-12);
+        }
+        let a = camera.film_point(360, 240, 0.0, 0.0);
+        let b = camera.film_point(360, 240, 360.0, 240.0);
+        let diagonal =
+            ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt();
+        assert!((diagonal - 36.0f64.hypot(24.0)).abs() < 1e-12);
+    }
+
+    #[test]
+    fn untilted_film_points_are_the_plain_grid() {
+        let lens = ParaxialLens::thin(50.0, 2.0).unwrap();
+        let film = Film {
+            shift_mm: [1.5, 0.25],
+            ..Film::full_frame_for(300, 200)
+        };
+        let camera = Camera::new(LensModel::Thin(lens), film, Focus::FilmZ(55.0)).unwrap();
+        let p = camera.film_point(300, 200, 12.25, 190.5);
+        assert_eq!(
+            p,
+            [
+                1.5 + 36.0 * (0.5 - 12.25 / 300.0),
+                0.25 + 24.0 * (190.5 / 200.0 - 0.5),
+                55.0
+            ]
+        );
+    }
+
+    #[test]
+    fn a_sensor_tilted_into_the_lens_is_refused() {
+        let lens = ParaxialLens::thin(50.0, 2.0).unwrap();
+        let film = Film {
+            tilt_deg: [0.0, 40.0],
+            ..Film::full_frame_for(300, 200)
+        };
+        // The +x edge swings 18 sin 40 = 11.6 mm towards the lens from 52 mm: still behind it.
+        assert!(Camera::new(LensModel::Thin(lens.clone()), film, Focus::FilmZ(52.0)).is_ok());
+        // From 10 mm behind the lens plane it would cross it.
+        let err = Camera::new(LensModel::Thin(lens.clone()), film, Focus::FilmZ(10.0));
+        assert!(
+            matches!(err, Err(RenderError::InvalidSetting(m)) if m.contains("reaches the lens"))
+        );
+        let steep = Film {
+            tilt_deg: [60.0, 0.0],
+            ..film
+        };
+        assert!(Camera::new(LensModel::Thin(lens), steep, Focus::FilmZ(52.0)).is_err());
+    }
+
+    #[test]
+    fn paraxial_image_agrees_with_the_rays_through_it() {
+        let mut lens = ParaxialLens::thin(50.0, 2.0).unwrap();
+        lens.front_principal_z = 10.0;
+        lens.rear_principal_z = 25.0;
+        lens.exit_pupil_z = 30.0;
+        let object = [40.0, -25.0, -700.0];
+        let image = lens.image_of(object).unwrap();
+        // The film-side rays from the image point all leave towards the object point.
+        for pupil in [[0.0, 0.0], [6.0, -2.0], [-3.0, 5.0]] {
+            let (o, s) = lens.object_ray(image, [pupil[0], pupil[1], lens.exit_pupil_z]);
+            let t = object[2] - o[2];
+            assert!((o[0] + s[0] * t - object[0]).abs() < 1e-9);
+            assert!((o[1] + s[1] * t - object[1]).abs() < 1e-9);
+        }
+        assert!(lens.image_of([0.0, 0.0, -30.0]).is_err());
     }
 }

@@ -62,6 +62,23 @@ pub struct FrameParams {
     pub tan_half_y: f32,
     pub near_depth: f32,
     pub far_depth: f32,
+    /// The film point of pixel (x, y) is origin + x * column step + y * row step, origin =
+    /// (film_origin_x, film_origin_y, film_origin_z), column step (film_step_x,
+    /// film_step_x_y, film_step_x_z), row step (film_step_y_x, film_step_y, film_step_y_z).
+    /// On an untilted sensor film_origin_z = film_z and the other new components are zero;
+    /// `film_z` stays the plane through the sensor centre, where the pupil circles were fitted.
+    pub film_origin_z: f32,
+    pub film_step_x_y: f32,
+    pub film_step_x_z: f32,
+    pub film_step_y_x: f32,
+    pub film_step_y_z: f32,
+    /// Unit sensor normal (cosine factor of the irradiance on a tilted sensor).
+    pub film_normal_x: f32,
+    pub film_normal_y: f32,
+    pub film_normal_z: f32,
+    /// The pupil circles' bound for film points off `film_z` (`models::OffPlaneBound`).
+    pub pupil_lipschitz: f32,
+    pub pupil_centre_slack: f32,
 }
 
 /// The layers as the kernel reads them: four inverse depths per pixel per group, one colour per
@@ -156,11 +173,13 @@ pub fn frame_params(
 ) -> FrameParams {
     let lens = camera.model.paraxial();
     let origin = camera.film_point(width, height, 0.0, 0.0);
-    let step = [
-        -camera.film.width_mm / width as f64,
-        camera.film.height_mm / height as f64,
-    ];
+    let axes = camera.film.axes();
+    let column_step = axes
+        .across
+        .map(|a| -a * camera.film.width_mm / width as f64);
+    let row_step = axes.up.map(|a| a * camera.film.height_mm / height as f64);
     let sampling = camera.pupil_sampling();
+    let bound = sampling.off_plane_bound();
     // Every model's weights are relative to the paraxial exit pupil seen from the film, so an
     // unvignetted axial pixel of a thin or thick lens gets weight cos^4 = 1.
     let exit_distance = camera.film_z - lens.exit_pupil_z;
@@ -186,8 +205,8 @@ pub fn frame_params(
         },
         film_origin_x: origin[0] as f32,
         film_origin_y: origin[1] as f32,
-        film_step_x: step[0] as f32,
-        film_step_y: step[1] as f32,
+        film_step_x: column_step[0] as f32,
+        film_step_y: row_step[1] as f32,
         film_z: camera.film_z as f32,
         pupil_z: sampling.z as f32,
         pupil_weight: (std::f64::consts::PI / (reference * sample_distance * sample_distance))
@@ -201,6 +220,16 @@ pub fn frame_params(
         // Slightly beyond the data so the first and last layers are not clipped by rounding.
         near_depth: layers.depth_range[0] * 0.999,
         far_depth: layers.depth_range[1] * 1.001,
+        film_origin_z: origin[2] as f32,
+        film_step_x_y: column_step[1] as f32,
+        film_step_x_z: column_step[2] as f32,
+        film_step_y_x: row_step[0] as f32,
+        film_step_y_z: row_step[2] as f32,
+        film_normal_x: axes.normal[0] as f32,
+        film_normal_y: axes.normal[1] as f32,
+        film_normal_z: axes.normal[2] as f32,
+        pupil_lipschitz: bound.lipschitz as f32,
+        pupil_centre_slack: bound.centre_slack as f32,
     }
 }
 

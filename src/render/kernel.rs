@@ -461,8 +461,11 @@ fn pupil_at(lens: &LensData, block: u32, film_radius: f32) -> Vec2 {
 }
 
 /// A lens sample: the point on the sampling plane for unit-square sample `lens_u` from `film`,
-/// uniform over the film radius's pupil circle in block `block` of `lens.pupil`, and its
-/// weight (cos^4 times the circle's projected solid angle relative to the paraxial exit pupil).
+/// uniform over the film radius's pupil circle in block `block` of `lens.pupil` (widened for a
+/// film point off the plane the circles were fitted on, see `models::OffPlaneBound`), and its
+/// weight: the disc's area times cos(at the pupil) cos(at the sensor) / distance^2, relative to
+/// the paraxial exit pupil seen from the film centre (cos^4 times the circle's projected solid
+/// angle on an untilted film).
 ///
 /// Only the circle's centre turns with the film point's azimuth; the disc sample itself does
 /// not (the circle is symmetric), so neighbouring pixels on either side of the axis keep the
@@ -481,20 +484,35 @@ pub(crate) fn pupil_sample(
         [1.0, 0.0]
     };
     let circle = pupil_at(lens, block, film_radius);
+    let centre = [azimuth[0] * circle[0], azimuth[1] * circle[0]];
+    let mut radius = circle[1];
+    if film[2] != frame.film_z {
+        let growth =
+            frame.pupil_lipschitz * (film[2] - frame.film_z).abs() / (film[2] - frame.pupil_z);
+        let drift = ((centre[0] - film[0]) * (centre[0] - film[0])
+            + (centre[1] - film[1]) * (centre[1] - film[1]))
+            .sqrt();
+        radius = (radius + growth * drift + frame.pupil_centre_slack) / (1.0 - growth);
+    }
     let disc = concentric_disc(lens_u);
     let pupil = [
-        azimuth[0] * circle[0] + circle[1] * disc[0],
-        azimuth[1] * circle[0] + circle[1] * disc[1],
+        centre[0] + radius * disc[0],
+        centre[1] + radius * disc[1],
         frame.pupil_z,
     ];
     let to_pupil = [pupil[0] - film[0], pupil[1] - film[1], pupil[2] - film[2]];
     let length =
         (to_pupil[0] * to_pupil[0] + to_pupil[1] * to_pupil[1] + to_pupil[2] * to_pupil[2]).sqrt();
-    let cos_theta = to_pupil[2].abs() / length;
-    let cos2 = cos_theta * cos_theta;
+    let cos_pupil = to_pupil[2].abs() / length;
+    let cos_film = (to_pupil[0] * frame.film_normal_x
+        + to_pupil[1] * frame.film_normal_y
+        + to_pupil[2] * frame.film_normal_z)
+        .abs()
+        / length;
+    let reach = (frame.film_z - frame.pupil_z) / length;
     (
         pupil,
-        frame.pupil_weight * circle[1] * circle[1] * cos2 * cos2,
+        frame.pupil_weight * radius * radius * cos_pupil * cos_film * reach * reach,
     )
 }
 
@@ -508,12 +526,17 @@ fn pixel_sample(
     index: u32,
 ) -> (Vec3, Vec2) {
     let (lens_u, jitter) = scrambles.sample(index, frame.samples_per_pixel);
-    let film = [
-        frame.film_origin_x + (x as f32 + jitter[0]) * frame.film_step_x,
-        frame.film_origin_y + (y as f32 + jitter[1]) * frame.film_step_y,
-        frame.film_z,
-    ];
+    let film = film_point(frame, [x as f32 + jitter[0], y as f32 + jitter[1]]);
     (film, lens_u)
+}
+
+/// The shader's `film_point`: the film point at pixel coordinates `p` (pixel + jitter).
+fn film_point(frame: &FrameParams, p: Vec2) -> Vec3 {
+    [
+        frame.film_origin_x + p[0] * frame.film_step_x + p[1] * frame.film_step_y_x,
+        frame.film_origin_y + p[0] * frame.film_step_x_y + p[1] * frame.film_step_y,
+        frame.film_origin_z + p[0] * frame.film_step_x_z + p[1] * frame.film_step_y_z,
+    ]
 }
 
 /// Weighted radiance summed over this dispatch's samples for output pixel (x, y): the body of

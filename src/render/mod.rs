@@ -10,8 +10,9 @@
 //! [`image::RgbImage`].
 
 pub mod camera;
-pub mod gltf_scene;
 pub mod chromatic;
+pub mod focus;
+pub mod gltf_scene;
 pub mod gpu;
 pub mod gpu_peel;
 pub mod gpu_types;

@@ -107,9 +107,10 @@ impl TrueGeometry for TracedMesh<'_> {
 }
 
 /// Renders `scene` through `camera` with `settings.samples_per_pixel` samples per pixel, in f64,
-/// with the kernel's samples and weights (pupil circle per film radius, cos^4 times the circle's
-/// projected solid angle relative to the paraxial exit pupil). With a traced camera this is the
-/// exact lens against the true geometry: the yardstick for every model and for the layers.
+/// with the kernel's samples and weights (pupil circle per film radius, widened off the fitted
+/// plane; the disc's projected solid angle times the sensor's cosine, relative to the paraxial
+/// exit pupil). With a traced camera this is the exact lens against the true geometry: the
+/// yardstick for every model and for the layers.
 pub fn render_reference(
     camera: &Camera,
     scene: &(impl TrueGeometry + ?Sized),
@@ -124,9 +125,9 @@ pub fn render_reference(
     let exit_distance = camera.film_z - lens.exit_pupil_z;
     let reference_solid_angle =
         std::f64::consts::PI * lens.exit_pupil_radius_mm.powi(2) / exit_distance.powi(2);
-    let sample_distance = camera.film_z - sampling.z;
-    let weight_scale =
-        std::f64::consts::PI / (reference_solid_angle * sample_distance * sample_distance);
+    let weight_scale = std::f64::consts::PI / reference_solid_angle;
+    let bound = sampling.off_plane_bound();
+    let normal = camera.film.axes().normal;
     let (width, height, spp) = (settings.width, settings.height, settings.samples_per_pixel);
     let pixels = (0..width * height)
         .into_par_iter()
@@ -142,22 +143,20 @@ pub fn render_reference(
                     x as f64 + jitter[0] as f64,
                     y as f64 + jitter[1] as f64,
                 );
-                let film_radius = film[0].hypot(film[1]);
-                let azimuth = if film_radius > 0.0 {
-                    [film[0] / film_radius, film[1] / film_radius]
-                } else {
-                    [1.0, 0.0]
-                };
-                let circle = sampling.circles.circle_at(film_radius);
+                let (centre, radius) = sampling.disc_for(&bound, film, camera.film_z);
                 let disc = concentric_disc(lens_u);
                 let pupil = [
-                    azimuth[0] * circle.centre_x + circle.radius * disc[0] as f64,
-                    azimuth[1] * circle.centre_x + circle.radius * disc[1] as f64,
+                    centre[0] + radius * disc[0] as f64,
+                    centre[1] + radius * disc[1] as f64,
                     sampling.z,
                 ];
                 let d = [pupil[0] - film[0], pupil[1] - film[1], pupil[2] - film[2]];
-                let cos_theta = d[2].abs() / (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-                let weight = weight_scale * circle.radius * circle.radius * cos_theta.powi(4);
+                let distance_sq = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+                // Disc area times cos(at the pupil) cos(at the sensor) / distance^2.
+                let cosines = d[2].abs()
+                    * (d[0] * normal[0] + d[1] * normal[1] + d[2] * normal[2]).abs()
+                    / distance_sq;
+                let weight = weight_scale * radius * radius * cosines / distance_sq;
                 match &camera.chromatic {
                     None => {
                         let Some((origin, direction)) = object_ray(&camera.model, film, pupil)

@@ -63,6 +63,7 @@ fn inscribed_film(radius: f64, width: u32, height: u32) -> Film {
         width_mm: 2.0 * radius * width as f64 / diagonal,
         height_mm: 2.0 * radius * height as f64 / diagonal,
         shift_mm: [0.0, 0.0],
+        tilt_deg: [0.0, 0.0],
     }
 }
 

@@ -38,6 +38,19 @@ struct FrameParams {
     tan_half_y: f32,
     near_depth: f32,
     far_depth: f32,
+    // Film point of pixel (x, y) = origin + x * column step + y * row step (see film_point);
+    // film_z stays the plane through the sensor centre, where the pupil circles were fitted.
+    film_origin_z: f32,
+    film_step_x_y: f32,
+    film_step_x_z: f32,
+    film_step_y_x: f32,
+    film_step_y_z: f32,
+    film_normal_x: f32,
+    film_normal_y: f32,
+    film_normal_z: f32,
+    // Off-plane pupil bound (src/render/models.rs OffPlaneBound).
+    pupil_lipschitz: f32,
+    pupil_centre_slack: f32,
 }
 
 @group(1) @binding(0) var<uniform> frame: FrameParams;
@@ -208,8 +221,9 @@ struct PupilSample {
 
 // Uniform over the film radius's pupil circle in block `block` of lrtf_pupil, its centre turned
 // to the film point's azimuth (the disc sample is not turned, so stratification does not flip
-// across the axis); weight cos^4 times the circle's projected solid angle relative to the
-// paraxial exit pupil's.
+// across the axis), the circle widened for a film point off the plane it was fitted on
+// (OffPlaneBound in models.rs); weight the disc's area times cos(at the pupil) cos(at the
+// sensor) / distance^2, relative to the paraxial exit pupil seen from the film centre.
 fn pupil_sample(film: vec3<f32>, lens_u: vec2<f32>, block: u32) -> PupilSample {
     let film_radius = sqrt(film.x * film.x + film.y * film.y);
     var azimuth = vec2<f32>(1.0, 0.0);
@@ -217,12 +231,31 @@ fn pupil_sample(film: vec3<f32>, lens_u: vec2<f32>, block: u32) -> PupilSample {
         azimuth = film.xy / film_radius;
     }
     let circle = lrtf_circle_at(film_radius, block);
+    let centre = azimuth * circle.x;
+    var radius = circle.y;
+    if film.z != frame.film_z {
+        let growth = frame.pupil_lipschitz * abs(film.z - frame.film_z) / (film.z - frame.pupil_z);
+        let drift = length(centre - film.xy);
+        radius = (radius + growth * drift + frame.pupil_centre_slack) / (1.0 - growth);
+    }
     let disc = concentric_disc(lens_u);
-    let pupil = vec3<f32>(azimuth * circle.x + circle.y * disc, frame.pupil_z);
+    let pupil = vec3<f32>(centre + radius * disc, frame.pupil_z);
     let to_pupil = pupil - film;
-    let cos_theta = abs(to_pupil.z) / length(to_pupil);
-    let cos2 = cos_theta * cos_theta;
-    return PupilSample(pupil, frame.pupil_weight * circle.y * circle.y * cos2 * cos2);
+    let distance = length(to_pupil);
+    let cos_pupil = abs(to_pupil.z) / distance;
+    let normal = vec3<f32>(frame.film_normal_x, frame.film_normal_y, frame.film_normal_z);
+    let cos_film = abs(dot(to_pupil, normal)) / distance;
+    let reach = (frame.film_z - frame.pupil_z) / distance;
+    return PupilSample(pupil, frame.pupil_weight * radius * radius * cos_pupil * cos_film * reach * reach);
+}
+
+// The film point at pixel coordinates p (pixel index plus jitter).
+fn film_point(p: vec2<f32>) -> vec3<f32> {
+    return vec3<f32>(
+        frame.film_origin_x + p.x * frame.film_step_x + p.y * frame.film_step_y_x,
+        frame.film_origin_y + p.x * frame.film_step_x_y + p.y * frame.film_step_y,
+        frame.film_origin_z + p.x * frame.film_step_x_z + p.y * frame.film_step_y_z,
+    );
 }
 
 // Layer-image coordinates (column, row, inverse depth) of the ray's point at `depth` from the eye.
@@ -408,9 +441,7 @@ fn pixel_scrambles(pixel: u32) -> vec4<u32> {
 fn pixel_sample(id: vec2<u32>, scrambles: vec4<u32>, index: u32) -> PixelSample {
     let lens_u = lattice_point(index, frame.samples_per_pixel, scrambles.x, scrambles.y);
     let jitter = lattice_point(index, frame.samples_per_pixel, scrambles.z, scrambles.w).yx;
-    let film_xy = vec2<f32>(frame.film_origin_x, frame.film_origin_y)
-        + (vec2<f32>(f32(id.x), f32(id.y)) + jitter) * vec2<f32>(frame.film_step_x, frame.film_step_y);
-    return PixelSample(vec3<f32>(film_xy, frame.film_z), lens_u);
+    return PixelSample(film_point(vec2<f32>(f32(id.x), f32(id.y)) + jitter), lens_u);
 }
 
 @compute @workgroup_size(8, 8, 1)
