@@ -1,6 +1,8 @@
-//! Table files: `lrtf.exr` (entries) and `lrtf.ron` (sidecar: meaning, domain, pupil, hash).
+//! Table files: `lrtf.exr` (entries) and `lrtf.ron` (sidecar: meaning, domain, pupil, hashes).
 //! Layout in docs/lrtf.md. Both files are written to a temporary name in the target directory
-//! and renamed into place, so a reader never sees half a table.
+//! and renamed into place, so a reader never sees half a file; the sidecar records the CRC-32 of
+//! the data file's bytes, so a reader never pairs the data of one bake with the sidecar of
+//! another (a writer killed between the two renames leaves exactly that pair).
 
 use std::path::{Path, PathBuf};
 
@@ -15,8 +17,9 @@ use super::table::{Layer, LrtfTable, Precision, TableInfo};
 use crate::prescription::Prescription;
 use crate::pupil::PupilTable;
 
-/// Version of the file layout (channel set, image packing, sidecar fields).
-pub const FORMAT_VERSION: u32 = 1;
+/// Version of the file layout (channel set, image packing, sidecar fields). 2: the sidecar
+/// records the data file's CRC-32.
+pub const FORMAT_VERSION: u32 = 2;
 pub const SIDECAR_FILE: &str = "lrtf.ron";
 pub const DATA_FILE: &str = "lrtf.exr";
 
@@ -40,6 +43,10 @@ pub struct Sidecar {
     pub lens: String,
     /// [`prescription_hash`] of the lens baked.
     pub prescription_hash: String,
+    /// [`data_checksum`] of the `lrtf.exr` written with this sidecar. Absent only in sidecars of
+    /// format version 1, which are refused by their version before this is read.
+    #[serde(default)]
+    pub data_crc32: Option<String>,
     pub info: TableInfo,
     pub layers: Vec<LayerInfo>,
 }
@@ -76,6 +83,16 @@ pub enum TableError {
         lens: String,
         dir: PathBuf,
     },
+    #[error(
+        "{path}: the data file does not belong to its sidecar (CRC-32 {found}, the sidecar records {expected}): the two come from different bakes or the data was altered; rebake it with `lensbake bake {lens} --out {dir}`"
+    )]
+    DataMismatch {
+        path: PathBuf,
+        found: String,
+        expected: String,
+        lens: String,
+        dir: PathBuf,
+    },
 }
 
 /// FNV-1a 64 of the prescription's canonical RON text, as 16 hex digits. Any change to a surface,
@@ -88,6 +105,12 @@ pub fn prescription_hash(prescription: &Prescription) -> String {
         hash = hash.wrapping_mul(0x0100_0000_01b3);
     }
     format!("{hash:016x}")
+}
+
+/// CRC-32 (IEEE 802.3, the checksum of zlib and PNG) of a data file's bytes, as 8 hex digits.
+/// It guards against accident (files of two bakes, a damaged copy), not against forgery.
+pub fn data_checksum(bytes: &[u8]) -> String {
+    format!("{:08x}", crc32fast::hash(bytes))
 }
 
 fn io_error(path: &Path) -> impl FnOnce(std::io::Error) -> TableError + '_ {
@@ -150,17 +173,25 @@ pub fn write_table(
         SmallVec::from_vec(exr_layers),
     );
     let data_path = dir.join(DATA_FILE);
-    write_atomically(&data_path, |temp| {
-        image.write().to_file(temp).map_err(|e| TableError::Data {
+    // Encoded in memory first, so the checksum the sidecar records is of the exact bytes written.
+    let mut data = std::io::Cursor::new(Vec::new());
+    image
+        .write()
+        .to_buffered(&mut data)
+        .map_err(|e| TableError::Data {
             path: data_path.clone(),
             message: e.to_string(),
-        })
+        })?;
+    let data = data.into_inner();
+    write_atomically(&data_path, |temp| {
+        std::fs::write(temp, &data).map_err(io_error(temp))
     })?;
     let sidecar = Sidecar {
         format_version: FORMAT_VERSION,
         parameterisation_version: table.info.parameterisation.version(),
         lens: lens.to_string(),
         prescription_hash: prescription_hash(prescription),
+        data_crc32: Some(data_checksum(&data)),
         info: table.info.clone(),
         layers: table
             .layers
@@ -339,6 +370,8 @@ pub fn read_table(
             message: format!("resolution {n0}x{n1}x{n2} needs at least 2 nodes per axis"),
         });
     }
+    // One read: the decoder and the checksum see the same bytes.
+    let bytes = std::fs::read(&data_path).map_err(|e| data_error(e.to_string()))?;
     // Reading reports corrupted or truncated files as errors; catch_unwind guards against a
     // decoder panic on hostile input so a bad file can never abort the caller.
     let image = std::panic::catch_unwind(|| {
@@ -348,10 +381,22 @@ pub fn read_table(
             .all_channels()
             .all_layers()
             .all_attributes()
-            .from_file(&data_path)
+            .from_buffered(std::io::Cursor::new(&bytes))
     })
     .map_err(|_| data_error("the EXR decoder failed on this file".into()))?
     .map_err(|e| data_error(e.to_string()))?;
+    // After decoding, so a file the decoder cannot read keeps its precise message; a file that
+    // decodes but is not the one this sidecar was written with is refused here.
+    let found = data_checksum(&bytes);
+    if sidecar.data_crc32.as_deref() != Some(found.as_str()) {
+        return Err(TableError::DataMismatch {
+            path: data_path,
+            found,
+            expected: sidecar.data_crc32.unwrap_or_else(|| "nothing".into()),
+            lens: sidecar.lens,
+            dir: dir.to_path_buf(),
+        });
+    }
     let mut layers = Vec::with_capacity(sidecar.layers.len());
     for info in &sidecar.layers {
         let exr_layer = image
