@@ -411,11 +411,11 @@ fn stopped_far_down_the_pupil_still_holds_the_axial_ray() {
             axial.centre_x.abs() < 1e-9 && axial.radius > 0.0,
             "{what}: the film centre's pupil {axial:?} is centred on the axis"
         );
-        let stopped = {
-            let mut at = system.at(system.design_wavelength_nm());
-            at.surfaces[at.stop].semi_aperture = layer.stop_semi_aperture;
-            Tracer::new(&at)
-        };
+        let stopped = Tracer::new(
+            &system
+                .at(system.design_wavelength_nm())
+                .stopped_down(layer.stop_semi_aperture),
+        );
         // The axial ray and one halfway to the true pupil's rim (the stored circle is a
         // looser, conservative bound); measured within 1e-5 mrad of the trace.
         let rim = pupil_rim_from_film_centre(&table, &stopped, [0.0, 1.0]);
@@ -1221,8 +1221,7 @@ fn apertures_from_a_pinhole_to_a_hemisphere() {
     }
 
     // A 1 nm stop still passes the ray aimed at its centre and stops one aimed just outside.
-    let mut pinhole = system.at(system.design_wavelength_nm());
-    pinhole.surfaces[pinhole.stop].semi_aperture = 1e-6;
+    let pinhole = system.at(system.design_wavelength_nm()).stopped_down(1e-6);
     let tracer = Tracer::new(&pinhole);
     let source = RaySource::Collimated {
         direction: [0.0, 0.1f64.sin(), 0.1f64.cos()],
@@ -1470,25 +1469,40 @@ fn a_long_grazing_flight_keeps_the_next_intersection_exact() {
 }
 
 #[test]
-#[ignore = "bug across src/lrtf/bake.rs and src/trace (not this helper's modules), see the comment"]
 fn an_aspheric_stop_stopped_far_down_still_bakes_its_field() {
-    // The f/0.95 singlet with its stop on the even-asphere front surface, baked at f/64: the
-    // bake stops down by shrinking the stop surface's semi-aperture, and the tracer limits an
-    // even asphere's Newton search to twice its semi-aperture even with apertures ignored. So
-    // at f/64 the bare geometry of the front surface ends 0.7 mm from the axis, the chief-ray
-    // search in chief_ray_film_radius finds no ray pair to bisect, and the table covers a film
-    // radius of 0: every off-axis lookup is "outside the domain". The conic form of the same
-    // surface (closed-form intersection) covers 59.0 mm at every f-number; the asphere form
-    // covers 58.5 mm at f/8, 49.8 mm at f/22 and 0 at f/64.
+    // The f/0.95 singlet with its stop on the even-asphere front surface, baked at f/64. The
+    // tracer limits an even asphere's Newton search to twice the surface's extent; stopping
+    // down used to shrink that extent with the stop (one semi-aperture field for both), so at
+    // f/64 the bare geometry of the front surface ended 0.7 mm from the axis, the chief-ray
+    // search in chief_ray_film_radius found no ray pair to bisect, and the table covered a
+    // film radius of 0 (58.5 mm at f/8, 49.8 mm at f/22). Stopping down now changes only the
+    // limiting radius: the conic form of the same surface (closed-form intersection, never
+    // affected) covers 59.0 mm at every f-number, and so must the asphere.
     let request = BakeRequest {
         resolution: [8, 8, 8],
         f_number: Some(64.0),
         ..BakeRequest::default()
     };
-    let table = bake(&f095_singlet(true), &request, &|_| {}).unwrap();
+    let system = f095_singlet(true);
+    let table = bake(&system, &request, &|_| {}).unwrap();
     assert!(
         table.layers[0].frame.max_film_radius > 59.0,
         "{:?}",
         table.layers[0].frame
+    );
+    // The root: with apertures ignored, the lens closed to a 0.1 mm stop traces a ray 15 mm off
+    // the axis bit for bit as the lens wide open does; with apertures on the stop blocks it.
+    let wide = system.at(system.design_wavelength_nm());
+    let closed = wide.stopped_down(0.1);
+    let ray = Ray::new([0.0, 15.0, -10.0], [0.0, -0.1, 1.0]).unwrap();
+    let trace = |at: &lensbake::system::SystemAt, apertures| {
+        Tracer::new(at).trace_with(ray, Travel::Forward, apertures)
+    };
+    let open = trace(&wide, Apertures::Ignored);
+    assert!(open.outcome.is_ok(), "{open:?}");
+    assert_eq!(trace(&closed, Apertures::Ignored), open);
+    assert_eq!(
+        trace(&closed, Apertures::Checked).outcome,
+        Outcome::Vignetted { surface: 1 }
     );
 }

@@ -145,9 +145,7 @@ pub fn run_bake(args: BakeArgs) -> anyhow::Result<()> {
     );
     for (k, layer) in table.layers.iter().enumerate() {
         let at = system.at(layer.wavelength_nm);
-        let mut at_stop = at.clone();
-        at_stop.surfaces[at.stop].semi_aperture = layer.stop_semi_aperture;
-        let tracer = Tracer::new(&at_stop);
+        let tracer = Tracer::new(&at.stopped_down(layer.stop_semi_aperture));
         let efl = first_order(&at, request.focus_mm)?.first_order.efl;
         let e = table_error(&table, k, &tracer, efl, 1920.0, 20_000, 7);
         println!(

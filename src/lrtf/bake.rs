@@ -221,12 +221,10 @@ pub fn chief_ray_film_radius(tracer: &Tracer, system: &SystemAt, film_z: f64) ->
 /// Stop radius standing for "no stop" when the stop is left to the sampler (mm).
 const OPEN_STOP: f64 = 1e6;
 
-/// The lens at `wavelength_nm` with its stop closed down to `stop_semi_aperture`.
+/// The lens at `wavelength_nm` with its stop closed down to `stop_semi_aperture`
+/// ([`SystemAt::stopped_down`]: the stop surface's geometry stays).
 pub fn stopped_down(system: &LensSystem, wavelength_nm: f64, stop_semi_aperture: f64) -> SystemAt {
-    let mut at = system.at(wavelength_nm);
-    let stop = at.stop;
-    at.surfaces[stop].semi_aperture = stop_semi_aperture;
-    at
+    system.at(wavelength_nm).stopped_down(stop_semi_aperture)
 }
 
 /// The paraxial model the bake works from: the design wavelength, the marked stop filled, the

@@ -214,7 +214,8 @@ pub struct LensSurface {
     pub semi_aperture_sq: f32,
     /// Snell ratio going backward: index after the surface over index before it.
     pub mu: f32,
-    /// Asphere Newton search bound (twice the clear semi-aperture).
+    /// Asphere Newton search bound (twice the geometric semi-aperture, which stopping down
+    /// leaves alone).
     pub search_radius: f32,
     pub kind: u32,
     pub asphere_terms: u32,
@@ -340,7 +341,7 @@ pub fn lens_surfaces(system: &crate::system::SystemAt) -> (LensParams, Vec<LensS
                 vertex_z: s.vertex_z as f32,
                 semi_aperture_sq: (s.semi_aperture * s.semi_aperture) as f32,
                 mu: (index_after / index_before) as f32,
-                search_radius: (2.0 * s.semi_aperture) as f32,
+                search_radius: (2.0 * s.geometric_semi_aperture) as f32,
                 conic_factor: 1.0,
                 same_medium: u32::from(index_before == index_after),
                 ..LensSurface::zeroed()

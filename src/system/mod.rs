@@ -119,6 +119,7 @@ impl LensSystem {
                     thickness: s.thickness,
                     index_after: d.index(wavelength_nm),
                     semi_aperture: s.semi_aperture,
+                    geometric_semi_aperture: s.semi_aperture,
                     stop: s.stop.clone(),
                     shape: s.shape.clone(),
                 }
@@ -143,7 +144,13 @@ pub struct SurfaceAt {
     pub thickness: f64,
     /// Refractive index after the surface.
     pub index_after: f64,
+    /// Radius beyond which rays are blocked: the clear semi-aperture, or for the stop the radius
+    /// it is closed to ([`SystemAt::stopped_down`]).
     pub semi_aperture: f64,
+    /// Radius out to which the surface's shape is defined (the prescription's clear
+    /// semi-aperture). Stopping down never changes it: the glass is still there, so a ray traced
+    /// with apertures ignored meets the same surface whatever the f-number.
+    pub geometric_semi_aperture: f64,
     pub stop: Option<StopShape>,
 }
 
@@ -187,6 +194,14 @@ impl SystemAt {
     /// z of the last vertex.
     pub fn last_vertex_z(&self) -> f64 {
         self.surfaces.last().map_or(0.0, |s| s.vertex_z)
+    }
+
+    /// The lens with its stop closed (or opened) to `stop_semi_aperture`: only the limiting radius
+    /// changes, never the stop surface's geometry.
+    pub fn stopped_down(&self, stop_semi_aperture: f64) -> SystemAt {
+        let mut stopped = self.clone();
+        stopped.surfaces[self.stop].semi_aperture = stop_semi_aperture;
+        stopped
     }
 
     /// Each surface with the indices on both sides: the path every analysis walks.

@@ -69,7 +69,7 @@ impl Tracer {
     /// plus 1 mm before its vertex (a sphere's sag never exceeds its semi-aperture).
     pub fn front_start_z(&self) -> f64 {
         let first = &self.surfaces[0];
-        first.vertex_z - first.semi_aperture_sq.sqrt() - 1.0
+        first.vertex_z - first.geometric_semi_aperture - 1.0
     }
 }
 
@@ -143,7 +143,7 @@ fn search_start(
     residual_at: &impl Fn([f64; 2]) -> Result<[f64; 2], Outcome>,
 ) -> Option<([f64; 2], [f64; 2])> {
     let first = &tracer.surfaces[0];
-    let reach = 2.0 * first.semi_aperture_sq.sqrt();
+    let reach = 2.0 * first.geometric_semi_aperture;
     // The unknowns are lengths on the start plane for a collimated beam and direction tangents
     // for a point object: scale the search to sweep the same region of surface 1.
     let radius = match *source {

@@ -209,6 +209,9 @@ struct FlatSurface {
     vertex_z: f64,
     profile: Profile,
     semi_aperture_sq: f64,
+    /// [`crate::system::SurfaceAt::geometric_semi_aperture`]: where the shape ends, whatever
+    /// the stop is closed to.
+    geometric_semi_aperture: f64,
     index_before: f64,
     index_after: f64,
     /// n_before / n_after, the Snell ratio going forward (its inverse going backward).
@@ -264,7 +267,7 @@ impl Tracer {
                         let mut terms = AsphereTerms {
                             coefficients: [0.0; crate::prescription::MAX_ASPHERE_TERMS],
                             len: coefficients.len(),
-                            search_radius: 2.0 * s.semi_aperture,
+                            search_radius: 2.0 * s.geometric_semi_aperture,
                         };
                         terms.coefficients[..coefficients.len()].copy_from_slice(coefficients);
                         asphere_terms.push(terms);
@@ -288,6 +291,7 @@ impl Tracer {
                     vertex_z: s.vertex_z,
                     profile,
                     semi_aperture_sq: s.semi_aperture * s.semi_aperture,
+                    geometric_semi_aperture: s.geometric_semi_aperture,
                     index_before,
                     index_after,
                     mu_forward: index_before / index_after,

@@ -167,9 +167,7 @@ impl Domain {
 
 /// `at` with its stop scaled by `scale` (the stop scales as 1 / f-number).
 fn stopped_down(at: &SystemAt, scale: f64) -> SystemAt {
-    let mut stopped = at.clone();
-    stopped.surfaces[at.stop].semi_aperture *= scale;
-    stopped
+    at.stopped_down(at.surfaces[at.stop].semi_aperture * scale)
 }
 
 /// Random film-side rays of the domain and the exact trace's answer for each (None: blocked).
