@@ -12,7 +12,7 @@ use lensbake::render::camera::{Camera, Film, Focus, LensModel, ParaxialLens};
 use lensbake::render::gpu::GpuRenderer;
 use lensbake::render::image::{read_exr_rgbz, write_exr, write_png};
 use lensbake::render::layers::LayeredDepthImage;
-use lensbake::render::models::{BakedLens, FirstOrderModels, TracedLens};
+use lensbake::render::models::{BakedLens, FirstOrderModels, SeidelLens, TracedLens};
 use lensbake::render::scene::Scene;
 use lensbake::render::{Backend, RenderError, RenderSettings, layer_view, render_layers};
 use std::path::{Path, PathBuf};
@@ -26,6 +26,8 @@ pub enum ModelArg {
     Thick,
     Traced,
     Baked,
+    /// The thick lens plus third-order (Seidel) transverse aberration of the plane in focus.
+    Seidel,
 }
 
 /// Film radii at which a traced render fits its effective pupil.
@@ -46,8 +48,8 @@ pub struct RenderArgs {
     lens: String,
     #[command(flatten)]
     read: ReadArgs,
-    /// Lens model: thin and thick from the paraxial data, traced (the exact trace in the
-    /// kernel), baked (an LRTF table lookup).
+    /// Lens model: thin and thick from the paraxial data, seidel (thick plus third-order
+    /// aberration), traced (the exact trace in the kernel), baked (an LRTF table lookup).
     #[arg(long, value_enum, default_value = "traced")]
     model: ModelArg,
     /// Table directory for `--model baked`; default tables/<lens>/ (focused at infinity) or
@@ -201,6 +203,16 @@ pub fn load_or_bake(
     Ok((table, true))
 }
 
+/// The object distance (mm in front of surface 1; None: infinity) that the film at `film_z`
+/// is focused on, paraxially at the design wavelength.
+fn focus_of_film(lens: &LoadedLens, film_z: f64) -> anyhow::Result<Option<f64>> {
+    let design = lens.system.at(lens.system.design_wavelength_nm());
+    Ok(match object_in_focus(&design, film_z)? {
+        ObjectPosition::Infinite => None,
+        ObjectPosition::Finite { distance } => Some(distance),
+    })
+}
+
 enum SceneSource {
     Demo(Scene),
     Exr(PathBuf),
@@ -313,12 +325,17 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
                 Focus::FilmZ(camera.film_z),
             )?
         }
+        (ModelArg::Seidel, RenderLens::Real(real)) => {
+            let focus_mm = focus_of_film(real, camera.film_z)?;
+            let seidel = SeidelLens::in_focus(&real.system, &first_order, focus_mm)?;
+            Camera::new(
+                LensModel::Seidel(Box::new(seidel)),
+                film,
+                Focus::FilmZ(camera.film_z),
+            )?
+        }
         (ModelArg::Baked, RenderLens::Real(real)) => {
-            let design = real.system.at(real.system.design_wavelength_nm());
-            let focus_mm = match object_in_focus(&design, camera.film_z)? {
-                ObjectPosition::Infinite => None,
-                ObjectPosition::Finite { distance } => Some(distance),
-            };
+            let focus_mm = focus_of_film(real, camera.film_z)?;
             let dir = args
                 .table
                 .clone()

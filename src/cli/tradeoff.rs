@@ -143,18 +143,14 @@ fn markdown(
         let e = &m.entry;
         let _ = writeln!(
             s,
-            "| {} | {:.4} | {} | {} | {} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} % | {} |",
+            "| {} | {:.4} | {} | {:.1} | {} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} % | {} |",
             m.label,
             e.bake_seconds,
             e.table_bytes,
-            e.render_ms_per_frame
-                .map_or("n/a".into(), |v| format!("{v:.1}")),
-            match &m.render {
-                None => "n/a".to_string(),
-                Some(r) => r
-                    .psnr_db
-                    .map_or("reference".into(), |db| format!("{db:.1}")),
-            },
+            e.render_ms_per_frame,
+            m.render
+                .psnr_db
+                .map_or("reference".into(), |db| format!("{db:.1}")),
             e.ray_error_p99_mrad,
             m.error.direction_mrad.max,
             m.error.image_px.median,
@@ -179,8 +175,9 @@ fn markdown(
          the same seed, the film a {w}:{h} frame inscribed in the domain's image circle, and \
          traced and baked draw identical lens samples on the largest table's effective pupil.\n\
          - image PSNR: the frame against the traced frame (display range 0..1). It is a separate \
-         image error; image p99 px stays the ray-derived error above. Seidel has no renderer \
-         kernel: no render cost, no PSNR.",
+         image error; image p99 px stays the ray-derived error above. thin, thick and Seidel \
+         sample their own exit pupil; the Seidel frame is blank where its inverse map does not \
+         settle.",
         frames = bench.frames.max(1),
         w = bench.width,
         h = bench.height,
@@ -194,16 +191,14 @@ fn pareto(lens: &str, measured: &[Measured], bench: &RenderBench) -> ParetoPlot 
     let points = measured
         .iter()
         .filter(|m| m.entry.image_error_px_p99 > 0.0)
-        .filter_map(|m| {
-            Some(ParetoPoint {
-                label: m.label.clone(),
-                group: match m.entry.precision {
-                    Some(p) => format!("baked {p}"),
-                    None => m.entry.model.name().to_string(),
-                },
-                cost: m.entry.render_ms_per_frame?,
-                error: m.entry.image_error_px_p99,
-            })
+        .map(|m| ParetoPoint {
+            label: m.label.clone(),
+            group: match m.entry.precision {
+                Some(p) => format!("baked {p}"),
+                None => m.entry.model.name().to_string(),
+            },
+            cost: m.entry.render_ms_per_frame,
+            error: m.entry.image_error_px_p99,
         })
         .collect();
     ParetoPlot {
@@ -214,17 +209,16 @@ fn pareto(lens: &str, measured: &[Measured], bench: &RenderBench) -> ParetoPlot 
         ),
         error_label: "image error p99 (px at 1920 px, log)".into(),
         points,
-        notes: vec![
-            format!(
-                "traced: the reference (zero error, not on log axes), {} ms/frame",
-                measured
-                    .iter()
-                    .find(|m| m.entry.model == ModelKind::Traced)
-                    .and_then(|m| m.entry.render_ms_per_frame)
-                    .map_or("n/a".into(), |ms| format!("{ms:.1}"))
-            ),
-            "seidel: no renderer kernel, not plotted".into(),
-        ],
+        notes: vec![format!(
+            "traced: the reference (zero error, not on log axes), {} ms/frame",
+            measured
+                .iter()
+                .find(|m| m.entry.model == ModelKind::Traced)
+                .map_or("n/a".into(), |m| format!(
+                    "{:.1}",
+                    m.entry.render_ms_per_frame
+                ))
+        )],
     }
 }
 
@@ -248,11 +242,8 @@ pub fn run(args: TradeoffArgs) -> anyhow::Result<()> {
         e.bake_seconds.is_finite()
             && e.ray_error_p99_mrad.is_finite()
             && e.image_error_px_p99.is_finite()
-            && e.render_ms_per_frame.is_none_or(f64::is_finite)
-            && m.render
-                .as_ref()
-                .and_then(|r| r.psnr_db)
-                .is_none_or(|db| !db.is_nan())
+            && e.render_ms_per_frame.is_finite()
+            && m.render.psnr_db.is_none_or(|db| !db.is_nan())
     });
     if !finite {
         anyhow::bail!("a model produced a non-finite error; nothing written");

@@ -2,7 +2,7 @@
 //! lens frame (z along the axis, light towards +z, origin at the first vertex).
 
 use super::RenderError;
-use super::models::{BakedLens, PupilSampling, TracedLens};
+use super::models::{BakedLens, PupilSampling, SeidelLens, TracedLens};
 
 /// A lens reduced to first order: power and unit-magnification principal planes, with its pupils.
 /// A thin lens is the case where both principal planes and both pupils coincide.
@@ -86,6 +86,8 @@ pub enum LensModel {
     Traced(Box<TracedLens>),
     /// A baked lens ray transfer function table.
     Baked(Box<BakedLens>),
+    /// The thick lens plus the third-order (Seidel) transverse aberration of its conjugate.
+    Seidel(Box<SeidelLens>),
 }
 
 impl LensModel {
@@ -95,25 +97,31 @@ impl LensModel {
             LensModel::Thick(_) => "thick",
             LensModel::Traced(_) => "traced",
             LensModel::Baked(_) => "baked",
+            LensModel::Seidel(_) => "seidel",
         }
     }
 
     /// The first-order description: the model itself for thin and thick, the thick model of the
-    /// lens for traced and baked (it places the eye and sizes the field and layer margins).
+    /// lens for Seidel, traced and baked (it places the eye and sizes the field and layer
+    /// margins).
     pub fn paraxial(&self) -> &ParaxialLens {
         match self {
             LensModel::Thin(lens) | LensModel::Thick(lens) => lens,
             LensModel::Traced(lens) => &lens.paraxial,
             LensModel::Baked(lens) => &lens.paraxial,
+            LensModel::Seidel(lens) => &lens.thick,
         }
     }
 
-    /// Where lens samples are drawn: the exit pupil for thin and thick, the effective pupil on
-    /// the rear vertex plane for traced and baked.
+    /// Where lens samples are drawn: the exit pupil for thin, thick and Seidel, the effective
+    /// pupil on the rear vertex plane for traced and baked.
     pub fn pupil_sampling(&self) -> PupilSampling {
         match self {
             LensModel::Thin(lens) | LensModel::Thick(lens) => {
                 PupilSampling::disc(lens.exit_pupil_z, lens.exit_pupil_radius_mm)
+            }
+            LensModel::Seidel(lens) => {
+                PupilSampling::disc(lens.thick.exit_pupil_z, lens.thick.exit_pupil_radius_mm)
             }
             LensModel::Traced(lens) => PupilSampling {
                 z: lens.rear_plane_z,

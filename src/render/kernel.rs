@@ -7,7 +7,8 @@
 //! the oracle the shader's ports are measured against.
 
 use super::camera::LensModel;
-use super::gpu_types::{FrameParams, LayerData, LensData};
+use super::gpu_types::{FrameParams, LayerData, LensData, SeidelParams};
+use super::models::{SEIDEL_INVERSE_STEPS, SEIDEL_SETTLED_MM};
 use crate::lrtf::{self, Lookup, LrtfTable};
 use crate::trace::{Tracer, Travel};
 use rayon::prelude::*;
@@ -90,6 +91,69 @@ fn paraxial_lens_ray(frame: &FrameParams, film: Vec3, pupil: Vec3) -> ObjectRay 
         direction: [object_slope[0], object_slope[1], 1.0],
         valid: true,
     }
+}
+
+fn blocked_ray() -> ObjectRay {
+    ObjectRay {
+        origin: [0.0; 3],
+        direction: [0.0, 0.0, 1.0],
+        valid: false,
+    }
+}
+
+/// The shader's `seidel_aberration`: transverse aberration (mm) of the ray to Gaussian image
+/// point `g` through normalised exit-pupil point `p`.
+fn seidel_aberration(s: &SeidelParams, g: Vec2, p: Vec2) -> Vec2 {
+    let radius = (g[0] * g[0] + g[1] * g[1]).sqrt();
+    let u = if radius > 0.0 {
+        [g[0] / radius, g[1] / radius]
+    } else {
+        [1.0, 0.0]
+    };
+    let v = [-u[1], u[0]];
+    let h = radius * s.inverse_chief_height;
+    let py = p[0] * u[0] + p[1] * u[1];
+    let px = p[0] * v[0] + p[1] * v[1];
+    let rho2 = px * px + py * py;
+    let ex = s.spherical * rho2 * px + 2.0 * s.coma * h * px * py + s.sagittal * h * h * px;
+    let ey = s.spherical * rho2 * py
+        + s.coma * h * (rho2 + 2.0 * py * py)
+        + s.tangential * h * h * py
+        + s.distortion * h * h * h;
+    [ey * u[0] + ex * v[0], ey * u[1] + ex * v[1]]
+}
+
+/// The shader's `seidel_lens_ray`: the Gaussian image point whose aberrated ray through the
+/// film-side ray's exit-pupil point lands where the film-side ray does (fixed point), then the
+/// thick lens's ray from it; blocked where the fixed point does not settle.
+fn seidel_lens_ray(frame: &FrameParams, s: &SeidelParams, film: Vec3, pupil: Vec3) -> ObjectRay {
+    let d = [pupil[0] - film[0], pupil[1] - film[1], pupil[2] - film[2]];
+    let t_exit = (s.exit_pupil_z - film[2]) / d[2];
+    let exit = [film[0] + t_exit * d[0], film[1] + t_exit * d[1]];
+    let t_image = (s.image_z - film[2]) / d[2];
+    let landing = [film[0] + t_image * d[0], film[1] + t_image * d[1]];
+    let p = [
+        exit[0] * s.inverse_marginal_height,
+        exit[1] * s.inverse_marginal_height,
+    ];
+    let mut g = landing;
+    let mut step = 0.0f32;
+    for _ in 0..SEIDEL_INVERSE_STEPS {
+        let eps = seidel_aberration(s, g, p);
+        let next = [landing[0] - eps[0], landing[1] - eps[1]];
+        let moved = [next[0] - g[0], next[1] - g[1]];
+        step = (moved[0] * moved[0] + moved[1] * moved[1]).sqrt();
+        g = next;
+    }
+    // Written so that NaN fails the test too.
+    if step <= SEIDEL_SETTLED_MM as f32 {
+        return paraxial_lens_ray(
+            frame,
+            [g[0], g[1], s.image_z],
+            [exit[0], exit[1], s.exit_pupil_z],
+        );
+    }
+    blocked_ray()
 }
 
 fn project(frame: &FrameParams, ray: &ObjectRay, depth: f32) -> Vec3 {
@@ -305,6 +369,8 @@ pub enum LensRays<'a> {
         table: &'a LrtfTable,
         stop_radius: f64,
     },
+    /// The shader's `seidel_lens_ray`, in f32.
+    Seidel(SeidelParams),
 }
 
 impl LensRays<'_> {
@@ -316,6 +382,7 @@ impl LensRays<'_> {
                 table: &lens.table,
                 stop_radius: lens.stop_radius,
             },
+            LensModel::Seidel(lens) => LensRays::Seidel(SeidelParams::of(lens)),
         }
     }
 }
@@ -327,11 +394,7 @@ fn to_f64(v: Vec3) -> [f64; 3] {
 /// The object-space ray for the film-side ray from `film` through `pupil`; invalid when the lens
 /// blocks it (vignetted, TIR, missed; or outside the table).
 fn lens_ray(frame: &FrameParams, rays: LensRays, film: Vec3, pupil: Vec3) -> ObjectRay {
-    let blocked = ObjectRay {
-        origin: [0.0; 3],
-        direction: [0.0, 0.0, 1.0],
-        valid: false,
-    };
+    let blocked = blocked_ray();
     let towards = [pupil[0] - film[0], pupil[1] - film[1], pupil[2] - film[2]];
     let object = |origin: [f64; 3], direction: [f64; 3]| ObjectRay {
         origin: origin.map(|v| v as f32),
@@ -341,6 +404,7 @@ fn lens_ray(frame: &FrameParams, rays: LensRays, film: Vec3, pupil: Vec3) -> Obj
     };
     match rays {
         LensRays::Paraxial => paraxial_lens_ray(frame, film, pupil),
+        LensRays::Seidel(seidel) => seidel_lens_ray(frame, &seidel, film, pupil),
         LensRays::Traced(tracer) => {
             let Ok(ray) = crate::trace::Ray::new(to_f64(film), to_f64(towards)) else {
                 return blocked;
@@ -365,6 +429,20 @@ fn lens_ray(frame: &FrameParams, rays: LensRays, film: Vec3, pupil: Vec3) -> Obj
             }
         }
     }
+}
+
+/// The kernel's lens function alone: the object-space ray (a point on it, and the direction the
+/// light travels, towards +z, not normalised) for the film-side ray from `film` through `pupil`,
+/// or None where the model blocks it. The hook tests compare each model's port with its f64
+/// statement through.
+pub fn object_ray(
+    frame: &FrameParams,
+    rays: LensRays,
+    film: [f32; 3],
+    pupil: [f32; 3],
+) -> Option<([f32; 3], [f32; 3])> {
+    let ray = lens_ray(frame, rays, film, pupil);
+    ray.valid.then_some((ray.origin, ray.direction))
 }
 
 /// The shader's `lrtf_pupil_at`: the pupil circle (centre_x, radius) for a film radius, linear

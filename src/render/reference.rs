@@ -22,6 +22,9 @@ fn object_ray(model: &LensModel, film: [f64; 3], pupil: [f64; 3]) -> Option<([f6
             let (origin, slope) = lens.object_ray(film, pupil);
             Some((origin, [slope[0], slope[1], 1.0]))
         }
+        LensModel::Seidel(lens) => lens
+            .object_ray(film, pupil)
+            .map(|(origin, slope)| (origin, [slope[0], slope[1], 1.0])),
         LensModel::Traced(lens) => {
             let ray = crate::trace::Ray::new(film, towards).ok()?;
             let traced = lens.tracer.trace(ray, Travel::Backward);

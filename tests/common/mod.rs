@@ -320,3 +320,17 @@ pub fn vec3(v: &Value) -> [f64; 3] {
         .unwrap_or_else(|| panic!("expected a 3-vector, found {v}"));
     [num(&a[0]), num(&a[1]), num(&a[2])]
 }
+
+/// The GPU renderer, or None outside CI when this machine has no adapter. In CI a missing
+/// adapter is a failure: CI installs lavapipe precisely so the GPU tests run.
+pub fn gpu_or_skip(test: &str) -> Option<lensbake::render::gpu::GpuRenderer> {
+    use lensbake::render::RenderError;
+    match lensbake::render::gpu::GpuRenderer::new() {
+        Ok(gpu) => Some(gpu),
+        Err(RenderError::NoAdapter(why)) if std::env::var("CI").as_deref() != Ok("true") => {
+            eprintln!("SKIPPED {test}: no GPU adapter ({why}); install mesa-vulkan-drivers");
+            None
+        }
+        Err(e) => panic!("{test}: GPU unavailable: {e}"),
+    }
+}

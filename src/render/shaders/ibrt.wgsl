@@ -7,8 +7,8 @@
 // src/render/kernel.rs; keep the two in step statement by statement.
 //
 // This file is compiled after src/lrtf/lrtf_sample.wgsl (bind group 0: the baked table and the
-// pupil circles every model samples in) and lens_trace.wgsl (group 2: the surfaces); see
-// IBRT_SHADER in gpu.rs.
+// pupil circles every model samples in) and lens_trace.wgsl (group 2: the surfaces), and before
+// seidel_lens.wgsl (group 3: the Seidel polynomial); see IBRT_SHADER in gpu.rs.
 
 struct FrameParams {
     width: u32,
@@ -54,6 +54,7 @@ const PI: f32 = 3.14159265358979;
 const MODEL_PARAXIAL: u32 = 0u;
 const MODEL_TRACED: u32 = 1u;
 const MODEL_BAKED: u32 = 2u;
+const MODEL_SEIDEL: u32 = 3u;
 const FOOTPRINT_CLAMP_ITERATIONS: u32 = 3u;
 const DEPTH_TOLERANCE: f32 = 1e-5;
 const NO_CROSSING: f32 = 1e30;
@@ -141,6 +142,9 @@ fn lens_ray(film: vec3<f32>, pupil: vec3<f32>) -> ObjectRay {
             return blocked_ray();
         }
         return ObjectRay(baked.origin, -baked.direction, true);
+    }
+    if frame.model == MODEL_SEIDEL {
+        return seidel_lens_ray(film, pupil);
     }
     return paraxial_lens_ray(film, pupil);
 }
