@@ -15,6 +15,7 @@ use lensbake::render::layers::LayeredDepthImage;
 use lensbake::render::models::{BakedLens, FirstOrderModels, SeidelLens, TracedLens};
 use lensbake::render::scene::Scene;
 use lensbake::render::{Backend, RenderError, RenderSettings, layer_view, render_layers};
+use lensbake::tradeoff::models::ModelKind;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -94,6 +95,11 @@ pub struct RenderArgs {
     /// Output OpenEXR (linear R, G, B); a tone-mapped PNG is written beside it.
     #[arg(long)]
     out: PathBuf,
+    /// Render with the cheapest model (and table size and precision) whose p99 image error, in
+    /// pixels of this render, stays under this for the scene's depth range, film use and
+    /// f-number; prints the choice with its predicted and measured error.
+    #[arg(long, conflicts_with_all = ["model", "table"])]
+    error_budget_px: Option<f64>,
 }
 
 fn parse_pair<T: std::str::FromStr>(text: &str) -> Result<(T, T), String> {
@@ -205,7 +211,7 @@ pub fn load_or_bake(
 
 /// The object distance (mm in front of surface 1; None: infinity) that the film at `film_z`
 /// is focused on, paraxially at the design wavelength.
-fn focus_of_film(lens: &LoadedLens, film_z: f64) -> anyhow::Result<Option<f64>> {
+pub fn focus_of_film(lens: &LoadedLens, film_z: f64) -> anyhow::Result<Option<f64>> {
     let design = lens.system.at(lens.system.design_wavelength_nm());
     Ok(match object_in_focus(&design, film_z)? {
         ObjectPosition::Infinite => None,
@@ -305,8 +311,36 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         (None, None, None) => Focus::ObjectDistance(2000.0),
     };
     let camera = Camera::new(model, film, focus)?;
-    let camera = match (args.model, &lens) {
-        (ModelArg::Thin | ModelArg::Thick, _) => camera,
+    let (model_arg, mut chosen_table) = match (args.error_budget_px, &lens) {
+        (None, _) => (args.model, None),
+        (Some(_), RenderLens::Ideal { .. }) => {
+            bail!("`--lens ideal:...` is a thin lens and nothing else: drop --error-budget-px")
+        }
+        (Some(budget), RenderLens::Real(real)) => {
+            let layers = source.layers(&camera, &settings)?;
+            let choice = super::tradeoff::choose_for_render(
+                real,
+                &camera,
+                &layers,
+                settings.width,
+                f_number,
+                budget,
+            )?;
+            let model = match choice.model {
+                ModelKind::Thin => ModelArg::Thin,
+                ModelKind::Thick => ModelArg::Thick,
+                ModelKind::Seidel => ModelArg::Seidel,
+                ModelKind::Baked => ModelArg::Baked,
+                ModelKind::Traced => ModelArg::Traced,
+            };
+            (model, choice.table)
+        }
+    };
+    let camera = match (model_arg, &lens) {
+        (ModelArg::Thin, _) => Camera::new(LensModel::Thin(first_order.thin.clone()), film, focus)?,
+        (ModelArg::Thick, _) => {
+            Camera::new(LensModel::Thick(first_order.thick.clone()), film, focus)?
+        }
         (_, RenderLens::Ideal { .. }) => {
             bail!("`--lens ideal:...` has no surfaces to trace or bake: use --model thin or thick")
         }
@@ -340,14 +374,17 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
                 .table
                 .clone()
                 .unwrap_or_else(|| default_table_dir(&real.source.origin.name(), focus_mm));
-            let (table, baked) = load_or_bake(
-                real,
-                &dir,
-                focus_mm,
-                camera.film_corner_radius(),
-                args.bake_resolution,
-                &|_| {},
-            )?;
+            let (table, baked) = match chosen_table.take() {
+                Some(table) => (table, false),
+                None => load_or_bake(
+                    real,
+                    &dir,
+                    focus_mm,
+                    camera.film_corner_radius(),
+                    args.bake_resolution,
+                    &|_| {},
+                )?,
+            };
             if baked {
                 println!("baked {}", dir.display());
             }

@@ -13,7 +13,9 @@
 //!   plus, for f16, the error of rounding the exact directions' encoding to f16.
 //!
 //! Colour: one wavelength when the lateral colour (C_II, F to C, at the edge of the used field)
-//! stays under the budget, else three (C, design, F), which only baked and traced models carry.
+//! stays under the budget or the scene is rendered in one wavelength
+//! ([`SceneRequirements::monochrome`]), else three (C, design, F), which only baked and traced
+//! models carry.
 
 use serde::Serialize;
 
@@ -138,7 +140,7 @@ pub fn choose_model(
     }
     let domain = Domain::of(system, req)?;
     let lateral_colour_px = lateral_colour_mm(system, &domain)?.abs() / domain.pixel_pitch;
-    let colour = lateral_colour_px >= budget_px;
+    let colour = !req.monochrome && lateral_colour_px >= budget_px;
     let wavelengths_nm = if colour {
         vec![C_LINE_NM, domain.wavelength_nm, F_LINE_NM]
     } else {

@@ -56,6 +56,9 @@ pub struct SceneRequirements {
     pub f_number: Option<f64>,
     /// Output width in pixels, for image errors.
     pub pixels: f64,
+    /// The renderer traces one wavelength: lateral colour is not asked of the model (and cannot
+    /// be given by any), so the choice never turns to three-wavelength tables for it.
+    pub monochrome: bool,
 }
 
 impl Default for SceneRequirements {
@@ -66,6 +69,7 @@ impl Default for SceneRequirements {
             film_fraction: 1.0,
             f_number: None,
             pixels: 1920.0,
+            monochrome: false,
         }
     }
 }
