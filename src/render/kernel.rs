@@ -16,6 +16,10 @@ use rayon::prelude::*;
 const PI: f32 = std::f32::consts::PI;
 const FOOTPRINT_CLAMP_ITERATIONS: u32 = 3;
 const DEPTH_TOLERANCE: f32 = 1e-5;
+/// Rounding of an inverse depth interpolated along the march, in units of the march's end
+/// values (four f32 ulps): a far layer's w is a small difference of the near end's large w, so a
+/// relative tolerance alone missed a background at 100 km behind a subject at 2 m.
+const DEPTH_SLACK: f32 = 4.0 * f32::EPSILON;
 const NO_CROSSING: f32 = 1e30;
 
 type Vec2 = [f32; 2];
@@ -209,10 +213,11 @@ fn hit_in_pixel(
     pixel: u32,
     w_in: f32,
     w_out: f32,
+    slack: f32,
 ) -> Option<Vec3> {
     let pixels = frame.layer_width * frame.layer_height;
-    let upper = w_in * (1.0 + DEPTH_TOLERANCE);
-    let lower = w_out * (1.0 - DEPTH_TOLERANCE);
+    let upper = w_in * (1.0 + DEPTH_TOLERANCE) + slack;
+    let lower = w_out * (1.0 - DEPTH_TOLERANCE) - slack;
     for group in 0..frame.layer_groups {
         let depths = layers.depths[(group * pixels + pixel) as usize];
         for (k, &w) in depths.iter().enumerate() {
@@ -266,6 +271,7 @@ fn trace_layers(frame: &FrameParams, layers: &LayerData, ray: &ObjectRay) -> Opt
         return None;
     }
     let dw = b[2] - a[2];
+    let slack = DEPTH_SLACK * (a[2].abs() + b[2].abs());
     for _ in 0..FOOTPRINT_CLAMP_ITERATIONS {
         let p = mix3(a, b, range[0]);
         let q = mix3(a, b, range[1]);
@@ -276,8 +282,8 @@ fn trace_layers(frame: &FrameParams, layers: &LayerData, ray: &ObjectRay) -> Opt
         if bounds[0] > bounds[1] {
             return None;
         }
-        let enter = (bounds[1] * (1.0 + DEPTH_TOLERANCE) - a[2]) / dw;
-        let leave = (bounds[0] * (1.0 - DEPTH_TOLERANCE) - a[2]) / dw;
+        let enter = (bounds[1] * (1.0 + DEPTH_TOLERANCE) + slack - a[2]) / dw;
+        let leave = (bounds[0] * (1.0 - DEPTH_TOLERANCE) - slack - a[2]) / dw;
         range = [range[0].max(enter), range[1].min(leave)];
         if range[0] > range[1] {
             return None;
@@ -314,7 +320,14 @@ fn trace_layers(frame: &FrameParams, layers: &LayerData, ray: &ObjectRay) -> Opt
     for _ in 0..steps {
         let s_out = next_x.min(next_y).min(range[1]);
         let pixel = cell[1] as u32 * frame.layer_width + cell[0] as u32;
-        let found = hit_in_pixel(frame, layers, pixel, a[2] + s_in * dw, a[2] + s_out * dw);
+        let found = hit_in_pixel(
+            frame,
+            layers,
+            pixel,
+            a[2] + s_in * dw,
+            a[2] + s_out * dw,
+            slack,
+        );
         if found.is_some() {
             return found;
         }

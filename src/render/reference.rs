@@ -47,6 +47,76 @@ fn object_ray(model: &LensModel, film: [f64; 3], pupil: [f64; 3]) -> Option<([f6
     }
 }
 
+/// Lens samples per film point in [`ray_reach_tangents`]: the sampling circle's centre and this
+/// many points on its rim.
+const REACH_RIM_SAMPLES: usize = 16;
+
+/// The largest |x| / depth and |y| / depth, seen from the eye, that the model's object rays reach
+/// at depths from `nearest_depth_mm` to infinity, over rays from the film's corners and edge
+/// midpoints through the centre and the rim of their pupil circle (f64, [`object_ray`]). The
+/// extremes of a ray's x / depth lie at the nearest depth or at infinity (it is linear in
+/// 1 / depth), and a radially monotonic lens sends its outermost rays from the film's rim.
+pub fn ray_reach_tangents(camera: &Camera, nearest_depth_mm: f64) -> [f64; 2] {
+    let sampling = camera.model.pupil_sampling();
+    let eye_z = camera.eye_z();
+    let f = &camera.film;
+    let nearest = nearest_depth_mm.max(1e-3);
+    let mut reach = [0.0f64; 2];
+    for (sx, sy) in [
+        (-1, -1),
+        (-1, 0),
+        (-1, 1),
+        (0, -1),
+        (0, 1),
+        (1, -1),
+        (1, 0),
+        (1, 1),
+    ] {
+        // A hair inside the rim, as every pixel sample lies: a table covering exactly this film
+        // must not find its own corner outside its domain by rounding.
+        let inside = 1.0 - 1e-9;
+        let film = [
+            f.shift_mm[0] + 0.5 * f.width_mm * sx as f64 * inside,
+            f.shift_mm[1] + 0.5 * f.height_mm * sy as f64 * inside,
+            camera.film_z,
+        ];
+        let film_radius = film[0].hypot(film[1]);
+        let azimuth = if film_radius > 0.0 {
+            [film[0] / film_radius, film[1] / film_radius]
+        } else {
+            [1.0, 0.0]
+        };
+        let circle = sampling.circles.circle_at(film_radius);
+        let centre = [azimuth[0] * circle.centre_x, azimuth[1] * circle.centre_x];
+        let rim = (0..REACH_RIM_SAMPLES).map(|k| {
+            let angle = std::f64::consts::TAU * k as f64 / REACH_RIM_SAMPLES as f64;
+            [
+                centre[0] + circle.radius * angle.cos(),
+                centre[1] + circle.radius * angle.sin(),
+            ]
+        });
+        for p in std::iter::once(centre).chain(rim) {
+            let Some((origin, direction)) =
+                object_ray(&camera.model, film, [p[0], p[1], sampling.z])
+            else {
+                continue;
+            };
+            // Rays that do not travel into the scene reach no depth.
+            if direction[2] > 0.0 {
+                let t = (eye_z - nearest - origin[2]) / direction[2];
+                for axis in 0..2 {
+                    let at_infinity = (direction[axis] / direction[2]).abs();
+                    let at_nearest = (origin[axis] + t * direction[axis]).abs() / nearest;
+                    if at_infinity.is_finite() && at_nearest.is_finite() {
+                        reach[axis] = reach[axis].max(at_infinity).max(at_nearest);
+                    }
+                }
+            }
+        }
+    }
+    reach
+}
+
 /// Renders `scene` through `camera` with `settings.samples_per_pixel` samples per pixel, in f64,
 /// with the kernel's samples and weights (pupil circle per film radius, cos^4 times the circle's
 /// projected solid angle relative to the paraxial exit pupil). With a traced camera this is the

@@ -28,7 +28,7 @@ struct SeidelParams {
 @group(3) @binding(0) var<uniform> seidel: SeidelParams;
 
 // SEIDEL_INVERSE_STEPS and SEIDEL_SETTLED_MM in src/render/models.rs.
-const SEIDEL_INVERSE_STEPS: u32 = 4u;
+const SEIDEL_INVERSE_STEPS: u32 = 16u;
 const SEIDEL_SETTLED_MM: f32 = 1e-3;
 
 // Transverse aberration (mm) of the ray to Gaussian image point `g` through normalised
