@@ -8,7 +8,7 @@
 
 use super::camera::LensModel;
 use super::gpu_types::{FrameParams, LayerData, LensData, SeidelParams};
-use super::models::{SEIDEL_INVERSE_STEPS, SEIDEL_SETTLED_MM};
+use super::models::{SEIDEL_CONVERGED_MM, SEIDEL_INVERSE_STEPS, SEIDEL_SETTLED_MM};
 use crate::lrtf::{self, Lookup, LrtfTable};
 use crate::trace::{Tracer, Travel};
 use rayon::prelude::*;
@@ -148,6 +148,9 @@ fn seidel_lens_ray(frame: &FrameParams, s: &SeidelParams, film: Vec3, pupil: Vec
         let moved = [next[0] - g[0], next[1] - g[1]];
         step = (moved[0] * moved[0] + moved[1] * moved[1]).sqrt();
         g = next;
+        if step <= SEIDEL_CONVERGED_MM as f32 {
+            break;
+        }
     }
     // Written so that NaN fails the test too.
     if step <= SEIDEL_SETTLED_MM as f32 {

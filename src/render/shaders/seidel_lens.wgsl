@@ -27,8 +27,9 @@ struct SeidelParams {
 
 @group(3) @binding(0) var<uniform> seidel: SeidelParams;
 
-// SEIDEL_INVERSE_STEPS and SEIDEL_SETTLED_MM in src/render/models.rs.
+// SEIDEL_INVERSE_STEPS, SEIDEL_CONVERGED_MM and SEIDEL_SETTLED_MM in src/render/models.rs.
 const SEIDEL_INVERSE_STEPS: u32 = 16u;
+const SEIDEL_CONVERGED_MM: f32 = 1e-5;
 const SEIDEL_SETTLED_MM: f32 = 1e-3;
 
 // Transverse aberration (mm) of the ray to Gaussian image point `g` through normalised
@@ -70,6 +71,9 @@ fn seidel_lens_ray(film: vec3<f32>, pupil: vec3<f32>) -> ObjectRay {
         let moved = next - g;
         step = sqrt(moved.x * moved.x + moved.y * moved.y);
         g = next;
+        if step <= SEIDEL_CONVERGED_MM {
+            break;
+        }
     }
     // Written so that NaN fails the test too.
     if step <= SEIDEL_SETTLED_MM {
