@@ -37,19 +37,24 @@ fn every_wgsl_module_validates_with_naga() {
     }
 }
 
-#[test]
-fn frame_params_layout_matches_wgsl() {
+/// The members and size of the struct `name` in the renderer's WGSL, as naga lays it out.
+fn wgsl_struct(name: &str) -> (Vec<naga::StructMember>, u32) {
     let module = naga::front::wgsl::parse_str(IBRT_SHADER).unwrap();
-    let (members, span) = module
+    module
         .types
         .iter()
         .find_map(|(_, ty)| match (&ty.name, &ty.inner) {
-            (Some(name), naga::TypeInner::Struct { members, span }) if name == "FrameParams" => {
+            (Some(found), naga::TypeInner::Struct { members, span }) if found == name => {
                 Some((members.clone(), *span))
             }
             _ => None,
         })
-        .expect("FrameParams in ibrt.wgsl");
+        .unwrap_or_else(|| panic!("{name} in the renderer's WGSL"))
+}
+
+#[test]
+fn frame_params_layout_matches_wgsl() {
+    let (members, span) = wgsl_struct("FrameParams");
     assert_eq!(span as usize, std::mem::size_of::<FrameParams>());
     macro_rules! offsets {
         ($($field:ident),*) => { vec![$((stringify!($field), std::mem::offset_of!(FrameParams, $field))),*] };
@@ -571,17 +576,7 @@ fn gpu_matches_cpu_twin_for_traced_and_baked_lenses() {
 
 #[test]
 fn seidel_params_layout_matches_wgsl() {
-    let module = naga::front::wgsl::parse_str(IBRT_SHADER).unwrap();
-    let (members, span) = module
-        .types
-        .iter()
-        .find_map(|(_, ty)| match (&ty.name, &ty.inner) {
-            (Some(name), naga::TypeInner::Struct { members, span }) if name == "SeidelParams" => {
-                Some((members.clone(), *span))
-            }
-            _ => None,
-        })
-        .expect("SeidelParams in seidel_lens.wgsl");
+    let (members, span) = wgsl_struct("SeidelParams");
     assert_eq!(span as usize, std::mem::size_of::<SeidelParams>());
     macro_rules! offsets {
         ($($field:ident),*) => { vec![$((stringify!($field), std::mem::offset_of!(SeidelParams, $field))),*] };

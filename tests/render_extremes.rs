@@ -176,20 +176,30 @@ fn mean_over(image: &RgbImage, x: std::ops::Range<u32>, y: std::ops::Range<u32>)
     sum / count as f64
 }
 
-/// A white half-plane (x < 0) `distance_mm` in front of the lens, reaching 89.4 degrees off
-/// the axis; nothing behind it.
-fn edge(distance_mm: f64) -> Scene {
+/// A white panel `distance_mm` in front of the lens, reaching 89.4 degrees off the axis in
+/// every direction but +x, where it ends at `right_mm` (None: it does not); nothing behind it.
+fn white_panel(distance_mm: f64, right_mm: Option<f64>) -> Scene {
     let far = 100.0 * distance_mm;
     Scene {
         panels: vec![Panel {
             distance_mm,
             outline: Outline::Rect {
                 min: [-far, -far],
-                max: [0.0, far],
+                max: [right_mm.unwrap_or(far), far],
             },
             texture: Texture::Solid([1.0; 3]),
         }],
     }
+}
+
+/// A white half-plane (x < 0): a straight edge through the axis.
+fn edge(distance_mm: f64) -> Scene {
+    white_panel(distance_mm, Some(0.0))
+}
+
+/// A uniform white wall.
+fn wall(distance_mm: f64) -> Scene {
+    white_panel(distance_mm, None)
 }
 
 /// 10-90 % width (pixels) of the step across output row `row`, whose edge images the axis (the
@@ -312,21 +322,6 @@ fn in_focus_edges_stay_sharp_and_defocused_ones_blur_with_every_model() {
                 "{what}: defocused edge {blurred} px against {sharp} px in focus"
             );
         }
-    }
-}
-
-/// A uniform white wall `distance_mm` away filling every direction up to 89.4 degrees.
-fn wall(distance_mm: f64) -> Scene {
-    let far = 100.0 * distance_mm;
-    Scene {
-        panels: vec![Panel {
-            distance_mm,
-            outline: Outline::Rect {
-                min: [-far, -far],
-                max: [far, far],
-            },
-            texture: Texture::Solid([1.0; 3]),
-        }],
     }
 }
 

@@ -6,6 +6,7 @@
 use super::camera::{Camera, LensModel};
 use super::image::RgbImage;
 use super::kernel::{PixelScrambles, concentric_disc};
+use super::models::PupilSampling;
 use super::scene::Scene;
 use super::{RenderError, RenderSettings};
 use crate::lrtf::{self, Lookup};
@@ -47,6 +48,25 @@ fn object_ray(model: &LensModel, film: [f64; 3], pupil: [f64; 3]) -> Option<([f6
     }
 }
 
+/// The point of `film`'s pupil circle at unit-disc coordinates `disc` (the circle's centre
+/// turned to the film point's azimuth, the disc not turned, as the kernel samples), and the
+/// circle's radius.
+fn pupil_point(sampling: &PupilSampling, film: [f64; 3], disc: [f64; 2]) -> ([f64; 3], f64) {
+    let film_radius = film[0].hypot(film[1]);
+    let azimuth = if film_radius > 0.0 {
+        [film[0] / film_radius, film[1] / film_radius]
+    } else {
+        [1.0, 0.0]
+    };
+    let circle = sampling.circles.circle_at(film_radius);
+    let point = [
+        azimuth[0] * circle.centre_x + circle.radius * disc[0],
+        azimuth[1] * circle.centre_x + circle.radius * disc[1],
+        sampling.z,
+    ];
+    (point, circle.radius)
+}
+
 /// Lens samples per film point in [`ray_reach_tangents`]: the sampling circle's centre and this
 /// many points on its rim.
 const REACH_RIM_SAMPLES: usize = 16;
@@ -80,25 +100,13 @@ pub fn ray_reach_tangents(camera: &Camera, nearest_depth_mm: f64) -> [f64; 2] {
             f.shift_mm[1] + 0.5 * f.height_mm * sy as f64 * inside,
             camera.film_z,
         ];
-        let film_radius = film[0].hypot(film[1]);
-        let azimuth = if film_radius > 0.0 {
-            [film[0] / film_radius, film[1] / film_radius]
-        } else {
-            [1.0, 0.0]
-        };
-        let circle = sampling.circles.circle_at(film_radius);
-        let centre = [azimuth[0] * circle.centre_x, azimuth[1] * circle.centre_x];
         let rim = (0..REACH_RIM_SAMPLES).map(|k| {
             let angle = std::f64::consts::TAU * k as f64 / REACH_RIM_SAMPLES as f64;
-            [
-                centre[0] + circle.radius * angle.cos(),
-                centre[1] + circle.radius * angle.sin(),
-            ]
+            [angle.cos(), angle.sin()]
         });
-        for p in std::iter::once(centre).chain(rim) {
-            let Some((origin, direction)) =
-                object_ray(&camera.model, film, [p[0], p[1], sampling.z])
-            else {
+        for disc in std::iter::once([0.0, 0.0]).chain(rim) {
+            let (pupil, _) = pupil_point(&sampling, film, disc);
+            let Some((origin, direction)) = object_ray(&camera.model, film, pupil) else {
                 continue;
             };
             // Rays that do not travel into the scene reach no depth.
@@ -150,22 +158,12 @@ pub fn render_reference(
                     x as f64 + jitter[0] as f64,
                     y as f64 + jitter[1] as f64,
                 );
-                let film_radius = film[0].hypot(film[1]);
-                let azimuth = if film_radius > 0.0 {
-                    [film[0] / film_radius, film[1] / film_radius]
-                } else {
-                    [1.0, 0.0]
-                };
-                let circle = sampling.circles.circle_at(film_radius);
                 let disc = concentric_disc(lens_u);
-                let pupil = [
-                    azimuth[0] * circle.centre_x + circle.radius * disc[0] as f64,
-                    azimuth[1] * circle.centre_x + circle.radius * disc[1] as f64,
-                    sampling.z,
-                ];
+                let (pupil, radius) =
+                    pupil_point(&sampling, film, [disc[0] as f64, disc[1] as f64]);
                 let d = [pupil[0] - film[0], pupil[1] - film[1], pupil[2] - film[2]];
                 let cos_theta = d[2].abs() / (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-                let weight = weight_scale * circle.radius * circle.radius * cos_theta.powi(4);
+                let weight = weight_scale * radius * radius * cos_theta.powi(4);
                 let Some((origin, direction)) = object_ray(&camera.model, film, pupil) else {
                     continue;
                 };

@@ -1,6 +1,6 @@
 //! The cheapest model that keeps a scene's image error under a budget.
 //!
-//! Candidates in order of cost: thin, thick, Seidel (no table, a few dozen flops more per ray
+//! Candidates in order of cost: thin, thick, Seidel (no table, a short fixed-point solve per ray
 //! each), baked tables by bytes (16^3 f16 up to 256^3 f32), then the exact trace. Each candidate
 //! gets a predicted error first, from cheap means, and is built and measured only when the
 //! prediction meets the budget; the first whose measured error meets it is chosen:
