@@ -231,64 +231,6 @@ fn a_wavelength_beyond_a_glass_formula_is_a_typed_error_naming_the_surface() {
     ));
 }
 
-/// A singlet that images an axial object at infinity perfectly: the front surface is the
-/// Cartesian ellipsoid of index `n` (conic -1/n^2, vertex radius `radius`), which focuses every
-/// parallel ray at f = n R / (n - 1) behind its vertex, and the rear surface is a sphere centred
-/// on that focus, which every converging ray meets at normal incidence. The stop is the front
-/// surface. `as_asphere` writes the ellipsoid as an even asphere (Newton intersection) instead
-/// of a conic (closed-form intersection).
-fn cartesian_singlet(
-    n: f64,
-    radius: f64,
-    thickness: f64,
-    semi_aperture: f64,
-    as_asphere: bool,
-) -> LensSystem {
-    let focus = n * radius / (n - 1.0);
-    let rear_radius = focus - thickness;
-    let (curvature, conic) = (1.0 / radius, -1.0 / (n * n));
-    LensSystem::from_prescription(Prescription {
-        provenance: Provenance {
-            title: "Cartesian aspheric singlet".into(),
-            ..Provenance::default()
-        },
-        object_medium: Medium::Air,
-        surfaces: vec![
-            Surface {
-                shape: if as_asphere {
-                    Shape::EvenAsphere {
-                        curvature,
-                        conic,
-                        coefficients: vec![0.0; 3],
-                    }
-                } else {
-                    Shape::Conic { curvature, conic }
-                },
-                thickness,
-                medium: Medium::Index(n),
-                semi_aperture,
-                stop: Some(StopShape::Circle),
-            },
-            Surface {
-                shape: Shape::Sphere {
-                    curvature: 1.0 / rear_radius,
-                },
-                thickness: rear_radius,
-                medium: Medium::Air,
-                semi_aperture: semi_aperture.min(rear_radius),
-                stop: None,
-            },
-        ],
-    })
-    .expect("a valid singlet")
-}
-
-/// The f/0.95 Cartesian singlet: n = 1.8, R = 20 mm gives f = 45 mm behind the front vertex,
-/// EFL 45 mm; a 23.7 mm semi-aperture is f/0.949, inside the ellipsoid's rim at 24.06 mm.
-fn f095_singlet(as_asphere: bool) -> LensSystem {
-    cartesian_singlet(1.8, 20.0, 20.0, 23.7, as_asphere)
-}
-
 /// Every table entry finite, the frame and pupil too.
 fn assert_table_finite(table: &LrtfTable, what: &str) {
     for layer in &table.layers {
@@ -391,8 +333,8 @@ fn stopped_far_down_the_pupil_still_holds_the_axial_ray() {
     // double Gauss at f/64 got an axial pupil circle centred 1.3 mm off axis that excluded the
     // axial ray itself.
     let cases = [
-        ("f/0.95 singlet", f095_singlet(false), 64.0),
-        ("f/0.95 singlet", f095_singlet(false), 1000.0),
+        ("f/0.95 singlet", common::f095_singlet(false), 64.0),
+        ("f/0.95 singlet", common::f095_singlet(false), 1000.0),
         ("dgauss-50mm", bundled("dgauss-50mm"), 64.0),
         ("dgauss-50mm", bundled("dgauss-50mm"), 1000.0),
     ];
@@ -466,8 +408,8 @@ fn assert_traced_finite(traced: &lensbake::trace::Traced, what: &str) {
 
 #[test]
 fn f095_aspheric_singlet_focuses_every_axial_ray_and_types_the_rest() {
-    let conic = f095_singlet(false);
-    let asphere = f095_singlet(true);
+    let conic = common::f095_singlet(false);
+    let asphere = common::f095_singlet(true);
     for (form, system) in [("conic", &conic), ("even asphere", &asphere)] {
         let analysis = analyze_finite(
             "f/0.95 singlet",
@@ -1483,7 +1425,7 @@ fn an_aspheric_stop_stopped_far_down_still_bakes_its_field() {
         f_number: Some(64.0),
         ..BakeRequest::default()
     };
-    let system = f095_singlet(true);
+    let system = common::f095_singlet(true);
     let table = bake(&system, &request, &|_| {}).unwrap();
     assert!(
         table.layers[0].frame.max_film_radius > 59.0,

@@ -1,7 +1,9 @@
-//! `lensbake render` focus, shift and tilt options as a user runs them: every focus mode with
-//! every lens model, three-point focus, and the errors for bad sensor settings (exit code 2).
+//! `lensbake render` as a user runs it: every focus mode with every lens model, three-point
+//! focus and the errors for bad sensor settings (exit code 2); the Seidel model; and
+//! `--error-budget-px`, which picks the cheapest model within a budget of this render's pixels
+//! and says what it predicted and measured.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 fn lensbake(args: &[&str]) -> Output {
@@ -13,12 +15,13 @@ fn lensbake(args: &[&str]) -> Output {
 
 fn temp_dir(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("lensbake-render-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     dir
 }
 
 /// Runs a small CPU render with `extra` options; returns stdout, asserting success.
-fn render(dir: &std::path::Path, name: &str, extra: &[&str]) -> String {
+fn render(dir: &Path, name: &str, extra: &[&str]) -> String {
     let out = dir.join(format!("{name}.exr"));
     let mut args = vec![
         "render",
@@ -73,7 +76,7 @@ fn every_focus_mode_runs_with_every_model_and_keeps_the_sensor_tilt() {
     let lens = ["--lens", "dgauss-50mm"];
     let mut sensor_z = Vec::new();
     let mut focus_z = Vec::new();
-    for model in ["thin", "thick", "traced", "baked"] {
+    for model in ["thin", "thick", "seidel", "traced", "baked"] {
         for (mode, focus) in [
             ("sensor", vec!["--sensor-mm", "70.5"]),
             ("distance", vec!["--focus-mm", "1500"]),
@@ -189,4 +192,142 @@ fn bad_sensor_settings_exit_with_code_2_and_say_why() {
     }
     assert!(!out.exists(), "no image is written for bad settings");
     std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A small CPU render of the bundled double Gauss on the demo scene, focused at 2 m.
+/// Returns the output whether it succeeded or not.
+fn render_dgauss(out: &Path, extra: &[&str]) -> Output {
+    let mut args = vec![
+        "render",
+        "--lens",
+        "dgauss-50mm",
+        "--backend",
+        "cpu",
+        "--width",
+        "96",
+        "--height",
+        "64",
+        "--spp",
+        "4",
+        "--focus-mm",
+        "2000",
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    lensbake(&args)
+}
+
+fn text(bytes: &[u8]) -> String {
+    String::from_utf8_lossy(bytes).into_owned()
+}
+
+/// Every channel of every pixel of the EXR at `path`, in reading order.
+fn exr_channels(path: &Path) -> Vec<f32> {
+    let image = exr::prelude::read_first_rgba_layer_from_file(
+        path,
+        |size, _| vec![0.0f32; size.width() * size.height() * 3],
+        |pixels: &mut Vec<f32>, position, (r, g, b, _): (f32, f32, f32, f32)| {
+            let at = 3 * (position.y() * 96 + position.x());
+            pixels[at..at + 3].copy_from_slice(&[r, g, b]);
+        },
+    )
+    .unwrap();
+    image.layer_data.channel_data.pixels
+}
+
+/// The number after `label` on the line that starts with it.
+fn number_after(stdout: &str, label: &str) -> f64 {
+    let line = stdout
+        .lines()
+        .find(|l| l.starts_with(label))
+        .unwrap_or_else(|| panic!("no `{label}` line in\n{stdout}"));
+    line[label.len()..]
+        .split_whitespace()
+        .next()
+        .and_then(|w| w.parse().ok())
+        .unwrap_or_else(|| panic!("no number in `{line}`"))
+}
+
+#[test]
+fn the_seidel_model_renders_finite_non_negative_pixels() {
+    let dir = temp_dir("seidel");
+    let out = dir.join("seidel.exr");
+    let o = render_dgauss(&out, &["--model", "seidel", "--f-number", "2.8"]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    assert!(
+        text(&o.stdout).contains("model seidel"),
+        "{}",
+        text(&o.stdout)
+    );
+    let channels = exr_channels(&out);
+    assert!(channels.iter().all(|v| v.is_finite() && *v >= 0.0));
+    assert!(channels.iter().any(|v| *v > 0.0));
+    assert!(dir.join("seidel.png").is_file());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn an_error_budget_picks_a_model_that_meets_it_and_renders_with_it() {
+    let dir = temp_dir("budget");
+    let mut chosen = Vec::new();
+    // From a budget every model meets to one only a table or the trace meets, at f/2.8.
+    for budget in ["20", "0.02"] {
+        let out = dir.join(format!("budget-{budget}.exr"));
+        let o = render_dgauss(&out, &["--error-budget-px", budget, "--f-number", "2.8"]);
+        let stdout = text(&o.stdout);
+        assert!(o.status.success(), "{budget}: {}", text(&o.stderr));
+        let budget: f64 = budget.parse().unwrap();
+        let predicted = number_after(&stdout, "predicted error:");
+        let measured = number_after(&stdout, "measured error:");
+        assert!(
+            predicted <= budget && measured <= budget,
+            "{budget}: {stdout}"
+        );
+        // The model line names the choice; the render line says the render used it.
+        let model_line = stdout.lines().find(|l| l.starts_with("model: ")).unwrap();
+        let label = model_line["model: ".len()..].split(" (").next().unwrap();
+        let kind = label.split_whitespace().next().unwrap();
+        assert!(
+            stdout.contains(&format!("model {kind}, film centre at")),
+            "{stdout}"
+        );
+        assert!(
+            exr_channels(&out)
+                .iter()
+                .all(|v| v.is_finite() && *v >= 0.0)
+        );
+        chosen.push(kind.to_string());
+    }
+    // 20 px of a 96 px frame: the thin lens (the cheapest) is within it. 0.02 px: no model
+    // without the lens's real rays is (thick misses by ~1 px here).
+    assert_eq!(chosen[0], "thin", "{chosen:?}");
+    assert!(
+        matches!(chosen[1].as_str(), "baked" | "traced"),
+        "{chosen:?}"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn a_bad_error_budget_is_refused_with_status_2() {
+    let dir = temp_dir("bad-budget");
+    let out = dir.join("x.exr");
+    for (extra, says) in [
+        (vec!["--error-budget-px", "0"], "budget"),
+        (vec!["--error-budget-px=-1"], "budget"),
+        (vec!["--error-budget-px", "NaN"], "budget"),
+        (
+            vec!["--error-budget-px", "1", "--model", "baked"],
+            "--model",
+        ),
+        (vec!["--error-budget-px", "1", "--table", "t"], "--table"),
+    ] {
+        let o = render_dgauss(&out, &extra);
+        let stderr = text(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{extra:?}: {stderr}");
+        assert!(stderr.contains(says), "{extra:?}: {stderr}");
+        assert!(!out.exists(), "{extra:?} wrote an image");
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
 }

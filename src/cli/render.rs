@@ -23,11 +23,12 @@ use lensbake::render::image::{read_exr_rgbz, write_exr, write_png};
 use lensbake::render::layers::LayeredDepthImage;
 use lensbake::render::mesh::MeshScene;
 use lensbake::render::models::{
-    BakedLens, FirstOrderModels, PupilSampling, TracedLens, pupil_film_radius,
+    BakedLens, FirstOrderModels, PupilSampling, SeidelLens, TracedLens, pupil_film_radius,
 };
 use lensbake::render::raster::{Peeling, mesh_layer_view, peel_mesh, surfel_count};
 use lensbake::render::scene::Scene;
 use lensbake::render::{Backend, RenderError, RenderSettings, render_layers};
+use lensbake::tradeoff::models::ModelKind;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -39,6 +40,8 @@ pub enum ModelArg {
     Thick,
     Traced,
     Baked,
+    /// The thick lens plus third-order (Seidel) transverse aberration of the plane in focus.
+    Seidel,
 }
 
 /// Film radii at which a traced render fits its effective pupil.
@@ -65,8 +68,8 @@ pub struct RenderArgs {
     lens: String,
     #[command(flatten)]
     read: ReadArgs,
-    /// Lens model: thin and thick from the paraxial data, traced (the exact trace in the
-    /// kernel), baked (an LRTF table lookup).
+    /// Lens model: thin and thick from the paraxial data, seidel (thick plus third-order
+    /// aberration), traced (the exact trace in the kernel), baked (an LRTF table lookup).
     #[arg(long, value_enum, default_value = "traced")]
     model: ModelArg,
     /// Table directory for `--model baked`; default tables/<lens>/ (focused at infinity) or
@@ -135,6 +138,11 @@ pub struct RenderArgs {
     /// Wavelengths of R,G,B in nm; default: the C line, the design wavelength, the F line.
     #[arg(long, value_delimiter = ',')]
     wavelengths_nm: Option<Vec<f64>>,
+    /// Render with the cheapest model (and table size and precision) whose p99 image error, in
+    /// pixels of this render, stays under this for the scene's depth range, film use and
+    /// f-number; prints the choice with its predicted and measured error.
+    #[arg(long, conflicts_with_all = ["model", "table"])]
+    error_budget_px: Option<f64>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -158,6 +166,7 @@ impl ChromaticArg {
 /// monochrome one, with the line that says why.
 fn chromatic_wavelengths(
     args: &RenderArgs,
+    model: ModelArg,
     lens: &RenderLens,
     first_order: &FirstOrderModels,
     camera: &Camera,
@@ -173,6 +182,18 @@ fn chromatic_wavelengths(
     };
     let real = match (lens, args.chromatic) {
         (_, ChromaticArg::Off) => return Ok((None, "chromatic: off".into())),
+        (_, ChromaticArg::On) if model == ModelArg::Seidel => {
+            bail!(
+                "--chromatic on: the Seidel model has its sums at the design wavelength only; use \
+                 --model thin, thick, traced or baked, or --chromatic off"
+            )
+        }
+        (_, ChromaticArg::Auto) if model == ModelArg::Seidel => {
+            return Ok((
+                None,
+                "chromatic: off (the Seidel model is monochrome)".into(),
+            ));
+        }
         (RenderLens::Ideal { .. }, ChromaticArg::On) => {
             bail!("--chromatic on: an `ideal:` lens has no glass to disperse; use a lens file")
         }
@@ -357,6 +378,16 @@ pub fn load_or_bake_at(
     Ok((table, true))
 }
 
+/// The object distance (mm in front of surface 1; None: infinity) that the film at `film_z`
+/// is focused on, paraxially at the design wavelength.
+pub fn focus_of_film(lens: &LoadedLens, film_z: f64) -> anyhow::Result<Option<f64>> {
+    let design = lens.system.at(lens.system.design_wavelength_nm());
+    Ok(match object_in_focus(&design, film_z)? {
+        ObjectPosition::Infinite => None,
+        ObjectPosition::Finite { distance } => Some(distance),
+    })
+}
+
 enum SceneSource {
     /// The demo (as meshes) or a glTF file, peeled by rasterisation.
     Mesh {
@@ -493,10 +524,42 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         (None, None, None, None) => (Focus::ObjectDistance(2000.0), film),
     };
     let camera = Camera::new(model, film, focus)?;
-    let (wavelengths, chromatic_line) = chromatic_wavelengths(&args, &lens, &first_order, &camera)?;
+    let (model_arg, mut chosen_table) = match (args.error_budget_px, &lens) {
+        (None, _) => (args.model, None),
+        (Some(_), RenderLens::Ideal { .. }) => {
+            bail!("`--lens ideal:...` is a thin lens and nothing else: drop --error-budget-px")
+        }
+        (Some(budget), RenderLens::Real(real)) => {
+            let layers = source.layers(&camera, &settings)?;
+            let choice = super::tradeoff::choose_for_render(
+                real,
+                &camera,
+                &layers,
+                settings.width,
+                f_number,
+                budget,
+            )?;
+            let model = match choice.model {
+                ModelKind::Thin => ModelArg::Thin,
+                ModelKind::Thick => ModelArg::Thick,
+                ModelKind::Seidel => ModelArg::Seidel,
+                ModelKind::Baked => ModelArg::Baked,
+                ModelKind::Traced => ModelArg::Traced,
+            };
+            (model, choice.table)
+        }
+    };
+    let (wavelengths, chromatic_line) =
+        chromatic_wavelengths(&args, model_arg, &lens, &first_order, &camera)?;
     println!("{chromatic_line}");
-    let camera = match (args.model, &lens) {
-        (ModelArg::Thin | ModelArg::Thick, _) | (_, RenderLens::Ideal { .. }) => camera,
+    let camera = match (model_arg, &lens) {
+        (ModelArg::Thin, _) => Camera::new(LensModel::Thin(first_order.thin.clone()), film, focus)?,
+        (ModelArg::Thick, _) => {
+            Camera::new(LensModel::Thick(first_order.thick.clone()), film, focus)?
+        }
+        (_, RenderLens::Ideal { .. }) => {
+            bail!("`--lens ideal:...` has no surfaces to trace or bake: use --model thin or thick")
+        }
         (ModelArg::Traced, RenderLens::Real(real)) => {
             let design = real.system.at(real.system.design_wavelength_nm());
             let traced = TracedLens::fitted(
@@ -518,12 +581,18 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
                 Focus::FilmZ(camera.film_z),
             )?
         }
+        (ModelArg::Seidel, RenderLens::Real(real)) => {
+            let focus_mm = focus_of_film(real, camera.film_z)?;
+            let seidel = SeidelLens::in_focus(&real.system, &first_order, focus_mm)?;
+            Camera::new(
+                LensModel::Seidel(Box::new(seidel)),
+                film,
+                Focus::FilmZ(camera.film_z),
+            )?
+        }
         (ModelArg::Baked, RenderLens::Real(real)) => {
             let design = real.system.at(real.system.design_wavelength_nm());
-            let focus_mm = match object_in_focus(&design, camera.film_z)? {
-                ObjectPosition::Infinite => None,
-                ObjectPosition::Finite { distance } => Some(distance),
-            };
+            let focus_mm = focus_of_film(real, camera.film_z)?;
             let dir = args.table.clone().unwrap_or_else(|| {
                 let base = default_table_dir(&real.source.origin.name(), focus_mm);
                 match wavelengths {
@@ -537,15 +606,23 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
                 camera.film_corner_radius(),
                 camera.film_off_plane(),
             );
-            let (table, baked) = load_or_bake_at(
-                real,
-                &dir,
-                focus_mm,
-                film_radius,
-                args.bake_resolution,
-                wavelengths.map(Vec::from).unwrap_or_default(),
-                &|_| {},
-            )?;
+            // The error budget's table holds the design wavelength for the untilted film; a
+            // chromatic render or a tilted sensor needs its own.
+            let chosen = chosen_table
+                .take()
+                .filter(|_| wavelengths.is_none() && camera.film_off_plane() == 0.0);
+            let (table, baked) = match chosen {
+                Some(table) => (table, false),
+                None => load_or_bake_at(
+                    real,
+                    &dir,
+                    focus_mm,
+                    film_radius,
+                    args.bake_resolution,
+                    wavelengths.map(Vec::from).unwrap_or_default(),
+                    &|_| {},
+                )?,
+            };
             if baked {
                 println!("baked {}", dir.display());
             }

@@ -1,5 +1,5 @@
 //! `lensbake tradeoff`: every lens model's cost and error side by side, and the error-budget
-//! choice behind `lensbake bake --error-budget-px`.
+//! choice behind `lensbake bake --error-budget-px` and `lensbake render --error-budget-px`.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -11,7 +11,10 @@ use serde::Serialize;
 use super::lens::LensArgs;
 use lensbake::lenses::LoadedLens;
 use lensbake::lrtf::io::write_table;
+use lensbake::lrtf::measure::pixel_pitch;
 use lensbake::plot::{ParetoPlot, ParetoPoint, write_atomic, write_plot};
+use lensbake::render::camera::Camera;
+use lensbake::render::layers::LayeredDepthImage;
 use lensbake::render::scene::Scene;
 use lensbake::tradeoff::choose::{Choice, choose_model};
 use lensbake::tradeoff::models::ModelKind;
@@ -143,18 +146,14 @@ fn markdown(
         let e = &m.entry;
         let _ = writeln!(
             s,
-            "| {} | {:.4} | {} | {} | {} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} % | {} |",
+            "| {} | {:.4} | {} | {:.1} | {} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} % | {} |",
             m.label,
             e.bake_seconds,
             e.table_bytes,
-            e.render_ms_per_frame
-                .map_or("n/a".into(), |v| format!("{v:.1}")),
-            match &m.render {
-                None => "n/a".to_string(),
-                Some(r) => r
-                    .psnr_db
-                    .map_or("reference".into(), |db| format!("{db:.1}")),
-            },
+            e.render_ms_per_frame,
+            m.render
+                .psnr_db
+                .map_or("reference".into(), |db| format!("{db:.1}")),
             e.ray_error_p99_mrad,
             m.error.direction_mrad.max,
             m.error.image_px.median,
@@ -179,8 +178,9 @@ fn markdown(
          the same seed, the film a {w}:{h} frame inscribed in the domain's image circle, and \
          traced and baked draw identical lens samples on the largest table's effective pupil.\n\
          - image PSNR: the frame against the traced frame (display range 0..1). It is a separate \
-         image error; image p99 px stays the ray-derived error above. Seidel has no renderer \
-         kernel: no render cost, no PSNR.",
+         image error; image p99 px stays the ray-derived error above. thin, thick and Seidel \
+         sample their own exit pupil; the Seidel frame is blank where its inverse map does not \
+         settle.",
         frames = bench.frames.max(1),
         w = bench.width,
         h = bench.height,
@@ -194,16 +194,14 @@ fn pareto(lens: &str, measured: &[Measured], bench: &RenderBench) -> ParetoPlot 
     let points = measured
         .iter()
         .filter(|m| m.entry.image_error_px_p99 > 0.0)
-        .filter_map(|m| {
-            Some(ParetoPoint {
-                label: m.label.clone(),
-                group: match m.entry.precision {
-                    Some(p) => format!("baked {p}"),
-                    None => m.entry.model.name().to_string(),
-                },
-                cost: m.entry.render_ms_per_frame?,
-                error: m.entry.image_error_px_p99,
-            })
+        .map(|m| ParetoPoint {
+            label: m.label.clone(),
+            group: match m.entry.precision {
+                Some(p) => format!("baked {p}"),
+                None => m.entry.model.name().to_string(),
+            },
+            cost: m.entry.render_ms_per_frame,
+            error: m.entry.image_error_px_p99,
         })
         .collect();
     ParetoPlot {
@@ -214,17 +212,16 @@ fn pareto(lens: &str, measured: &[Measured], bench: &RenderBench) -> ParetoPlot 
         ),
         error_label: "image error p99 (px at 1920 px, log)".into(),
         points,
-        notes: vec![
-            format!(
-                "traced: the reference (zero error, not on log axes), {} ms/frame",
-                measured
-                    .iter()
-                    .find(|m| m.entry.model == ModelKind::Traced)
-                    .and_then(|m| m.entry.render_ms_per_frame)
-                    .map_or("n/a".into(), |ms| format!("{ms:.1}"))
-            ),
-            "seidel: no renderer kernel, not plotted".into(),
-        ],
+        notes: vec![format!(
+            "traced: the reference (zero error, not on log axes), {} ms/frame",
+            measured
+                .iter()
+                .find(|m| m.entry.model == ModelKind::Traced)
+                .map_or("n/a".into(), |m| format!(
+                    "{:.1}",
+                    m.entry.render_ms_per_frame
+                ))
+        )],
     }
 }
 
@@ -248,11 +245,8 @@ pub fn run(args: TradeoffArgs) -> anyhow::Result<()> {
         e.bake_seconds.is_finite()
             && e.ray_error_p99_mrad.is_finite()
             && e.image_error_px_p99.is_finite()
-            && e.render_ms_per_frame.is_none_or(f64::is_finite)
-            && m.render
-                .as_ref()
-                .and_then(|r| r.psnr_db)
-                .is_none_or(|db| !db.is_nan())
+            && e.render_ms_per_frame.is_finite()
+            && m.render.psnr_db.is_none_or(|db| !db.is_nan())
     });
     if !finite {
         anyhow::bail!("a model produced a non-finite error; nothing written");
@@ -333,4 +327,62 @@ pub fn bake_within_budget(
         None => println!("no table written: the {} model needs none", choice.label),
     }
     Ok(())
+}
+
+/// `render --error-budget-px`: the cheapest model whose image error stays under `budget_px`
+/// pixels of this render for its scene: the focus of `camera`'s film, the nearest surface of
+/// `layers`, the film area the frame uses, the f-number, at this render's pixel pitch, in one
+/// wavelength (the renderer's). Prints the choice, its predicted and its measured error, one line
+/// each.
+pub fn choose_for_render(
+    lens: &LoadedLens,
+    camera: &Camera,
+    layers: &LayeredDepthImage,
+    width: u32,
+    f_number: f64,
+    budget_px: f64,
+) -> anyhow::Result<Choice> {
+    let focus_mm = super::render::focus_of_film(lens, camera.film_z)?;
+    let whole_field = SceneRequirements {
+        focus_mm,
+        f_number: Some(f_number),
+        ..SceneRequirements::default()
+    };
+    let full_film_radius = Domain::of(&lens.system, &whole_field)?.full_film_radius;
+    let corner = camera.film_corner_radius();
+    if corner > full_film_radius {
+        println!(
+            "note: the film corner ({corner:.3} mm off the axis) lies beyond the largest \
+             traceable field ({full_film_radius:.3} mm); the budget covers the field up to there"
+        );
+    }
+    let film_radius = corner.min(full_film_radius);
+    let nearest_mm = layers
+        .depth_range()
+        .map(|range| f64::from(range[0]) - camera.eye_z());
+    let req = SceneRequirements {
+        nearest_mm: nearest_mm.filter(|d| *d > 0.0),
+        film_fraction: film_radius / full_film_radius,
+        // The width of the 3:2 frame in that image circle, counted in this render's pixels.
+        pixels: pixel_pitch(film_radius, 1.0) / (camera.film.width_mm / f64::from(width)),
+        monochrome: true,
+        ..whole_field
+    };
+    let choice = choose_model(&lens.system, &req, budget_px)?;
+    println!(
+        "model: {} (the cheapest within {budget_px} px at this render's pixel pitch: film \
+         radius {:.3} mm, f/{:.3}, focus {}, nearest surface {})",
+        choice.label,
+        choice.domain.film_radius,
+        choice.domain.f_number,
+        focus_mm.map_or("infinity".into(), |d| format!("{d:.1} mm")),
+        req.nearest_mm
+            .map_or("far".into(), |d| format!("{d:.1} mm"))
+    );
+    println!("predicted error: {:.3} px (p99)", choice.predicted_px);
+    println!(
+        "measured error: {:.3} px (p99 against the exact trace on fresh rays of the domain)",
+        choice.measured_px
+    );
+    Ok(choice)
 }

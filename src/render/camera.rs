@@ -3,7 +3,7 @@
 
 use super::RenderError;
 use super::chromatic::Chromatic;
-use super::models::{BakedLens, MAX_PUPIL_BOUND_GROWTH, PupilSampling, TracedLens};
+use super::models::{BakedLens, MAX_PUPIL_BOUND_GROWTH, PupilSampling, SeidelLens, TracedLens};
 
 /// A lens reduced to first order: power and unit-magnification principal planes, with its pupils.
 /// A thin lens is the case where both principal planes and both pupils coincide.
@@ -116,6 +116,8 @@ pub enum LensModel {
     Traced(Box<TracedLens>),
     /// A baked lens ray transfer function table.
     Baked(Box<BakedLens>),
+    /// The thick lens plus the third-order (Seidel) transverse aberration of its conjugate.
+    Seidel(Box<SeidelLens>),
 }
 
 impl LensModel {
@@ -125,25 +127,31 @@ impl LensModel {
             LensModel::Thick(_) => "thick",
             LensModel::Traced(_) => "traced",
             LensModel::Baked(_) => "baked",
+            LensModel::Seidel(_) => "seidel",
         }
     }
 
     /// The first-order description: the model itself for thin and thick, the thick model of the
-    /// lens for traced and baked (it places the eye and sizes the field and layer margins).
+    /// lens for Seidel, traced and baked (it places the eye and sizes the field and layer
+    /// margins).
     pub fn paraxial(&self) -> &ParaxialLens {
         match self {
             LensModel::Thin(lens) | LensModel::Thick(lens) => lens,
             LensModel::Traced(lens) => &lens.paraxial,
             LensModel::Baked(lens) => &lens.paraxial,
+            LensModel::Seidel(lens) => &lens.thick,
         }
     }
 
-    /// Where lens samples are drawn: the exit pupil for thin and thick, the effective pupil on
-    /// the rear vertex plane for traced and baked.
+    /// Where lens samples are drawn: the exit pupil for thin, thick and Seidel, the effective
+    /// pupil on the rear vertex plane for traced and baked.
     pub fn pupil_sampling(&self) -> PupilSampling {
         match self {
             LensModel::Thin(lens) | LensModel::Thick(lens) => {
                 PupilSampling::disc(lens.exit_pupil_z, lens.exit_pupil_radius_mm)
+            }
+            LensModel::Seidel(lens) => {
+                PupilSampling::disc(lens.thick.exit_pupil_z, lens.thick.exit_pupil_radius_mm)
             }
             LensModel::Traced(lens) => PupilSampling {
                 z: lens.rear_plane_z,

@@ -124,6 +124,13 @@ impl Chromatic {
                 pupil_nodes,
             ),
             LensModel::Baked(lens) => Chromatic::baked(lens, wavelengths_nm),
+            // Its Seidel sums hold the design wavelength alone; a channel per wavelength would
+            // need the chromatic sums as well.
+            LensModel::Seidel(_) => Err(RenderError::InvalidSetting(
+                "a chromatic render needs the thin, thick, traced or baked model: the Seidel \
+                 model's sums hold the design wavelength only"
+                    .into(),
+            )),
         }
     }
 

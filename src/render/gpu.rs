@@ -6,12 +6,13 @@ use wgpu::util::DeviceExt;
 
 /// The lens trace alone (bind groups 2 and 3), with the `trace_lens_rays` test entry point.
 pub const LENS_TRACE_SHADER: &str = include_str!("shaders/lens_trace.wgsl");
-/// The renderer: the LRTF sampler (group 0), the lens trace (group 2) and the IBRT kernel
-/// (group 1), one module.
+/// The renderer: the LRTF sampler (group 0), the lens trace (group 2), the IBRT kernel
+/// (group 1) and the Seidel model (group 3), one module.
 pub const IBRT_SHADER: &str = concat!(
     include_str!("../lrtf/lrtf_sample.wgsl"),
     include_str!("shaders/lens_trace.wgsl"),
-    include_str!("shaders/ibrt.wgsl")
+    include_str!("shaders/ibrt.wgsl"),
+    include_str!("shaders/seidel_lens.wgsl")
 );
 
 /// Samples per pixel per dispatch: keeps each submission short on slow (software) adapters.
@@ -328,6 +329,8 @@ impl GpuRenderer {
         );
         let lens_group = self.lens_group(pipeline, &lens.params, &lens.surfaces);
         let channel_uniform = channels.map(|c| self.uniform("channels", bytemuck::bytes_of(c)));
+        let seidel = self.uniform("seidel params", bytemuck::bytes_of(&lens.seidel));
+        let seidel_group = self.bind_group(pipeline, 3, &[seidel.as_entire_binding()]);
         let mut offset = 0;
         while offset < frame.samples_per_pixel {
             let chunk = FrameParams {
@@ -354,6 +357,7 @@ impl GpuRenderer {
                 pass.set_bind_group(0, &lrtf_group, &[]);
                 pass.set_bind_group(1, &layer_group, &[]);
                 pass.set_bind_group(2, &lens_group, &[]);
+                pass.set_bind_group(3, &seidel_group, &[]);
                 pass.dispatch_workgroups(
                     frame.width.div_ceil(WORKGROUP_SIZE),
                     frame.height.div_ceil(WORKGROUP_SIZE),

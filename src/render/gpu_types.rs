@@ -5,6 +5,7 @@ use super::RenderError;
 use super::camera::{Camera, LensModel};
 use super::chromatic::{CHANNELS, ChannelLenses, Chromatic, PUPIL_EDGE_TOLERANCE};
 use super::layers::LayeredDepthImage;
+use super::models::SeidelLens;
 use crate::lrtf::{GpuParams, Parameterisation};
 use bytemuck::{Pod, Zeroable};
 
@@ -16,6 +17,7 @@ pub const EMPTY_BOUNDS: [f32; 2] = [1e30, -1e30];
 pub const MODEL_PARAXIAL: u32 = 0;
 pub const MODEL_TRACED: u32 = 1;
 pub const MODEL_BAKED: u32 = 2;
+pub const MODEL_SEIDEL: u32 = 3;
 /// Surface profiles (`LensSurface::kind`).
 pub const SURFACE_PLANE: u32 = 0;
 pub const SURFACE_SPHERE: u32 = 1;
@@ -202,6 +204,7 @@ pub fn frame_params(
             LensModel::Thin(_) | LensModel::Thick(_) => MODEL_PARAXIAL,
             LensModel::Traced(_) => MODEL_TRACED,
             LensModel::Baked(_) => MODEL_BAKED,
+            LensModel::Seidel(_) => MODEL_SEIDEL,
         },
         film_origin_x: origin[0] as f32,
         film_origin_y: origin[1] as f32,
@@ -288,6 +291,8 @@ pub struct LensData {
     pub transfer: Vec<[f32; 4]>,
     pub aux: Vec<[f32; 4]>,
     pub dims: [u32; 3],
+    /// The Seidel model's polynomial (zeroed for every other model).
+    pub seidel: SeidelParams,
 }
 
 impl LensData {
@@ -342,6 +347,7 @@ impl LensData {
                     transfer: split(0..4),
                     aux: split(4..8),
                     dims: g.dims,
+                    seidel: SeidelParams::zeroed(),
                 }
             }
             _ => LensData {
@@ -352,7 +358,48 @@ impl LensData {
                 transfer: placeholder_texels.clone(),
                 aux: placeholder_texels,
                 dims: [2, 2, 2],
+                seidel: match model {
+                    LensModel::Seidel(lens) => SeidelParams::of(lens),
+                    _ => SeidelParams::zeroed(),
+                },
             },
+        }
+    }
+}
+
+/// Uniform block `SeidelParams` of `shaders/seidel_lens.wgsl`: a [`SeidelLens`]'s conjugate and
+/// its transverse aberration polynomial ([`crate::render::models::TransverseCoefficients`], mm).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct SeidelParams {
+    pub image_z: f32,
+    pub exit_pupil_z: f32,
+    /// 1 / the chief ray's image height at field H = 1.
+    pub inverse_chief_height: f32,
+    /// 1 / the wide-open marginal ray's height in the exit pupil.
+    pub inverse_marginal_height: f32,
+    pub spherical: f32,
+    pub coma: f32,
+    pub sagittal: f32,
+    pub tangential: f32,
+    pub distortion: f32,
+    pub pad: [f32; 3],
+}
+
+impl SeidelParams {
+    pub fn of(lens: &SeidelLens) -> SeidelParams {
+        let c = lens.coefficients();
+        SeidelParams {
+            image_z: lens.image_z as f32,
+            exit_pupil_z: lens.thick.exit_pupil_z as f32,
+            inverse_chief_height: (1.0 / lens.chief_image_height) as f32,
+            inverse_marginal_height: (1.0 / lens.marginal_pupil_height) as f32,
+            spherical: c.spherical as f32,
+            coma: c.coma as f32,
+            sagittal: c.sagittal as f32,
+            tangential: c.tangential as f32,
+            distortion: c.distortion as f32,
+            pad: [0.0; 3],
         }
     }
 }

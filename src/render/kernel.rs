@@ -9,7 +9,8 @@
 use super::RenderError;
 use super::camera::LensModel;
 use super::chromatic::{CHANNELS, ChannelLenses, Chromatic};
-use super::gpu_types::{ChannelParams, FrameParams, LayerData, LensData};
+use super::gpu_types::{ChannelParams, FrameParams, LayerData, LensData, SeidelParams};
+use super::models::{SEIDEL_CONVERGED_MM, SEIDEL_INVERSE_STEPS, SEIDEL_SETTLED_MM};
 use crate::lrtf::{self, Lookup, LrtfTable};
 use crate::trace::{Tracer, Travel};
 use rayon::prelude::*;
@@ -17,6 +18,10 @@ use rayon::prelude::*;
 const PI: f32 = std::f32::consts::PI;
 const FOOTPRINT_CLAMP_ITERATIONS: u32 = 3;
 const DEPTH_TOLERANCE: f32 = 1e-5;
+/// Rounding of an inverse depth interpolated along the march, in units of the march's end
+/// values (four f32 ulps): a far layer's w is a small difference of the near end's large w, so a
+/// relative tolerance alone missed a background at 100 km behind a subject at 2 m.
+const DEPTH_SLACK: f32 = 4.0 * f32::EPSILON;
 const NO_CROSSING: f32 = 1e30;
 
 type Vec2 = [f32; 2];
@@ -143,6 +148,64 @@ fn channel_paraxial_ray(
     )
 }
 
+/// The shader's `seidel_aberration`: transverse aberration (mm) of the ray to Gaussian image
+/// point `g` through normalised exit-pupil point `p`.
+fn seidel_aberration(s: &SeidelParams, g: Vec2, p: Vec2) -> Vec2 {
+    let radius = (g[0] * g[0] + g[1] * g[1]).sqrt();
+    let u = if radius > 0.0 {
+        [g[0] / radius, g[1] / radius]
+    } else {
+        [1.0, 0.0]
+    };
+    let v = [-u[1], u[0]];
+    let h = radius * s.inverse_chief_height;
+    let py = p[0] * u[0] + p[1] * u[1];
+    let px = p[0] * v[0] + p[1] * v[1];
+    let rho2 = px * px + py * py;
+    let ex = s.spherical * rho2 * px + 2.0 * s.coma * h * px * py + s.sagittal * h * h * px;
+    let ey = s.spherical * rho2 * py
+        + s.coma * h * (rho2 + 2.0 * py * py)
+        + s.tangential * h * h * py
+        + s.distortion * h * h * h;
+    [ey * u[0] + ex * v[0], ey * u[1] + ex * v[1]]
+}
+
+/// The shader's `seidel_lens_ray`: the Gaussian image point whose aberrated ray through the
+/// film-side ray's exit-pupil point lands where the film-side ray does (fixed point), then the
+/// thick lens's ray from it; blocked where the fixed point does not settle.
+fn seidel_lens_ray(frame: &FrameParams, s: &SeidelParams, film: Vec3, pupil: Vec3) -> ObjectRay {
+    let d = [pupil[0] - film[0], pupil[1] - film[1], pupil[2] - film[2]];
+    let t_exit = (s.exit_pupil_z - film[2]) / d[2];
+    let exit = [film[0] + t_exit * d[0], film[1] + t_exit * d[1]];
+    let t_image = (s.image_z - film[2]) / d[2];
+    let landing = [film[0] + t_image * d[0], film[1] + t_image * d[1]];
+    let p = [
+        exit[0] * s.inverse_marginal_height,
+        exit[1] * s.inverse_marginal_height,
+    ];
+    let mut g = landing;
+    let mut step = 0.0f32;
+    for _ in 0..SEIDEL_INVERSE_STEPS {
+        let eps = seidel_aberration(s, g, p);
+        let next = [landing[0] - eps[0], landing[1] - eps[1]];
+        let moved = [next[0] - g[0], next[1] - g[1]];
+        step = (moved[0] * moved[0] + moved[1] * moved[1]).sqrt();
+        g = next;
+        if step <= SEIDEL_CONVERGED_MM as f32 {
+            break;
+        }
+    }
+    // Written so that NaN fails the test too.
+    if step <= SEIDEL_SETTLED_MM as f32 {
+        return paraxial_lens_ray(
+            frame,
+            [g[0], g[1], s.image_z],
+            [exit[0], exit[1], s.exit_pupil_z],
+        );
+    }
+    blocked_ray()
+}
+
 fn project(frame: &FrameParams, ray: &ObjectRay, depth: f32) -> Vec3 {
     let z = frame.eye_z - depth;
     let t = (z - ray.origin[2]) / ray.direction[2];
@@ -196,10 +259,11 @@ fn hit_in_pixel(
     pixel: u32,
     w_in: f32,
     w_out: f32,
+    slack: f32,
 ) -> Option<Vec3> {
     let pixels = frame.layer_width * frame.layer_height;
-    let upper = w_in * (1.0 + DEPTH_TOLERANCE);
-    let lower = w_out * (1.0 - DEPTH_TOLERANCE);
+    let upper = w_in * (1.0 + DEPTH_TOLERANCE) + slack;
+    let lower = w_out * (1.0 - DEPTH_TOLERANCE) - slack;
     for group in 0..frame.layer_groups {
         let depths = layers.depths[(group * pixels + pixel) as usize];
         for (k, &w) in depths.iter().enumerate() {
@@ -253,6 +317,7 @@ fn trace_layers(frame: &FrameParams, layers: &LayerData, ray: &ObjectRay) -> Opt
         return None;
     }
     let dw = b[2] - a[2];
+    let slack = DEPTH_SLACK * (a[2].abs() + b[2].abs());
     for _ in 0..FOOTPRINT_CLAMP_ITERATIONS {
         let p = mix3(a, b, range[0]);
         let q = mix3(a, b, range[1]);
@@ -263,8 +328,8 @@ fn trace_layers(frame: &FrameParams, layers: &LayerData, ray: &ObjectRay) -> Opt
         if bounds[0] > bounds[1] {
             return None;
         }
-        let enter = (bounds[1] * (1.0 + DEPTH_TOLERANCE) - a[2]) / dw;
-        let leave = (bounds[0] * (1.0 - DEPTH_TOLERANCE) - a[2]) / dw;
+        let enter = (bounds[1] * (1.0 + DEPTH_TOLERANCE) + slack - a[2]) / dw;
+        let leave = (bounds[0] * (1.0 - DEPTH_TOLERANCE) - slack - a[2]) / dw;
         range = [range[0].max(enter), range[1].min(leave)];
         if range[0] > range[1] {
             return None;
@@ -301,7 +366,14 @@ fn trace_layers(frame: &FrameParams, layers: &LayerData, ray: &ObjectRay) -> Opt
     for _ in 0..steps {
         let s_out = next_x.min(next_y).min(range[1]);
         let pixel = cell[1] as u32 * frame.layer_width + cell[0] as u32;
-        let found = hit_in_pixel(frame, layers, pixel, a[2] + s_in * dw, a[2] + s_out * dw);
+        let found = hit_in_pixel(
+            frame,
+            layers,
+            pixel,
+            a[2] + s_in * dw,
+            a[2] + s_out * dw,
+            slack,
+        );
         if found.is_some() {
             return found;
         }
@@ -357,6 +429,8 @@ pub enum LensRays<'a> {
         stop_radius: f64,
         layer: usize,
     },
+    /// The shader's `seidel_lens_ray`, in f32.
+    Seidel(SeidelParams),
 }
 
 impl LensRays<'_> {
@@ -369,6 +443,7 @@ impl LensRays<'_> {
                 stop_radius: lens.stop_radius,
                 layer: lens.layer,
             },
+            LensModel::Seidel(lens) => LensRays::Seidel(SeidelParams::of(lens)),
         }
     }
 
@@ -412,6 +487,7 @@ fn lens_ray(frame: &FrameParams, rays: LensRays, film: Vec3, pupil: Vec3) -> Obj
     };
     match rays {
         LensRays::Paraxial => paraxial_lens_ray(frame, film, pupil),
+        LensRays::Seidel(seidel) => seidel_lens_ray(frame, &seidel, film, pupil),
         LensRays::Traced(tracer) => {
             let Ok(ray) = crate::trace::Ray::new(to_f64(film), to_f64(towards)) else {
                 return blocked;
@@ -440,6 +516,20 @@ fn lens_ray(frame: &FrameParams, rays: LensRays, film: Vec3, pupil: Vec3) -> Obj
             }
         }
     }
+}
+
+/// The kernel's lens function alone: the object-space ray (a point on it, and the direction the
+/// light travels, towards +z, not normalised) for the film-side ray from `film` through `pupil`,
+/// or None where the model blocks it. The hook tests compare each model's port with its f64
+/// statement through.
+pub fn object_ray(
+    frame: &FrameParams,
+    rays: LensRays,
+    film: [f32; 3],
+    pupil: [f32; 3],
+) -> Option<([f32; 3], [f32; 3])> {
+    let ray = lens_ray(frame, rays, film, pupil);
+    ray.valid.then_some((ray.origin, ray.direction))
 }
 
 /// The shader's `lrtf_circle_at`: the pupil circle (centre_x, radius) of block `block` for a

@@ -82,21 +82,33 @@ impl RenderSettings {
     }
 }
 
+/// Largest tangent a layer view covers (87 degrees): a plane seen from the eye cannot hold rays
+/// nearer to perpendicular, and the view's pixel count grows as the tangent.
+const MAX_LAYER_TANGENT: f64 = 20.0;
+/// Largest layer view, in multiples of the output's pixels per axis.
+const MAX_LAYER_UPSCALE: f64 = 8.0;
+
 /// The pinhole view to peel layers for `camera`: the image's field plus a margin wide enough
-/// for out-of-focus rays from the border pixels, at the output's pixel pitch.
+/// for out-of-focus rays from the border pixels, at the output's pixel pitch; and at least as
+/// far as the model's own rays from the film's rim reach ([`reference::ray_reach_tangents`]):
+/// with distortion and pupil aberration a real lens's rays can leave well outside the paraxial
+/// field (a fisheye's film corner looks out at 75 degrees where its paraxial field ends at 53).
 pub fn layer_view(camera: &Camera, settings: &RenderSettings, nearest_depth_mm: f64) -> View {
     let field = camera.half_field_tangents();
     let lens = camera.model.paraxial();
     // A ray through the pupil edge departs from the chief ray by at most r / depth in tangent.
     let margin = lens.entrance_pupil_radius_mm / nearest_depth_mm.max(1e-3);
-    let grow = |tan: f64, pixels: u32| {
-        let tan_layer = tan + margin;
-        let size = (pixels as f64 * tan_layer / tan).ceil() as u32;
-        // Keep the pixel pitch equal to the image's by snapping the field to the pixel count.
-        (tan * size as f64 / pixels as f64, size)
+    let reach = reference::ray_reach_tangents(camera, nearest_depth_mm);
+    let grow = |tan: f64, reach: f64, pixels: u32| {
+        let tan_layer = (tan + margin).max(reach).min(MAX_LAYER_TANGENT.max(tan));
+        let size = (pixels as f64 * tan_layer / tan).min(MAX_LAYER_UPSCALE * pixels as f64);
+        let size = size.ceil() as u32;
+        // Keep the pixel pitch equal to the image's by snapping the field to the pixel count
+        // (coarser only where the upscale cap binds).
+        (tan_layer.max(tan * size as f64 / pixels as f64), size)
     };
-    let (tan_x, width) = grow(field[0], settings.width);
-    let (tan_y, height) = grow(field[1], settings.height);
+    let (tan_x, width) = grow(field[0], reach[0], settings.width);
+    let (tan_y, height) = grow(field[1], reach[1], settings.height);
     View {
         eye_z: camera.eye_z(),
         tan_half: [tan_x, tan_y],

@@ -58,6 +58,9 @@ fn object_ray(model: &LensModel, film: [f64; 3], pupil: [f64; 3]) -> Option<Obje
         LensModel::Thin(lens) | LensModel::Thick(lens) => {
             Some(paraxial_object_ray(lens, film, pupil))
         }
+        LensModel::Seidel(lens) => lens
+            .object_ray(film, pupil)
+            .map(|(origin, slope)| (origin, [slope[0], slope[1], 1.0])),
         LensModel::Traced(lens) => traced_object_ray(&lens.tracer, film, pupil),
         LensModel::Baked(lens) => baked_object_ray(lens, lens.layer, film, pupil),
     }
@@ -104,6 +107,70 @@ impl TrueGeometry for TracedMesh<'_> {
     fn radiance_along(&self, origin: [f64; 3], direction: [f64; 3]) -> [f32; 3] {
         self.radiance_towards(origin, direction.map(|d| -d))
     }
+}
+
+/// Lens samples per film point in [`ray_reach_tangents`]: the sampling circle's centre and this
+/// many points on its rim.
+const REACH_RIM_SAMPLES: usize = 16;
+
+/// The largest |x| / depth and |y| / depth, seen from the eye, that the model's object rays reach
+/// at depths from `nearest_depth_mm` to infinity, over rays from the film's corners and edge
+/// midpoints through the centre and the rim of their pupil circle (f64, [`object_ray`]). The
+/// extremes of a ray's x / depth lie at the nearest depth or at infinity (it is linear in
+/// 1 / depth), and a radially monotonic lens sends its outermost rays from the film's rim.
+pub fn ray_reach_tangents(camera: &Camera, nearest_depth_mm: f64) -> [f64; 2] {
+    let sampling = camera.pupil_sampling();
+    let bound = sampling.off_plane_bound();
+    let eye_z = camera.eye_z();
+    let f = &camera.film;
+    let nearest = nearest_depth_mm.max(1e-3);
+    let mut reach = [0.0f64; 2];
+    for (sx, sy) in [
+        (-1, -1),
+        (-1, 0),
+        (-1, 1),
+        (0, -1),
+        (0, 1),
+        (1, -1),
+        (1, 0),
+        (1, 1),
+    ] {
+        // A hair inside the rim, as every pixel sample lies: a table covering exactly this film
+        // must not find its own corner outside its domain by rounding.
+        let inside = 1.0 - 1e-9;
+        let film = f.point(
+            camera.film_z,
+            0.5 * f.width_mm * sx as f64 * inside,
+            0.5 * f.height_mm * sy as f64 * inside,
+        );
+        let (centre, radius) = sampling.disc_for(&bound, film, camera.film_z);
+        let rim = (0..REACH_RIM_SAMPLES).map(|k| {
+            let angle = std::f64::consts::TAU * k as f64 / REACH_RIM_SAMPLES as f64;
+            [angle.cos(), angle.sin()]
+        });
+        for disc in std::iter::once([0.0, 0.0]).chain(rim) {
+            let pupil = [
+                centre[0] + radius * disc[0],
+                centre[1] + radius * disc[1],
+                sampling.z,
+            ];
+            let Some((origin, direction)) = object_ray(&camera.model, film, pupil) else {
+                continue;
+            };
+            // Rays that do not travel into the scene reach no depth.
+            if direction[2] > 0.0 {
+                let t = (eye_z - nearest - origin[2]) / direction[2];
+                for axis in 0..2 {
+                    let at_infinity = (direction[axis] / direction[2]).abs();
+                    let at_nearest = (origin[axis] + t * direction[axis]).abs() / nearest;
+                    if at_infinity.is_finite() && at_nearest.is_finite() {
+                        reach[axis] = reach[axis].max(at_infinity).max(at_nearest);
+                    }
+                }
+            }
+        }
+    }
+    reach
 }
 
 /// Renders `scene` through `camera` with `settings.samples_per_pixel` samples per pixel, in f64,

@@ -1,6 +1,6 @@
 //! The cheapest model that keeps a scene's image error under a budget.
 //!
-//! Candidates in order of cost: thin, thick, Seidel (no table, a few dozen flops more per ray
+//! Candidates in order of cost: thin, thick, Seidel (no table, a short fixed-point solve per ray
 //! each), baked tables by bytes (16^3 f16 up to 256^3 f32), then the exact trace. Each candidate
 //! gets a predicted error first, from cheap means, and is built and measured only when the
 //! prediction meets the budget; the first whose measured error meets it is chosen:
@@ -13,7 +13,9 @@
 //!   plus, for f16, the error of rounding the exact directions' encoding to f16.
 //!
 //! Colour: one wavelength when the lateral colour (C_II, F to C, at the edge of the used field)
-//! stays under the budget, else three (C, design, F), which only baked and traced models carry.
+//! stays under the budget or the scene is rendered in one wavelength
+//! ([`SceneRequirements::monochrome`]), else three (C, design, F), which only baked and traced
+//! models carry.
 
 use serde::Serialize;
 
@@ -138,7 +140,7 @@ pub fn choose_model(
     }
     let domain = Domain::of(system, req)?;
     let lateral_colour_px = lateral_colour_mm(system, &domain)?.abs() / domain.pixel_pitch;
-    let colour = lateral_colour_px >= budget_px;
+    let colour = !req.monochrome && lateral_colour_px >= budget_px;
     let wavelengths_nm = if colour {
         vec![C_LINE_NM, domain.wavelength_nm, F_LINE_NM]
     } else {

@@ -56,6 +56,9 @@ pub struct SceneRequirements {
     pub f_number: Option<f64>,
     /// Output width in pixels, for image errors.
     pub pixels: f64,
+    /// The renderer traces one wavelength: lateral colour is not asked of the model (and cannot
+    /// be given by any), so the choice never turns to three-wavelength tables for it.
+    pub monochrome: bool,
 }
 
 impl Default for SceneRequirements {
@@ -66,6 +69,7 @@ impl Default for SceneRequirements {
             film_fraction: 1.0,
             f_number: None,
             pixels: 1920.0,
+            monochrome: false,
         }
     }
 }
@@ -268,9 +272,8 @@ pub struct Entry {
     pub bake_seconds: f64,
     /// Bytes of the model's data as held in memory (table entries for a baked table).
     pub table_bytes: usize,
-    /// Median wall-clock ms of a frame of the demo scene on the CPU twin ([`RenderBench`]);
-    /// None for the Seidel model, which the renderer has no kernel for.
-    pub render_ms_per_frame: Option<f64>,
+    /// Median wall-clock ms of a frame of the demo scene on the CPU twin ([`RenderBench`]).
+    pub render_ms_per_frame: f64,
     pub ray_error_p99_mrad: f64,
     pub image_error_px_p99: f64,
 }
@@ -285,14 +288,14 @@ pub struct Built {
 }
 
 impl Built {
-    pub fn entry(&self, error: &RayError, render: Option<&RenderCost>) -> Entry {
+    pub fn entry(&self, error: &RayError, render: &RenderCost) -> Entry {
         Entry {
             model: self.model.kind(),
             resolution: self.resolution,
             precision: self.precision.map(Precision::name),
             bake_seconds: self.bake_seconds,
             table_bytes: self.table_bytes,
-            render_ms_per_frame: render.map(|r| r.ms_per_frame),
+            render_ms_per_frame: render.ms_per_frame,
             ray_error_p99_mrad: error.direction_mrad.p99,
             image_error_px_p99: error.image_px.p99,
         }
@@ -420,13 +423,13 @@ pub struct Measured {
     pub label: String,
     pub entry: Entry,
     pub error: RayError,
-    /// The frame's cost and PSNR against the traced frame; None for the Seidel model.
-    pub render: Option<RenderCost>,
+    /// The frame's cost and PSNR against the traced frame.
+    pub render: RenderCost,
 }
 
 /// Every model of `system` measured over `rays` rays of the scene's domain: thin, thick, Seidel,
 /// baked at each of [`RESOLUTIONS`] in f32 and f16, and traced (last, the reference); each
-/// model the renderer supports also renders `bench`'s frame of the demo scene.
+/// model also renders `bench`'s frame of the demo scene.
 pub fn tradeoff(
     system: &LensSystem,
     req: &SceneRequirements,
@@ -458,7 +461,7 @@ pub fn tradeoff(
             let error = model_error(&b.model, &set, &domain);
             Measured {
                 label: b.label(),
-                entry: b.entry(&error, render.as_ref()),
+                entry: b.entry(&error, &render),
                 error,
                 render,
             }

@@ -1,15 +1,13 @@
 //! The film-to-scene ray map of every lens model, behind one interface so that their errors are
 //! measured on the same rays: thin and thick (the renderer's [`ParaxialLens`] from
-//! [`crate::render::models::FirstOrderModels`]), the Seidel model
-//! (the thick map plus third-order transverse aberration, after Asberg, seed 001 section 3.10),
+//! [`crate::render::models::FirstOrderModels`]), the Seidel model ([`SeidelLens`]: the thick map
+//! plus third-order transverse aberration, after Asberg, seed 001 section 3.10),
 //! a baked table ([`LrtfTable::lookup`]) and the exact trace (the reference).
 
 use crate::lrtf::bake::exact_transfer;
 use crate::lrtf::{Lookup, LrtfTable, Ray};
-use crate::paraxial::{ObjectPosition, Paraxial, ParaxialError, ParaxialOptions};
 use crate::render::camera::ParaxialLens;
-use crate::seidel::{Seidel, SeidelTerms};
-use crate::system::SystemAt;
+pub use crate::render::models::{SeidelLens, paraxial_for};
 use crate::trace::Tracer;
 use serde::Serialize;
 
@@ -36,109 +34,9 @@ impl ModelKind {
     }
 }
 
-/// The thick-lens map plus the third-order transverse aberration of the Seidel sums, for one
-/// object conjugate (the one the sums were computed for).
-///
-/// Forward, a ray from the object point whose Gaussian image is G through normalised pupil
-/// point p lands at G + eps(G, p) in the Gaussian image plane, with eps = grad W / (n' u') and
-/// W = S_I/8 rho^4 + S_II/2 H y rho^2 + S_III/2 H^2 y^2 + (S_III + S_IV)/4 H^2 rho^2
-/// + S_V/2 H^3 y (the convention of [`SeidelTerms::transverse`], which it reproduces: TSA, TCO,
-/// TAS, SAS and DST). The film-to-scene map inverts that: it solves G + eps(G, p) = L for the
-/// film-side ray's landing point L by fixed-point iteration, then sends the paraxial ray from G
-/// through the same exit-pupil point into the scene.
-#[derive(Clone, Debug, PartialEq)]
-pub struct SeidelLens {
-    pub thick: ParaxialLens,
-    pub sums: SeidelTerms,
-    /// z of the Gaussian image plane of the conjugate.
-    pub image_z: f64,
-    /// Signed chief-ray height in the image plane at normalised field H = 1.
-    pub chief_image_height: f64,
-    /// Signed marginal-ray height in the exit-pupil plane (normalised pupil coordinate 1).
-    pub marginal_pupil_height: f64,
-    /// n' u' of the marginal ray in image space.
-    pub n_u_image: f64,
-}
-
-impl SeidelLens {
-    /// From the paraxial setup the sums belong to (pupils wide open, `paraxial`'s field as H = 1).
-    pub fn new(system: &SystemAt, paraxial: &Paraxial, thick: ParaxialLens) -> SeidelLens {
-        let seidel = Seidel::new(system, paraxial, None);
-        SeidelLens {
-            marginal_pupil_height: paraxial.marginal.image_space_height(thick.exit_pupil_z),
-            thick,
-            sums: seidel.sums,
-            image_z: paraxial.z_image,
-            chief_image_height: paraxial.image_height,
-            n_u_image: system.image_index() * paraxial.marginal.image_slope(),
-        }
-    }
-
-    /// Transverse aberration (mm, image plane) of the ray to Gaussian image point `g` through
-    /// normalised exit-pupil point `pupil` (both in the lens's x, y).
-    pub fn aberration(&self, g: [f64; 2], pupil: [f64; 2]) -> [f64; 2] {
-        let radius = g[0].hypot(g[1]);
-        // Meridional frame: y along the field direction (any direction on the axis).
-        let u = if radius > 0.0 {
-            [g[0] / radius, g[1] / radius]
-        } else {
-            [1.0, 0.0]
-        };
-        let v = [-u[1], u[0]];
-        let h = radius / self.chief_image_height;
-        let py = pupil[0] * u[0] + pupil[1] * u[1];
-        let px = pupil[0] * v[0] + pupil[1] * v[1];
-        let rho2 = px * px + py * py;
-        let s = &self.sums;
-        let (a, b, c, d, e) = (
-            s.spherical / 8.0,
-            s.coma / 2.0,
-            s.astigmatism / 2.0,
-            (s.astigmatism + s.petzval) / 4.0,
-            s.distortion / 2.0,
-        );
-        let k = 1.0 / self.n_u_image;
-        let ex = k * (4.0 * a * rho2 * px + 2.0 * b * h * px * py + 2.0 * d * h * h * px);
-        let ey = k
-            * (4.0 * a * rho2 * py
-                + b * h * (rho2 + 2.0 * py * py)
-                + 2.0 * (c + d) * h * h * py
-                + e * h * h * h);
-        [ey * u[0] + ex * v[0], ey * u[1] + ex * v[1]]
-    }
-
-    fn map(&self, ray: &Ray) -> Option<Ray> {
-        let at = |z: f64| {
-            let t = (z - ray.origin[2]) / ray.direction[2];
-            [
-                ray.origin[0] + t * ray.direction[0],
-                ray.origin[1] + t * ray.direction[1],
-            ]
-        };
-        let pupil = at(self.thick.exit_pupil_z);
-        let landing = at(self.image_z);
-        let p = [
-            pupil[0] / self.marginal_pupil_height,
-            pupil[1] / self.marginal_pupil_height,
-        ];
-        let mut g = landing;
-        // Contraction: eps changes by a small fraction of a change in G, so a few steps settle.
-        for _ in 0..4 {
-            let eps = self.aberration(g, p);
-            g = [landing[0] - eps[0], landing[1] - eps[1]];
-        }
-        Some(paraxial_object_ray(
-            &self.thick,
-            [g[0], g[1], self.image_z],
-            [pupil[0], pupil[1], self.thick.exit_pupil_z],
-        ))
-    }
-}
-
-/// The scene-side ray of a paraxial lens for the image-side ray through `film` and `pupil`,
-/// travelling into the scene (-z), as the exact backward trace reports it.
-fn paraxial_object_ray(lens: &ParaxialLens, film: [f64; 3], pupil: [f64; 3]) -> Ray {
-    let (origin, slope) = lens.object_ray(film, pupil);
+/// The scene-side ray through `origin` with slopes dx/dz, dy/dz, travelling into the scene (-z),
+/// as the exact backward trace reports it.
+fn scene_ray((origin, slope): ([f64; 3], [f64; 2])) -> Ray {
     let n = (slope[0] * slope[0] + slope[1] * slope[1] + 1.0).sqrt();
     Ray {
         origin,
@@ -177,7 +75,8 @@ impl RayModel {
     }
 
     /// The scene-side ray for a film-side ray (travelling -z from the domain's film plane), or
-    /// None when the model says it is blocked. First-order and Seidel models have no apertures.
+    /// None when the model says it is blocked. First-order and Seidel models have no apertures;
+    /// the Seidel model gives no ray where its inverse map does not settle.
     pub fn map(&self, ray: &Ray) -> Option<Ray> {
         match self {
             RayModel::Paraxial { lens, film_z, .. } => {
@@ -187,9 +86,12 @@ impl RayModel {
                     film[1] + ray.direction[1],
                     film[2] + ray.direction[2],
                 ];
-                Some(paraxial_object_ray(lens, film, toward))
+                Some(scene_ray(lens.object_ray(film, toward)))
             }
-            RayModel::Seidel(lens) => lens.map(ray),
+            RayModel::Seidel(lens) => {
+                let toward = std::array::from_fn(|k| ray.origin[k] + ray.direction[k]);
+                lens.object_ray(ray.origin, toward).map(scene_ray)
+            }
             RayModel::Baked {
                 table,
                 layer,
@@ -209,25 +111,14 @@ impl RayModel {
     }
 }
 
-/// The paraxial setup for an object in focus at `focus_mm` (None: infinity), wide open, at the
-/// largest unvignetted field.
-pub fn paraxial_for(system: &SystemAt, focus_mm: Option<f64>) -> Result<Paraxial, ParaxialError> {
-    let object = ObjectPosition::in_focus(focus_mm);
-    Paraxial::new(
-        system,
-        &ParaxialOptions {
-            object,
-            ..ParaxialOptions::default()
-        },
-    )
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::lenses;
     use crate::prescription::formats::LoadOptions;
     use crate::render::models::FirstOrderModels;
+    use crate::seidel::Seidel;
+    use crate::system::SystemAt;
 
     fn dgauss() -> (SystemAt, ParaxialLens) {
         let lens = lenses::load("dgauss-50mm", &LoadOptions::default()).unwrap();

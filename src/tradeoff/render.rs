@@ -5,7 +5,7 @@
 //!
 //! The image error of a frame is its PSNR against the traced frame ([`psnr`]): the two share
 //! every lens sample (traced and baked draw the same effective-pupil circles), so the difference
-//! is the model's, not noise. The Seidel model has no renderer kernel and no render cost.
+//! is the model's, not noise. Thin, thick and Seidel sample their own exit pupil.
 
 use std::time::Instant;
 
@@ -67,9 +67,10 @@ fn inscribed_film(radius: f64, width: u32, height: u32) -> Film {
     }
 }
 
-/// The renderer's camera for `built` (None: the Seidel model, which it cannot render). Thin and
-/// thick keep the film plane their ray map used; traced and baked sit on `probe`'s film plane
-/// and the traced lens samples `probe`'s effective pupil, as the baked tables do.
+/// The renderer's camera for `built`. Thin and thick keep the film plane their ray map used,
+/// Seidel the Gaussian image plane of its conjugate (the domain's film plane); traced and baked
+/// sit on `probe`'s film plane and the traced lens samples `probe`'s effective pupil, as the
+/// baked tables do.
 fn camera_for(
     built: &Built,
     system: &LensSystem,
@@ -77,7 +78,7 @@ fn camera_for(
     first: &FirstOrderModels,
     probe: &LrtfTable,
     film: Film,
-) -> Result<Option<Camera>, TradeoffError> {
+) -> Result<Camera, TradeoffError> {
     // The design wavelength's layer: a colour probe lists C, design, F.
     let probe_layer = &probe.layers[super::design_layer(probe, domain.wavelength_nm)];
     let (model, film_z) = match &built.model {
@@ -85,7 +86,7 @@ fn camera_for(
             ModelKind::Thin => (LensModel::Thin(lens.clone()), *film_z),
             _ => (LensModel::Thick(lens.clone()), *film_z),
         },
-        RayModel::Seidel(_) => return Ok(None),
+        RayModel::Seidel(lens) => (LensModel::Seidel(lens.clone()), lens.image_z),
         RayModel::Baked { table, .. } => {
             let baked = BakedLens::new(table.as_ref().clone(), first, domain.f_number)?
                 .with_wavelength(domain.wavelength_nm)?;
@@ -100,7 +101,7 @@ fn camera_for(
             )
         }
     };
-    Ok(Some(Camera::new(model, film, Focus::FilmZ(film_z))?))
+    Ok(Camera::new(model, film, Focus::FilmZ(film_z))?)
 }
 
 /// The last frame and the median milliseconds of `frames` renders of `ldi` through `camera`.
@@ -122,8 +123,7 @@ fn timed_frames(
     Ok((image, ms[ms.len() / 2]))
 }
 
-/// The render cost of each of `built` (None where the renderer has no kernel for the model),
-/// in the same order. `probe` is a table of `domain`: its film plane and effective pupil place
+/// The render cost of each of `built`, in the same order. `probe` is a table of `domain`: its film plane and effective pupil place
 /// the traced camera.
 pub fn render_costs(
     system: &LensSystem,
@@ -131,7 +131,7 @@ pub fn render_costs(
     built: &[Built],
     probe: &LrtfTable,
     bench: &RenderBench,
-) -> Result<Vec<Option<RenderCost>>, TradeoffError> {
+) -> Result<Vec<RenderCost>, TradeoffError> {
     let first = FirstOrderModels::of(system, Some(domain.f_number))?;
     let film = inscribed_film(domain.film_radius, bench.width, bench.height);
     let cameras = built
@@ -141,7 +141,6 @@ pub fn render_costs(
     let is_traced = |c: &Camera| matches!(c.model, LensModel::Traced(_));
     let reference = cameras
         .iter()
-        .flatten()
         .find(|c| is_traced(c))
         .ok_or_else(|| TradeoffError::Invalid("no traced model to render against".into()))?;
     let settings = RenderSettings {
@@ -161,19 +160,18 @@ pub fn render_costs(
     let (traced_image, traced_ms) = timed_frames(reference, &ldi, &settings, bench.frames)?;
     cameras
         .iter()
-        .map(|camera| match camera {
-            None => Ok(None),
-            Some(c) if is_traced(c) => Ok(Some(RenderCost {
-                ms_per_frame: traced_ms,
-                psnr_db: None,
-            })),
-            Some(c) => {
-                let (image, ms) = timed_frames(c, &ldi, &settings, bench.frames)?;
-                Ok(Some(RenderCost {
-                    ms_per_frame: ms,
-                    psnr_db: Some(psnr(&image, &traced_image)),
-                }))
+        .map(|camera| {
+            if is_traced(camera) {
+                return Ok(RenderCost {
+                    ms_per_frame: traced_ms,
+                    psnr_db: None,
+                });
             }
+            let (image, ms) = timed_frames(camera, &ldi, &settings, bench.frames)?;
+            Ok(RenderCost {
+                ms_per_frame: ms,
+                psnr_db: Some(psnr(&image, &traced_image)),
+            })
         })
         .collect()
 }

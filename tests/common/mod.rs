@@ -433,3 +433,61 @@ pub fn channel_differences(
     let agreeing = (3 * a.pixels.len() - large).max(1);
     (large, total_abs / agreeing as f64)
 }
+
+/// A singlet that images an axial object at infinity perfectly: the front surface is the
+/// Cartesian ellipsoid of index `n` (conic -1/n^2, vertex radius `radius`), which focuses every
+/// parallel ray at f = n R / (n - 1) behind its vertex, and the rear surface is a sphere centred
+/// on that focus, which every converging ray meets at normal incidence. The stop is the front
+/// surface. `as_asphere` writes the ellipsoid as an even asphere (Newton intersection) instead
+/// of a conic (closed-form intersection).
+pub fn cartesian_singlet(
+    n: f64,
+    radius: f64,
+    thickness: f64,
+    semi_aperture: f64,
+    as_asphere: bool,
+) -> lensbake::system::LensSystem {
+    let focus = n * radius / (n - 1.0);
+    let rear_radius = focus - thickness;
+    let (curvature, conic) = (1.0 / radius, -1.0 / (n * n));
+    lensbake::system::LensSystem::from_prescription(Prescription {
+        provenance: Provenance {
+            title: "Cartesian aspheric singlet".into(),
+            ..Provenance::default()
+        },
+        object_medium: Medium::Air,
+        surfaces: vec![
+            Surface {
+                shape: if as_asphere {
+                    Shape::EvenAsphere {
+                        curvature,
+                        conic,
+                        coefficients: vec![0.0; 3],
+                    }
+                } else {
+                    Shape::Conic { curvature, conic }
+                },
+                thickness,
+                medium: Medium::Index(n),
+                semi_aperture,
+                stop: Some(StopShape::Circle),
+            },
+            Surface {
+                shape: Shape::Sphere {
+                    curvature: 1.0 / rear_radius,
+                },
+                thickness: rear_radius,
+                medium: Medium::Air,
+                semi_aperture: semi_aperture.min(rear_radius),
+                stop: None,
+            },
+        ],
+    })
+    .expect("a valid singlet")
+}
+
+/// The f/0.95 Cartesian singlet: n = 1.8, R = 20 mm gives f = 45 mm behind the front vertex,
+/// EFL 45 mm; a 23.7 mm semi-aperture is f/0.949, inside the ellipsoid's rim at 24.06 mm.
+pub fn f095_singlet(as_asphere: bool) -> lensbake::system::LensSystem {
+    cartesian_singlet(1.8, 20.0, 20.0, 23.7, as_asphere)
+}

@@ -7,8 +7,8 @@
 // src/render/kernel.rs; keep the two in step statement by statement.
 //
 // This file is compiled after src/lrtf/lrtf_sample.wgsl (bind group 0: the baked table and the
-// pupil circles every model samples in) and lens_trace.wgsl (group 2: the surfaces); see
-// IBRT_SHADER in gpu.rs.
+// pupil circles every model samples in) and lens_trace.wgsl (group 2: the surfaces), and before
+// seidel_lens.wgsl (group 3: the Seidel polynomial); see IBRT_SHADER in gpu.rs.
 
 struct FrameParams {
     width: u32,
@@ -84,8 +84,12 @@ const PI: f32 = 3.14159265358979;
 const MODEL_PARAXIAL: u32 = 0u;
 const MODEL_TRACED: u32 = 1u;
 const MODEL_BAKED: u32 = 2u;
+const MODEL_SEIDEL: u32 = 3u;
 const FOOTPRINT_CLAMP_ITERATIONS: u32 = 3u;
 const DEPTH_TOLERANCE: f32 = 1e-5;
+// Rounding of an inverse depth interpolated along the march, in units of the march's end values
+// (four f32 ulps): a far layer's w is a small difference of the near end's large w.
+const DEPTH_SLACK: f32 = 4.0 * 1.1920929e-7;
 const NO_CROSSING: f32 = 1e30;
 
 fn mix_bits(x: u32) -> u32 {
@@ -181,6 +185,9 @@ fn lens_ray(film: vec3<f32>, pupil: vec3<f32>) -> ObjectRay {
             return blocked_ray();
         }
         return ObjectRay(baked.origin, -baked.direction, true);
+    }
+    if frame.model == MODEL_SEIDEL {
+        return seidel_lens_ray(film, pupil);
     }
     return paraxial_lens_ray(film, pupil);
 }
@@ -302,10 +309,10 @@ struct LayerHit {
 
 // The nearest layer at `pixel` whose square lies between the inverse depths where the ray enters
 // (w_in) and leaves (w_out) the pixel.
-fn hit_in_pixel(pixel: u32, w_in: f32, w_out: f32) -> LayerHit {
+fn hit_in_pixel(pixel: u32, w_in: f32, w_out: f32, slack: f32) -> LayerHit {
     let pixels = frame.layer_width * frame.layer_height;
-    let upper = w_in * (1.0 + DEPTH_TOLERANCE);
-    let lower = w_out * (1.0 - DEPTH_TOLERANCE);
+    let upper = w_in * (1.0 + DEPTH_TOLERANCE) + slack;
+    let lower = w_out * (1.0 - DEPTH_TOLERANCE) - slack;
     for (var group = 0u; group < frame.layer_groups; group += 1u) {
         let depths = layer_depths[group * pixels + pixel];
         for (var k = 0u; k < 4u; k += 1u) {
@@ -361,6 +368,7 @@ fn trace_layers(ray: ObjectRay) -> LayerHit {
         return miss;
     }
     let dw = b.z - a.z;
+    let slack = DEPTH_SLACK * (abs(a.z) + abs(b.z));
     for (var i = 0u; i < FOOTPRINT_CLAMP_ITERATIONS; i += 1u) {
         let p = mix(a, b, range.x);
         let q = mix(a, b, range.y);
@@ -372,8 +380,8 @@ fn trace_layers(ray: ObjectRay) -> LayerHit {
         if (bounds.x > bounds.y) {
             return miss;
         }
-        let enter = (bounds.y * (1.0 + DEPTH_TOLERANCE) - a.z) / dw;
-        let leave = (bounds.x * (1.0 - DEPTH_TOLERANCE) - a.z) / dw;
+        let enter = (bounds.y * (1.0 + DEPTH_TOLERANCE) + slack - a.z) / dw;
+        let leave = (bounds.x * (1.0 - DEPTH_TOLERANCE) - slack - a.z) / dw;
         range = vec2<f32>(max(range.x, enter), min(range.y, leave));
         if (range.x > range.y) {
             return miss;
@@ -402,7 +410,7 @@ fn trace_layers(ray: ObjectRay) -> LayerHit {
     for (var i = 0u; i < steps; i += 1u) {
         let s_out = min(min(next_x, next_y), range.y);
         let pixel = u32(cell.y) * frame.layer_width + u32(cell.x);
-        let found = hit_in_pixel(pixel, a.z + s_in * dw, a.z + s_out * dw);
+        let found = hit_in_pixel(pixel, a.z + s_in * dw, a.z + s_out * dw, slack);
         if (found.hit) {
             return found;
         }
