@@ -338,9 +338,9 @@ fn sidecars_that_disagree_with_the_data_or_the_lens_are_refused() {
     let sidecar = &original.sidecar;
     let cases: Vec<(&str, String, fn(&TableError) -> bool)> = vec![
         (
-            "another format version",
-            with_field(sidecar, "format_version", "2"),
-            |e| matches!(e, TableError::Version { found: 2, .. }),
+            "the previous format version",
+            with_field(sidecar, "format_version", "1"),
+            |e| matches!(e, TableError::Version { found: 1, .. }),
         ),
         (
             "another parameterisation version",

@@ -16,7 +16,7 @@ use crate::prescription::Prescription;
 use crate::pupil::PupilTable;
 
 /// Version of the file layout (channel set, image packing, sidecar fields).
-pub const FORMAT_VERSION: u32 = 1;
+pub const FORMAT_VERSION: u32 = 2;
 pub const SIDECAR_FILE: &str = "lrtf.ron";
 pub const DATA_FILE: &str = "lrtf.exr";
 
@@ -140,7 +140,8 @@ pub fn write_table(
             exr::image::Layer::new(
                 size,
                 LayerAttributes::named(layer_name(k).as_str()),
-                Encoding::FAST_LOSSLESS,
+                // Run-length coding gained nothing on these smooth floats and cost a tenth of the bake.
+                Encoding::UNCOMPRESSED,
                 AnyChannels::sort(SmallVec::from_vec(channels)),
             )
         })

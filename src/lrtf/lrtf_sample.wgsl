@@ -2,7 +2,7 @@
 // src/lrtf/table.rs. Same coordinates, same node addressing (nodes at k / (n - 1), both ends
 // sampled), same trilinear weights computed in the shader from `textureLoad` (no hardware
 // filtering: its ~8-bit sub-texel weights would add error, and rgba32float is not filterable
-// everywhere), same validity threshold (interpolated validity >= 0.5) and stop test.
+// everywhere), same aperture test (interpolated margin >= 0) and stop test.
 // Layout of the bound data: docs/lrtf.md.
 
 struct LrtfParams {
@@ -22,7 +22,7 @@ struct LrtfParams {
 
 // Exit x, exit y, direction a, direction b.
 @group(0) @binding(0) var lrtf_transfer: texture_3d<f32>;
-// Validity, stop x, stop y, exit z.
+// Aperture margin, stop x, stop y, exit z.
 @group(0) @binding(1) var lrtf_aux: texture_3d<f32>;
 // Pupil circles (centre_x, radius) at film radii max_film_radius * k / (pupil_count - 1).
 @group(0) @binding(2) var<storage, read> lrtf_pupil: array<vec2<f32>>;
@@ -183,7 +183,7 @@ fn lrtf_sample(origin: vec3<f32>, direction: vec3<f32>) -> LrtfResult {
     }
     let v = lrtf_fetch(at.coords);
     let stop = v.aux.yz;
-    if v.aux.x < 0.5 || dot(stop, stop) > lrtf.stop_radius_sq {
+    if v.aux.x < 0.0 || dot(stop, stop) > lrtf.stop_radius_sq {
         result.status = LRTF_BLOCKED;
         return result;
     }

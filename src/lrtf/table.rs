@@ -1,9 +1,9 @@
 //! A baked table in memory and the one sampler that reads it (the CPU twin of
-//! `lrtf_sample.wgsl`: same addressing, same trilinear weights, same validity threshold).
+//! `lrtf_sample.wgsl`: same addressing, same trilinear weights, same aperture-margin test).
 
 use serde::{Deserialize, Serialize};
 
-use super::param::{CHANNELS, Frame, Located, Parameterisation, Ray, VALID, to_lens_frame};
+use super::param::{CHANNELS, Frame, Located, MARGIN, Parameterisation, Ray, to_lens_frame};
 use crate::pupil::PupilTable;
 
 /// Sample format on disk. In memory values are f32 either way; an f16 table holds the values
@@ -119,8 +119,9 @@ pub enum Corners {
     /// continuation, so no sentinel is mixed in.
     #[default]
     All,
-    /// Only the corners whose validity is 1, weights renormalised to sum to 1: the alternative
-    /// measured in docs/lrtf.md. Validity itself is interpolated from all eight either way.
+    /// Only the corners whose ray passes (margin >= 0), weights renormalised to sum to 1: the
+    /// alternative measured in docs/lrtf.md. The margin itself is interpolated from all eight
+    /// either way.
     ValidOnly,
 }
 
@@ -152,7 +153,7 @@ impl Layer {
             for (o, v) in out.iter_mut().zip(entry) {
                 *o += w * *v as f64;
             }
-            if corners == Corners::ValidOnly && entry[VALID] == 1.0 {
+            if corners == Corners::ValidOnly && entry[MARGIN] >= 0.0 {
                 valid_weight += w;
                 for (o, v) in valid_out.iter_mut().zip(entry) {
                     *o += w * *v as f64;
@@ -160,9 +161,9 @@ impl Layer {
             }
         }
         if corners == Corners::ValidOnly && valid_weight > 0.0 {
-            let validity = out[VALID];
+            let margin = out[MARGIN];
             out = valid_out.map(|v| v / valid_weight);
-            out[VALID] = validity;
+            out[MARGIN] = margin;
         }
         out
     }
@@ -217,7 +218,7 @@ impl LrtfTable {
         }
         let v = self.layers[layer].fetch_from(self.dims(), at.coords, corners);
         let stop_ok = v[5] * v[5] + v[6] * v[6] <= stop_radius * stop_radius;
-        if v[VALID] < 0.5 || !stop_ok {
+        if v[MARGIN] < 0.0 || !stop_ok {
             return Lookup::Blocked;
         }
         let exit = to_lens_frame([v[0], v[1]], &at);

@@ -129,26 +129,54 @@ impl Default for PupilFitSettings {
     }
 }
 
+/// Which rear-plane points pass the lens, for one film point on +x. It answers a batch at once,
+/// so a tracer can trace the points side by side; any `Fn([f64; 2]) -> bool` answers one by one.
+pub trait RearTest: Sync {
+    /// Sets `passes[k]` for `points[k]`.
+    fn test(&self, points: &[[f64; 2]], passes: &mut [bool]);
+
+    fn passes(&self, point: [f64; 2]) -> bool {
+        let mut out = [false];
+        self.test(&[point], &mut out);
+        out[0]
+    }
+}
+
+impl<F: Fn([f64; 2]) -> bool + Sync> RearTest for F {
+    fn test(&self, points: &[[f64; 2]], passes: &mut [bool]) {
+        for (p, out) in points.iter().zip(passes) {
+            *out = self(*p);
+        }
+    }
+}
+
+/// The points of `points` that pass.
+fn passing(test: &dyn RearTest, points: &[[f64; 2]]) -> Vec<[f64; 2]> {
+    let mut passes = vec![false; points.len()];
+    test.test(points, &mut passes);
+    points
+        .iter()
+        .zip(passes)
+        .filter_map(|(p, ok)| ok.then_some(*p))
+        .collect()
+}
+
 /// The smallest circle centred on the x axis around every passing rear-plane point of one film
-/// point, or None when no probed ray passes. `passes(point)` answers for a rear-plane point
-/// (film point on +x); `search_radius` bounds where passing points can be (e.g. the rear clear
-/// aperture plus a margin).
+/// point, or None when no probed ray passes. `passes` answers for rear-plane points (film point
+/// on +x); `search_radius` bounds where passing points can be (e.g. the rear clear aperture plus
+/// a margin). Every probe of one stage goes to `passes` as one batch.
 pub fn fit_pupil(
-    passes: &(dyn Fn([f64; 2]) -> bool + Sync),
+    passes: &dyn RearTest,
     search_radius: f64,
     settings: &PupilFitSettings,
 ) -> Option<PupilCircle> {
     let n = settings.grid.max(4);
     let mut step = 2.0 * search_radius / (n - 1) as f64;
-    let mut inside = Vec::new();
-    for j in 0..n / 2 + 1 {
-        for i in 0..n {
-            let p = [-search_radius + i as f64 * step, j as f64 * step];
-            if p[0].hypot(p[1]) <= search_radius && passes(p) {
-                inside.push(p);
-            }
-        }
-    }
+    let grid: Vec<[f64; 2]> = (0..n / 2 + 1)
+        .flat_map(|j| (0..n).map(move |i| [-search_radius + i as f64 * step, j as f64 * step]))
+        .filter(|p| p[0] * p[0] + p[1] * p[1] <= search_radius * search_radius)
+        .collect();
+    let mut inside = passing(passes, &grid);
     if inside.is_empty() {
         // A pupil smaller than a grid step (a lens stopped far down) falls between the nodes.
         // It is symmetric about the x axis, so a connected pupil crosses it: scan the axis.
@@ -159,39 +187,70 @@ pub fn fit_pupil(
     let count = inside.len() as f64;
     // The pupil is symmetric about the x axis: its centroid lies on it.
     let seed = [inside.iter().map(|p| p[0]).sum::<f64>() / count, 0.0];
-    let seed = if passes(seed) { seed } else { inside[0] };
+    let seed = if passes.passes(seed) { seed } else { inside[0] };
     // Bisection from a passing point outwards along each direction finds the boundary to a small
-    // fraction of a grid step; the grid points cover regions the directions might miss.
-    let mut boundary = inside.clone();
+    // fraction of a grid step; the grid points cover regions the directions might miss. All
+    // directions march and bisect in lockstep, one batch per step.
+    let directions: Vec<[f64; 2]> = (0..=settings.boundary_directions)
+        .map(|k| {
+            let angle = std::f64::consts::PI * k as f64 / settings.boundary_directions as f64;
+            [angle.cos(), angle.sin()]
+        })
+        .collect();
+    let at = |k: usize, t: f64| {
+        [
+            seed[0] + directions[k][0] * t,
+            seed[1] + directions[k][1] * t,
+        ]
+    };
+    // March in sub-grid steps so a thin passing neck is not jumped over, then bisect.
     let reach = 2.0 * search_radius;
-    for k in 0..=settings.boundary_directions {
-        let angle = std::f64::consts::PI * k as f64 / settings.boundary_directions as f64;
-        let dir = [angle.cos(), angle.sin()];
-        let at = |t: f64| [seed[0] + dir[0] * t, seed[1] + dir[1] * t];
-        // March in sub-grid steps so a thin passing neck is not jumped over, then bisect.
-        let mut last_in = 0.0;
-        let mut t = 0.0;
-        while t < reach {
-            t += step * 0.5;
-            if passes(at(t)) {
-                last_in = t;
-            } else if t - last_in > 2.0 * step {
-                break;
+    let mut last_in = vec![0.0; directions.len()];
+    let mut marching: Vec<usize> = (0..directions.len()).collect();
+    let mut t = 0.0;
+    let mut points = Vec::with_capacity(directions.len());
+    let mut results = vec![false; directions.len()];
+    while t < reach && !marching.is_empty() {
+        t += step * 0.5;
+        points.clear();
+        points.extend(marching.iter().map(|&k| at(k, t)));
+        passes.test(&points, &mut results[..points.len()]);
+        let mut still = 0;
+        for j in 0..marching.len() {
+            let k = marching[j];
+            if results[j] {
+                last_in[k] = t;
+            } else if t - last_in[k] > 2.0 * step {
+                continue;
             }
+            marching[still] = k;
+            still += 1;
         }
-        // 14 halvings leave the boundary within step / 2^15 (~0.05 um for a 50 mm lens), far
-        // below the margin added afterwards.
-        let (mut lo, mut hi) = (last_in, last_in + step * 0.5);
-        for _ in 0..14 {
-            let mid = 0.5 * (lo + hi);
-            if passes(at(mid)) {
-                lo = mid;
-            } else {
-                hi = mid;
-            }
-        }
-        boundary.push(at(hi));
+        marching.truncate(still);
     }
+    // 14 halvings leave the boundary within step / 2^15 (~0.05 um for a 50 mm lens), far below
+    // the margin added afterwards.
+    let mut bracket: Vec<(f64, f64)> = last_in.iter().map(|&t| (t, t + step * 0.5)).collect();
+    for _ in 0..14 {
+        points.clear();
+        points.extend(
+            bracket
+                .iter()
+                .enumerate()
+                .map(|(k, (lo, hi))| at(k, 0.5 * (lo + hi))),
+        );
+        passes.test(&points, &mut results);
+        for ((lo, hi), inside) in bracket.iter_mut().zip(&results) {
+            let mid = 0.5 * (*lo + *hi);
+            if *inside {
+                *lo = mid;
+            } else {
+                *hi = mid;
+            }
+        }
+    }
+    let mut boundary = inside;
+    boundary.extend(bracket.iter().enumerate().map(|(k, &(_, hi))| at(k, hi)));
     let circle = enclosing_circle_on_axis(&boundary);
     Some(PupilCircle {
         centre_x: circle.centre_x,
@@ -205,26 +264,27 @@ const AXIS_SCAN_LEVELS: u32 = 14;
 
 /// The first passing point on the x axis within `search_radius`, probed on ever finer dyadic
 /// grids (each level adds the midpoints of the last), with the spacing it was found at.
-fn scan_axis(
-    passes: &(dyn Fn([f64; 2]) -> bool + Sync),
-    search_radius: f64,
-) -> Option<([f64; 2], f64)> {
+fn scan_axis(passes: &dyn RearTest, search_radius: f64) -> Option<([f64; 2], f64)> {
     (1..=AXIS_SCAN_LEVELS).find_map(|level| {
         let spacing = 2.0 * search_radius / f64::from(1u32 << level);
-        (1..1u32 << level).step_by(2).find_map(|j| {
-            let p = [-search_radius + f64::from(j) * spacing, 0.0];
-            passes(p).then_some((p, spacing))
-        })
+        let level_points: Vec<[f64; 2]> = (1..1u32 << level)
+            .step_by(2)
+            .map(|j| [-search_radius + f64::from(j) * spacing, 0.0])
+            .collect();
+        passing(passes, &level_points)
+            .first()
+            .map(|&p| (p, spacing))
     })
 }
 
 /// Smallest circle with its centre on the x axis containing `points` (and their mirror images).
 /// The farthest-point distance is convex in the centre position, so a ternary search converges.
 pub fn enclosing_circle_on_axis(points: &[[f64; 2]]) -> PupilCircle {
-    let radius_for = |cx: f64| {
+    // Compared squared: the square root is monotonic, and taken once at the end.
+    let radius_sq_for = |cx: f64| {
         points
             .iter()
-            .map(|p| (p[0] - cx).hypot(p[1]))
+            .map(|p| (p[0] - cx) * (p[0] - cx) + p[1] * p[1])
             .fold(0.0, f64::max)
     };
     let (mut lo, mut hi) = points
@@ -235,7 +295,7 @@ pub fn enclosing_circle_on_axis(points: &[[f64; 2]]) -> PupilCircle {
     for _ in 0..100 {
         let a = lo + (hi - lo) / 3.0;
         let b = hi - (hi - lo) / 3.0;
-        if radius_for(a) < radius_for(b) {
+        if radius_sq_for(a) < radius_sq_for(b) {
             hi = b;
         } else {
             lo = a;
@@ -244,7 +304,7 @@ pub fn enclosing_circle_on_axis(points: &[[f64; 2]]) -> PupilCircle {
     let centre_x = 0.5 * (lo + hi);
     PupilCircle {
         centre_x,
-        radius: radius_for(centre_x),
+        radius: radius_sq_for(centre_x).sqrt(),
     }
 }
 

@@ -8,7 +8,7 @@
 use super::RenderError;
 use super::camera::ParaxialLens;
 use crate::lrtf::LrtfTable;
-use crate::lrtf::bake::{passes_from_film, rear_search_radius, stopped_down};
+use crate::lrtf::bake::{fit_film_pupil, rear_search_radius, stopped_down};
 use crate::paraxial::{Paraxial, ParaxialOptions};
 use crate::pupil::{self, PupilCircle, PupilFitSettings, PupilTable};
 use crate::system::{LensSystem, SystemAt};
@@ -145,13 +145,9 @@ pub fn fit_effective_pupil(
     nodes: usize,
 ) -> Result<PupilTable, RenderError> {
     let tracer = Tracer::new(system);
-    let rear_z = system.last_vertex_z();
     let search = rear_search_radius(system);
     let settings = PupilFitSettings::default();
-    let fit = |film_radius: f64| {
-        let passes = |rear: [f64; 2]| passes_from_film(&tracer, film_radius, film_z, rear_z, rear);
-        pupil::fit_pupil(&passes, search, &settings)
-    };
+    let fit = |film_radius: f64| fit_film_pupil(&tracer, film_z, search, &settings, film_radius);
     let table = pupil::build_table(&fit, max_film_radius, nodes, 2);
     if table.circles[0].radius <= 0.0 {
         return Err(RenderError::InvalidSetting(format!(
