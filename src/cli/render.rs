@@ -5,7 +5,7 @@ use anyhow::{Context, bail};
 use clap::{Args, ValueEnum};
 use lensbake::lenses::LoadedLens;
 use lensbake::lrtf::bake::{BakeProgress, BakeRequest, bake};
-use lensbake::lrtf::io::{SIDECAR_FILE, read_table, write_table};
+use lensbake::lrtf::io::{SIDECAR_FILE, prescription_hash, read_sidecar, read_table, write_table};
 use lensbake::lrtf::{LrtfTable, Precision};
 use lensbake::paraxial::{ObjectPosition, object_in_focus};
 use lensbake::render::camera::{Camera, Film, Focus, LensModel, ParaxialLens};
@@ -50,8 +50,9 @@ pub struct RenderArgs {
     /// kernel), baked (an LRTF table lookup).
     #[arg(long, value_enum, default_value = "traced")]
     model: ModelArg,
-    /// Table directory for `--model baked`; default tables/<lens>/ (focused at infinity) or
-    /// tables/<lens>/focus-<D>mm/, baked there when missing.
+    /// Table directory for `--model baked`; default: the first table under tables/<lens>/ whose
+    /// focus range covers the render's focus (a range table serves every focus inside it), else
+    /// tables/<lens>/ (infinity) or tables/<lens>/focus-<D>mm/, baked there when missing.
     #[arg(long)]
     table: Option<PathBuf>,
     /// Nodes per axis when a table has to be baked.
@@ -160,6 +161,37 @@ pub fn default_table_dir(lens_name: &str, focus_mm: Option<f64>) -> PathBuf {
     }
 }
 
+/// The first table under tables/<lens>/ (the directory itself, then its subdirectories by name)
+/// baked from this prescription whose focus range holds the film plane `film_z`, at an f-number
+/// no slower than `f_number`, over film radii up to at least `film_radius`: a focus-range table
+/// serves every focus inside its range without a rebake. Only sidecars are read.
+pub fn find_covering_table(
+    lens: &LoadedLens,
+    film_z: f64,
+    f_number: f64,
+    film_radius: f64,
+) -> Option<PathBuf> {
+    let base = default_table_dir(&lens.source.origin.name(), None);
+    let mut subdirs: Vec<PathBuf> = std::fs::read_dir(&base)
+        .into_iter()
+        .flatten()
+        .flatten()
+        .map(|entry| entry.path())
+        .filter(|path| path.is_dir())
+        .collect();
+    subdirs.sort();
+    let hash = prescription_hash(&lens.source.loaded.prescription);
+    std::iter::once(base).chain(subdirs).find(|dir| {
+        read_sidecar(dir).is_ok_and(|sidecar| {
+            let sampling = sidecar.layers.first().map(|l| &l.sampling_pupil);
+            sidecar.prescription_hash == hash
+                && sidecar.info.f_number <= f_number * (1.0 + 1e-12)
+                && sidecar.info.focus.check_film_z(film_z, "").is_ok()
+                && sampling.is_some_and(|s| s.max_film_radius() >= film_radius * (1.0 - 1e-9))
+        })
+    })
+}
+
 /// Loads the table in `dir`, or bakes one there (focused at `focus_mm`, covering film radii up to
 /// `max_film_radius`) when the directory holds none. `progress` sees the bake's node counts.
 pub fn load_or_bake(
@@ -173,20 +205,12 @@ pub fn load_or_bake(
     let prescription = &lens.source.loaded.prescription;
     if dir.join(SIDECAR_FILE).exists() {
         let table = read_table(dir, Some(prescription))?;
-        let same_focus = match (table.info.focus_mm, focus_mm) {
-            (None, None) => true,
-            // The render derives its focus from the film position: equal to rounding.
-            (Some(a), Some(b)) => (a - b).abs() <= 1e-6 * a.abs().max(b.abs()),
-            _ => false,
-        };
-        if !same_focus {
-            bail!(
-                "table {} is focused at {:?} mm, the render at {:?} mm; pass --table or rebake",
-                dir.display(),
-                table.info.focus_mm,
-                focus_mm
-            );
-        }
+        // The render derives its focus from the film position: the range check allows rounding.
+        table
+            .info
+            .focus
+            .film_z_for(focus_mm)
+            .with_context(|| format!("table {} (pass --table or rebake)", dir.display()))?;
         return Ok((table, false));
     }
     let request = BakeRequest {
@@ -319,10 +343,10 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
                 ObjectPosition::Infinite => None,
                 ObjectPosition::Finite { distance } => Some(distance),
             };
-            let dir = args
-                .table
-                .clone()
-                .unwrap_or_else(|| default_table_dir(&real.source.origin.name(), focus_mm));
+            let dir = args.table.clone().unwrap_or_else(|| {
+                find_covering_table(real, camera.film_z, f_number, camera.film_corner_radius())
+                    .unwrap_or_else(|| default_table_dir(&real.source.origin.name(), focus_mm))
+            });
             let (table, baked) = load_or_bake(
                 real,
                 &dir,
@@ -334,7 +358,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             if baked {
                 println!("baked {}", dir.display());
             }
-            let baked = BakedLens::new(table, &first_order, f_number)?;
+            let baked = BakedLens::focused(table, &first_order, f_number, camera.film_z)?;
             let film_z = baked.film_z();
             Camera::new(
                 LensModel::Baked(Box::new(baked)),

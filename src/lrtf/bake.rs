@@ -12,11 +12,14 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use rayon::prelude::*;
 
+use super::focus::{FocusRange, distance_text};
 use super::param::{CHANNELS, Frame, MARGIN, Parameterisation, Ray, Transfer};
 use super::table::{Layer, LrtfTable, Precision, TableInfo};
 use crate::paraxial::{Field, ObjectPosition, Paraxial, ParaxialError, ParaxialOptions};
 use crate::prescription::PrescriptionError;
-use crate::pupil::{self, PupilCircle, PupilFitSettings, PupilTable, RearTest};
+use crate::pupil::{
+    self, FocusNodeSettings, FocusPupilTable, PupilCircle, PupilFitSettings, PupilTable, RearTest,
+};
 use crate::system::{LensSystem, SystemAt};
 use crate::trace::{Apertures, LANES, LaneVisitor, Lanes, Tracer, Travel};
 
@@ -31,8 +34,14 @@ pub struct BakeRequest {
     /// One wavelength, or three (R, G, B) for chromatic aberration; empty = design wavelength.
     pub wavelengths_nm: Vec<f64>,
     pub f_number: Option<f64>,
-    /// Object distance in focus, mm in front of surface 1; None = infinity.
+    /// Object distance in focus, mm in front of surface 1; None = infinity. With
+    /// `focus_near_mm` it is the far end of a focus range.
     pub focus_mm: Option<f64>,
+    /// The near end of a focus range (None: one focus, `focus_mm`): the table then serves every
+    /// film plane between the two foci (unit focusing, the film moves).
+    pub focus_near_mm: Option<f64>,
+    /// How finely a focus range's pupil is sampled along the focus.
+    pub focus_nodes: FocusNodeSettings,
     pub max_film_radius: Option<f64>,
     /// Film radii at which pupil circles are stored; None = the table's film-radius nodes, which
     /// keeps the pupil-planes rear coordinate exactly linear in film radius inside every cell
@@ -50,6 +59,8 @@ impl Default for BakeRequest {
             wavelengths_nm: Vec::new(),
             f_number: None,
             focus_mm: None,
+            focus_near_mm: None,
+            focus_nodes: FocusNodeSettings::default(),
             max_film_radius: None,
             pupil_nodes: None,
             pupil_fit: PupilFitSettings::default(),
@@ -73,6 +84,8 @@ pub enum BakeError {
     NothingPasses { film_radius: f64 },
     #[error("film plane z = {film_z} mm is not behind the last vertex (z = {rear_z} mm)")]
     FilmPlane { film_z: f64, rear_z: f64 },
+    #[error("focus range {far}..{near}: the near focus must not lie beyond the far one")]
+    FocusOrder { far: String, near: String },
 }
 
 /// Progress of a bake: nodes done out of all nodes of all layers.
@@ -316,6 +329,15 @@ pub fn bake(
         system.at_checked(nm)?;
     }
     let design = system.at_checked(system.design_wavelength_nm())?;
+    let near_mm = request.focus_near_mm.or(request.focus_mm);
+    if let (Some(near), far) = (near_mm, request.focus_mm)
+        && far.is_some_and(|far| near > far)
+    {
+        return Err(BakeError::FocusOrder {
+            far: distance_text(far),
+            near: distance_text(Some(near)),
+        });
+    }
     let first = first_order(&design, request.focus_mm)?;
     let wide_open = first.f_number;
     let f_number = request.f_number.unwrap_or(wide_open);
@@ -327,20 +349,26 @@ pub fn bake(
     }
     // The stop scales as 1 / f-number (the entrance pupil is its paraxial image).
     let stop_semi_aperture = design.surfaces[design.stop].semi_aperture * wide_open / f_number;
-    // One physical film plane for every wavelength: the design wavelength's image plane.
-    let film_z = first.z_image;
+    // One physical film plane per focus for every wavelength: the design wavelength's image
+    // plane. The far focus's is the table's reference plane; the near focus's lies behind it.
+    let film_z = [first.z_image, first_order(&design, near_mm)?.z_image];
     let rear_z = design.last_vertex_z();
-    if film_z <= rear_z {
-        return Err(BakeError::FilmPlane { film_z, rear_z });
+    // A focus inside the front focal length images virtually, in front of the film side.
+    if let Some(&z) = film_z.iter().find(|&&z| z <= rear_z) {
+        return Err(BakeError::FilmPlane { film_z: z, rear_z });
     }
     let design_tracer = Tracer::new(&stopped_down(
         system,
         system.design_wavelength_nm(),
         stop_semi_aperture,
     ));
-    let max_film_radius = request
-        .max_film_radius
-        .unwrap_or_else(|| chief_ray_film_radius(&design_tracer, &design, film_z));
+    // The film radius asked for on every film plane of the range; the near focus magnifies.
+    let max_film_radius = request.max_film_radius.unwrap_or_else(|| {
+        film_z
+            .map(|z| chief_ray_film_radius(&design_tracer, &design, z))
+            .into_iter()
+            .fold(0.0, f64::max)
+    });
     let nodes_per_layer: usize = request.resolution.iter().product();
     let total = nodes_per_layer * wavelengths.len();
     let done = AtomicUsize::new(0);
@@ -349,26 +377,55 @@ pub fn bake(
         let at = stopped_down(system, wavelength_nm, stop_semi_aperture);
         let tracer = Tracer::new(&at);
         let search = rear_search_radius(&at);
-        let fit = |film_radius: f64| {
-            fit_film_pupil(&tracer, film_z, search, &request.pupil_fit, film_radius)
+        let fit = |film_radius: f64, z: f64| {
+            fit_film_pupil(&tracer, z, search, &request.pupil_fit, film_radius)
         };
         let pupil_nodes = request.pupil_nodes.unwrap_or(request.resolution[0]);
         // Pupils fitted between nodes make the interpolated circles conservative. From 64 nodes
         // on an interval spans under 2 % of the film radius and one check at its middle, where a
         // linear interpolant strays furthest from a smooth curve, suffices (measured: no passing
         // ray outside the circle over 200k rays for the three bundled test lenses).
-        let between = if pupil_nodes >= 64 { 1 } else { 2 };
-        let pupil = pupil::build_table(&fit, max_film_radius, pupil_nodes, between);
+        let between = |nodes: usize| if nodes >= 64 { 1 } else { 2 };
+        let (pupil, sampling) = if film_z[1] > film_z[0] {
+            let sampling_nodes = pupil_nodes.min(SAMPLING_RADIUS_NODES);
+            let sampling = pupil::build_focus_table(
+                &fit,
+                max_film_radius,
+                sampling_nodes,
+                between(sampling_nodes),
+                film_z,
+                &request.focus_nodes,
+            );
+            let reach = reference_film_radius(&sampling, rear_z);
+            let pupil = pupil::build_table(
+                &|r| fit(r, film_z[0]),
+                reach,
+                pupil_nodes,
+                between(pupil_nodes),
+            );
+            (pupil, sampling)
+        } else {
+            let pupil = pupil::build_table(
+                &|r| fit(r, film_z[0]),
+                max_film_radius,
+                pupil_nodes,
+                between(pupil_nodes),
+            );
+            let sampling = FocusPupilTable::single(film_z[0], pupil.clone());
+            (pupil, sampling)
+        };
         if pupil.circles[0].radius <= 0.0 {
             return Err(BakeError::NothingPasses { film_radius: 0.0 });
         }
         let max_rear_radius = pupil.max_extent();
+        let reach = pupil.max_film_radius;
+        let depth = film_z[0] - rear_z;
         let frame = Frame {
             rear_plane_z: rear_z,
-            film_plane_z: film_z,
-            max_film_radius,
+            film_plane_z: film_z[0],
+            max_film_radius: reach,
             max_rear_radius,
-            max_polar_angle: ((max_rear_radius + max_film_radius) / (film_z - rear_z)).atan(),
+            max_polar_angle: ((max_rear_radius + reach) / depth).atan(),
         };
         let entries = bake_entries(request, &tracer, &frame, &pupil, &|n| {
             let d = done.fetch_add(n, Ordering::Relaxed) + n;
@@ -378,6 +435,7 @@ pub fn bake(
             wavelength_nm,
             frame,
             pupil,
+            sampling,
             stop_semi_aperture,
             entries,
         });
@@ -388,10 +446,44 @@ pub fn bake(
             resolution: request.resolution,
             precision: request.precision,
             f_number,
-            focus_mm: request.focus_mm,
+            focus: FocusRange::new(&first.first_order, request.focus_mm, near_mm),
         },
         layers,
     })
+}
+
+/// Film-radius nodes of a focus range's sampling pupil (the table's own count when smaller): 64
+/// nodes keep each interval under 2 % of the film radius, and its film planes cost a fit per
+/// node each.
+const SAMPLING_RADIUS_NODES: usize = 64;
+
+/// Relative room added to [`reference_film_radius`] for the film planes between its samples.
+const REFERENCE_REACH_MARGIN: f64 = 0.005;
+
+/// How far from the axis the rays of a focus range cross the reference (far-focus) film plane:
+/// the largest |(1 - s) r + s c| + s R over film radius r, the sampling pupil's circle (c, R) of
+/// that film radius and plane, and s = (z - z_ref) / (z - z_rear), the fraction of the way from
+/// the film point at z to the rear plane at which the reference plane lies. For one film plane
+/// it is linear in r inside every radius interval of the pupil (c and R are), so convex, and
+/// the nodes bound it; across film planes it is sampled eight times per focus interval, with
+/// [`REFERENCE_REACH_MARGIN`] on top.
+fn reference_film_radius(sampling: &FocusPupilTable, rear_z: f64) -> f64 {
+    let z_ref = sampling.film_z[0];
+    let planes = 8 * sampling.nodes.len().max(2);
+    let radius_nodes = sampling.nodes[0].circles.len();
+    let max_r = sampling.max_film_radius();
+    let mut reach: f64 = max_r;
+    for i in 0..=planes {
+        let z = sampling.film_z[0]
+            + (sampling.film_z[1] - sampling.film_z[0]) * i as f64 / planes as f64;
+        let s = (z - z_ref) / (z - rear_z);
+        for k in 0..radius_nodes {
+            let r = max_r * k as f64 / (radius_nodes - 1).max(1) as f64;
+            let c = sampling.circle_at(r, z);
+            reach = reach.max(((1.0 - s) * r + s * c.centre_x).abs() + s * c.radius);
+        }
+    }
+    reach * (1.0 + REFERENCE_REACH_MARGIN)
 }
 
 /// The aperture margin of lanes traced with apertures ignored, accumulated surface by surface:

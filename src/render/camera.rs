@@ -119,13 +119,10 @@ impl LensModel {
                 z: lens.rear_plane_z,
                 circles: lens.pupil.clone(),
             },
-            LensModel::Baked(lens) => {
-                let layer = &lens.table.layers[0];
-                PupilSampling {
-                    z: layer.frame.rear_plane_z,
-                    circles: layer.pupil.clone(),
-                }
-            }
+            LensModel::Baked(lens) => PupilSampling {
+                z: lens.table.layers[0].frame.rear_plane_z,
+                circles: lens.pupil(),
+            },
         }
     }
 }

@@ -252,7 +252,9 @@ pub struct LensData {
     /// At least one entry (a placeholder when the model traces nothing).
     pub surfaces: Vec<LensSurface>,
     pub lrtf: GpuParams,
-    /// (centre_x, radius) at film radii `lrtf.max_film_radius * k / (n - 1)`.
+    /// (centre_x, radius): the coordinate pupil's `lrtf.pupil_count` circles at film radii
+    /// `lrtf.max_film_radius * k / (n - 1)`, then the sampling pupil's circles, focus node by
+    /// focus node (see [`crate::lrtf::LrtfTable::gpu_pupil`]).
     pub pupil: Vec<[f32; 2]>,
     pub transfer: Vec<[f32; 4]>,
     pub aux: Vec<[f32; 4]>,
@@ -279,7 +281,13 @@ impl LensData {
             pupil_count: pupil.len() as u32,
             dims: [2, 2, 2],
             pad: 0,
+            // The same circles sample lens points: one focus node.
+            sampling_max_film_radius: sampling.circles.max_film_radius as f32,
+            sampling_count: pupil.len() as u32,
+            focus_count: 1,
+            focus_coordinate: 0.0,
         };
+        let pupil = [pupil.clone(), pupil].concat();
         let placeholder_texels = vec![[0.0f32; 4]; 8];
         let (params, surfaces) = match model {
             LensModel::Traced(lens) => lens_surfaces(&lens.system),
@@ -287,7 +295,7 @@ impl LensData {
         };
         match model {
             LensModel::Baked(lens) => {
-                let g = lens.table.gpu_params(0, lens.stop_radius);
+                let g = lens.table.gpu_params(0, lens.stop_radius, lens.film_z());
                 let layer = &lens.table.layers[0];
                 let split = |range: std::ops::Range<usize>| -> Vec<[f32; 4]> {
                     layer
@@ -307,7 +315,7 @@ impl LensData {
                     params,
                     surfaces,
                     lrtf: g,
-                    pupil,
+                    pupil: lens.table.gpu_pupil(0),
                     transfer: split(0..4),
                     aux: split(4..8),
                     dims: g.dims,

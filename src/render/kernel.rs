@@ -367,18 +367,31 @@ fn lens_ray(frame: &FrameParams, rays: LensRays, film: Vec3, pupil: Vec3) -> Obj
     }
 }
 
-/// The shader's `lrtf_pupil_at`: the pupil circle (centre_x, radius) for a film radius, linear
-/// between the stored film radii.
-fn pupil_at(lens: &LensData, film_radius: f32) -> Vec2 {
-    let n = lens.lrtf.pupil_count;
-    if n == 1 || lens.lrtf.max_film_radius <= 0.0 {
-        return lens.pupil[0];
+/// The shader's `lrtf_sampling_pupil_at`: the sampling pupil's circle (centre_x, radius) for a
+/// film radius on the render's film plane, bilinear in film radius and focus.
+fn sampling_pupil_at(lens: &LensData, film_radius: f32) -> Vec2 {
+    let p = &lens.lrtf;
+    let n = p.sampling_count;
+    let (mut i, mut f) = (0, 0.0);
+    if n > 1 && p.sampling_max_film_radius > 0.0 {
+        let t = (film_radius / p.sampling_max_film_radius).clamp(0.0, 1.0) * (n - 1) as f32;
+        i = (t.floor() as u32).min(n - 2);
+        f = t - i as f32;
     }
-    let t = (film_radius / lens.lrtf.max_film_radius).clamp(0.0, 1.0) * (n - 1) as f32;
-    let i = (t.floor() as u32).min(n - 2);
-    let f = t - i as f32;
-    let (a, b) = (lens.pupil[i as usize], lens.pupil[i as usize + 1]);
-    [a[0] * (1.0 - f) + b[0] * f, a[1] * (1.0 - f) + b[1] * f]
+    let i1 = (i + 1).min(n - 1);
+    let (mut j, mut g) = (0, 0.0);
+    if p.focus_count > 1 {
+        let s = p.focus_coordinate.clamp(0.0, (p.focus_count - 1) as f32);
+        j = (s.floor() as u32).min(p.focus_count - 2);
+        g = s - j as f32;
+    }
+    let j1 = (j + 1).min(p.focus_count - 1);
+    let circle = |node: u32, k: u32| lens.pupil[(p.pupil_count + node * n + k) as usize];
+    let mix2 =
+        |a: Vec2, b: Vec2, t: f32| [a[0] * (1.0 - t) + b[0] * t, a[1] * (1.0 - t) + b[1] * t];
+    let near = mix2(circle(j, i), circle(j, i1), f);
+    let far = mix2(circle(j1, i), circle(j1, i1), f);
+    mix2(near, far, g)
 }
 
 /// A lens sample: the point on the sampling plane for unit-square sample `lens_u` from `film`,
@@ -400,7 +413,7 @@ pub(crate) fn pupil_sample(
     } else {
         [1.0, 0.0]
     };
-    let circle = pupil_at(lens, film_radius);
+    let circle = sampling_pupil_at(lens, film_radius);
     let disc = concentric_disc(lens_u);
     let pupil = [
         azimuth[0] * circle[0] + circle[1] * disc[0],

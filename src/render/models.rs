@@ -157,19 +157,33 @@ pub fn fit_effective_pupil(
     Ok(table)
 }
 
-/// A baked table and the stop radius realising the render's f-number.
+/// A baked table, the stop radius realising the render's f-number and the film plane the render
+/// focuses on (any plane of the table's focus range).
 #[derive(Clone, Debug, PartialEq)]
 pub struct BakedLens {
     pub paraxial: ParaxialLens,
     pub table: LrtfTable,
     pub stop_radius: f64,
+    film_z: f64,
 }
 
 impl BakedLens {
+    /// The table with the film on its reference plane (the far end of its focus range).
     pub fn new(
         table: LrtfTable,
         first_order: &FirstOrderModels,
         f_number: f64,
+    ) -> Result<BakedLens, RenderError> {
+        let film_z = table.layers[0].frame.film_plane_z;
+        BakedLens::focused(table, first_order, f_number, film_z)
+    }
+
+    /// The table with the film on the plane `film_z`, which its focus range must cover.
+    pub fn focused(
+        table: LrtfTable,
+        first_order: &FirstOrderModels,
+        f_number: f64,
+        film_z: f64,
     ) -> Result<BakedLens, RenderError> {
         let stop_radius = table.stop_radius(0, f_number).ok_or_else(|| {
             RenderError::InvalidSetting(format!(
@@ -177,16 +191,28 @@ impl BakedLens {
                 table.info.f_number
             ))
         })?;
+        let asked = format!("of the film at z = {film_z:.4} mm");
+        table
+            .info
+            .focus
+            .check_film_z(film_z, &asked)
+            .map_err(|e| RenderError::InvalidSetting(format!("baked lens: {e}")))?;
         Ok(BakedLens {
             paraxial: first_order.thick.clone(),
             table,
             stop_radius,
+            film_z,
         })
     }
 
-    /// The film plane the table was baked for: the render's film must sit there.
+    /// The film plane the render focuses on: the camera's film must sit there.
     pub fn film_z(&self) -> f64 {
-        self.table.layers[0].frame.film_plane_z
+        self.film_z
+    }
+
+    /// The sampling pupil's circles on this lens's film plane.
+    pub fn pupil(&self) -> PupilTable {
+        self.table.layers[0].sampling.at_film_z(self.film_z)
     }
 }
 

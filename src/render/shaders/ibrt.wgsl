@@ -159,7 +159,7 @@ fn pupil_sample(film: vec3<f32>, lens_u: vec2<f32>) -> PupilSample {
     if film_radius > 0.0 {
         azimuth = film.xy / film_radius;
     }
-    let circle = lrtf_pupil_at(film_radius);
+    let circle = lrtf_sampling_pupil_at(film_radius);
     let disc = concentric_disc(lens_u);
     let pupil = vec3<f32>(azimuth * circle.x + circle.y * disc, frame.pupil_z);
     let to_pupil = pupil - film;
