@@ -96,7 +96,9 @@ pub struct BakeProgress {
 }
 
 /// The exact transfer of one film-side ray: the continuation through the unapertured lens (None
-/// when even that fails) and whether the ray passes `tracer`'s apertures.
+/// when even that fails) and whether the ray passes `tracer`'s apertures, from the one-ray
+/// tracer with apertures checked. It is the truth the measurements compare tables against and
+/// the oracle the bake's lane path is tested against.
 ///
 /// A ray that passes the apertures is its own continuation, so it is traced once; only a blocked
 /// ray is traced again with apertures ignored. Neither trace allocates.
@@ -463,8 +465,8 @@ const REFERENCE_REACH_MARGIN: f64 = 0.005;
 /// How far from the axis the rays of a focus range cross the reference (far-focus) film plane:
 /// the largest |(1 - s) r + s c| + s R over film radius r, the sampling pupil's circle (c, R) of
 /// that film radius and plane, and s = (z - z_ref) / (z - z_rear), the fraction of the way from
-/// the film point at z to the rear plane at which the reference plane lies. For one film plane
-/// it is linear in r inside every radius interval of the pupil (c and R are), so convex, and
+/// the film point at z to the rear plane at which the reference plane lies. On one film plane c
+/// and R are linear in r inside every radius interval, so the expression is convex there and
 /// the nodes bound it; across film planes it is sampled eight times per focus interval, with
 /// [`REFERENCE_REACH_MARGIN`] on top.
 fn reference_film_radius(sampling: &FocusPupilTable, rear_z: f64) -> f64 {

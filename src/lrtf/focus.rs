@@ -8,7 +8,11 @@
 use serde::{Deserialize, Serialize};
 
 use crate::paraxial::FirstOrder;
-use crate::pupil::FILM_Z_TOLERANCE;
+
+/// Relative tolerance on film-plane z when deciding whether a film plane lies in a focus range:
+/// planes computed from the same focus distance by different paraxial routes (Newton's equation
+/// here, the principal planes in the renderer's thick model) agree to ~1e-12.
+pub const FILM_Z_TOLERANCE: f64 = 1e-9;
 
 /// The object distances a table is focused over, and where the film sits for each.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
