@@ -1,5 +1,6 @@
-//! LRTF cost: baking the bundled 50 mm double Gauss at 32^3 and 64^3 (the 128^3 default takes
-//! about 8x the 64^3 time), and sampler lookups per second over the renderer's ray distribution.
+//! LRTF cost: baking the bundled 50 mm double Gauss at 32^3, 64^3 and the 128^3 default, a
+//! 64^3 table for the focus range infinity..1 m, and sampler lookups per second over the
+//! renderer's ray distribution.
 //!
 //! cargo bench --bench lrtf
 
@@ -27,16 +28,29 @@ fn baked(system: &LensSystem, n: usize) -> LrtfTable {
     bake(system, &request, &|_| {}).expect("the double Gauss bakes")
 }
 
+fn baked_for_range(system: &LensSystem, n: usize) -> LrtfTable {
+    let request = BakeRequest {
+        resolution: [n, n, n],
+        focus_near_mm: Some(1000.0),
+        ..BakeRequest::default()
+    };
+    bake(system, &request, &|_| {}).expect("the double Gauss bakes for a range")
+}
+
 fn bench_bake(c: &mut Criterion) {
     let system = dgauss();
     let mut group = c.benchmark_group("lrtf_bake_dgauss");
     group
         .sample_size(10)
         .measurement_time(Duration::from_secs(8));
-    for n in [32, 64] {
+    for n in [32, 64, 128] {
         group.throughput(Throughput::Elements((n * n * n) as u64));
         group.bench_function(format!("{n}^3"), |b| b.iter(|| baked(&system, n)));
     }
+    group.throughput(Throughput::Elements(64 * 64 * 64));
+    group.bench_function("64^3 focus infinity..1000 mm", |b| {
+        b.iter(|| baked_for_range(&system, 64))
+    });
     group.finish();
 }
 

@@ -78,7 +78,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
     for r in &rows {
         md += &format!(
-            "| {} | {} | {} | {} | {:.2} | {} | {} | {} | {} | {:.2} |\n",
+            "| {} | {} | {} | {} | {:.2} | {} | {} | {} | {} | {:.3} |\n",
             r.lens,
             r.parameterisation,
             r.resolution,

@@ -324,7 +324,12 @@ fn sidecars_that_disagree_with_the_data_or_the_lens_are_refused() {
     let sidecar = &original.sidecar;
     let cases: Vec<(&str, String, fn(&TableError) -> bool)> = vec![
         (
-            "another format version",
+            "the previous format version",
+            with_field(sidecar, "format_version", "2"),
+            |e| matches!(e, TableError::Version { found: 2, .. }),
+        ),
+        (
+            "an older format version",
             with_field(sidecar, "format_version", "1"),
             |e| matches!(e, TableError::Version { found: 1, .. }),
         ),
@@ -433,6 +438,18 @@ fn sidecar_numbers_that_cannot_describe_a_table_are_refused() {
             with_field(sidecar, "radius", "-9.0"),
         ),
         ("pupil centre NaN", with_field(sidecar, "centre_x", "NaN")),
+        (
+            "focal product NaN",
+            with_field(sidecar, "focal_product", "NaN"),
+        ),
+        (
+            "focus map moved off the film plane",
+            with_field(sidecar, "rear_focal_z", "0.0"),
+        ),
+        (
+            "finite far focus with the near one at infinity",
+            with_field(sidecar, "far_mm", "Some(100.0)"),
+        ),
         ("no pupil circles", {
             let start = sidecar.find("circles: [").unwrap();
             let end = start + sidecar[start..].find(']').unwrap() + 1;

@@ -3,9 +3,9 @@
 
 use lensbake::lrtf::io::{DATA_FILE, SIDECAR_FILE, TableError, read_table, write_table};
 use lensbake::lrtf::param::{CHANNELS, Frame};
-use lensbake::lrtf::{Layer, LrtfTable, Parameterisation, Precision, TableInfo};
+use lensbake::lrtf::{FocusRange, Layer, LrtfTable, Parameterisation, Precision, TableInfo};
 use lensbake::prescription::{Medium, Prescription, Provenance, Shape, StopShape, Surface};
-use lensbake::pupil::{PupilCircle, PupilTable};
+use lensbake::pupil::{FocusPupilTable, PupilCircle, PupilTable};
 
 fn singlet(radius: f64) -> Prescription {
     Prescription {
@@ -44,13 +44,33 @@ fn synthetic_table(precision: Precision) -> LrtfTable {
             })
         })
         .collect();
+    let pupil = PupilTable {
+        max_film_radius: 20.0,
+        circles: vec![
+            PupilCircle {
+                centre_x: 0.0,
+                radius: 10.0,
+            },
+            PupilCircle {
+                centre_x: -1.5,
+                radius: 8.25,
+            },
+        ],
+    };
     LrtfTable {
         info: TableInfo {
             parameterisation: Parameterisation::PupilPlanes,
             resolution,
             precision,
             f_number: 2.0,
-            focus_mm: None,
+            // A 50 mm lens focused at infinity on z = 100: rear focal point there.
+            focus: FocusRange {
+                far_mm: None,
+                near_mm: None,
+                rear_focal_z: 100.0,
+                front_focal_z: -40.0,
+                focal_product: 2500.0,
+            },
         },
         layers: vec![Layer {
             wavelength_nm: 587.56,
@@ -61,19 +81,8 @@ fn synthetic_table(precision: Precision) -> LrtfTable {
                 max_rear_radius: 11.0,
                 max_polar_angle: 0.3,
             },
-            pupil: PupilTable {
-                max_film_radius: 20.0,
-                circles: vec![
-                    PupilCircle {
-                        centre_x: 0.0,
-                        radius: 10.0,
-                    },
-                    PupilCircle {
-                        centre_x: -1.5,
-                        radius: 8.25,
-                    },
-                ],
-            },
+            pupil: pupil.clone(),
+            sampling: FocusPupilTable::single(100.0, pupil),
             stop_semi_aperture: 10.0,
             entries,
         }],

@@ -24,6 +24,12 @@ fn lrtf_shader_validates() {
             .iter()
             .any(|(_, f)| f.name.as_deref() == Some("lrtf_sample"))
     );
+    assert!(
+        module
+            .functions
+            .iter()
+            .any(|(_, f)| f.name.as_deref() == Some("lrtf_sampling_pupil_at"))
+    );
 }
 
 #[test]
@@ -79,6 +85,19 @@ fn uniform_block_matches_the_rust_struct() {
         ),
         ("pupil_count", std::mem::offset_of!(GpuParams, pupil_count)),
         ("dims", std::mem::offset_of!(GpuParams, dims)),
+        (
+            "sampling_max_film_radius",
+            std::mem::offset_of!(GpuParams, sampling_max_film_radius),
+        ),
+        (
+            "sampling_count",
+            std::mem::offset_of!(GpuParams, sampling_count),
+        ),
+        ("focus_count", std::mem::offset_of!(GpuParams, focus_count)),
+        (
+            "focus_coordinate",
+            std::mem::offset_of!(GpuParams, focus_coordinate),
+        ),
     ];
     for (name, offset) in expected {
         let found = offsets.iter().find(|(n, _)| n == name).map(|(_, o)| *o);

@@ -10,7 +10,7 @@ use serde::{Deserialize, Serialize};
 
 use lensbake::lrtf::bake::{BakeRequest, bake, first_order};
 use lensbake::lrtf::io::{read_sidecar, read_table, write_table};
-use lensbake::lrtf::measure::{SweepRow, error_plot, table_error};
+use lensbake::lrtf::measure::{SweepRow, error_plot, table_error_focused};
 use lensbake::lrtf::{Lookup, Parameterisation, Precision, Ray};
 use lensbake::plot::write_plot;
 use lensbake::trace::Tracer;
@@ -34,10 +34,13 @@ pub struct BakeArgs {
     /// f-number to bake (default: wide open); the table serves this and every slower one.
     #[arg(long)]
     pub f_number: Option<f64>,
-    /// Object distance in focus, mm in front of surface 1 (default: infinity).
-    #[arg(long)]
-    pub focus_mm: Option<f64>,
-    /// Output directory (default: tables/<lens>/).
+    /// Object distance in focus, mm in front of surface 1 (default: infinity), or a focus range
+    /// FAR..NEAR (or FAR,NEAR; `inf` for infinity) that one table serves for every focus
+    /// between, e.g. `inf..1000`.
+    #[arg(long, value_name = "D | FAR..NEAR", value_parser = parse_focus)]
+    pub focus_mm: Option<FocusArg>,
+    /// Output directory (default: tables/<lens>/, tables/<lens>/focus-<D>mm/ or
+    /// tables/<lens>/focus-<FAR>-<NEAR>mm/).
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Bake the cheapest table keeping the scene's p99 image error (px at 1920 px) under this,
@@ -61,6 +64,11 @@ pub enum LrtfCommand {
         /// Stop down to this f-number (at or above the baked one).
         #[arg(long)]
         f_number: Option<f64>,
+        /// The focus the rays are evaluated at (mm, `inf` for infinity; default: the table's
+        /// far focus): refused outside the table's focus range; a ray crossing that focus's
+        /// film plane beyond the table's film radius is outside the domain ("missed").
+        #[arg(long, value_name = "D", value_parser = parse_focus)]
+        focus_mm: Option<FocusArg>,
         /// The lens the table should belong to (file or bundled name): a table baked from a
         /// different prescription is refused.
         #[arg(long, value_name = "LENS")]
@@ -70,6 +78,83 @@ pub enum LrtfCommand {
     },
     /// Print a table's sidecar summary.
     Info { table: PathBuf },
+}
+
+/// `--focus-mm`: one object distance, or a range (far end first; None is infinity).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FocusArg {
+    pub far_mm: Option<f64>,
+    pub near_mm: Option<f64>,
+}
+
+impl FocusArg {
+    /// The single distance, or an error naming the range where one focus is needed.
+    fn single(self, what: &str) -> anyhow::Result<Option<f64>> {
+        if self.far_mm != self.near_mm {
+            bail!("{what} takes one focus distance, not a range");
+        }
+        Ok(self.far_mm)
+    }
+
+    /// Default table directory under tables/<lens>/ for this focus.
+    fn table_dir(self, lens: &str) -> PathBuf {
+        let text = |d: Option<f64>| d.map_or("inf".into(), |d| format!("{d}"));
+        if self.far_mm == self.near_mm {
+            super::render::default_table_dir(lens, self.far_mm)
+        } else {
+            super::render::default_table_dir(lens, None).join(format!(
+                "focus-{}-{}mm",
+                text(self.far_mm),
+                text(self.near_mm)
+            ))
+        }
+    }
+}
+
+/// Parses `D`, `A..B` or `A,B` (mm, `inf` for infinity); the farther distance becomes the far end.
+fn parse_focus(text: &str) -> Result<FocusArg, String> {
+    let distance = |part: &str| -> Result<Option<f64>, String> {
+        let part = part.trim();
+        if part.eq_ignore_ascii_case("inf") || part.eq_ignore_ascii_case("infinity") {
+            return Ok(None);
+        }
+        match part.parse::<f64>() {
+            Ok(d) if d.is_finite() && d > 0.0 => Ok(Some(d)),
+            _ => Err(format!(
+                "`{part}` is not a positive distance in mm or `inf`"
+            )),
+        }
+    };
+    let parts: Vec<&str> = if text.contains("..") {
+        text.split("..").collect()
+    } else {
+        text.split(',').collect()
+    };
+    let farther = |a: Option<f64>, b: Option<f64>| match (a, b) {
+        (None, _) | (_, None) => None,
+        (Some(a), Some(b)) => Some(a.max(b)),
+    };
+    let nearer = |a: Option<f64>, b: Option<f64>| match (a, b) {
+        (None, other) | (other, None) => other,
+        (Some(a), Some(b)) => Some(a.min(b)),
+    };
+    match parts[..] {
+        [one] => {
+            let d = distance(one)?;
+            Ok(FocusArg {
+                far_mm: d,
+                near_mm: d,
+            })
+        }
+        [a, b] => {
+            let (a, b) = (distance(a)?, distance(b)?);
+            Ok(FocusArg {
+                far_mm: farther(a, b),
+                near_mm: nearer(a, b),
+            })
+        }
+        _ => Err(format!("`{text}`: expected D, FAR..NEAR or FAR,NEAR")),
+    }
 }
 
 fn parse_resolution(text: &str) -> anyhow::Result<[usize; 3]> {
@@ -87,12 +172,16 @@ fn parse_resolution(text: &str) -> anyhow::Result<[usize; 3]> {
 
 pub fn run_bake(args: BakeArgs) -> anyhow::Result<()> {
     let lens = args.lens.load()?;
+    let focus = args.focus_mm.unwrap_or(FocusArg {
+        far_mm: None,
+        near_mm: None,
+    });
     if let Some(budget) = args.error_budget_px {
         return super::tradeoff::bake_within_budget(
             &lens,
             budget,
             &args.scene,
-            args.focus_mm,
+            focus.single("--error-budget-px")?,
             args.f_number,
             args.out,
         );
@@ -109,12 +198,11 @@ pub fn run_bake(args: BakeArgs) -> anyhow::Result<()> {
         precision: Precision::from_name(&args.precision).expect("clap restricts the names"),
         wavelengths_nm: args.wavelengths_nm,
         f_number: args.f_number,
-        focus_mm: args.focus_mm,
+        focus_mm: focus.far_mm,
+        focus_near_mm: focus.near_mm,
         ..BakeRequest::default()
     };
-    let out = args
-        .out
-        .unwrap_or_else(|| PathBuf::from("tables").join(&name));
+    let out = args.out.unwrap_or_else(|| focus.table_dir(&name));
     let bar = ProgressBar::new(1);
     bar.set_style(
         ProgressStyle::with_template("{msg} [{bar:40}] {percent}% {elapsed}")
@@ -135,28 +223,43 @@ pub fn run_bake(args: BakeArgs) -> anyhow::Result<()> {
         .map(|m| m.len())
         .sum();
     println!(
-        "baked {name}: {} {}x{}x{} {} in {seconds:.2} s, {bytes} bytes in {}",
+        "baked {name}: {} {}x{}x{} {} focus {} in {seconds:.2} s, {bytes} bytes in {}",
         table.info.parameterisation.name(),
         table.info.resolution[0],
         table.info.resolution[1],
         table.info.resolution[2],
         table.info.precision.name(),
+        table.info.focus.text(),
         out.display()
     );
+    // A range is measured at both ends and halfway between its film planes.
+    let [far_z, near_z] = table.info.focus.film_z_range();
+    let planes = if table.info.focus.is_single() {
+        vec![far_z]
+    } else {
+        vec![far_z, 0.5 * (far_z + near_z), near_z]
+    };
     for (k, layer) in table.layers.iter().enumerate() {
         let at = system.at(layer.wavelength_nm);
         let tracer = Tracer::new(&at.stopped_down(layer.stop_semi_aperture));
         let efl = first_order(&at, request.focus_mm)?.first_order.efl;
-        let e = table_error(&table, k, &tracer, efl, 1920.0, 20_000, 7);
-        println!(
-            "  {:.2} nm: image error p99 {:.3} px (max {:.3}) at 1920 px, direction p99 {:.4} mrad, position p99 {:.2} um, validity agreement {:.2} %",
-            layer.wavelength_nm,
-            e.image_px.p99,
-            e.image_px.max,
-            e.direction_mrad.p99,
-            e.position_um.p99,
-            100.0 * (1.0 - e.validity_mismatch)
-        );
+        for &film_z in &planes {
+            let e = table_error_focused(&table, k, film_z, &tracer, efl, 1920.0, 20_000, 7);
+            let on = if planes.len() > 1 {
+                format!(" film z {film_z:.3} mm:")
+            } else {
+                String::new()
+            };
+            println!(
+                "  {:.2} nm:{on} image error p99 {:.3} px (max {:.3}) at 1920 px, direction p99 {:.4} mrad, position p99 {:.2} um, validity agreement {:.3} %",
+                layer.wavelength_nm,
+                e.image_px.p99,
+                e.image_px.max,
+                e.direction_mrad.p99,
+                e.position_um.p99,
+                100.0 * (1.0 - e.validity_mismatch)
+            );
+        }
     }
     Ok(())
 }
@@ -179,6 +282,15 @@ pub fn run(command: LrtfCommand) -> anyhow::Result<()> {
     match command {
         LrtfCommand::Info { table } => {
             let sidecar = read_sidecar(&table)?;
+            let [far_z, near_z] = sidecar.info.focus.film_z_range();
+            let focus_nodes = sidecar
+                .layers
+                .first()
+                .map_or(0, |l| l.sampling_pupil.nodes.len());
+            println!(
+                "focus {} (film z {far_z:.4}..{near_z:.4} mm, {focus_nodes} pupil focus nodes)",
+                sidecar.info.focus.text()
+            );
             println!(
                 "{}",
                 ron::ser::to_string_pretty(&sidecar, ron::ser::PrettyConfig::default())?
@@ -190,6 +302,7 @@ pub fn run(command: LrtfCommand) -> anyhow::Result<()> {
             rays,
             json: _,
             f_number,
+            focus_mm,
             lens,
             read,
         } => {
@@ -213,6 +326,14 @@ pub fn run(command: LrtfCommand) -> anyhow::Result<()> {
                     loaded.info.f_number
                 )
             })?;
+            let film_z = match focus_mm {
+                Some(focus) => loaded
+                    .info
+                    .focus
+                    .film_z_for(focus.single("lrtf eval --focus-mm")?)
+                    .with_context(|| format!("table {}", table.display()))?,
+                None => loaded.layers[0].frame.film_plane_z,
+            };
             let mut output = Vec::with_capacity(input.len());
             for (k, r) in input.iter().enumerate() {
                 let n = r.direction.iter().map(|v| v * v).sum::<f64>().sqrt();
@@ -223,7 +344,7 @@ pub fn run(command: LrtfCommand) -> anyhow::Result<()> {
                     origin: r.origin,
                     direction: r.direction.map(|v| v / n),
                 };
-                output.push(match loaded.lookup(0, &ray, stop) {
+                output.push(match loaded.lookup_focused(0, &ray, stop, film_z) {
                     Lookup::Passes(out) => OutputRay {
                         status: "ok",
                         surface: None,

@@ -5,7 +5,7 @@ use anyhow::{Context, bail};
 use clap::{Args, ValueEnum};
 use lensbake::lenses::LoadedLens;
 use lensbake::lrtf::bake::{BakeProgress, BakeRequest, bake};
-use lensbake::lrtf::io::{SIDECAR_FILE, read_table, write_table};
+use lensbake::lrtf::io::{SIDECAR_FILE, prescription_hash, read_sidecar, read_table, write_table};
 use lensbake::lrtf::{LrtfTable, Precision};
 use lensbake::paraxial::{ObjectPosition, object_in_focus};
 use lensbake::render::camera::{Camera, Film, Focus, LensModel, ParaxialLens};
@@ -23,7 +23,8 @@ use lensbake::render::image::{read_exr_rgbz, write_exr, write_png};
 use lensbake::render::layers::LayeredDepthImage;
 use lensbake::render::mesh::MeshScene;
 use lensbake::render::models::{
-    BakedLens, FirstOrderModels, PupilSampling, SeidelLens, TracedLens, pupil_film_radius,
+    BakedLens, FirstOrderModels, PupilSampling, SeidelLens, TracedLens, WAVELENGTH_MATCH_NM,
+    pupil_film_radius,
 };
 use lensbake::render::raster::{Peeling, mesh_layer_view, peel_mesh, surfel_count};
 use lensbake::render::scene::Scene;
@@ -72,8 +73,9 @@ pub struct RenderArgs {
     /// aberration), traced (the exact trace in the kernel), baked (an LRTF table lookup).
     #[arg(long, value_enum, default_value = "traced")]
     model: ModelArg,
-    /// Table directory for `--model baked`; default tables/<lens>/ (focused at infinity) or
-    /// tables/<lens>/focus-<D>mm/, baked there when missing.
+    /// Table directory for `--model baked`; default: the first table under tables/<lens>/ whose
+    /// focus range covers the render's focus (a range table serves every focus inside it), else
+    /// tables/<lens>/ (infinity) or tables/<lens>/focus-<D>mm/, baked there when missing.
     #[arg(long)]
     table: Option<PathBuf>,
     /// Nodes per axis when a table has to be baked.
@@ -315,6 +317,45 @@ pub fn default_table_dir(lens_name: &str, focus_mm: Option<f64>) -> PathBuf {
     }
 }
 
+/// The first table under tables/<lens>/ (the directory itself, then its subdirectories by name)
+/// baked from this prescription whose focus range holds the film plane `film_z`, at an f-number
+/// no slower than `f_number`, over film radii up to at least `film_radius`, with a layer at each
+/// of `wavelengths_nm` (within [`WAVELENGTH_MATCH_NM`]): a focus-range table serves every focus
+/// inside its range without a rebake. Only sidecars are read.
+pub fn find_covering_table(
+    lens: &LoadedLens,
+    film_z: f64,
+    f_number: f64,
+    film_radius: f64,
+    wavelengths_nm: &[f64],
+) -> Option<PathBuf> {
+    let base = default_table_dir(&lens.source.origin.name(), None);
+    let mut subdirs: Vec<PathBuf> = std::fs::read_dir(&base)
+        .into_iter()
+        .flatten()
+        .flatten()
+        .map(|entry| entry.path())
+        .filter(|path| path.is_dir())
+        .collect();
+    subdirs.sort();
+    let hash = prescription_hash(&lens.source.loaded.prescription);
+    std::iter::once(base).chain(subdirs).find(|dir| {
+        read_sidecar(dir).is_ok_and(|sidecar| {
+            let sampling = sidecar.layers.first().map(|l| &l.sampling_pupil);
+            sidecar.prescription_hash == hash
+                && sidecar.info.f_number <= f_number * (1.0 + 1e-12)
+                && sidecar.info.focus.check_film_z(film_z, "").is_ok()
+                && sampling.is_some_and(|s| s.max_film_radius() >= film_radius * (1.0 - 1e-9))
+                && wavelengths_nm.iter().all(|nm| {
+                    sidecar
+                        .layers
+                        .iter()
+                        .any(|l| (l.wavelength_nm - nm).abs() <= WAVELENGTH_MATCH_NM)
+                })
+        })
+    })
+}
+
 /// Loads the table in `dir`, or bakes one there (focused at `focus_mm`, covering film radii up to
 /// `max_film_radius`) when the directory holds none. `progress` sees the bake's node counts.
 pub fn load_or_bake(
@@ -349,20 +390,12 @@ pub fn load_or_bake_at(
     let prescription = &lens.source.loaded.prescription;
     if dir.join(SIDECAR_FILE).exists() {
         let table = read_table(dir, Some(prescription))?;
-        let same_focus = match (table.info.focus_mm, focus_mm) {
-            (None, None) => true,
-            // The render derives its focus from the film position: equal to rounding.
-            (Some(a), Some(b)) => (a - b).abs() <= 1e-6 * a.abs().max(b.abs()),
-            _ => false,
-        };
-        if !same_focus {
-            bail!(
-                "table {} is focused at {:?} mm, the render at {:?} mm; pass --table or rebake",
-                dir.display(),
-                table.info.focus_mm,
-                focus_mm
-            );
-        }
+        // The render derives its focus from the film position: the range check allows rounding.
+        table
+            .info
+            .focus
+            .film_z_for(focus_mm)
+            .with_context(|| format!("table {} (pass --table or rebake)", dir.display()))?;
         return Ok((table, false));
     }
     let request = BakeRequest {
@@ -593,19 +626,22 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         (ModelArg::Baked, RenderLens::Real(real)) => {
             let design = real.system.at(real.system.design_wavelength_nm());
             let focus_mm = focus_of_film(real, camera.film_z)?;
-            let dir = args.table.clone().unwrap_or_else(|| {
-                let base = default_table_dir(&real.source.origin.name(), focus_mm);
-                match wavelengths {
-                    Some(nm) => chromatic_table_dir(&base, nm),
-                    None => base,
-                }
-            });
             let film_radius = pupil_film_radius(
                 &design,
                 camera.film_z,
                 camera.film_corner_radius(),
                 camera.film_off_plane(),
             );
+            let dir = args.table.clone().unwrap_or_else(|| {
+                let base = default_table_dir(&real.source.origin.name(), focus_mm);
+                let wanted =
+                    wavelengths.map_or(vec![real.system.design_wavelength_nm()], Vec::from);
+                find_covering_table(real, camera.film_z, f_number, film_radius, &wanted)
+                    .unwrap_or_else(|| match wavelengths {
+                        Some(nm) => chromatic_table_dir(&base, nm),
+                        None => base,
+                    })
+            });
             // The error budget's table holds the design wavelength for the untilted film; a
             // chromatic render or a tilted sensor needs its own.
             let chosen = chosen_table
@@ -626,7 +662,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             if baked {
                 println!("baked {}", dir.display());
             }
-            let covered = table.layers[0].frame.max_film_radius;
+            let covered = table.layers[0].sampling.max_film_radius();
             if covered < film_radius * (1.0 - 1e-9) {
                 println!(
                     "note: table {} covers film radii to {covered:.3} mm, this sensor reaches \
@@ -638,7 +674,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             // The monochrome reading of the table: the design layer, or in a chromatic render
             // the green channel's (the channels pick their own layers below).
             let green = wavelengths.map_or(real.system.design_wavelength_nm(), |nm| nm[1]);
-            let baked = BakedLens::new(table, &first_order, f_number)?.with_wavelength(green)?;
+            let baked = BakedLens::focused(table, &first_order, f_number, camera.film_z)?
+                .with_wavelength(green)?;
             let film_z = baked.film_z();
             Camera::new(
                 LensModel::Baked(Box::new(baked)),

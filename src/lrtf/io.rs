@@ -15,11 +15,13 @@ use serde::{Deserialize, Serialize};
 use super::param::{CHANNEL_NAMES, CHANNELS, Frame};
 use super::table::{Layer, LrtfTable, Precision, TableInfo};
 use crate::prescription::Prescription;
-use crate::pupil::PupilTable;
+use crate::pupil::{FocusPupilTable, PupilTable};
 
-/// Version of the file layout (channel set, image packing, sidecar fields). 2: the sidecar
-/// records the data file's CRC-32.
-pub const FORMAT_VERSION: u32 = 2;
+/// Version of the file layout (channel set, image packing, sidecar fields). 3: the sidecar
+/// records the data file's CRC-32, the aperture channel is the signed margin, and each layer
+/// carries its sampling pupil over film radius and focus (two changes made apart, each once
+/// called version 2, so a version-2 file of either kind is refused).
+pub const FORMAT_VERSION: u32 = 3;
 pub const SIDECAR_FILE: &str = "lrtf.ron";
 pub const DATA_FILE: &str = "lrtf.exr";
 
@@ -32,6 +34,8 @@ pub struct LayerInfo {
     pub frame: Frame,
     pub pupil: PupilTable,
     pub stop_semi_aperture: f64,
+    /// The sampling pupil over film radius and focus (docs/lrtf.md).
+    pub sampling_pupil: FocusPupilTable,
 }
 
 /// The RON sidecar.
@@ -44,7 +48,7 @@ pub struct Sidecar {
     /// [`prescription_hash`] of the lens baked.
     pub prescription_hash: String,
     /// [`data_checksum`] of the `lrtf.exr` written with this sidecar. Absent only in sidecars of
-    /// format version 1, which are refused by their version before this is read.
+    /// format versions 1 and 2, which are refused by their version before this is read.
     #[serde(default)]
     pub data_crc32: Option<String>,
     pub info: TableInfo,
@@ -163,7 +167,8 @@ pub fn write_table(
             exr::image::Layer::new(
                 size,
                 LayerAttributes::named(layer_name(k).as_str()),
-                Encoding::FAST_LOSSLESS,
+                // Run-length coding gained nothing on these smooth floats and cost a tenth of the bake.
+                Encoding::UNCOMPRESSED,
                 AnyChannels::sort(SmallVec::from_vec(channels)),
             )
         })
@@ -203,6 +208,7 @@ pub fn write_table(
                 frame: l.frame.clone(),
                 pupil: l.pupil.clone(),
                 stop_semi_aperture: l.stop_semi_aperture,
+                sampling_pupil: l.sampling.clone(),
             })
             .collect(),
     };
@@ -240,9 +246,39 @@ fn implausible_number(sidecar: &Sidecar) -> Option<String> {
         info.f_number,
         positive(info.f_number),
     )];
-    if let Some(focus) = info.focus_mm {
-        checks.push(("info.focus_mm".into(), focus, positive(focus)));
+    let focus = &info.focus;
+    for (name, distance) in [("far_mm", focus.far_mm), ("near_mm", focus.near_mm)] {
+        if let Some(d) = distance {
+            checks.push((format!("info.focus.{name}"), d, positive(d)));
+        }
     }
+    if let (Some(far), Some(near)) = (focus.far_mm, focus.near_mm)
+        && near > far
+    {
+        return Some(format!(
+            "info.focus.near_mm = {near} lies beyond info.focus.far_mm = {far}"
+        ));
+    }
+    if focus.far_mm.is_some() && focus.near_mm.is_none() {
+        return Some("info.focus.near_mm is infinity but far_mm is not".into());
+    }
+    checks.extend([
+        (
+            "info.focus.rear_focal_z".into(),
+            focus.rear_focal_z,
+            focus.rear_focal_z.is_finite(),
+        ),
+        (
+            "info.focus.front_focal_z".into(),
+            focus.front_focal_z,
+            focus.front_focal_z.is_finite(),
+        ),
+        (
+            "info.focus.focal_product".into(),
+            focus.focal_product,
+            positive(focus.focal_product),
+        ),
+    ]);
     for (k, layer) in sidecar.layers.iter().enumerate() {
         let f = &layer.frame;
         let field = |name: &str| format!("layers[{k}].{name}");
@@ -295,14 +331,67 @@ fn implausible_number(sidecar: &Sidecar) -> Option<String> {
                 layer.pupil.circles.len()
             ));
         }
-        for (j, circle) in layer.pupil.circles.iter().enumerate() {
-            let at = |name: &str| field(&format!("pupil.circles[{j}].{name}"));
-            checks.push((at("centre_x"), circle.centre_x, circle.centre_x.is_finite()));
-            checks.push((
-                at("radius"),
-                circle.radius,
-                circle.radius.is_finite() && circle.radius >= 0.0,
+        let circle_checks = |pupil: &str, circles: &[crate::pupil::PupilCircle]| {
+            circles
+                .iter()
+                .enumerate()
+                .flat_map(|(j, circle)| {
+                    let at = |name: &str| field(&format!("{pupil}.circles[{j}].{name}"));
+                    [
+                        (at("centre_x"), circle.centre_x, circle.centre_x.is_finite()),
+                        (
+                            at("radius"),
+                            circle.radius,
+                            circle.radius.is_finite() && circle.radius >= 0.0,
+                        ),
+                    ]
+                })
+                .collect::<Vec<_>>()
+        };
+        checks.extend(circle_checks("pupil", &layer.pupil.circles));
+        let sampling = &layer.sampling_pupil;
+        if sampling.nodes.is_empty() {
+            return Some(format!(
+                "{} has no focus nodes",
+                field("sampling_pupil.nodes")
             ));
+        }
+        let [first, last] = sampling.film_z;
+        if !(first.is_finite() && last.is_finite() && first <= last) {
+            return Some(format!(
+                "{} = [{first}, {last}] is not a film-plane range",
+                field("sampling_pupil.film_z")
+            ));
+        }
+        let expected = focus.film_z_range();
+        let agrees = |a: f64, b: f64| (a - b).abs() <= 1e-6 * a.abs().max(b.abs()).max(1.0);
+        if !(agrees(first, expected[0])
+            && agrees(last, expected[1])
+            && agrees(f.film_plane_z, first))
+        {
+            return Some(format!(
+                "{} = [{first}, {last}] and frame.film_plane_z = {} disagree with info.focus (film planes {:?})",
+                field("sampling_pupil.film_z"),
+                f.film_plane_z,
+                expected
+            ));
+        }
+        let radii = sampling.nodes[0].circles.len();
+        for (j, node) in sampling.nodes.iter().enumerate() {
+            let name = format!("sampling_pupil.nodes[{j}]");
+            if node.circles.len() < 2 || node.circles.len() != radii {
+                return Some(format!(
+                    "{} has {} circles; every focus node needs the same number, at least 2",
+                    field(&name),
+                    node.circles.len()
+                ));
+            }
+            checks.push((
+                field(&format!("{name}.max_film_radius")),
+                node.max_film_radius,
+                positive(node.max_film_radius),
+            ));
+            checks.extend(circle_checks(&name, &node.circles));
         }
     }
     checks
@@ -445,6 +534,7 @@ pub fn read_table(
             wavelength_nm: info.wavelength_nm,
             frame: info.frame.clone(),
             pupil: info.pupil.clone(),
+            sampling: info.sampling_pupil.clone(),
             stop_semi_aperture: info.stop_semi_aperture,
             entries,
         });

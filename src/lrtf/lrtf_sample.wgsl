@@ -2,7 +2,7 @@
 // src/lrtf/table.rs. Same coordinates, same node addressing (nodes at k / (n - 1), both ends
 // sampled), same trilinear weights computed in the shader from `textureLoad` (no hardware
 // filtering: its ~8-bit sub-texel weights would add error, and rgba32float is not filterable
-// everywhere), same validity threshold (interpolated validity >= 0.5) and stop test.
+// everywhere), same aperture test (interpolated margin >= 0) and stop test.
 // Layout of the bound data: docs/lrtf.md.
 
 struct LrtfParams {
@@ -15,16 +15,26 @@ struct LrtfParams {
     stop_radius_sq: f32,
     // 0 = spherical, 1 = pupil-planes.
     parameterisation: u32,
+    // Circles of the coordinate pupil, at the head of lrtf_pupil.
     pupil_count: u32,
     dims: vec3<u32>,
     _pad: u32,
+    // The sampling pupil after them: focus_count focus nodes of sampling_count circles each, at
+    // film radii sampling_max_film_radius * k / (sampling_count - 1); focus_coordinate places
+    // the render's film plane among the nodes (0 at the first).
+    sampling_max_film_radius: f32,
+    sampling_count: u32,
+    focus_count: u32,
+    focus_coordinate: f32,
 }
 
 // Exit x, exit y, direction a, direction b.
 @group(0) @binding(0) var lrtf_transfer: texture_3d<f32>;
-// Validity, stop x, stop y, exit z.
+// Aperture margin, stop x, stop y, exit z.
 @group(0) @binding(1) var lrtf_aux: texture_3d<f32>;
-// Pupil circles (centre_x, radius) at film radii max_film_radius * k / (pupil_count - 1).
+// Pupil circles (centre_x, radius): the coordinate pupil at film radii
+// max_film_radius * k / (pupil_count - 1) on the reference film plane (one block of pupil_count
+// per bound layer), then the sampling pupil.
 @group(0) @binding(2) var<storage, read> lrtf_pupil: array<vec2<f32>>;
 @group(0) @binding(3) var<uniform> lrtf: LrtfParams;
 
@@ -69,6 +79,36 @@ fn lrtf_circle_at(film_radius: f32, block: u32) -> vec2<f32> {
 
 fn lrtf_pupil_at(film_radius: f32) -> vec2<f32> {
     return lrtf_circle_at(film_radius, lrtf_layer);
+}
+
+// The sampling pupil's circle for a film radius on the render's film plane: bilinear in film
+// radius and focus, conservative (it holds every passing ray) with the exact pdf 1 / (pi r^2).
+// Its circles start at block `block` of lrtf_pupil (offset block * pupil_count): block 1 after
+// the coordinate pupil in a monochrome render, after the three channels' in a chromatic one.
+fn lrtf_sampling_pupil_at(film_radius: f32, block: u32) -> vec2<f32> {
+    let n = lrtf.sampling_count;
+    var i = 0u;
+    var f = 0.0;
+    if n > 1u && lrtf.sampling_max_film_radius > 0.0 {
+        let t = clamp(film_radius / lrtf.sampling_max_film_radius, 0.0, 1.0) * f32(n - 1u);
+        i = min(u32(floor(t)), n - 2u);
+        f = t - f32(i);
+    }
+    let i1 = min(i + 1u, n - 1u);
+    var j = 0u;
+    var g = 0.0;
+    if lrtf.focus_count > 1u {
+        let s = clamp(lrtf.focus_coordinate, 0.0, f32(lrtf.focus_count - 1u));
+        j = min(u32(floor(s)), lrtf.focus_count - 2u);
+        g = s - f32(j);
+    }
+    let j1 = min(j + 1u, lrtf.focus_count - 1u);
+    let first = block * lrtf.pupil_count;
+    let row = first + j * n;
+    let row1 = first + j1 * n;
+    let near = mix(lrtf_pupil[row + i], lrtf_pupil[row + i1], f);
+    let far = mix(lrtf_pupil[row1 + i], lrtf_pupil[row1 + i1], f);
+    return mix(near, far, g);
 }
 
 fn lrtf_crossing(origin: vec3<f32>, direction: vec3<f32>, z: f32) -> vec2<f32> {
@@ -194,7 +234,7 @@ fn lrtf_sample(origin: vec3<f32>, direction: vec3<f32>) -> LrtfResult {
     }
     let v = lrtf_fetch(at.coords);
     let stop = v.aux.yz;
-    if v.aux.x < 0.5 || dot(stop, stop) > lrtf.stop_radius_sq {
+    if v.aux.x < 0.0 || dot(stop, stop) > lrtf.stop_radius_sq {
         result.status = LRTF_BLOCKED;
         return result;
     }

@@ -218,11 +218,56 @@ pub fn table_error_from(
     seed: u64,
     corners: Corners,
 ) -> TableError {
+    let film_z = table.layers[layer].frame.film_plane_z;
+    measure_on(
+        table, layer, film_z, tracer, efl, pixels, count, seed, corners,
+    )
+}
+
+/// [`table_error`] for a render focused on the film plane `film_z` of the table's focus range:
+/// film points up to the film radius baked, on that plane, rear points in its sampling pupil.
+#[allow(clippy::too_many_arguments)]
+pub fn table_error_focused(
+    table: &LrtfTable,
+    layer: usize,
+    film_z: f64,
+    tracer: &Tracer,
+    efl: f64,
+    pixels: f64,
+    count: usize,
+    seed: u64,
+) -> TableError {
+    measure_on(
+        table,
+        layer,
+        film_z,
+        tracer,
+        efl,
+        pixels,
+        count,
+        seed,
+        Corners::All,
+    )
+}
+
+#[allow(clippy::too_many_arguments)]
+fn measure_on(
+    table: &LrtfTable,
+    layer: usize,
+    film_z: f64,
+    tracer: &Tracer,
+    efl: f64,
+    pixels: f64,
+    count: usize,
+    seed: u64,
+    corners: Corners,
+) -> TableError {
     let l = &table.layers[layer];
+    let max_film_radius = l.sampling.max_film_radius();
     let rays = renderer_rays(
-        &l.pupil,
-        l.frame.max_film_radius,
-        l.frame.film_plane_z,
+        &l.sampling.at_film_z(film_z),
+        max_film_radius,
+        film_z,
         l.frame.rear_plane_z,
         count,
         seed,
@@ -248,7 +293,7 @@ pub fn table_error_from(
         .collect();
     let mismatches = results.iter().filter(|r| r.0).count();
     let angles: Vec<f64> = results.iter().filter_map(|r| r.1.map(|e| e.0)).collect();
-    let pitch = pixel_pitch(l.frame.max_film_radius, pixels);
+    let pitch = pixel_pitch(max_film_radius, pixels);
     TableError {
         rays: count,
         validity_mismatch: mismatches as f64 / count as f64,

@@ -98,17 +98,18 @@ pub struct Transfer {
     pub stop_point: [f64; 2],
 }
 
-/// Number of stored channels per entry: exit x, exit y, direction (2), validity, stop x, stop y,
-/// exit z. Laid out as two RGBA textures (see docs/lrtf.md).
+/// Number of stored channels per entry: exit x, exit y, direction (2), aperture margin, stop x,
+/// stop y, exit z. Laid out as two RGBA textures (see docs/lrtf.md).
 pub const CHANNELS: usize = 8;
 
 /// Channel names in the EXR file, in storage order.
 pub const CHANNEL_NAMES: [&str; CHANNELS] = [
-    "exit.x", "exit.y", "dir.a", "dir.b", "valid", "stop.x", "stop.y", "exit.z",
+    "exit.x", "exit.y", "dir.a", "dir.b", "margin", "stop.x", "stop.y", "exit.z",
 ];
 
-/// Index of the validity channel.
-pub const VALID: usize = 4;
+/// Index of the aperture-margin channel: the ray passes every aperture the stop-crossing test
+/// does not cover where it is >= 0.
+pub const MARGIN: usize = 4;
 
 fn rotate(v: [f64; 2], c: f64, s: f64) -> [f64; 2] {
     [c * v[0] - s * v[1], s * v[0] + c * v[1]]
@@ -270,15 +271,15 @@ impl Parameterisation {
         }
     }
 
-    /// The stored channels of one exact transfer (validity 1 or 0).
-    pub fn encode(self, transfer: &Transfer, passes: bool) -> [f64; CHANNELS] {
+    /// The stored channels of one exact transfer with its aperture margin.
+    pub fn encode(self, transfer: &Transfer, margin: f64) -> [f64; CHANNELS] {
         let e = self.encode_direction(transfer.exit_direction);
         [
             transfer.exit_point[0],
             transfer.exit_point[1],
             e[0],
             e[1],
-            if passes { 1.0 } else { 0.0 },
+            margin,
             transfer.stop_point[0],
             transfer.stop_point[1],
             transfer.exit_point[2],

@@ -1,10 +1,11 @@
 //! A baked table in memory and the one sampler that reads it (the CPU twin of
-//! `lrtf_sample.wgsl`: same addressing, same trilinear weights, same validity threshold).
+//! `lrtf_sample.wgsl`: same addressing, same trilinear weights, same aperture-margin test).
 
 use serde::{Deserialize, Serialize};
 
-use super::param::{CHANNELS, Frame, Located, Parameterisation, Ray, VALID, to_lens_frame};
-use crate::pupil::PupilTable;
+use super::focus::FocusRange;
+use super::param::{CHANNELS, Frame, Located, MARGIN, Parameterisation, Ray, to_lens_frame};
+use crate::pupil::{FocusPupilTable, PupilTable};
 
 /// Sample format on disk. In memory values are f32 either way; an f16 table holds the values
 /// rounded to f16, so sampling it in memory gives exactly the error of the file.
@@ -49,7 +50,12 @@ impl Precision {
 pub struct Layer {
     pub wavelength_nm: f64,
     pub frame: Frame,
+    /// The effective pupil of the reference film plane: the circles the pupil-planes
+    /// coordinates are normalised to, over the table's film-radius domain.
     pub pupil: PupilTable,
+    /// The effective pupil lens samples are drawn in, over film radius and focus (one node for a
+    /// single-focus table, where it equals `pupil`).
+    pub sampling: FocusPupilTable,
     /// Stop semi-aperture the table was baked with (mm).
     pub stop_semi_aperture: f64,
     /// Entries, index `i0 + n0 * (i1 + n1 * i2)`.
@@ -64,8 +70,8 @@ pub struct TableInfo {
     pub precision: Precision,
     /// f-number the table was baked at (wide open by default); it serves this and above.
     pub f_number: f64,
-    /// Object distance in focus (mm from surface 1), None for infinity.
-    pub focus_mm: Option<f64>,
+    /// The object distances in focus the table serves, and the film plane of each.
+    pub focus: FocusRange,
 }
 
 /// A whole table: one layer per wavelength.
@@ -75,7 +81,7 @@ pub struct LrtfTable {
     pub layers: Vec<Layer>,
 }
 
-/// The WGSL uniform `LrtfParams` (48 bytes, std140-compatible; layout checked against naga).
+/// The WGSL uniform `LrtfParams` (64 bytes, std140-compatible; layout checked against naga).
 /// The renderer uploads it as is.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
@@ -87,9 +93,17 @@ pub struct GpuParams {
     pub max_polar_angle: f32,
     pub stop_radius_sq: f32,
     pub parameterisation: u32,
+    /// Circles of the coordinate pupil, at the head of the pupil buffer.
     pub pupil_count: u32,
     pub dims: [u32; 3],
     pub pad: u32,
+    /// Film radius of the sampling pupil's last circle per focus node.
+    pub sampling_max_film_radius: f32,
+    /// Circles per focus node of the sampling pupil, after the coordinate pupil in the buffer.
+    pub sampling_count: u32,
+    pub focus_count: u32,
+    /// The render's film plane in focus-node units (0 at the first node).
+    pub focus_coordinate: f32,
 }
 
 /// What the table says about one film-side ray.
@@ -119,8 +133,9 @@ pub enum Corners {
     /// continuation, so no sentinel is mixed in.
     #[default]
     All,
-    /// Only the corners whose validity is 1, weights renormalised to sum to 1: the alternative
-    /// measured in docs/lrtf.md. Validity itself is interpolated from all eight either way.
+    /// Only the corners whose ray passes (margin >= 0), weights renormalised to sum to 1: the
+    /// alternative measured in docs/lrtf.md. The margin itself is interpolated from all eight
+    /// either way.
     ValidOnly,
 }
 
@@ -152,7 +167,7 @@ impl Layer {
             for (o, v) in out.iter_mut().zip(entry) {
                 *o += w * *v as f64;
             }
-            if corners == Corners::ValidOnly && entry[VALID] == 1.0 {
+            if corners == Corners::ValidOnly && entry[MARGIN] >= 0.0 {
                 valid_weight += w;
                 for (o, v) in valid_out.iter_mut().zip(entry) {
                     *o += w * *v as f64;
@@ -160,9 +175,9 @@ impl Layer {
             }
         }
         if corners == Corners::ValidOnly && valid_weight > 0.0 {
-            let validity = out[VALID];
+            let margin = out[MARGIN];
             out = valid_out.map(|v| v / valid_weight);
-            out[VALID] = validity;
+            out[MARGIN] = margin;
         }
         out
     }
@@ -192,6 +207,24 @@ impl LrtfTable {
         self.lookup_from(layer, ray, stop_radius, Corners::All)
     }
 
+    /// [`LrtfTable::lookup`] for a render focused on the film plane `film_z`: the table's domain
+    /// on that plane ends at the film radius it was baked for, so a ray crossing the plane
+    /// farther out is outside the domain (the transfer itself does not depend on the plane).
+    pub fn lookup_focused(&self, layer: usize, ray: &Ray, stop_radius: f64, film_z: f64) -> Lookup {
+        let t = (film_z - ray.origin[2]) / ray.direction[2];
+        let film = [
+            ray.origin[0] + t * ray.direction[0],
+            ray.origin[1] + t * ray.direction[1],
+        ];
+        let reach = self.layers[layer].sampling.max_film_radius();
+        // A ray that never crosses the plane (NaN) is outside too.
+        let on_film = film[0].hypot(film[1]) <= reach * (1.0 + 1e-9);
+        if !on_film {
+            return Lookup::OutsideDomain;
+        }
+        self.lookup(layer, ray, stop_radius)
+    }
+
     /// [`LrtfTable::lookup`] with the transfer values interpolated from `corners` (for
     /// measuring the alternative; the shader implements [`Corners::All`]).
     pub fn lookup_from(
@@ -217,7 +250,7 @@ impl LrtfTable {
         }
         let v = self.layers[layer].fetch_from(self.dims(), at.coords, corners);
         let stop_ok = v[5] * v[5] + v[6] * v[6] <= stop_radius * stop_radius;
-        if v[VALID] < 0.5 || !stop_ok {
+        if v[MARGIN] < 0.0 || !stop_ok {
             return Lookup::Blocked;
         }
         let exit = to_lens_frame([v[0], v[1]], &at);
@@ -229,8 +262,9 @@ impl LrtfTable {
         })
     }
 
-    /// The uniform block `LrtfParams` of `lrtf_sample.wgsl` for one layer and stop radius.
-    pub fn gpu_params(&self, layer: usize, stop_radius: f64) -> GpuParams {
+    /// The uniform block `LrtfParams` of `lrtf_sample.wgsl` for one layer, stop radius and the
+    /// film plane `film_z` lens samples are drawn for.
+    pub fn gpu_params(&self, layer: usize, stop_radius: f64, film_z: f64) -> GpuParams {
         let l = &self.layers[layer];
         let [n0, n1, n2] = self.info.resolution;
         GpuParams {
@@ -244,7 +278,22 @@ impl LrtfTable {
             pupil_count: l.pupil.circles.len() as u32,
             dims: [n0 as u32, n1 as u32, n2 as u32],
             pad: 0,
+            sampling_max_film_radius: l.sampling.max_film_radius() as f32,
+            sampling_count: l.sampling.nodes.first().map_or(0, |n| n.circles.len()) as u32,
+            focus_count: l.sampling.nodes.len() as u32,
+            focus_coordinate: l.sampling.focus_coordinate(film_z) as f32,
         }
+    }
+
+    /// The pupil buffer of `lrtf_sample.wgsl` for one layer: the coordinate pupil's circles,
+    /// then the sampling pupil's, focus node by focus node, each as (centre_x, radius).
+    pub fn gpu_pupil(&self, layer: usize) -> Vec<[f32; 2]> {
+        let l = &self.layers[layer];
+        std::iter::once(&l.pupil)
+            .chain(&l.sampling.nodes)
+            .flat_map(|table| &table.circles)
+            .map(|c| [c.centre_x as f32, c.radius as f32])
+            .collect()
     }
 
     /// Bytes of the entries as stored (both textures, all layers).
@@ -285,6 +334,13 @@ mod tests {
                 }
             }
         }
+        let pupil = PupilTable {
+            max_film_radius: 1.0,
+            circles: vec![crate::pupil::PupilCircle {
+                centre_x: 0.0,
+                radius: 1.0,
+            }],
+        };
         let layer = Layer {
             wavelength_nm: 587.56,
             frame: Frame {
@@ -294,13 +350,8 @@ mod tests {
                 max_rear_radius: 1.0,
                 max_polar_angle: 1.0,
             },
-            pupil: PupilTable {
-                max_film_radius: 1.0,
-                circles: vec![crate::pupil::PupilCircle {
-                    centre_x: 0.0,
-                    radius: 1.0,
-                }],
-            },
+            pupil: pupil.clone(),
+            sampling: FocusPupilTable::single(1.0, pupil),
             stop_semi_aperture: 1.0,
             entries,
         };

@@ -62,24 +62,12 @@ impl PupilTable {
     /// Maps a unit-square sample to a point uniform over the circle for `film_radius`.
     /// Uses the concentric (Shirley-Chiu) map, which keeps strata compact.
     pub fn sample(&self, film_radius: f64, unit: [f64; 2]) -> PupilSample {
-        let circle = self.circle_at(film_radius);
-        let [dx, dy] = concentric_disk(unit);
-        let area = std::f64::consts::PI * circle.radius * circle.radius;
-        PupilSample {
-            point: [circle.centre_x + circle.radius * dx, circle.radius * dy],
-            pdf: if area > 0.0 { 1.0 / area } else { 0.0 },
-        }
+        uniform_in(self.circle_at(film_radius), unit)
     }
 
     /// Density of [`PupilTable::sample`] at a rear-plane point (zero outside the circle).
     pub fn pdf(&self, film_radius: f64, point: [f64; 2]) -> f64 {
-        let circle = self.circle_at(film_radius);
-        let inside = (point[0] - circle.centre_x).hypot(point[1]) <= circle.radius;
-        if inside && circle.radius > 0.0 {
-            1.0 / (std::f64::consts::PI * circle.radius * circle.radius)
-        } else {
-            0.0
-        }
+        density_in(self.circle_at(film_radius), point)
     }
 
     /// Largest distance from the optical axis reached by any circle (mm).
@@ -88,6 +76,25 @@ impl PupilTable {
             .iter()
             .map(|c| c.centre_x.abs() + c.radius)
             .fold(0.0, f64::max)
+    }
+}
+
+/// A point uniform over `circle` for a unit-square sample, and its density.
+fn uniform_in(circle: PupilCircle, unit: [f64; 2]) -> PupilSample {
+    let [dx, dy] = concentric_disk(unit);
+    PupilSample {
+        point: [circle.centre_x + circle.radius * dx, circle.radius * dy],
+        pdf: density_in(circle, [circle.centre_x, 0.0]),
+    }
+}
+
+/// Density of the uniform distribution over `circle` at `point` (zero outside).
+fn density_in(circle: PupilCircle, point: [f64; 2]) -> f64 {
+    let inside = (point[0] - circle.centre_x).hypot(point[1]) <= circle.radius;
+    if inside && circle.radius > 0.0 {
+        1.0 / (std::f64::consts::PI * circle.radius * circle.radius)
+    } else {
+        0.0
     }
 }
 
@@ -129,26 +136,54 @@ impl Default for PupilFitSettings {
     }
 }
 
+/// Which rear-plane points pass the lens, for one film point on +x. It answers a batch at once,
+/// so a tracer can trace the points side by side; any `Fn([f64; 2]) -> bool` answers one by one.
+pub trait RearTest: Sync {
+    /// Sets `passes[k]` for `points[k]`.
+    fn test(&self, points: &[[f64; 2]], passes: &mut [bool]);
+
+    fn passes(&self, point: [f64; 2]) -> bool {
+        let mut out = [false];
+        self.test(&[point], &mut out);
+        out[0]
+    }
+}
+
+impl<F: Fn([f64; 2]) -> bool + Sync> RearTest for F {
+    fn test(&self, points: &[[f64; 2]], passes: &mut [bool]) {
+        for (p, out) in points.iter().zip(passes) {
+            *out = self(*p);
+        }
+    }
+}
+
+/// The points of `points` that pass.
+fn passing(test: &dyn RearTest, points: &[[f64; 2]]) -> Vec<[f64; 2]> {
+    let mut passes = vec![false; points.len()];
+    test.test(points, &mut passes);
+    points
+        .iter()
+        .zip(passes)
+        .filter_map(|(p, ok)| ok.then_some(*p))
+        .collect()
+}
+
 /// The smallest circle centred on the x axis around every passing rear-plane point of one film
-/// point, or None when no probed ray passes. `passes(point)` answers for a rear-plane point
-/// (film point on +x); `search_radius` bounds where passing points can be (e.g. the rear clear
-/// aperture plus a margin).
+/// point, or None when no probed ray passes. `passes` answers for rear-plane points (film point
+/// on +x); `search_radius` bounds where passing points can be (e.g. the rear clear aperture plus
+/// a margin). Every probe of one stage goes to `passes` as one batch.
 pub fn fit_pupil(
-    passes: &(dyn Fn([f64; 2]) -> bool + Sync),
+    passes: &dyn RearTest,
     search_radius: f64,
     settings: &PupilFitSettings,
 ) -> Option<PupilCircle> {
     let n = settings.grid.max(4);
     let mut step = 2.0 * search_radius / (n - 1) as f64;
-    let mut inside = Vec::new();
-    for j in 0..n / 2 + 1 {
-        for i in 0..n {
-            let p = [-search_radius + i as f64 * step, j as f64 * step];
-            if p[0].hypot(p[1]) <= search_radius && passes(p) {
-                inside.push(p);
-            }
-        }
-    }
+    let grid: Vec<[f64; 2]> = (0..n / 2 + 1)
+        .flat_map(|j| (0..n).map(move |i| [-search_radius + i as f64 * step, j as f64 * step]))
+        .filter(|p| p[0] * p[0] + p[1] * p[1] <= search_radius * search_radius)
+        .collect();
+    let mut inside = passing(passes, &grid);
     if inside.is_empty() {
         // A pupil smaller than a grid step (a lens stopped far down) falls between the nodes.
         // It is symmetric about the x axis, so a connected pupil crosses it: scan the axis.
@@ -159,39 +194,70 @@ pub fn fit_pupil(
     let count = inside.len() as f64;
     // The pupil is symmetric about the x axis: its centroid lies on it.
     let seed = [inside.iter().map(|p| p[0]).sum::<f64>() / count, 0.0];
-    let seed = if passes(seed) { seed } else { inside[0] };
+    let seed = if passes.passes(seed) { seed } else { inside[0] };
     // Bisection from a passing point outwards along each direction finds the boundary to a small
-    // fraction of a grid step; the grid points cover regions the directions might miss.
-    let mut boundary = inside.clone();
+    // fraction of a grid step; the grid points cover regions the directions might miss. All
+    // directions march and bisect in lockstep, one batch per step.
+    let directions: Vec<[f64; 2]> = (0..=settings.boundary_directions)
+        .map(|k| {
+            let angle = std::f64::consts::PI * k as f64 / settings.boundary_directions as f64;
+            [angle.cos(), angle.sin()]
+        })
+        .collect();
+    let at = |k: usize, t: f64| {
+        [
+            seed[0] + directions[k][0] * t,
+            seed[1] + directions[k][1] * t,
+        ]
+    };
+    // March in sub-grid steps so a thin passing neck is not jumped over, then bisect.
     let reach = 2.0 * search_radius;
-    for k in 0..=settings.boundary_directions {
-        let angle = std::f64::consts::PI * k as f64 / settings.boundary_directions as f64;
-        let dir = [angle.cos(), angle.sin()];
-        let at = |t: f64| [seed[0] + dir[0] * t, seed[1] + dir[1] * t];
-        // March in sub-grid steps so a thin passing neck is not jumped over, then bisect.
-        let mut last_in = 0.0;
-        let mut t = 0.0;
-        while t < reach {
-            t += step * 0.5;
-            if passes(at(t)) {
-                last_in = t;
-            } else if t - last_in > 2.0 * step {
-                break;
+    let mut last_in = vec![0.0; directions.len()];
+    let mut marching: Vec<usize> = (0..directions.len()).collect();
+    let mut t = 0.0;
+    let mut points = Vec::with_capacity(directions.len());
+    let mut results = vec![false; directions.len()];
+    while t < reach && !marching.is_empty() {
+        t += step * 0.5;
+        points.clear();
+        points.extend(marching.iter().map(|&k| at(k, t)));
+        passes.test(&points, &mut results[..points.len()]);
+        let mut still = 0;
+        for j in 0..marching.len() {
+            let k = marching[j];
+            if results[j] {
+                last_in[k] = t;
+            } else if t - last_in[k] > 2.0 * step {
+                continue;
             }
+            marching[still] = k;
+            still += 1;
         }
-        // 14 halvings leave the boundary within step / 2^15 (~0.05 um for a 50 mm lens), far
-        // below the margin added afterwards.
-        let (mut lo, mut hi) = (last_in, last_in + step * 0.5);
-        for _ in 0..14 {
-            let mid = 0.5 * (lo + hi);
-            if passes(at(mid)) {
-                lo = mid;
-            } else {
-                hi = mid;
-            }
-        }
-        boundary.push(at(hi));
+        marching.truncate(still);
     }
+    // 14 halvings leave the boundary within step / 2^15 (~0.05 um for a 50 mm lens), far below
+    // the margin added afterwards.
+    let mut bracket: Vec<(f64, f64)> = last_in.iter().map(|&t| (t, t + step * 0.5)).collect();
+    for _ in 0..14 {
+        points.clear();
+        points.extend(
+            bracket
+                .iter()
+                .enumerate()
+                .map(|(k, (lo, hi))| at(k, 0.5 * (lo + hi))),
+        );
+        passes.test(&points, &mut results);
+        for ((lo, hi), inside) in bracket.iter_mut().zip(&results) {
+            let mid = 0.5 * (*lo + *hi);
+            if *inside {
+                *lo = mid;
+            } else {
+                *hi = mid;
+            }
+        }
+    }
+    let mut boundary = inside;
+    boundary.extend(bracket.iter().enumerate().map(|(k, &(_, hi))| at(k, hi)));
     let circle = enclosing_circle_on_axis(&boundary);
     Some(PupilCircle {
         centre_x: circle.centre_x,
@@ -205,26 +271,27 @@ const AXIS_SCAN_LEVELS: u32 = 14;
 
 /// The first passing point on the x axis within `search_radius`, probed on ever finer dyadic
 /// grids (each level adds the midpoints of the last), with the spacing it was found at.
-fn scan_axis(
-    passes: &(dyn Fn([f64; 2]) -> bool + Sync),
-    search_radius: f64,
-) -> Option<([f64; 2], f64)> {
+fn scan_axis(passes: &dyn RearTest, search_radius: f64) -> Option<([f64; 2], f64)> {
     (1..=AXIS_SCAN_LEVELS).find_map(|level| {
         let spacing = 2.0 * search_radius / f64::from(1u32 << level);
-        (1..1u32 << level).step_by(2).find_map(|j| {
-            let p = [-search_radius + f64::from(j) * spacing, 0.0];
-            passes(p).then_some((p, spacing))
-        })
+        let level_points: Vec<[f64; 2]> = (1..1u32 << level)
+            .step_by(2)
+            .map(|j| [-search_radius + f64::from(j) * spacing, 0.0])
+            .collect();
+        passing(passes, &level_points)
+            .first()
+            .map(|&p| (p, spacing))
     })
 }
 
 /// Smallest circle with its centre on the x axis containing `points` (and their mirror images).
 /// The farthest-point distance is convex in the centre position, so a ternary search converges.
 pub fn enclosing_circle_on_axis(points: &[[f64; 2]]) -> PupilCircle {
-    let radius_for = |cx: f64| {
+    // Compared squared: the square root is monotonic, and taken once at the end.
+    let radius_sq_for = |cx: f64| {
         points
             .iter()
-            .map(|p| (p[0] - cx).hypot(p[1]))
+            .map(|p| (p[0] - cx) * (p[0] - cx) + p[1] * p[1])
             .fold(0.0, f64::max)
     };
     let (mut lo, mut hi) = points
@@ -235,7 +302,7 @@ pub fn enclosing_circle_on_axis(points: &[[f64; 2]]) -> PupilCircle {
     for _ in 0..100 {
         let a = lo + (hi - lo) / 3.0;
         let b = hi - (hi - lo) / 3.0;
-        if radius_for(a) < radius_for(b) {
+        if radius_sq_for(a) < radius_sq_for(b) {
             hi = b;
         } else {
             lo = a;
@@ -244,7 +311,107 @@ pub fn enclosing_circle_on_axis(points: &[[f64; 2]]) -> PupilCircle {
     let centre_x = 0.5 * (lo + hi);
     PupilCircle {
         centre_x,
-        radius: radius_for(centre_x),
+        radius: radius_sq_for(centre_x).sqrt(),
+    }
+}
+
+/// The exact pupils of one film plane: fitted circles at the film-radius nodes (None where
+/// nothing passes) and at points between them (cell, fraction, circle).
+struct Row {
+    at_nodes: Vec<Option<PupilCircle>>,
+    between: Vec<(usize, f64, PupilCircle)>,
+}
+
+impl Row {
+    fn measure(
+        pupil_at: &(dyn Fn(f64) -> Option<PupilCircle> + Sync),
+        max_film_radius: f64,
+        nodes: usize,
+        between: usize,
+    ) -> Row {
+        use rayon::prelude::*;
+        let node_r = |k: usize| max_film_radius * k as f64 / (nodes - 1) as f64;
+        let at_nodes = (0..nodes)
+            .into_par_iter()
+            .map(|k| pupil_at(node_r(k)))
+            .collect();
+        let between = (0..nodes - 1)
+            .into_par_iter()
+            .flat_map_iter(|k| {
+                (1..=between).filter_map(move |j| {
+                    let f = j as f64 / (between + 1) as f64;
+                    pupil_at(node_r(k) + f * (node_r(k + 1) - node_r(k))).map(|c| (k, f, c))
+                })
+            })
+            .collect();
+        Row { at_nodes, between }
+    }
+
+    /// The node circles, a node where nothing passes taking its nearest measured neighbour's
+    /// centre with zero radius, so the interpolated circle shrinks towards where the last rays
+    /// pass.
+    fn node_circles(&self) -> Vec<PupilCircle> {
+        let measured = &self.at_nodes;
+        (0..measured.len())
+            .map(|k| {
+                measured[k].unwrap_or_else(|| {
+                    let neighbour = measured[..k]
+                        .iter()
+                        .rev()
+                        .chain(measured[k..].iter())
+                        .flatten()
+                        .next();
+                    PupilCircle {
+                        centre_x: neighbour.map_or(0.0, |c| c.centre_x),
+                        radius: 0.0,
+                    }
+                })
+            })
+            .collect()
+    }
+}
+
+/// An exact pupil inside a grid cell: film-radius cell `k` at fraction `fr`, focus cell `j` at
+/// fraction `ft`.
+struct Probe {
+    k: usize,
+    fr: f64,
+    j: usize,
+    ft: f64,
+    circle: PupilCircle,
+}
+
+/// How far `probe`'s circle reaches beyond the bilinear interpolant of `grid` (rows of circles
+/// per focus node) at its point: |centre offset| + radius - interpolated radius.
+fn deficit(grid: &[Vec<PupilCircle>], probe: &Probe) -> f64 {
+    let lerp = |a: PupilCircle, b: PupilCircle, f: f64| PupilCircle {
+        centre_x: a.centre_x + (b.centre_x - a.centre_x) * f,
+        radius: a.radius + (b.radius - a.radius) * f,
+    };
+    let j1 = (probe.j + 1).min(grid.len() - 1);
+    let row = |j: usize| lerp(grid[j][probe.k], grid[j][probe.k + 1], probe.fr);
+    let c = lerp(row(probe.j), row(j1), probe.ft);
+    (probe.circle.centre_x - c.centre_x).abs() + probe.circle.radius - c.radius
+}
+
+/// Grows node radii until every probe's circle lies inside the interpolated one: a probe's
+/// deficit is added to each corner of its cell that carries weight there, which raises the
+/// interpolant at the probe by exactly the deficit (the weights sum to one). Radii only grow,
+/// so a probe once contained stays contained and one sweep suffices.
+fn inflate(grid: &mut [Vec<PupilCircle>], probes: &[Probe]) {
+    for probe in probes {
+        let d = deficit(grid, probe);
+        if d <= 0.0 {
+            continue;
+        }
+        let j1 = (probe.j + 1).min(grid.len() - 1);
+        for (j, wj) in [(probe.j, 1.0 - probe.ft), (j1, probe.ft)] {
+            for (k, wk) in [(probe.k, 1.0 - probe.fr), (probe.k + 1, probe.fr)] {
+                if wj * wk > 0.0 {
+                    grid[j][k].radius += d;
+                }
+            }
+        }
     }
 }
 
@@ -258,62 +425,266 @@ pub fn build_table(
     nodes: usize,
     between: usize,
 ) -> PupilTable {
-    use rayon::prelude::*;
     let nodes = nodes.max(2);
-    let node_r = |k: usize| max_film_radius * k as f64 / (nodes - 1) as f64;
-    let measured: Vec<Option<PupilCircle>> = (0..nodes)
-        .into_par_iter()
-        .map(|k| pupil_at(node_r(k)))
-        .collect();
-    // A node where nothing passes inherits its neighbour's centre with zero radius, so the
-    // interpolated circle shrinks towards where the last rays pass.
-    let mut circles: Vec<PupilCircle> = Vec::with_capacity(nodes);
-    for (k, m) in measured.iter().enumerate() {
-        circles.push(m.unwrap_or_else(|| {
-            let neighbour = measured[..k]
-                .iter()
-                .rev()
-                .chain(measured[k..].iter())
-                .flatten()
-                .next();
-            PupilCircle {
-                centre_x: neighbour.map_or(0.0, |c| c.centre_x),
-                radius: 0.0,
-            }
-        }));
-    }
-    let inner: Vec<(usize, f64, PupilCircle)> = (0..nodes - 1)
-        .into_par_iter()
-        .flat_map_iter(|k| {
-            (1..=between).filter_map(move |j| {
-                let f = j as f64 / (between + 1) as f64;
-                let r = node_r(k) + f * (node_r(k + 1) - node_r(k));
-                pupil_at(r).map(|c| (k, f, c))
-            })
+    let row = Row::measure(pupil_at, max_film_radius, nodes, between);
+    let mut grid = vec![row.node_circles()];
+    let probes: Vec<Probe> = row
+        .between
+        .iter()
+        .map(|&(k, fr, circle)| Probe {
+            k,
+            fr,
+            j: 0,
+            ft: 0.0,
+            circle,
         })
         .collect();
-    // Raising both node radii of an interval by the worst deficit raises the interpolated radius
-    // by the same amount everywhere in it; repeat since a node serves two intervals.
-    for _ in 0..4 {
-        let mut grew = false;
-        for &(k, f, c) in &inner {
-            let (a, b) = (circles[k], circles[k + 1]);
-            let cx = a.centre_x + (b.centre_x - a.centre_x) * f;
-            let r = a.radius + (b.radius - a.radius) * f;
-            let deficit = (c.centre_x - cx).abs() + c.radius - r;
-            if deficit > 0.0 {
-                circles[k].radius += deficit;
-                circles[k + 1].radius += deficit;
-                grew = true;
-            }
-        }
-        if !grew {
-            break;
-        }
-    }
+    inflate(&mut grid, &probes);
     PupilTable {
         max_film_radius,
-        circles,
+        circles: grid.pop().expect("one row"),
+    }
+}
+
+/// Effective-pupil circles over film radius and focus (unit focusing: the film moves): one
+/// [`PupilTable`] per focus node, the nodes on film planes evenly spaced from `film_z[0]` to
+/// `film_z[1]`, interpolated bilinearly in film radius and film-plane z. Node radii are inflated
+/// so the interpolant stays conservative between nodes in both directions, and sampling is
+/// uniform over the interpolated circle with the exact pdf `1 / (pi r^2)`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FocusPupilTable {
+    /// Film planes (lens-frame z, mm) of the first and last focus node; equal with one node.
+    pub film_z: [f64; 2],
+    /// Circles per focus node, all over the same film radii.
+    pub nodes: Vec<PupilTable>,
+}
+
+impl FocusPupilTable {
+    /// One focus: the film plane `film_z` and its circles.
+    pub fn single(film_z: f64, table: PupilTable) -> FocusPupilTable {
+        FocusPupilTable {
+            film_z: [film_z, film_z],
+            nodes: vec![table],
+        }
+    }
+
+    pub fn max_film_radius(&self) -> f64 {
+        self.nodes.first().map_or(0.0, |n| n.max_film_radius)
+    }
+
+    /// Position of the film plane `film_z` in focus-node units (0 at the first node, clamped to
+    /// the range): the coordinate the shader's bilinear lookup takes.
+    pub fn focus_coordinate(&self, film_z: f64) -> f64 {
+        let span = self.film_z[1] - self.film_z[0];
+        if self.nodes.len() < 2 || span <= 0.0 {
+            return 0.0;
+        }
+        ((film_z - self.film_z[0]) / span).clamp(0.0, 1.0) * (self.nodes.len() - 1) as f64
+    }
+
+    /// Focus cell and fraction of film plane `film_z`.
+    fn focus_cell(&self, film_z: f64) -> (usize, f64) {
+        let t = self.focus_coordinate(film_z);
+        if self.nodes.len() < 2 {
+            return (0, 0.0);
+        }
+        let j = (t.floor() as usize).min(self.nodes.len() - 2);
+        (j, t - j as f64)
+    }
+
+    /// The interpolated circle at film radius `film_radius` on the film plane `film_z`. A table
+    /// with no nodes (only a hostile file makes one) has the empty circle.
+    pub fn circle_at(&self, film_radius: f64, film_z: f64) -> PupilCircle {
+        if self.nodes.is_empty() {
+            return PupilCircle {
+                centre_x: 0.0,
+                radius: 0.0,
+            };
+        }
+        let (j, f) = self.focus_cell(film_z);
+        let a = self.nodes[j].circle_at(film_radius);
+        let b = self.nodes[(j + 1).min(self.nodes.len() - 1)].circle_at(film_radius);
+        PupilCircle {
+            centre_x: a.centre_x + (b.centre_x - a.centre_x) * f,
+            radius: a.radius + (b.radius - a.radius) * f,
+        }
+    }
+
+    /// The circles of one film plane: the bilinear interpolant at `film_z` is linear in film
+    /// radius between the same nodes, so this table interpolates to exactly the same circles.
+    pub fn at_film_z(&self, film_z: f64) -> PupilTable {
+        let Some(first) = self.nodes.first() else {
+            return PupilTable {
+                max_film_radius: 0.0,
+                circles: Vec::new(),
+            };
+        };
+        let (j, f) = self.focus_cell(film_z);
+        let b = &self.nodes[(j + 1).min(self.nodes.len() - 1)];
+        PupilTable {
+            max_film_radius: first.max_film_radius,
+            circles: self.nodes[j]
+                .circles
+                .iter()
+                .zip(&b.circles)
+                .map(|(a, b)| PupilCircle {
+                    centre_x: a.centre_x + (b.centre_x - a.centre_x) * f,
+                    radius: a.radius + (b.radius - a.radius) * f,
+                })
+                .collect(),
+        }
+    }
+
+    /// A point uniform over the circle of `film_radius` on the film plane `film_z`.
+    pub fn sample(&self, film_radius: f64, film_z: f64, unit: [f64; 2]) -> PupilSample {
+        uniform_in(self.circle_at(film_radius, film_z), unit)
+    }
+
+    /// Density of [`FocusPupilTable::sample`] at a rear-plane point.
+    pub fn pdf(&self, film_radius: f64, film_z: f64, point: [f64; 2]) -> f64 {
+        density_in(self.circle_at(film_radius, film_z), point)
+    }
+}
+
+/// How many focus nodes a [`FocusPupilTable`] gets.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FocusNodeSettings {
+    /// Focus intervals are halved while a pupil fitted halfway between two nodes reaches beyond
+    /// their interpolated circle by more than this fraction of the largest pupil radius there.
+    /// Inflation keeps the table conservative either way; this bounds what it costs in
+    /// tightness.
+    pub relative_tolerance: f64,
+    pub max_nodes: usize,
+}
+
+impl Default for FocusNodeSettings {
+    /// 4 %: fits on neighbouring film planes already scatter by 2-3 % of the pupil radius
+    /// (where the directions probing the boundary fall relative to a cat's-eye corner moves
+    /// with the plane; measured on the double Gauss, infinity..1 m and 3..0.5 m), so a finer
+    /// tolerance would halve intervals chasing that scatter up to `max_nodes`.
+    fn default() -> Self {
+        FocusNodeSettings {
+            relative_tolerance: 0.04,
+            max_nodes: 17,
+        }
+    }
+}
+
+/// Builds a conservative [`FocusPupilTable`] over film radii up to `max_film_radius` and the
+/// film planes `film_z[0]..=film_z[1]` from exact pupils `pupil_at(film_radius, film_z)`.
+///
+/// Each film plane's circles come from [`build_table`]'s measurement (`radius_nodes` nodes,
+/// `between` checks per interval). Focus nodes start at the two ends; while the pupils fitted
+/// halfway between two nodes stick out of the interpolated circle by more than
+/// `settings.relative_tolerance` of the largest of them, every focus interval is halved (the
+/// halfway film planes become nodes). Then the node radii are inflated until every check, between
+/// film radii and halfway between focus nodes, lies inside the bilinear interpolant.
+pub fn build_focus_table(
+    pupil_at: &(dyn Fn(f64, f64) -> Option<PupilCircle> + Sync),
+    max_film_radius: f64,
+    radius_nodes: usize,
+    between: usize,
+    film_z: [f64; 2],
+    settings: &FocusNodeSettings,
+) -> FocusPupilTable {
+    let radius_nodes = radius_nodes.max(2);
+    let measure = |z: f64| {
+        Row::measure(
+            &|r: f64| pupil_at(r, z),
+            max_film_radius,
+            radius_nodes,
+            between,
+        )
+    };
+    if film_z[1] <= film_z[0] {
+        let table = build_table(
+            &|r| pupil_at(r, film_z[0]),
+            max_film_radius,
+            radius_nodes,
+            between,
+        );
+        return FocusPupilTable::single(film_z[0], table);
+    }
+    let z_at = |j: usize, nodes: usize| {
+        film_z[0] + (film_z[1] - film_z[0]) * j as f64 / (nodes - 1) as f64
+    };
+    let mut rows = vec![measure(film_z[0]), measure(film_z[1])];
+    loop {
+        let nodes = rows.len();
+        let halfway: Vec<Row> = (0..nodes - 1)
+            .map(|j| measure(0.5 * (z_at(j, nodes) + z_at(j + 1, nodes))))
+            .collect();
+        let mut grid: Vec<Vec<PupilCircle>> = rows.iter().map(Row::node_circles).collect();
+        let mut probes: Vec<Probe> = Vec::new();
+        for (j, row) in rows.iter().enumerate() {
+            let (cell, ft) = if j + 1 < nodes {
+                (j, 0.0)
+            } else {
+                (j - 1, 1.0)
+            };
+            probes.extend(row.between.iter().map(|&(k, fr, circle)| Probe {
+                k,
+                fr,
+                j: cell,
+                ft,
+                circle,
+            }));
+        }
+        inflate(&mut grid, &probes);
+        let mut halfway_probes: Vec<Probe> = Vec::new();
+        for (j, row) in halfway.iter().enumerate() {
+            for (k, circle) in row.at_nodes.iter().enumerate() {
+                if let Some(circle) = circle {
+                    let (cell, fr) = if k + 1 < radius_nodes {
+                        (k, 0.0)
+                    } else {
+                        (k - 1, 1.0)
+                    };
+                    halfway_probes.push(Probe {
+                        k: cell,
+                        fr,
+                        j,
+                        ft: 0.5,
+                        circle: *circle,
+                    });
+                }
+            }
+            halfway_probes.extend(row.between.iter().map(|&(k, fr, circle)| Probe {
+                k,
+                fr,
+                j,
+                ft: 0.5,
+                circle,
+            }));
+        }
+        let largest = halfway_probes
+            .iter()
+            .map(|p| p.circle.radius)
+            .fold(0.0, f64::max);
+        let worst = halfway_probes
+            .iter()
+            .map(|p| deficit(&grid, p) / largest)
+            .fold(0.0, f64::max);
+        let finer = 2 * nodes - 1;
+        if worst <= settings.relative_tolerance || finer > settings.max_nodes.max(2) {
+            inflate(&mut grid, &halfway_probes);
+            return FocusPupilTable {
+                film_z,
+                nodes: grid
+                    .into_iter()
+                    .map(|circles| PupilTable {
+                        max_film_radius,
+                        circles,
+                    })
+                    .collect(),
+            };
+        }
+        // The halfway planes become nodes between the old ones.
+        let mut halfway = halfway.into_iter();
+        rows = std::mem::take(&mut rows)
+            .into_iter()
+            .flat_map(|row| std::iter::once(row).chain(halfway.next()))
+            .collect();
     }
 }
 
@@ -422,6 +793,124 @@ mod tests {
         let expected = (strata * strata / 4) as f64;
         for count in annulus {
             assert!((count as f64 / expected - 1.0).abs() < 0.03, "{annulus:?}");
+        }
+    }
+
+    /// A pupil that also changes with the film plane, non-linearly: the sliding circle's offset
+    /// grows with the square of z (a film moving back sees the front element's image shift).
+    fn focus_dependent_pupil(film_radius: f64, film_z: f64) -> impl Fn([f64; 2]) -> bool + Sync {
+        let slide = 0.4 * film_radius * (1.0 + 0.15 * film_z * film_z);
+        move |p: [f64; 2]| p[0].hypot(p[1]) <= 10.0 && (p[0] + slide).hypot(p[1]) <= 9.0
+    }
+
+    #[test]
+    fn focus_table_stays_conservative_between_focus_nodes_and_refines_where_needed() {
+        let settings = PupilFitSettings::default();
+        let pupil_at = |r: f64, z: f64| fit_pupil(&focus_dependent_pupil(r, z), 25.0, &settings);
+        let film_z = [0.0, 2.0];
+        let table = build_focus_table(
+            &pupil_at,
+            20.0,
+            17,
+            2,
+            film_z,
+            &FocusNodeSettings::default(),
+        );
+        // Linear interpolation over z in [0, 2] misses the quadratic slide by far more than
+        // 1 % of the radius: the focus intervals were halved.
+        assert!(table.nodes.len() > 2, "{} focus nodes", table.nodes.len());
+        assert!(table.nodes.iter().all(|n| n.circles.len() == 17));
+        // Densely between the nodes in both directions, no passing point lies outside the
+        // interpolated circle, and the one-plane table at z interpolates to the same circle.
+        for i in 0..=40 {
+            let z = film_z[0] + (film_z[1] - film_z[0]) * i as f64 / 40.0;
+            for k in 0..=40 {
+                let r = 20.0 * k as f64 / 40.0;
+                let c = table.circle_at(r, z);
+                let passes = focus_dependent_pupil(r, z);
+                for a in 0..120 {
+                    for b in 0..=60 {
+                        let p = [-11.0 + 22.0 * a as f64 / 119.0, 11.0 * b as f64 / 60.0];
+                        assert!(
+                            !passes(p) || (p[0] - c.centre_x).hypot(p[1]) <= c.radius,
+                            "r {r} z {z}: passing {p:?} outside {c:?}"
+                        );
+                    }
+                }
+                let slice = table.at_film_z(z).circle_at(r);
+                assert!((slice.radius - c.radius).abs() < 1e-12 * c.radius.max(1.0));
+                assert!((slice.centre_x - c.centre_x).abs() < 1e-12 * c.radius.max(1.0));
+            }
+        }
+        // With a tolerance above the miss, two nodes are enough, and inflation alone keeps the
+        // interpolant around the pupil fitted halfway.
+        let coarse = build_focus_table(
+            &pupil_at,
+            20.0,
+            17,
+            2,
+            film_z,
+            &FocusNodeSettings {
+                relative_tolerance: 10.0,
+                max_nodes: 17,
+            },
+        );
+        assert_eq!(coarse.nodes.len(), 2);
+        let radius_nodes = 17;
+        for k in 0..radius_nodes {
+            let r = 20.0 * k as f64 / (radius_nodes - 1) as f64;
+            let Some(exact) = pupil_at(r, 1.0) else {
+                continue;
+            };
+            let c = coarse.circle_at(r, 1.0);
+            let excess = (exact.centre_x - c.centre_x).abs() + exact.radius - c.radius;
+            assert!(excess < 1e-9, "coarse, r {r}: excess {excess} mm");
+        }
+    }
+
+    #[test]
+    fn focus_table_pdf_integrates_to_one_between_focus_nodes() {
+        let row = |centre: f64, radius: f64| PupilTable {
+            max_film_radius: 10.0,
+            circles: vec![
+                PupilCircle {
+                    centre_x: 0.0,
+                    radius: 4.0,
+                },
+                PupilCircle {
+                    centre_x: centre,
+                    radius,
+                },
+            ],
+        };
+        let table = FocusPupilTable {
+            film_z: [50.0, 52.0],
+            nodes: vec![row(-2.0, 3.0), row(-1.0, 2.5), row(-3.0, 3.5)],
+        };
+        let (film_radius, film_z) = (6.3, 51.37);
+        let circle = table.circle_at(film_radius, film_z);
+        // Bilinear: halfway between node rows 1 and 2 at 0.37 of the way, 0.63 along the radius.
+        let expect = |a: f64, b: f64, c: f64| {
+            let f = 0.63;
+            let (lo, hi) = (a + (b - a) * f, a + (c - a) * f);
+            lo + (hi - lo) * 0.37
+        };
+        assert!((circle.radius - expect(4.0, 2.5, 3.5)).abs() < 1e-12);
+        assert!((circle.centre_x - expect(0.0, -1.0, -3.0)).abs() < 1e-12);
+        let n = 800;
+        let (x0, y0) = (circle.centre_x - circle.radius, -circle.radius);
+        let h = 2.0 * circle.radius / n as f64;
+        let mut integral = 0.0;
+        for i in 0..n {
+            for j in 0..n {
+                let p = [x0 + (i as f64 + 0.5) * h, y0 + (j as f64 + 0.5) * h];
+                integral += table.pdf(film_radius, film_z, p) * h * h;
+            }
+        }
+        assert!((integral - 1.0).abs() < 2e-3, "integral {integral}");
+        for u in [[0.1, 0.9], [0.5, 0.5], [0.97, 0.03]] {
+            let s = table.sample(film_radius, film_z, u);
+            assert_eq!(s.pdf, table.pdf(film_radius, film_z, s.point));
         }
     }
 }

@@ -201,7 +201,7 @@ impl Chromatic {
     }
 
     /// The layers of `lens`'s table baked at `wavelengths_nm` (each within
-    /// [`super::models::WAVELENGTH_MATCH_NM`]), sampled from the union of their pupils.
+    /// [`super::models::WAVELENGTH_MATCH_NM`]), sampled from the union of their sampling pupils.
     pub fn baked(
         lens: &BakedLens,
         wavelengths_nm: [f64; CHANNELS],
@@ -210,8 +210,10 @@ impl Chromatic {
         for (layer, nm) in layers.iter_mut().zip(wavelengths_nm) {
             *layer = layer_at(&lens.table, nm)?;
         }
-        let pupils = layers.map(|k| &lens.table.layers[k].pupil);
-        let circles = union_of(&pupils)?;
+        // Each channel's sampling pupil on the render's film plane (the coordinate pupils are
+        // the reference plane's, which a focus range moves the film away from).
+        let pupils = layers.map(|k| lens.pupil(k).circles);
+        let circles = union_of(&[&pupils[0], &pupils[1], &pupils[2]])?;
         Ok(Chromatic {
             wavelengths_nm,
             lenses: ChannelLenses::Baked(layers),

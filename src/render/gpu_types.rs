@@ -286,7 +286,9 @@ pub struct LensData {
     /// At least one entry (a placeholder when the model traces nothing).
     pub surfaces: Vec<LensSurface>,
     pub lrtf: GpuParams,
-    /// (centre_x, radius) at film radii `lrtf.max_film_radius * k / (n - 1)`.
+    /// (centre_x, radius): the coordinate pupil's `lrtf.pupil_count` circles at film radii
+    /// `lrtf.max_film_radius * k / (n - 1)`, then the sampling pupil's circles, focus node by
+    /// focus node (see [`crate::lrtf::LrtfTable::gpu_pupil`]).
     pub pupil: Vec<[f32; 2]>,
     pub transfer: Vec<[f32; 4]>,
     pub aux: Vec<[f32; 4]>,
@@ -315,7 +317,13 @@ impl LensData {
             pupil_count: pupil.len() as u32,
             dims: [2, 2, 2],
             pad: 0,
+            // The same circles sample lens points: one focus node.
+            sampling_max_film_radius: sampling.circles.max_film_radius as f32,
+            sampling_count: pupil.len() as u32,
+            focus_count: 1,
+            focus_coordinate: 0.0,
         };
+        let pupil = [pupil.clone(), pupil].concat();
         let placeholder_texels = vec![[0.0f32; 4]; 8];
         let (params, surfaces) = match model {
             LensModel::Traced(lens) => lens_surfaces(&lens.system),
@@ -323,8 +331,10 @@ impl LensData {
         };
         match model {
             LensModel::Baked(lens) => {
-                let g = lens.table.gpu_params(0, lens.stop_radius);
-                let layer = &lens.table.layers[0];
+                let g = lens
+                    .table
+                    .gpu_params(lens.layer, lens.stop_radius, lens.film_z());
+                let layer = &lens.table.layers[lens.layer];
                 let split = |range: std::ops::Range<usize>| -> Vec<[f32; 4]> {
                     layer
                         .entries
@@ -343,7 +353,7 @@ impl LensData {
                     params,
                     surfaces,
                     lrtf: g,
-                    pupil,
+                    pupil: lens.table.gpu_pupil(lens.layer),
                     transfer: split(0..4),
                     aux: split(4..8),
                     dims: g.dims,
@@ -503,7 +513,8 @@ impl LensData {
     /// The kernel's data for a chromatic render of `camera` through `chromatic`'s channels:
     /// the sampling pupil, and per channel the surfaces (traced: channel c's surfaces follow
     /// channel c - 1's) or the table layer (baked: channel c's nodes follow channel c - 1's along
-    /// the textures' third axis, its pupil circles in block c, the sampling circles in block 3).
+    /// the textures' third axis, its coordinate circles in block c, the sampling circles from block
+    /// 3 on: the union of the channels' sampling pupils on the render's film plane, one focus node).
     pub fn chromatic(
         camera: &Camera,
         chromatic: &Chromatic,
@@ -529,6 +540,7 @@ impl LensData {
                         (l.exit_pupil_radius_mm.powi(2) * (1.0 + PUPIL_EDGE_TOLERANCE)) as f32;
                 }
                 lens.lrtf.pupil_count = sampling.len() as u32;
+                lens.lrtf.sampling_count = sampling.len() as u32;
                 lens.pupil = sampling;
             }
             (ChannelLenses::Traced(lenses), _) => {
@@ -544,7 +556,9 @@ impl LensData {
                     lens.surfaces.extend(surfaces);
                 }
                 lens.lrtf.pupil_count = sampling.len() as u32;
+                lens.lrtf.sampling_count = sampling.len() as u32;
                 lens.lrtf.max_film_radius = chromatic.sampling.circles.max_film_radius as f32;
+                lens.lrtf.sampling_max_film_radius = lens.lrtf.max_film_radius;
                 lens.pupil = sampling;
             }
             (ChannelLenses::Baked(layers), LensModel::Baked(baked)) => {
@@ -568,8 +582,15 @@ impl LensData {
                             .into(),
                     ));
                 }
-                let g = table.gpu_params(layers[0], baked.stop_radius);
-                lens.lrtf = g;
+                let g = table.gpu_params(layers[0], baked.stop_radius, baked.film_z());
+                // The union is already the render's film plane's: one focus node.
+                lens.lrtf = GpuParams {
+                    sampling_max_film_radius: chromatic.sampling.circles.max_film_radius as f32,
+                    sampling_count: sampling.len() as u32,
+                    focus_count: 1,
+                    focus_coordinate: 0.0,
+                    ..g
+                };
                 lens.transfer.clear();
                 lens.aux.clear();
                 lens.pupil.clear();

@@ -23,6 +23,9 @@ const DEPTH_TOLERANCE: f32 = 1e-5;
 /// relative tolerance alone missed a background at 100 km behind a subject at 2 m.
 const DEPTH_SLACK: f32 = 4.0 * f32::EPSILON;
 const NO_CROSSING: f32 = 1e30;
+/// The shader's `MONOCHROME_SAMPLING_BLOCK`: a monochrome render's sampling pupil follows the
+/// coordinate pupil's block.
+const MONOCHROME_SAMPLING_BLOCK: u32 = 1;
 
 type Vec2 = [f32; 2];
 type Vec3 = [f32; 3];
@@ -532,22 +535,33 @@ pub fn object_ray(
     ray.valid.then_some((ray.origin, ray.direction))
 }
 
-/// The shader's `lrtf_circle_at`: the pupil circle (centre_x, radius) of block `block` for a
-/// film radius, linear between the stored film radii.
-fn pupil_at(lens: &LensData, block: u32, film_radius: f32) -> Vec2 {
-    let n = lens.lrtf.pupil_count;
-    let first = (block * n) as usize;
-    if n == 1 || lens.lrtf.max_film_radius <= 0.0 {
-        return lens.pupil[first];
+/// The shader's `lrtf_sampling_pupil_at`: the sampling pupil's circle (centre_x, radius) for a
+/// film radius on the render's film plane, bilinear in film radius and focus, its circles from
+/// block `block` of the pupil buffer on.
+fn sampling_pupil_at(lens: &LensData, block: u32, film_radius: f32) -> Vec2 {
+    let p = &lens.lrtf;
+    let n = p.sampling_count;
+    let (mut i, mut f) = (0, 0.0);
+    if n > 1 && p.sampling_max_film_radius > 0.0 {
+        let t = (film_radius / p.sampling_max_film_radius).clamp(0.0, 1.0) * (n - 1) as f32;
+        i = (t.floor() as u32).min(n - 2);
+        f = t - i as f32;
     }
-    let t = (film_radius / lens.lrtf.max_film_radius).clamp(0.0, 1.0) * (n - 1) as f32;
-    let i = (t.floor() as u32).min(n - 2);
-    let f = t - i as f32;
-    let (a, b) = (
-        lens.pupil[first + i as usize],
-        lens.pupil[first + i as usize + 1],
-    );
-    [a[0] * (1.0 - f) + b[0] * f, a[1] * (1.0 - f) + b[1] * f]
+    let i1 = (i + 1).min(n - 1);
+    let (mut j, mut g) = (0, 0.0);
+    if p.focus_count > 1 {
+        let s = p.focus_coordinate.clamp(0.0, (p.focus_count - 1) as f32);
+        j = (s.floor() as u32).min(p.focus_count - 2);
+        g = s - j as f32;
+    }
+    let j1 = (j + 1).min(p.focus_count - 1);
+    let first = block * p.pupil_count;
+    let circle = |node: u32, k: u32| lens.pupil[(first + node * n + k) as usize];
+    let mix2 =
+        |a: Vec2, b: Vec2, t: f32| [a[0] * (1.0 - t) + b[0] * t, a[1] * (1.0 - t) + b[1] * t];
+    let near = mix2(circle(j, i), circle(j, i1), f);
+    let far = mix2(circle(j1, i), circle(j1, i1), f);
+    mix2(near, far, g)
 }
 
 /// A lens sample: the point on the sampling plane for unit-square sample `lens_u` from `film`,
@@ -573,7 +587,7 @@ pub(crate) fn pupil_sample(
     } else {
         [1.0, 0.0]
     };
-    let circle = pupil_at(lens, block, film_radius);
+    let circle = sampling_pupil_at(lens, block, film_radius);
     let centre = [azimuth[0] * circle[0], azimuth[1] * circle[0]];
     let mut radius = circle[1];
     if film[2] != frame.film_z {
@@ -643,7 +657,7 @@ fn render_pixel(
     let mut sum = [0.0f32; 3];
     for s in 0..frame.sample_count {
         let (film, lens_u) = pixel_sample(frame, &scrambles, x, y, frame.sample_offset + s);
-        let (pupil, weight) = pupil_sample(frame, lens, 0, film, lens_u);
+        let (pupil, weight) = pupil_sample(frame, lens, MONOCHROME_SAMPLING_BLOCK, film, lens_u);
         let ray = lens_ray(frame, rays, film, pupil);
         if let Some(colour) = trace_layers(frame, layers, &ray) {
             for (acc, c) in sum.iter_mut().zip(colour) {

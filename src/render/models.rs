@@ -9,7 +9,7 @@
 use super::RenderError;
 use super::camera::ParaxialLens;
 use crate::lrtf::LrtfTable;
-use crate::lrtf::bake::{passes_from_film, rear_search_radius, stopped_down};
+use crate::lrtf::bake::{fit_film_pupil, rear_search_radius, stopped_down};
 use crate::paraxial::{ObjectPosition, Paraxial, ParaxialError, ParaxialOptions};
 use crate::pupil::{self, PupilCircle, PupilFitSettings, PupilTable};
 use crate::seidel::{Seidel, SeidelTerms};
@@ -193,13 +193,9 @@ pub fn fit_effective_pupil(
     nodes: usize,
 ) -> Result<PupilTable, RenderError> {
     let tracer = Tracer::new(system);
-    let rear_z = system.last_vertex_z();
     let search = rear_search_radius(system);
     let settings = PupilFitSettings::default();
-    let fit = |film_radius: f64| {
-        let passes = |rear: [f64; 2]| passes_from_film(&tracer, film_radius, film_z, rear_z, rear);
-        pupil::fit_pupil(&passes, search, &settings)
-    };
+    let fit = |film_radius: f64| fit_film_pupil(&tracer, film_z, search, &settings, film_radius);
     let table = pupil::build_table(&fit, max_film_radius, nodes, 2);
     if table.circles[0].radius <= 0.0 {
         return Err(RenderError::InvalidSetting(format!(
@@ -209,7 +205,8 @@ pub fn fit_effective_pupil(
     Ok(table)
 }
 
-/// A baked table and the stop radius realising the render's f-number.
+/// A baked table, the stop radius realising the render's f-number and the film plane the render
+/// focuses on (any plane of the table's focus range).
 #[derive(Clone, Debug, PartialEq)]
 pub struct BakedLens {
     pub paraxial: ParaxialLens,
@@ -219,13 +216,26 @@ pub struct BakedLens {
     /// wavelength's after [`BakedLens::with_wavelength`] (a three-wavelength table lists its
     /// layers R, G, B or C, d, F, so layer 0 is rarely the design one).
     pub layer: usize,
+    film_z: f64,
 }
 
 impl BakedLens {
+    /// The table with the film on its reference plane (the far end of its focus range).
     pub fn new(
         table: LrtfTable,
         first_order: &FirstOrderModels,
         f_number: f64,
+    ) -> Result<BakedLens, RenderError> {
+        let film_z = table.layers[0].frame.film_plane_z;
+        BakedLens::focused(table, first_order, f_number, film_z)
+    }
+
+    /// The table with the film on the plane `film_z`, which its focus range must cover.
+    pub fn focused(
+        table: LrtfTable,
+        first_order: &FirstOrderModels,
+        f_number: f64,
+        film_z: f64,
     ) -> Result<BakedLens, RenderError> {
         let stop_radius = table.stop_radius(0, f_number).ok_or_else(|| {
             RenderError::InvalidSetting(format!(
@@ -233,11 +243,18 @@ impl BakedLens {
                 table.info.f_number
             ))
         })?;
+        let asked = format!("of the film at z = {film_z:.4} mm");
+        table
+            .info
+            .focus
+            .check_film_z(film_z, &asked)
+            .map_err(|e| RenderError::InvalidSetting(format!("baked lens: {e}")))?;
         Ok(BakedLens {
             paraxial: first_order.thick.clone(),
             table,
             stop_radius,
             layer: 0,
+            film_z,
         })
     }
 
@@ -251,17 +268,17 @@ impl BakedLens {
         Ok(BakedLens { layer, ..self })
     }
 
-    /// The film plane the table was baked for: the render's film must sit there.
+    /// The film plane the render focuses on: the camera's film must sit there.
     pub fn film_z(&self) -> f64 {
-        self.table.layers[self.layer].frame.film_plane_z
+        self.film_z
     }
 
-    /// The effective pupil of layer `layer`.
+    /// The sampling pupil of layer `layer` on this lens's film plane.
     pub fn pupil(&self, layer: usize) -> PupilSampling {
         let layer = &self.table.layers[layer];
         PupilSampling {
             z: layer.frame.rear_plane_z,
-            circles: layer.pupil.clone(),
+            circles: layer.sampling.at_film_z(self.film_z),
         }
     }
 }

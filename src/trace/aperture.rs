@@ -61,8 +61,8 @@ impl Diaphragm {
         })
     }
 
-    /// Whether the point (x, y) of the stop plane passes the blades.
-    pub fn contains(&self, x: f64, y: f64) -> bool {
+    /// The edge whose wedge holds (x, y) and the point's projection on its outward direction.
+    fn nearest_edge(&self, x: f64, y: f64) -> ([f64; 2], f64) {
         let mut best = [1.0, 0.0];
         let mut along = f64::NEG_INFINITY;
         for edge in &self.edges {
@@ -72,6 +72,26 @@ impl Diaphragm {
                 best = *edge;
             }
         }
+        (best, along)
+    }
+
+    /// How far inside the opening (x, y) lies (mm): positive inside, zero on the blade edges,
+    /// negative outside. It is continuous across the wedges (neighbouring edges give the same
+    /// value on the corner ray between them), so an interpolated margin places the edge.
+    pub fn margin(&self, x: f64, y: f64) -> f64 {
+        let (best, along) = self.nearest_edge(x, y);
+        match self.arc {
+            None => self.apothem - along,
+            Some((centre, radius_sq)) => {
+                let across = -x * best[1] + y * best[0];
+                radius_sq.sqrt() - (along - centre).hypot(across)
+            }
+        }
+    }
+
+    /// Whether the point (x, y) of the stop plane passes the blades.
+    pub fn contains(&self, x: f64, y: f64) -> bool {
+        let (best, along) = self.nearest_edge(x, y);
         match self.arc {
             None => along <= self.apothem,
             Some((centre, radius_sq)) => {
@@ -171,6 +191,47 @@ mod tests {
             assert!(d.contains(9.999_999 * a.cos(), 9.999_999 * a.sin()));
             assert!(!d.contains(10.000_001 * a.cos(), 10.000_001 * a.sin()));
         }
+    }
+
+    #[test]
+    fn margin_is_positive_inside_zero_on_the_edge_and_continuous() {
+        for (count, curvature) in [(6, 0.0), (5, 0.4), (9, 1.0)] {
+            let d = blades(count, 17.0, curvature);
+            // Its sign is the containment test wherever the point is not on the edge itself.
+            let n = 200;
+            for i in 0..n {
+                for j in 0..n {
+                    let (x, y) = (
+                        -11.0 + 22.0 * i as f64 / n as f64,
+                        -11.0 + 22.0 * j as f64 / n as f64,
+                    );
+                    let m = d.margin(x, y);
+                    if m.abs() > 1e-9 {
+                        assert_eq!(m > 0.0, d.contains(x, y), "{count} {curvature} ({x}, {y})");
+                    }
+                }
+            }
+            // Around a circle the margin changes by no more than the distance moved (it is a
+            // 1-Lipschitz distance along the wedge's normal or to the arc's centre), also where
+            // the nearest edge switches.
+            let steps = 20_000;
+            let step = 2.0 * PI * 8.0 / steps as f64;
+            let at = |k: usize| {
+                let a = 2.0 * PI * k as f64 / steps as f64;
+                d.margin(8.0 * a.cos(), 8.0 * a.sin())
+            };
+            for k in 0..steps {
+                assert!(
+                    (at(k + 1) - at(k)).abs() <= step * (1.0 + 1e-9),
+                    "{count} {curvature} {k}"
+                );
+            }
+        }
+        // A straight edge: the margin is the distance to it along its normal.
+        let d = blades(6, 30.0, 0.0);
+        let apothem = 10.0 * (PI / 6.0).cos();
+        assert!((d.margin(apothem - 0.25, 0.0) - 0.25).abs() < 1e-12);
+        assert!((d.margin(apothem + 0.5, 0.0) + 0.5).abs() < 1e-12);
     }
 
     #[test]

@@ -142,6 +142,13 @@ impl Lanes {
         self.front = 1 - self.front;
     }
 
+    /// Shows `visit` the current positions: the hit points on surface `i` just crossed.
+    #[inline(always)]
+    fn show(&self, i: usize, visit: &mut impl LaneVisitor) {
+        let position = &self.states[self.front].position;
+        visit.crossed(i, &position[0], &position[1]);
+    }
+
     /// The current state to read and the other one to write.
     fn split(&mut self) -> (&State, &mut State) {
         let [a, b] = &mut self.states;
@@ -149,14 +156,38 @@ impl Lanes {
     }
 }
 
+/// What a lane visitor sees after each surface: the surface's 0-based index and every lane's
+/// hit point on it (x and y, lens frame). Lanes that have ended hold meaningless numbers.
+pub(crate) trait LaneVisitor {
+    fn crossed(&mut self, surface: usize, x: &[f64; LANES], y: &[f64; LANES]);
+}
+
+/// The visitor of a plain trace.
+struct NoVisit;
+
+impl LaneVisitor for NoVisit {
+    #[inline(always)]
+    fn crossed(&mut self, _: usize, _: &[f64; LANES], _: &[f64; LANES]) {}
+}
+
 impl Tracer {
     /// Traces the live lanes through every surface in `FORWARD` order.
     pub(crate) fn run_lanes<const FORWARD: bool>(&self, lanes: &mut Lanes, check_apertures: bool) {
+        self.run_lanes_visiting::<FORWARD>(lanes, check_apertures, &mut NoVisit)
+    }
+
+    /// [`Tracer::run_lanes`], showing `visit` every surface's hit points as the lanes cross it.
+    pub(crate) fn run_lanes_visiting<const FORWARD: bool>(
+        &self,
+        lanes: &mut Lanes,
+        check_apertures: bool,
+        visit: &mut impl LaneVisitor,
+    ) {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
-            return self.lanes_body::<FORWARD, true>(lanes, check_apertures);
+            return self.lanes_body::<FORWARD, true>(lanes, check_apertures, visit);
         }
-        self.lanes_body::<FORWARD, false>(lanes, check_apertures)
+        self.lanes_body::<FORWARD, false>(lanes, check_apertures, visit)
     }
 
     /// `AVX2` is true only when the processor has been checked to support it.
@@ -165,6 +196,7 @@ impl Tracer {
         &self,
         lanes: &mut Lanes,
         check_apertures: bool,
+        visit: &mut impl LaneVisitor,
     ) {
         let n = self.surfaces.len();
         for step in 0..n {
@@ -179,23 +211,25 @@ impl Tracer {
             let refracts = s.index_before != s.index_after;
             match (s.profile, s.bladed, refracts) {
                 (Profile::Sphere { .. }, false, true) => {
-                    launch::<AVX2>(sphere_lanes::<FORWARD, true>, s, lanes, check_apertures)
+                    launch::<AVX2, SphereKernel<FORWARD, true>>(s, lanes, check_apertures)
                 }
                 (Profile::Sphere { .. }, false, false) => {
-                    launch::<AVX2>(sphere_lanes::<FORWARD, false>, s, lanes, check_apertures)
+                    launch::<AVX2, SphereKernel<FORWARD, false>>(s, lanes, check_apertures)
                 }
                 (Profile::Plane, false, true) => {
-                    launch::<AVX2>(plane_lanes::<FORWARD, true>, s, lanes, check_apertures)
+                    launch::<AVX2, PlaneKernel<FORWARD, true>>(s, lanes, check_apertures)
                 }
                 (Profile::Plane, false, false) => {
-                    launch::<AVX2>(plane_lanes::<FORWARD, false>, s, lanes, check_apertures)
+                    launch::<AVX2, PlaneKernel<FORWARD, false>>(s, lanes, check_apertures)
                 }
                 _ => {
                     self.lanes_one_by_one::<FORWARD>(s, i, lanes, check_apertures);
+                    lanes.show(i, visit);
                     continue;
                 }
             }
             lanes.commit(i);
+            lanes.show(i, visit);
         }
     }
 
@@ -220,46 +254,81 @@ impl Tracer {
     }
 }
 
-/// Runs a lane kernel, which crosses one surface with every lane of the current state,
-/// writing each lane's hit point (lens frame) and new direction to the other state and its
-/// event code to `events`. Dead lanes are computed too and ignored afterwards.
+/// A lane kernel: crosses one surface with every lane of `current`, writing each lane's hit
+/// point (lens frame) and new direction to `next` and its event code to `events`. Dead lanes are
+/// computed too and ignored afterwards.
+trait Kernel {
+    fn cross(
+        s: &FlatSurface,
+        current: &State,
+        next: &mut State,
+        events: &mut [u64; LANES],
+        check_apertures: bool,
+    );
+}
+
+struct SphereKernel<const FORWARD: bool, const REFRACTS: bool>;
+struct PlaneKernel<const FORWARD: bool, const REFRACTS: bool>;
+
+impl<const FORWARD: bool, const REFRACTS: bool> Kernel for SphereKernel<FORWARD, REFRACTS> {
+    #[inline(always)]
+    fn cross(
+        s: &FlatSurface,
+        current: &State,
+        next: &mut State,
+        events: &mut [u64; LANES],
+        check_apertures: bool,
+    ) {
+        sphere_lanes::<FORWARD, REFRACTS>(s, current, next, events, check_apertures)
+    }
+}
+
+impl<const FORWARD: bool, const REFRACTS: bool> Kernel for PlaneKernel<FORWARD, REFRACTS> {
+    #[inline(always)]
+    fn cross(
+        s: &FlatSurface,
+        current: &State,
+        next: &mut State,
+        events: &mut [u64; LANES],
+        check_apertures: bool,
+    ) {
+        plane_lanes::<FORWARD, REFRACTS>(s, current, next, events, check_apertures)
+    }
+}
+
+/// Runs kernel `K` on the lanes and keeps its event codes.
 #[inline(always)]
-fn launch<const AVX2: bool>(
-    kernel: impl Fn(&FlatSurface, &State, &mut State, &mut [u64; LANES], bool),
-    s: &FlatSurface,
-    lanes: &mut Lanes,
-    check_apertures: bool,
-) {
+fn launch<const AVX2: bool, K: Kernel>(s: &FlatSurface, lanes: &mut Lanes, check_apertures: bool) {
     let mut events = [CROSSED; LANES];
     let (current, next) = lanes.split();
     #[cfg(target_arch = "x86_64")]
     if AVX2 {
         // SAFETY: AVX2 is only true after the processor was found to support it.
-        unsafe { with_avx2(kernel, s, current, next, &mut events, check_apertures) };
+        unsafe { with_avx2::<K>(s, current, next, &mut events, check_apertures) };
     } else {
-        kernel(s, current, next, &mut events, check_apertures);
+        K::cross(s, current, next, &mut events, check_apertures);
     }
     #[cfg(not(target_arch = "x86_64"))]
-    kernel(s, current, next, &mut events, check_apertures);
+    K::cross(s, current, next, &mut events, check_apertures);
     lanes.events = events;
 }
 
-/// Runs a kernel compiled for AVX2 (the kernel is inlined here). Only the vector width
-/// changes: Rust never fuses a multiply and an add on its own, and vector square roots and
-/// divisions round exactly as scalar ones, so the results stay bit-identical to the one-ray
-/// path.
+/// Runs a kernel compiled for AVX2. The kernel is a static call to an `inline(always)` function,
+/// so its body is compiled here, with the feature (a kernel passed as a closure or function value
+/// was not inlined and ran as SSE2 code). Only the vector width changes: Rust never fuses a
+/// multiply and an add on its own, and vector square roots and divisions round exactly as scalar
+/// ones, so the results stay bit-identical to the one-ray path.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 #[inline(never)]
-fn with_avx2(
-    kernel: impl Fn(&FlatSurface, &State, &mut State, &mut [u64; LANES], bool),
+fn with_avx2<K: Kernel>(
     s: &FlatSurface,
     current: &State,
     next: &mut State,
     events: &mut [u64; LANES],
     check_apertures: bool,
 ) {
-    kernel(s, current, next, events, check_apertures)
+    K::cross(s, current, next, events, check_apertures)
 }
 
 /// The sphere kernel: [`super::intersect::sphere`], the aperture test and
@@ -438,7 +507,7 @@ mod tests {
         for check in [true, false] {
             for group in rays.chunks(LANES) {
                 let mut lanes = Lanes::new(group.iter().copied());
-                tracer.lanes_body::<true, false>(&mut lanes, check);
+                tracer.lanes_body::<true, false>(&mut lanes, check, &mut NoVisit);
                 for (l, ray) in group.iter().enumerate() {
                     let apertures = if check {
                         Apertures::Checked

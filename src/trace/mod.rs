@@ -24,6 +24,7 @@ mod refract;
 pub use aim::{AimError, RaySource, aim_at_stop, traceable_field_deg};
 pub use batch::{BatchTrace, RayBatch};
 pub use bundle::FieldBundle;
+pub(crate) use lanes::{LANES, LaneVisitor, Lanes};
 
 use crate::paraxial::Pupil;
 use crate::prescription::Shape;
@@ -336,6 +337,22 @@ impl Tracer {
                 .diaphragm
                 .as_ref()
                 .is_none_or(|blades| blades.contains(x, y))
+    }
+
+    /// Lens-frame z of the last surface's vertex (the rear vertex plane).
+    pub fn last_vertex_z(&self) -> f64 {
+        self.surfaces.last().map_or(0.0, |s| s.vertex_z)
+    }
+
+    /// Clear semi-aperture of 0-based surface `i` (mm).
+    pub(crate) fn semi_aperture(&self, i: usize) -> f64 {
+        self.surfaces[i].semi_aperture_sq.sqrt()
+    }
+
+    /// How far inside the stop's blades the stop-plane point (x, y) lies (mm, negative
+    /// outside); None for a stop without blades.
+    pub(crate) fn blade_margin(&self, x: f64, y: f64) -> Option<f64> {
+        self.diaphragm.as_ref().map(|blades| blades.margin(x, y))
     }
 
     /// The paraxial entrance pupil that the stop's clear aperture fills; None when it lies at

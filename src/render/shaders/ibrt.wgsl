@@ -91,6 +91,9 @@ const DEPTH_TOLERANCE: f32 = 1e-5;
 // (four f32 ulps): a far layer's w is a small difference of the near end's large w.
 const DEPTH_SLACK: f32 = 4.0 * 1.1920929e-7;
 const NO_CROSSING: f32 = 1e30;
+// The block of lrtf_pupil a monochrome render samples lenses from: the sampling pupil, after the
+// coordinate pupil's block.
+const MONOCHROME_SAMPLING_BLOCK: u32 = 1u;
 
 fn mix_bits(x: u32) -> u32 {
     var h = x;
@@ -226,7 +229,8 @@ struct PupilSample {
     weight: f32,
 }
 
-// Uniform over the film radius's pupil circle in block `block` of lrtf_pupil, its centre turned
+// Uniform over the film radius's sampling-pupil circle (lrtf_sampling_pupil_at: its circles from
+// block `block` of lrtf_pupil on, bilinear in film radius and focus), its centre turned
 // to the film point's azimuth (the disc sample is not turned, so stratification does not flip
 // across the axis), the circle widened for a film point off the plane it was fitted on
 // (OffPlaneBound in models.rs); weight the disc's area times cos(at the pupil) cos(at the
@@ -237,7 +241,7 @@ fn pupil_sample(film: vec3<f32>, lens_u: vec2<f32>, block: u32) -> PupilSample {
     if film_radius > 0.0 {
         azimuth = film.xy / film_radius;
     }
-    let circle = lrtf_circle_at(film_radius, block);
+    let circle = lrtf_sampling_pupil_at(film_radius, block);
     let centre = azimuth * circle.x;
     var radius = circle.y;
     if film.z != frame.film_z {
@@ -462,7 +466,7 @@ fn render(@builtin(global_invocation_id) id: vec3<u32>) {
     var sum = vec3<f32>(0.0);
     for (var s = 0u; s < frame.sample_count; s += 1u) {
         let at = pixel_sample(id.xy, scrambles, frame.sample_offset + s);
-        let sample = pupil_sample(at.film, at.lens_u, 0u);
+        let sample = pupil_sample(at.film, at.lens_u, MONOCHROME_SAMPLING_BLOCK);
         let found = trace_layers(lens_ray(at.film, sample.point));
         if (found.hit) {
             sum += sample.weight * found.colour;
