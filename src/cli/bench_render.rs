@@ -5,12 +5,11 @@
 //! layers), a row per (model, backend, samples per pixel), so the expensive cells can be measured
 //! in separate runs; `<out>/timings.md` is rewritten from all rows each time.
 
-use super::demo::TracedAndBaked;
+use super::demo::{TracedAndBaked, stage, write_text};
 use super::lens::ReadArgs;
 use super::render::{RenderLens, default_table_dir};
 use anyhow::Context;
 use clap::Args;
-use indicatif::{ProgressBar, ProgressStyle};
 use lensbake::render::camera::{Camera, Film, Focus, LensModel};
 use lensbake::render::gpu::GpuRenderer;
 use lensbake::render::image::RgbImage;
@@ -19,7 +18,7 @@ use lensbake::render::scene::Scene;
 use lensbake::render::{Backend, RenderSettings, layer_view, render_layers};
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 #[derive(Args, Debug)]
 pub struct RenderBenchArgs {
@@ -101,14 +100,6 @@ fn mean_abs_error(image: &RgbImage, reference: &RgbImage) -> f64 {
         .map(|(a, b)| (0..3).map(|c| (a[c] - b[c]).abs() as f64).sum::<f64>())
         .sum();
     sum / (3 * image.pixels.len()).max(1) as f64
-}
-
-fn spinner(message: String) -> ProgressBar {
-    let bar = ProgressBar::new_spinner();
-    bar.set_style(ProgressStyle::with_template("{spinner} {msg} {elapsed}").expect("template"));
-    bar.set_message(message);
-    bar.enable_steady_tick(Duration::from_millis(200));
-    bar
 }
 
 fn now_unix() -> u64 {
@@ -214,7 +205,7 @@ pub fn run(args: RenderBenchArgs) -> anyhow::Result<()> {
             samples_per_pixel: spp,
             ..base
         };
-        let bar = spinner(format!("reference, {spp} spp"));
+        let bar = stage(&format!("reference, {spp} spp"));
         let started = Instant::now();
         let reference = render_reference(reference_camera, &scene, &settings)?;
         let seconds = started.elapsed().as_secs_f64();
@@ -234,7 +225,7 @@ pub fn run(args: RenderBenchArgs) -> anyhow::Result<()> {
         );
         for (backend, backend_name) in &backends {
             for (model, camera) in &cameras {
-                let bar = spinner(format!("{model} on {backend_name}, {spp} spp"));
+                let bar = stage(&format!("{model} on {backend_name}, {spp} spp"));
                 let started = Instant::now();
                 let image = render_layers(camera, &ldi, &settings, *backend, gpu.as_ref())?;
                 let seconds = started.elapsed().as_secs_f64();
@@ -254,13 +245,13 @@ pub fn run(args: RenderBenchArgs) -> anyhow::Result<()> {
                 );
                 record(&mut timings, row);
                 // Written after every frame: a long run stopped part-way keeps what it measured.
-                write_atomically(&json_path, &serde_json::to_string_pretty(&timings)?)?;
-                write_atomically(&args.out.join("timings.md"), &markdown(&timings))?;
+                write_text(&json_path, &serde_json::to_string_pretty(&timings)?)?;
+                write_text(&args.out.join("timings.md"), &markdown(&timings))?;
             }
         }
-        write_atomically(&json_path, &serde_json::to_string_pretty(&timings)?)?;
+        write_text(&json_path, &serde_json::to_string_pretty(&timings)?)?;
     }
-    write_atomically(&args.out.join("timings.md"), &markdown(&timings))?;
+    write_text(&args.out.join("timings.md"), &markdown(&timings))?;
     println!("wrote {} and timings.md", json_path.display());
     Ok(())
 }
@@ -272,13 +263,6 @@ fn record(timings: &mut Timings, row: Row) {
         Some(existing) => *existing = row,
         None => timings.rows.push(row),
     }
-}
-
-fn write_atomically(path: &std::path::Path, text: &str) -> anyhow::Result<()> {
-    let temp = path.with_extension("tmp");
-    std::fs::write(&temp, text).with_context(|| format!("writing {}", temp.display()))?;
-    std::fs::rename(&temp, path).with_context(|| format!("writing {}", path.display()))?;
-    Ok(())
 }
 
 fn markdown(timings: &Timings) -> String {

@@ -70,7 +70,7 @@ struct Timings {
     max_abs_error: f64,
 }
 
-fn stage(message: &str) -> ProgressBar {
+pub(super) fn stage(message: &str) -> ProgressBar {
     let bar = ProgressBar::new_spinner();
     bar.set_style(ProgressStyle::with_template("{spinner} {msg} {elapsed}").expect("template"));
     bar.set_message(message.to_string());
@@ -102,7 +102,8 @@ fn error_map(a: &RgbImage, b: &RgbImage) -> RgbImage {
     }
 }
 
-fn write_text(path: &Path, text: &str) -> anyhow::Result<()> {
+/// Writes `text` to a temporary file beside `path` and renames it into place.
+pub(super) fn write_text(path: &Path, text: &str) -> anyhow::Result<()> {
     let temp = path.with_extension("tmp");
     std::fs::write(&temp, text).with_context(|| format!("writing {}", temp.display()))?;
     std::fs::rename(&temp, path).with_context(|| format!("writing {}", path.display()))?;
