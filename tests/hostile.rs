@@ -3,6 +3,9 @@
 //! interrupted writes, and a bounded-time fuzz run over mutated tables. Every case must end in a
 //! typed error or a usable table, never a panic, and a failed write must leave nothing behind.
 
+mod common;
+
+use common::Rng;
 use lensbake::lrtf::bake::{BakeRequest, bake};
 use lensbake::lrtf::io::{DATA_FILE, SIDECAR_FILE, TableError, read_table, write_table};
 use lensbake::lrtf::{Lookup, LrtfTable, Ray as LrtfRay};
@@ -668,22 +671,6 @@ fn an_interrupted_bake_leaves_a_complete_table_or_a_typed_error() {
     }
     if !leftovers.is_empty() {
         eprintln!("temporary files left by killed bakes: {leftovers:?}");
-    }
-}
-
-/// xorshift64*: small and seeded, so a failing case can be replayed by its index.
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
-    }
-
-    fn below(&mut self, n: usize) -> usize {
-        (self.next() % n.max(1) as u64) as usize
     }
 }
 

@@ -4,29 +4,13 @@
 
 mod common;
 
-use common::{lens_file, test_data};
+use common::{Rng, lens_file, test_data};
 use lensbake::prescription::formats::{
     Format, LoadOptions, PbrtThickness, read_bytes, read_str, write_ron,
 };
 use lensbake::system::LensSystem;
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::Path;
-
-/// xorshift64*: small, seeded, good enough to pick mutations.
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
-    }
-
-    fn below(&mut self, n: usize) -> usize {
-        (self.next() % n.max(1) as u64) as usize
-    }
-}
 
 /// Tokens that reach the corners of the readers.
 const TOKENS: &[&str] = &[

@@ -39,55 +39,48 @@ fn every_wgsl_module_validates_with_naga() {
 
 #[test]
 fn frame_params_layout_matches_wgsl() {
-    let (members, span) = common::wgsl_struct(IBRT_SHADER, "FrameParams");
-    assert_eq!(span, std::mem::size_of::<FrameParams>());
-    macro_rules! offsets {
-        ($($field:ident),*) => { vec![$((stringify!($field), std::mem::offset_of!(FrameParams, $field))),*] };
-    }
-    let rust = offsets!(
-        width,
-        height,
-        samples_per_pixel,
-        seed,
-        layer_width,
-        layer_height,
-        layer_count,
-        layer_groups,
-        pyramid_levels,
-        sample_offset,
-        sample_count,
-        model,
-        film_origin_x,
-        film_origin_y,
-        film_step_x,
-        film_step_y,
-        film_z,
-        pupil_z,
-        pupil_weight,
-        focal_length,
-        front_principal_z,
-        rear_principal_z,
-        eye_z,
-        tan_half_x,
-        tan_half_y,
-        near_depth,
-        far_depth,
-        film_origin_z,
-        film_step_x_y,
-        film_step_x_z,
-        film_step_y_x,
-        film_step_y_z,
-        film_normal_x,
-        film_normal_y,
-        film_normal_z,
-        pupil_lipschitz,
-        pupil_centre_slack
+    common::assert_wgsl_layout!(
+        IBRT_SHADER,
+        FrameParams {
+            width,
+            height,
+            samples_per_pixel,
+            seed,
+            layer_width,
+            layer_height,
+            layer_count,
+            layer_groups,
+            pyramid_levels,
+            sample_offset,
+            sample_count,
+            model,
+            film_origin_x,
+            film_origin_y,
+            film_step_x,
+            film_step_y,
+            film_z,
+            pupil_z,
+            pupil_weight,
+            focal_length,
+            front_principal_z,
+            rear_principal_z,
+            eye_z,
+            tan_half_x,
+            tan_half_y,
+            near_depth,
+            far_depth,
+            film_origin_z,
+            film_step_x_y,
+            film_step_x_z,
+            film_step_y_x,
+            film_step_y_z,
+            film_normal_x,
+            film_normal_y,
+            film_normal_z,
+            pupil_lipschitz,
+            pupil_centre_slack
+        }
     );
-    assert_eq!(members.len(), rust.len());
-    for ((member, member_offset), (name, offset)) in members.iter().zip(rust) {
-        assert_eq!(member, name);
-        assert_eq!(*member_offset, offset, "{name}");
-    }
 }
 
 fn thin_camera(f_number: f64, focus_mm: f64, film: Film) -> Camera {
@@ -558,31 +551,19 @@ fn gpu_matches_cpu_twin_for_every_lens_model_on_straight_and_tilted_sensors() {
 
 #[test]
 fn seidel_params_layout_matches_wgsl() {
-    let (members, span) = common::wgsl_struct(IBRT_SHADER, "SeidelParams");
-    assert_eq!(span, std::mem::size_of::<SeidelParams>());
-    macro_rules! offsets {
-        ($($field:ident),*) => { vec![$((stringify!($field), std::mem::offset_of!(SeidelParams, $field))),*] };
-    }
-    let rust = offsets!(
-        image_z,
-        exit_pupil_z,
-        inverse_chief_height,
-        inverse_marginal_height,
-        spherical,
-        coma,
-        sagittal,
-        tangential,
-        distortion
-    );
-    // The named members first, then the padding to a 16-byte multiple.
-    for ((member, member_offset), (name, offset)) in members.iter().zip(&rust) {
-        assert_eq!(member, name);
-        assert_eq!(member_offset, offset, "{name}");
-    }
-    assert!(
-        members[rust.len()..]
-            .iter()
-            .all(|(name, _)| name.starts_with("pad"))
+    common::assert_wgsl_layout!(
+        IBRT_SHADER,
+        SeidelParams {
+            image_z,
+            exit_pupil_z,
+            inverse_chief_height,
+            inverse_marginal_height,
+            spherical,
+            coma,
+            sagittal,
+            tangential,
+            distortion
+        }
     );
 }
 

@@ -142,41 +142,17 @@ fn landscape_cameras(
 
 #[test]
 fn channel_params_layout_matches_wgsl() {
-    let (members, span) = common::wgsl_struct(IBRT_SHADER, "ChannelParams");
-    assert_eq!(span, std::mem::size_of::<ChannelParams>());
-    let rust = [
-        (
-            "sampling_block",
-            std::mem::offset_of!(ChannelParams, sampling_block),
-        ),
-        (
-            "focal_length",
-            std::mem::offset_of!(ChannelParams, focal_length),
-        ),
-        (
-            "front_principal_z",
-            std::mem::offset_of!(ChannelParams, front_principal_z),
-        ),
-        (
-            "rear_principal_z",
-            std::mem::offset_of!(ChannelParams, rear_principal_z),
-        ),
-        (
-            "exit_pupil_z",
-            std::mem::offset_of!(ChannelParams, exit_pupil_z),
-        ),
-        (
-            "exit_pupil_limit_sq",
-            std::mem::offset_of!(ChannelParams, exit_pupil_limit_sq),
-        ),
-    ];
-    for (name, offset) in rust {
-        let (_, member) = members
-            .iter()
-            .find(|(member, _)| member == name)
-            .unwrap_or_else(|| panic!("{name} missing from the WGSL struct"));
-        assert_eq!(*member, offset, "{name}");
-    }
+    common::assert_wgsl_layout!(
+        IBRT_SHADER,
+        ChannelParams {
+            sampling_block,
+            focal_length,
+            front_principal_z,
+            rear_principal_z,
+            exit_pupil_z,
+            exit_pupil_limit_sq
+        }
+    );
 }
 
 #[test]

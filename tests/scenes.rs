@@ -61,60 +61,51 @@ fn peel_shader_validates_and_shares_the_rust_layouts() {
     )
     .validate(&module)
     .unwrap_or_else(|e| panic!("peel.wgsl: {e:?}"));
-    let layout = |name: &str| -> (u32, Vec<(String, u32)>) {
-        module
-            .types
-            .iter()
-            .find_map(|(_, ty)| match (&ty.name, &ty.inner) {
-                (Some(n), naga::TypeInner::Struct { members, span }) if n == name => Some((
-                    *span,
-                    members
-                        .iter()
-                        .map(|m| (m.name.clone().unwrap_or_default(), m.offset))
-                        .collect(),
-                )),
-                _ => None,
-            })
-            .unwrap_or_else(|| panic!("{name} in peel.wgsl"))
-    };
-    macro_rules! check {
-        ($ty:ident, $($field:ident),*) => {{
-            let (span, members) = layout(stringify!($ty));
-            assert_eq!(span as usize, std::mem::size_of::<$ty>(), stringify!($ty));
-            let rust: Vec<(&str, usize)> = vec![$((stringify!($field), std::mem::offset_of!($ty, $field))),*];
-            // Rust pads with arrays where WGSL names each pad word: compare the named fields.
-            for (name, offset) in rust {
-                let wgsl = members.iter().find(|(n, _)| n == name)
-                    .unwrap_or_else(|| panic!("{}.{name} missing in WGSL", stringify!($ty)));
-                assert_eq!(wgsl.1 as usize, offset, "{}.{name}", stringify!($ty));
-            }
-        }};
-    }
-    check!(
-        PeelParams,
-        width,
-        height,
-        pass_index,
-        peeling,
-        tan_half_x,
-        tan_half_y,
-        inverse_depth_scale,
-        pixel_tangent,
-        aperture_diameter,
-        umbra_pixels,
-        separation,
-        pad
+    common::assert_wgsl_layout!(
+        PEEL_SHADER,
+        PeelParams {
+            width,
+            height,
+            pass_index,
+            peeling,
+            tan_half_x,
+            tan_half_y,
+            inverse_depth_scale,
+            pixel_tangent,
+            aperture_diameter,
+            umbra_pixels,
+            separation,
+            pad
+        }
     );
-    check!(PeelTriangle, plane, u_map, v_map, material);
-    check!(PeelMaterial, base_colour, texture, emissive, pad);
-    check!(
-        PeelTexture,
-        offset,
-        width,
-        height,
-        wrap_u,
-        wrap_v,
-        filter_mode
+    common::assert_wgsl_layout!(
+        PEEL_SHADER,
+        PeelTriangle {
+            plane,
+            u_map,
+            v_map,
+            material
+        }
+    );
+    common::assert_wgsl_layout!(
+        PEEL_SHADER,
+        PeelMaterial {
+            base_colour,
+            texture,
+            emissive,
+            pad
+        }
+    );
+    common::assert_wgsl_layout!(
+        PEEL_SHADER,
+        PeelTexture {
+            offset,
+            width,
+            height,
+            wrap_u,
+            wrap_v,
+            filter_mode
+        }
     );
     // The vertex buffer layout is declared in gpu_peel.rs: position then triangle, 16 bytes.
     assert_eq!(std::mem::size_of::<PeelVertex>(), 16);

@@ -335,6 +335,58 @@ pub fn gpu_or_skip(test: &str) -> Option<lensbake::render::gpu::GpuRenderer> {
     }
 }
 
+/// Asserts that the Rust struct `$ty` (shared with a shader) has the layout naga gives the WGSL
+/// struct of the same name (or `$wgsl_name`) in `$source`: the same size, each listed field at
+/// the same offset, and every WGSL member either listed or a `pad*`/`_pad*` word (Rust pads with
+/// arrays where WGSL names each word), so a member added on one side only fails.
+#[allow(unused_macros)]
+macro_rules! assert_wgsl_layout {
+    ($source:expr, $ty:ident { $($field:ident),* $(,)? }) => {
+        $crate::common::assert_wgsl_layout!(@check $source, $ty, stringify!($ty), [$($field),*])
+    };
+    ($source:expr, $ty:ident as $wgsl_name:literal { $($field:ident),* $(,)? }) => {
+        $crate::common::assert_wgsl_layout!(@check $source, $ty, $wgsl_name, [$($field),*])
+    };
+    (@check $source:expr, $ty:ident, $wgsl_name:expr, [$($field:ident),*]) => {{
+        let name = $wgsl_name;
+        let (members, span) = $crate::common::wgsl_struct($source, name);
+        assert_eq!(span, std::mem::size_of::<$ty>(), "size of {name}");
+        let rust = [$((stringify!($field), std::mem::offset_of!($ty, $field))),*];
+        for (field, offset) in rust {
+            let wgsl = members
+                .iter()
+                .find(|(member, _)| member == field)
+                .unwrap_or_else(|| panic!("{name}.{field} missing from the WGSL struct"));
+            assert_eq!(wgsl.1, offset, "{name}.{field}");
+        }
+        for (member, _) in &members {
+            assert!(
+                member.trim_start_matches('_').starts_with("pad")
+                    || rust.iter().any(|(field, _)| field == member),
+                "{name}.{member} is in the WGSL struct but not in the Rust one"
+            );
+        }
+    }};
+}
+#[allow(unused_imports)]
+pub(crate) use assert_wgsl_layout;
+
+/// xorshift64*: small and seeded, so a failing case can be replayed by its seed and index.
+pub struct Rng(pub u64);
+
+impl Rng {
+    pub fn next(&mut self) -> u64 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
+    }
+
+    pub fn below(&mut self, n: usize) -> usize {
+        (self.next() % n.max(1) as u64) as usize
+    }
+}
+
 /// The members (name, byte offset) and the size of struct `name` in WGSL `source`, as naga lays
 /// them out: what a Rust struct shared with the shader must match.
 pub fn wgsl_struct(source: &str, name: &str) -> (Vec<(String, usize)>, usize) {
