@@ -1,4 +1,4 @@
-//! The CODE V 10.8 listing of its "Double Gauss F/2" sample (../shared/testdata/lenses/
+//! The CODE V 10.8 listing of its "Double Gauss F/2" sample (tests/data/truth/lenses/
 //! ag_dblgauss.lis), reproduced to every printed digit: first-order data, the paraxial ray
 //! table (`fio`) and the third-order table (`tho`, transverse aberrations, colour and PTZ).
 //!

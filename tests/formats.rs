@@ -175,7 +175,7 @@ fn every_shared_lens_file_parses_and_round_trips() {
     }
     assert_eq!(
         seen, 5,
-        "expected the five lens files of ../shared/testdata/lenses"
+        "expected the five lens files of tests/data/truth/lenses"
     );
 }
 

@@ -1,5 +1,5 @@
 //! First-order data, pupils and paraxial rays of the four oracle lenses against rayoptics and
-//! optiland (../shared/testdata/oracle), at infinity and at the finite conjugate.
+//! optiland (tests/data/truth/oracle), at infinity and at the finite conjugate.
 //!
 //! Tolerances: 1e-7 relative against rayoptics at infinity (it puts the object at 1e10 mm,
 //! which moves its pupils and image by up to ~4e-8 relative: the two programs agree to about

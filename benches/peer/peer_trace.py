@@ -37,8 +37,7 @@ WAVELENGTH_UM = 0.5875618
 
 def oracle_dir():
     here = os.path.dirname(os.path.abspath(__file__))
-    beside = os.path.normpath(os.path.join(here, "..", "..", "..", "shared", "testdata", "oracle"))
-    return beside if os.path.isdir(beside) else "/work/shared/testdata/oracle"
+    return os.path.normpath(os.path.join(here, "..", "..", "tests", "data", "truth", "oracle"))
 
 
 def ron_prescription(lens):

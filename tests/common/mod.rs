@@ -1,4 +1,4 @@
-//! Shared helpers for the truth-data tests: locating ../shared/testdata and turning an oracle
+//! Shared helpers for the truth-data tests: locating tests/data/truth and turning an oracle
 //! JSON lens table into a Prescription.
 //!
 //! Each integration test compiles this module on its own and uses only part of it.
@@ -8,21 +8,12 @@ use lensbake::prescription::{Medium, Prescription, Provenance, Shape, StopShape,
 use serde_json::Value;
 use std::path::PathBuf;
 
-/// `../shared` beside the crate (CI layout), else `/work/shared` (helper worktrees).
-pub fn shared_dir() -> PathBuf {
-    let beside = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared");
-    if beside.is_dir() {
-        beside
-    } else {
-        PathBuf::from("/work/shared")
-    }
-}
-
+/// Truth data copied into the repo from established programs (provenance in its README.md).
 pub fn testdata_dir() -> PathBuf {
-    shared_dir().join("testdata")
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data/truth")
 }
 
-/// A lens file of the shared test data.
+/// A lens file of the truth data.
 pub fn lens_file(name: &str) -> PathBuf {
     testdata_dir().join("lenses").join(name)
 }
