@@ -6,7 +6,6 @@ mod common;
 use common::{channel_differences, dgauss, dgauss_cameras, gpu_or_skip};
 use lensbake::lrtf::bake::{BakeRequest, bake};
 use lensbake::render::camera::{Camera, Film, Focus, LensModel, ParaxialLens};
-use lensbake::render::gpu::{IBRT_SHADER, LENS_TRACE_SHADER};
 use lensbake::render::gpu_types::{
     FrameParams, LayerData, SeidelParams, TRACE_MISSED, TRACE_OK, TRACE_TIR, TRACE_VIGNETTED,
     frame_params, lens_surfaces,
@@ -19,28 +18,14 @@ use lensbake::render::models::{
 };
 use lensbake::render::reference::{psnr, render_reference};
 use lensbake::render::scene::{Outline, Panel, Scene, Texture};
+use lensbake::render::wgsl::ibrt_shader;
 use lensbake::render::{Backend, RenderSettings, layer_view, render_layers};
 use lensbake::trace::{Outcome, Ray, Travel};
 
 #[test]
-fn every_wgsl_module_validates_with_naga() {
-    // The renderer's module is three files concatenated; the lens trace also stands alone.
-    for (name, source) in [("ibrt", IBRT_SHADER), ("lens_trace", LENS_TRACE_SHADER)] {
-        let module = naga::front::wgsl::parse_str(source)
-            .unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(source)));
-        naga::valid::Validator::new(
-            naga::valid::ValidationFlags::all(),
-            naga::valid::Capabilities::default(),
-        )
-        .validate(&module)
-        .unwrap_or_else(|e| panic!("{name}: {e:?}"));
-    }
-}
-
-#[test]
 fn frame_params_layout_matches_wgsl() {
     common::assert_wgsl_layout!(
-        IBRT_SHADER,
+        ibrt_shader(),
         FrameParams {
             width,
             height,
@@ -552,7 +537,7 @@ fn gpu_matches_cpu_twin_for_every_lens_model_on_straight_and_tilted_sensors() {
 #[test]
 fn seidel_params_layout_matches_wgsl() {
     common::assert_wgsl_layout!(
-        IBRT_SHADER,
+        ibrt_shader(),
         SeidelParams {
             image_z,
             exit_pupil_z,

@@ -25,6 +25,7 @@ pub mod models;
 pub mod raster;
 pub mod reference;
 pub mod scene;
+pub mod wgsl;
 
 use camera::Camera;
 use gpu_types::{LayerData, LensData, frame_params};
