@@ -30,12 +30,8 @@ impl WgslValue {
     pub fn declaration(self, name: &str) -> String {
         match self {
             WgslValue::U32(v) => format!("const {name}: u32 = {v}u;"),
-            WgslValue::F32(v) => {
-                let digits = format!("{v:?}");
-                // WGSL wants a digit before the exponent and after a point: 1e-5 and 3.0 are
-                // fine, so Rust's `{:?}` form is already valid.
-                format!("const {name}: f32 = {digits}f;")
-            }
+            // Rust's `{:?}` (1e-5, 3.1415927, 16777216.0) is also a WGSL decimal literal.
+            WgslValue::F32(v) => format!("const {name}: f32 = {v:?}f;"),
         }
     }
 }
