@@ -511,6 +511,19 @@ fn gpu_lens_trace_matches_f64_tracer_for_every_surface_kind_ray_by_ray() {
     for (name, at, required) in surface_kinds() {
         check(name, &compare(&gpu, &at, 0.0), &required);
     }
+    // A real lens: the bundled double Gauss, twelve spheres and a plane stop.
+    let dgauss = lensbake::lenses::load("dgauss-50mm", &Default::default()).unwrap();
+    let at = dgauss.system.at(dgauss.system.design_wavelength_nm());
+    check(
+        "double Gauss",
+        &compare(&gpu, &at, 0.0),
+        &[
+            (TRACE_OK, 0, 400),
+            (TRACE_VIGNETTED, 6, 80),
+            (TRACE_TIR, 7, 130),
+            (TRACE_MISSED, 11, 800),
+        ],
+    );
     // The stop is surface 3.
     let vignetted_at_stop = TRACE_VIGNETTED;
     let straight = compare(&gpu, &bladed(6, 0.0), 0.0);
