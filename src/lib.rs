@@ -7,8 +7,10 @@
 
 pub mod analysis;
 pub mod glass;
+pub mod job;
 pub mod lenses;
 pub mod lrtf;
+pub mod model;
 pub mod paraxial;
 pub mod plot;
 pub mod prescription;
