@@ -213,7 +213,7 @@ pub fn run(args: RenderBenchArgs) -> anyhow::Result<()> {
         record(
             &mut timings,
             Row {
-                model: "traced".into(),
+                model: ModelKind::Traced.name().into(),
                 backend: "reference".into(),
                 samples_per_pixel: spp,
                 seconds,

@@ -49,16 +49,19 @@ pub enum JobError {
     Bake(#[from] BakeError),
     #[error(transparent)]
     Paraxial(#[from] ParaxialError),
-    #[error("table {} (pass --table or rebake): {cause}", dir.display())]
+    #[error("table {} (name another table, --table, or rebake): {cause}", dir.display())]
     TableFocus { dir: PathBuf, cause: FocusError },
-    #[error("`--lens ideal:...` has no surfaces to trace or bake: use --model thin or thick")]
+    #[error(
+        "an ideal lens (`ideal:<EFL_MM>`) has no surfaces to trace or bake: use the thin or thick \
+         model (--model thin or thick)"
+    )]
     IdealHasNoSurfaces,
     #[error(
-        "--chromatic on: the Seidel model has its sums at the design wavelength only; use \
-         --model thin, thick, traced or baked, or --chromatic off"
+        "chromatic on: the Seidel model has its sums at the design wavelength only; use the thin, \
+         thick, traced or baked model, or chromatic off (--model, --chromatic off)"
     )]
     SeidelIsMonochrome,
-    #[error("--chromatic on: an `ideal:` lens has no glass to disperse; use a lens file")]
+    #[error("chromatic on: an ideal lens has no glass to disperse; use a lens file")]
     IdealDoesNotDisperse,
 }
 

@@ -685,3 +685,41 @@ fn focus_plane(
         compared,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::lenses;
+    use crate::prescription::formats::LoadOptions;
+
+    #[test]
+    fn a_baked_render_bakes_its_table_once_then_finds_it() {
+        let lens = lenses::load("dgauss-50mm", &LoadOptions::default()).unwrap();
+        let root = std::env::temp_dir().join(format!("lensbake-job-{}", std::process::id()));
+        let mut job = RenderJob::new(RenderLens::Real(Box::new(lens)));
+        job.model = ModelChoice::Model(ModelKind::Baked);
+        job.backend = BackendChoice::Cpu;
+        job.tables_root = root.clone();
+        job.bake_resolution = 8;
+        job.settings = RenderSettings {
+            width: 32,
+            height: 24,
+            samples_per_pixel: 2,
+            seed: 1,
+            max_layers: 4,
+        };
+        let first = job.run().unwrap();
+        let baked = first.table.clone().unwrap();
+        assert!(baked.baked_now);
+        assert_eq!(baked.dir, root.join("dgauss-50mm").join("focus-2000mm"));
+        assert!(baked.covered_film_radius_mm >= baked.needed_film_radius_mm * (1.0 - 1e-9));
+        // The second run reads the table the first one wrote, and renders the same image.
+        let second = job.run().unwrap();
+        let found = second.table.clone().unwrap();
+        assert!(!found.baked_now);
+        assert_eq!(found.dir, baked.dir);
+        assert_eq!(second.image.pixels, first.image.pixels);
+        assert_eq!(second.camera.model.kind(), ModelKind::Baked);
+        std::fs::remove_dir_all(&root).unwrap();
+    }
+}

@@ -253,12 +253,13 @@ pub fn choose_model(
         Some(found) => found,
         None => {
             // The reference meets any budget: it is what errors are measured against.
+            let label = traced.label();
             considered.push(Considered {
-                label: "traced".into(),
+                label: label.clone(),
                 predicted_px: 0.0,
                 measured_px: Some(0.0),
             });
-            (traced, "traced".to_string(), 0.0, 0.0, None)
+            (traced, label, 0.0, 0.0, None)
         }
     };
     Ok(Choice {
