@@ -150,14 +150,18 @@ pub mod lenses;
 pub mod lrtf;
 pub mod model;
 pub mod paraxial;
+#[cfg(feature = "plot")]
 pub mod plot;
 pub mod prescription;
 pub mod pupil;
+#[cfg(feature = "render")]
 pub mod render;
+#[cfg(feature = "plot")]
 pub mod report;
 pub mod seidel;
 pub mod system;
 pub mod trace;
+#[cfg(feature = "render")]
 pub mod tradeoff;
 
 pub use analysis::{Analysis, AnalyzeOptions, analyze};

@@ -12,9 +12,9 @@ use lensbake::job::default_table_dir;
 use lensbake::job::tables::DEFAULT_TABLES_ROOT;
 use lensbake::lrtf::bake::{BakeRequest, bake, first_order};
 use lensbake::lrtf::io::{read_sidecar, read_table, write_table};
-use lensbake::lrtf::measure::{SweepRow, error_plot, table_error_focused};
+use lensbake::lrtf::measure::{SweepRow, table_error_focused};
 use lensbake::lrtf::{Lookup, Parameterisation, Precision, Ray};
-use lensbake::plot::write_plot;
+use lensbake::plot::{LrtfErrorPlot, write_plot};
 use lensbake::trace::Tracer;
 
 use super::lens::{LensArgs, ReadArgs};
@@ -391,7 +391,7 @@ pub fn plot_error(measurements: &Path, out: &Path) -> anyhow::Result<()> {
             measurements.display()
         );
     }
-    write_plot(&error_plot(&rows), out)?;
+    write_plot(&LrtfErrorPlot::from_sweep(&rows), out)?;
     println!("{}", out.display());
     Ok(())
 }
