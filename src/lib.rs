@@ -108,9 +108,10 @@
 //!
 //! A [`RenderJob`] holds every setting of a render (lens, model or error budget, scene, focus
 //! mode, sensor shift and tilt, colour, table, backend) and returns the image with what it
-//! decided:
+//! decided (with the `render` feature, on by default):
 //!
 //! ```
+//! # #[cfg(feature = "render")] {
 //! use lensbake::job::{BackendChoice, ModelChoice};
 //! use lensbake::{LoadOptions, ModelKind, RenderJob, RenderLens, load_lens};
 //!
@@ -125,26 +126,30 @@
 //! assert_eq!(rendered.image.pixels.len(), 48 * 32);
 //! assert!(rendered.image.pixels.iter().flatten().all(|v| v.is_finite()));
 //! assert_eq!(rendered.camera.model.kind(), ModelKind::Traced);
+//! # }
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 //!
 //! # Trade speed for accuracy
 //!
 //! The cheapest model whose measured image error stays under a budget (pixels of a 1920 px
-//! frame) for a scene:
+//! frame) for a scene (with the `render` feature: the trade-off also times renders):
 //!
 //! ```
+//! # #[cfg(feature = "render")] {
 //! use lensbake::{LoadOptions, SceneRequirements, choose_model, load_lens};
 //!
 //! let lens = load_lens("dgauss-50mm", &LoadOptions::default())?;
 //! let choice = choose_model(&lens.system, &SceneRequirements::default(), 40.0)?;
 //! assert!(choice.measured_px <= 40.0);
 //! println!("{} within 40 px (measured {:.2} px)", choice.label, choice.measured_px);
+//! # }
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
 pub mod analysis;
 pub mod glass;
+#[cfg(feature = "render")]
 pub mod job;
 pub mod lenses;
 pub mod lrtf;
@@ -165,6 +170,7 @@ pub mod trace;
 pub mod tradeoff;
 
 pub use analysis::{Analysis, AnalyzeOptions, analyze};
+#[cfg(feature = "render")]
 pub use job::{JobError, RenderJob, RenderLens, Rendered};
 pub use lenses::{LoadedLens, load as load_lens};
 pub use lrtf::LrtfTable;
@@ -174,5 +180,7 @@ pub use model::{LensModel, ModelKind};
 pub use prescription::formats::LoadOptions;
 pub use system::{LensSystem, SystemAt};
 pub use trace::{Apertures, Outcome, Ray, RayBatch, Tracer, Travel};
+#[cfg(feature = "render")]
 pub use tradeoff::choose::{Choice, choose_model};
+#[cfg(feature = "render")]
 pub use tradeoff::{SceneRequirements, tradeoff};
