@@ -24,6 +24,7 @@ pub mod mesh_trace;
 pub mod raster;
 pub mod reference;
 pub mod scene;
+pub mod wgsl;
 
 use camera::Camera;
 use gpu_types::{LayerData, LensData, frame_params};
