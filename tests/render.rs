@@ -5,12 +5,13 @@ mod common;
 
 use common::{channel_differences, dgauss, dgauss_cameras, gpu_or_skip};
 use lensbake::lrtf::bake::{BakeRequest, bake};
-use lensbake::render::camera::{Camera, Film, Focus, LensModel, ParaxialLens};
+use lensbake::model::{BakedLens, FirstOrderModels, SeidelLens, TracedLens};
+use lensbake::model::{LensModel, ParaxialLens};
+use lensbake::render::camera::{Camera, Film, Focus};
 use lensbake::render::gpu_types::{FrameParams, LayerData, SeidelParams, frame_params};
 use lensbake::render::image::RgbImage;
 use lensbake::render::kernel::{LensRays, object_ray};
 use lensbake::render::layers::LayeredDepthImage;
-use lensbake::render::models::{BakedLens, FirstOrderModels, SeidelLens, TracedLens};
 use lensbake::render::reference::{psnr, render_reference};
 use lensbake::render::scene::{Outline, Panel, Scene, Texture};
 use lensbake::render::wgsl::ibrt_shader;

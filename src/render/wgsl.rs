@@ -12,7 +12,8 @@
 use std::sync::LazyLock;
 
 use super::gpu_types as gpu;
-use super::{kernel, models, raster};
+use super::{kernel, raster};
+use crate::model;
 use crate::lrtf::param as lrtf_param;
 use crate::lrtf::table as lrtf_table;
 
@@ -88,13 +89,13 @@ pub const SHARED_CONSTANTS: &[(&str, WgslValue)] = {
         ("LRTF_PASSES", U32(lrtf_table::LRTF_PASSES)),
         ("LRTF_BLOCKED", U32(lrtf_table::LRTF_BLOCKED)),
         ("LRTF_OUTSIDE", U32(lrtf_table::LRTF_OUTSIDE)),
-        // The Seidel model's inverse map (models.rs; f32 on the GPU, as in the CPU twin).
-        ("SEIDEL_INVERSE_STEPS", U32(models::SEIDEL_INVERSE_STEPS)),
+        // The Seidel model's inverse map (model::seidel; f32 on the GPU, as in the CPU twin).
+        ("SEIDEL_INVERSE_STEPS", U32(model::SEIDEL_INVERSE_STEPS)),
         (
             "SEIDEL_CONVERGED_MM",
-            F32(models::SEIDEL_CONVERGED_MM as f32),
+            F32(model::SEIDEL_CONVERGED_MM as f32),
         ),
-        ("SEIDEL_SETTLED_MM", F32(models::SEIDEL_SETTLED_MM as f32)),
+        ("SEIDEL_SETTLED_MM", F32(model::SEIDEL_SETTLED_MM as f32)),
         // Depth peeling (raster.rs, PeelParams, PeelTexture, PeelMaterial).
         ("PEEL_UMBRA", U32(gpu::PEEL_UMBRA)),
         ("WRAP_REPEAT", U32(gpu::WRAP_REPEAT)),
