@@ -8,7 +8,9 @@
 pub mod analysis;
 pub mod glass;
 pub mod lenses;
+pub mod limits;
 pub mod lrtf;
+pub mod output;
 pub mod paraxial;
 pub mod plot;
 pub mod prescription;

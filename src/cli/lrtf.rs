@@ -222,7 +222,7 @@ pub fn run_bake(args: BakeArgs) -> anyhow::Result<()> {
         .filter_map(|f| std::fs::metadata(out.join(f)).ok())
         .map(|m| m.len())
         .sum();
-    println!(
+    say!(
         "baked {name}: {} {}x{}x{} {} focus {} in {seconds:.2} s, {bytes} bytes in {}",
         table.info.parameterisation.name(),
         table.info.resolution[0],
@@ -250,7 +250,7 @@ pub fn run_bake(args: BakeArgs) -> anyhow::Result<()> {
             } else {
                 String::new()
             };
-            println!(
+            say!(
                 "  {:.2} nm:{on} image error p99 {:.3} px (max {:.3}) at 1920 px, direction p99 {:.4} mrad, position p99 {:.2} um, validity agreement {:.3} %",
                 layer.wavelength_nm,
                 e.image_px.p99,
@@ -287,11 +287,11 @@ pub fn run(command: LrtfCommand) -> anyhow::Result<()> {
                 .layers
                 .first()
                 .map_or(0, |l| l.sampling_pupil.nodes.len());
-            println!(
+            say!(
                 "focus {} (film z {far_z:.4}..{near_z:.4} mm, {focus_nodes} pupil focus nodes)",
                 sidecar.info.focus.text()
             );
-            println!(
+            say!(
                 "{}",
                 ron::ser::to_string_pretty(&sidecar, ron::ser::PrettyConfig::default())?
             );
@@ -366,7 +366,7 @@ pub fn run(command: LrtfCommand) -> anyhow::Result<()> {
                     },
                 });
             }
-            println!("{}", serde_json::to_string(&output)?);
+            say!("{}", serde_json::to_string(&output)?);
             Ok(())
         }
     }
@@ -390,6 +390,6 @@ pub fn plot_error(measurements: &Path, out: &Path) -> anyhow::Result<()> {
         );
     }
     write_plot(&error_plot(&rows), out)?;
-    println!("{}", out.display());
+    say!("{}", out.display());
     Ok(())
 }

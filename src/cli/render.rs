@@ -19,7 +19,7 @@ use lensbake::render::focus::{
 use lensbake::render::gltf_scene::{gltf_path, load_gltf};
 use lensbake::render::gpu::GpuRenderer;
 use lensbake::render::gpu_peel::GpuPeeler;
-use lensbake::render::image::{read_exr_rgbz, write_exr, write_png};
+use lensbake::render::image::{png_beside, read_exr_rgbz, write_exr, write_png};
 use lensbake::render::layers::LayeredDepthImage;
 use lensbake::render::mesh::MeshScene;
 use lensbake::render::models::{
@@ -454,6 +454,7 @@ impl SceneSource {
 }
 
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
+    let png = png_beside(&args.out)?;
     let lens = RenderLens::parse(&args.lens, &args.read)?;
     if matches!(lens, RenderLens::Ideal { .. })
         && matches!(args.model, ModelArg::Traced | ModelArg::Baked)
@@ -473,6 +474,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         seed: args.seed,
         max_layers: args.max_layers,
     };
+    settings.check()?;
     let film = Film {
         shift_mm: [args.shift_mm.0, args.shift_mm.1],
         tilt_deg: [args.tilt_deg.0, args.tilt_deg.1],
@@ -491,7 +493,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
                 BackendArg::Gpu => Some(GpuPeeler::new()?),
                 BackendArg::Auto => GpuPeeler::new().ok(),
             };
-            println!(
+            say!(
                 "scene: {} triangles, peeled on {}",
                 scene.triangles.len(),
                 gpu.as_ref().map_or("the cpu".to_string(), |g| format!(
@@ -584,7 +586,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     };
     let (wavelengths, chromatic_line) =
         chromatic_wavelengths(&args, model_arg, &lens, &first_order, &camera)?;
-    println!("{chromatic_line}");
+    say!("{chromatic_line}");
     let camera = match (model_arg, &lens) {
         (ModelArg::Thin, _) => Camera::new(LensModel::Thin(first_order.thin.clone()), film, focus)?,
         (ModelArg::Thick, _) => {
@@ -660,11 +662,11 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
                 )?,
             };
             if baked {
-                println!("baked {}", dir.display());
+                say!("baked {}", dir.display());
             }
             let covered = table.layers[0].sampling.max_film_radius();
             if covered < film_radius * (1.0 - 1e-9) {
-                println!(
+                say!(
                     "note: table {} covers film radii to {covered:.3} mm, this sensor reaches \
                      {film_radius:.3} mm: rays from beyond render black (rebake into another \
                      --table)",
@@ -696,7 +698,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let ldi = source.layers(&camera, &settings)?;
     let peel_time = started.elapsed();
     if let SceneSource::Mesh { peel, .. } = &source {
-        println!(
+        say!(
             "peeled {} layers ({:?}, cap {}), {} surfels",
             ldi.layers.len(),
             peel,
@@ -711,14 +713,14 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         BackendArg::Auto => match GpuRenderer::new() {
             Ok(gpu) => Some(gpu),
             Err(e) => {
-                println!("backend: cpu ({e})");
+                say!("backend: cpu ({e})");
                 None
             }
         },
     };
     let backend = match &gpu {
         Some(g) => {
-            println!("backend: gpu ({})", g.adapter_description);
+            say!("backend: gpu ({})", g.adapter_description);
             if camera.chromatic.is_some() {
                 g.prepare_chromatic()?;
             }
@@ -726,7 +728,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         }
         None => {
             if args.backend == BackendArg::Cpu {
-                println!("backend: cpu");
+                say!("backend: cpu");
             }
             Backend::Cpu
         }
@@ -735,9 +737,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let image = render_layers(&camera, &ldi, &settings, backend, gpu.as_ref())?;
     let trace_time = started.elapsed();
     write_exr(&image, &args.out)?;
-    let png = args.out.with_extension("png");
     write_png(&image, 1.0, &png)?;
-    println!(
+    say!(
         "model {}, film centre at z = {:.3} mm, tilt ({:.3}, {:.3}) deg, {} layers ({}x{}), {} \
          spp: peel {:.1} ms, trace {:.1} ms",
         camera.model.name(),
@@ -751,7 +752,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         peel_time.as_secs_f64() * 1e3,
         trace_time.as_secs_f64() * 1e3
     );
-    println!("wrote {} and {}", args.out.display(), png.display());
+    say!("wrote {} and {}", args.out.display(), png.display());
     Ok(())
 }
 
@@ -767,7 +768,7 @@ fn focus_plane(
     model: ModelArg,
 ) -> anyhow::Result<SensorPlacement> {
     for (k, p) in objects.iter().enumerate() {
-        println!(
+        say!(
             "focus point {}: ({:.1}, {:.1}, {:.1}) mm in the lens frame",
             k + 1,
             p[0],
@@ -790,19 +791,26 @@ fn focus_plane(
                     .iter()
                     .map(|o| spot_rms_on_sensor(&traced, film, p, *o).map(|r| r * 1e3))
                     .collect::<Result<Vec<_>, _>>()?;
-                println!(
+                say!(
                     "{name} focus plane: tilt ({:.3}, {:.3}) deg, centre at z = {:.3} mm; RMS \
                      spot radius of the three points {:.1}, {:.1}, {:.1} um",
-                    p.tilt_deg[0], p.tilt_deg[1], p.film_z, blur[0], blur[1], blur[2]
+                    p.tilt_deg[0],
+                    p.tilt_deg[1],
+                    p.film_z,
+                    blur[0],
+                    blur[1],
+                    blur[2]
                 );
             }
             placement
         }
         _ => paraxial,
     };
-    println!(
+    say!(
         "sensor tilt ({:.3}, {:.3}) deg, sensor centre {:.3} mm behind the first vertex",
-        placement.tilt_deg[0], placement.tilt_deg[1], placement.film_z
+        placement.tilt_deg[0],
+        placement.tilt_deg[1],
+        placement.film_z
     );
     Ok(placement)
 }

@@ -10,9 +10,11 @@ use serde::Serialize;
 
 use super::lens::LensArgs;
 use lensbake::lenses::LoadedLens;
+use lensbake::limits;
 use lensbake::lrtf::io::write_table;
 use lensbake::lrtf::measure::pixel_pitch;
-use lensbake::plot::{ParetoPlot, ParetoPoint, write_atomic, write_plot};
+use lensbake::output::write_bytes;
+use lensbake::plot::{ParetoPlot, ParetoPoint, write_plot};
 use lensbake::render::camera::Camera;
 use lensbake::render::layers::LayeredDepthImage;
 use lensbake::render::scene::Scene;
@@ -232,6 +234,7 @@ pub fn run(args: TradeoffArgs) -> anyhow::Result<()> {
     if args.rays == 0 {
         anyhow::bail!("--rays must be positive");
     }
+    limits::check("--rays", args.rays as u64, limits::MAX_RAYS)?;
     let bench = RenderBench {
         width: args.render_width,
         height: args.render_height,
@@ -259,15 +262,15 @@ pub fn run(args: TradeoffArgs) -> anyhow::Result<()> {
         .out
         .unwrap_or_else(|| Path::new("notebooks-out/tradeoff").join(&name));
     std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
-    write_atomic(&out.join("tradeoff.json"), format!("{json}\n").as_bytes())?;
+    write_bytes(&out.join("tradeoff.json"), format!("{json}\n").as_bytes())?;
     let md = markdown(&name, &domain, &measured, args.rays, &bench);
-    write_atomic(&out.join("tradeoff.md"), md.as_bytes())?;
+    write_bytes(&out.join("tradeoff.md"), md.as_bytes())?;
     write_plot(&pareto(&name, &measured, &bench), &out.join("pareto.png"))?;
     if args.json {
-        println!("{json}");
+        say!("{json}");
     } else {
-        print!("{md}");
-        println!(
+        say_raw!("{md}");
+        say!(
             "\nwrote tradeoff.md, tradeoff.json and pareto.png to {}",
             out.display()
         );
@@ -277,11 +280,14 @@ pub fn run(args: TradeoffArgs) -> anyhow::Result<()> {
 
 /// Prints a choice: the model, its domain, and predicted against measured error.
 fn report(choice: &Choice) {
-    println!(
+    say!(
         "chose {} for a {:.3} px budget: predicted {:.3} px, measured {:.3} px (p99, 1920 px)",
-        choice.label, choice.budget_px, choice.predicted_px, choice.measured_px
+        choice.label,
+        choice.budget_px,
+        choice.predicted_px,
+        choice.measured_px
     );
-    println!(
+    say!(
         "  domain: film radius {:.3} of {:.3} mm, f/{:.3}, focus {}, wavelengths {:?} nm (lateral colour {:.3} px)",
         choice.domain.film_radius,
         choice.domain.full_film_radius,
@@ -294,7 +300,7 @@ fn report(choice: &Choice) {
         choice.lateral_colour_px
     );
     for c in &choice.considered {
-        println!(
+        say!(
             "  considered {}: predicted {:.3} px, {}",
             c.label,
             c.predicted_px,
@@ -322,9 +328,9 @@ pub fn bake_within_budget(
         Some(table) => {
             let out = out.unwrap_or_else(|| PathBuf::from("tables").join(&name));
             write_table(table, &name, &lens.system.prescription, &out)?;
-            println!("wrote {}", out.display());
+            say!("wrote {}", out.display());
         }
-        None => println!("no table written: the {} model needs none", choice.label),
+        None => say!("no table written: the {} model needs none", choice.label),
     }
     Ok(())
 }
@@ -351,7 +357,7 @@ pub fn choose_for_render(
     let full_film_radius = Domain::of(&lens.system, &whole_field)?.full_film_radius;
     let corner = camera.film_corner_radius();
     if corner > full_film_radius {
-        println!(
+        say!(
             "note: the film corner ({corner:.3} mm off the axis) lies beyond the largest \
              traceable field ({full_film_radius:.3} mm); the budget covers the field up to there"
         );
@@ -369,7 +375,7 @@ pub fn choose_for_render(
         ..whole_field
     };
     let choice = choose_model(&lens.system, &req, budget_px)?;
-    println!(
+    say!(
         "model: {} (the cheapest within {budget_px} px at this render's pixel pitch: film \
          radius {:.3} mm, f/{:.3}, focus {}, nearest surface {})",
         choice.label,
@@ -379,8 +385,8 @@ pub fn choose_for_render(
         req.nearest_mm
             .map_or("far".into(), |d| format!("{d:.1} mm"))
     );
-    println!("predicted error: {:.3} px (p99)", choice.predicted_px);
-    println!(
+    say!("predicted error: {:.3} px (p99)", choice.predicted_px);
+    say!(
         "measured error: {:.3} px (p99 against the exact trace on fresh rays of the domain)",
         choice.measured_px
     );

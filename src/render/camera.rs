@@ -21,16 +21,9 @@ pub struct ParaxialLens {
 impl ParaxialLens {
     /// An ideal thin lens at z = 0 with its aperture in the lens plane.
     pub fn thin(focal_length_mm: f64, f_number: f64) -> Result<ParaxialLens, RenderError> {
-        if !(focal_length_mm.is_finite() && focal_length_mm > 0.0) {
-            return Err(RenderError::InvalidSetting(format!(
-                "focal length must be a positive number of mm, got {focal_length_mm}"
-            )));
-        }
-        if !(f_number.is_finite() && f_number > 0.0) {
-            return Err(RenderError::InvalidSetting(format!(
-                "f-number must be positive, got {f_number}"
-            )));
-        }
+        let [shortest, longest] = crate::limits::FOCAL_LENGTH_RANGE_MM;
+        crate::limits::check_range("the focal length (mm)", focal_length_mm, shortest, longest)?;
+        crate::limits::check_range("the f-number", f_number, 0.5, crate::limits::MAX_F_NUMBER)?;
         let radius = focal_length_mm / (2.0 * f_number);
         Ok(ParaxialLens {
             focal_length_mm,
@@ -274,6 +267,12 @@ impl Camera {
             Focus::FilmZ(z) => z,
             Focus::ObjectDistance(d) => model.paraxial().film_z_for_object(d)?,
         };
+        crate::limits::check_position("the film's z (mm)", film_z)?;
+        crate::limits::check_length("the film width (mm)", film.width_mm)?;
+        crate::limits::check_length("the film height (mm)", film.height_mm)?;
+        for shift in film.shift_mm {
+            crate::limits::check_position("the film shift (mm)", shift)?;
+        }
         let rear = model.paraxial().rear_principal_z;
         if !(film_z.is_finite() && film_z > rear) {
             return Err(RenderError::InvalidSetting(format!(

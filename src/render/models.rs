@@ -47,6 +47,7 @@ impl FirstOrderModels {
             )));
         }
         // Pupils scale with the stop, as 1 / f-number.
+        crate::limits::check_f_number(f_number, wide_open)?;
         let thick = thick_model(&paraxial, wide_open / f_number)?;
         let z = paraxial.entrance_pupil.z;
         let radius = paraxial.first_order.efl / (2.0 * f_number);
