@@ -113,7 +113,9 @@ pub fn analyze(
         return Err(AnalysisError::InvalidWavelength(wavelength_nm));
     }
     let at = system.at_checked(wavelength_nm)?;
-    if let Some(epd) = options.epd_mm {
+    // A pupil that is not a positive number is the paraxial module's error; the limit bounds
+    // the sizes it would accept.
+    if let Some(epd) = options.epd_mm.filter(|epd| epd.is_finite() && *epd > 0.0) {
         crate::limits::check_length("the entrance-pupil diameter (mm)", epd)?;
     }
     if let Some(distance) = options.object_distance_mm {

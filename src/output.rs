@@ -63,8 +63,16 @@ fn name_of(path: &Path) -> Result<String, OutputError> {
         })
 }
 
-fn temp_prefix(name: &str) -> String {
-    format!(".{name}.{}.", std::process::id())
+/// Creates (with `create`) a temporary file or directory named for the destination `name`:
+/// `.<name>.<pid>.<random>.tmp`.
+fn temporary<R>(
+    name: &str,
+    create: impl FnOnce(&tempfile::Builder) -> std::io::Result<R>,
+) -> std::io::Result<R> {
+    let prefix = format!(".{name}.{}.", std::process::id());
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(&prefix).suffix(".tmp");
+    create(&builder)
 }
 
 /// Removes temporary files and directories left beside `name` in `dir` by writers that no longer
@@ -118,11 +126,7 @@ pub fn write_file(
     let dir = parent_of(path);
     let name = name_of(path)?;
     remove_abandoned(dir, &name);
-    let temp = tempfile::Builder::new()
-        .prefix(&temp_prefix(&name))
-        .suffix(".tmp")
-        .tempfile_in(dir)
-        .map_err(OutputError::io(path))?;
+    let temp = temporary(&name, |b| b.tempfile_in(dir)).map_err(OutputError::io(path))?;
     {
         let mut buffered = BufWriter::new(temp.as_file());
         write(&mut buffered)
@@ -164,11 +168,7 @@ pub fn publish_dir<T, E: From<OutputError>>(
     }
     std::fs::create_dir_all(parent).map_err(OutputError::io(parent))?;
     remove_abandoned(parent, &name);
-    let staging = tempfile::Builder::new()
-        .prefix(&temp_prefix(&name))
-        .suffix(".tmp")
-        .tempdir_in(parent)
-        .map_err(OutputError::io(dest))?;
+    let staging = temporary(&name, |b| b.tempdir_in(parent)).map_err(OutputError::io(dest))?;
     let value = fill(staging.path())?;
     write_bytes(
         &staging.path().join(PUBLISHED_MARKER),
@@ -222,10 +222,7 @@ fn swap_into_place(staged: &Path, dest: &Path) -> Result<(), OutputError> {
         }
     }
     let parent = parent_of(dest);
-    let old = tempfile::Builder::new()
-        .prefix(&temp_prefix(&name_of(dest)?))
-        .suffix(".tmp")
-        .tempdir_in(parent)
+    let old = temporary(&name_of(dest)?, |b| b.tempdir_in(parent))
         .map_err(OutputError::io(dest))?
         .keep();
     std::fs::remove_dir(&old).map_err(OutputError::io(dest))?;

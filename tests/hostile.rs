@@ -921,7 +921,11 @@ fn the_command_line_reports_hostile_tables_as_errors() {
 // cleanly when it exits 0 with no `error:` line, or exits 2 with exactly one `error:` line; never
 // by a panic, a signal (abort, stack overflow), a timeout (hang), or NaN/inf on stdout.
 
-const BIN: &str = env!("CARGO_BIN_EXE_lensbake");
+/// The binary under attack: this build's, or the one `LENSBAKE_HOSTILE_BIN` names (to measure
+/// an older build, whose rows then show what the fixes changed).
+fn binary() -> String {
+    std::env::var("LENSBAKE_HOSTILE_BIN").unwrap_or_else(|_| env!("CARGO_BIN_EXE_lensbake").into())
+}
 /// Longer than any case that should run takes on a loaded two-core machine.
 const CASE_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(30);
 
@@ -939,7 +943,7 @@ fn run_in(dir: &Path, args: &[String], stdout: Option<std::process::Stdio>) -> R
     use std::io::Read;
     use std::process::{Command, Stdio};
     let captured = stdout.is_none();
-    let mut child = Command::new(BIN)
+    let mut child = Command::new(binary())
         .args(args)
         .current_dir(dir)
         .stdin(Stdio::null())
@@ -1518,30 +1522,6 @@ fn gltf_cases(dir: &Path) -> Vec<(String, serde_json::Value)> {
             }),
         ),
         (
-            "a buffer at an absolute path".into(),
-            edit(&|g| g["buffers"][0]["uri"] = json!("/etc/passwd")),
-        ),
-        (
-            "a buffer above the folder".into(),
-            edit(&|g| g["buffers"][0]["uri"] = json!("../../../../etc/passwd")),
-        ),
-        (
-            "a buffer by file: URI".into(),
-            edit(&|g| g["buffers"][0]["uri"] = json!("file:///etc/passwd")),
-        ),
-        (
-            "a buffer by a bad percent escape".into(),
-            edit(&|g| g["buffers"][0]["uri"] = json!("%FF%FE.bin")),
-        ),
-        (
-            "a buffer that is a directory".into(),
-            edit(&|g| g["buffers"][0]["uri"] = json!(".")),
-        ),
-        (
-            "a missing buffer file".into(),
-            edit(&|g| g["buffers"][0]["uri"] = json!("absent.bin")),
-        ),
-        (
             "an image at an absolute path".into(),
             edit(&|g| g["images"][0]["uri"] = json!("/etc/hostname")),
         ),
@@ -1603,6 +1583,16 @@ fn gltf_cases(dir: &Path) -> Vec<(String, serde_json::Value)> {
             edit(&|g| g["nodes"][3]["mesh"] = json!(99)),
         ),
     ];
+    for (label, uri) in [
+        ("a buffer at an absolute path", "/etc/passwd"),
+        ("a buffer above the folder", "../../../../etc/passwd"),
+        ("a buffer by file: URI", "file:///etc/passwd"),
+        ("a buffer by a bad percent escape", "%FF%FE.bin"),
+        ("a buffer that is a directory", "."),
+        ("a missing buffer file", "absent.bin"),
+    ] {
+        cases.push((label.into(), edit(&|g| g["buffers"][0]["uri"] = json!(uri))));
+    }
     if made_fifo {
         cases.push((
             "a buffer that is a FIFO".into(),
@@ -1906,7 +1896,7 @@ fn kill_at_random_points(
     let mut rng = Rng(seed);
     let mut failures = Vec::new();
     for k in 0..kills {
-        let mut child = Command::new(BIN)
+        let mut child = Command::new(binary())
             .args(args)
             .current_dir(dir)
             .stdout(Stdio::null())
@@ -1946,10 +1936,7 @@ fn tree(dir: &Path) -> Vec<String> {
 fn a_killed_bake_render_report_or_demo_leaves_the_old_or_the_new_result() {
     let scratch = Scratch::new("kills");
     let dir = scratch.path();
-    let sh = |args: &[&str]| {
-        let run = run_in(dir, &strings(args), None);
-        assert_eq!(run.code, Some(0), "{args:?}: {}", run.stderr);
-    };
+    let sh = |args: &[&str]| sh_ok(dir, args);
     let mut tried = 0;
     let mut failures = Vec::new();
 
@@ -2066,4 +2053,128 @@ fn a_killed_bake_render_report_or_demo_leaves_the_old_or_the_new_result() {
         tried - failures.len()
     );
     assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+/// Rays that start inside the glass or on the wrong side of the lens, or whose numbers overflow,
+/// are refused with their cause; before, a forward ray starting inside the glass was traced as if
+/// it started in front, and a direction of 1e308 was called "zero length".
+#[test]
+fn rays_that_start_inside_or_behind_the_lens_are_refused() {
+    let scratch = Scratch::new("rays");
+    let dir = scratch.path();
+    sh_ok(
+        dir,
+        &["bake", "dgauss-50mm", "--resolution", "6", "--out", "t"],
+    );
+    let ray_files = [
+        (
+            "inside the first lens",
+            r#"[{"origin": [0, 0, 1], "direction": [0, 0, 1]}]"#,
+            false,
+            true,
+        ),
+        (
+            "behind the lens",
+            r#"[{"origin": [0, 0, 100], "direction": [0, 0, 1]}]"#,
+            false,
+            true,
+        ),
+        (
+            "a direction of 1e308",
+            r#"[{"origin": [0, 0, -10], "direction": [1e308, 0, 1e308]}]"#,
+            false,
+            false,
+        ),
+        (
+            "a zero direction",
+            r#"[{"origin": [0, 0, -10], "direction": [0, 0, 0]}]"#,
+            false,
+            true,
+        ),
+        (
+            "a backward ray in front of the lens",
+            r#"[{"origin": [0, 0, -10], "direction": [0, 0, -1]}]"#,
+            true,
+            true,
+        ),
+        (
+            "a backward ray inside the lens",
+            r#"[{"origin": [0, 0, 20], "direction": [0, 0, -1]}]"#,
+            true,
+            true,
+        ),
+    ];
+    let mut cases = Vec::new();
+    for (k, (label, json, backward, refused)) in ray_files.iter().enumerate() {
+        let file = format!("rays{k}.json");
+        std::fs::write(dir.join(&file), json).unwrap();
+        let mut args = strings(&["trace", "dgauss-50mm", "--rays", &file]);
+        if *backward {
+            args.push("--backward".into());
+        }
+        cases.push((
+            format!(
+                "trace: {label}{}",
+                if *refused { "" } else { " (accepted)" }
+            ),
+            args,
+        ));
+        // The table answers film-side rays: the same file, read as film-side rays.
+        if *backward {
+            cases.push((
+                format!("lrtf eval: {label}"),
+                strings(&["lrtf", "eval", "t", "--rays", &file]),
+            ));
+        }
+    }
+    cases.push((
+        "trace at 1e30 nm".into(),
+        strings(&[
+            "trace",
+            "dgauss-50mm",
+            "--rays",
+            "rays0.json",
+            "--wavelength-nm",
+            "1e30",
+        ]),
+    ));
+    run_class(
+        "rays on the wrong side, overflowing rays, absurd wavelengths",
+        dir,
+        cases,
+        &|label, run| {
+            let accepted = label.contains("(accepted)");
+            match (accepted, run.code) {
+                (true, Some(0)) | (false, Some(2)) => None,
+                _ => Some(format!("exit {:?}: {}", run.code, run.stderr)),
+            }
+        },
+    );
+}
+
+/// Valid inputs that were refused: the on-axis-only analysis of every bundled lens.
+#[test]
+fn valid_edge_inputs_are_accepted() {
+    let scratch = Scratch::new("valid");
+    let cases = lensbake::lenses::BUNDLED
+        .iter()
+        .map(|lens| {
+            let name = lens.name;
+            (
+                format!("analyze {name} --field-deg 0"),
+                strings(&["analyze", name, "--field-deg", "0"]),
+            )
+        })
+        .collect();
+    run_class(
+        "valid edge inputs accepted",
+        scratch.path(),
+        cases,
+        &|_, run| (run.code != Some(0)).then(|| format!("refused: {}", run.stderr)),
+    );
+}
+
+fn sh_ok(dir: &Path, args: &[&str]) {
+    let run = run_in(dir, &strings(args), None);
+    assert_eq!(run.code, Some(0), "{args:?}: {}", run.stderr);
 }

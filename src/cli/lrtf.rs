@@ -281,6 +281,8 @@ struct OutputRay {
 pub fn run(command: LrtfCommand) -> anyhow::Result<()> {
     match command {
         LrtfCommand::Info { table } => {
+            // The whole table verifies (data and every sidecar field) before any of it is shown.
+            read_table(&table, None)?;
             let sidecar = read_sidecar(&table)?;
             let [far_z, near_z] = sidecar.info.focus.film_z_range();
             let focus_nodes = sidecar
@@ -315,7 +317,8 @@ pub fn run(command: LrtfCommand) -> anyhow::Result<()> {
                 std::io::stdin().read_to_string(&mut s)?;
                 s
             } else {
-                std::fs::read_to_string(&rays).with_context(|| format!("reading {rays}"))?
+                lensbake::limits::read_input_text(Path::new(&rays))
+                    .with_context(|| format!("reading {rays}"))?
             };
             let input: Vec<InputRay> = serde_json::from_str(&text)
                 .with_context(|| format!("{rays}: not a JSON ray array"))?;
@@ -336,13 +339,20 @@ pub fn run(command: LrtfCommand) -> anyhow::Result<()> {
             };
             let mut output = Vec::with_capacity(input.len());
             for (k, r) in input.iter().enumerate() {
-                let n = r.direction.iter().map(|v| v * v).sum::<f64>().sqrt();
-                if !(n > 0.0 && n.is_finite()) || !r.origin.iter().all(|v| v.is_finite()) {
-                    bail!("{rays}: ray {k} has a non-finite origin or a zero direction");
+                // The exact tracer's ray: the same checks and normalisation.
+                let checked = lensbake::trace::Ray::new(r.origin, r.direction)
+                    .with_context(|| format!("{rays}: ray {k}"))?;
+                let rear_plane_z = loaded.layers[0].frame.rear_plane_z;
+                if r.origin[2] < rear_plane_z {
+                    bail!(
+                        "{rays}: ray {k} starts at z = {} mm, in front of the lens's last vertex \
+                         plane (z = {rear_plane_z} mm): a film-side ray must start behind it",
+                        r.origin[2]
+                    );
                 }
                 let ray = Ray {
-                    origin: r.origin,
-                    direction: r.direction.map(|v| v / n),
+                    origin: checked.position(),
+                    direction: checked.direction(),
                 };
                 output.push(match loaded.lookup_focused(0, &ray, stop, film_z) {
                     Lookup::Passes(out) => OutputRay {

@@ -103,7 +103,7 @@ fn read_rays(source: &str) -> anyhow::Result<Vec<Ray>> {
             .context("cannot read rays from standard input")?;
         ("<stdin>".to_string(), text)
     } else {
-        let text = std::fs::read_to_string(source)
+        let text = lensbake::limits::read_input_text(std::path::Path::new(source))
             .with_context(|| format!("cannot read rays file {source}"))?;
         (source.to_string(), text)
     };
