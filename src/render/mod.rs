@@ -21,7 +21,6 @@ pub mod kernel;
 pub mod layers;
 pub mod mesh;
 pub mod mesh_trace;
-pub mod models;
 pub mod raster;
 pub mod reference;
 pub mod scene;
@@ -39,6 +38,8 @@ pub enum RenderError {
     InvalidSetting(String),
     #[error(transparent)]
     Limit(#[from] crate::limits::LimitError),
+    #[error(transparent)]
+    Model(#[from] crate::model::ModelError),
     #[error("the scene has no surface in view")]
     EmptyScene,
     #[error("no GPU adapter: {0}")]
