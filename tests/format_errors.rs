@@ -353,7 +353,7 @@ fn apertures_that_cannot_be_derived() {
         Format::CodeV,
     );
     assert!(
-        matches!(&e.problem, Problem::CannotDeriveApertures { reason } if reason.contains("YOB")),
+        matches!(&e.problem, Problem::CannotDeriveApertures { reason } if reason.contains("object heights")),
         "{e}"
     );
 }

@@ -6,5 +6,8 @@ mod model;
 mod validate;
 
 pub use error::{Location, PrescriptionError, Problem};
-pub use model::{MAX_ASPHERE_TERMS, Medium, Prescription, Provenance, Shape, StopShape, Surface};
-pub use validate::{SourceMap, validate};
+pub use model::{
+    ApertureSpec, Conditions, FieldKind, FieldSpec, MAX_ASPHERE_TERMS, Medium, Prescription,
+    Provenance, Shape, StopShape, Surface,
+};
+pub use validate::{CROSSING_TOLERANCE_MM, SourceMap, validate};

@@ -21,7 +21,7 @@
 use super::{Format, LoadNote, Loaded};
 use crate::glass::Dispersion;
 use crate::prescription::error::{PrescriptionError, Problem};
-use crate::prescription::model::Prescription;
+use crate::prescription::model::{ApertureSpec, Conditions, FieldKind, Prescription};
 use crate::prescription::validate::{SourceMap, check_stop};
 
 /// How big the entrance pupil is.
@@ -32,6 +32,8 @@ pub(super) enum PupilSize {
     FNumber(f64),
     /// The stop's own semi-aperture sets the beam (Zemax "float by stop size").
     FloatByStop,
+    /// Object-space numerical aperture n sin u (finite objects).
+    ObjectNumericalAperture(f64),
     /// No usable aperture specification; the reason, as a sentence fragment for the error.
     Unusable(String),
 }
@@ -40,9 +42,18 @@ pub(super) enum PupilSize {
 /// coordinates, lower edge <= 0 <= upper edge; 1 means the full pupil radius).
 #[derive(Clone, Debug, PartialEq)]
 pub(super) struct FieldPoint {
-    pub angle_deg: f64,
+    pub position: FieldPosition,
     pub pupil_y: (f64, f64),
     pub pupil_x: (f64, f64),
+}
+
+/// Where a field point's chief ray comes from.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) enum FieldPosition {
+    /// Object-space angle, degrees.
+    AngleDeg(f64),
+    /// Object height, mm (finite objects only).
+    ObjectHeight(f64),
 }
 
 /// What the file says about the beams, in mm and nm.
@@ -54,6 +65,66 @@ pub(super) struct BeamSpec {
     /// Field points; an empty list means the axial beam only.
     pub fields: Result<Vec<FieldPoint>, String>,
     pub wavelength_nm: f64,
+}
+
+impl BeamSpec {
+    /// The beams a file's stated conditions describe. `pupils` gives each field's (x, y) filled
+    /// part of the pupil (vignetting factors); `no_aperture` says why there is no aperture when
+    /// the conditions hold none.
+    pub fn from_conditions(
+        conditions: &Conditions,
+        pupils: &[((f64, f64), (f64, f64))],
+        no_aperture: String,
+        wavelength_nm: f64,
+    ) -> BeamSpec {
+        let pupil = match &conditions.aperture {
+            Some(ApertureSpec::EntrancePupilDiameter(d)) => PupilSize::Diameter(*d),
+            Some(ApertureSpec::FNumber(f)) => PupilSize::FNumber(*f),
+            Some(ApertureSpec::ObjectNumericalAperture(na)) => {
+                PupilSize::ObjectNumericalAperture(*na)
+            }
+            Some(ApertureSpec::FloatByStop) => PupilSize::FloatByStop,
+            None => PupilSize::Unusable(no_aperture),
+        };
+        let fields = match &conditions.fields {
+            None => Ok(Vec::new()),
+            Some(spec) => {
+                let position = |x: f64, y: f64| match spec.kind {
+                    FieldKind::AngleDeg => Ok(FieldPosition::AngleDeg(
+                        x.to_radians()
+                            .tan()
+                            .hypot(y.to_radians().tan())
+                            .atan()
+                            .to_degrees(),
+                    )),
+                    FieldKind::ObjectHeight => Ok(FieldPosition::ObjectHeight(x.hypot(y))),
+                    FieldKind::ParaxialImageHeight | FieldKind::RealImageHeight => {
+                        Err("the fields are image heights".to_string())
+                    }
+                };
+                spec.x
+                    .iter()
+                    .zip(&spec.y)
+                    .enumerate()
+                    .map(|(k, (x, y))| {
+                        let (pupil_x, pupil_y) =
+                            pupils.get(k).copied().unwrap_or(((-1.0, 1.0), (-1.0, 1.0)));
+                        Ok(FieldPoint {
+                            position: position(*x, *y)?,
+                            pupil_x,
+                            pupil_y,
+                        })
+                    })
+                    .collect()
+            }
+        };
+        BeamSpec {
+            pupil,
+            object_distance: conditions.object_distance_mm,
+            fields,
+            wavelength_nm,
+        }
+    }
 }
 
 /// Object distances at least this large (mm) are infinite, as CODE V and rayoptics treat them.
@@ -156,12 +227,35 @@ fn derive(
                 }
             }
         }
+        (PupilSize::ObjectNumericalAperture(na), Some(distance)) => {
+            let n = indices[0];
+            if !(*na > 0.0 && *na < n) {
+                return Err(cannot(format!(
+                    "object-space NA {na} is not below the index {n}"
+                )));
+            }
+            let u = (na / n).asin().tan();
+            (u * distance, u)
+        }
+        (PupilSize::ObjectNumericalAperture(_), None) => {
+            return Err(cannot(
+                "an object-space NA needs an object at a finite distance".into(),
+            ));
+        }
         (PupilSize::Unusable(reason), _) => return Err(cannot(reason.clone())),
     };
     let marginal = trace(p, &indices, y1, u0).heights;
     let mut chiefs = Vec::new();
     for field in &fields {
-        let slope = field.angle_deg.to_radians().tan();
+        let slope = match (field.position, beams.object_distance) {
+            (FieldPosition::AngleDeg(deg), _) => deg.to_radians().tan(),
+            (FieldPosition::ObjectHeight(h), Some(distance)) => h / (distance + pupil_z),
+            (FieldPosition::ObjectHeight(_), None) => {
+                return Err(cannot(
+                    "the fields are object heights but the object is at infinity".into(),
+                ));
+            }
+        };
         chiefs.push((field, trace(p, &indices, -pupil_z * slope, slope).heights));
     }
 
