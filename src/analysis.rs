@@ -175,7 +175,9 @@ pub fn paraxial_options(
                 }),
             _ => None,
         };
-        if let Some(field) = field {
+        // An on-axis-only field list leaves the field to the default: a zero field measures
+        // no off-axis aberration.
+        if let Some(field) = field.filter(|_| largest > 0.0) {
             chosen.field = field;
         }
     }

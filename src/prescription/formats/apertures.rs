@@ -54,6 +54,8 @@ pub(super) enum FieldPosition {
     AngleDeg(f64),
     /// Object height, mm (finite objects only).
     ObjectHeight(f64),
+    /// Paraxial image height, mm (objects at infinity only).
+    ImageHeight(f64),
 }
 
 /// What the file says about the beams, in mm and nm.
@@ -63,7 +65,7 @@ pub(super) struct BeamSpec {
     /// Distance from the object to surface 1; None for an object at infinity.
     pub object_distance: Option<f64>,
     /// Field points; an empty list means the axial beam only.
-    pub fields: Result<Vec<FieldPoint>, String>,
+    pub fields: Vec<FieldPoint>,
     pub wavelength_nm: f64,
 }
 
@@ -87,19 +89,21 @@ impl BeamSpec {
             None => PupilSize::Unusable(no_aperture),
         };
         let fields = match &conditions.fields {
-            None => Ok(Vec::new()),
+            None => Vec::new(),
             Some(spec) => {
                 let position = |x: f64, y: f64| match spec.kind {
-                    FieldKind::AngleDeg => Ok(FieldPosition::AngleDeg(
+                    FieldKind::AngleDeg => FieldPosition::AngleDeg(
                         x.to_radians()
                             .tan()
                             .hypot(y.to_radians().tan())
                             .atan()
                             .to_degrees(),
-                    )),
-                    FieldKind::ObjectHeight => Ok(FieldPosition::ObjectHeight(x.hypot(y))),
+                    ),
+                    FieldKind::ObjectHeight => FieldPosition::ObjectHeight(x.hypot(y)),
+                    // Real image heights are taken as paraxial ones here: the derived apertures
+                    // are paraxial estimates whatever the field type.
                     FieldKind::ParaxialImageHeight | FieldKind::RealImageHeight => {
-                        Err("the fields are image heights".to_string())
+                        FieldPosition::ImageHeight(x.hypot(y))
                     }
                 };
                 spec.x
@@ -109,11 +113,11 @@ impl BeamSpec {
                     .map(|(k, (x, y))| {
                         let (pupil_x, pupil_y) =
                             pupils.get(k).copied().unwrap_or(((-1.0, 1.0), (-1.0, 1.0)));
-                        Ok(FieldPoint {
-                            position: position(*x, *y)?,
+                        FieldPoint {
+                            position: position(*x, *y),
                             pupil_x,
                             pupil_y,
-                        })
+                        }
                     })
                     .collect()
             }
@@ -174,7 +178,7 @@ fn derive(
     check_stop(p, map)?;
     let stop = p.stop_index().expect("check_stop found exactly one stop");
     let indices = indices(p, beams.wavelength_nm, map)?;
-    let fields = beams.fields.clone().map_err(cannot)?;
+    let fields = &beams.fields;
 
     // Heights are linear in (y1, u0): trace the two unit rays once.
     let unit_height = trace(p, &indices, 1.0, 0.0);
@@ -246,13 +250,26 @@ fn derive(
     };
     let marginal = trace(p, &indices, y1, u0).heights;
     let mut chiefs = Vec::new();
-    for field in &fields {
+    for field in fields {
         let slope = match (field.position, beams.object_distance) {
             (FieldPosition::AngleDeg(deg), _) => deg.to_radians().tan(),
             (FieldPosition::ObjectHeight(h), Some(distance)) => h / (distance + pupil_z),
             (FieldPosition::ObjectHeight(_), None) => {
                 return Err(cannot(
                     "the fields are object heights but the object is at infinity".into(),
+                ));
+            }
+            // At infinity the paraxial image height is EFL tan(angle).
+            (FieldPosition::ImageHeight(h), None) => {
+                let power = -unit_height.final_slope;
+                if power == 0.0 || !power.is_finite() {
+                    return Err(cannot("image-height fields need a lens with power".into()));
+                }
+                h * power
+            }
+            (FieldPosition::ImageHeight(_), Some(_)) => {
+                return Err(cannot(
+                    "the fields are image heights of an object at a finite distance".into(),
                 ));
             }
         };

@@ -183,6 +183,9 @@ struct Reader {
     field_weights: Vec<f64>,
     wavelength_weights: Vec<f64>,
     skipped: BTreeSet<String>,
+    /// Private glasses (PRV ... END) by name, and the open PRV block's wavelengths (PWL).
+    private: Vec<(String, Medium)>,
+    private_block: Option<Vec<f64>>,
     /// VUY, VLY, VUX, VLX per field.
     vignetting: [Vec<f64>; 4],
     object_distance: Option<f64>,
@@ -251,7 +254,45 @@ impl Reader {
             c.args.iter().map(|a| finite(a, &at(field))).collect()
         };
         let name = c.name.as_str();
+        if let Some(wavelengths) = &self.private_block {
+            match name {
+                "PWL" => self.private_block = Some(list("PWL")?),
+                "END" => self.private_block = None,
+                glass => {
+                    let indices = c
+                        .args
+                        .iter()
+                        .map(|a| finite(a, &at(glass)))
+                        .collect::<Result<Vec<f64>, _>>()
+                        .map_err(|_| {
+                            unsupported(format!(
+                                "private glass {glass} given as {} (only indices at the PWL \
+                                 wavelengths are read)",
+                                c.args.first().map_or("nothing", String::as_str)
+                            ))
+                        })?;
+                    if indices.len() != wavelengths.len() {
+                        return Err(count(
+                            &format!("{} indices (one per PWL wavelength)", wavelengths.len()),
+                            indices.len(),
+                        ));
+                    }
+                    let mut points: Vec<(f64, f64)> =
+                        wavelengths.iter().copied().zip(indices).collect();
+                    points.sort_by(|a, b| a.0.total_cmp(&b.0));
+                    let medium = Medium::Table {
+                        wavelengths_nm: points.iter().map(|p| p.0).collect(),
+                        indices: points.iter().map(|p| p.1).collect(),
+                    };
+                    crate::glass::Dispersion::of(&medium)
+                        .map_err(|problem| PrescriptionError::new(at(glass), problem))?;
+                    self.private.push((glass.to_string(), medium));
+                }
+            }
+            return Ok(());
+        }
         match name {
+            "PRV" => self.private_block = Some(Vec::new()),
             "RDM" => {
                 self.radius_mode = match c.args.first().map(|a| a.to_ascii_uppercase()).as_deref() {
                     None | Some("Y" | "YES") => true,
@@ -362,8 +403,17 @@ impl Reader {
                 let Some(first) = c.args.first() else {
                     return Err(count("1 value", 0));
                 };
+                // CIR EDG is the lens's mechanical edge: it clips no ray.
+                if first.eq_ignore_ascii_case("EDG") {
+                    self.skipped.insert("CIR EDG".into());
+                    return Ok(());
+                }
                 if first.parse::<f64>().is_err() || c.args.len() > 1 {
-                    return Err(unsupported(format!("CIR {}", c.args.join(" "))));
+                    return Err(unsupported(format!(
+                        "CIR {} (obscurations, holes and non-circular apertures are not \
+                         modelled)",
+                        c.args.join(" ")
+                    )));
                 }
                 let radius = one("CIR")?;
                 if let Current::Surface(i) = self.current() {
@@ -424,7 +474,7 @@ impl Reader {
             }
             "GLA" => {
                 let medium = match c.args.as_slice() {
-                    [glass] => glass_medium(glass, &at("GLA"))?,
+                    [glass] => glass_medium(glass, &self.private, &at("GLA"))?,
                     other => return Err(count("1 glass name", other.len())),
                 };
                 match self.current() {
@@ -478,7 +528,7 @@ impl Reader {
             finite(&c.args[1], &at("thickness"))?
         };
         let medium = match c.args.get(2) {
-            Some(glass) => Some(glass_medium(glass, &at("glass"))?),
+            Some(glass) => Some(glass_medium(glass, &self.private, &at("glass"))?),
             None => None,
         };
         Ok((value, thickness, medium))
@@ -657,7 +707,17 @@ fn object_distance(text: &str, at: &Location) -> Result<f64, PrescriptionError> 
 
 /// The medium a glass word names: a catalogue name, or a CODE V fictitious glass code
 /// `NNNNNN.VVVV` (nd = 1.NNNNNN, Vd = VV.VV; Vd 0 means a constant index).
-fn glass_medium(glass: &str, at: &Location) -> Result<Medium, PrescriptionError> {
+fn glass_medium(
+    glass: &str,
+    private: &[(String, Medium)],
+    at: &Location,
+) -> Result<Medium, PrescriptionError> {
+    if let Some((_, medium)) = private
+        .iter()
+        .find(|(name, _)| name.eq_ignore_ascii_case(glass))
+    {
+        return Ok(medium.clone());
+    }
     let refuse = |what: String| {
         Err(PrescriptionError::new(
             at.clone(),
