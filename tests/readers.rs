@@ -344,3 +344,13 @@ fn codev_refusals_name_the_command_and_line() {
     );
     assert_eq!((e.location.line, e.location.surface), (Some(4), Some(1)));
 }
+
+/// `lens convert` keeps the file's conditions: the RON of a Zemax lens reads back identical.
+#[test]
+fn conditions_survive_the_ron_round_trip() {
+    let loaded = read(&singlet("", "  DIAM 6 0 0 0 1 \"\"\n", "")).unwrap();
+    let ron = lensbake::prescription::formats::write_ron(&loaded.prescription);
+    let back = read_str(&ron, None, Format::Ron, &LoadOptions::default()).unwrap();
+    assert_eq!(back.prescription, loaded.prescription);
+    assert!(ron.contains("conditions"), "{ron}");
+}
