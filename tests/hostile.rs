@@ -763,14 +763,15 @@ fn mutate_sidecar(rng: &mut Rng, input: &str) -> String {
 }
 
 #[test]
-fn fuzz_the_table_loader_for_three_seconds() {
+fn fuzz_the_table_loader() {
     let original = files();
     let seed = 0x5EED_7AB1_E000_0001;
     let mut rng = Rng(seed);
     let dir = Scratch::new("fuzz");
-    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(3);
-    let (mut cases, mut loaded) = (0usize, 0usize);
-    while std::time::Instant::now() < deadline {
+    // A fixed number of seeded cases, so every run (and every machine) tests the same tables.
+    let cases = 400;
+    let mut loaded = 0usize;
+    for case in 0..cases {
         let (data, sidecar) = match rng.below(3) {
             0 => (
                 mutate_data(&mut rng, &original.data),
@@ -787,15 +788,19 @@ fn fuzz_the_table_loader_for_three_seconds() {
         };
         std::fs::write(dir.path().join(DATA_FILE), &data).unwrap();
         std::fs::write(dir.path().join(SIDECAR_FILE), &sidecar).unwrap();
-        let case = format!("fuzz case {cases} (seed {seed:#x})");
+        let case = format!("fuzz case {case} (seed {seed:#x})");
         if let Ok(table) = load(dir.path(), &case) {
             exercise(&table, &case);
             loaded += 1;
         }
-        cases += 1;
     }
-    eprintln!("table loader fuzz: {cases} mutated tables in 3 s, {loaded} loaded");
-    assert!(cases >= 100, "only {cases} cases ran");
+    eprintln!("table loader fuzz: {cases} mutated tables, {loaded} loaded");
+    // Both paths run: most mutations must be refused (the CRC and the sidecar checks), and some
+    // (a sidecar's whitespace, a number rewritten to its own value) must still load.
+    assert!(
+        loaded > 0 && loaded < cases / 2,
+        "{loaded} of {cases} loaded"
+    );
 }
 
 #[test]

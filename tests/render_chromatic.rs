@@ -8,19 +8,20 @@ use common::{gpu_or_skip, load_oracle};
 use lensbake::glass::{C_LINE_NM, F_LINE_NM};
 use lensbake::lrtf::LrtfTable;
 use lensbake::lrtf::bake::{BakeRequest, bake, passes_from_film};
+use lensbake::model::LensModel;
+use lensbake::model::{BakedLens, FirstOrderModels, TracedLens};
 use lensbake::prescription::{Medium, Prescription, Provenance, Shape, StopShape, Surface};
-use lensbake::render::camera::{Camera, Film, Focus, LensModel};
+use lensbake::render::camera::{Camera, Film, Focus};
 use lensbake::render::chromatic::{
     ChannelLenses, Chromatic, ChromaticMode, ColourSpread, VISIBLE_COLOUR_PX, union_of,
     wants_chromatic,
 };
-use lensbake::render::gpu::IBRT_SHADER;
 use lensbake::render::gpu_types::ChannelParams;
 use lensbake::render::image::RgbImage;
 use lensbake::render::layers::LayeredDepthImage;
-use lensbake::render::models::{BakedLens, FirstOrderModels, TracedLens};
 use lensbake::render::reference::{psnr, render_reference};
 use lensbake::render::scene::{Outline, Panel, Scene, Texture};
+use lensbake::render::wgsl::ibrt_shader;
 use lensbake::render::{Backend, RenderSettings, layer_view, render_layers};
 use lensbake::system::LensSystem;
 use lensbake::trace::{Ray, Tracer, Travel};
@@ -143,7 +144,7 @@ fn landscape_cameras(
 #[test]
 fn channel_params_layout_matches_wgsl() {
     common::assert_wgsl_layout!(
-        IBRT_SHADER,
+        ibrt_shader(),
         ChannelParams {
             sampling_block,
             focal_length,

@@ -21,10 +21,10 @@ pub mod kernel;
 pub mod layers;
 pub mod mesh;
 pub mod mesh_trace;
-pub mod models;
 pub mod raster;
 pub mod reference;
 pub mod scene;
+pub mod wgsl;
 
 use camera::Camera;
 use gpu_types::{LayerData, LensData, frame_params};
@@ -36,6 +36,8 @@ use std::path::PathBuf;
 pub enum RenderError {
     #[error("{0}")]
     InvalidSetting(String),
+    #[error(transparent)]
+    Model(#[from] crate::model::ModelError),
     #[error("the scene has no surface in view")]
     EmptyScene,
     #[error("no GPU adapter: {0}")]

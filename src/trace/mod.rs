@@ -24,6 +24,7 @@ mod refract;
 pub use aim::{AimError, RaySource, aim_at_stop, traceable_field_deg};
 pub use batch::{BatchTrace, RayBatch};
 pub use bundle::FieldBundle;
+pub(crate) use intersect::ASPHERE_MAX_STEPS;
 pub(crate) use lanes::{LANES, LaneVisitor, Lanes};
 
 use crate::paraxial::Pupil;

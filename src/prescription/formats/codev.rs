@@ -37,13 +37,13 @@ use super::{
     AsphereTerms, Format, LoadNote, Loaded, Source, finite, named_medium, number, scale_to_mm,
     shape,
 };
+use crate::prescription::DEFAULT_WAVELENGTH_NM;
 use crate::prescription::error::{Location, PrescriptionError, Problem};
 use crate::prescription::model::{
     ApertureSpec, Conditions, FieldKind, FieldSpec, MAX_ASPHERE_TERMS, Medium, Prescription,
     Provenance, StopShape, Surface,
 };
 use crate::prescription::validate::SourceMap;
-use crate::system::DEFAULT_WAVELENGTH_NM;
 use std::collections::BTreeSet;
 
 /// One command with its words; quoted strings are single words without their quotes.

@@ -35,13 +35,13 @@
 
 use super::apertures::{self, BeamSpec, INFINITE_OBJECT_MM};
 use super::{Format, LoadNote, Loaded, Source, finite, named_medium, number, scale_to_mm, shape};
+use crate::prescription::DEFAULT_WAVELENGTH_NM;
 use crate::prescription::error::{PrescriptionError, Problem};
 use crate::prescription::model::{
     ApertureSpec, Conditions, FieldKind, FieldSpec, MAX_ASPHERE_TERMS, Medium, Prescription,
     Provenance, StopShape, Surface,
 };
 use crate::prescription::validate::SourceMap;
-use crate::system::DEFAULT_WAVELENGTH_NM;
 use std::collections::BTreeSet;
 
 /// Header and trailer keywords that change no surface, beam or medium: file bookkeeping
