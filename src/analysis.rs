@@ -5,23 +5,26 @@ use crate::paraxial::{
     Aperture, Field, ObjectPosition, Paraxial, ParaxialError, ParaxialOptions, Pupil, RayAtSurface,
     StopChoice,
 };
-use crate::prescription::PrescriptionError;
+use crate::prescription::{ApertureSpec, FieldKind, PrescriptionError};
 use crate::seidel::{IndexDifferences, Seidel};
-use crate::system::LensSystem;
+use crate::system::{LensSystem, SystemAt};
 use crate::trace::analyses::{RealRays, RealReport};
 use serde::Serialize;
 
-/// What to analyse; `None` picks the documented default.
+/// What to analyse; `None` takes what the lens file states (its
+/// [`crate::prescription::Conditions`]), else the documented default.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct AnalyzeOptions {
     /// Default: the lens's design wavelength (587.56 nm when it states none).
     pub wavelength_nm: Option<f64>,
-    /// Half-field angle; default: the largest whose paraxial chief ray passes every clear
+    /// Half-field angle; default: the file's largest field (angle, object height or paraxial
+    /// image height), else the largest angle whose paraxial chief ray passes every clear
     /// aperture.
     pub field_deg: Option<f64>,
-    /// Entrance-pupil diameter; default: the stop's clear aperture imaged to object space.
+    /// Entrance-pupil diameter; default: the file's aperture (EPD, F-number or object NA), else
+    /// the stop's clear aperture imaged to object space.
     pub epd_mm: Option<f64>,
-    /// Object distance from surface 1; default: infinity.
+    /// Object distance from surface 1; default: the file's, else infinity.
     pub object_distance_mm: Option<f64>,
     pub stop: StopChoice,
 }
@@ -100,6 +103,89 @@ pub struct Analysis {
     pub real: RealReport,
 }
 
+/// The paraxial conditions `options` ask for, with what they leave open taken from the lens
+/// file's stated conditions. An F-number, object NA or image-height field is turned into an
+/// entrance-pupil diameter or a field the paraxial module takes, using this lens's first-order
+/// data at the analysis wavelength. A real-image-height field (which needs a real-ray search)
+/// is left to the default.
+pub fn paraxial_options(
+    system: &LensSystem,
+    at: &SystemAt,
+    options: &AnalyzeOptions,
+) -> Result<ParaxialOptions, AnalysisError> {
+    let stated = system.prescription.provenance.conditions.as_ref();
+    let object_distance = options
+        .object_distance_mm
+        .or_else(|| stated.and_then(|c| c.object_distance_mm));
+    let object = object_distance.map_or(ObjectPosition::Infinite, |distance| {
+        ObjectPosition::Finite { distance }
+    });
+    let mut chosen = ParaxialOptions {
+        object,
+        aperture: options
+            .epd_mm
+            .map_or(Aperture::StopClearAperture, Aperture::EntrancePupilDiameter),
+        field: options
+            .field_deg
+            .map_or(Field::LargestUnvignetted, |deg| Field::Angle { deg }),
+        stop: options.stop,
+    };
+    let Some(stated) = stated else {
+        return Ok(chosen);
+    };
+    // First-order data and pupil position do not depend on the aperture or field chosen.
+    let probe = Paraxial::new(at, &chosen)?;
+    if options.epd_mm.is_none() {
+        let epd = match (&stated.aperture, object_distance) {
+            (Some(ApertureSpec::EntrancePupilDiameter(d)), _) => Some(*d),
+            (Some(ApertureSpec::FNumber(f)), None) => Some(probe.first_order.efl.abs() / f),
+            (Some(ApertureSpec::ObjectNumericalAperture(na)), Some(distance)) => {
+                let n = probe.first_order.object_index;
+                (*na > 0.0 && *na < n)
+                    .then(|| 2.0 * (distance + probe.entrance_pupil.z) * (na / n).asin().tan())
+            }
+            _ => None,
+        };
+        if let Some(epd) = epd.filter(|d| d.is_finite() && *d > 0.0) {
+            chosen.aperture = Aperture::EntrancePupilDiameter(epd);
+        }
+    }
+    if options.field_deg.is_none()
+        && let Some(fields) = &stated.fields
+    {
+        let largest = fields.max_radial();
+        let field = match (fields.kind, object_distance) {
+            (FieldKind::AngleDeg, _) => Some(Field::Angle {
+                deg: fields
+                    .x
+                    .iter()
+                    .zip(&fields.y)
+                    .map(|(x, y)| x.to_radians().tan().hypot(y.to_radians().tan()))
+                    .fold(0.0, f64::max)
+                    .atan()
+                    .to_degrees(),
+            }),
+            (FieldKind::ObjectHeight, Some(_)) => Some(Field::ObjectHeight { mm: largest }),
+            (FieldKind::ParaxialImageHeight, None) => Some(Field::Angle {
+                deg: (largest / probe.first_order.efl.abs()).atan().to_degrees(),
+            }),
+            (FieldKind::ParaxialImageHeight, Some(_)) => probe
+                .magnification
+                .filter(|m| *m != 0.0)
+                .map(|m| Field::ObjectHeight {
+                    mm: largest / m.abs(),
+                }),
+            _ => None,
+        };
+        // An on-axis-only field list leaves the field to the default: a zero field measures
+        // no off-axis aberration.
+        if let Some(field) = field.filter(|_| largest > 0.0) {
+            chosen.field = field;
+        }
+    }
+    Ok(chosen)
+}
+
 /// Analyses `system` under `options`; `lens` names it in the report.
 pub fn analyze(
     lens: &str,
@@ -121,20 +207,7 @@ pub fn analyze(
     if let Some(distance) = options.object_distance_mm {
         crate::limits::check_position("the object distance (mm)", distance)?;
     }
-    let paraxial_options = ParaxialOptions {
-        object: options
-            .object_distance_mm
-            .map_or(ObjectPosition::Infinite, |distance| {
-                ObjectPosition::Finite { distance }
-            }),
-        aperture: options
-            .epd_mm
-            .map_or(Aperture::StopClearAperture, Aperture::EntrancePupilDiameter),
-        field: options
-            .field_deg
-            .map_or(Field::LargestUnvignetted, |deg| Field::Angle { deg }),
-        stop: options.stop,
-    };
+    let paraxial_options = paraxial_options(system, &at, options)?;
     let paraxial = Paraxial::new(&at, &paraxial_options)?;
     let colour = IndexDifferences::fraunhofer(system);
     let seidel = Seidel::new(&at, &paraxial, colour.as_ref());

@@ -240,12 +240,8 @@ fn unsupported_input_is_refused_by_name() {
     let cases = [
         ("EPD 10\nS 0.02 5 N-BK7\nXDE 1.0\n", Format::CodeV, 3, "XDE"),
         ("EPD 10\nS 0.02 5 REFL\n", Format::CodeV, 2, "mirrors"),
-        (
-            "EPD 10\nS 0.02 5\nCIR EDG 10\n",
-            Format::CodeV,
-            3,
-            "CIR EDG",
-        ),
+        // CIR EDG (the mechanical edge) clips nothing and is skipped; an obscuration is not.
+        ("EPD 10\nS 0.02 5\nCIR OBS 2\n", Format::CodeV, 3, "CIR OBS"),
         ("SO 0.1 100\n", Format::CodeV, 1, "curved object"),
         (
             "MODE SEQ\nSURF 0\nSURF 1\n  TYPE COORDBRK\n",
@@ -353,7 +349,7 @@ fn apertures_that_cannot_be_derived() {
         Format::CodeV,
     );
     assert!(
-        matches!(&e.problem, Problem::CannotDeriveApertures { reason } if reason.contains("YOB")),
+        matches!(&e.problem, Problem::CannotDeriveApertures { reason } if reason.contains("object heights")),
         "{e}"
     );
 }

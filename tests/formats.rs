@@ -16,6 +16,13 @@ use lensbake::system::LensSystem;
 use serde_json::Value;
 use std::path::Path;
 
+/// Whether the reading notes only list skipped harmless keywords (no derived apertures).
+fn only_skipped_keywords(notes: &[LoadNote]) -> bool {
+    notes
+        .iter()
+        .all(|n| matches!(n, LoadNote::SkippedKeywords { .. }))
+}
+
 fn load(path: &Path, options: &LoadOptions) -> Loaded {
     read_file(path, options).unwrap_or_else(|e| panic!("{e}"))
 }
@@ -46,6 +53,10 @@ fn float_bits(p: &Prescription) -> Vec<u64> {
         Medium::Index(n) => v.push(n.to_bits()),
         Medium::Sellmeier { b, c } => v.extend(b.iter().chain(c).map(|x| x.to_bits())),
         Medium::Model { nd, vd } => v.extend([nd.to_bits(), vd.to_bits()]),
+        Medium::Table {
+            wavelengths_nm,
+            indices,
+        } => v.extend(wavelengths_nm.iter().chain(indices).map(|x| x.to_bits())),
     };
     medium(&p.object_medium, &mut v);
     for s in &p.surfaces {
@@ -222,7 +233,7 @@ fn dgauss_from_previous_equals_dgauss_50mm_to_next_at_twice_the_scale() {
 fn pbrt_dgauss_50mm_matches_the_oracle_table() {
     let loaded = load(&lens_file("dgauss.50mm.dat"), &LoadOptions::default());
     assert_eq!(loaded.format, Format::Pbrt);
-    assert!(loaded.notes.is_empty());
+    assert!(only_skipped_keywords(&loaded.notes), "{:?}", loaded.notes);
     assert_matches_oracle_columns(
         &loaded.prescription,
         &oracle_table("pbrt_dgauss_50mm.json"),
@@ -337,7 +348,7 @@ fn ag_dblgauss_seq_matches_the_oracle_table() {
     }
     let loaded = read_str(&text, None, Format::CodeV, &LoadOptions::default()).unwrap();
     let p = &loaded.prescription;
-    assert!(loaded.notes.is_empty());
+    assert!(only_skipped_keywords(&loaded.notes), "{:?}", loaded.notes);
     assert_eq!(p.provenance.title, "Double Gauss F/2 -  Available Glasses");
     assert_eq!(p.provenance.design_wavelength_nm, Some(587.6));
     assert_eq!(p.surfaces.len(), 11);
@@ -386,7 +397,7 @@ fn ag_dblgauss_seq_derives_paraxial_clear_apertures() {
         .collect();
     assert_eq!(lines, [15, 17, 19, 21, 22, 24, 27, 29, 30, 32, 34]);
     assert_eq!(
-        loaded.notes,
+        loaded.notes[..1],
         vec![LoadNote::AperturesDerived {
             surfaces: (1..=11).collect()
         }]
@@ -487,7 +498,7 @@ fn zemax_cooke_triplet_matches_the_oracle_table() {
     let loaded = load(&test_data("cooke_triplet.zmx"), &LoadOptions::default());
     let p = &loaded.prescription;
     assert_eq!(loaded.format, Format::Zemax);
-    assert!(loaded.notes.is_empty());
+    assert!(only_skipped_keywords(&loaded.notes), "{:?}", loaded.notes);
     assert!(relative(p.provenance.design_wavelength_nm.unwrap(), 550.0) < 1e-12);
     let table = oracle_table("optiland_cooke_triplet.json");
     let rows = table["surfaces"].as_array().unwrap();
@@ -513,7 +524,12 @@ fn zemax_cooke_triplet_matches_the_oracle_table() {
         );
         match (&s.medium, row["note"].as_str()) {
             (Medium::Air, None) => {}
-            (Medium::Glass(name), Some(note)) => assert_eq!(name, note, "surface {k}"),
+            // GCAT SCHOTT HIKARI: F2 is SCHOTT's (HOYA sells one too), SK16 HIKARI's.
+            (Medium::Glass(name), Some(note)) => {
+                let glass = lookup(name).unwrap();
+                let maker = if note == "SK16" { "HIKARI" } else { "SCHOTT" };
+                assert_eq!((glass.name, glass.maker), (note, maker), "surface {k}");
+            }
             (medium, note) => panic!("surface {k}: {medium:?} vs {note:?}"),
         }
     }
@@ -606,7 +622,7 @@ fn codev_radius_mode_units_conics_aspheres_and_clear_apertures() {
     );
     assert_eq!(p.surfaces[1].shape, Shape::Sphere { curvature: -0.01 });
     assert_eq!(p.surfaces[0].stop, Some(StopShape::Circle));
-    assert!(loaded.notes.is_empty());
+    assert!(only_skipped_keywords(&loaded.notes), "{:?}", loaded.notes);
     LensSystem::new(loaded.prescription, &loaded.map).unwrap();
 }
 
@@ -645,6 +661,7 @@ fn ron_round_trip_is_bit_exact_for_awkward_numbers() {
             claimed_focal_length_mm: Some(1.0 / 7.0),
             claimed_f_number: None,
             notes: Some("line one\nline two".into()),
+            conditions: None,
         },
         object_medium: Medium::Sellmeier {
             b: [awkward[0], awkward[1], awkward[3]],

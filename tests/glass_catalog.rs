@@ -4,7 +4,7 @@
 
 mod common;
 
-use lensbake::glass::{C_LINE_NM, CATALOG, D_LINE_NM, Dispersion, F_LINE_NM, lookup};
+use lensbake::glass::{C_LINE_NM, D_LINE_NM, Dispersion, F_LINE_NM, catalog, lookup, lookup_in};
 use lensbake::prescription::Problem;
 
 fn index_of(glass: &str, nm: f64) -> f64 {
@@ -89,57 +89,153 @@ fn codev_listing_indices_match_to_printed_digits() {
     assert_eq!(rows, 4, "the listing names four glasses");
 }
 
-/// Each entry's formula reproduces the datasheet's nd (5 decimals) and vd (2 decimals): a
-/// mistyped coefficient would move one of them.
+/// Each entry's formula reproduces the datasheet's nd and vd to the digits the maker prints: a
+/// mistyped coefficient would move one of them. SCHOTT, HOYA and HIKARI print nd to 5 decimals
+/// and vd to 2; OHARA, CDGM and SUMITA round some glasses' nd to 4-5 and vd to 1 decimal
+/// (tools/glass_catalogs.py prints the largest misfit per maker).
 #[test]
 fn every_catalogue_glass_reproduces_its_datasheet_nd_and_vd() {
-    for glass in CATALOG {
+    for glass in catalog() {
         let d = glass.formula.index(D_LINE_NM);
         let f = glass.formula.index(F_LINE_NM);
         let c = glass.formula.index(C_LINE_NM);
         let vd = (d - 1.0) / (f - c);
+        let (nd_tolerance, vd_tolerance) = match glass.maker {
+            "SCHOTT" | "HOYA" | "HIKARI" => (6e-6, 0.016),
+            "OHARA" | "CDGM" => (1.1e-5, 0.15),
+            "SUMITA" => (2.5e-5, 0.25),
+            // Computed from the data itself by tools/glass_catalogs.py.
+            _ => (1e-6, 0.01),
+        };
         assert!(
-            (d - glass.nd).abs() <= 5e-6,
-            "{}: n(d) {d} vs datasheet {}",
+            (d - glass.nd).abs() <= nd_tolerance,
+            "{} {}: n(d) {d} vs datasheet {}",
+            glass.maker,
             glass.name,
             glass.nd
         );
         assert!(
-            (vd - glass.vd).abs() <= 5e-3,
-            "{}: vd {vd} vs datasheet {}",
+            (vd - glass.vd).abs() <= vd_tolerance,
+            "{} {}: vd {vd} vs datasheet {}",
+            glass.maker,
             glass.name,
-            glass.vd
-        );
-        // The glass code starts with nd and vd rounded to three digits each (nd 1.51680,
-        // vd 64.17 -> "517642"; nd 2.022 -> "022"); makers round halves either way.
-        let code_nd: f64 = glass.glass_code[0..3].parse().unwrap();
-        let code_vd: f64 = glass.glass_code[3..6].parse().unwrap();
-        let nd_digits = ((glass.nd - 1.0) * 1000.0) % 1000.0;
-        assert!(
-            (code_nd - nd_digits).abs() <= 0.5 + 1e-9
-                && (code_vd - glass.vd * 10.0).abs() <= 0.5 + 1e-9,
-            "{}: code {} vs nd {} vd {}",
-            glass.name,
-            glass.glass_code,
-            glass.nd,
             glass.vd
         );
     }
 }
 
+/// A few glasses of every maker against the numbers printed in the maker's sheet: n(d) to
+/// 1e-5 (SUMITA prints nd to 4 decimals: 5e-5), and vd to half its last printed digit, so the
+/// formula kind and the coefficient order are the maker's.
 #[test]
-fn catalogue_is_sorted_with_unique_names() {
-    for pair in CATALOG.windows(2) {
+fn spot_checks_per_maker_match_the_sheets() {
+    // (name, maker, nd, vd, last digit of vd) as printed in the sheets named in
+    // src/glass/data/README.md.
+    for (name, maker, nd, vd, vd_digit, nd_tolerance) in [
+        ("N-BK7", "SCHOTT", 1.5168, 64.17, 0.01, 1e-5),
+        ("N-SF5", "SCHOTT", 1.67271, 32.25, 0.01, 1e-5),
+        ("S-LAH64", "OHARA", 1.788, 47.4, 0.1, 1e-5),
+        ("S-TIH53", "OHARA", 1.84666, 23.8, 0.1, 1e-5),
+        ("TAF3", "HOYA", 1.8042, 46.5, 0.1, 1e-5),
+        ("H-ZF52", "CDGM", 1.84666, 23.78, 0.02, 1e-5),
+        ("J-LAK14", "HIKARI", 1.6968, 55.52, 0.01, 1e-5),
+        // SUMITA's printed vd is not always its formula's rounded (54.07 printed 54.0).
+        ("K-SSK1", "SUMITA", 1.6172, 54.0, 0.2, 5e-5),
+    ] {
+        let glass = lookup(&format!("{name}_{maker}")).unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert_eq!((glass.maker, glass.nd, glass.vd), (maker, nd, vd), "{name}");
+        let n = |nm| glass.formula.index(nm);
         assert!(
-            pair[0].name < pair[1].name,
+            (n(D_LINE_NM) - nd).abs() < nd_tolerance,
+            "{name}: n(d) {}",
+            n(D_LINE_NM)
+        );
+        let formula_vd = (n(D_LINE_NM) - 1.0) / (n(F_LINE_NM) - n(C_LINE_NM));
+        assert!(
+            (formula_vd - vd).abs() <= vd_digit / 2.0 + 1e-3,
+            "{name}: vd {formula_vd} vs {vd}"
+        );
+    }
+}
+
+#[test]
+fn crystals_and_b270_follow_their_published_data() {
+    // Malitson's fused silica: n(d) 1.458464 (the classic 1.4585); CaF2 1.433849; sapphire (o)
+    // 1.768172; B 270 is tabulated, so it passes through the datasheet's points exactly.
+    for (name, nd) in [
+        ("SILICA", 1.458464),
+        ("CAF2", 1.433849),
+        ("SAPPHIRE", 1.768172),
+    ] {
+        let n = lookup(name).unwrap().formula.index(D_LINE_NM);
+        assert!((n - nd).abs() < 5e-7, "{name}: {n}");
+    }
+    let b270 = lookup("B270").unwrap().dispersion();
+    for (nm, n) in [
+        (435.8343, 1.5341),
+        (546.074, 1.5251),
+        (D_LINE_NM, 1.5230),
+        (C_LINE_NM, 1.5203),
+    ] {
+        assert!(
+            (b270.index(nm) - n).abs() < 1e-12,
+            "B270 at {nm}: {}",
+            b270.index(nm)
+        );
+    }
+    assert!(
+        b270.checked_index(700.0).is_err(),
+        "B270 is tabulated only to 656 nm"
+    );
+}
+
+/// Names several makers use resolve in the order the caller prefers, as a Zemax file's GCAT.
+#[test]
+fn homonyms_follow_the_preferred_catalogue_order() {
+    let sk16 = |preferred: &[&str]| {
+        let preferred: Vec<String> = preferred.iter().map(|p| p.to_string()).collect();
+        lookup_in("SK16", &preferred).unwrap().maker
+    };
+    // SCHOTT has no SK16 now; HIKARI's is the one the oracle's Cooke triplet uses.
+    assert_eq!(sk16(&["SCHOTT", "HIKARI"]), "HIKARI");
+    let homonym = catalog()
+        .windows(2)
+        .find(|w| w[0].name.eq_ignore_ascii_case(w[1].name) && w[0].maker != w[1].maker)
+        .expect("some glass name is used by two makers");
+    let (first, second) = (&homonym[0], &homonym[1]);
+    let prefer = |maker: &str| lookup_in(first.name, &[maker.to_string()]).unwrap().maker;
+    assert_eq!(prefer(first.maker), first.maker);
+    assert_eq!(prefer(second.maker), second.maker);
+    assert_eq!(
+        first.unambiguous_name(),
+        format!("{}_{}", first.name, first.maker)
+    );
+    assert_eq!(
+        lookup(&second.unambiguous_name()).unwrap().maker,
+        second.maker
+    );
+}
+
+#[test]
+fn catalogue_is_sorted_and_every_glass_is_found_by_its_unambiguous_name() {
+    let key = |name: &str| -> String {
+        name.chars()
+            .filter(char::is_ascii_alphanumeric)
+            .map(|c| c.to_ascii_uppercase())
+            .collect()
+    };
+    for pair in catalog().windows(2) {
+        assert!(
+            key(pair[0].name) <= key(pair[1].name),
             "{} before {}",
             pair[0].name,
             pair[1].name
         );
     }
-    for glass in CATALOG {
-        assert_eq!(lookup(glass.name).unwrap().name, glass.name);
-        assert!(!glass.catalogue.is_empty() && !glass.glass_code.is_empty());
+    for glass in catalog() {
+        let found = lookup(&glass.unambiguous_name()).unwrap();
+        assert_eq!((found.name, found.maker), (glass.name, glass.maker));
+        assert!(!glass.source.is_empty());
     }
 }
 
@@ -150,7 +246,7 @@ fn catalogue_covers_the_common_schott_glasses() {
         "N-LAK9", "N-LAK22", "N-LASF9", "N-BAF10", "N-BAK4", "N-KF9", "N-F2", "N-SF6", "N-SF11",
         "K10", "N-SK15", "N-LAK12", "SF4", "LF5",
     ] {
-        assert_eq!(lookup(name).unwrap().maker, "Schott", "{name}");
+        assert_eq!(lookup(name).unwrap().maker, "SCHOTT", "{name}");
     }
 }
 

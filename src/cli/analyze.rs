@@ -14,14 +14,15 @@ pub struct AnalyzeArgs {
     /// Wavelength in nm [default: the lens's design wavelength, else 587.56].
     #[arg(long, allow_negative_numbers = true)]
     pub wavelength_nm: Option<f64>,
-    /// Half-field angle in degrees [default: the largest whose paraxial chief ray passes every
-    /// clear aperture].
+    /// Half-field angle in degrees [default: the lens file's largest field, else the largest
+    /// whose paraxial chief ray passes every clear aperture].
     #[arg(long, allow_negative_numbers = true)]
     pub field_deg: Option<f64>,
-    /// Entrance-pupil diameter in mm [default: the stop's clear aperture imaged to object space].
+    /// Entrance-pupil diameter in mm [default: the lens file's aperture (EPD, F-number or object
+    /// NA), else the stop's clear aperture imaged to object space].
     #[arg(long, allow_negative_numbers = true)]
     pub epd_mm: Option<f64>,
-    /// Object distance from the first vertex in mm [default: infinity].
+    /// Object distance from the first vertex in mm [default: the lens file's, else infinity].
     #[arg(long, allow_negative_numbers = true)]
     pub object_distance_mm: Option<f64>,
     /// Take as aperture stop the surface that limits the axial beam, not the marked one.
@@ -34,6 +35,9 @@ pub struct AnalyzeArgs {
 
 pub fn run(args: AnalyzeArgs) -> anyhow::Result<()> {
     let lens = args.lens.load()?;
+    for note in &lens.source.loaded.notes {
+        eprintln!("note: {note}");
+    }
     let name = lens.source.origin.name();
     let options = AnalyzeOptions {
         wavelength_nm: args.wavelength_nm,

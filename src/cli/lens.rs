@@ -278,5 +278,11 @@ fn describe_medium(medium: &Medium) -> String {
         Medium::Glass(name) => name.clone(),
         Medium::Sellmeier { .. } => "Sellmeier".to_string(),
         Medium::Model { nd, vd } => format!("model {nd}/{vd}"),
+        Medium::Table { wavelengths_nm, .. } => format!(
+            "table of {} indices, {}-{} nm",
+            wavelengths_nm.len(),
+            wavelengths_nm.first().copied().unwrap_or_default(),
+            wavelengths_nm.last().copied().unwrap_or_default()
+        ),
     }
 }

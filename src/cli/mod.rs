@@ -18,6 +18,7 @@ mod analyze;
 mod bench;
 mod bench_render;
 mod demo;
+mod glass;
 mod lens;
 mod lrtf;
 mod plot;
@@ -44,6 +45,9 @@ pub enum Command {
     /// Read, validate, convert and list lens prescriptions.
     #[command(subcommand)]
     Lens(lens::LensCommand),
+    /// List the built-in glass catalogues or show one glass.
+    #[command(subcommand)]
+    Glass(glass::GlassCommand),
     /// First-order data, pupils and Seidel sums of a lens.
     Analyze(analyze::AnalyzeArgs),
     /// Render depth of field through a lens model (image-based ray tracing).
@@ -72,6 +76,7 @@ pub enum Command {
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Lens(command) => lens::run(command),
+        Command::Glass(command) => glass::run(command),
         Command::Analyze(args) => analyze::run(args),
         Command::Render(args) => render::run(args),
         Command::Demo(args) => demo::run(args),

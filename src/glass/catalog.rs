@@ -1,34 +1,33 @@
-//! Built-in glass catalogue: dispersion coefficients as published by the glass makers.
+//! Built-in glass catalogues: dispersion coefficients as the glass makers publish them.
 //!
-//! Every entry carries the maker, the catalogue edition and the maker's glass code, plus the
-//! datasheet's nd and vd so that a mistyped coefficient shows up as a mismatch in the tests.
+//! The data live in `src/glass/data/*.tsv` (one glass a row: name, formula, coefficients, the
+//! datasheet's nd and vd, the span of wavelengths the maker measured), written from the makers'
+//! own catalogue spreadsheets by `tools/glass_catalogs.py`; `src/glass/data/README.md` names each
+//! file's origin and date. They are embedded in the binary and parsed once, on first use.
 //!
-//! Sources, transcribed number for number:
-//! - SCHOTT's optical glass catalogue spreadsheet dated 2018-06-01 (every glass in it), as
-//!   redistributed in the `opticalglass` 1.1.1 package. Its Sellmeier coefficients are identical
-//!   to those in SCHOTT's Zemax catalogue `schott_2017-01-20b.agf`.
-//! - SCHOTT's Zemax catalogue `schott_2017-01-20b.agf` (as tabulated by refractiveindex.info) for
-//!   the inquiry and superseded glasses that older designs still name (N-SK15, LASFN9, SF14...).
-//!   SF6G05 is left out: its datasheet vd disagrees with its own Sellmeier fit by 0.009.
-//! - HIKARI SK16 (used by the Cooke triplet sample of optiland) from the NIKON/HIKARI Zemax
-//!   catalogue `nikon_2017-11.agf`, which gives it in the Schott power-series form.
+//! Names repeat across makers (HIKARI and SCHOTT both once sold an SK16), so every glass belongs
+//! to one catalogue, and a lookup says which catalogues it prefers: a lens file's own list (Zemax
+//! `GCAT`), else [`CATALOGUES`] in order. A maker suffix (`SK16_HIKARI`) picks one catalogue.
 
 use super::Dispersion;
 use crate::prescription::Problem;
+use std::sync::LazyLock;
 
 /// One catalogue glass.
 #[derive(Clone, Debug, PartialEq)]
 pub struct CatalogGlass {
     pub name: &'static str,
+    /// The catalogue it belongs to, as lens files name it ("SCHOTT", "OHARA", ..., "MISC").
     pub maker: &'static str,
-    /// Catalogue edition the coefficients come from.
-    pub catalogue: &'static str,
-    /// The maker's glass code (Schott: nd/vd code and density, e.g. "517642.251").
-    pub glass_code: &'static str,
-    /// d-line index and Abbe number as printed in the datasheet.
+    /// Where the coefficients come from (file, edition).
+    pub source: &'static str,
+    /// d-line index and Abbe number as the datasheet prints them.
     pub nd: f64,
     pub vd: f64,
     pub formula: Dispersion,
+    /// Shortest and longest wavelength (nm) at which the maker lists a measured index, where
+    /// the data file says.
+    pub measured_nm: Option<(f64, f64)>,
 }
 
 impl CatalogGlass {
@@ -36,238 +35,150 @@ impl CatalogGlass {
         self.formula.clone()
     }
 
-    /// Citation of the datasheet, e.g. "Schott N-BK7 (517642.251), SCHOTT optical glass ...".
+    /// The six-digit glass code: nd and vd to three digits each (1.51680, 64.17 -> "517642").
+    pub fn glass_code(&self) -> String {
+        let nd_digits = ((self.nd - 1.0) * 1000.0).round() as i64 % 1000;
+        let vd_digits = (self.vd * 10.0).round() as i64;
+        format!("{nd_digits:03}{vd_digits:03}")
+    }
+
+    /// Citation, e.g. "SCHOTT N-BK7 (517642), SCHOTT catalogue from the maker's spreadsheet ...".
     pub fn datasheet(&self) -> String {
         format!(
             "{} {} ({}), {}",
-            self.maker, self.name, self.glass_code, self.catalogue
+            self.maker,
+            self.name,
+            self.glass_code(),
+            self.source
         )
     }
-}
 
-struct Source {
-    maker: &'static str,
-    catalogue: &'static str,
-}
-
-const SCHOTT_2018: Source = Source {
-    maker: "Schott",
-    catalogue: "SCHOTT optical glass catalogue spreadsheet, 2018-06-01",
-};
-const SCHOTT_2017: Source = Source {
-    maker: "Schott",
-    catalogue: "SCHOTT Zemax catalogue schott_2017-01-20b.agf (inquiry or superseded glass)",
-};
-const HIKARI_2017: Source = Source {
-    maker: "Hikari",
-    catalogue: "NIKON/HIKARI Zemax catalogue nikon_2017-11.agf",
-};
-
-const fn sellmeier(
-    name: &'static str,
-    source: Source,
-    glass_code: &'static str,
-    nd: f64,
-    vd: f64,
-    b: [f64; 3],
-    c: [f64; 3],
-) -> CatalogGlass {
-    CatalogGlass {
-        name,
-        maker: source.maker,
-        catalogue: source.catalogue,
-        glass_code,
-        nd,
-        vd,
-        formula: Dispersion::Sellmeier { b, c },
+    /// The name that selects this glass whatever catalogues a lookup prefers: the bare name when
+    /// no other catalogue has a glass of that name, else `NAME_MAKER`.
+    pub fn unambiguous_name(&self) -> String {
+        let key = glass_key(self.name).key;
+        let homonyms = catalog()
+            .iter()
+            .filter(|g| g.maker != self.maker && glass_key(g.name).key == key)
+            .count();
+        if homonyms == 0 {
+            self.name.to_string()
+        } else {
+            format!("{}_{}", self.name, self.maker)
+        }
     }
 }
 
-const fn power_series(
-    name: &'static str,
-    source: Source,
-    glass_code: &'static str,
-    nd: f64,
-    vd: f64,
-    a: [f64; 6],
-) -> CatalogGlass {
-    CatalogGlass {
-        name,
-        maker: source.maker,
-        catalogue: source.catalogue,
-        glass_code,
-        nd,
-        vd,
-        formula: Dispersion::PowerSeries { a },
-    }
-}
-
-/// The catalogue, sorted by name. Sellmeier rows: name, source, glass code, nd, vd, B1..B3,
-/// C1..C3 (um^2); power-series rows: name, source, glass code, nd, vd, A0..A5.
-#[rustfmt::skip]
-pub const CATALOG: &[CatalogGlass] = &[
-    sellmeier("BAFN6", SCHOTT_2017, "589485.317", 1.589, 48.45, [1.36719201, 0.10907994, 1.02108011], [0.00882820704, 0.0438731646, 113.58602]),
-    sellmeier("BK7G18", SCHOTT_2017, "520636.252", 1.51975, 63.58, [1.26538542, 0.0144191073, 1.00323028], [0.00813104078, 0.0543303226, 102.821166]),
-    sellmeier("F2", SCHOTT_2018, "620364.360", 1.62004, 36.37, [1.34533359, 0.209073176, 0.937357162], [0.00997743871, 0.0470450767, 111.886764]),
-    sellmeier("F2G12", SCHOTT_2017, "621366.360", 1.62072, 36.56, [1.34702224, 0.210037763, 19.5350768], [0.00980850553, 0.0471788018, 2279.1547]),
-    sellmeier("F2HT", SCHOTT_2018, "620364.360", 1.62004, 36.37, [1.34533359, 0.209073176, 0.937357162], [0.00997743871, 0.0470450767, 111.886764]),
-    sellmeier("F5", SCHOTT_2018, "603380.347", 1.60342, 38.03, [1.3104463, 0.19603426, 0.96612977], [0.00958633048, 0.0457627627, 115.011883]),
-    sellmeier("FK3", SCHOTT_2017, "464658.227", 1.4645, 65.77, [0.973346627, 0.146642231, 0.679304225], [0.00640795469, 0.020565293, 80.4965389]),
-    sellmeier("FK5HTi", SCHOTT_2018, "487705.245", 1.48748, 70.47, [0.90936218, 0.279077054, 0.891813298], [0.0052014247, 0.0158938446, 95.9109448]),
-    sellmeier("K10", SCHOTT_2018, "501564.252", 1.50137, 56.41, [1.15687082, 0.0642625444, 0.872376139], [0.00809424251, 0.0386051284, 104.74773]),
-    sellmeier("K5G20", SCHOTT_2017, "523568.259", 1.52344, 56.76, [1.14094396, 0.14500119, 37.4705786], [0.00694945478, 0.0310574444, 4536.25624]),
-    sellmeier("K7", SCHOTT_2018, "511604.253", 1.51112, 60.41, [1.1273555, 0.124412303, 0.827100531], [0.00720341707, 0.0269835916, 100.384588]),
-    sellmeier("KZFS12", SCHOTT_2017, "696363.384", 1.696, 36.29, [1.55624873, 0.239769276, 0.947887658], [0.0102012744, 0.0469277969, 69.8370722]),
-    sellmeier("KZFSN4", SCHOTT_2017, "613443.320", 1.6134, 44.29, [1.37994218, 0.168496708, 0.874885726], [0.00891159699, 0.040533407, 69.6628237]),
-    sellmeier("LAFN7", SCHOTT_2018, "750350.438", 1.7495, 34.95, [1.66842615, 0.298512803, 1.0774376], [0.0103159999, 0.0469216348, 82.5078509]),
-    sellmeier("LAK9G15", SCHOTT_2017, "691548.353", 1.69064, 54.76, [1.28773667, 0.518244853, 26.1756109], [0.0055754192, 0.0223679524, 1892.2533]),
-    sellmeier("LAKL12", SCHOTT_2017, "678549.332", 1.6779, 54.92, [1.28115389, 0.482607607, 1.16553538], [0.00636439821, 0.0213764262, 93.2771532]),
-    sellmeier("LASF35", SCHOTT_2018, "022291.541", 2.02204, 29.06, [2.45505861, 0.453006077, 2.3851308], [0.0135670404, 0.054580302, 167.904715]),
-    sellmeier("LASFN9", SCHOTT_2017, "850322.444", 1.85025, 32.17, [1.97888194, 0.320435298, 1.92900751], [0.0118537266, 0.052738177, 166.25654]),
-    sellmeier("LF5", SCHOTT_2018, "581409.322", 1.58144, 40.85, [1.28035628, 0.163505973, 0.893930112], [0.00929854416, 0.0449135769, 110.493685]),
-    sellmeier("LF5G15", SCHOTT_2017, "584408.322", 1.58397, 40.83, [1.28887331, 0.162818811, 10.5579792], [0.0092001566, 0.0456954308, 1275.44015]),
-    sellmeier("LF5G19", SCHOTT_2017, "597399.330", 1.59655, 39.89, [1.34611327, 0.142428018, 0.900477176], [0.0097174385, 0.0501911619, 111.959703]),
-    sellmeier("LF5HTi", SCHOTT_2018, "581409.322", 1.58144, 40.89, [1.28552924, 0.158357622, 0.892175122], [0.0093988626, 0.0452566659, 110.544829]),
-    sellmeier("LLF1", SCHOTT_2018, "548458.294", 1.54814, 45.75, [1.21640125, 0.13366454, 0.883399468], [0.00857807248, 0.0420143003, 107.59306]),
-    sellmeier("LLF1HTi", SCHOTT_2018, "548459.294", 1.54815, 45.9, [1.22510445, 0.125155671, 0.892236751], [0.00870432098, 0.0427325235, 108.049968]),
-    sellmeier("N-BAF10", SCHOTT_2018, "670471.375", 1.67003, 47.11, [1.5851495, 0.143559385, 1.08521269], [0.00926681282, 0.0424489805, 105.613573]),
-    sellmeier("N-BAF3", SCHOTT_2017, "583466.279", 1.58272, 46.64, [1.34859634, 0.10764424, 1.13207084], [0.00871492932, 0.0478406436, 112.936116]),
-    sellmeier("N-BAF4", SCHOTT_2018, "606437.289", 1.60568, 43.72, [1.42056328, 0.102721269, 1.14380976], [0.00942015382, 0.0531087291, 110.278856]),
-    sellmeier("N-BAF51", SCHOTT_2018, "652450.333", 1.65224, 44.96, [1.51503623, 0.153621958, 1.15427909], [0.00942734715, 0.04308265, 124.889868]),
-    sellmeier("N-BAF52", SCHOTT_2018, "609466.305", 1.60863, 46.6, [1.43903433, 0.0967046052, 1.09875818], [0.00907800128, 0.050821208, 105.691856]),
-    sellmeier("N-BAK1", SCHOTT_2018, "573576.319", 1.5725, 57.55, [1.12365662, 0.309276848, 0.881511957], [0.00644742752, 0.0222284402, 107.297751]),
-    sellmeier("N-BAK2", SCHOTT_2018, "540597.286", 1.53996, 59.71, [1.01662154, 0.319903051, 0.937232995], [0.00592383763, 0.0203828415, 113.118417]),
-    sellmeier("N-BAK4", SCHOTT_2018, "569560.305", 1.56883, 55.98, [1.28834642, 0.132817724, 0.945395373], [0.00779980626, 0.0315631177, 105.965875]),
-    sellmeier("N-BAK4HT", SCHOTT_2018, "569560.305", 1.56883, 55.98, [1.28834642, 0.132817724, 0.945395373], [0.00779980626, 0.0315631177, 105.965875]),
-    sellmeier("N-BALF4", SCHOTT_2018, "580539.311", 1.57956, 53.87, [1.31004128, 0.142038259, 0.964929351], [0.0079659645, 0.0330672072, 109.19732]),
-    sellmeier("N-BALF5", SCHOTT_2018, "547536.261", 1.54739, 53.63, [1.28385965, 0.0719300942, 1.05048927], [0.00825815975, 0.0441920027, 107.097324]),
-    sellmeier("N-BASF2", SCHOTT_2018, "664360.315", 1.66446, 36.0, [1.53652081, 0.156971102, 1.30196815], [0.0108435729, 0.0562278762, 131.3397]),
-    sellmeier("N-BASF64", SCHOTT_2018, "704394.320", 1.704, 39.38, [1.65554268, 0.17131977, 1.33664448], [0.0104485644, 0.0499394756, 118.961472]),
-    sellmeier("N-BK10", SCHOTT_2018, "498670.239", 1.49782, 66.95, [0.888308131, 0.328964475, 0.984610769], [0.00516900822, 0.0161190045, 99.7575331]),
-    sellmeier("N-BK7", SCHOTT_2018, "517642.251", 1.5168, 64.17, [1.03961212, 0.231792344, 1.01046945], [0.00600069867, 0.0200179144, 103.560653]),
-    sellmeier("N-BK7HT", SCHOTT_2018, "517642.251", 1.5168, 64.17, [1.03961212, 0.231792344, 1.01046945], [0.00600069867, 0.0200179144, 103.560653]),
-    sellmeier("N-BK7HTi", SCHOTT_2018, "517642.251", 1.5168, 64.17, [1.03961212, 0.231792344, 1.01046945], [0.00600069867, 0.0200179144, 103.560653]),
-    sellmeier("N-F2", SCHOTT_2018, "620364.265", 1.62005, 36.43, [1.39757037, 0.159201403, 1.2686543], [0.00995906143, 0.0546931752, 119.248346]),
-    sellmeier("N-FK5", SCHOTT_2018, "487704.245", 1.48749, 70.41, [0.844309338, 0.344147824, 0.910790213], [0.00475111955, 0.0149814849, 97.8600293]),
-    sellmeier("N-FK51", SCHOTT_2017, "487845.366", 1.48656, 84.47, [0.971247817, 0.216901417, 0.904651666], [0.00472301995, 0.0153575612, 168.68133]),
-    sellmeier("N-FK51A", SCHOTT_2018, "487845.368", 1.48656, 84.47, [0.971247817, 0.216901417, 0.904651666], [0.00472301995, 0.0153575612, 168.68133]),
-    sellmeier("N-FK58", SCHOTT_2018, "456909.365", 1.456, 90.9, [0.738042712, 0.363371967, 0.989296264], [0.00339065607, 0.0117551189, 212.842145]),
-    sellmeier("N-K5", SCHOTT_2018, "522595.259", 1.52249, 59.48, [1.08511833, 0.199562005, 0.930511663], [0.00661099503, 0.024110866, 111.982777]),
-    sellmeier("N-KF9", SCHOTT_2018, "523515.250", 1.52346, 51.54, [1.19286778, 0.0893346571, 0.920819805], [0.00839154696, 0.0404010786, 112.572446]),
-    sellmeier("N-KZFS11", SCHOTT_2018, "638424.320", 1.63775, 42.41, [1.3322245, 0.28924161, 1.15161734], [0.0084029848, 0.034423972, 88.4310532]),
-    sellmeier("N-KZFS2", SCHOTT_2018, "558540.255", 1.55836, 54.01, [1.23697554, 0.153569376, 0.903976272], [0.00747170505, 0.0308053556, 70.1731084]),
-    sellmeier("N-KZFS4", SCHOTT_2018, "613445.300", 1.61336, 44.49, [1.35055424, 0.197575506, 1.09962992], [0.0087628207, 0.0371767201, 90.3866994]),
-    sellmeier("N-KZFS4HT", SCHOTT_2018, "613445.300", 1.61336, 44.49, [1.35055424, 0.197575506, 1.09962992], [0.0087628207, 0.0371767201, 90.3866994]),
-    sellmeier("N-KZFS5", SCHOTT_2018, "654397.304", 1.65412, 39.7, [1.47460789, 0.193584488, 1.26589974], [0.00986143816, 0.0445477583, 106.436258]),
-    sellmeier("N-KZFS8", SCHOTT_2018, "720347.320", 1.72047, 34.7, [1.62693651, 0.24369876, 1.62007141], [0.010880863, 0.0494207753, 131.009163]),
-    sellmeier("N-LAF2", SCHOTT_2018, "744449.430", 1.74397, 44.85, [1.80984227, 0.15729555, 1.0930037], [0.0101711622, 0.0442431765, 100.687748]),
-    sellmeier("N-LAF21", SCHOTT_2018, "788475.428", 1.788, 47.49, [1.87134529, 0.25078301, 1.22048639], [0.0093332228, 0.0345637762, 83.2404866]),
-    sellmeier("N-LAF3", SCHOTT_2017, "717480.414", 1.717, 47.96, [1.73155854, 0.150874455, 1.06586596], [0.00953833914, 0.0407887211, 98.0758545]),
-    sellmeier("N-LAF32", SCHOTT_2017, "795455.433", 1.79457, 45.53, [1.91731106, 0.224019825, 1.22087075], [0.00978600358, 0.0386141473, 84.6431265]),
-    sellmeier("N-LAF33", SCHOTT_2018, "786441.436", 1.78582, 44.05, [1.79653417, 0.311577903, 1.15981863], [0.00927313493, 0.0358201181, 87.3448712]),
-    sellmeier("N-LAF34", SCHOTT_2018, "773496.424", 1.7725, 49.62, [1.75836958, 0.313537785, 1.18925231], [0.00872810026, 0.0293020832, 85.1780644]),
-    sellmeier("N-LAF35", SCHOTT_2018, "743494.412", 1.7433, 49.4, [1.51697436, 0.455875464, 1.07469242], [0.00750943203, 0.0260046715, 80.5945159]),
-    sellmeier("N-LAF36", SCHOTT_2017, "800424.443", 1.79952, 42.37, [1.85744228, 0.294098729, 1.16615417], [0.00982397191, 0.0384309138, 89.3984634]),
-    sellmeier("N-LAF7", SCHOTT_2018, "749348.373", 1.7495, 34.82, [1.74028764, 0.226710554, 1.32525548], [0.010792558, 0.0538626639, 106.268665]),
-    sellmeier("N-LAK10", SCHOTT_2018, "720506.369", 1.72003, 50.62, [1.72878017, 0.169257825, 1.19386956], [0.00886014635, 0.0363416509, 82.9009069]),
-    sellmeier("N-LAK12", SCHOTT_2018, "678552.410", 1.6779, 55.2, [1.17365704, 0.588992398, 0.978014394], [0.00577031797, 0.0200401678, 95.4873482]),
-    sellmeier("N-LAK14", SCHOTT_2018, "697554.363", 1.6968, 55.41, [1.50781212, 0.318866829, 1.14287213], [0.00746098727, 0.0242024834, 80.9565165]),
-    sellmeier("N-LAK21", SCHOTT_2018, "640601.374", 1.64049, 60.1, [1.22718116, 0.420783743, 1.01284843], [0.00602075682, 0.0196862889, 88.4370099]),
-    sellmeier("N-LAK22", SCHOTT_2018, "651559.377", 1.65113, 55.89, [1.14229781, 0.535138441, 1.04088385], [0.00585778594, 0.0198546147, 100.834017]),
-    sellmeier("N-LAK33A", SCHOTT_2017, "754523.422", 1.75393, 52.27, [1.44116999, 0.571749501, 1.16605226], [0.00680933877, 0.0222291824, 80.9379555]),
-    sellmeier("N-LAK33B", SCHOTT_2018, "755523.422", 1.755, 52.3, [1.42288601, 0.593661336, 1.1613526], [0.00670283452, 0.021941621, 80.7407701]),
-    sellmeier("N-LAK34", SCHOTT_2018, "729545.402", 1.72916, 54.5, [1.26661442, 0.665919318, 1.1249612], [0.00589278062, 0.0197509041, 78.8894174]),
-    sellmeier("N-LAK7", SCHOTT_2018, "652585.384", 1.6516, 58.52, [1.23679889, 0.445051837, 1.01745888], [0.00610105538, 0.0201388334, 90.638038]),
-    sellmeier("N-LAK8", SCHOTT_2018, "713538.375", 1.713, 53.83, [1.33183167, 0.546623206, 1.19084015], [0.00620023871, 0.0216465439, 82.5827736]),
-    sellmeier("N-LAK9", SCHOTT_2018, "691547.351", 1.691, 54.71, [1.46231905, 0.344399589, 1.15508372], [0.00724270156, 0.0243353131, 85.4686868]),
-    sellmeier("N-LASF31", SCHOTT_2017, "881410.541", 1.88067, 41.01, [1.71317198, 0.718575109, 1.7233247], [0.00819172228, 0.0297801704, 138.461313]),
-    sellmeier("N-LASF31A", SCHOTT_2018, "883408.551", 1.883, 40.76, [1.96485075, 0.475231259, 1.48360109], [0.00982060155, 0.0344713438, 110.739863]),
-    sellmeier("N-LASF40", SCHOTT_2018, "834373.443", 1.83404, 37.3, [1.98550331, 0.274057042, 1.28945661], [0.010958331, 0.0474551603, 96.9085286]),
-    sellmeier("N-LASF41", SCHOTT_2018, "835431.485", 1.83501, 43.13, [1.86348331, 0.413307255, 1.35784815], [0.00910368219, 0.0339247268, 93.3580595]),
-    sellmeier("N-LASF43", SCHOTT_2018, "806406.426", 1.8061, 40.61, [1.93502827, 0.23662935, 1.26291344], [0.0104001413, 0.0447505292, 87.437569]),
-    sellmeier("N-LASF44", SCHOTT_2018, "804465.444", 1.8042, 46.5, [1.78897105, 0.38675867, 1.30506243], [0.00872506277, 0.0308085023, 92.7743824]),
-    sellmeier("N-LASF45", SCHOTT_2018, "801350.363", 1.80107, 34.97, [1.87140198, 0.267777879, 1.73030008], [0.011217192, 0.0505134972, 147.106505]),
-    sellmeier("N-LASF45HT", SCHOTT_2018, "801350.363", 1.80107, 34.97, [1.87140198, 0.267777879, 1.73030008], [0.011217192, 0.0505134972, 147.106505]),
-    sellmeier("N-LASF46", SCHOTT_2017, "901316.446", 1.90138, 31.64, [2.18073678, 0.298978656, 1.62190046], [0.0125642118, 0.056469999, 105.662819]),
-    sellmeier("N-LASF46A", SCHOTT_2018, "904313.445", 1.90366, 31.32, [2.16701566, 0.319812761, 1.66004486], [0.0123595524, 0.0560610282, 107.047718]),
-    sellmeier("N-LASF46B", SCHOTT_2018, "904313.451", 1.90366, 31.32, [2.17988922, 0.306495184, 1.56882437], [0.0125805384, 0.0567191367, 105.316538]),
-    sellmeier("N-LASF9", SCHOTT_2018, "850322.441", 1.85025, 32.17, [2.00029547, 0.298926886, 1.80691843], [0.0121426017, 0.0538736236, 156.530829]),
-    sellmeier("N-LASF9HT", SCHOTT_2018, "850322.441", 1.85025, 32.17, [2.00029547, 0.298926886, 1.80691843], [0.0121426017, 0.0538736236, 156.530829]),
-    sellmeier("N-PK51", SCHOTT_2018, "529770.386", 1.52855, 76.98, [1.15610775, 0.153229344, 0.785618966], [0.00585597402, 0.0194072416, 140.537046]),
-    sellmeier("N-PK52A", SCHOTT_2018, "497816.370", 1.497, 81.61, [1.029607, 0.1880506, 0.736488165], [0.00516800155, 0.0166658798, 138.964129]),
-    sellmeier("N-PSK3", SCHOTT_2018, "552635.291", 1.55232, 63.46, [0.88727211, 0.489592425, 1.04865296], [0.00469824067, 0.0161818463, 104.374975]),
-    sellmeier("N-PSK53", SCHOTT_2017, "620635.360", 1.62014, 63.48, [1.3434087, 0.241417935, 0.952896897], [0.00675074317, 0.0219910513, 103.551457]),
-    sellmeier("N-PSK53A", SCHOTT_2018, "618634.357", 1.618, 63.39, [1.38121836, 0.196745645, 0.886089205], [0.00706416337, 0.0233251345, 97.4847345]),
-    sellmeier("N-SF1", SCHOTT_2018, "717296.303", 1.71736, 29.62, [1.60865158, 0.237725916, 1.51530653], [0.0119654879, 0.0590589722, 135.521676]),
-    sellmeier("N-SF10", SCHOTT_2018, "728285.305", 1.72828, 28.53, [1.62153902, 0.256287842, 1.64447552], [0.0122241457, 0.0595736775, 147.468793]),
-    sellmeier("N-SF11", SCHOTT_2018, "785257.322", 1.78472, 25.68, [1.73759695, 0.313747346, 1.89878101], [0.013188707, 0.0623068142, 155.23629]),
-    sellmeier("N-SF14", SCHOTT_2018, "762265.312", 1.76182, 26.53, [1.69022361, 0.288870052, 1.7045187], [0.0130512113, 0.061369188, 149.517689]),
-    sellmeier("N-SF15", SCHOTT_2018, "699302.292", 1.69892, 30.2, [1.57055634, 0.218987094, 1.50824017], [0.0116507014, 0.0597856897, 132.709339]),
-    sellmeier("N-SF19", SCHOTT_2017, "667331.290", 1.66679, 33.12, [1.52005444, 0.17573947, 1.43623424], [0.01096144, 0.0593248486, 126.795151]),
-    sellmeier("N-SF2", SCHOTT_2018, "648338.272", 1.64769, 33.82, [1.47343127, 0.163681849, 1.36920899], [0.0109019098, 0.0585683687, 127.404933]),
-    sellmeier("N-SF4", SCHOTT_2018, "755274.315", 1.75513, 27.38, [1.67780282, 0.282849893, 1.63539276], [0.012679345, 0.0602038419, 145.760496]),
-    sellmeier("N-SF5", SCHOTT_2018, "673323.286", 1.67271, 32.25, [1.52481889, 0.187085527, 1.42729015], [0.011254756, 0.0588995392, 129.141675]),
-    sellmeier("N-SF56", SCHOTT_2017, "785261.328", 1.7847, 26.1, [1.73562085, 0.317487012, 1.95398203], [0.0129624742, 0.0612884288, 161.559441]),
-    sellmeier("N-SF57", SCHOTT_2018, "847238.353", 1.84666, 23.78, [1.87543831, 0.37375749, 2.30001797], [0.0141749518, 0.0640509927, 177.389795]),
-    sellmeier("N-SF57HT", SCHOTT_2018, "847238.353", 1.84666, 23.78, [1.87543831, 0.37375749, 2.30001797], [0.0141749518, 0.0640509927, 177.389795]),
-    sellmeier("N-SF57HTultra", SCHOTT_2018, "847238.353", 1.84666, 23.78, [1.87543831, 0.37375749, 2.30001797], [0.0141749518, 0.0640509927, 177.389795]),
-    sellmeier("N-SF6", SCHOTT_2018, "805254.337", 1.80518, 25.36, [1.77931763, 0.338149866, 2.08734474], [0.0133714182, 0.0617533621, 174.01759]),
-    sellmeier("N-SF64", SCHOTT_2017, "706302.299", 1.70591, 30.23, [1.59163762, 0.219908428, 1.46929315], [0.0118623434, 0.0594585499, 133.310762]),
-    sellmeier("N-SF66", SCHOTT_2018, "923209.400", 1.92286, 20.88, [2.0245976, 0.470187196, 2.59970433], [0.0147053225, 0.0692998276, 161.817601]),
-    sellmeier("N-SF6HT", SCHOTT_2018, "805254.337", 1.80518, 25.36, [1.77931763, 0.338149866, 2.08734474], [0.0133714182, 0.0617533621, 174.01759]),
-    sellmeier("N-SF6HTultra", SCHOTT_2018, "805254.337", 1.80518, 25.36, [1.77931763, 0.338149866, 2.08734474], [0.0133714182, 0.0617533621, 174.01759]),
-    sellmeier("N-SF8", SCHOTT_2018, "689313.290", 1.68894, 31.31, [1.55075812, 0.209816918, 1.46205491], [0.0114338344, 0.0582725652, 133.24165]),
-    sellmeier("N-SK10", SCHOTT_2017, "623570.364", 1.62278, 56.98, [1.34972093, 0.238587973, 0.9667336], [0.00736272269, 0.0253765327, 103.502909]),
-    sellmeier("N-SK11", SCHOTT_2018, "564608.308", 1.56384, 60.8, [1.17963631, 0.229817295, 0.935789652], [0.00680282081, 0.0219737205, 101.513232]),
-    sellmeier("N-SK14", SCHOTT_2018, "603606.344", 1.60311, 60.6, [0.936155374, 0.594052018, 1.04374583], [0.00461716525, 0.016885927, 103.736265]),
-    sellmeier("N-SK15", SCHOTT_2017, "623580.362", 1.62296, 58.02, [1.30417786, 0.28584116, 0.974781572], [0.00695051276, 0.0232023703, 99.016884]),
-    sellmeier("N-SK16", SCHOTT_2018, "620603.358", 1.62041, 60.32, [1.34317774, 0.241144399, 0.994317969], [0.00704687339, 0.0229005, 92.7508526]),
-    sellmeier("N-SK2", SCHOTT_2018, "607567.355", 1.60738, 56.65, [1.28189012, 0.257738258, 0.96818604], [0.0072719164, 0.0242823527, 110.377773]),
-    sellmeier("N-SK2HT", SCHOTT_2018, "607567.355", 1.60738, 56.65, [1.28189012, 0.257738258, 0.96818604], [0.0072719164, 0.0242823527, 110.377773]),
-    sellmeier("N-SK4", SCHOTT_2018, "613586.354", 1.61272, 58.63, [1.32993741, 0.228542996, 0.988465211], [0.00716874107, 0.0246455892, 100.886364]),
-    sellmeier("N-SK5", SCHOTT_2018, "589613.330", 1.58913, 61.27, [0.991463823, 0.495982121, 0.987393925], [0.00522730467, 0.0172733646, 98.3594579]),
-    sellmeier("N-SSK2", SCHOTT_2018, "622533.353", 1.62229, 53.27, [1.4306027, 0.153150554, 1.01390904], [0.00823982975, 0.0333736841, 106.870822]),
-    sellmeier("N-SSK5", SCHOTT_2018, "658509.371", 1.65844, 50.88, [1.59222659, 0.103520774, 1.05174016], [0.00920284626, 0.0423530072, 106.927374]),
-    sellmeier("N-SSK8", SCHOTT_2018, "618498.327", 1.61773, 49.83, [1.44857867, 0.117965926, 1.06937528], [0.00869310149, 0.0421566593, 111.300666]),
-    sellmeier("N-ZK7", SCHOTT_2018, "508612.249", 1.50847, 61.19, [1.07715032, 0.168079109, 0.851889892], [0.00676601657, 0.0230642817, 89.0498778]),
-    sellmeier("N-ZK7A", SCHOTT_2018, "508610.247", 1.508054, 61.04, [1.07509891, 0.168895044, 0.860503983], [0.00676601657, 0.0230642817, 89.0498778]),
-    sellmeier("P-BK7", SCHOTT_2018, "516641.243", 1.5164, 64.06, [1.18318503, 0.0871756426, 1.03133701], [0.00722141956, 0.0268216805, 101.702362]),
-    sellmeier("P-LAF37", SCHOTT_2018, "755457.399", 1.7555, 45.66, [1.76003244, 0.248286745, 1.15935122], [0.00938006396, 0.0360537464, 86.4324693]),
-    sellmeier("P-LAK35", SCHOTT_2018, "693532.385", 1.6935, 53.2, [1.3932426, 0.418882766, 1.043807], [0.00715959695, 0.0233637446, 88.3284426]),
-    sellmeier("P-LASF47", SCHOTT_2018, "806409.454", 1.8061, 40.9, [1.85543101, 0.315854649, 1.28561839], [0.0100328203, 0.0387095168, 94.5421507]),
-    sellmeier("P-LASF50", SCHOTT_2018, "809405.454", 1.8086, 40.46, [1.84910553, 0.329828674, 1.30400901], [0.00999234757, 0.0387437988, 95.8967681]),
-    sellmeier("P-LASF51", SCHOTT_2018, "810409.458", 1.81, 40.93, [1.84568806, 0.3390016, 1.32418921], [0.00988495571, 0.0378097402, 97.841543]),
-    sellmeier("P-PK53", SCHOTT_2017, "527662.283", 1.5269, 66.22, [0.960316767, 0.340437227, 0.777865595], [0.00531032986, 0.0175073434, 106.87533]),
-    sellmeier("P-SF67", SCHOTT_2017, "907214.424", 1.9068, 21.4, [1.97464225, 0.467095921, 2.43154209], [0.0145772324, 0.0669790359, 157.444895]),
-    sellmeier("P-SF68", SCHOTT_2018, "005210.619", 2.0052, 21.0, [2.3330067, 0.452961396, 1.25172339], [0.0168838419, 0.0716086325, 118.707479]),
-    sellmeier("P-SF69", SCHOTT_2018, "723292.293", 1.7225, 29.23, [1.62594647, 0.235927609, 1.67434623], [0.0121696677, 0.0600710405, 145.651908]),
-    sellmeier("P-SF8", SCHOTT_2018, "689313.290", 1.68893, 31.25, [1.55370411, 0.206332561, 1.39708831], [0.011658267, 0.0582087757, 130.748028]),
-    sellmeier("P-SK57", SCHOTT_2018, "587596.301", 1.587, 59.6, [1.31053414, 0.169376189, 1.10987714], [0.00740877235, 0.0254563489, 107.751087]),
-    sellmeier("P-SK57Q1", SCHOTT_2018, "586595.301", 1.586, 59.5, [1.30536483, 0.171434328, 1.10117219], [0.00736408831, 0.0255786047, 106.72606]),
-    sellmeier("P-SK58A", SCHOTT_2018, "589612.297", 1.58913, 61.15, [1.3167841, 0.171154756, 1.12501473], [0.00720717498, 0.0245659595, 102.739728]),
-    sellmeier("P-SK60", SCHOTT_2018, "610579.308", 1.61035, 57.9, [1.40790442, 0.143381417, 1.16513947], [0.00784382378, 0.0287769365, 105.373397]),
-    sellmeier("SF1", SCHOTT_2018, "717295.446", 1.71736, 29.51, [1.55912923, 0.284246288, 0.968842926], [0.0121481001, 0.0534549042, 112.174809]),
-    sellmeier("SF10", SCHOTT_2018, "728284.428", 1.72825, 28.41, [1.61625977, 0.259229334, 1.07762317], [0.0127534559, 0.0581983954, 116.60768]),
-    sellmeier("SF11", SCHOTT_2018, "785258.474", 1.78472, 25.76, [1.73848403, 0.311168974, 1.17490871], [0.0136068604, 0.0615960463, 121.922711]),
-    sellmeier("SF14", SCHOTT_2017, "762265.454", 1.76182, 26.53, [1.69182538, 0.285919934, 1.12595145], [0.0133151542, 0.0612647445, 118.405242]),
-    sellmeier("SF15", SCHOTT_2017, "699301.406", 1.69895, 30.07, [1.53925927, 0.247620926, 1.03816409], [0.0119307961, 0.0556077536, 116.416747]),
-    sellmeier("SF2", SCHOTT_2018, "648339.386", 1.64769, 33.85, [1.40301821, 0.231767504, 0.939056586], [0.0105795466, 0.0493226978, 112.405955]),
-    sellmeier("SF4", SCHOTT_2018, "755276.479", 1.7552, 27.58, [1.61957826, 0.339493189, 1.02566931], [0.0125502104, 0.0544559822, 117.652222]),
-    sellmeier("SF5", SCHOTT_2018, "673322.407", 1.6727, 32.21, [1.46141885, 0.247713019, 0.949995832], [0.0111826126, 0.0508594669, 112.041888]),
-    sellmeier("SF56A", SCHOTT_2018, "785261.492", 1.7847, 26.08, [1.70579259, 0.344223052, 1.09601828], [0.0133874699, 0.0579561608, 121.616024]),
-    sellmeier("SF57", SCHOTT_2018, "847238.551", 1.84666, 23.83, [1.81651371, 0.428893641, 1.07186278], [0.0143704198, 0.0592801172, 121.419942]),
-    sellmeier("SF57HTultra", SCHOTT_2018, "847238.551", 1.84666, 23.83, [1.81651371, 0.428893641, 1.07186278], [0.0143704198, 0.0592801172, 121.419942]),
-    sellmeier("SF6", SCHOTT_2018, "805254.518", 1.80518, 25.43, [1.72448482, 0.390104889, 1.04572858], [0.0134871947, 0.0569318095, 118.557185]),
-    sellmeier("SF66", SCHOTT_2017, "923209.603", 1.92286, 20.88, [2.07842233, 0.407120032, 1.76711292], [0.0180875134, 0.0679493572, 215.266127]),
-    sellmeier("SF6HT", SCHOTT_2018, "805254.518", 1.80518, 25.43, [1.72448482, 0.390104889, 1.04572858], [0.0134871947, 0.0569318095, 118.557185]),
-    sellmeier("SFL57", SCHOTT_2017, "847236.355", 1.84666, 23.62, [1.88742326, 0.360534025, 2.26189313], [0.0145939341, 0.0648198946, 176.062211]),
-    sellmeier("SFL6", SCHOTT_2017, "805254.337", 1.80518, 25.39, [1.78922056, 0.328427448, 2.01639441], [0.0135163537, 0.0622729599, 168.014713]),
-    power_series("SK16", HIKARI_2017, "620603", 1.620409, 60.280874, [2.592001, -0.01540969, 0.0102268, 0.001581559, -0.0001877149, 1.012515e-05]),
+/// The catalogues in the order a lookup searches them when the lens file states none.
+pub const CATALOGUES: &[&str] = &[
+    "SCHOTT", "OHARA", "HOYA", "CDGM", "HIKARI", "SUMITA", "MISC",
 ];
 
-/// Makers whose names may follow a glass name, as CODE V and Zemax files write them
-/// ("NSSK2_SCHOTT").
-const MAKERS: &[&str] = &["SCHOTT", "OHARA", "HOYA", "CDGM", "HIKARI", "SUMITA"];
+/// (catalogue, embedded data file). A catalogue may span several files.
+const DATA: &[(&str, &str)] = &[
+    ("SCHOTT", include_str!("data/schott.tsv")),
+    ("SCHOTT", include_str!("data/schott-legacy.tsv")),
+    ("OHARA", include_str!("data/ohara.tsv")),
+    ("HOYA", include_str!("data/hoya.tsv")),
+    ("CDGM", include_str!("data/cdgm.tsv")),
+    ("HIKARI", include_str!("data/hikari.tsv")),
+    ("HIKARI", include_str!("data/hikari-legacy.tsv")),
+    ("SUMITA", include_str!("data/sumita.tsv")),
+    ("MISC", include_str!("data/misc.tsv")),
+];
+
+static CATALOG: LazyLock<Vec<CatalogGlass>> = LazyLock::new(|| {
+    let mut glasses = Vec::new();
+    for (maker, text) in DATA {
+        parse_file(maker, text, &mut glasses)
+            .unwrap_or_else(|e| panic!("embedded glass data for {maker}: {e}"));
+    }
+    glasses.sort_by(|a, b| {
+        (glass_key(a.name).key, rank(a.maker)).cmp(&(glass_key(b.name).key, rank(b.maker)))
+    });
+    glasses
+});
+
+/// Every catalogue glass, sorted by name, homonyms in [`CATALOGUES`] order.
+pub fn catalog() -> &'static [CatalogGlass] {
+    &CATALOG
+}
+
+fn rank(maker: &str) -> usize {
+    CATALOGUES
+        .iter()
+        .position(|m| *m == maker)
+        .unwrap_or(CATALOGUES.len())
+}
+
+/// Parses one data file: a first comment line that names the source, a column header, then
+/// `name formula coefficients nd vd min_nm max_nm [source]` separated by tabs.
+fn parse_file(
+    maker: &'static str,
+    text: &'static str,
+    out: &mut Vec<CatalogGlass>,
+) -> Result<(), String> {
+    let mut lines = text.lines();
+    let source = lines
+        .next()
+        .and_then(|l| l.strip_prefix("# "))
+        .ok_or("the first line must be `# <source>`")?;
+    for line in lines.filter(|l| !l.starts_with('#') && !l.trim().is_empty()) {
+        let columns: Vec<&'static str> = line.split('\t').collect();
+        if !(7..=8).contains(&columns.len()) {
+            return Err(format!("expected 7 or 8 columns: {line}"));
+        }
+        let number = |text: &str| {
+            text.trim()
+                .parse::<f64>()
+                .map_err(|_| format!("`{text}` is not a number in: {line}"))
+        };
+        let coefficients = columns[2]
+            .split_whitespace()
+            .map(number)
+            .collect::<Result<Vec<f64>, String>>()?;
+        let formula = formula(columns[1], &coefficients).ok_or_else(|| {
+            format!(
+                "formula `{}` with {} coefficients in: {line}",
+                columns[1],
+                coefficients.len()
+            )
+        })?;
+        let measured_nm = match (columns[5].trim(), columns[6].trim()) {
+            ("", "") => None,
+            (low, high) => Some((number(low)?, number(high)?)),
+        };
+        out.push(CatalogGlass {
+            name: columns[0],
+            maker,
+            source: columns.get(7).copied().unwrap_or(source),
+            nd: number(columns[3])?,
+            vd: number(columns[4])?,
+            formula,
+            measured_nm,
+        });
+    }
+    Ok(())
+}
+
+fn formula(kind: &str, c: &[f64]) -> Option<Dispersion> {
+    Some(match (kind, c.len()) {
+        ("sellmeier3", 6) => Dispersion::Sellmeier {
+            b: [c[0], c[1], c[2]],
+            c: [c[3], c[4], c[5]],
+        },
+        ("schott6", 6) => Dispersion::PowerSeries {
+            a: c.try_into().ok()?,
+        },
+        ("hikari9", 9) => Dispersion::ExtendedPowerSeries {
+            a: c.try_into().ok()?,
+        },
+        ("tabulated", n) if n >= 4 && n % 2 == 0 => {
+            Dispersion::tabulated(c.chunks(2).map(|p| (p[0], p[1])).collect()).ok()?
+        }
+        _ => return None,
+    })
+}
 
 /// A glass name reduced for matching: upper case, punctuation dropped, maker suffix split off.
 struct GlassKey {
@@ -278,7 +189,7 @@ struct GlassKey {
 fn glass_key(name: &str) -> GlassKey {
     let upper = name.trim().to_ascii_uppercase();
     let (stem, maker) = match upper.rsplit_once(['_', ':', ' ']) {
-        Some((stem, suffix)) => match MAKERS.iter().find(|m| **m == suffix) {
+        Some((stem, suffix)) => match CATALOGUES.iter().find(|m| **m == suffix) {
             Some(maker) => (stem, Some(*maker)),
             None => (upper.as_str(), None),
         },
@@ -290,35 +201,55 @@ fn glass_key(name: &str) -> GlassKey {
     }
 }
 
-/// Finds a glass by name, tolerant of case, dashes and a maker suffix; a maker suffix must match
-/// the catalogue entry's maker, so "SK16_SCHOTT" never silently resolves to HIKARI SK16.
+/// Finds a glass by name in the default catalogue order; see [`lookup_in`].
 pub fn lookup(name: &str) -> Result<&'static CatalogGlass, Problem> {
+    lookup_in(name, &[])
+}
+
+/// Finds a glass by name, tolerant of case, dashes and a maker suffix. A maker suffix must match
+/// the glass's catalogue, so "SK16_SCHOTT" never resolves to HIKARI SK16. Among glasses of one
+/// name, the first catalogue of `preferred` (case-insensitive) that holds one wins, then
+/// [`CATALOGUES`] order.
+pub fn lookup_in(name: &str, preferred: &[String]) -> Result<&'static CatalogGlass, Problem> {
     let wanted = glass_key(name);
-    CATALOG
+    let preference = |g: &CatalogGlass| {
+        preferred
+            .iter()
+            .position(|p| p.eq_ignore_ascii_case(g.maker))
+            .unwrap_or(preferred.len())
+    };
+    catalog()
         .iter()
-        .find(|g| {
-            glass_key(g.name).key == wanted.key
-                && wanted.maker.is_none_or(|m| g.maker.eq_ignore_ascii_case(m))
+        .filter(|g| {
+            glass_key(g.name).key == wanted.key && wanted.maker.is_none_or(|m| g.maker == m)
         })
+        .min_by_key(|g| (preference(g), rank(g.maker)))
         .ok_or_else(|| Problem::UnknownGlass {
             name: name.to_string(),
             suggestions: suggestions(name),
         })
 }
 
-/// Up to three catalogue names closest to `name` by edit distance (at most 3 edits).
+/// Up to three catalogue names closest to `name` by edit distance (at most 3 edits), from every
+/// catalogue, each spelt so that it selects that glass.
 pub fn suggestions(name: &str) -> Vec<String> {
     let wanted = glass_key(name).key;
-    let mut scored: Vec<(usize, &str)> = CATALOG
+    let mut scored: Vec<(usize, usize, &CatalogGlass)> = catalog()
         .iter()
-        .map(|g| (edit_distance(&glass_key(g.name).key, &wanted), g.name))
+        .map(|g| {
+            (
+                edit_distance(&glass_key(g.name).key, &wanted),
+                rank(g.maker),
+                g,
+            )
+        })
+        .filter(|(d, _, _)| *d <= 3)
         .collect();
-    scored.sort();
+    scored.sort_by_key(|(d, r, g)| (*d, *r, g.name));
     scored
         .into_iter()
-        .take_while(|(d, _)| *d <= 3)
         .take(3)
-        .map(|(_, n)| n.to_string())
+        .map(|(_, _, g)| g.unambiguous_name())
         .collect()
 }
 

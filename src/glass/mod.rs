@@ -5,7 +5,7 @@
 
 mod catalog;
 
-pub use catalog::{CATALOG, CatalogGlass, lookup, suggestions};
+pub use catalog::{CATALOGUES, CatalogGlass, catalog, lookup, lookup_in, suggestions};
 
 use crate::prescription::{Medium, Problem};
 
@@ -38,7 +38,23 @@ pub enum Dispersion {
     PowerSeries {
         a: [f64; 6],
     },
+    /// HIKARI's power series, l in micrometres:
+    /// n^2 = A0 + A1 l^2 + A2 l^4 + A3 l^-2 + A4 l^-4 + ... + A8 l^-12.
+    ExtendedPowerSeries {
+        a: [f64; 9],
+    },
+    /// Indices measured at listed wavelengths (nm, ascending), joined by a natural cubic spline
+    /// that passes through every point; defined only between the first and last wavelength. A
+    /// private glass given as a table (CODE V `PRV`, a datasheet without a formula) is this.
+    Tabulated {
+        points: Vec<(f64, f64)>,
+        /// Second derivatives of the spline at the points.
+        curvature: Vec<f64>,
+    },
 }
+
+/// Most points a tabulated medium may list; bounds the allocation a corrupt file can cause.
+pub const MAX_TABULATED_POINTS: usize = 256;
 
 impl Dispersion {
     /// Resolves a medium, looking up catalogue glasses by name.
@@ -49,7 +65,41 @@ impl Dispersion {
             Medium::Glass(name) => lookup(name)?.dispersion(),
             Medium::Sellmeier { b, c } => Dispersion::Sellmeier { b: *b, c: *c },
             Medium::Model { nd, vd } => Dispersion::model(*nd, *vd),
+            Medium::Table {
+                wavelengths_nm,
+                indices,
+            } => Dispersion::tabulated(
+                wavelengths_nm
+                    .iter()
+                    .copied()
+                    .zip(indices.iter().copied())
+                    .collect(),
+            )?,
         })
+    }
+
+    /// A tabulated medium from (wavelength nm, index) points. Refused unless the wavelengths are
+    /// finite, positive and strictly ascending and every index is finite and at least 1.
+    pub fn tabulated(points: Vec<(f64, f64)>) -> Result<Dispersion, Problem> {
+        let bad = |reason: String| Err(Problem::BadIndexTable { reason });
+        if points.is_empty() || points.len() > MAX_TABULATED_POINTS {
+            return bad(format!(
+                "{} points; between 1 and {MAX_TABULATED_POINTS} are needed",
+                points.len()
+            ));
+        }
+        for (nm, n) in &points {
+            if !(nm.is_finite() && *nm > 0.0 && n.is_finite() && *n >= 1.0) {
+                return bad(format!(
+                    "point ({nm} nm, {n}) is not a wavelength and an index"
+                ));
+            }
+        }
+        if points.windows(2).any(|w| w[1].0 <= w[0].0) {
+            return bad("the wavelengths must strictly ascend".into());
+        }
+        let curvature = natural_spline(&points);
+        Ok(Dispersion::Tabulated { points, curvature })
     }
 
     /// The model glass for (nd, vd); a vd of zero or infinity means no dispersion.
@@ -80,6 +130,17 @@ impl Dispersion {
                 let n2 = a[0] + a[1] * l2 + inv * (a[2] + inv * (a[3] + inv * (a[4] + inv * a[5])));
                 n2.sqrt()
             }
+            Dispersion::ExtendedPowerSeries { a } => {
+                let inv = 1.0 / l2;
+                let falling = a[3..]
+                    .iter()
+                    .rev()
+                    .fold(0.0, |acc, coefficient| inv * (coefficient + acc));
+                (a[0] + l2 * (a[1] + l2 * a[2]) + falling).sqrt()
+            }
+            Dispersion::Tabulated { points, curvature } => {
+                spline_value(points, curvature, wavelength_nm)
+            }
         }
     }
 
@@ -89,6 +150,10 @@ impl Dispersion {
     /// glass (short of the pole it may even give a plausible-looking index), so its range is the
     /// gap between the resonances that holds the d line. The other formulas have no pole: (0, inf).
     pub fn resonance_window_nm(&self) -> (f64, f64) {
+        if let Dispersion::Tabulated { points, .. } = self {
+            let last = points.len() - 1;
+            return (points[0].0, points[last].0);
+        }
         let Dispersion::Sellmeier { b, c } = self else {
             return (0.0, f64::INFINITY);
         };
@@ -118,7 +183,12 @@ impl Dispersion {
     pub fn checked_index(&self, wavelength_nm: f64) -> Result<f64, Problem> {
         let (low, high) = self.resonance_window_nm();
         let n = self.index(wavelength_nm);
-        if wavelength_nm > low && wavelength_nm < high && n.is_finite() && n >= 1.0 {
+        // A table's window is closed: its end points are measurements, not poles.
+        let inside = match self {
+            Dispersion::Tabulated { .. } => wavelength_nm >= low && wavelength_nm <= high,
+            _ => wavelength_nm > low && wavelength_nm < high,
+        };
+        if inside && n.is_finite() && n >= 1.0 {
             Ok(n)
         } else {
             Err(Problem::WavelengthOutOfRange { nm: wavelength_nm })
@@ -127,6 +197,59 @@ impl Dispersion {
 
     /// Whether the index changes with wavelength.
     pub fn disperses(&self) -> bool {
-        !matches!(self, Dispersion::Constant(_))
+        match self {
+            Dispersion::Constant(_) => false,
+            Dispersion::Tabulated { points, .. } => points.windows(2).any(|w| w[0].1 != w[1].1),
+            _ => true,
+        }
     }
+}
+
+/// Second derivatives of the natural cubic spline through `points` (zero at both ends).
+fn natural_spline(points: &[(f64, f64)]) -> Vec<f64> {
+    let n = points.len();
+    let mut second = vec![0.0; n];
+    if n < 3 {
+        return second;
+    }
+    // Tridiagonal system for the interior second derivatives (Thomas algorithm).
+    let mut diagonal = vec![0.0; n];
+    let mut rhs = vec![0.0; n];
+    for i in 1..n - 1 {
+        let (h0, h1) = (points[i].0 - points[i - 1].0, points[i + 1].0 - points[i].0);
+        let slope_change =
+            (points[i + 1].1 - points[i].1) / h1 - (points[i].1 - points[i - 1].1) / h0;
+        diagonal[i] = 2.0 * (h0 + h1);
+        rhs[i] = 6.0 * slope_change;
+        if i > 1 {
+            let factor = h0 / diagonal[i - 1];
+            diagonal[i] -= factor * h0;
+            rhs[i] -= factor * rhs[i - 1];
+        }
+    }
+    for i in (1..n - 1).rev() {
+        let h1 = points[i + 1].0 - points[i].0;
+        second[i] = (rhs[i] - h1 * second[i + 1]) / diagonal[i];
+    }
+    second
+}
+
+/// The spline through `points` at `x`; outside the table, the end segment continued (callers
+/// that need the range use [`Dispersion::checked_index`]).
+fn spline_value(points: &[(f64, f64)], second: &[f64], x: f64) -> f64 {
+    if points.len() == 1 {
+        return points[0].1;
+    }
+    let upper = points
+        .iter()
+        .position(|p| p.0 >= x)
+        .unwrap_or(points.len() - 1)
+        .max(1);
+    let (lower, upper) = (upper - 1, upper);
+    let h = points[upper].0 - points[lower].0;
+    let a = (points[upper].0 - x) / h;
+    let b = 1.0 - a;
+    a * points[lower].1
+        + b * points[upper].1
+        + ((a * a * a - a) * second[lower] + (b * b * b - b) * second[upper]) * h * h / 6.0
 }

@@ -111,6 +111,8 @@ pub enum Problem {
         name: String,
         suggestions: Vec<String>,
     },
+    #[error("bad index table: {reason}")]
+    BadIndexTable { reason: String },
     #[error(
         "wavelength {nm} nm is outside the range where this medium's dispersion formula is defined"
     )]

@@ -7,7 +7,7 @@ mod validate;
 
 pub use error::{Location, PrescriptionError, Problem};
 pub use model::{
-    DEFAULT_WAVELENGTH_NM, MAX_ASPHERE_TERMS, Medium, Prescription, Provenance, Shape, StopShape,
-    Surface,
+    ApertureSpec, Conditions, DEFAULT_WAVELENGTH_NM, FieldKind, FieldSpec, MAX_ASPHERE_TERMS,
+    Medium, Prescription, Provenance, Shape, StopShape, Surface,
 };
-pub use validate::{SourceMap, validate};
+pub use validate::{CROSSING_TOLERANCE_MM, SourceMap, validate};

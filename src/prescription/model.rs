@@ -34,6 +34,79 @@ pub struct Provenance {
     pub claimed_f_number: Option<f64>,
     #[serde(default)]
     pub notes: Option<String>,
+    /// The conditions the source analyses the lens under (Zemax and CODE V files state them);
+    /// the defaults of `analyze` and the other commands where the user gives no flag.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub conditions: Option<Conditions>,
+}
+
+/// Object, aperture, fields and wavelengths as the source file states them, in mm and nm.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Conditions {
+    /// Distance from the object to surface 1; None for an object at infinity.
+    #[serde(default)]
+    pub object_distance_mm: Option<f64>,
+    #[serde(default)]
+    pub aperture: Option<ApertureSpec>,
+    #[serde(default)]
+    pub fields: Option<FieldSpec>,
+    /// Wavelengths in nm with their weights (same length); `primary` indexes both.
+    #[serde(default)]
+    pub wavelengths_nm: Vec<f64>,
+    #[serde(default)]
+    pub wavelength_weights: Vec<f64>,
+    #[serde(default)]
+    pub primary: Option<usize>,
+}
+
+/// How the source sizes the beam.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub enum ApertureSpec {
+    /// Entrance-pupil diameter, mm (Zemax `ENPD`, CODE V `EPD`).
+    EntrancePupilDiameter(f64),
+    /// Image-space F-number for an object at infinity (Zemax `FNUM`, CODE V `FNO`).
+    FNumber(f64),
+    /// Object-space numerical aperture n sin u (Zemax `OBNA`, CODE V `NAO`).
+    ObjectNumericalAperture(f64),
+    /// The stop's own semi-aperture sets the beam (Zemax "float by stop size").
+    FloatByStop,
+}
+
+/// What a field value measures.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum FieldKind {
+    /// Object-space angle in degrees.
+    AngleDeg,
+    /// Object height, mm (finite objects).
+    ObjectHeight,
+    /// Paraxial image height, mm.
+    ParaxialImageHeight,
+    /// Real image height, mm.
+    RealImageHeight,
+}
+
+/// The field points of the source: x and y components (same length) of one kind, with weights.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FieldSpec {
+    pub kind: FieldKind,
+    pub x: Vec<f64>,
+    pub y: Vec<f64>,
+    #[serde(default)]
+    pub weights: Vec<f64>,
+}
+
+impl FieldSpec {
+    /// The largest radial field value, hypot(x, y) over the points (0 for none).
+    pub fn max_radial(&self) -> f64 {
+        self.x
+            .iter()
+            .zip(&self.y)
+            .map(|(x, y)| x.hypot(*y))
+            .fold(0.0, f64::max)
+    }
 }
 
 /// One refracting (or dummy) surface and the gap after it.
@@ -171,6 +244,12 @@ pub enum Medium {
     Sellmeier { b: [f64; 3], c: [f64; 3] },
     /// A model glass from its d-line index and Abbe number (see [`crate::glass`] for the formula).
     Model { nd: f64, vd: f64 },
+    /// Indices at listed wavelengths (nm, ascending), interpolated by a cubic spline and defined
+    /// only between the first and last: a private glass (CODE V `PRV`).
+    Table {
+        wavelengths_nm: Vec<f64>,
+        indices: Vec<f64>,
+    },
 }
 
 impl Medium {

@@ -13,9 +13,9 @@ use std::sync::LazyLock;
 
 use super::gpu_types as gpu;
 use super::{kernel, raster};
-use crate::model;
 use crate::lrtf::param as lrtf_param;
 use crate::lrtf::table as lrtf_table;
+use crate::model;
 
 /// A constant's value as the shader sees it.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -218,6 +218,12 @@ fn medium_name(medium: &crate::prescription::Medium) -> String {
         Medium::Glass(name) => name.clone(),
         Medium::Sellmeier { .. } => "Sellmeier".into(),
         Medium::Model { nd, vd } => format!("model {nd}/{vd}"),
+        Medium::Table { wavelengths_nm, .. } => format!(
+            "table of {} indices, {}-{} nm",
+            wavelengths_nm.len(),
+            wavelengths_nm.first().copied().unwrap_or_default(),
+            wavelengths_nm.last().copied().unwrap_or_default()
+        ),
     }
 }
 

@@ -21,7 +21,7 @@
 use super::{Format, LoadNote, Loaded};
 use crate::glass::Dispersion;
 use crate::prescription::error::{PrescriptionError, Problem};
-use crate::prescription::model::Prescription;
+use crate::prescription::model::{ApertureSpec, Conditions, FieldKind, Prescription};
 use crate::prescription::validate::{SourceMap, check_stop};
 
 /// How big the entrance pupil is.
@@ -32,6 +32,8 @@ pub(super) enum PupilSize {
     FNumber(f64),
     /// The stop's own semi-aperture sets the beam (Zemax "float by stop size").
     FloatByStop,
+    /// Object-space numerical aperture n sin u (finite objects).
+    ObjectNumericalAperture(f64),
     /// No usable aperture specification; the reason, as a sentence fragment for the error.
     Unusable(String),
 }
@@ -40,9 +42,20 @@ pub(super) enum PupilSize {
 /// coordinates, lower edge <= 0 <= upper edge; 1 means the full pupil radius).
 #[derive(Clone, Debug, PartialEq)]
 pub(super) struct FieldPoint {
-    pub angle_deg: f64,
+    pub position: FieldPosition,
     pub pupil_y: (f64, f64),
     pub pupil_x: (f64, f64),
+}
+
+/// Where a field point's chief ray comes from.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) enum FieldPosition {
+    /// Object-space angle, degrees.
+    AngleDeg(f64),
+    /// Object height, mm (finite objects only).
+    ObjectHeight(f64),
+    /// Paraxial image height, mm (objects at infinity only).
+    ImageHeight(f64),
 }
 
 /// What the file says about the beams, in mm and nm.
@@ -52,8 +65,70 @@ pub(super) struct BeamSpec {
     /// Distance from the object to surface 1; None for an object at infinity.
     pub object_distance: Option<f64>,
     /// Field points; an empty list means the axial beam only.
-    pub fields: Result<Vec<FieldPoint>, String>,
+    pub fields: Vec<FieldPoint>,
     pub wavelength_nm: f64,
+}
+
+impl BeamSpec {
+    /// The beams a file's stated conditions describe. `pupils` gives each field's (x, y) filled
+    /// part of the pupil (vignetting factors); `no_aperture` says why there is no aperture when
+    /// the conditions hold none.
+    pub fn from_conditions(
+        conditions: &Conditions,
+        pupils: &[((f64, f64), (f64, f64))],
+        no_aperture: String,
+        wavelength_nm: f64,
+    ) -> BeamSpec {
+        let pupil = match &conditions.aperture {
+            Some(ApertureSpec::EntrancePupilDiameter(d)) => PupilSize::Diameter(*d),
+            Some(ApertureSpec::FNumber(f)) => PupilSize::FNumber(*f),
+            Some(ApertureSpec::ObjectNumericalAperture(na)) => {
+                PupilSize::ObjectNumericalAperture(*na)
+            }
+            Some(ApertureSpec::FloatByStop) => PupilSize::FloatByStop,
+            None => PupilSize::Unusable(no_aperture),
+        };
+        let fields = match &conditions.fields {
+            None => Vec::new(),
+            Some(spec) => {
+                let position = |x: f64, y: f64| match spec.kind {
+                    FieldKind::AngleDeg => FieldPosition::AngleDeg(
+                        x.to_radians()
+                            .tan()
+                            .hypot(y.to_radians().tan())
+                            .atan()
+                            .to_degrees(),
+                    ),
+                    FieldKind::ObjectHeight => FieldPosition::ObjectHeight(x.hypot(y)),
+                    // Real image heights are taken as paraxial ones here: the derived apertures
+                    // are paraxial estimates whatever the field type.
+                    FieldKind::ParaxialImageHeight | FieldKind::RealImageHeight => {
+                        FieldPosition::ImageHeight(x.hypot(y))
+                    }
+                };
+                spec.x
+                    .iter()
+                    .zip(&spec.y)
+                    .enumerate()
+                    .map(|(k, (x, y))| {
+                        let (pupil_x, pupil_y) =
+                            pupils.get(k).copied().unwrap_or(((-1.0, 1.0), (-1.0, 1.0)));
+                        FieldPoint {
+                            position: position(*x, *y),
+                            pupil_x,
+                            pupil_y,
+                        }
+                    })
+                    .collect()
+            }
+        };
+        BeamSpec {
+            pupil,
+            object_distance: conditions.object_distance_mm,
+            fields,
+            wavelength_nm,
+        }
+    }
 }
 
 /// Object distances at least this large (mm) are infinite, as CODE V and rayoptics treat them.
@@ -103,7 +178,7 @@ fn derive(
     check_stop(p, map)?;
     let stop = p.stop_index().expect("check_stop found exactly one stop");
     let indices = indices(p, beams.wavelength_nm, map)?;
-    let fields = beams.fields.clone().map_err(cannot)?;
+    let fields = &beams.fields;
 
     // Heights are linear in (y1, u0): trace the two unit rays once.
     let unit_height = trace(p, &indices, 1.0, 0.0);
@@ -156,12 +231,48 @@ fn derive(
                 }
             }
         }
+        (PupilSize::ObjectNumericalAperture(na), Some(distance)) => {
+            let n = indices[0];
+            if !(*na > 0.0 && *na < n) {
+                return Err(cannot(format!(
+                    "object-space NA {na} is not below the index {n}"
+                )));
+            }
+            let u = (na / n).asin().tan();
+            (u * distance, u)
+        }
+        (PupilSize::ObjectNumericalAperture(_), None) => {
+            return Err(cannot(
+                "an object-space NA needs an object at a finite distance".into(),
+            ));
+        }
         (PupilSize::Unusable(reason), _) => return Err(cannot(reason.clone())),
     };
     let marginal = trace(p, &indices, y1, u0).heights;
     let mut chiefs = Vec::new();
-    for field in &fields {
-        let slope = field.angle_deg.to_radians().tan();
+    for field in fields {
+        let slope = match (field.position, beams.object_distance) {
+            (FieldPosition::AngleDeg(deg), _) => deg.to_radians().tan(),
+            (FieldPosition::ObjectHeight(h), Some(distance)) => h / (distance + pupil_z),
+            (FieldPosition::ObjectHeight(_), None) => {
+                return Err(cannot(
+                    "the fields are object heights but the object is at infinity".into(),
+                ));
+            }
+            // At infinity the paraxial image height is EFL tan(angle).
+            (FieldPosition::ImageHeight(h), None) => {
+                let power = -unit_height.final_slope;
+                if power == 0.0 || !power.is_finite() {
+                    return Err(cannot("image-height fields need a lens with power".into()));
+                }
+                h * power
+            }
+            (FieldPosition::ImageHeight(_), Some(_)) => {
+                return Err(cannot(
+                    "the fields are image heights of an object at a finite distance".into(),
+                ));
+            }
+        };
         chiefs.push((field, trace(p, &indices, -pupil_z * slope, slope).heights));
     }
 

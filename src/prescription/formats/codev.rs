@@ -1,24 +1,27 @@
 //! CODE V sequence files (`.seq`), the common sequential subset.
 //!
-//! Commands are separated by `;` or line ends; `!` starts a comment; quoted strings keep spaces.
+//! Commands are separated by `;` or line ends; a line ending in `&` continues on the next; `!`
+//! starts a comment; quoted strings keep spaces.
 //!
 //! Read: `RDM` (Y = radii, the default; N = curvatures), `TITLE` (or `TIT`), `DIM` (M, C, I:
-//! converted to mm), `EPD`, `FNO`, `WL` (nm) with `REF` (the design wavelength; the first `WL`
-//! when `REF` is absent, as rayoptics reads it), `XAN`/`YAN` (field angles), `VUY`/`VLY`/`VUX`/
-//! `VLX` (vignetting factors), `SO` (object: distance, medium), `S value thickness [glass]`, `SI`
-//! (image), `STO`, `CIR` (clear aperture radius), `K` (conic), `A` `B` `C` `D` `E` `F` `G` `H`
-//! `J` (even-asphere terms r^4 .. r^20), `RDY`, `CUY`, `THI`, `GLA`, `GO` (end of input).
+//! converted to mm), `EPD`, `FNO`, `NAO` (the aperture), `WL` (nm) with `WTW` (weights) and `REF`
+//! (the design wavelength; the first `WL` when `REF` is absent, as rayoptics reads it), fields as
+//! `XAN`/`YAN` (angles), `XOB`/`YOB` (object heights), `XIM`/`YIM` (paraxial image heights) or
+//! `XRI`/`YRI` (real image heights) with `WTF` (weights), `VUY`/`VLY`/`VUX`/`VLX` (vignetting
+//! factors), `SO` (object: distance, medium), `S value thickness [glass]`, `SI` (image), `STO`
+//! (without one, surface 1 is the stop, as in CODE V), `CIR` (clear aperture radius), `K`
+//! (conic), `A` `B` `C` `D` `E` `F` `G` `H` `J` (even-asphere terms r^4 .. r^20), `RDY`, `CUY`,
+//! `THI`, `GLA`, `GO` (end of input). Object distance, aperture, fields and wavelengths become the
+//! prescription's [`crate::prescription::Conditions`].
 //!
-//! Ignored as harmless (they change no surface): `LEN`, `WTW`, `WTF`, `INI`, `POL`, `CCY`,
-//! `THC`, `GLC` (optimisation variables), `PIM` (the paraxial image solve; the file still states
-//! the thickness it produced), `DER`, `SLB` (labels), `SPH`, `CON`, `ASP` (surface-type words
-//! whose data arrive through `K` and `A`..`J`).
+//! Skipped as harmless (they change no surface) and listed in one note: see `HARMLESS`.
 //!
 //! Refused with a message naming the command and line: every other command (decentres, tilts,
-//! pickups, zoom positions, mirrors (`REFL`), non-circular apertures, ...), a curved object or
-//! image surface, and `CIR` forms other than a plain radius. Field types other than angles
-//! (`YOB`, `YIM`, ...) and numerical-aperture specifications are refused only when a clear
-//! aperture must be derived from them (see `apertures`).
+//! pickups `PIK`, solves such as `CUF`, zoom positions, mirrors (`REFL`), non-circular
+//! apertures and obscurations (`REX`, `REY`, `CA OBS`, ...), private catalogues `PRV`), a curved
+//! object or image surface, and `CIR` forms other than a plain radius. Image-height fields and
+//! numerical apertures are refused only when a clear aperture must be derived from them (see
+//! `apertures`).
 //!
 //! Glass names stay names ([`crate::prescription::Medium::Glass`]); the catalogue resolves them
 //! when the lens system is built, and reports unknown ones with suggestions. A fictitious glass
@@ -29,16 +32,19 @@
 //! index of every medium at the design wavelength: the catalogue is consulted then, and an unknown
 //! glass is reported by the reader, with the line of its surface.
 
-use super::apertures::{self, BeamSpec, FieldPoint, INFINITE_OBJECT_MM, PupilSize};
+use super::apertures::{self, BeamSpec, INFINITE_OBJECT_MM};
 use super::{
-    AsphereTerms, Format, Loaded, Source, finite, named_medium, number, scale_to_mm, shape,
+    AsphereTerms, Format, LoadNote, Loaded, Source, finite, named_medium, number, scale_to_mm,
+    shape,
 };
 use crate::prescription::DEFAULT_WAVELENGTH_NM;
 use crate::prescription::error::{Location, PrescriptionError, Problem};
 use crate::prescription::model::{
-    MAX_ASPHERE_TERMS, Medium, Prescription, Provenance, StopShape, Surface,
+    ApertureSpec, Conditions, FieldKind, FieldSpec, MAX_ASPHERE_TERMS, Medium, Prescription,
+    Provenance, StopShape, Surface,
 };
 use crate::prescription::validate::SourceMap;
+use std::collections::BTreeSet;
 
 /// One command with its words; quoted strings are single words without their quotes.
 struct Command {
@@ -47,10 +53,34 @@ struct Command {
     args: Vec<String>,
 }
 
+/// Lines with CODE V's continuation joined: a line whose text (before any `!` comment) ends in
+/// `&` goes on in the next line. Each joined line keeps the number of its first physical line.
+fn logical_lines(text: &str) -> Vec<(usize, String)> {
+    let mut out: Vec<(usize, String)> = Vec::new();
+    let mut pending: Option<(usize, String)> = None;
+    for (index, raw) in text.lines().enumerate() {
+        let code = raw.split('!').next().unwrap_or("").trim_end();
+        let (line, mut joined) = pending.take().unwrap_or((index + 1, String::new()));
+        match code.strip_suffix('&') {
+            Some(head) => {
+                joined.push_str(head);
+                joined.push(' ');
+                pending = Some((line, joined));
+            }
+            None => {
+                joined.push_str(raw);
+                out.push((line, joined));
+            }
+        }
+    }
+    out.extend(pending);
+    out
+}
+
 fn commands(text: &str) -> Vec<Command> {
     let mut out = Vec::new();
-    for (index, raw) in text.lines().enumerate() {
-        let line = index + 1;
+    for (line, raw) in logical_lines(text) {
+        let raw = raw.as_str();
         let mut words: Vec<String> = Vec::new();
         let mut word = String::new();
         let mut in_word = false;
@@ -120,9 +150,15 @@ enum Current {
     Image,
 }
 
+/// Commands that change no surface: `LEN` (new lens), `INI` (designer), `POL` (polarisation),
+/// `CCY`, `THC`, `GLC` (optimisation variables), `PIM` (the paraxial image solve; the file still
+/// states the thickness it produced), `DER`, `SLB` (labels), `SPH`, `CON`, `ASP` (surface-type
+/// words whose data arrive through `K` and `A`..`J`), `TEM`, `PRE` (temperature and pressure:
+/// the catalogue indices are the makers' at their reference conditions), `COM`, `NOR`, `ZOO 1`
+/// is not among them: zoom files are refused.
 const HARMLESS: &[&str] = &[
-    "LEN", "WTW", "WTF", "INI", "POL", "CCY", "THC", "GLC", "PIM", "DER", "SLB", "SPH", "CON",
-    "ASP",
+    "LEN", "INI", "POL", "CCY", "THC", "GLC", "PIM", "DER", "SLB", "SPH", "CON", "ASP", "TEM",
+    "PRE", "COM",
 ];
 
 const ASPHERE_LETTERS: [&str; MAX_ASPHERE_TERMS - 1] =
@@ -135,12 +171,21 @@ struct Reader {
     title: Option<String>,
     epd: Option<f64>,
     f_number: Option<f64>,
+    object_na: Option<f64>,
     unusable_aperture: Option<String>,
     wavelengths: Vec<f64>,
     reference: Option<(usize, usize)>,
-    x_angles: Vec<f64>,
-    y_angles: Vec<f64>,
-    unusable_fields: Option<String>,
+    /// Field kind and x, y values (YAN/XAN angles, YOB/XOB object heights, YIM/XIM paraxial and
+    /// YRI/XRI real image heights), and weights (WTF).
+    field_kind: Option<FieldKind>,
+    x_fields: Vec<f64>,
+    y_fields: Vec<f64>,
+    field_weights: Vec<f64>,
+    wavelength_weights: Vec<f64>,
+    skipped: BTreeSet<String>,
+    /// Private glasses (PRV ... END) by name, and the open PRV block's wavelengths (PWL).
+    private: Vec<(String, Medium)>,
+    private_block: Option<Vec<f64>>,
     /// VUY, VLY, VUX, VLX per field.
     vignetting: [Vec<f64>; 4],
     object_distance: Option<f64>,
@@ -209,7 +254,45 @@ impl Reader {
             c.args.iter().map(|a| finite(a, &at(field))).collect()
         };
         let name = c.name.as_str();
+        if let Some(wavelengths) = &self.private_block {
+            match name {
+                "PWL" => self.private_block = Some(list("PWL")?),
+                "END" => self.private_block = None,
+                glass => {
+                    let indices = c
+                        .args
+                        .iter()
+                        .map(|a| finite(a, &at(glass)))
+                        .collect::<Result<Vec<f64>, _>>()
+                        .map_err(|_| {
+                            unsupported(format!(
+                                "private glass {glass} given as {} (only indices at the PWL \
+                                 wavelengths are read)",
+                                c.args.first().map_or("nothing", String::as_str)
+                            ))
+                        })?;
+                    if indices.len() != wavelengths.len() {
+                        return Err(count(
+                            &format!("{} indices (one per PWL wavelength)", wavelengths.len()),
+                            indices.len(),
+                        ));
+                    }
+                    let mut points: Vec<(f64, f64)> =
+                        wavelengths.iter().copied().zip(indices).collect();
+                    points.sort_by(|a, b| a.0.total_cmp(&b.0));
+                    let medium = Medium::Table {
+                        wavelengths_nm: points.iter().map(|p| p.0).collect(),
+                        indices: points.iter().map(|p| p.1).collect(),
+                    };
+                    crate::glass::Dispersion::of(&medium)
+                        .map_err(|problem| PrescriptionError::new(at(glass), problem))?;
+                    self.private.push((glass.to_string(), medium));
+                }
+            }
+            return Ok(());
+        }
         match name {
+            "PRV" => self.private_block = Some(Vec::new()),
             "RDM" => {
                 self.radius_mode = match c.args.first().map(|a| a.to_ascii_uppercase()).as_deref() {
                     None | Some("Y" | "YES") => true,
@@ -229,10 +312,11 @@ impl Reader {
             }
             "EPD" => self.epd = Some(one("EPD")?),
             "FNO" => self.f_number = Some(one("FNO")?),
-            "NA" | "NAO" => {
-                self.unusable_aperture = Some(format!("the aperture is given as {name}"))
-            }
+            "NAO" => self.object_na = Some(one("NAO")?),
+            "NA" => self.unusable_aperture = Some(format!("the aperture is given as {name}")),
             "WL" => self.wavelengths = list("WL")?,
+            "WTW" => self.wavelength_weights = list("WTW")?,
+            "WTF" => self.field_weights = list("WTF")?,
             "REF" => {
                 let value = one("REF")?;
                 if value.fract() != 0.0 || value < 1.0 {
@@ -245,11 +329,25 @@ impl Reader {
                 }
                 self.reference = Some((value as usize, c.line));
             }
-            "XAN" => self.x_angles = list("XAN")?,
-            "YAN" => self.y_angles = list("YAN")?,
-            "XOB" | "YOB" | "XIM" | "YIM" | "XRI" | "YRI" => {
-                self.unusable_fields =
-                    Some(format!("the fields are given as {name}, not as angles"))
+            "XAN" | "YAN" | "XOB" | "YOB" | "XIM" | "YIM" | "XRI" | "YRI" => {
+                let kind = match &name[1..] {
+                    "AN" => FieldKind::AngleDeg,
+                    "OB" => FieldKind::ObjectHeight,
+                    "IM" => FieldKind::ParaxialImageHeight,
+                    _ => FieldKind::RealImageHeight,
+                };
+                if self.field_kind.is_some_and(|k| k != kind) {
+                    return Err(unsupported(format!(
+                        "{name} after fields of another kind: one file gives one kind of field"
+                    )));
+                }
+                self.field_kind = Some(kind);
+                let values = list(name)?;
+                if name.starts_with('X') {
+                    self.x_fields = values;
+                } else {
+                    self.y_fields = values;
+                }
             }
             "VUY" => self.vignetting[0] = list(name)?,
             "VLY" => self.vignetting[1] = list(name)?,
@@ -305,8 +403,17 @@ impl Reader {
                 let Some(first) = c.args.first() else {
                     return Err(count("1 value", 0));
                 };
+                // CIR EDG is the lens's mechanical edge: it clips no ray.
+                if first.eq_ignore_ascii_case("EDG") {
+                    self.skipped.insert("CIR EDG".into());
+                    return Ok(());
+                }
                 if first.parse::<f64>().is_err() || c.args.len() > 1 {
-                    return Err(unsupported(format!("CIR {}", c.args.join(" "))));
+                    return Err(unsupported(format!(
+                        "CIR {} (obscurations, holes and non-circular apertures are not \
+                         modelled)",
+                        c.args.join(" ")
+                    )));
                 }
                 let radius = one("CIR")?;
                 if let Current::Surface(i) = self.current() {
@@ -367,7 +474,7 @@ impl Reader {
             }
             "GLA" => {
                 let medium = match c.args.as_slice() {
-                    [glass] => glass_medium(glass, &at("GLA"))?,
+                    [glass] => glass_medium(glass, &self.private, &at("GLA"))?,
                     other => return Err(count("1 glass name", other.len())),
                 };
                 match self.current() {
@@ -376,7 +483,9 @@ impl Reader {
                     Current::Image | Current::Nothing => {}
                 }
             }
-            harmless if HARMLESS.contains(&harmless) => {}
+            harmless if HARMLESS.contains(&harmless) => {
+                self.skipped.insert(harmless.to_string());
+            }
             other => return Err(unsupported(format!("CODE V command `{other}`"))),
         }
         Ok(())
@@ -419,7 +528,7 @@ impl Reader {
             finite(&c.args[1], &at("thickness"))?
         };
         let medium = match c.args.get(2) {
-            Some(glass) => Some(glass_medium(glass, &at("glass"))?),
+            Some(glass) => Some(glass_medium(glass, &self.private, &at("glass"))?),
             None => None,
         };
         Ok((value, thickness, medium))
@@ -471,10 +580,13 @@ impl Reader {
             },
             None => self.wavelengths.first().copied(),
         };
+        // CODE V's default: without STO, surface 1 is the stop.
+        let stop_given = self.surfaces.iter().any(|s| s.stop);
         let surfaces: Vec<Surface> = self
             .surfaces
             .iter()
-            .map(|s| {
+            .enumerate()
+            .map(|(i, s)| {
                 let curvature = match (s.radius_mode, s.value) {
                     (false, c) => c,
                     (true, 0.0) => 0.0,
@@ -485,7 +597,7 @@ impl Reader {
                     thickness: s.thickness,
                     medium: s.medium.clone(),
                     semi_aperture: s.clear_radius.unwrap_or(0.0),
-                    stop: s.stop.then_some(StopShape::Circle),
+                    stop: (s.stop || (!stop_given && i == 0)).then_some(StopShape::Circle),
                 }
             })
             .collect();
@@ -493,32 +605,7 @@ impl Reader {
             .filter(|&i| self.surfaces[i].clear_radius.is_none())
             .collect();
         let mm = self.mm_per_unit;
-        let object_distance = self
-            .object_distance
-            .map(|d| d * mm)
-            .filter(|d| d.abs() < INFINITE_OBJECT_MM);
-
-        let mut notes_text = Vec::new();
-        if let Some(epd) = self.epd {
-            notes_text.push(format!("entrance pupil diameter {} mm", epd * mm));
-        }
-        if !self.y_angles.is_empty() || !self.x_angles.is_empty() {
-            let angles = |a: &[f64]| a.iter().map(f64::to_string).collect::<Vec<_>>().join(", ");
-            notes_text.push(format!(
-                "field angles (deg) x: [{}], y: [{}]",
-                angles(&self.x_angles),
-                angles(&self.y_angles)
-            ));
-        }
-        if let Some(d) = object_distance {
-            notes_text.push(format!("object distance {d} mm"));
-        }
-        if !missing.is_empty() {
-            notes_text.push(
-                "clear apertures not in the file were derived by lensbake from paraxial rays"
-                    .into(),
-            );
-        }
+        let conditions = self.conditions(wavelength);
 
         let mut prescription = Prescription {
             provenance: Provenance {
@@ -526,7 +613,11 @@ impl Reader {
                 source: source.file_name(),
                 design_wavelength_nm: wavelength,
                 claimed_f_number: self.f_number,
-                notes: Some(notes_text.join("; ")).filter(|n| !n.is_empty()),
+                notes: (!missing.is_empty()).then(|| {
+                    "clear apertures not in the file were derived by lensbake from paraxial rays"
+                        .to_string()
+                }),
+                conditions: Some(conditions.clone()),
                 ..Provenance::default()
             },
             object_medium: self.object_medium.clone().unwrap_or(Medium::Air),
@@ -537,42 +628,68 @@ impl Reader {
             file: source.file.map(|f| f.to_path_buf()),
             surface_lines: self.surfaces.iter().map(|s| Some(s.line)).collect(),
         };
-        let beams = BeamSpec {
-            pupil: match (self.epd, self.f_number, &self.unusable_aperture) {
-                (Some(epd), _, _) => PupilSize::Diameter(epd * mm),
-                (None, Some(f), _) => PupilSize::FNumber(f),
-                (None, None, Some(reason)) => PupilSize::Unusable(reason.clone()),
-                (None, None, None) => {
-                    PupilSize::Unusable("the file has neither CIR nor EPD or FNO".into())
-                }
-            },
-            object_distance,
-            fields: self.field_points(),
-            wavelength_nm: wavelength.unwrap_or(DEFAULT_WAVELENGTH_NM),
-        };
-        apertures::complete(prescription, &missing, &beams, map, Format::CodeV)
+        let pupils: Vec<_> = (0..conditions.fields.as_ref().map_or(0, |f| f.x.len()))
+            .map(|k| {
+                let get = |list: &[f64]| list.get(k).copied().unwrap_or(0.0);
+                let [vuy, vly, vux, vlx] = [0, 1, 2, 3].map(|v| get(&self.vignetting[v]));
+                ((-(1.0 - vlx), 1.0 - vux), (-(1.0 - vly), 1.0 - vuy))
+            })
+            .collect();
+        let beams = BeamSpec::from_conditions(
+            &conditions,
+            &pupils,
+            self.unusable_aperture
+                .clone()
+                .unwrap_or_else(|| "the file has neither CIR nor EPD, FNO or NAO".into()),
+            wavelength.unwrap_or(DEFAULT_WAVELENGTH_NM),
+        );
+        let mut loaded = apertures::complete(prescription, &missing, &beams, map, Format::CodeV)?;
+        if !self.skipped.is_empty() {
+            loaded.notes.push(LoadNote::SkippedKeywords {
+                keywords: self.skipped.into_iter().collect(),
+            });
+        }
+        Ok(loaded)
     }
 
-    fn field_points(&self) -> Result<Vec<FieldPoint>, String> {
-        if let Some(reason) = &self.unusable_fields {
-            return Err(reason.clone());
+    /// Object distance, aperture, fields and wavelengths as the file states them, in mm and nm.
+    fn conditions(&self, primary_nm: Option<f64>) -> Conditions {
+        let mm = self.mm_per_unit;
+        let kind = self.field_kind.unwrap_or(FieldKind::AngleDeg);
+        let unit = if kind == FieldKind::AngleDeg { 1.0 } else { mm };
+        let count = self.x_fields.len().max(self.y_fields.len());
+        let component = |list: &[f64]| -> Vec<f64> {
+            (0..count)
+                .map(|k| list.get(k).copied().unwrap_or(0.0) * unit)
+                .collect()
+        };
+        let aperture = match (self.epd, self.f_number, self.object_na) {
+            (Some(epd), _, _) => Some(ApertureSpec::EntrancePupilDiameter(epd * mm)),
+            (None, Some(f), _) => Some(ApertureSpec::FNumber(f)),
+            (None, None, Some(na)) => Some(ApertureSpec::ObjectNumericalAperture(na)),
+            (None, None, None) => None,
+        };
+        let weights = &self.wavelength_weights;
+        Conditions {
+            object_distance_mm: self
+                .object_distance
+                .map(|d| d * mm)
+                .filter(|d| d.abs() < INFINITE_OBJECT_MM),
+            aperture,
+            fields: (count > 0).then(|| FieldSpec {
+                kind,
+                x: component(&self.x_fields),
+                y: component(&self.y_fields),
+                weights: self.field_weights.iter().take(count).copied().collect(),
+            }),
+            primary: primary_nm.and_then(|nm| self.wavelengths.iter().position(|w| *w == nm)),
+            wavelength_weights: if weights.len() == self.wavelengths.len() {
+                weights.clone()
+            } else {
+                vec![1.0; self.wavelengths.len()]
+            },
+            wavelengths_nm: self.wavelengths.clone(),
         }
-        let count = self.x_angles.len().max(self.y_angles.len());
-        let get = |list: &[f64], k: usize| list.get(k).copied().unwrap_or(0.0);
-        Ok((0..count)
-            .map(|k| {
-                let (tx, ty) = (
-                    get(&self.x_angles, k).to_radians().tan(),
-                    get(&self.y_angles, k).to_radians().tan(),
-                );
-                let [vuy, vly, vux, vlx] = [0, 1, 2, 3].map(|v| get(&self.vignetting[v], k));
-                FieldPoint {
-                    angle_deg: tx.hypot(ty).atan().to_degrees(),
-                    pupil_y: (-(1.0 - vly), 1.0 - vuy),
-                    pupil_x: (-(1.0 - vlx), 1.0 - vux),
-                }
-            })
-            .collect())
     }
 }
 
@@ -590,7 +707,17 @@ fn object_distance(text: &str, at: &Location) -> Result<f64, PrescriptionError> 
 
 /// The medium a glass word names: a catalogue name, or a CODE V fictitious glass code
 /// `NNNNNN.VVVV` (nd = 1.NNNNNN, Vd = VV.VV; Vd 0 means a constant index).
-fn glass_medium(glass: &str, at: &Location) -> Result<Medium, PrescriptionError> {
+fn glass_medium(
+    glass: &str,
+    private: &[(String, Medium)],
+    at: &Location,
+) -> Result<Medium, PrescriptionError> {
+    if let Some((_, medium)) = private
+        .iter()
+        .find(|(name, _)| name.eq_ignore_ascii_case(glass))
+    {
+        return Ok(medium.clone());
+    }
     let refuse = |what: String| {
         Err(PrescriptionError::new(
             at.clone(),
@@ -599,6 +726,21 @@ fn glass_medium(glass: &str, at: &Location) -> Result<Medium, PrescriptionError>
     };
     if glass.eq_ignore_ascii_case("REFL") {
         return refuse("mirrors (REFL): lensbake models refracting lenses only".into());
+    }
+    // A model glass written as nd:vd ("1.5168:64.17").
+    if let Some((nd, vd)) = glass.split_once(':')
+        && let (Ok(nd), Ok(vd)) = (nd.parse::<f64>(), vd.parse::<f64>())
+    {
+        if !(nd.is_finite() && vd.is_finite()) {
+            return refuse(format!(
+                "model glass {glass} with a value that is not finite"
+            ));
+        }
+        return Ok(if vd == 0.0 {
+            Medium::Index(nd)
+        } else {
+            Medium::Model { nd, vd }
+        });
     }
     let all_digits = |s: &str| !s.is_empty() && s.bytes().all(|b| b.is_ascii_digit());
     match glass.split_once('.') {
@@ -622,6 +764,6 @@ fn glass_medium(glass: &str, at: &Location) -> Result<Medium, PrescriptionError>
         None if all_digits(glass) => refuse(format!(
             "six-digit glass code {glass}; name the glass, or give a fictitious glass as nnnnnn.vvvv"
         )),
-        _ => Ok(named_medium(glass)),
+        _ => Ok(named_medium(glass, &[])),
     }
 }

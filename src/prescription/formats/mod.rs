@@ -152,6 +152,9 @@ pub enum LoadNote {
     /// The file gave no clear aperture for these surfaces (1-based); they were derived from
     /// the paraxial marginal and chief rays of the file's beams (CODE V and Zemax files only).
     AperturesDerived { surfaces: Vec<usize> },
+    /// Keywords the file uses that change nothing lensbake models (display, merit function,
+    /// tolerancing, coatings, ...), skipped; listed once, sorted.
+    SkippedKeywords { keywords: Vec<String> },
 }
 
 impl fmt::Display for LoadNote {
@@ -172,6 +175,11 @@ impl fmt::Display for LoadNote {
                  percent at wide fields)",
                 if surfaces.len() == 1 { "" } else { "s" },
                 list_ranges(surfaces)
+            ),
+            LoadNote::SkippedKeywords { keywords } => write!(
+                f,
+                "skipped keywords that change nothing lensbake models: {}",
+                keywords.join(", ")
             ),
         }
     }
@@ -240,16 +248,24 @@ pub fn read_str(
     Ok(loaded)
 }
 
-/// Reads a prescription from raw file contents: UTF-8 (with or without a byte-order mark) or
-/// UTF-16 with a byte-order mark (OpticStudio writes `.zmx` files that way).
+/// Reads a prescription from raw file contents: UTF-8 (with or without a byte-order mark),
+/// UTF-16 little- or big-endian with a byte-order mark (OpticStudio writes `.zmx` files that
+/// way), or, for Zemax and CODE V files that are not UTF-8, Latin-1.
 pub fn read_bytes(
     bytes: &[u8],
     file: Option<&Path>,
     format: Format,
     options: &LoadOptions,
 ) -> Result<Loaded, PrescriptionError> {
-    let text =
-        decode_text(bytes).map_err(|(line, problem)| Source { file }.error(line, problem))?;
+    let text = match decode_text(bytes) {
+        Ok(text) => text,
+        // OpticStudio and CODE V write their files in the Windows code page of the machine they
+        // ran on; every byte is a Latin-1 character (only names and comments use them).
+        Err(_) if matches!(format, Format::Zemax | Format::CodeV) => {
+            bytes.iter().map(|&b| char::from(b)).collect()
+        }
+        Err((line, problem)) => return Err(Source { file }.error(line, problem)),
+    };
     read_str(&text, file, format, options)
 }
 
@@ -429,16 +445,18 @@ fn scale_to_mm(p: &mut Prescription, mm_per_unit: f64) {
     }
 }
 
-/// The medium a glass name in a CODE V or Zemax file stands for. Names the catalogue knows are
-/// stored under the catalogue's spelling ("NSSK2_SCHOTT" -> "N-SSK2"); unknown names are kept as
+/// The medium a glass name in a CODE V or Zemax file stands for. Names the catalogues know are
+/// stored under the catalogue's spelling ("NSSK2_SCHOTT" -> "N-SSK2"), with the maker appended
+/// where another catalogue has a glass of the same name ("SK16_HIKARI"), so the file's catalogue
+/// preference (`preferred`, e.g. Zemax `GCAT`) survives into the RON; unknown names are kept as
 /// written so that resolving the lens reports them with suggestions.
-fn named_medium(name: &str) -> Medium {
+fn named_medium(name: &str, preferred: &[String]) -> Medium {
     let name = name.trim().trim_matches(|c| c == '\'' || c == '"');
     if name.is_empty() || name.eq_ignore_ascii_case("AIR") {
         return Medium::Air;
     }
-    match crate::glass::lookup(name) {
-        Ok(glass) => Medium::Glass(glass.name.to_string()),
+    match crate::glass::lookup_in(name, preferred) {
+        Ok(glass) => Medium::Glass(glass.unambiguous_name()),
         Err(_) => Medium::Glass(name.to_string()),
     }
 }

@@ -4,40 +4,72 @@
 //! object distance, `INFINITY` allowed) and the last surface is the image, so the lens is
 //! surfaces 1..N-1.
 //!
-//! Read: `MODE SEQ`, `NAME` (title), `UNIT` (MM, CM, IN, METER: converted to mm), `ENPD`, `FNUM`,
-//! `FLOA` (aperture), `FTYP` (field type; angles only), `XFLN`/`YFLN` (fields),
+//! Read: `MODE SEQ`, `NAME` (title), `UNIT` (MM, CM, IN, METER: converted to mm), `GCAT` (the
+//! glass catalogues, in the order they resolve a name several makers use), the aperture (`ENPD`
+//! entrance-pupil diameter, `FNUM` image-space F-number, `OBNA` object-space NA, `FLOA` float by
+//! stop size), `FTYP` (field type: angle, object height, paraxial or real image height; numbers of
+//! fields and wavelengths), `XFLN`/`YFLN` and `FWGN`/`FWGT` (fields and weights),
 //! `VDXN`/`VDYN`/`VCXN`/`VCYN` and the older `ZVDX`/`ZVDY`/`ZVCX`/`ZVCY` (vignetting decentre and
-//! compression), `WAVM`/`WAVN`/`WAVL` (µm) with `PWAV` (design wavelength), `MNUM 1`; per surface:
-//! `TYPE STANDARD` or `TYPE EVENASPH`, `CURV`, `CONI`, `PARM 1..8` (even-asphere r^2 .. r^16),
-//! `DISZ`, `GLAS` (a name, or `___BLANK` with nd and Vd: a model glass), `DIAM` (semi-diameter),
-//! `CLAP 0 r` (circular aperture, preferred over `DIAM`), `STOP`.
+//! compression), `WAVM` (number, µm, weight) or `WAVN`/`WAVL` with `WWGT`, `PWAV` (primary),
+//! `MNUM 1`; per surface: `TYPE STANDARD` or `TYPE EVENASPH`, `CURV`, `CONI`, `PARM 1..8`
+//! (even-asphere r^2 .. r^16), `DISZ` (`SURF 0 DISZ` is the object distance), `GLAS` (a name, or
+//! `___BLANK` with nd and Vd: a model glass), `DIAM`, `CLAP 0 r`, `STOP`.
 //!
-//! Ignored as harmless (display, coating, tolerancing, solver and environment data): see
-//! `HARMLESS_TOP` and `HARMLESS_SURFACE` below.
+//! The object distance, aperture, fields and wavelengths become the prescription's
+//! [`crate::prescription::Conditions`], the defaults of `analyze` and the other commands.
 //!
-//! Refused with a message naming the keyword and line: other surface types (coordinate breaks,
-//! toroids, paraxial, ...), mirrors, multi-configuration files, annular, obscuring or
-//! non-circular apertures, a curved image surface, non-sequential mode, and every keyword not
-//! listed here.
+//! Apertures as OpticStudio defines them: `DIAM` is a semi-diameter, the envelope OpticStudio
+//! computed for the file's beams, and never clips a ray; `CLAP` (a circular aperture) does. The
+//! model has one clear semi-aperture per surface, so `CLAP` gives it where present, else a
+//! non-zero `DIAM` (rays of the file's beams pass it, as in OpticStudio), else it is derived from
+//! paraxial rays of the file's beams (a dummy surface's `DIAM 0`).
+//!
+//! Keywords that change nothing lensbake models (display, coating, tolerancing, merit function,
+//! solver, environment and bookkeeping data: `HARMLESS_TOP`, `HARMLESS_SURFACE`) are skipped and
+//! listed in one [`LoadNote::SkippedKeywords`]; so is any unknown keyword of the trailer, the
+//! unindented lines after the surface table, where OpticStudio writes merit-function and
+//! tolerance operands. Any other keyword is refused, naming keyword, line and surface: other
+//! surface types (coordinate breaks, toroids, paraxial, ...), mirrors, multi-configuration files,
+//! annular, obscuring or non-circular apertures, ignored surfaces, a curved image surface,
+//! non-sequential mode, and every unknown keyword inside the surface table.
 
-use super::apertures::{self, BeamSpec, FieldPoint, INFINITE_OBJECT_MM, PupilSize};
-use super::{Format, Loaded, Source, finite, named_medium, number, scale_to_mm, shape};
+use super::apertures::{self, BeamSpec, INFINITE_OBJECT_MM};
+use super::{Format, LoadNote, Loaded, Source, finite, named_medium, number, scale_to_mm, shape};
 use crate::prescription::DEFAULT_WAVELENGTH_NM;
 use crate::prescription::error::{PrescriptionError, Problem};
 use crate::prescription::model::{
-    MAX_ASPHERE_TERMS, Medium, Prescription, Provenance, StopShape, Surface,
+    ApertureSpec, Conditions, FieldKind, FieldSpec, MAX_ASPHERE_TERMS, Medium, Prescription,
+    Provenance, StopShape, Surface,
 };
 use crate::prescription::validate::SourceMap;
+use std::collections::BTreeSet;
 
+/// Header and trailer keywords that change no surface, beam or medium: file bookkeeping
+/// (VERS, NOTE, AUTH, LUID, DBDT, ...), display and analysis settings (PFIL, SDMA, ROPD, PICB,
+/// POLS, GLRS, GSTD, ...), ray aiming (RAIM), environment data (ENVD, GFAC; lensbake's indices are
+/// the catalogue's at its reference temperature), non-sequential settings, coatings, and the
+/// merit-function and tolerance data (TOL, MOFF, DMFS, EERA, IWDP, EFLY, REAY, TCMM, OEMA, ...).
 const HARMLESS_TOP: &[&str] = &[
-    "VERS", "NOTE", "PFIL", "LANG", "ENVD", "GFAC", "GCAT", "SDMA", "OMMA", "ROPD", "HYPR", "PICB",
-    "FWGN", "FWGT", "WWGN", "WWGT", "VANN", "ZVAN", "POLS", "GLRS", "GSTD", "NSCD", "COFN", "RAIM",
-    "PUSH", "BLNK", "TOL", "DMFS", "MOFF",
+    "VERS", "NOTE", "PFIL", "LANG", "ENVD", "GFAC", "SDMA", "OMMA", "ROPD", "HYPR", "PICB", "VANN",
+    "ZVAN", "POLS", "GLRS", "GSTD", "NSCD", "COFN", "RAIM", "PUSH", "BLNK", "TOL", "DMFS", "MOFF",
+    "AUTH", "EERA", "IWDP", "LUID", "SSID", "EFLY", "REAY", "TCMM", "DBDT", "OEMA", "BLNK", "SCOL",
+    "PUCN", "CONF", "FLOA2", "XFIE", "WWGN",
 ];
 
+/// Header keywords this reader applies; seen after the surface table, they open the trailer.
+const TOP_APPLIED: &[&str] = &[
+    "MODE", "NAME", "UNIT", "GCAT", "ENPD", "FNUM", "OBNA", "FLOA", "OBSA", "EFNO", "FTYP", "XFLN",
+    "XFLD", "YFLN", "YFLD", "FWGN", "FWGT", "VDXN", "ZVDX", "VDYN", "ZVDY", "VCXN", "ZVCX", "VCYN",
+    "ZVCY", "WAVM", "WAVN", "WAVL", "WWGT", "PWAV", "MNUM",
+];
+
+/// Surface keywords that change no surface lensbake models: display (HIDE, SLAB, MIRR, the
+/// substrate drawing of a mirror), coating and physical-optics data (COAT, POPS), comments,
+/// solve and variable flags (VCRV, VPAR, VDSZ, VCON, PZUP: the solved values are in CURV, DISZ,
+/// ...), and data the surface types lensbake reads do not use (XDAT, FIMP, MEMA, MAZH, TCE).
 const HARMLESS_SURFACE: &[&str] = &[
     "FIMP", "HIDE", "MIRR", "SLAB", "MEMA", "POPS", "COMM", "FLAP", "COAT", "MAZH", "PZUP", "VCRV",
-    "VPAR", "VDSZ", "VCON", "XDAT",
+    "VPAR", "VDSZ", "VCON", "XDAT", "TCE", "OEMA", "BLNK",
 ];
 
 /// OpticStudio holds at most 24 wavelengths; the bound also keeps a corrupt number from
@@ -58,12 +90,18 @@ struct Block {
     kind: SurfaceType,
     curvature: f64,
     thickness: f64,
-    medium: Option<Medium>,
     conic: f64,
     parms: [f64; PARM_TERMS],
     semi_diameter: Option<f64>,
     clear_radius: Option<f64>,
     stop: Option<usize>,
+    /// Glass as written: a name (resolved once the file's catalogues are known) or a medium.
+    glass: Option<Glass>,
+}
+
+enum Glass {
+    Name(String),
+    Medium(Medium),
 }
 
 impl Block {
@@ -73,12 +111,12 @@ impl Block {
             kind: SurfaceType::Standard,
             curvature: 0.0,
             thickness: 0.0,
-            medium: None,
             conic: 0.0,
             parms: [0.0; PARM_TERMS],
             semi_diameter: None,
             clear_radius: None,
             stop: None,
+            glass: None,
         }
     }
 }
@@ -87,16 +125,27 @@ impl Block {
 struct Reader {
     mm_per_unit: f64,
     title: Option<String>,
-    pupil: Option<PupilSize>,
-    unusable_fields: Option<String>,
+    catalogues: Vec<String>,
+    aperture: Option<ApertureSpec>,
+    /// Why the aperture cannot be used, when the file gives one lensbake does not model.
+    unusable_aperture: Option<String>,
+    field_kind: Option<FieldKind>,
+    /// Field and wavelength counts from FTYP (OpticStudio writes every slot of its tables).
+    field_count: Option<usize>,
+    wavelength_count: Option<usize>,
     x_fields: Vec<f64>,
     y_fields: Vec<f64>,
+    field_weights: Vec<f64>,
     /// VDX, VDY, VCX, VCY per field.
     vignetting: [Vec<f64>; 4],
-    /// Wavelengths in µm by number (1-based in the file).
+    /// Wavelengths in µm by number (1-based in the file), and their weights.
     wavelengths: Vec<f64>,
+    wavelength_weights: Vec<f64>,
     primary: Option<(usize, usize)>,
     blocks: Vec<Block>,
+    /// Whether an unindented keyword other than SURF followed a surface: the trailer.
+    in_trailer: bool,
+    skipped: BTreeSet<String>,
 }
 
 pub(super) fn read(text: &str, source: &Source) -> Result<Loaded, PrescriptionError> {
@@ -113,6 +162,12 @@ pub(super) fn read(text: &str, source: &Source) -> Result<Loaded, PrescriptionEr
         let keyword = keyword.to_ascii_uppercase();
         let args: Vec<&str> = words.collect();
         let rest = raw.trim_start()[keyword.len().min(raw.trim_start().len())..].trim();
+        if !reader.blocks.is_empty()
+            && !raw.starts_with([' ', '\t'])
+            && (HARMLESS_TOP.contains(&keyword.as_str()) || TOP_APPLIED.contains(&keyword.as_str()))
+        {
+            reader.in_trailer = true;
+        }
         reader.apply(line, &keyword, &args, rest, source)?;
     }
     reader.finish(source)
@@ -177,14 +232,23 @@ impl Reader {
                 ));
             }
             self.blocks.push(Block::new(line));
+            self.in_trailer = false;
             return Ok(());
         }
-        if let Some(block) = self.blocks.last_mut() {
+        let in_trailer = self.in_trailer;
+        if let Some(block) = self.blocks.last_mut().filter(|_| !in_trailer) {
             let handled = match keyword {
                 "TYPE" => {
                     block.kind = match arg(0, "a surface type")?.to_ascii_uppercase().as_str() {
                         "STANDARD" => SurfaceType::Standard,
                         "EVENASPH" => SurfaceType::EvenAsphere,
+                        "COORDBRK" => {
+                            return Err(unsupported(
+                                "a coordinate break (TYPE COORDBRK): lensbake models centred \
+                                 systems, without decentres or tilts"
+                                    .into(),
+                            ));
+                        }
                         other => return Err(unsupported(format!("Zemax surface type {other}"))),
                     };
                     true
@@ -211,19 +275,19 @@ impl Reader {
                 }
                 "GLAS" => {
                     let name = arg(0, "a glass name")?;
-                    block.medium = Some(if name.eq_ignore_ascii_case("MIRROR") {
+                    block.glass = Some(if name.eq_ignore_ascii_case("MIRROR") {
                         return Err(unsupported(
                             "mirrors (GLAS MIRROR): lensbake models refracting lenses only".into(),
                         ));
                     } else if name.eq_ignore_ascii_case("___BLANK") {
                         let (nd, vd) = (value(3)?, value(4)?);
-                        if vd == 0.0 {
+                        Glass::Medium(if vd == 0.0 {
                             Medium::Index(nd)
                         } else {
                             Medium::Model { nd, vd }
-                        }
+                        })
                     } else {
-                        named_medium(name)
+                        Glass::Name(name.to_string())
                     });
                     true
                 }
@@ -258,9 +322,26 @@ impl Reader {
                     true
                 }
                 "OBSC" | "SQAP" | "ELAP" | "SQOB" | "ELOB" | "UDAP" | "UDAD" => {
-                    return Err(unsupported(format!("Zemax aperture type {keyword}")));
+                    return Err(unsupported(format!(
+                        "Zemax aperture type {keyword} (obscurations and non-circular apertures \
+                         are not modelled)"
+                    )));
                 }
-                k => HARMLESS_SURFACE.contains(&k),
+                "IGNR" => {
+                    return Err(unsupported(
+                        "an ignored surface (IGNR): remove it or clear the flag".into(),
+                    ));
+                }
+                k if HARMLESS_SURFACE.contains(&k) => {
+                    self.skipped.insert(k.to_string());
+                    true
+                }
+                k if TOP_APPLIED.contains(&k) || HARMLESS_TOP.contains(&k) => false,
+                _ => {
+                    return Err(unsupported(format!(
+                        "Zemax surface keyword `{keyword}` (not one lensbake knows to be harmless)"
+                    )));
+                }
             };
             if handled {
                 return Ok(());
@@ -285,21 +366,37 @@ impl Reader {
                     other => return Err(unsupported(format!("UNIT {other}"))),
                 }
             }
-            "ENPD" => self.pupil = Some(PupilSize::Diameter(value(0)?)),
-            "FNUM" => self.pupil = Some(PupilSize::FNumber(value(0)?)),
-            "FLOA" => self.pupil = Some(PupilSize::FloatByStop),
-            "OBNA" | "OBSA" | "EFNO" => {
-                self.pupil = Some(PupilSize::Unusable(format!(
-                    "the aperture is given as {keyword}"
-                )))
+            "GCAT" => self.catalogues = args.iter().map(|a| a.to_ascii_uppercase()).collect(),
+            "ENPD" => self.set_aperture(ApertureSpec::EntrancePupilDiameter(value(0)?)),
+            "FNUM" => self.set_aperture(ApertureSpec::FNumber(value(0)?)),
+            "OBNA" => self.set_aperture(ApertureSpec::ObjectNumericalAperture(value(0)?)),
+            "FLOA" => self.set_aperture(ApertureSpec::FloatByStop),
+            "OBSA" | "EFNO" => {
+                self.aperture = None;
+                self.unusable_aperture = Some(format!("the aperture is given as {keyword}"));
             }
             "FTYP" => {
-                let kind = index(0)?;
-                self.unusable_fields = (kind != 0)
-                    .then(|| format!("the fields are of type {kind} (FTYP), not angles"));
+                self.field_kind = Some(match index(0)? {
+                    0 => FieldKind::AngleDeg,
+                    1 => FieldKind::ObjectHeight,
+                    2 => FieldKind::ParaxialImageHeight,
+                    3 => FieldKind::RealImageHeight,
+                    other => {
+                        return Err(unsupported(format!(
+                            "field type {other} (FTYP): lensbake reads angles, object heights \
+                             and image heights"
+                        )));
+                    }
+                });
+                // OpticStudio 14 and later: FTYP type normalisation fields wavelengths ...
+                if args.len() >= 4 {
+                    self.field_count = Some(index(2)?);
+                    self.wavelength_count = Some(index(3)?);
+                }
             }
-            "XFLN" => self.x_fields = list()?,
-            "YFLN" => self.y_fields = list()?,
+            "XFLN" | "XFLD" => self.x_fields = list()?,
+            "YFLN" | "YFLD" => self.y_fields = list()?,
+            "FWGN" | "FWGT" => self.field_weights = list()?,
             "VDXN" | "ZVDX" => self.vignetting[0] = list()?,
             "VDYN" | "ZVDY" => self.vignetting[1] = list()?,
             "VCXN" | "ZVCX" => self.vignetting[2] = list()?,
@@ -317,10 +414,18 @@ impl Reader {
                 }
                 if self.wavelengths.len() < number {
                     self.wavelengths.resize(number, f64::NAN);
+                    self.wavelength_weights.resize(number, 1.0);
                 }
                 self.wavelengths[number - 1] = um;
+                if args.len() > 2 {
+                    self.wavelength_weights[number - 1] = value(2)?;
+                }
             }
-            "WAVN" | "WAVL" => self.wavelengths = list()?,
+            "WAVN" | "WAVL" => {
+                self.wavelengths = list()?;
+                self.wavelength_weights.resize(self.wavelengths.len(), 1.0);
+            }
+            "WWGT" => self.wavelength_weights = list()?,
             "PWAV" => self.primary = Some((index(0)?, line)),
             "MNUM" => {
                 let configurations = index(0)?;
@@ -330,10 +435,17 @@ impl Reader {
                     )));
                 }
             }
-            k if HARMLESS_TOP.contains(&k) => {}
+            k if HARMLESS_TOP.contains(&k) || self.in_trailer => {
+                self.skipped.insert(k.to_string());
+            }
             other => return Err(unsupported(format!("Zemax keyword `{other}`"))),
         }
         Ok(())
+    }
+
+    fn set_aperture(&mut self, aperture: ApertureSpec) {
+        self.aperture = Some(aperture);
+        self.unusable_aperture = None;
     }
 
     fn finish(self, source: &Source) -> Result<Loaded, PrescriptionError> {
@@ -386,28 +498,34 @@ impl Reader {
                 Surface {
                     shape: shape(b.curvature, b.conic, &terms),
                     thickness: b.thickness,
-                    medium: b.medium.clone().unwrap_or(Medium::Air),
+                    medium: self.medium(b),
                     semi_aperture: b.clear_radius.or(b.semi_diameter).unwrap_or(0.0),
                     stop: b.stop.map(|_| StopShape::Circle),
                 }
             })
             .collect();
+        // A DIAM of 0 (a dummy surface OpticStudio never sized) is no aperture at all.
         let missing: Vec<usize> = (0..lens.len())
-            .filter(|&i| lens[i].clear_radius.is_none() && lens[i].semi_diameter.is_none())
+            .filter(|&i| {
+                lens[i].clear_radius.is_none() && lens[i].semi_diameter.is_none_or(|d| d <= 0.0)
+            })
             .collect();
         let mm = self.mm_per_unit;
-        let object_distance = Some(object.thickness * mm).filter(|d| d.abs() < INFINITE_OBJECT_MM);
+        let conditions = self.conditions(object, wavelength_nm);
 
         let mut prescription = Prescription {
             provenance: Provenance {
                 title: self.title.clone().unwrap_or_else(|| source.default_title()),
                 source: source.file_name(),
                 design_wavelength_nm: wavelength_nm,
-                notes: (!missing.is_empty())
-                    .then(|| "clear apertures not in the file were derived by lensbake from paraxial rays".to_string()),
+                notes: (!missing.is_empty()).then(|| {
+                    "clear apertures not in the file were derived by lensbake from paraxial rays"
+                        .to_string()
+                }),
+                conditions: Some(conditions.clone()),
                 ..Provenance::default()
             },
-            object_medium: object.medium.clone().unwrap_or(Medium::Air),
+            object_medium: self.medium(object),
             surfaces,
         };
         scale_to_mm(&mut prescription, mm);
@@ -415,41 +533,89 @@ impl Reader {
             file: source.file.map(|f| f.to_path_buf()),
             surface_lines: lens.iter().map(|b| Some(b.line)).collect(),
         };
-        let beams = BeamSpec {
-            pupil: match &self.pupil {
-                Some(PupilSize::Diameter(d)) => PupilSize::Diameter(d * mm),
-                Some(other) => other.clone(),
-                None => PupilSize::Unusable(
-                    "the file has neither DIAM nor an aperture (ENPD, FNUM, FLOA)".into(),
-                ),
-            },
-            object_distance,
-            fields: self.field_points(),
-            wavelength_nm: wavelength_nm.unwrap_or(DEFAULT_WAVELENGTH_NM),
-        };
-        apertures::complete(prescription, &missing, &beams, map, Format::Zemax)
+        let pupils: Vec<_> = (0..conditions.fields.as_ref().map_or(0, |f| f.x.len()))
+            .map(|k| {
+                let get = |list: &[f64]| list.get(k).copied().unwrap_or(0.0);
+                let [vdx, vdy, vcx, vcy] = [0, 1, 2, 3].map(|v| get(&self.vignetting[v]));
+                // Zemax maps a pupil coordinate p to vd + p (1 - vc).
+                (
+                    (vdx - (1.0 - vcx), vdx + (1.0 - vcx)),
+                    (vdy - (1.0 - vcy), vdy + (1.0 - vcy)),
+                )
+            })
+            .collect();
+        let beams = BeamSpec::from_conditions(
+            &conditions,
+            &pupils,
+            self.unusable_aperture.clone().unwrap_or_else(|| {
+                "the file has neither DIAM nor an aperture (ENPD, FNUM, OBNA, FLOA)".into()
+            }),
+            wavelength_nm.unwrap_or(DEFAULT_WAVELENGTH_NM),
+        );
+        let mut loaded = apertures::complete(prescription, &missing, &beams, map, Format::Zemax)?;
+        if !self.skipped.is_empty() {
+            loaded.notes.push(LoadNote::SkippedKeywords {
+                keywords: self.skipped.into_iter().collect(),
+            });
+        }
+        Ok(loaded)
     }
 
-    fn field_points(&self) -> Result<Vec<FieldPoint>, String> {
-        if let Some(reason) = &self.unusable_fields {
-            return Err(reason.clone());
+    /// A block's medium, glass names resolved in the file's catalogue order (GCAT).
+    fn medium(&self, block: &Block) -> Medium {
+        match &block.glass {
+            None => Medium::Air,
+            Some(Glass::Medium(medium)) => medium.clone(),
+            Some(Glass::Name(name)) => named_medium(name, &self.catalogues),
         }
-        let count = self.x_fields.len().max(self.y_fields.len());
-        let get = |list: &[f64], k: usize| list.get(k).copied().unwrap_or(0.0);
-        Ok((0..count)
-            .map(|k| {
-                let (tx, ty) = (
-                    get(&self.x_fields, k).to_radians().tan(),
-                    get(&self.y_fields, k).to_radians().tan(),
-                );
-                let [vdx, vdy, vcx, vcy] = [0, 1, 2, 3].map(|v| get(&self.vignetting[v], k));
-                // Zemax maps a pupil coordinate p to vd + p (1 - vc).
-                FieldPoint {
-                    angle_deg: tx.hypot(ty).atan().to_degrees(),
-                    pupil_y: (vdy - (1.0 - vcy), vdy + (1.0 - vcy)),
-                    pupil_x: (vdx - (1.0 - vcx), vdx + (1.0 - vcx)),
+    }
+
+    /// Object distance, aperture, fields and wavelengths as the file states them, in mm and nm.
+    fn conditions(&self, object: &Block, primary_nm: Option<f64>) -> Conditions {
+        let mm = self.mm_per_unit;
+        let used = |list: &[f64], count: Option<usize>| -> Vec<f64> {
+            list.iter()
+                .take(count.unwrap_or(usize::MAX))
+                .copied()
+                .collect()
+        };
+        let kind = self.field_kind.unwrap_or(FieldKind::AngleDeg);
+        let unit = if kind == FieldKind::AngleDeg { 1.0 } else { mm };
+        let count = self
+            .field_count
+            .unwrap_or(self.x_fields.len().max(self.y_fields.len()));
+        let component = |list: &[f64]| -> Vec<f64> {
+            (0..count)
+                .map(|k| list.get(k).copied().unwrap_or(0.0) * unit)
+                .collect()
+        };
+        let wavelengths: Vec<f64> = used(&self.wavelengths, self.wavelength_count)
+            .iter()
+            .map(|um| um * 1000.0)
+            .collect();
+        let weights = used(&self.wavelength_weights, Some(wavelengths.len()));
+        Conditions {
+            object_distance_mm: Some(object.thickness * mm)
+                .filter(|d| d.abs() < INFINITE_OBJECT_MM),
+            aperture: self.aperture.clone().map(|a| match a {
+                ApertureSpec::EntrancePupilDiameter(d) => {
+                    ApertureSpec::EntrancePupilDiameter(d * mm)
                 }
-            })
-            .collect())
+                other => other,
+            }),
+            fields: (count > 0).then(|| FieldSpec {
+                kind,
+                x: component(&self.x_fields),
+                y: component(&self.y_fields),
+                weights: used(&self.field_weights, Some(count)),
+            }),
+            primary: primary_nm.and_then(|nm| wavelengths.iter().position(|w| *w == nm)),
+            wavelength_weights: if weights.len() == wavelengths.len() {
+                weights
+            } else {
+                vec![1.0; wavelengths.len()]
+            },
+            wavelengths_nm: wavelengths,
+        }
     }
 }

@@ -1,0 +1,53 @@
+//! `lensbake glass list` and `lensbake glass show` as a user runs them.
+
+use std::process::{Command, Output};
+
+fn lensbake(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_lensbake"))
+        .args(args)
+        .output()
+        .expect("run lensbake")
+}
+
+#[test]
+fn show_prints_the_standard_lines_abbe_number_formula_and_source() {
+    let o = lensbake(&["glass", "show", "n-bk7"]);
+    assert_eq!(o.status.code(), Some(0));
+    let out = String::from_utf8_lossy(&o.stdout);
+    // SCHOTT's datasheet: nF 1.522376, nd 1.516800, nC 1.514322 (6 decimals).
+    for line in [
+        "nF  (486.1327 nm)  1.522376",
+        "nd  (587.5618 nm)  1.516800",
+        "nC  (656.2725 nm)  1.514322",
+    ] {
+        assert!(out.contains(line), "{line} in\n{out}");
+    }
+    assert!(
+        out.starts_with("N-BK7 (SCHOTT), glass code 517642\n"),
+        "{out}"
+    );
+    assert!(
+        out.contains("Vd 64.17") && out.contains("Sellmeier") && out.contains("SCHOTT.xls"),
+        "{out}"
+    );
+}
+
+#[test]
+fn list_filters_by_catalogue_and_unknown_names_fail_with_suggestions() {
+    let o = lensbake(&["glass", "list", "--catalog", "ohara"]);
+    assert_eq!(o.status.code(), Some(0));
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.lines().count() > 100, "{out}");
+    assert!(out.lines().all(|l| l.contains(" OHARA ")), "{out}");
+    assert!(out.contains("S-LAH64"), "{out}");
+
+    let o = lensbake(&["glass", "list", "--catalog", "NOPE"]);
+    assert_eq!(o.status.code(), Some(2));
+    let o = lensbake(&["glass", "show", "BK7"]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.starts_with("error: unknown glass `BK7`; did you mean") && err.contains("N-BK7"),
+        "{err}"
+    );
+}

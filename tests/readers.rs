@@ -1,0 +1,356 @@
+//! The Zemax and CODE V readers on the constructs real files use: harmless keywords skipped and
+//! listed once, located refusals, text encodings, GCAT, DIAM semantics, the file's conditions as
+//! analysis defaults, gap tolerance, CODE V continuation lines, model glasses and the default stop.
+
+use lensbake::analysis::{AnalyzeOptions, analyze};
+use lensbake::glass::{D_LINE_NM, Dispersion, lookup};
+use lensbake::prescription::formats::{
+    Format, LoadNote, LoadOptions, Loaded, read_bytes, read_str,
+};
+use lensbake::prescription::{
+    ApertureSpec, FieldKind, Medium, PrescriptionError, Problem, StopShape,
+};
+use lensbake::system::LensSystem;
+use std::path::Path;
+
+const FILE: &str = "test.zmx";
+
+/// An f/5 BK7 singlet (R = ±50 mm, 5 mm thick) as OpticStudio writes it, with the bookkeeping,
+/// merit-function and tolerance lines real files carry.
+fn singlet(extra_header: &str, surface_2: &str, trailer: &str) -> String {
+    format!(
+        "VERS 190513 80 123456\nMODE SEQ\nNAME Test singlet\nAUTH Someone\nLUID 42\n\
+         UNIT MM X W X CM MR CPMM\nENPD 10\nGCAT SCHOTT\n{extra_header}\
+         FTYP 0 0 2 3 0 0 0\nXFLN 0 0 0 0\nYFLN 0 5 0 0\nFWGN 1 2 1 1\n\
+         WAVM 1 0.4861327 1\nWAVM 2 0.5875618 2\nWAVM 3 0.6562725 1\nWAVM 4 0.55 1\nPWAV 2\n\
+         SURF 0\n  TYPE STANDARD\n  CURV 0.0 0 0 0 0 \"\"\n  DISZ INFINITY\n\
+         SURF 1\n  STOP\n  TYPE STANDARD\n  CURV 0.02 0 0 0 0 \"\"\n  HIDE 0 0 0 0 0 0 0 0 0 0\n\
+           DISZ 5\n  GLAS N-BK7 0 0 1.5168 64.17 0 0 0 0 0 0\n  DIAM 6 1 0 0 1 \"\"\n\
+         SURF 2\n  TYPE STANDARD\n  CURV -0.02 0 0 0 0 \"\"\n  DISZ 47\n{surface_2}\
+         SURF 3\n  TYPE STANDARD\n  CURV 0\n  DISZ 0\n\
+         TOL TOFF 0 0 0 0 0 0\nMNUM 1 1\nEERA 0 0 0\n{trailer}"
+    )
+}
+
+fn read(text: &str) -> Result<Loaded, PrescriptionError> {
+    read_str(
+        text,
+        Some(Path::new(FILE)),
+        Format::Zemax,
+        &LoadOptions::default(),
+    )
+}
+
+fn skipped(loaded: &Loaded) -> Vec<String> {
+    let lists: Vec<&Vec<String>> = loaded
+        .notes
+        .iter()
+        .filter_map(|n| match n {
+            LoadNote::SkippedKeywords { keywords } => Some(keywords),
+            _ => None,
+        })
+        .collect();
+    assert!(lists.len() <= 1, "one note lists every skipped keyword");
+    lists.first().map_or_else(Vec::new, |l| l.to_vec())
+}
+
+fn line_of(text: &str, needle: &str) -> usize {
+    1 + text.lines().position(|l| l.contains(needle)).expect(needle)
+}
+
+#[test]
+fn harmless_keywords_are_skipped_and_listed_in_one_note() {
+    let text = singlet("", "  DIAM 6 0 0 0 1 \"\"\n", "REAY 1 2 0.5\nZQXW 1 2 3\n");
+    let loaded = read(&text).unwrap();
+    let keywords = skipped(&loaded);
+    // Bookkeeping, display, tolerance and merit lines, and an operand lensbake has never seen
+    // in the trailer (after the surface table) where only such lines live.
+    for k in [
+        "AUTH", "EERA", "HIDE", "LUID", "REAY", "TOL", "VERS", "ZQXW",
+    ] {
+        assert!(keywords.iter().any(|s| s == k), "{k} in {keywords:?}");
+    }
+    assert!(
+        keywords.windows(2).all(|w| w[0] < w[1]),
+        "sorted, once each"
+    );
+    let note = loaded
+        .notes
+        .iter()
+        .find(|n| matches!(n, LoadNote::SkippedKeywords { .. }))
+        .unwrap()
+        .to_string();
+    assert!(
+        note.contains("AUTH, DIAM") || note.contains("AUTH, EERA"),
+        "{note}"
+    );
+}
+
+#[test]
+fn unknown_or_unsupported_surface_keywords_are_refused_where_they_stand() {
+    let text = singlet("", "  ZQXW 1\n  DIAM 6 0 0 0 1 \"\"\n", "");
+    let e = read(&text).unwrap_err();
+    assert!(
+        matches!(&e.problem, Problem::Unsupported(what) if what.contains("ZQXW")),
+        "{e}"
+    );
+    assert_eq!(e.location.line, Some(line_of(&text, "ZQXW")));
+    assert_eq!(e.location.surface, Some(2));
+    assert_eq!(e.location.field.as_deref(), Some("ZQXW"));
+
+    let text = singlet("", "", "").replace("SURF 2\n  TYPE STANDARD", "SURF 2\n  TYPE COORDBRK");
+    let e = read(&text).unwrap_err();
+    assert!(
+        matches!(&e.problem, Problem::Unsupported(what) if what.contains("COORDBRK")),
+        "{e}"
+    );
+    assert_eq!(e.location.line, Some(line_of(&text, "COORDBRK")));
+    assert_eq!(e.location.surface, Some(2));
+
+    let text = singlet("", "  OBSC 0 2\n", "");
+    let e = read(&text).unwrap_err();
+    assert!(
+        matches!(&e.problem, Problem::Unsupported(what) if what.contains("OBSC")),
+        "{e}"
+    );
+    assert_eq!(e.location.surface, Some(2));
+}
+
+/// UTF-16 (either byte order, with the mark OpticStudio writes) and Latin-1 read as UTF-8 does.
+#[test]
+fn encodings_opticstudio_writes_read_alike() {
+    let text = singlet("", "  DIAM 6 0 0 0 1 \"\"\n", "").replace("Test singlet", "Test singlet é");
+    let read_as = |bytes: Vec<u8>| {
+        read_bytes(
+            &bytes,
+            Some(Path::new(FILE)),
+            Format::Zemax,
+            &LoadOptions::default(),
+        )
+        .unwrap()
+        .prescription
+    };
+    let utf8 = read_as(text.as_bytes().to_vec());
+    assert_eq!(utf8.provenance.title, "Test singlet é");
+    let mut le = vec![0xFF, 0xFE];
+    let mut be = vec![0xFE, 0xFF];
+    for unit in text.encode_utf16() {
+        le.extend(unit.to_le_bytes());
+        be.extend(unit.to_be_bytes());
+    }
+    let latin1: Vec<u8> = text.chars().map(|c| c as u32 as u8).collect();
+    assert!(
+        std::str::from_utf8(&latin1).is_err(),
+        "the é byte is not UTF-8"
+    );
+    for (name, bytes) in [("UTF-16LE", le), ("UTF-16BE", be), ("Latin-1", latin1)] {
+        assert_eq!(read_as(bytes), utf8, "{name}");
+    }
+}
+
+#[test]
+fn gcat_order_resolves_glass_names_several_makers_use() {
+    // SCHOTT and CDGM both sell an F2 (different coefficients).
+    let with = |gcat: &str| {
+        let text = singlet("", "  DIAM 6 0 0 0 1 \"\"\n", "")
+            .replace("GCAT SCHOTT", gcat)
+            .replace("GLAS N-BK7", "GLAS F2");
+        let loaded = read(&text).unwrap();
+        let Medium::Glass(name) = &loaded.prescription.surfaces[0].medium else {
+            panic!("F2 is a catalogue glass")
+        };
+        lookup(name).unwrap().maker
+    };
+    assert_eq!(with("GCAT SCHOTT CDGM"), "SCHOTT");
+    assert_eq!(with("GCAT CDGM SCHOTT"), "CDGM");
+    assert_eq!(with("GCAT OHARA CDGM"), "CDGM");
+}
+
+/// DIAM is the envelope OpticStudio computed, CLAP a real aperture, and a DIAM of 0 (a dummy
+/// surface never sized) no aperture: derived from the file's beams.
+#[test]
+fn diam_clap_and_unsized_surfaces() {
+    let loaded = read(&singlet("", "  DIAM 0 0 0 0 1 \"\"\n", "")).unwrap();
+    assert!(
+        loaded
+            .notes
+            .contains(&LoadNote::AperturesDerived { surfaces: vec![2] }),
+        "{:?}",
+        loaded.notes
+    );
+    let p = &loaded.prescription;
+    assert_eq!(p.surfaces[0].semi_aperture, 6.0);
+    // Paraxial marginal (5 mm) plus chief ray at 5 deg on surface 2: more than the marginal.
+    assert!(p.surfaces[1].semi_aperture > 5.0 && p.surfaces[1].semi_aperture < 6.0);
+    let loaded = read(&singlet("", "  DIAM 6 0 0 0 1 \"\"\n  CLAP 0 5.5\n", "")).unwrap();
+    assert_eq!(loaded.prescription.surfaces[1].semi_aperture, 5.5);
+}
+
+#[test]
+fn the_files_conditions_are_stored_and_become_the_analysis_defaults() {
+    let text = singlet("", "  DIAM 6 0 0 0 1 \"\"\n", "");
+    let loaded = read(&text).unwrap();
+    let conditions = loaded.prescription.provenance.conditions.clone().unwrap();
+    assert_eq!(conditions.object_distance_mm, None);
+    assert_eq!(
+        conditions.aperture,
+        Some(ApertureSpec::EntrancePupilDiameter(10.0))
+    );
+    let fields = conditions.fields.unwrap();
+    // FTYP says 2 fields and 3 wavelengths; OpticStudio writes every slot of its tables.
+    assert_eq!(
+        (fields.kind, fields.y.clone(), fields.weights.clone()),
+        (FieldKind::AngleDeg, vec![0.0, 5.0], vec![1.0, 2.0])
+    );
+    assert_eq!(conditions.wavelengths_nm.len(), 3);
+    assert_eq!(conditions.wavelength_weights, [1.0, 2.0, 1.0]);
+    assert_eq!(conditions.primary, Some(1));
+
+    let system = LensSystem::new(loaded.prescription, &loaded.map).unwrap();
+    let a = analyze("singlet", &system, &AnalyzeOptions::default()).unwrap();
+    // 0.5875618 µm in nm, to the rounding of the unit change.
+    assert!(
+        (a.wavelength_nm - 587.5618).abs() < 1e-9,
+        "{}",
+        a.wavelength_nm
+    );
+    assert!((a.field_deg - 5.0).abs() < 1e-12, "{}", a.field_deg);
+    assert!((a.first_order.entrance_pupil.diameter - 10.0).abs() < 1e-12);
+    assert_eq!(a.object_distance_mm, None);
+    // A flag still overrides the file.
+    let flagged = AnalyzeOptions {
+        epd_mm: Some(4.0),
+        ..AnalyzeOptions::default()
+    };
+    let a = analyze("singlet", &system, &flagged).unwrap();
+    assert!((a.first_order.entrance_pupil.diameter - 4.0).abs() < 1e-12);
+}
+
+/// A 1:1 relay at 100 mm: SURF 0 DISZ is the object distance, FNUM the image-space F-number
+/// (at infinity), OBNA the object NA, FTYP 1 object heights.
+#[test]
+fn finite_objects_numerical_apertures_and_object_heights() {
+    let text = singlet("", "  DIAM 6 0 0 0 1 \"\"\n", "")
+        .replace("  DISZ INFINITY", "  DISZ 100")
+        .replace("ENPD 10", "OBNA 0.04")
+        .replace("FTYP 0 0 2 3", "FTYP 1 0 2 3")
+        .replace("YFLN 0 5 0 0", "YFLN 0 3 0 0");
+    let loaded = read(&text).unwrap();
+    let conditions = loaded.prescription.provenance.conditions.clone().unwrap();
+    assert_eq!(conditions.object_distance_mm, Some(100.0));
+    let system = LensSystem::new(loaded.prescription, &loaded.map).unwrap();
+    let a = analyze("relay", &system, &AnalyzeOptions::default()).unwrap();
+    assert_eq!(a.object_distance_mm, Some(100.0));
+    assert_eq!(a.first_order.object_height, Some(3.0));
+    // The marginal ray leaves the axial object point at slope tan(asin(NA)).
+    let u = 0.04f64.asin().tan();
+    let z_pupil = a.first_order.entrance_pupil.z;
+    let epd = a.first_order.entrance_pupil.diameter;
+    assert!(
+        (epd / 2.0 / (100.0 + z_pupil) - u).abs() < 1e-12,
+        "EPD {epd}"
+    );
+
+    let text = singlet("", "  DIAM 6 0 0 0 1 \"\"\n", "").replace("ENPD 10", "FNUM 8 0");
+    let loaded = read(&text).unwrap();
+    let system = LensSystem::new(loaded.prescription, &loaded.map).unwrap();
+    let a = analyze("f8", &system, &AnalyzeOptions::default()).unwrap();
+    assert!(
+        (a.first_order.f_number - 8.0).abs() < 1e-12,
+        "{}",
+        a.first_order.f_number
+    );
+}
+
+/// An optimiser's -1e-8 mm gap is touching; a 1e-5 mm overlap is a crossing.
+#[test]
+fn tiny_negative_gaps_pass_and_real_overlaps_do_not() {
+    let text = |gap: &str| {
+        {
+            singlet("", "  DIAM 6 0 0 0 1 \"\"\n", "").replace(
+                "  CURV -0.02 0 0 0 0 \"\"\n  DISZ 47",
+                &format!("  CURV 0 0 0 0 0 \"\"\n  DISZ {gap}\nSURF 3\n  CURV 0\n  DISZ 47"),
+            )
+        }
+        .replace(
+            "SURF 3\n  TYPE STANDARD\n  CURV 0\n  DISZ 0\n",
+            "SURF 4\n  CURV 0\n  DISZ 0\n",
+        )
+    };
+    let load = |gap: &str| {
+        let loaded = read(&text(gap)).unwrap();
+        LensSystem::new(loaded.prescription, &loaded.map)
+    };
+    assert!(load("-1e-8").is_ok());
+    let e = load("-1e-5").unwrap_err();
+    assert!(
+        matches!(e.problem, Problem::SurfacesCross { next: 3, .. }),
+        "{e}"
+    );
+    assert_eq!(e.location.surface, Some(2));
+}
+
+fn codev(text: &str) -> Result<Loaded, PrescriptionError> {
+    read_str(
+        text,
+        Some(Path::new("test.seq")),
+        Format::CodeV,
+        &LoadOptions::default(),
+    )
+}
+
+#[test]
+fn codev_continuation_lines_model_glasses_and_the_default_stop() {
+    let text = "TITLE 'continued'\nEPD 10\nDIM M\nWL 486.1327 587.5618 &\n 656.2725\nREF 2\n\
+                TEM 25\nYIM 0 4\nSO 0 1e20\nS 50 5 1.5168:64.17\nCIR 6\nS -50 47\nCIR 6\nSI 0 0\nGO\n";
+    let loaded = codev(text).unwrap();
+    let p = &loaded.prescription;
+    assert_eq!(
+        p.provenance.conditions.as_ref().unwrap().wavelengths_nm,
+        [486.1327, 587.5618, 656.2725]
+    );
+    assert_eq!(p.provenance.design_wavelength_nm, Some(587.5618));
+    assert_eq!(
+        p.surfaces[0].medium,
+        Medium::Model {
+            nd: 1.5168,
+            vd: 64.17
+        }
+    );
+    // No STO: CODE V takes surface 1 as the stop.
+    assert_eq!(p.surfaces[0].stop, Some(StopShape::Circle));
+    assert_eq!(skipped(&loaded), ["TEM"]);
+    let model = Dispersion::of(&p.surfaces[0].medium).unwrap();
+    assert!((model.index(D_LINE_NM) - 1.5168).abs() < 1e-12);
+
+    // YIM: paraxial image height 4 mm at infinity is the angle whose chief ray lands there.
+    let system = LensSystem::new(loaded.prescription, &loaded.map).unwrap();
+    let a = analyze("yim", &system, &AnalyzeOptions::default()).unwrap();
+    assert!(
+        (a.first_order.image_height.abs() - 4.0).abs() < 1e-9,
+        "{}",
+        a.first_order.image_height
+    );
+    assert!((a.first_order.entrance_pupil.diameter - 10.0).abs() < 1e-12);
+}
+
+#[test]
+fn codev_refusals_name_the_command_and_line() {
+    let text = "EPD 10\nS 50 5 N-BK7\nCIR 6\nPIK RDY S1 -1 0\nS -50 47\nCIR 6\nGO\n";
+    let e = codev(text).unwrap_err();
+    assert!(
+        matches!(&e.problem, Problem::Unsupported(what) if what.contains("PIK")),
+        "{e}"
+    );
+    assert_eq!((e.location.line, e.location.surface), (Some(4), Some(1)));
+}
+
+/// `lens convert` keeps the file's conditions: the RON of a Zemax lens reads back identical.
+#[test]
+fn conditions_survive_the_ron_round_trip() {
+    let loaded = read(&singlet("", "  DIAM 6 0 0 0 1 \"\"\n", "")).unwrap();
+    let ron = lensbake::prescription::formats::write_ron(&loaded.prescription);
+    let back = read_str(&ron, None, Format::Ron, &LoadOptions::default()).unwrap();
+    assert_eq!(back.prescription, loaded.prescription);
+    assert!(ron.contains("conditions"), "{ron}");
+}

@@ -1,0 +1,56 @@
+#!/usr/bin/env python3
+"""Peer numbers for the lens-file corpus test: rayoptics 0.9.8's first-order data and Seidel sums.
+
+For each file named in PEER_FILES (tests/data/corpus/), rayoptics reads the file and reports its
+paraxial first-order data (EFL, BFL, entrance-pupil diameter, F-number) at its reference
+wavelength, the largest field angle of the file and the sums of its third-order (Seidel)
+coefficients S-I .. S-V. Written to tests/data/corpus/peers.json; tests/corpus.rs compares.
+
+Run:  python3 -m venv /tmp/venv && /tmp/venv/bin/pip install rayoptics==0.9.8
+      /tmp/venv/bin/python tools/corpus_peers.py
+"""
+import json
+import os
+import warnings
+
+warnings.filterwarnings("ignore")
+from rayoptics.environment import open_model  # noqa: E402
+from rayoptics.parax.thirdorder import compute_third_order  # noqa: E402
+
+CORPUS = os.path.join(os.path.dirname(__file__), "..", "tests", "data", "corpus")
+PEER_FILES = [
+    "optiland__lens1.zmx",
+    "rayoptics__US00583336-2-scaled.zmx",
+    "rayoptics__CODV_32327.seq",
+    "rayoptics__CODV_65564.seq",
+    "rayoptics__unfolded_lenses_w_ape.seq",
+]
+
+
+def main():
+    peers = {}
+    for name in PEER_FILES:
+        opm = open_model(os.path.join(CORPUS, name), info=False)
+        if isinstance(opm, tuple):
+            opm = opm[0]
+        fod = opm["analysis_results"]["parax_data"].fod
+        osp = opm["optical_spec"]
+        fov = osp["fov"]
+        sums = compute_third_order(opm).loc["sum"]
+        peers[name] = {
+            "wavelength_nm": osp["wvls"].central_wvl,
+            "field_type": str(fov.key),
+            "max_field": max(abs(f.y) for f in fov.fields),
+            "efl": fod.efl,
+            "bfl": fod.bfl,
+            "epd": 2 * fod.enp_radius,
+            "f_number": fod.fno,
+            "seidel_sums": [sums[k] for k in ["S-I", "S-II", "S-III", "S-IV", "S-V"]],
+        }
+    with open(os.path.join(CORPUS, "peers.json"), "w", encoding="utf-8") as out:
+        json.dump({"tool": "rayoptics 0.9.8", "lenses": peers}, out, indent=1)
+        out.write("\n")
+
+
+if __name__ == "__main__":
+    main()
