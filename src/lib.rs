@@ -19,3 +19,4 @@ pub mod seidel;
 pub mod system;
 pub mod trace;
 pub mod tradeoff;
+pub mod wave;
