@@ -6,9 +6,9 @@
 //! (LENS: a bundled lens name or a lens file). Writes OUT_DIR/lrtf-error.{json,md,png}.
 use lensbake::lenses;
 use lensbake::lrtf::bake::{BakeRequest, bake, first_order};
-use lensbake::lrtf::measure::{Stats, SweepRow, error_plot, table_error};
+use lensbake::lrtf::measure::{Stats, SweepRow, table_error};
 use lensbake::lrtf::{Parameterisation, Precision};
-use lensbake::plot::{write_atomic, write_plot};
+use lensbake::plot::{LrtfErrorPlot, write_atomic, write_plot};
 use lensbake::prescription::formats::LoadOptions;
 use lensbake::trace::Tracer;
 
@@ -96,6 +96,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         &out.join("lrtf-error.json"),
         serde_json::to_string_pretty(&rows)?.as_bytes(),
     )?;
-    write_plot(&error_plot(&rows), &out.join("lrtf-error.png"))?;
+    write_plot(&LrtfErrorPlot::from_sweep(&rows), &out.join("lrtf-error.png"))?;
     Ok(())
 }

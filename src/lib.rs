@@ -10,13 +10,17 @@ pub mod glass;
 pub mod lenses;
 pub mod lrtf;
 pub mod paraxial;
+#[cfg(feature = "plot")]
 pub mod plot;
 pub mod prescription;
 pub mod pupil;
+#[cfg(feature = "render")]
 pub mod render;
+#[cfg(feature = "plot")]
 pub mod report;
 pub mod seidel;
 pub mod system;
 pub mod trace;
+#[cfg(feature = "render")]
 pub mod tradeoff;
 pub mod wave;

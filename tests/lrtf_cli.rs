@@ -4,8 +4,8 @@
 use std::path::PathBuf;
 use std::process::{Command, Output};
 
-use lensbake::lrtf::measure::{IMAGE_ERROR_TARGET_PX, SweepRow, error_plot};
-use lensbake::plot::{Format, TARGET_LABEL, render};
+use lensbake::lrtf::measure::{IMAGE_ERROR_TARGET_PX, SweepRow};
+use lensbake::plot::{Format, LrtfErrorPlot, TARGET_LABEL, render};
 
 fn scratch(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("lensbake-lrtf-{name}-{}", std::process::id()));
@@ -37,7 +37,7 @@ fn error_plot_draws_every_measured_p99_and_the_target() {
         rows.len() >= 12,
         "the sweep covers 3 lenses x 2 parameterisations x 2 precisions"
     );
-    let rendered = render(&error_plot(&rows), Format::Png).unwrap();
+    let rendered = render(&LrtfErrorPlot::from_sweep(&rows), Format::Png).unwrap();
     let drawn = rendered.drawn;
     for row in &rows {
         let label = format!("{} {}", row.parameterisation, row.precision);

@@ -10,9 +10,9 @@ use serde::{Deserialize, Serialize};
 
 use lensbake::lrtf::bake::{BakeRequest, bake, first_order};
 use lensbake::lrtf::io::{read_sidecar, read_table, write_table};
-use lensbake::lrtf::measure::{SweepRow, error_plot, table_error_focused};
+use lensbake::lrtf::measure::{SweepRow, table_error_focused};
 use lensbake::lrtf::{Lookup, Parameterisation, Precision, Ray};
-use lensbake::plot::write_plot;
+use lensbake::plot::{LrtfErrorPlot, write_plot};
 use lensbake::trace::Tracer;
 
 use super::lens::{LensArgs, ReadArgs};
@@ -389,7 +389,7 @@ pub fn plot_error(measurements: &Path, out: &Path) -> anyhow::Result<()> {
             measurements.display()
         );
     }
-    write_plot(&error_plot(&rows), out)?;
+    write_plot(&LrtfErrorPlot::from_sweep(&rows), out)?;
     println!("{}", out.display());
     Ok(())
 }

@@ -8,7 +8,6 @@ use serde::{Deserialize, Serialize};
 use super::bake::exact_transfer;
 use super::param::Ray;
 use super::table::{Corners, Lookup, LrtfTable};
-use crate::plot::{LrtfErrorCurve, LrtfErrorLens, LrtfErrorPlot};
 use crate::pupil::PupilTable;
 use crate::trace::Tracer;
 
@@ -66,45 +65,6 @@ pub struct SweepRow {
     pub efl: f64,
     pub max_film_radius: f64,
     pub error: TableError,
-}
-
-/// The `lrtf-error` plot of sweep rows: a panel per lens (in first-seen order), a curve per
-/// parameterisation and precision, points (resolution, p99 image error) sorted by resolution.
-pub fn error_plot(rows: &[SweepRow]) -> LrtfErrorPlot {
-    let mut lenses: Vec<LrtfErrorLens> = Vec::new();
-    for row in rows {
-        let lens = match lenses.iter().position(|l| l.lens == row.lens) {
-            Some(k) => &mut lenses[k],
-            None => {
-                lenses.push(LrtfErrorLens {
-                    lens: row.lens.clone(),
-                    curves: Vec::new(),
-                });
-                lenses.last_mut().expect("just pushed")
-            }
-        };
-        let label = format!("{} {}", row.parameterisation, row.precision);
-        let curve = match lens.curves.iter().position(|c| c.label == label) {
-            Some(k) => &mut lens.curves[k],
-            None => {
-                lens.curves.push(LrtfErrorCurve {
-                    label,
-                    points: Vec::new(),
-                });
-                lens.curves.last_mut().expect("just pushed")
-            }
-        };
-        curve
-            .points
-            .push((row.resolution as f64, row.error.image_px.p99));
-    }
-    for curve in lenses.iter_mut().flat_map(|l| &mut l.curves) {
-        curve.points.sort_by(|a, b| a.0.total_cmp(&b.0));
-    }
-    LrtfErrorPlot {
-        lenses,
-        target_px: IMAGE_ERROR_TARGET_PX,
-    }
 }
 
 /// Issue 6's accuracy target: p99 image error below this many pixels of a 1920-pixel frame.

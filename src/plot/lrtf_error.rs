@@ -4,6 +4,7 @@
 use super::chart::{Panel, Series, draw_panel, titled_grid};
 use super::color::PALETTE;
 use super::{Drawn, PlotError, View};
+use crate::lrtf::measure::{IMAGE_ERROR_TARGET_PX, SweepRow};
 use plotters::coord::Shift;
 use plotters::prelude::{BLACK, DrawingArea, DrawingBackend};
 
@@ -27,6 +28,47 @@ pub struct LrtfErrorPlot {
     pub lenses: Vec<LrtfErrorLens>,
     /// The image-error target drawn as a dashed line (px).
     pub target_px: f64,
+}
+
+impl LrtfErrorPlot {
+    /// The `lrtf-error` plot of sweep rows: a panel per lens (in first-seen order), a curve per
+    /// parameterisation and precision, points (resolution, p99 image error) sorted by resolution.
+    pub fn from_sweep(rows: &[SweepRow]) -> LrtfErrorPlot {
+        let mut lenses: Vec<LrtfErrorLens> = Vec::new();
+        for row in rows {
+            let lens = match lenses.iter().position(|l| l.lens == row.lens) {
+                Some(k) => &mut lenses[k],
+                None => {
+                    lenses.push(LrtfErrorLens {
+                        lens: row.lens.clone(),
+                        curves: Vec::new(),
+                    });
+                    lenses.last_mut().expect("just pushed")
+                }
+            };
+            let label = format!("{} {}", row.parameterisation, row.precision);
+            let curve = match lens.curves.iter().position(|c| c.label == label) {
+                Some(k) => &mut lens.curves[k],
+                None => {
+                    lens.curves.push(LrtfErrorCurve {
+                        label,
+                        points: Vec::new(),
+                    });
+                    lens.curves.last_mut().expect("just pushed")
+                }
+            };
+            curve
+                .points
+                .push((row.resolution as f64, row.error.image_px.p99));
+        }
+        for curve in lenses.iter_mut().flat_map(|l| &mut l.curves) {
+            curve.points.sort_by(|a, b| a.0.total_cmp(&b.0));
+        }
+        LrtfErrorPlot {
+            lenses,
+            target_px: IMAGE_ERROR_TARGET_PX,
+        }
+    }
 }
 
 /// Label of the target line's series.
