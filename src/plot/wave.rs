@@ -82,6 +82,29 @@ pub struct MtfFieldPlot {
     pub frequencies: Vec<(f64, Vec<(f64, f64, f64)>)>,
 }
 
+/// One panel of modulation (0..1) curves.
+fn modulation_panel<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    title: String,
+    x_label: &str,
+    series: Vec<Series>,
+    x_range: Option<std::ops::Range<f64>>,
+) -> Result<Drawn, PlotError> {
+    let panel = Panel {
+        title,
+        x_label,
+        y_label: "modulation",
+        series,
+        empty_message: "No field reaches the image".into(),
+        x_range,
+        y_range: Some(0.0..1.02),
+        title_size: TITLE_SIZE,
+    };
+    Ok(Drawn {
+        panels: vec![draw_panel(area, panel)?],
+    })
+}
+
 /// Tangential solid, sagittal dashed, one colour per curve set.
 fn t_and_s(
     label: &str,
@@ -143,19 +166,13 @@ impl View for MtfPlot {
                     .flat_map(|f| f.frequencies_per_mm.iter().copied()),
             )
             .fold(0.0, f64::max);
-        let panel = Panel {
-            title: format!("{}: diffraction MTF, {}", self.lens, self.spectrum),
-            x_label: "spatial frequency (cycles/mm)",
-            y_label: "modulation",
+        modulation_panel(
+            area,
+            format!("{}: diffraction MTF, {}", self.lens, self.spectrum),
+            "spatial frequency (cycles/mm)",
             series,
-            empty_message: "No field reaches the image".into(),
-            x_range: Some(0.0..max_frequency.max(1.0)),
-            y_range: Some(0.0..1.02),
-            title_size: TITLE_SIZE,
-        };
-        Ok(Drawn {
-            panels: vec![draw_panel(area, panel)?],
-        })
+            Some(0.0..max_frequency.max(1.0)),
+        )
     }
 }
 
@@ -173,24 +190,18 @@ impl View for ThroughFocusPlot {
                 t_and_s(&format!("{field:.2}°"), i, points.iter().copied())
             })
             .collect();
-        let panel = Panel {
-            title: format!(
+        modulation_panel(
+            area,
+            format!(
                 "{}: through-focus MTF at {} cycles/mm, {}",
                 self.lens,
                 tick_label(self.frequency_per_mm),
                 self.spectrum
             ),
-            x_label: "image plane shift from paraxial focus (mm)",
-            y_label: "modulation",
+            "image plane shift from paraxial focus (mm)",
             series,
-            empty_message: "No field reaches the image".into(),
-            x_range: None,
-            y_range: Some(0.0..1.02),
-            title_size: TITLE_SIZE,
-        };
-        Ok(Drawn {
-            panels: vec![draw_panel(area, panel)?],
-        })
+            None,
+        )
     }
 }
 
@@ -212,19 +223,13 @@ impl View for MtfFieldPlot {
                 )
             })
             .collect();
-        let panel = Panel {
-            title: format!("{}: MTF across the field, {}", self.lens, self.spectrum),
-            x_label: "field angle (deg)",
-            y_label: "modulation",
+        modulation_panel(
+            area,
+            format!("{}: MTF across the field, {}", self.lens, self.spectrum),
+            "field angle (deg)",
             series,
-            empty_message: "No field reaches the image".into(),
-            x_range: None,
-            y_range: Some(0.0..1.02),
-            title_size: TITLE_SIZE,
-        };
-        Ok(Drawn {
-            panels: vec![draw_panel(area, panel)?],
-        })
+            None,
+        )
     }
 }
 

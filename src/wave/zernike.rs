@@ -79,15 +79,16 @@ fn fringe_indices(j: usize) -> (u32, i32) {
     let k = ((j - 1) as f64).sqrt().floor() as usize;
     let within = j - 1 - k * k;
     let abs_m = if within == 2 * k { 0 } else { k - within / 2 };
-    let n = 2 * k - abs_m;
-    let m = if abs_m == 0 {
-        0
-    } else if within % 2 == 0 {
-        abs_m as i32
-    } else {
-        -(abs_m as i32)
-    };
-    (n as u32, m)
+    ((2 * k - abs_m) as u32, signed_m(abs_m, within % 2 == 0))
+}
+
+/// m with its sign: positive for the cosine term, negative for the sine.
+fn signed_m(abs_m: usize, cosine: bool) -> i32 {
+    match (abs_m, cosine) {
+        (0, _) => 0,
+        (m, true) => m as i32,
+        (m, false) => -(m as i32),
+    }
 }
 
 fn noll_indices(j: usize) -> (u32, i32) {
@@ -101,14 +102,7 @@ fn noll_indices(j: usize) -> (u32, i32) {
     } else {
         2 * (k / 2) + 1
     };
-    let m = if abs_m == 0 {
-        0
-    } else if j % 2 == 0 {
-        abs_m as i32
-    } else {
-        -(abs_m as i32)
-    };
-    (n as u32, m)
+    (n as u32, signed_m(abs_m, j % 2 == 0))
 }
 
 /// The radial polynomial R_n^m(rho).
