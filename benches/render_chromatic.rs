@@ -8,12 +8,13 @@
 use criterion::{Criterion, criterion_group, criterion_main};
 use lensbake::lenses;
 use lensbake::lrtf::bake::{BakeRequest, bake};
+use lensbake::model::LensModel;
+use lensbake::model::{BakedLens, FirstOrderModels, TracedLens};
 use lensbake::prescription::formats::LoadOptions;
-use lensbake::render::camera::{Camera, Film, Focus, LensModel};
+use lensbake::render::camera::{Camera, Film, Focus};
 use lensbake::render::chromatic::{Chromatic, default_wavelengths};
 use lensbake::render::gpu::GpuRenderer;
 use lensbake::render::layers::LayeredDepthImage;
-use lensbake::render::models::{BakedLens, FirstOrderModels, TracedLens};
 use lensbake::render::scene::Scene;
 use lensbake::render::{Backend, RenderSettings, layer_view, render_layers};
 use std::hint::black_box;

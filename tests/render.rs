@@ -5,7 +5,9 @@ mod common;
 
 use common::{channel_differences, dgauss, dgauss_cameras, gpu_or_skip};
 use lensbake::lrtf::bake::{BakeRequest, bake};
-use lensbake::render::camera::{Camera, Film, Focus, LensModel, ParaxialLens};
+use lensbake::model::{BakedLens, FirstOrderModels, PupilSampling, SeidelLens, TracedLens};
+use lensbake::model::{LensModel, ParaxialLens};
+use lensbake::render::camera::{Camera, Film, Focus};
 use lensbake::render::gpu::{IBRT_SHADER, LENS_TRACE_SHADER};
 use lensbake::render::gpu_types::{
     FrameParams, LayerData, SeidelParams, TRACE_MISSED, TRACE_OK, TRACE_TIR, TRACE_VIGNETTED,
@@ -14,9 +16,6 @@ use lensbake::render::gpu_types::{
 use lensbake::render::image::RgbImage;
 use lensbake::render::kernel::{LensRays, object_ray};
 use lensbake::render::layers::LayeredDepthImage;
-use lensbake::render::models::{
-    BakedLens, FirstOrderModels, PupilSampling, SeidelLens, TracedLens,
-};
 use lensbake::render::reference::{psnr, render_reference};
 use lensbake::render::scene::{Outline, Panel, Scene, Texture};
 use lensbake::render::{Backend, RenderSettings, layer_view, render_layers};

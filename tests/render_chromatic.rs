@@ -8,8 +8,10 @@ use common::{gpu_or_skip, load_oracle};
 use lensbake::glass::{C_LINE_NM, F_LINE_NM};
 use lensbake::lrtf::LrtfTable;
 use lensbake::lrtf::bake::{BakeRequest, bake, passes_from_film};
+use lensbake::model::LensModel;
+use lensbake::model::{BakedLens, FirstOrderModels, TracedLens};
 use lensbake::prescription::{Medium, Prescription, Provenance, Shape, StopShape, Surface};
-use lensbake::render::camera::{Camera, Film, Focus, LensModel};
+use lensbake::render::camera::{Camera, Film, Focus};
 use lensbake::render::chromatic::{
     ChannelLenses, Chromatic, ChromaticMode, ColourSpread, VISIBLE_COLOUR_PX, union_of,
     wants_chromatic,
@@ -18,7 +20,6 @@ use lensbake::render::gpu::IBRT_SHADER;
 use lensbake::render::gpu_types::ChannelParams;
 use lensbake::render::image::RgbImage;
 use lensbake::render::layers::LayeredDepthImage;
-use lensbake::render::models::{BakedLens, FirstOrderModels, TracedLens};
 use lensbake::render::reference::{psnr, render_reference};
 use lensbake::render::scene::{Outline, Panel, Scene, Texture};
 use lensbake::render::{Backend, RenderSettings, layer_view, render_layers};

@@ -9,11 +9,12 @@ mod common;
 
 use common::gpu_or_skip;
 use lensbake::lrtf::bake::{BakeRequest, bake};
+use lensbake::model::{BakedLens, FirstOrderModels, SeidelLens, TracedLens};
+use lensbake::model::{LensModel, ParaxialLens};
 use lensbake::prescription::Prescription;
-use lensbake::render::camera::{Camera, Film, Focus, LensModel, ParaxialLens};
+use lensbake::render::camera::{Camera, Film, Focus};
 use lensbake::render::image::RgbImage;
 use lensbake::render::layers::LayeredDepthImage;
-use lensbake::render::models::{BakedLens, FirstOrderModels, SeidelLens, TracedLens};
 use lensbake::render::reference::psnr;
 use lensbake::render::scene::{Outline, Panel, Scene, Texture};
 use lensbake::render::{Backend, RenderSettings, layer_view, render_layers};

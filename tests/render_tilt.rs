@@ -9,14 +9,15 @@ mod common;
 
 use common::dgauss;
 use lensbake::lrtf::bake::{BakeRequest, bake};
-use lensbake::render::camera::{Camera, Film, Focus, LensModel, ParaxialLens};
+use lensbake::model::{BakedLens, PupilSampling, TracedLens, pupil_film_radius};
+use lensbake::model::{LensModel, ParaxialLens};
+use lensbake::render::camera::{Camera, Film, Focus};
 use lensbake::render::focus::{
     SensorPlacement, best_focus_point, film_z_for_pixel, paraxial_focus_plane,
     real_ray_focus_plane, scene_point_under, spot_rms_on_sensor,
 };
 use lensbake::render::image::RgbImage;
 use lensbake::render::layers::LayeredDepthImage;
-use lensbake::render::models::{BakedLens, PupilSampling, TracedLens, pupil_film_radius};
 use lensbake::render::reference::render_reference;
 use lensbake::render::scene::{Outline, Panel, Scene, Texture};
 use lensbake::render::{Backend, RenderSettings, layer_view, render_layers};
@@ -509,7 +510,7 @@ fn effective_pupil_stays_conservative_off_the_film_plane() {
     );
     let search = 1.25 * design.surfaces.last().unwrap().semi_aperture;
     // The circle as fitted, not widened: what the bound has to add off the plane.
-    let unwidened = lensbake::render::models::OffPlaneBound {
+    let unwidened = lensbake::model::OffPlaneBound {
         lipschitz: 0.0,
         centre_slack: 0.0,
     };

@@ -4,7 +4,8 @@
 mod common;
 
 use common::{relative, test_data};
-use lensbake::render::camera::{Camera, Film, Focus, LensModel, ParaxialLens};
+use lensbake::model::{LensModel, ParaxialLens};
+use lensbake::render::camera::{Camera, Film, Focus};
 use lensbake::render::gltf_scene::load_gltf;
 use lensbake::render::gpu_peel::{GpuPeeler, PEEL_SHADER};
 use lensbake::render::gpu_types::{

@@ -3,10 +3,10 @@
 use std::sync::OnceLock;
 
 use lensbake::lenses;
+use lensbake::model::ModelKind;
 use lensbake::prescription::formats::LoadOptions;
 use lensbake::system::LensSystem;
 use lensbake::tradeoff::choose::choose_model;
-use lensbake::tradeoff::models::ModelKind;
 use lensbake::tradeoff::render::RenderBench;
 use lensbake::tradeoff::{Measured, RaySet, SceneRequirements, model_error, tradeoff};
 
@@ -182,13 +182,15 @@ fn the_chosen_model_meets_the_budget_on_fresh_rays() {
             let frame = &table.layers[0].frame;
             assert!((frame.max_film_radius - choice.domain.film_radius).abs() < 1e-12);
             // Re-measure on rays the choice never saw.
-            let built = lensbake::tradeoff::baked_model(table.clone(), &choice.domain, 0.0);
+            let built =
+                lensbake::tradeoff::baked_model(&system, table.clone(), &choice.domain, 0.0)
+                    .unwrap();
             let traced = lensbake::tradeoff::analytic_models(&system, &choice.domain)
                 .unwrap()
                 .pop()
                 .unwrap();
-            let set = RaySet::new(table, &traced.model, &choice.domain, 4000, 99);
-            let fresh = model_error(&built.model, &set, &choice.domain).image_px.p99;
+            let set = RaySet::new(table, &traced, &choice.domain, 4000, 99);
+            let fresh = model_error(&built, &set, &choice.domain).image_px.p99;
             assert!(fresh <= 1.15 * budget, "{budget}: fresh rays {fresh} px");
         }
         if budget >= 200.0 {

@@ -5,19 +5,21 @@
 //! layers), a row per (model, backend, samples per pixel), so the expensive cells can be measured
 //! in separate runs; `<out>/timings.md` is rewritten from all rows each time.
 
-use super::demo::{TracedAndBaked, stage, write_text};
+use super::demo::{stage, write_text};
 use super::lens::ReadArgs;
-use super::render::{RenderLens, default_table_dir};
 use anyhow::Context;
 use clap::Args;
-use lensbake::render::camera::{Camera, Film, Focus, LensModel};
+use lensbake::job::tables::DEFAULT_TABLES_ROOT;
+use lensbake::job::{RenderLens, TracedAndBaked, default_table_dir};
+use lensbake::model::ModelKind;
+use lensbake::render::camera::{Camera, Film};
 use lensbake::render::gpu::GpuRenderer;
 use lensbake::render::image::RgbImage;
 use lensbake::render::reference::{psnr, render_reference};
 use lensbake::render::scene::Scene;
 use lensbake::render::{Backend, RenderSettings, layer_view, render_layers};
 use serde::{Deserialize, Serialize};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 #[derive(Args, Debug)]
@@ -27,9 +29,10 @@ pub struct RenderBenchArgs {
     lens: String,
     #[command(flatten)]
     read: ReadArgs,
-    /// Lens models to time: thin, thick, traced, baked.
-    #[arg(long, value_delimiter = ',', default_value = "thin,thick,traced,baked")]
-    models: Vec<String>,
+    /// Lens models to time.
+    #[arg(long, value_delimiter = ',', default_value = "thin,thick,traced,baked",
+          value_parser = super::lens::model_parser())]
+    models: Vec<ModelKind>,
     /// Backends to time: cpu (the rayon twin), gpu (wgpu; lavapipe where no GPU exists).
     #[arg(long, value_delimiter = ',', default_value = "cpu,gpu")]
     backends: Vec<String>,
@@ -110,16 +113,19 @@ fn now_unix() -> u64 {
 }
 
 pub fn run(args: RenderBenchArgs) -> anyhow::Result<()> {
-    let lens = RenderLens::parse(&args.lens, &args.read)?;
+    let lens = super::lens::render_lens(&args.lens, &args.read)?;
     let RenderLens::Real(real) = &lens else {
         anyhow::bail!("bench render needs a real lens (a file or bundled name), not `ideal:`");
     };
     let (first_order, f_number) = lens.first_order(None)?;
     let film = Film::full_frame_for(args.width, args.height);
-    let table_dir = args
-        .table
-        .clone()
-        .unwrap_or_else(|| default_table_dir(&real.source.origin.name(), Some(args.focus_mm)));
+    let table_dir = args.table.clone().unwrap_or_else(|| {
+        default_table_dir(
+            Path::new(DEFAULT_TABLES_ROOT),
+            &real.source.origin.name(),
+            Some(args.focus_mm),
+        )
+    });
     let matched = TracedAndBaked::new(
         real,
         &first_order,
@@ -130,17 +136,10 @@ pub fn run(args: RenderBenchArgs) -> anyhow::Result<()> {
         args.bake_resolution,
         &|_| {},
     )?;
-    let focus = Focus::ObjectDistance(args.focus_mm);
     let mut cameras: Vec<(String, Camera)> = Vec::new();
-    for model in &args.models {
-        let camera = match model.as_str() {
-            "thin" => Camera::new(LensModel::Thin(first_order.thin.clone()), film, focus)?,
-            "thick" => Camera::new(LensModel::Thick(first_order.thick.clone()), film, focus)?,
-            "traced" => matched.traced.clone(),
-            "baked" => matched.baked.clone(),
-            other => anyhow::bail!("--models: `{other}` is not thin, thick, traced or baked"),
-        };
-        cameras.push((model.clone(), camera));
+    for &kind in &args.models {
+        let camera = matched.camera(kind, real, &first_order, film, args.focus_mm)?;
+        cameras.push((kind.name().to_string(), camera));
     }
     let gpu = if args.backends.iter().any(|b| b == "gpu") {
         Some(GpuRenderer::new()?)
@@ -214,7 +213,7 @@ pub fn run(args: RenderBenchArgs) -> anyhow::Result<()> {
         record(
             &mut timings,
             Row {
-                model: "traced".into(),
+                model: ModelKind::Traced.name().into(),
                 backend: "reference".into(),
                 samples_per_pixel: spp,
                 seconds,
@@ -316,9 +315,9 @@ fn markdown(timings: &Timings) -> String {
     text
 }
 
+/// Rows sort cheapest model first, as [`ModelKind`] lists them.
 fn model_rank(model: &str) -> usize {
-    ["thin", "thick", "traced", "baked"]
-        .iter()
-        .position(|m| *m == model)
-        .unwrap_or(4)
+    model
+        .parse::<ModelKind>()
+        .map_or(ModelKind::ALL.len(), |kind| kind as usize)
 }

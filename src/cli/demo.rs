@@ -3,16 +3,14 @@
 //! between them, timings and the lens report to notebooks-out/demo/.
 
 use super::lens::ReadArgs;
-use super::render::{RenderLens, default_table_dir, load_or_bake};
 use anyhow::Context;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
-use lensbake::lenses::LoadedLens;
-use lensbake::lrtf::bake::BakeProgress;
-use lensbake::render::camera::{Camera, Film, Focus, LensModel};
+use lensbake::job::tables::DEFAULT_TABLES_ROOT;
+use lensbake::job::{RenderLens, TracedAndBaked, default_table_dir};
+use lensbake::render::camera::{Camera, Film};
 use lensbake::render::gpu::GpuRenderer;
 use lensbake::render::image::{RgbImage, write_exr, write_png};
-use lensbake::render::models::{BakedLens, FirstOrderModels, TracedLens};
 use lensbake::render::reference::psnr;
 use lensbake::render::scene::Scene;
 use lensbake::render::{Backend, RenderSettings, layer_view, render_layers};
@@ -113,63 +111,10 @@ pub(super) fn write_text(path: &Path, text: &str) -> anyhow::Result<()> {
 /// Exposure applied to the error map so one-percent errors are visible.
 const ERROR_MAP_EXPOSURE: f32 = 10.0;
 
-/// The traced and the baked camera of a real lens focused at `focus_mm`, drawing identical lens
-/// samples: both sample the table's effective-pupil circles on its film plane, so the difference
-/// between their images is the table's error, not noise. The table comes from `table_dir`,
-/// baked there first when missing.
-pub(super) struct TracedAndBaked {
-    pub traced: Camera,
-    pub baked: Camera,
-    pub baked_now: bool,
-    pub table_resolution: [usize; 3],
-}
-
-impl TracedAndBaked {
-    pub(super) fn new(
-        real: &LoadedLens,
-        first_order: &FirstOrderModels,
-        f_number: f64,
-        film: Film,
-        focus_mm: f64,
-        table_dir: &Path,
-        bake_resolution: usize,
-        progress: &(dyn Fn(BakeProgress) + Sync),
-    ) -> anyhow::Result<TracedAndBaked> {
-        let corner = (film.width_mm / 2.0).hypot(film.height_mm / 2.0);
-        let (table, baked_now) = load_or_bake(
-            real,
-            table_dir,
-            Some(focus_mm),
-            corner,
-            bake_resolution,
-            progress,
-        )?;
-        let pupil = table.layers[0].pupil.clone();
-        let table_resolution = table.info.resolution;
-        let baked = BakedLens::new(table, first_order, f_number)?;
-        let film_z = baked.film_z();
-        let traced = TracedLens::new(&real.system, first_order, f_number, pupil);
-        Ok(TracedAndBaked {
-            traced: Camera::new(
-                LensModel::Traced(Box::new(traced)),
-                film,
-                Focus::FilmZ(film_z),
-            )?,
-            baked: Camera::new(
-                LensModel::Baked(Box::new(baked)),
-                film,
-                Focus::FilmZ(film_z),
-            )?,
-            baked_now,
-            table_resolution,
-        })
-    }
-}
-
 pub fn run(args: DemoArgs) -> anyhow::Result<()> {
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
-    let lens = RenderLens::parse(&args.lens, &args.read)?;
+    let lens = super::lens::render_lens(&args.lens, &args.read)?;
     let RenderLens::Real(real) = &lens else {
         anyhow::bail!("the demo needs a real lens (a file or bundled name), not `ideal:`");
     };
@@ -187,7 +132,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
     let analysis_seconds = done(bar, "analysis and plots", started);
 
     let film = Film::full_frame_for(args.width, args.height);
-    let table_dir = default_table_dir(&name, Some(args.focus_mm));
+    let table_dir = default_table_dir(Path::new(DEFAULT_TABLES_ROOT), &name, Some(args.focus_mm));
     let started = Instant::now();
     let bar = ProgressBar::new(1);
     bar.set_style(

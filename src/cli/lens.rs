@@ -1,8 +1,11 @@
 //! `lensbake lens ...`: check, convert and list lens prescriptions.
 
 use anyhow::{Context, bail};
+use clap::builder::{PossibleValuesParser, TypedValueParser};
 use clap::{Args, Subcommand};
+use lensbake::job::RenderLens;
 use lensbake::lenses::{self, BUNDLED, LensError, LoadedLens};
+use lensbake::model::ModelKind;
 use lensbake::prescription::formats::{
     Format, LoadOptions, PbrtThickness, read_str, write_ron_file,
 };
@@ -83,6 +86,28 @@ impl LensArgs {
             }
         }
     }
+}
+
+/// A render's lens as the command line names it: a lens file or bundled lens, or
+/// `ideal:<EFL_MM>` for an ideal thin lens of that focal length.
+pub fn render_lens(spec: &str, read: &ReadArgs) -> anyhow::Result<RenderLens> {
+    if let Some(efl) = spec.strip_prefix("ideal:") {
+        let focal_length_mm = efl
+            .parse()
+            .with_context(|| format!("lens `{spec}`: bad focal length"))?;
+        return Ok(RenderLens::Ideal { focal_length_mm });
+    }
+    let lens = LensArgs {
+        lens: spec.to_string(),
+        read: read.clone(),
+    }
+    .load()?;
+    Ok(RenderLens::Real(Box::new(lens)))
+}
+
+/// The command line's one parser of lens-model names: the library's, offering its names.
+pub fn model_parser() -> impl TypedValueParser<Value = ModelKind> {
+    PossibleValuesParser::new(ModelKind::NAMES).try_map(|name| name.parse())
 }
 
 fn with_hint(error: LensError) -> anyhow::Error {

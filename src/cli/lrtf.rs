@@ -8,6 +8,8 @@ use clap::{Args, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::{Deserialize, Serialize};
 
+use lensbake::job::default_table_dir;
+use lensbake::job::tables::DEFAULT_TABLES_ROOT;
 use lensbake::lrtf::bake::{BakeRequest, bake, first_order};
 use lensbake::lrtf::io::{read_sidecar, read_table, write_table};
 use lensbake::lrtf::measure::{SweepRow, table_error_focused};
@@ -100,9 +102,9 @@ impl FocusArg {
     fn table_dir(self, lens: &str) -> PathBuf {
         let text = |d: Option<f64>| d.map_or("inf".into(), |d| format!("{d}"));
         if self.far_mm == self.near_mm {
-            super::render::default_table_dir(lens, self.far_mm)
+            default_table_dir(Path::new(DEFAULT_TABLES_ROOT), lens, self.far_mm)
         } else {
-            super::render::default_table_dir(lens, None).join(format!(
+            default_table_dir(Path::new(DEFAULT_TABLES_ROOT), lens, None).join(format!(
                 "focus-{}-{}mm",
                 text(self.far_mm),
                 text(self.near_mm)

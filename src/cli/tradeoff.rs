@@ -1,5 +1,6 @@
 //! `lensbake tradeoff`: every lens model's cost and error side by side, and the error-budget
-//! choice behind `lensbake bake --error-budget-px` and `lensbake render --error-budget-px`.
+//! choice behind `lensbake bake --error-budget-px` (`render --error-budget-px` is the library's
+//! `RenderJob`).
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -11,13 +12,10 @@ use serde::Serialize;
 use super::lens::LensArgs;
 use lensbake::lenses::LoadedLens;
 use lensbake::lrtf::io::write_table;
-use lensbake::lrtf::measure::pixel_pitch;
+use lensbake::model::ModelKind;
 use lensbake::plot::{ParetoPlot, ParetoPoint, write_atomic, write_plot};
-use lensbake::render::camera::Camera;
-use lensbake::render::layers::LayeredDepthImage;
 use lensbake::render::scene::Scene;
 use lensbake::tradeoff::choose::{Choice, choose_model};
-use lensbake::tradeoff::models::ModelKind;
 use lensbake::tradeoff::render::RenderBench;
 use lensbake::tradeoff::{Domain, Entry, Measured, SceneRequirements, tradeoff};
 
@@ -327,62 +325,4 @@ pub fn bake_within_budget(
         None => println!("no table written: the {} model needs none", choice.label),
     }
     Ok(())
-}
-
-/// `render --error-budget-px`: the cheapest model whose image error stays under `budget_px`
-/// pixels of this render for its scene: the focus of `camera`'s film, the nearest surface of
-/// `layers`, the film area the frame uses, the f-number, at this render's pixel pitch, in one
-/// wavelength (the renderer's). Prints the choice, its predicted and its measured error, one line
-/// each.
-pub fn choose_for_render(
-    lens: &LoadedLens,
-    camera: &Camera,
-    layers: &LayeredDepthImage,
-    width: u32,
-    f_number: f64,
-    budget_px: f64,
-) -> anyhow::Result<Choice> {
-    let focus_mm = super::render::focus_of_film(lens, camera.film_z)?;
-    let whole_field = SceneRequirements {
-        focus_mm,
-        f_number: Some(f_number),
-        ..SceneRequirements::default()
-    };
-    let full_film_radius = Domain::of(&lens.system, &whole_field)?.full_film_radius;
-    let corner = camera.film_corner_radius();
-    if corner > full_film_radius {
-        println!(
-            "note: the film corner ({corner:.3} mm off the axis) lies beyond the largest \
-             traceable field ({full_film_radius:.3} mm); the budget covers the field up to there"
-        );
-    }
-    let film_radius = corner.min(full_film_radius);
-    let nearest_mm = layers
-        .depth_range()
-        .map(|range| f64::from(range[0]) - camera.eye_z());
-    let req = SceneRequirements {
-        nearest_mm: nearest_mm.filter(|d| *d > 0.0),
-        film_fraction: film_radius / full_film_radius,
-        // The width of the 3:2 frame in that image circle, counted in this render's pixels.
-        pixels: pixel_pitch(film_radius, 1.0) / (camera.film.width_mm / f64::from(width)),
-        monochrome: true,
-        ..whole_field
-    };
-    let choice = choose_model(&lens.system, &req, budget_px)?;
-    println!(
-        "model: {} (the cheapest within {budget_px} px at this render's pixel pitch: film \
-         radius {:.3} mm, f/{:.3}, focus {}, nearest surface {})",
-        choice.label,
-        choice.domain.film_radius,
-        choice.domain.f_number,
-        focus_mm.map_or("infinity".into(), |d| format!("{d:.1} mm")),
-        req.nearest_mm
-            .map_or("far".into(), |d| format!("{d:.1} mm"))
-    );
-    println!("predicted error: {:.3} px (p99)", choice.predicted_px);
-    println!(
-        "measured error: {:.3} px (p99 against the exact trace on fresh rays of the domain)",
-        choice.measured_px
-    );
-    Ok(choice)
 }

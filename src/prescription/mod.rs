@@ -6,5 +6,8 @@ mod model;
 mod validate;
 
 pub use error::{Location, PrescriptionError, Problem};
-pub use model::{MAX_ASPHERE_TERMS, Medium, Prescription, Provenance, Shape, StopShape, Surface};
+pub use model::{
+    DEFAULT_WAVELENGTH_NM, MAX_ASPHERE_TERMS, Medium, Prescription, Provenance, Shape, StopShape,
+    Surface,
+};
 pub use validate::{SourceMap, validate};

@@ -77,6 +77,9 @@ pub enum Shape {
 /// Most even-asphere terms accepted (r^2 through r^20).
 pub const MAX_ASPHERE_TERMS: usize = 10;
 
+/// Wavelength used when a lens states no design wavelength (helium d line, nm).
+pub const DEFAULT_WAVELENGTH_NM: f64 = 587.56;
+
 impl Shape {
     /// A sphere from a radius as printed in a table; radius 0 or infinite means plane.
     pub fn from_radius(radius: f64) -> Shape {

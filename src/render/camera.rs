@@ -1,166 +1,9 @@
-//! Lens models as the renderer sees them, the film, and focusing. All f64, lengths in mm, in the
+//! The camera: a lens model, the film, and where the film sits. All f64, lengths in mm, in the
 //! lens frame (z along the axis, light towards +z, origin at the first vertex).
 
 use super::RenderError;
 use super::chromatic::Chromatic;
-use super::models::{BakedLens, MAX_PUPIL_BOUND_GROWTH, PupilSampling, SeidelLens, TracedLens};
-
-/// A lens reduced to first order: power and unit-magnification principal planes, with its pupils.
-/// A thin lens is the case where both principal planes and both pupils coincide.
-#[derive(Clone, Debug, PartialEq)]
-pub struct ParaxialLens {
-    pub focal_length_mm: f64,
-    pub front_principal_z: f64,
-    pub rear_principal_z: f64,
-    pub entrance_pupil_z: f64,
-    pub entrance_pupil_radius_mm: f64,
-    pub exit_pupil_z: f64,
-    pub exit_pupil_radius_mm: f64,
-}
-
-impl ParaxialLens {
-    /// An ideal thin lens at z = 0 with its aperture in the lens plane.
-    pub fn thin(focal_length_mm: f64, f_number: f64) -> Result<ParaxialLens, RenderError> {
-        if !(focal_length_mm.is_finite() && focal_length_mm > 0.0) {
-            return Err(RenderError::InvalidSetting(format!(
-                "focal length must be a positive number of mm, got {focal_length_mm}"
-            )));
-        }
-        if !(f_number.is_finite() && f_number > 0.0) {
-            return Err(RenderError::InvalidSetting(format!(
-                "f-number must be positive, got {f_number}"
-            )));
-        }
-        let radius = focal_length_mm / (2.0 * f_number);
-        Ok(ParaxialLens {
-            focal_length_mm,
-            front_principal_z: 0.0,
-            rear_principal_z: 0.0,
-            entrance_pupil_z: 0.0,
-            entrance_pupil_radius_mm: radius,
-            exit_pupil_z: 0.0,
-            exit_pupil_radius_mm: radius,
-        })
-    }
-
-    /// Film position (lens-frame z) that focuses an object `distance_mm` in front of the first
-    /// vertex (Gaussian lens equation about the principal planes).
-    pub fn film_z_for_object(&self, distance_mm: f64) -> Result<f64, RenderError> {
-        let image_distance = self
-            .image_distance(self.front_principal_z + distance_mm)
-            .ok_or_else(|| {
-                RenderError::InvalidSetting(format!(
-                    "cannot focus at {distance_mm} mm: the object must lie beyond the front focal \
-                     point ({:.3} mm in front of the first vertex)",
-                    self.focal_length_mm - self.front_principal_z
-                ))
-            })?;
-        Ok(self.rear_principal_z + image_distance)
-    }
-
-    /// The Gaussian image distance (behind the rear principal plane) of an object
-    /// `object_distance` in front of the front one; None unless it lies beyond the focal length.
-    fn image_distance(&self, object_distance: f64) -> Option<f64> {
-        (object_distance > self.focal_length_mm)
-            .then(|| 1.0 / (1.0 / self.focal_length_mm - 1.0 / object_distance))
-    }
-
-    /// The paraxial image of the lens-frame point `object` (in front of the front focal point):
-    /// the Gaussian equation about the principal planes along z, lateral magnification
-    /// -s'/s across it. Paraxial imaging maps planes to planes, so the images of three points
-    /// fix the image of the plane through them (the Scheimpflug rule).
-    pub fn image_of(&self, object: [f64; 3]) -> Result<[f64; 3], RenderError> {
-        let object_distance = self.front_principal_z - object[2];
-        let image_distance = self.image_distance(object_distance).ok_or_else(|| {
-            RenderError::InvalidSetting(format!(
-                "cannot image the point at z = {:.3} mm: it lies inside the front focal length \
-                 ({:.3} mm in front of the first vertex)",
-                object[2],
-                self.focal_length_mm - self.front_principal_z
-            ))
-        })?;
-        let magnification = -image_distance / object_distance;
-        Ok([
-            magnification * object[0],
-            magnification * object[1],
-            self.rear_principal_z + image_distance,
-        ])
-    }
-
-    /// The object-space ray for the film-side ray from `film` towards `pupil` (both lens-frame
-    /// points): returns a point on the ray and its slopes dx/dz, dy/dz. The f64 statement of what
-    /// the shader's `paraxial_lens_ray` computes.
-    pub fn object_ray(&self, film: [f64; 3], pupil: [f64; 3]) -> ([f64; 3], [f64; 2]) {
-        let t = (self.rear_principal_z - film[2]) / (pupil[2] - film[2]);
-        let h = [
-            film[0] + t * (pupil[0] - film[0]),
-            film[1] + t * (pupil[1] - film[1]),
-        ];
-        let image_distance = film[2] - self.rear_principal_z;
-        let slope = [
-            (film[0] - h[0]) / image_distance + h[0] / self.focal_length_mm,
-            (film[1] - h[1]) / image_distance + h[1] / self.focal_length_mm,
-        ];
-        ([h[0], h[1], self.front_principal_z], slope)
-    }
-}
-
-/// Which approximation of the lens turns film-side rays into scene rays.
-#[derive(Clone, Debug, PartialEq)]
-pub enum LensModel {
-    /// Ideal thin lens: one principal plane, aperture in it.
-    Thin(ParaxialLens),
-    /// First-order thick lens: separate principal planes and real pupil positions.
-    Thick(ParaxialLens),
-    /// The exact sequential trace through every surface.
-    Traced(Box<TracedLens>),
-    /// A baked lens ray transfer function table.
-    Baked(Box<BakedLens>),
-    /// The thick lens plus the third-order (Seidel) transverse aberration of its conjugate.
-    Seidel(Box<SeidelLens>),
-}
-
-impl LensModel {
-    pub fn name(&self) -> &'static str {
-        match self {
-            LensModel::Thin(_) => "thin",
-            LensModel::Thick(_) => "thick",
-            LensModel::Traced(_) => "traced",
-            LensModel::Baked(_) => "baked",
-            LensModel::Seidel(_) => "seidel",
-        }
-    }
-
-    /// The first-order description: the model itself for thin and thick, the thick model of the
-    /// lens for Seidel, traced and baked (it places the eye and sizes the field and layer
-    /// margins).
-    pub fn paraxial(&self) -> &ParaxialLens {
-        match self {
-            LensModel::Thin(lens) | LensModel::Thick(lens) => lens,
-            LensModel::Traced(lens) => &lens.paraxial,
-            LensModel::Baked(lens) => &lens.paraxial,
-            LensModel::Seidel(lens) => &lens.thick,
-        }
-    }
-
-    /// Where lens samples are drawn: the exit pupil for thin, thick and Seidel, the effective
-    /// pupil on the rear vertex plane for traced and baked.
-    pub fn pupil_sampling(&self) -> PupilSampling {
-        match self {
-            LensModel::Thin(lens) | LensModel::Thick(lens) => {
-                PupilSampling::disc(lens.exit_pupil_z, lens.exit_pupil_radius_mm)
-            }
-            LensModel::Seidel(lens) => {
-                PupilSampling::disc(lens.thick.exit_pupil_z, lens.thick.exit_pupil_radius_mm)
-            }
-            LensModel::Traced(lens) => PupilSampling {
-                z: lens.rear_plane_z,
-                circles: lens.pupil.clone(),
-            },
-            LensModel::Baked(lens) => lens.pupil(lens.layer),
-        }
-    }
-}
+use crate::model::{LensModel, MAX_PUPIL_BOUND_GROWTH, PupilSampling};
 
 /// How the film position is chosen.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -408,6 +251,7 @@ impl Camera {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::model::ParaxialLens;
 
     #[test]
     fn thin_lens_focus_obeys_gaussian_equation() {

@@ -15,10 +15,12 @@
 //! rays, and no colour noise where the channels agree.
 
 use super::RenderError;
-use super::camera::{Camera, LensModel, ParaxialLens};
-use super::models::layer_at;
-use super::models::{BakedLens, FirstOrderModels, PupilSampling, TracedLens, fit_effective_pupil};
+use super::camera::Camera;
 use crate::glass::{C_LINE_NM, F_LINE_NM};
+use crate::model::{
+    BakedLens, FirstOrderModels, LensModel, ParaxialLens, PupilSampling, TracedLens,
+    fit_effective_pupil, layer_at,
+};
 use crate::pupil::{PupilCircle, PupilTable};
 use crate::system::LensSystem;
 
@@ -201,7 +203,7 @@ impl Chromatic {
     }
 
     /// The layers of `lens`'s table baked at `wavelengths_nm` (each within
-    /// [`super::models::WAVELENGTH_MATCH_NM`]), sampled from the union of their sampling pupils.
+    /// [`crate::model::WAVELENGTH_MATCH_NM`]), sampled from the union of their sampling pupils.
     pub fn baked(
         lens: &BakedLens,
         wavelengths_nm: [f64; CHANNELS],

@@ -8,9 +8,9 @@
 //! from.
 
 use super::RenderError;
-use super::camera::{Camera, Film, FilmAxes, MAX_TILT_DEG, ParaxialLens};
+use super::camera::{Camera, Film, FilmAxes, MAX_TILT_DEG};
 use super::layers::{LayeredDepthImage, View};
-use super::models::TracedLens;
+use crate::model::{ParaxialLens, TracedLens};
 use crate::trace::{Ray, Travel};
 use nalgebra::{Matrix3, Vector3};
 

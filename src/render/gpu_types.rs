@@ -2,11 +2,11 @@
 //! byte for byte with `shaders/ibrt.wgsl`; their layout is checked against naga's in the tests.
 
 use super::RenderError;
-use super::camera::{Camera, LensModel};
+use super::camera::Camera;
 use super::chromatic::{CHANNELS, ChannelLenses, Chromatic, PUPIL_EDGE_TOLERANCE};
 use super::layers::LayeredDepthImage;
-use super::models::SeidelLens;
 use crate::lrtf::{GpuParams, Parameterisation};
+use crate::model::{LensModel, SeidelLens};
 use bytemuck::{Pod, Zeroable};
 
 /// Inverse depth stored for "no surface" in a packed layer (any negative value means empty).
@@ -78,7 +78,7 @@ pub struct FrameParams {
     pub film_normal_x: f32,
     pub film_normal_y: f32,
     pub film_normal_z: f32,
-    /// The pupil circles' bound for film points off `film_z` (`models::OffPlaneBound`).
+    /// The pupil circles' bound for film points off `film_z` ([`crate::model::OffPlaneBound`]).
     pub pupil_lipschitz: f32,
     pub pupil_centre_slack: f32,
 }
@@ -378,7 +378,7 @@ impl LensData {
 }
 
 /// Uniform block `SeidelParams` of `shaders/seidel_lens.wgsl`: a [`SeidelLens`]'s conjugate and
-/// its transverse aberration polynomial ([`crate::render::models::TransverseCoefficients`], mm).
+/// its transverse aberration polynomial ([`crate::model::TransverseCoefficients`], mm).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct SeidelParams {

@@ -7,11 +7,10 @@
 //! the oracle the shader's ports are measured against.
 
 use super::RenderError;
-use super::camera::LensModel;
 use super::chromatic::{CHANNELS, ChannelLenses, Chromatic};
 use super::gpu_types::{ChannelParams, FrameParams, LayerData, LensData, SeidelParams};
-use super::models::{SEIDEL_CONVERGED_MM, SEIDEL_INVERSE_STEPS, SEIDEL_SETTLED_MM};
 use crate::lrtf::{self, Lookup, LrtfTable};
+use crate::model::{LensModel, SEIDEL_CONVERGED_MM, SEIDEL_INVERSE_STEPS, SEIDEL_SETTLED_MM};
 use crate::trace::{Tracer, Travel};
 use rayon::prelude::*;
 
@@ -566,7 +565,7 @@ fn sampling_pupil_at(lens: &LensData, block: u32, film_radius: f32) -> Vec2 {
 
 /// A lens sample: the point on the sampling plane for unit-square sample `lens_u` from `film`,
 /// uniform over the film radius's pupil circle in block `block` of `lens.pupil` (widened for a
-/// film point off the plane the circles were fitted on, see `models::OffPlaneBound`), and its
+/// film point off the plane the circles were fitted on, see `model::OffPlaneBound`), and its
 /// weight: the disc's area times cos(at the pupil) cos(at the sensor) / distance^2, relative to
 /// the paraxial exit pupil seen from the film centre (cos^4 times the circle's projected solid
 /// angle on an untilted film).

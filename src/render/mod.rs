@@ -21,7 +21,6 @@ pub mod kernel;
 pub mod layers;
 pub mod mesh;
 pub mod mesh_trace;
-pub mod models;
 pub mod raster;
 pub mod reference;
 pub mod scene;
@@ -36,6 +35,8 @@ use std::path::PathBuf;
 pub enum RenderError {
     #[error("{0}")]
     InvalidSetting(String),
+    #[error(transparent)]
+    Model(#[from] crate::model::ModelError),
     #[error("the scene has no surface in view")]
     EmptyScene,
     #[error("no GPU adapter: {0}")]

@@ -3,15 +3,15 @@
 //! samples the IBRT kernel draws, so the difference between the two images is the cost of the
 //! layered representation, not sampling noise.
 
-use super::camera::{Camera, LensModel, ParaxialLens};
+use super::camera::Camera;
 use super::chromatic::{ChannelLenses, Chromatic, inside_exit_pupil};
 use super::image::RgbImage;
 use super::kernel::{PixelScrambles, concentric_disc};
 use super::mesh_trace::TracedMesh;
-use super::models::BakedLens;
 use super::scene::Scene;
 use super::{RenderError, RenderSettings};
 use crate::lrtf::{self, Lookup};
+use crate::model::{BakedLens, LensModel, ParaxialLens};
 use crate::trace::{Tracer, Travel};
 use rayon::prelude::*;
 

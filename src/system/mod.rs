@@ -9,8 +9,7 @@ use crate::prescription::{
     Location, Prescription, PrescriptionError, Shape, SourceMap, StopShape, validate,
 };
 
-/// Wavelength used when a lens states no design wavelength (helium d line, nm).
-pub const DEFAULT_WAVELENGTH_NM: f64 = 587.56;
+pub use crate::prescription::DEFAULT_WAVELENGTH_NM;
 
 /// A prescription that passed validation, with its media resolved.
 #[derive(Clone, Debug, PartialEq)]

@@ -19,7 +19,6 @@
 
 use serde::Serialize;
 
-use super::models::{ModelKind, SeidelLens, paraxial_for};
 use super::{
     Built, Domain, RaySet, SceneRequirements, TradeoffError, analytic_models, bake_timed,
     baked_model, model_error, to_f16,
@@ -27,7 +26,7 @@ use super::{
 use crate::glass::{C_LINE_NM, F_LINE_NM};
 use crate::lrtf::measure::{Stats, angle_between};
 use crate::lrtf::{LrtfTable, Precision};
-use crate::render::models::FirstOrderModels;
+use crate::model::{FirstOrderModels, ModelKind, SeidelLens, paraxial_for};
 use crate::seidel::{IndexDifferences, Seidel};
 use crate::system::LensSystem;
 
@@ -152,9 +151,9 @@ pub fn choose_model(
         .expect("analytic_models ends with the traced model");
     let (probe_table, probe_seconds) =
         bake_timed(system, &domain, PROBE_RESOLUTION, wavelengths_nm.clone())?;
-    let probe = RaySet::new(&probe_table, &traced.model, &domain, PROBE_RAYS, 11);
-    let measure_set = RaySet::new(&probe_table, &traced.model, &domain, MEASURE_RAYS, 29);
-    let measure = |b: &Built| model_error(&b.model, &measure_set, &domain).image_px.p99;
+    let probe = RaySet::new(&probe_table, &traced, &domain, PROBE_RAYS, 11);
+    let measure_set = RaySet::new(&probe_table, &traced, &domain, MEASURE_RAYS, 29);
+    let measure = |b: &Built| model_error(b, &measure_set, &domain).image_px.p99;
 
     let at = system.at(domain.wavelength_nm);
     let paraxial = paraxial_for(&at, domain.focus_mm)?;
@@ -191,19 +190,14 @@ pub fn choose_model(
         let thick = analytic.next().expect("thick model");
         let seidel_model = analytic.next().expect("Seidel model");
         let first_order_gap = |k: usize| {
-            let (a, b) = (
-                thin.model.map(&probe.rays[k]),
-                thick.model.map(&probe.rays[k]),
-            );
+            let (a, b) = (thin.map(&probe.rays[k]), thick.map(&probe.rays[k]));
             match (a, b) {
                 (Some(a), Some(b)) => angle_between(a.direction, b.direction) * domain.efl.abs(),
                 _ => 0.0,
             }
         };
         let thin_predicted = thick_predicted + p99_px(&probe, &domain, first_order_gap);
-        let seidel_predicted = model_error(&seidel_model.model, &probe, &domain)
-            .image_px
-            .p99;
+        let seidel_predicted = model_error(&seidel_model, &probe, &domain).image_px.p99;
         for (built, predicted) in [
             (thin, thin_predicted),
             (thick, thick_predicted),
@@ -215,10 +209,8 @@ pub fn choose_model(
         }
     }
     if found.is_none() {
-        let probe_model = baked_model(probe_table.clone(), &domain, probe_seconds);
-        let probe_px = model_error(&probe_model.model, &probe, &domain)
-            .image_px
-            .p99;
+        let probe_model = baked_model(system, probe_table.clone(), &domain, probe_seconds)?;
+        let probe_px = model_error(&probe_model, &probe, &domain).image_px.p99;
         let floor_px = f16_floor_px(&probe_table, &probe, &domain);
         'search: for n in RESOLUTIONS {
             let scale = ((PROBE_RESOLUTION - 1) as f64 / (n - 1) as f64).powi(2);
@@ -249,7 +241,7 @@ pub fn choose_model(
                     Precision::F16 => to_f16(table),
                     Precision::F32 => table.clone(),
                 };
-                let built = baked_model(table.clone(), &domain, *seconds);
+                let built = baked_model(system, table.clone(), &domain, *seconds)?;
                 found = choose(built, predicted, Some(table), &mut considered);
                 if found.is_some() {
                     break 'search;
@@ -261,12 +253,13 @@ pub fn choose_model(
         Some(found) => found,
         None => {
             // The reference meets any budget: it is what errors are measured against.
+            let label = traced.label();
             considered.push(Considered {
-                label: "traced".into(),
+                label: label.clone(),
                 predicted_px: 0.0,
                 measured_px: Some(0.0),
             });
-            (traced, "traced".to_string(), 0.0, 0.0, None)
+            (traced, label, 0.0, 0.0, None)
         }
     };
     Ok(Choice {

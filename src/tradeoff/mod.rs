@@ -10,7 +10,6 @@
 //! through the EFL onto a frame `pixels` wide ([`pixel_pitch`]).
 
 pub mod choose;
-pub mod models;
 pub mod render;
 
 use std::time::Instant;
@@ -21,13 +20,14 @@ use serde::Serialize;
 use crate::lrtf::bake::{BakeError, BakeRequest, bake, chief_ray_film_radius, first_order};
 use crate::lrtf::measure::{Stats, angle_between, distance_to_line, pixel_pitch, renderer_rays};
 use crate::lrtf::{LrtfTable, Precision, Ray};
+use crate::model::{
+    BakedLens, FirstOrderModels, LensModel, ModelError, ModelKind, ParaxialLens, PupilSampling,
+    SeidelLens, TracedLens, paraxial_for,
+};
 use crate::paraxial::ParaxialError;
 use crate::render::RenderError;
-use crate::render::camera::ParaxialLens;
-use crate::render::models::FirstOrderModels;
 use crate::system::{LensSystem, SystemAt};
 use crate::trace::Tracer;
-use models::{ModelKind, RayModel, SeidelLens, paraxial_for};
 use render::{RenderBench, RenderCost, render_costs};
 
 #[derive(Debug, thiserror::Error)]
@@ -38,6 +38,8 @@ pub enum TradeoffError {
     Paraxial(#[from] ParaxialError),
     #[error(transparent)]
     Render(#[from] RenderError),
+    #[error(transparent)]
+    Model(#[from] ModelError),
     #[error("{0}")]
     Invalid(String),
 }
@@ -185,7 +187,7 @@ impl RaySet {
     /// `count` renderer rays drawn through `probe`'s effective pupil (a table of this domain).
     pub fn new(
         probe: &LrtfTable,
-        traced: &RayModel,
+        traced: &Built,
         domain: &Domain,
         count: usize,
         seed: u64,
@@ -238,7 +240,7 @@ fn scene_angle(model: &Ray, exact: &Ray, nearest: Option<f64>) -> (f64, f64) {
     (direction, direction + offset)
 }
 
-pub fn model_error(model: &RayModel, set: &RaySet, domain: &Domain) -> RayError {
+pub fn model_error(model: &Built, set: &RaySet, domain: &Domain) -> RayError {
     let outcomes: Vec<(bool, Option<(f64, f64)>)> = set
         .rays
         .par_iter()
@@ -280,21 +282,28 @@ pub struct Entry {
 
 /// A built model with what it cost to build.
 pub struct Built {
-    pub model: RayModel,
+    pub model: LensModel,
+    /// The film plane the model is focused on (see [`LensModel::scene_ray`]): thin and thick
+    /// their own image of the domain's focus, the others the domain's film plane.
+    pub film_z: f64,
     pub resolution: Option<usize>,
     pub precision: Option<Precision>,
     pub bake_seconds: f64,
-    pub table_bytes: usize,
 }
 
 impl Built {
+    /// The model's scene-side ray for the domain's film-side `ray`.
+    pub fn map(&self, ray: &Ray) -> Option<Ray> {
+        self.model.scene_ray(ray, self.film_z)
+    }
+
     pub fn entry(&self, error: &RayError, render: &RenderCost) -> Entry {
         Entry {
             model: self.model.kind(),
             resolution: self.resolution,
             precision: self.precision.map(Precision::name),
             bake_seconds: self.bake_seconds,
-            table_bytes: self.table_bytes,
+            table_bytes: self.model.data_bytes(),
             render_ms_per_frame: render.ms_per_frame,
             ray_error_p99_mrad: error.direction_mrad.p99,
             image_error_px_p99: error.image_px.p99,
@@ -322,15 +331,14 @@ pub fn analytic_models(system: &LensSystem, domain: &Domain) -> Result<Vec<Built
     let first_order_seconds = started.elapsed().as_secs_f64();
     let paraxial_model = |kind: ModelKind, lens: &ParaxialLens| {
         Ok::<_, TradeoffError>(Built {
-            model: RayModel::Paraxial {
-                kind,
-                lens: lens.clone(),
-                film_z: film_z(lens)?,
+            film_z: film_z(lens)?,
+            model: match kind {
+                ModelKind::Thin => LensModel::Thin(lens.clone()),
+                _ => LensModel::Thick(lens.clone()),
             },
             resolution: None,
             precision: None,
             bake_seconds: first_order_seconds,
-            table_bytes: std::mem::size_of_val(lens),
         })
     };
     let mut built = vec![
@@ -338,51 +346,57 @@ pub fn analytic_models(system: &LensSystem, domain: &Domain) -> Result<Vec<Built
         paraxial_model(ModelKind::Thick, &thick)?,
     ];
     let started = Instant::now();
-    let seidel = SeidelLens::new(&at, &paraxial, thick);
+    let seidel = SeidelLens::new(&at, &paraxial, thick.clone());
     built.push(Built {
         bake_seconds: first_order_seconds + started.elapsed().as_secs_f64(),
-        table_bytes: std::mem::size_of_val(&seidel),
-        model: RayModel::Seidel(Box::new(seidel)),
+        film_z: seidel.image_z,
+        model: LensModel::Seidel(Box::new(seidel)),
         resolution: None,
         precision: None,
     });
-    built.push(traced_model(&at, domain));
+    built.push(traced_model(&at, thick, domain));
     Ok(built)
 }
 
-/// The exact trace through the lens stopped down to the domain's f-number.
-fn traced_model(at: &SystemAt, domain: &Domain) -> Built {
+/// The exact trace through the lens stopped down to the domain's f-number. It samples no pupil
+/// of its own: the trade-off draws its rays from a table's.
+fn traced_model(at: &SystemAt, thick: ParaxialLens, domain: &Domain) -> Built {
     let started = Instant::now();
     let wide_open = first_order(at, domain.focus_mm)
         .map(|f| f.f_number)
         .unwrap_or(domain.f_number);
     let stopped = stopped_down(at, wide_open / domain.f_number);
-    let tracer = Tracer::new(&stopped);
+    let no_pupil = PupilSampling::disc(0.0, 0.0).circles;
+    let traced = TracedLens::from_stopped(thick, stopped, no_pupil);
     Built {
         bake_seconds: started.elapsed().as_secs_f64(),
-        table_bytes: std::mem::size_of_val(stopped.surfaces.as_slice()),
-        model: RayModel::Traced(Box::new(tracer)),
+        film_z: domain.film_z,
+        model: LensModel::Traced(Box::new(traced)),
         resolution: None,
         precision: None,
     }
 }
 
-/// A baked model from `table` (already baked in `bake_seconds`), at the domain's f-number.
-pub fn baked_model(table: LrtfTable, domain: &Domain, bake_seconds: f64) -> Built {
-    let stop_radius = table
-        .stop_radius(0, domain.f_number)
-        .unwrap_or(table.layers[0].stop_semi_aperture);
-    Built {
-        resolution: Some(table.info.resolution[0]),
-        precision: Some(table.info.precision),
+/// A baked model of `system` from `table` (a table of `domain`, already baked in
+/// `bake_seconds`), at the domain's f-number, reading its design-wavelength layer.
+pub fn baked_model(
+    system: &LensSystem,
+    table: LrtfTable,
+    domain: &Domain,
+    bake_seconds: f64,
+) -> Result<Built, TradeoffError> {
+    let first = FirstOrderModels::of(system, Some(domain.f_number))?;
+    let resolution = table.info.resolution[0];
+    let precision = table.info.precision;
+    let baked =
+        BakedLens::new(table, &first, domain.f_number)?.with_wavelength(domain.wavelength_nm)?;
+    Ok(Built {
+        resolution: Some(resolution),
+        precision: Some(precision),
         bake_seconds,
-        table_bytes: table.entry_bytes(),
-        model: RayModel::Baked {
-            layer: design_layer(&table, domain.wavelength_nm),
-            table: Box::new(table),
-            stop_radius,
-        },
-    }
+        film_z: baked.film_z(),
+        model: LensModel::Baked(Box::new(baked)),
+    })
 }
 
 /// Bakes an f32 table for `domain` and times it.
@@ -444,21 +458,22 @@ pub fn tradeoff(
         .expect("analytic_models ends with the traced model");
     for &n in &RESOLUTIONS {
         let (table, seconds) = bake_timed(system, &domain, n, Vec::new())?;
-        built.push(baked_model(to_f16(&table), &domain, seconds));
-        built.push(baked_model(table, &domain, seconds));
+        built.push(baked_model(system, to_f16(&table), &domain, seconds)?);
+        built.push(baked_model(system, table, &domain, seconds)?);
     }
-    let probe = match &built.last().expect("baked models were added").model {
-        RayModel::Baked { table, .. } => table.as_ref().clone(),
-        _ => unreachable!("the last model built is a baked table"),
-    };
-    let set = RaySet::new(&probe, &traced.model, &domain, rays, seed);
+    let probe = built
+        .last()
+        .and_then(|b| b.model.table())
+        .expect("the last model built is a baked table")
+        .clone();
+    let set = RaySet::new(&probe, &traced, &domain, rays, seed);
     built.push(traced);
     let renders = render_costs(system, &domain, &built, &probe, bench)?;
     let measured = built
         .iter()
         .zip(renders)
         .map(|(b, render)| {
-            let error = model_error(&b.model, &set, &domain);
+            let error = model_error(b, &set, &domain);
             Measured {
                 label: b.label(),
                 entry: b.entry(&error, &render),

@@ -11,13 +11,12 @@ use std::time::Instant;
 
 use serde::Serialize;
 
-use super::models::{ModelKind, RayModel};
 use super::{Built, Domain, TradeoffError};
 use crate::lrtf::LrtfTable;
-use crate::render::camera::{Camera, Film, Focus, LensModel};
+use crate::model::{FirstOrderModels, LensModel, TracedLens};
+use crate::render::camera::{Camera, Film, Focus};
 use crate::render::image::RgbImage;
 use crate::render::layers::LayeredDepthImage;
-use crate::render::models::{BakedLens, FirstOrderModels, TracedLens};
 use crate::render::reference::psnr;
 use crate::render::scene::Scene;
 use crate::render::{Backend, RenderSettings, layer_view, render_layers};
@@ -67,10 +66,8 @@ fn inscribed_film(radius: f64, width: u32, height: u32) -> Film {
     }
 }
 
-/// The renderer's camera for `built`. Thin and thick keep the film plane their ray map used,
-/// Seidel the Gaussian image plane of its conjugate (the domain's film plane); traced and baked
-/// sit on `probe`'s film plane and the traced lens samples `probe`'s effective pupil, as the
-/// baked tables do.
+/// The renderer's camera for `built`, on the film plane its ray map used; the traced lens sits
+/// on `probe`'s film plane instead and samples `probe`'s effective pupil, as the baked tables do.
 fn camera_for(
     built: &Built,
     system: &LensSystem,
@@ -79,27 +76,17 @@ fn camera_for(
     probe: &LrtfTable,
     film: Film,
 ) -> Result<Camera, TradeoffError> {
-    // The design wavelength's layer: a colour probe lists C, design, F.
-    let probe_layer = &probe.layers[super::design_layer(probe, domain.wavelength_nm)];
     let (model, film_z) = match &built.model {
-        RayModel::Paraxial { kind, lens, film_z } => match kind {
-            ModelKind::Thin => (LensModel::Thin(lens.clone()), *film_z),
-            _ => (LensModel::Thick(lens.clone()), *film_z),
-        },
-        RayModel::Seidel(lens) => (LensModel::Seidel(lens.clone()), lens.image_z),
-        RayModel::Baked { table, .. } => {
-            let baked = BakedLens::new(table.as_ref().clone(), first, domain.f_number)?
-                .with_wavelength(domain.wavelength_nm)?;
-            let film_z = baked.film_z();
-            (LensModel::Baked(Box::new(baked)), film_z)
-        }
-        RayModel::Traced(_) => {
+        LensModel::Traced(_) => {
+            // The design wavelength's layer: a colour probe lists C, design, F.
+            let probe_layer = &probe.layers[super::design_layer(probe, domain.wavelength_nm)];
             let traced = TracedLens::new(system, first, domain.f_number, probe_layer.pupil.clone());
             (
                 LensModel::Traced(Box::new(traced)),
                 probe_layer.frame.film_plane_z,
             )
         }
+        model => (model.clone(), built.film_z),
     };
     Ok(Camera::new(model, film, Focus::FilmZ(film_z))?)
 }

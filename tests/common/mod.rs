@@ -402,10 +402,10 @@ pub fn wgsl_struct(source: &str, name: &str) -> (Vec<(String, usize)>, usize) {
 /// The double Gauss at the design wavelength, wide open, with its first-order models.
 pub fn dgauss() -> (
     lensbake::lenses::LoadedLens,
-    lensbake::render::models::FirstOrderModels,
+    lensbake::model::FirstOrderModels,
 ) {
     let lens = lensbake::lenses::load("dgauss-50mm", &Default::default()).unwrap();
-    let first = lensbake::render::models::FirstOrderModels::of(&lens.system, None).unwrap();
+    let first = lensbake::model::FirstOrderModels::of(&lens.system, None).unwrap();
     (lens, first)
 }
 
@@ -423,8 +423,9 @@ pub fn dgauss_cameras(
     lensbake::render::camera::Camera,
 ) {
     use lensbake::lrtf::bake::{BakeRequest, bake};
-    use lensbake::render::camera::{Camera, Film, Focus, LensModel};
-    use lensbake::render::models::{BakedLens, TracedLens, pupil_film_radius};
+    use lensbake::model::LensModel;
+    use lensbake::model::{BakedLens, TracedLens, pupil_film_radius};
+    use lensbake::render::camera::{Camera, Film, Focus};
     let (lens, first) = dgauss();
     let film = Film {
         tilt_deg,

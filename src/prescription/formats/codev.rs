@@ -33,12 +33,12 @@ use super::apertures::{self, BeamSpec, FieldPoint, INFINITE_OBJECT_MM, PupilSize
 use super::{
     AsphereTerms, Format, Loaded, Source, finite, named_medium, number, scale_to_mm, shape,
 };
+use crate::prescription::DEFAULT_WAVELENGTH_NM;
 use crate::prescription::error::{Location, PrescriptionError, Problem};
 use crate::prescription::model::{
     MAX_ASPHERE_TERMS, Medium, Prescription, Provenance, StopShape, Surface,
 };
 use crate::prescription::validate::SourceMap;
-use crate::system::DEFAULT_WAVELENGTH_NM;
 
 /// One command with its words; quoted strings are single words without their quotes.
 struct Command {

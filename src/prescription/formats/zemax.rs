@@ -22,12 +22,12 @@
 
 use super::apertures::{self, BeamSpec, FieldPoint, INFINITE_OBJECT_MM, PupilSize};
 use super::{Format, Loaded, Source, finite, named_medium, number, scale_to_mm, shape};
+use crate::prescription::DEFAULT_WAVELENGTH_NM;
 use crate::prescription::error::{PrescriptionError, Problem};
 use crate::prescription::model::{
     MAX_ASPHERE_TERMS, Medium, Prescription, Provenance, StopShape, Surface,
 };
 use crate::prescription::validate::SourceMap;
-use crate::system::DEFAULT_WAVELENGTH_NM;
 
 const HARMLESS_TOP: &[&str] = &[
     "VERS", "NOTE", "PFIL", "LANG", "ENVD", "GFAC", "GCAT", "SDMA", "OMMA", "ROPD", "HYPR", "PICB",
