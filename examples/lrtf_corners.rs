@@ -7,7 +7,7 @@ use lensbake::lenses;
 use lensbake::lrtf::Corners;
 use lensbake::lrtf::bake::{BakeRequest, bake, first_order};
 use lensbake::lrtf::measure::table_error_from;
-use lensbake::plot::write_atomic;
+use lensbake::output::write_bytes;
 use lensbake::prescription::formats::LoadOptions;
 use lensbake::trace::Tracer;
 
@@ -49,6 +49,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
     }
     print!("{md}");
-    write_atomic(std::path::Path::new(&args[1]), md.as_bytes())?;
+    write_bytes(std::path::Path::new(&args[1]), md.as_bytes())?;
     Ok(())
 }

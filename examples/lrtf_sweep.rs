@@ -8,7 +8,8 @@ use lensbake::lenses;
 use lensbake::lrtf::bake::{BakeRequest, bake, first_order};
 use lensbake::lrtf::measure::{Stats, SweepRow, table_error};
 use lensbake::lrtf::{Parameterisation, Precision};
-use lensbake::plot::{LrtfErrorPlot, write_atomic, write_plot};
+use lensbake::output::write_bytes;
+use lensbake::plot::{LrtfErrorPlot, write_plot};
 use lensbake::prescription::formats::LoadOptions;
 use lensbake::trace::Tracer;
 
@@ -91,11 +92,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             100.0 * (1.0 - r.error.validity_mismatch)
         );
     }
-    write_atomic(&out.join("lrtf-error.md"), md.as_bytes())?;
-    write_atomic(
+    write_bytes(&out.join("lrtf-error.md"), md.as_bytes())?;
+    write_bytes(
         &out.join("lrtf-error.json"),
         serde_json::to_string_pretty(&rows)?.as_bytes(),
     )?;
-    write_plot(&LrtfErrorPlot::from_sweep(&rows), &out.join("lrtf-error.png"))?;
+    write_plot(
+        &LrtfErrorPlot::from_sweep(&rows),
+        &out.join("lrtf-error.png"),
+    )?;
     Ok(())
 }

@@ -28,6 +28,8 @@ pub struct AnalyzeOptions {
 
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum AnalysisError {
+    #[error(transparent)]
+    Limit(#[from] crate::limits::LimitError),
     #[error("wavelength must be positive and finite, got {0} nm")]
     InvalidWavelength(f64),
     #[error("at this wavelength: {0}")]
@@ -111,6 +113,14 @@ pub fn analyze(
         return Err(AnalysisError::InvalidWavelength(wavelength_nm));
     }
     let at = system.at_checked(wavelength_nm)?;
+    // A pupil that is not a positive number is the paraxial module's error; the limit bounds
+    // the sizes it would accept.
+    if let Some(epd) = options.epd_mm.filter(|epd| epd.is_finite() && *epd > 0.0) {
+        crate::limits::check_length("the entrance-pupil diameter (mm)", epd)?;
+    }
+    if let Some(distance) = options.object_distance_mm {
+        crate::limits::check_position("the object distance (mm)", distance)?;
+    }
     let paraxial_options = ParaxialOptions {
         object: options
             .object_distance_mm

@@ -152,8 +152,10 @@ pub mod glass;
 #[cfg(feature = "render")]
 pub mod job;
 pub mod lenses;
+pub mod limits;
 pub mod lrtf;
 pub mod model;
+pub mod output;
 pub mod paraxial;
 #[cfg(feature = "plot")]
 pub mod plot;

@@ -6,12 +6,41 @@ use clap::Parser;
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
+    give_drivers_a_runtime_dir();
     let args = cli::Cli::parse();
-    match cli::run(args) {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(error) => {
+    let result = cli::run(args);
+    // After the job: a closed stdout must not stop it from writing its files.
+    let stdout_failure = cli::stdout::finish();
+    match (result, stdout_failure) {
+        (Ok(()), None) => ExitCode::SUCCESS,
+        (Ok(()), Some(error)) => {
+            eprintln!("error: writing standard output: {error}");
+            ExitCode::from(2)
+        }
+        (Err(error), _) => {
             eprintln!("error: {error:#}");
             ExitCode::from(2)
         }
+    }
+}
+
+/// Graphics drivers (Mesa's among them) print `error: XDG_RUNTIME_DIR is invalid or not set` on
+/// successful runs when the variable names no directory, which reads as a failure. A private
+/// directory under the temporary directory stands in for it then.
+fn give_drivers_a_runtime_dir() {
+    let valid =
+        std::env::var_os("XDG_RUNTIME_DIR").is_some_and(|dir| std::path::Path::new(&dir).is_dir());
+    if valid {
+        return;
+    }
+    let user = std::env::var("USER").unwrap_or_else(|_| "user".into());
+    let dir = std::env::temp_dir().join(format!("lensbake-runtime-{user}"));
+    let mut builder = std::fs::DirBuilder::new();
+    #[cfg(unix)]
+    std::os::unix::fs::DirBuilderExt::mode(&mut builder, 0o700);
+    if builder.create(&dir).is_ok() || dir.is_dir() {
+        // SAFETY: called first thing in main, before any other thread exists that could read
+        // the environment concurrently.
+        unsafe { std::env::set_var("XDG_RUNTIME_DIR", &dir) };
     }
 }

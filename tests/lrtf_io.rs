@@ -1,6 +1,8 @@
 //! Table files: round trip, refusal of stale or mismatched tables, and clear errors (no panic)
 //! for truncated or corrupted data.
 
+mod common;
+
 use lensbake::lrtf::io::{DATA_FILE, SIDECAR_FILE, TableError, read_table, write_table};
 use lensbake::lrtf::param::{CHANNELS, Frame};
 use lensbake::lrtf::{FocusRange, Layer, LrtfTable, Parameterisation, Precision, TableInfo};
@@ -191,7 +193,7 @@ fn truncated_corrupted_and_mismatched_files_give_errors_not_panics() {
     let text = std::fs::read_to_string(&sidecar).unwrap();
     std::fs::write(
         &sidecar,
-        text.replacen("resolution: (5, 4, 3)", "resolution: (5, 4, 4)", 1),
+        common::sealed(&text.replacen("resolution: (5, 4, 3)", "resolution: (5, 4, 4)", 1)),
     )
     .unwrap();
     let error = read_table(&dir, Some(&lens)).unwrap_err();

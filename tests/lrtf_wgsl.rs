@@ -4,11 +4,11 @@
 mod common;
 
 use lensbake::lrtf::table::GpuParams;
-
-const SHADER: &str = include_str!("../src/lrtf/lrtf_sample.wgsl");
+use lensbake::render::wgsl::lrtf_sample_shader;
 
 fn module() -> naga::Module {
-    naga::front::wgsl::parse_str(SHADER).unwrap_or_else(|e| panic!("{}", e.emit_to_string(SHADER)))
+    naga::front::wgsl::parse_str(lrtf_sample_shader())
+        .unwrap_or_else(|e| panic!("{}", e.emit_to_string(lrtf_sample_shader())))
 }
 
 #[test]
@@ -19,7 +19,7 @@ fn lrtf_shader_validates() {
         naga::valid::Capabilities::all(),
     )
     .validate(&module)
-    .unwrap_or_else(|e| panic!("{}", e.emit_to_string(SHADER)));
+    .unwrap_or_else(|e| panic!("{}", e.emit_to_string(lrtf_sample_shader())));
     assert!(
         module
             .functions
@@ -37,7 +37,7 @@ fn lrtf_shader_validates() {
 #[test]
 fn uniform_block_matches_the_rust_struct() {
     common::assert_wgsl_layout!(
-        SHADER,
+        lrtf_sample_shader(),
         GpuParams as "LrtfParams" {
             rear_plane_z,
             film_plane_z,

@@ -124,7 +124,10 @@ fn mutate(rng: &mut Rng, input: &[u8]) -> Vec<u8> {
     out
 }
 
-fn exercise(bytes: &[u8]) {
+/// Reads `bytes` as every format under both pbrt conventions, writes and rereads what loads,
+/// and validates it; returns how many of those reads loaded and how many became a lens system.
+fn exercise(bytes: &[u8]) -> (usize, usize) {
+    let (mut loaded_count, mut valid_count) = (0, 0);
     let file = Some(Path::new("fuzz.lens"));
     for format in Format::ALL {
         for pbrt_thickness in [PbrtThickness::ToNext, PbrtThickness::FromPrevious] {
@@ -135,6 +138,7 @@ fn exercise(bytes: &[u8]) {
             let Ok(loaded) = read_bytes(bytes, file, format, &options) else {
                 continue;
             };
+            loaded_count += 1;
             let _ = loaded.notes.iter().map(ToString::to_string).count();
             let text = write_ron(&loaded.prescription);
             let again = read_str(&text, None, Format::Ron, &LoadOptions::default());
@@ -142,9 +146,11 @@ fn exercise(bytes: &[u8]) {
             if let Ok(system) = LensSystem::new(loaded.prescription, &loaded.map) {
                 let at = system.at(system.design_wavelength_nm());
                 assert_eq!(at.surfaces.len(), system.prescription.surfaces.len());
+                valid_count += 1;
             }
         }
     }
+    (loaded_count, valid_count)
 }
 
 fn seeds() -> Vec<Vec<u8>> {
@@ -164,15 +170,17 @@ fn seeds() -> Vec<Vec<u8>> {
 fn readers_never_panic() {
     let mut rng = Rng(0x5EED_1E45_BA4E_0001);
     let seeds = seeds();
-    let mut cases = 0;
-    let mut run = |bytes: Vec<u8>| {
-        if catch_unwind(AssertUnwindSafe(|| exercise(&bytes))).is_err() {
-            panic!(
-                "panicked on input:\n{}",
-                String::from_utf8_lossy(&bytes).escape_debug()
-            );
+    // Inputs some reader loaded, and inputs that became a valid lens, among the mutated ones.
+    let (mut loaded, mut valid) = (0, 0);
+    let mut run = |bytes: Vec<u8>| match catch_unwind(AssertUnwindSafe(|| exercise(&bytes))) {
+        Ok((l, v)) => {
+            loaded += usize::from(l > 0);
+            valid += usize::from(v > 0);
         }
-        cases += 1;
+        Err(_) => panic!(
+            "panicked on input:\n{}",
+            String::from_utf8_lossy(&bytes).escape_debug()
+        ),
     };
     for _ in 0..300 {
         let len = rng.below(300);
@@ -186,5 +194,16 @@ fn readers_never_panic() {
         }
         run(bytes);
     }
-    assert_eq!(cases, 6300);
+    eprintln!("6300 fuzz inputs: {loaded} loaded by some reader, {valid} valid lenses");
+    // The mutations must reach past the readers' first checks into validation, and must break
+    // many inputs: a fuzz whose inputs all fail to parse (or all parse) tests one path only.
+    assert!(
+        loaded >= 1000 && valid >= 500,
+        "{loaded} loaded, {valid} valid"
+    );
+    assert!(
+        6300 - valid >= 1000,
+        "only {} of 6300 inputs rejected",
+        6300 - valid
+    );
 }

@@ -5,41 +5,22 @@ mod common;
 
 use common::{channel_differences, dgauss, dgauss_cameras, gpu_or_skip};
 use lensbake::lrtf::bake::{BakeRequest, bake};
-use lensbake::model::{BakedLens, FirstOrderModels, PupilSampling, SeidelLens, TracedLens};
+use lensbake::model::{BakedLens, FirstOrderModels, SeidelLens, TracedLens};
 use lensbake::model::{LensModel, ParaxialLens};
 use lensbake::render::camera::{Camera, Film, Focus};
-use lensbake::render::gpu::{IBRT_SHADER, LENS_TRACE_SHADER};
-use lensbake::render::gpu_types::{
-    FrameParams, LayerData, SeidelParams, TRACE_MISSED, TRACE_OK, TRACE_TIR, TRACE_VIGNETTED,
-    frame_params, lens_surfaces,
-};
+use lensbake::render::gpu_types::{FrameParams, LayerData, SeidelParams, frame_params};
 use lensbake::render::image::RgbImage;
 use lensbake::render::kernel::{LensRays, object_ray};
 use lensbake::render::layers::LayeredDepthImage;
 use lensbake::render::reference::{psnr, render_reference};
 use lensbake::render::scene::{Outline, Panel, Scene, Texture};
+use lensbake::render::wgsl::ibrt_shader;
 use lensbake::render::{Backend, RenderSettings, layer_view, render_layers};
-use lensbake::trace::{Outcome, Ray, Travel};
-
-#[test]
-fn every_wgsl_module_validates_with_naga() {
-    // The renderer's module is three files concatenated; the lens trace also stands alone.
-    for (name, source) in [("ibrt", IBRT_SHADER), ("lens_trace", LENS_TRACE_SHADER)] {
-        let module = naga::front::wgsl::parse_str(source)
-            .unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(source)));
-        naga::valid::Validator::new(
-            naga::valid::ValidationFlags::all(),
-            naga::valid::Capabilities::default(),
-        )
-        .validate(&module)
-        .unwrap_or_else(|e| panic!("{name}: {e:?}"));
-    }
-}
 
 #[test]
 fn frame_params_layout_matches_wgsl() {
     common::assert_wgsl_layout!(
-        IBRT_SHADER,
+        ibrt_shader(),
         FrameParams {
             width,
             height,
@@ -373,93 +354,6 @@ fn ibrt_converges_to_true_geometry_reference_as_layers_refine() {
 }
 
 #[test]
-fn traced_shader_matches_f64_tracer_ray_by_ray() {
-    let Some(gpu) = gpu_or_skip("traced_shader_matches_f64_tracer_ray_by_ray") else {
-        return;
-    };
-    let (lens, first) = dgauss();
-    let no_pupil = PupilSampling::disc(0.0, 0.0).circles;
-    let traced = TracedLens::new(&lens.system, &first, first.f_number, no_pupil);
-    let (params, surfaces) = lens_surfaces(&traced.system);
-    // Film points on a grid of the paraxial image plane (to the full-frame corner), each aimed at
-    // a polar grid of rear-plane points reaching past the last clear aperture, so the set holds
-    // passing, vignetted and (at the steepest angles) missed rays.
-    let film_z = first.thick.film_z_for_object(1e9).unwrap();
-    let rear_z = traced.rear_plane_z;
-    let rear_radius = 1.3 * traced.system.surfaces.last().unwrap().semi_aperture;
-    let mut rays = Vec::new();
-    for i in 0..9 {
-        for j in 0..5 {
-            let film = [i as f64 * 2.7, j as f64 * -3.0, film_z];
-            for r in 0..12 {
-                for a in 0..16 {
-                    let radius = rear_radius * (r as f64 + 0.5) / 12.0;
-                    let angle = a as f64 * std::f64::consts::PI / 8.0 + 0.1;
-                    let rear = [radius * angle.cos(), radius * angle.sin(), rear_z];
-                    rays.push((
-                        film,
-                        [rear[0] - film[0], rear[1] - film[1], rear[2] - film[2]],
-                    ));
-                }
-            }
-        }
-    }
-    let input: Vec<[[f32; 3]; 2]> = rays
-        .iter()
-        .map(|(o, d)| [o.map(|v| v as f32), d.map(|v| v as f32)])
-        .collect();
-    let output = gpu.trace_rays(&params, &surfaces, &input).unwrap();
-    let code = |outcome: Outcome| match outcome {
-        Outcome::Ok => TRACE_OK,
-        Outcome::Vignetted { .. } => TRACE_VIGNETTED,
-        Outcome::Tir { .. } => TRACE_TIR,
-        Outcome::Missed { .. } => TRACE_MISSED,
-    };
-    let (mut mismatched, mut ok, mut worst_direction, mut worst_position) = (0, 0, 0.0f64, 0.0f64);
-    let mut statuses = [0usize; 4];
-    for ([origin, direction], [head, tail]) in input.iter().zip(&output) {
-        // The f64 tracer starts from the same f32-rounded ray the shader was given.
-        let (o, d) = (origin.map(f64::from), direction.map(f64::from));
-        let exact = traced
-            .tracer
-            .trace(Ray::new(o, d).unwrap(), Travel::Backward);
-        let status = head[3] as u32;
-        statuses[code(exact.outcome) as usize] += 1;
-        if status != code(exact.outcome) || tail[3] as usize != exact.outcome.surface().unwrap_or(0)
-        {
-            mismatched += 1;
-            continue;
-        }
-        if exact.outcome.is_ok() {
-            ok += 1;
-            let e = exact.ray.direction();
-            let p = exact.ray.position();
-            for c in 0..3 {
-                worst_direction = worst_direction.max((tail[c] as f64 - e[c]).abs());
-                worst_position = worst_position.max((head[c] as f64 - p[c]).abs());
-            }
-        }
-    }
-    eprintln!(
-        "{} rays (ok/vignetted/tir/missed by f64: {statuses:?}): {mismatched} status mismatches, \
-         worst |d_gpu - d_f64| = {worst_direction:.2e}, worst |p_gpu - p_f64| = {worst_position:.2e} mm",
-        rays.len()
-    );
-    assert!(
-        ok > rays.len() / 5 && statuses[1] > rays.len() / 5,
-        "{statuses:?}"
-    );
-    // A ray whose f64 hit lies within f32 rounding (~1e-6 mm) of a clear-aperture edge may be
-    // judged on the other side in f32: a handful in ten thousand at most.
-    assert!(mismatched * 1000 <= rays.len(), "{mismatched} mismatches");
-    // f32 carries 6e-8 relative; through 12 refractions the rounding grows to ~1e-6 in the
-    // direction cosines and ~1e-5 mm in the exit point (measured on lavapipe: 1.1e-6, 1.2e-5).
-    // The budget is ten times that; a wrong formula or sign errs by 1e-3 or more.
-    assert!(worst_direction < 1e-5, "direction error {worst_direction}");
-    assert!(worst_position < 1e-4, "position error {worst_position}");
-}
-
-#[test]
 fn baked_and_traced_renders_agree_and_approach_the_exact_reference() {
     let settings = RenderSettings {
         width: 96,
@@ -528,7 +422,7 @@ fn gpu_matches_cpu_twin_for_every_lens_model_on_straight_and_tilted_sensors() {
                 camera.model.name(),
             );
             // The GPU traces in f32 what the CPU traces in f64 (1e-6 apart in direction, see
-            // traced_shader_matches_f64_tracer_ray_by_ray); such a difference flips a sample's
+            // tests/shader_twins.rs); such a difference flips a sample's
             // layer pixel or vignetting only where it grazes an edge, by up to one sample's
             // share. Measured on lavapipe: no such channel except 3 of 9216 for the tilted
             // traced lens; the rest agree to 1e-9. Allowed: 1 % of channels flipped, the rest
@@ -551,7 +445,7 @@ fn gpu_matches_cpu_twin_for_every_lens_model_on_straight_and_tilted_sensors() {
 #[test]
 fn seidel_params_layout_matches_wgsl() {
     common::assert_wgsl_layout!(
-        IBRT_SHADER,
+        ibrt_shader(),
         SeidelParams {
             image_z,
             exit_pupil_z,

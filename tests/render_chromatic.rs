@@ -16,12 +16,12 @@ use lensbake::render::chromatic::{
     ChannelLenses, Chromatic, ChromaticMode, ColourSpread, VISIBLE_COLOUR_PX, union_of,
     wants_chromatic,
 };
-use lensbake::render::gpu::IBRT_SHADER;
 use lensbake::render::gpu_types::ChannelParams;
 use lensbake::render::image::RgbImage;
 use lensbake::render::layers::LayeredDepthImage;
 use lensbake::render::reference::{psnr, render_reference};
 use lensbake::render::scene::{Outline, Panel, Scene, Texture};
+use lensbake::render::wgsl::ibrt_shader;
 use lensbake::render::{Backend, RenderSettings, layer_view, render_layers};
 use lensbake::system::LensSystem;
 use lensbake::trace::{Ray, Tracer, Travel};
@@ -144,7 +144,7 @@ fn landscape_cameras(
 #[test]
 fn channel_params_layout_matches_wgsl() {
     common::assert_wgsl_layout!(
-        IBRT_SHADER,
+        ibrt_shader(),
         ChannelParams {
             sampling_block,
             focal_length,

@@ -7,7 +7,7 @@ use common::{relative, test_data};
 use lensbake::model::{LensModel, ParaxialLens};
 use lensbake::render::camera::{Camera, Film, Focus};
 use lensbake::render::gltf_scene::load_gltf;
-use lensbake::render::gpu_peel::{GpuPeeler, PEEL_SHADER};
+use lensbake::render::gpu_peel::GpuPeeler;
 use lensbake::render::gpu_types::{
     PeelData, PeelMaterial, PeelParams, PeelTexture, PeelTriangle, PeelVertex,
 };
@@ -17,6 +17,7 @@ use lensbake::render::mesh_trace::TracedMesh;
 use lensbake::render::raster::{Peeling, mesh_layer_view, peel_cpu, surfel_count};
 use lensbake::render::reference::{psnr, render_reference};
 use lensbake::render::scene::{Outline, Scene, Texture};
+use lensbake::render::wgsl::peel_shader;
 use lensbake::render::{Backend, RenderError, RenderSettings, layer_view, render_layers};
 
 /// The GPU peeler, or None outside CI when this machine has no adapter (as in tests/render.rs).
@@ -54,8 +55,8 @@ fn quads() -> MeshScene {
 
 #[test]
 fn peel_shader_validates_and_shares_the_rust_layouts() {
-    let module = naga::front::wgsl::parse_str(PEEL_SHADER)
-        .unwrap_or_else(|e| panic!("peel.wgsl: {}", e.emit_to_string(PEEL_SHADER)));
+    let module = naga::front::wgsl::parse_str(peel_shader())
+        .unwrap_or_else(|e| panic!("peel.wgsl: {}", e.emit_to_string(peel_shader())));
     naga::valid::Validator::new(
         naga::valid::ValidationFlags::all(),
         naga::valid::Capabilities::default(),
@@ -63,7 +64,7 @@ fn peel_shader_validates_and_shares_the_rust_layouts() {
     .validate(&module)
     .unwrap_or_else(|e| panic!("peel.wgsl: {e:?}"));
     common::assert_wgsl_layout!(
-        PEEL_SHADER,
+        peel_shader(),
         PeelParams {
             width,
             height,
@@ -80,7 +81,7 @@ fn peel_shader_validates_and_shares_the_rust_layouts() {
         }
     );
     common::assert_wgsl_layout!(
-        PEEL_SHADER,
+        peel_shader(),
         PeelTriangle {
             plane,
             u_map,
@@ -89,7 +90,7 @@ fn peel_shader_validates_and_shares_the_rust_layouts() {
         }
     );
     common::assert_wgsl_layout!(
-        PEEL_SHADER,
+        peel_shader(),
         PeelMaterial {
             base_colour,
             texture,
@@ -98,7 +99,7 @@ fn peel_shader_validates_and_shares_the_rust_layouts() {
         }
     );
     common::assert_wgsl_layout!(
-        PEEL_SHADER,
+        peel_shader(),
         PeelTexture {
             offset,
             width,

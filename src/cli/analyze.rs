@@ -49,9 +49,9 @@ pub fn run(args: AnalyzeArgs) -> anyhow::Result<()> {
     let analysis = analyze(&name, &lens.system, &options)
         .with_context(|| format!("analysing {}", lens.source.origin))?;
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&analysis)?);
+        say!("{}", serde_json::to_string_pretty(&analysis)?);
     } else {
-        print!("{}", report(&analysis));
+        say_raw!("{}", report(&analysis));
     }
     Ok(())
 }

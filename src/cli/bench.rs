@@ -3,6 +3,7 @@
 use super::lens::LensArgs;
 use anyhow::Context;
 use clap::Subcommand;
+use lensbake::limits;
 use lensbake::trace::{Apertures, FieldBundle, Tracer, Travel};
 use std::time::Instant;
 
@@ -51,6 +52,10 @@ fn bench_trace(
     threads: Option<usize>,
     json: bool,
 ) -> anyhow::Result<()> {
+    limits::check("--rays", n as u64, limits::MAX_RAYS)?;
+    if let Some(threads) = threads {
+        limits::check("--threads", threads as u64, limits::MAX_THREADS)?;
+    }
     let system = lens.load()?.system;
     let tracer = Tracer::new(&system.at(system.design_wavelength_nm()));
     let bundle = FieldBundle::over_traceable_field(&tracer)?;
@@ -69,12 +74,12 @@ fn bench_trace(
         (traced.ray_surfaces, start.elapsed().as_secs_f64())
     });
     if json {
-        println!(
+        say!(
             "{}",
             serde_json::json!({"rays": n, "ray_surfaces": ray_surfaces, "seconds": seconds})
         );
     } else {
-        println!(
+        say!(
             "{n} rays (field 0..{:.4} deg, entrance pupil diameter {:.4} mm at z = {:.4} mm), \
              {ray_surfaces} ray-surface intersections in {seconds:.4} s on {} threads: \
              {:.1} M ray-surfaces/s",

@@ -209,7 +209,7 @@ pub fn run(args: RenderBenchArgs) -> anyhow::Result<()> {
         let reference = render_reference(reference_camera, &scene, &settings)?;
         let seconds = started.elapsed().as_secs_f64();
         bar.finish_and_clear();
-        println!("reference {spp} spp: {seconds:.1} s");
+        say!("reference {spp} spp: {seconds:.1} s");
         record(
             &mut timings,
             Row {
@@ -239,7 +239,7 @@ pub fn run(args: RenderBenchArgs) -> anyhow::Result<()> {
                     mean_abs_error: Some(mean_abs_error(&image, &reference)),
                     measured_at: now_unix(),
                 };
-                println!(
+                say!(
                     "{model} on {backend_name}, {spp} spp: {seconds:.2} s, {db:.1} dB against the reference"
                 );
                 record(&mut timings, row);
@@ -251,7 +251,7 @@ pub fn run(args: RenderBenchArgs) -> anyhow::Result<()> {
         write_text(&json_path, &serde_json::to_string_pretty(&timings)?)?;
     }
     write_text(&args.out.join("timings.md"), &markdown(&timings))?;
-    println!("wrote {} and timings.md", json_path.display());
+    say!("wrote {} and timings.md", json_path.display());
     Ok(())
 }
 

@@ -3,7 +3,6 @@
 //! between them, timings and the lens report to notebooks-out/demo/.
 
 use super::lens::ReadArgs;
-use anyhow::Context;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use lensbake::job::tables::DEFAULT_TABLES_ROOT;
@@ -79,7 +78,7 @@ pub(super) fn stage(message: &str) -> ProgressBar {
 fn done(bar: ProgressBar, what: &str, started: Instant) -> f64 {
     let seconds = started.elapsed().as_secs_f64();
     bar.finish_and_clear();
-    println!("{what}: {seconds:.2} s");
+    say!("{what}: {seconds:.2} s");
     seconds
 }
 
@@ -100,20 +99,29 @@ fn error_map(a: &RgbImage, b: &RgbImage) -> RgbImage {
     }
 }
 
-/// Writes `text` to a temporary file beside `path` and renames it into place.
+/// Writes `text` to `path` through the one atomic writer.
 pub(super) fn write_text(path: &Path, text: &str) -> anyhow::Result<()> {
-    let temp = path.with_extension("tmp");
-    std::fs::write(&temp, text).with_context(|| format!("writing {}", temp.display()))?;
-    std::fs::rename(&temp, path).with_context(|| format!("writing {}", path.display()))?;
-    Ok(())
+    Ok(lensbake::output::write_bytes(path, text.as_bytes())?)
 }
 
 /// Exposure applied to the error map so one-percent errors are visible.
 const ERROR_MAP_EXPOSURE: f32 = 10.0;
 
+/// Publishes the whole output directory or nothing: a run that fails or is killed part way
+/// leaves the previous demo's files as they were.
 pub fn run(args: DemoArgs) -> anyhow::Result<()> {
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("creating {}", args.out.display()))?;
+    let (report_files, speedup, psnr) =
+        lensbake::output::publish_dir(&args.out, |staging| run_into(&args, staging))?;
+    say!(
+        "wrote {} ({report_files} report files): baked {speedup:.2}x faster than traced, PSNR {psnr:.1} dB",
+        args.out.display(),
+    );
+    Ok(())
+}
+
+/// The demo, writing into `staging`; returns the report's file count, the baked speed-up and the
+/// PSNR of baked against traced.
+fn run_into(args: &DemoArgs, staging: &Path) -> anyhow::Result<(usize, f64, f64)> {
     let lens = super::lens::render_lens(&args.lens, &args.read)?;
     let RenderLens::Real(real) = &lens else {
         anyhow::bail!("the demo needs a real lens (a file or bundled name), not `ideal:`");
@@ -127,7 +135,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
         &name,
         &real.system,
         &FigureOptions::default(),
-        &args.out.join("analysis"),
+        &staging.join("analysis"),
     )?;
     let analysis_seconds = done(bar, "analysis and plots", started);
 
@@ -192,7 +200,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
         Some(g) => (Backend::Gpu, format!("gpu ({})", g.adapter_description)),
         None => (Backend::Cpu, "cpu".to_string()),
     };
-    println!("backend: {backend_name}");
+    say!("backend: {backend_name}");
     let render = |camera: &Camera| -> anyhow::Result<(RgbImage, f64)> {
         let started = Instant::now();
         let bar = stage(&format!("rendering {}", camera.model.name()));
@@ -211,10 +219,10 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
     }
     let mean_abs_error = sum / errors.pixels.len() as f64;
     for (image, file) in [(&traced_image, "traced"), (&baked_image, "baked")] {
-        write_exr(image, &args.out.join(format!("{file}.exr")))?;
-        write_png(image, 1.0, &args.out.join(format!("{file}.png")))?;
+        write_exr(image, &staging.join(format!("{file}.exr")))?;
+        write_png(image, 1.0, &staging.join(format!("{file}.png")))?;
     }
-    write_png(&errors, ERROR_MAP_EXPOSURE, &args.out.join("error-map.png"))?;
+    write_png(&errors, ERROR_MAP_EXPOSURE, &staging.join("error-map.png"))?;
 
     let timings = Timings {
         lens: name.clone(),
@@ -236,7 +244,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
         max_abs_error: max as f64,
     };
     write_text(
-        &args.out.join("timings.json"),
+        &staging.join("timings.json"),
         &serde_json::to_string_pretty(&timings)?,
     )?;
     let t = &timings;
@@ -283,13 +291,10 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
         mean = t.mean_abs_error,
         max = t.max_abs_error,
     );
-    write_text(&args.out.join("README.md"), &markdown)?;
-    println!(
-        "wrote {} ({} report files): baked {:.2}x faster than traced, PSNR {:.1} dB",
-        args.out.display(),
+    write_text(&staging.join("README.md"), &markdown)?;
+    Ok((
         report.files.len(),
         t.baked_speedup,
-        t.psnr_baked_vs_traced_db
-    );
-    Ok(())
+        t.psnr_baked_vs_traced_db,
+    ))
 }

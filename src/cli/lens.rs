@@ -123,7 +123,7 @@ pub fn run(command: LensCommand) -> anyhow::Result<()> {
     match command {
         LensCommand::Check(args) => {
             let lens = args.load()?;
-            print!("{}", summary(&lens));
+            say_raw!("{}", summary(&lens));
             Ok(())
         }
         LensCommand::Convert { input, output } => convert(&input, &output),
@@ -143,7 +143,7 @@ fn convert(input: &LensArgs, output: &Path) -> anyhow::Result<()> {
     for note in &lens.source.loaded.notes {
         eprintln!("note: {note}");
     }
-    println!(
+    say!(
         "wrote {} ({} surfaces, from {})",
         output.display(),
         lens.system.prescription.surfaces.len(),
@@ -154,16 +154,17 @@ fn convert(input: &LensArgs, output: &Path) -> anyhow::Result<()> {
 
 fn list() -> anyhow::Result<()> {
     if BUNDLED.is_empty() {
-        println!("no bundled lenses");
+        say!("no bundled lenses");
     }
     let width = BUNDLED.iter().map(|l| l.name.len()).max().unwrap_or(0);
     for lens in BUNDLED {
         let label = PathBuf::from(format!("lenses/{}.ron", lens.name));
         let loaded = read_str(lens.ron, Some(&label), Format::Ron, &LoadOptions::default())
             .with_context(|| format!("bundled lens `{}`", lens.name))?;
-        println!(
+        say!(
             "{:width$}  {}",
-            lens.name, loaded.prescription.provenance.title
+            lens.name,
+            loaded.prescription.provenance.title
         );
     }
     Ok(())

@@ -224,7 +224,7 @@ pub fn run_bake(args: BakeArgs) -> anyhow::Result<()> {
         .filter_map(|f| std::fs::metadata(out.join(f)).ok())
         .map(|m| m.len())
         .sum();
-    println!(
+    say!(
         "baked {name}: {} {}x{}x{} {} focus {} in {seconds:.2} s, {bytes} bytes in {}",
         table.info.parameterisation.name(),
         table.info.resolution[0],
@@ -252,7 +252,7 @@ pub fn run_bake(args: BakeArgs) -> anyhow::Result<()> {
             } else {
                 String::new()
             };
-            println!(
+            say!(
                 "  {:.2} nm:{on} image error p99 {:.3} px (max {:.3}) at 1920 px, direction p99 {:.4} mrad, position p99 {:.2} um, validity agreement {:.3} %",
                 layer.wavelength_nm,
                 e.image_px.p99,
@@ -283,17 +283,19 @@ struct OutputRay {
 pub fn run(command: LrtfCommand) -> anyhow::Result<()> {
     match command {
         LrtfCommand::Info { table } => {
+            // The whole table verifies (data and every sidecar field) before any of it is shown.
+            read_table(&table, None)?;
             let sidecar = read_sidecar(&table)?;
             let [far_z, near_z] = sidecar.info.focus.film_z_range();
             let focus_nodes = sidecar
                 .layers
                 .first()
                 .map_or(0, |l| l.sampling_pupil.nodes.len());
-            println!(
+            say!(
                 "focus {} (film z {far_z:.4}..{near_z:.4} mm, {focus_nodes} pupil focus nodes)",
                 sidecar.info.focus.text()
             );
-            println!(
+            say!(
                 "{}",
                 ron::ser::to_string_pretty(&sidecar, ron::ser::PrettyConfig::default())?
             );
@@ -317,7 +319,8 @@ pub fn run(command: LrtfCommand) -> anyhow::Result<()> {
                 std::io::stdin().read_to_string(&mut s)?;
                 s
             } else {
-                std::fs::read_to_string(&rays).with_context(|| format!("reading {rays}"))?
+                lensbake::limits::read_input_text(Path::new(&rays))
+                    .with_context(|| format!("reading {rays}"))?
             };
             let input: Vec<InputRay> = serde_json::from_str(&text)
                 .with_context(|| format!("{rays}: not a JSON ray array"))?;
@@ -338,13 +341,20 @@ pub fn run(command: LrtfCommand) -> anyhow::Result<()> {
             };
             let mut output = Vec::with_capacity(input.len());
             for (k, r) in input.iter().enumerate() {
-                let n = r.direction.iter().map(|v| v * v).sum::<f64>().sqrt();
-                if !(n > 0.0 && n.is_finite()) || !r.origin.iter().all(|v| v.is_finite()) {
-                    bail!("{rays}: ray {k} has a non-finite origin or a zero direction");
+                // The exact tracer's ray: the same checks and normalisation.
+                let checked = lensbake::trace::Ray::new(r.origin, r.direction)
+                    .with_context(|| format!("{rays}: ray {k}"))?;
+                let rear_plane_z = loaded.layers[0].frame.rear_plane_z;
+                if r.origin[2] < rear_plane_z {
+                    bail!(
+                        "{rays}: ray {k} starts at z = {} mm, in front of the lens's last vertex \
+                         plane (z = {rear_plane_z} mm): a film-side ray must start behind it",
+                        r.origin[2]
+                    );
                 }
                 let ray = Ray {
-                    origin: r.origin,
-                    direction: r.direction.map(|v| v / n),
+                    origin: checked.position(),
+                    direction: checked.direction(),
                 };
                 output.push(match loaded.lookup_focused(0, &ray, stop, film_z) {
                     Lookup::Passes(out) => OutputRay {
@@ -368,7 +378,7 @@ pub fn run(command: LrtfCommand) -> anyhow::Result<()> {
                     },
                 });
             }
-            println!("{}", serde_json::to_string(&output)?);
+            say!("{}", serde_json::to_string(&output)?);
             Ok(())
         }
     }
@@ -392,6 +402,6 @@ pub fn plot_error(measurements: &Path, out: &Path) -> anyhow::Result<()> {
         );
     }
     write_plot(&LrtfErrorPlot::from_sweep(&rows), out)?;
-    println!("{}", out.display());
+    say!("{}", out.display());
     Ok(())
 }

@@ -1,5 +1,19 @@
 //! One module per subcommand; each turns parsed arguments into library calls and prints.
 
+/// `println!` through [`stdout`]: a closed stdout never panics or stops the job.
+macro_rules! say {
+    ($($arg:tt)*) => {
+        $crate::cli::stdout::write(format_args!($($arg)*), true)
+    };
+}
+
+/// `print!` through [`stdout`].
+macro_rules! say_raw {
+    ($($arg:tt)*) => {
+        $crate::cli::stdout::write(format_args!($($arg)*), false)
+    };
+}
+
 mod analyze;
 mod bench;
 mod bench_render;
@@ -8,6 +22,7 @@ mod lens;
 mod lrtf;
 mod plot;
 mod render;
+pub mod stdout;
 mod trace;
 mod tradeoff;
 mod wave;

@@ -57,7 +57,7 @@ pub fn run_plot(args: PlotArgs) -> anyhow::Result<()> {
     for message in drawn.messages() {
         eprintln!("note: {message}");
     }
-    println!("{}", args.out.display());
+    say!("{}", args.out.display());
     Ok(())
 }
 
@@ -80,7 +80,7 @@ pub fn run_report(args: ReportArgs) -> anyhow::Result<()> {
         for (kind, reason) in &written.skipped {
             eprintln!("note: {name}: {kind} skipped: {reason}");
         }
-        println!("{}", written.directory.display());
+        say!("{}", written.directory.display());
     }
     Ok(())
 }

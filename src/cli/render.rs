@@ -10,7 +10,7 @@ use lensbake::job::{
 use lensbake::model::ModelKind;
 use lensbake::render::RenderSettings;
 use lensbake::render::chromatic::{CHANNELS, ChromaticMode};
-use lensbake::render::image::{write_exr, write_png};
+use lensbake::render::image::{png_beside, write_exr, write_png};
 use std::path::PathBuf;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -204,16 +204,17 @@ impl RenderArgs {
 }
 
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
+    let png = png_beside(&args.out)?;
     let job = args.job()?;
+    job.settings.check()?;
     let rendered = job.run()?;
     print_decisions(&job, &rendered);
     let image = &rendered.image;
     write_exr(image, &args.out)?;
-    let png = args.out.with_extension("png");
     write_png(image, 1.0, &png)?;
     let camera = &rendered.camera;
     let peel = &rendered.peel;
-    println!(
+    say!(
         "model {}, film centre at z = {:.3} mm, tilt ({:.3}, {:.3}) deg, {} layers ({}x{}), {} \
          spp: peel {:.1} ms, trace {:.1} ms",
         camera.model.name(),
@@ -227,7 +228,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         peel.time.as_secs_f64() * 1e3,
         rendered.trace_time.as_secs_f64() * 1e3
     );
-    println!("wrote {} and {}", args.out.display(), png.display());
+    say!("wrote {} and {}", args.out.display(), png.display());
     Ok(())
 }
 
@@ -238,11 +239,11 @@ fn print_decisions(job: &RenderJob, rendered: &Rendered) {
             Some(adapter) => format!("the gpu ({adapter})"),
             None => "the cpu".to_string(),
         };
-        println!("scene: {triangles} triangles, peeled on {on}");
+        say!("scene: {triangles} triangles, peeled on {on}");
     }
     if let Some(plane) = &rendered.focus_plane {
         for (k, p) in plane.objects.iter().enumerate() {
-            println!(
+            say!(
                 "focus point {}: ({:.1}, {:.1}, {:.1}) mm in the lens frame",
                 k + 1,
                 p[0],
@@ -254,28 +255,36 @@ fn print_decisions(job: &RenderJob, rendered: &Rendered) {
             .iter()
             .zip(plane.compared.iter().flatten())
         {
-            println!(
+            say!(
                 "{name} focus plane: tilt ({:.3}, {:.3}) deg, centre at z = {:.3} mm; RMS spot \
                  radius of the three points {:.1}, {:.1}, {:.1} um",
-                p.tilt_deg[0], p.tilt_deg[1], p.film_z, blur[0], blur[1], blur[2]
+                p.tilt_deg[0],
+                p.tilt_deg[1],
+                p.film_z,
+                blur[0],
+                blur[1],
+                blur[2]
             );
         }
         let placement = &plane.placement;
-        println!(
+        say!(
             "sensor tilt ({:.3}, {:.3}) deg, sensor centre {:.3} mm behind the first vertex",
-            placement.tilt_deg[0], placement.tilt_deg[1], placement.film_z
+            placement.tilt_deg[0],
+            placement.tilt_deg[1],
+            placement.film_z
         );
     }
     if let (Some(budget), ModelChoice::ErrorBudgetPx(budget_px)) = (&rendered.budget, job.model) {
         if budget.film_corner_mm > budget.full_film_radius_mm {
-            println!(
+            say!(
                 "note: the film corner ({:.3} mm off the axis) lies beyond the largest \
                  traceable field ({:.3} mm); the budget covers the field up to there",
-                budget.film_corner_mm, budget.full_film_radius_mm
+                budget.film_corner_mm,
+                budget.full_film_radius_mm
             );
         }
         let choice = &budget.choice;
-        println!(
+        say!(
             "model: {} (the cheapest within {budget_px} px at this render's pixel pitch: film \
              radius {:.3} mm, f/{:.3}, focus {}, nearest surface {})",
             choice.label,
@@ -288,8 +297,8 @@ fn print_decisions(job: &RenderJob, rendered: &Rendered) {
                 .nearest_mm
                 .map_or("far".into(), |d| format!("{d:.1} mm"))
         );
-        println!("predicted error: {:.3} px (p99)", choice.predicted_px);
-        println!(
+        say!("predicted error: {:.3} px (p99)", choice.predicted_px);
+        say!(
             "measured error: {:.3} px (p99 against the exact trace on fresh rays of the domain)",
             choice.measured_px
         );
@@ -315,18 +324,18 @@ fn print_decisions(job: &RenderJob, rendered: &Rendered) {
     match (chromatic.wavelengths_nm, why) {
         (Some(nm), Some(why)) => {
             let nm = nm.map(|w| format!("{w:.1}")).join("/");
-            println!("chromatic: on, R/G/B at {nm} nm ({why})");
+            say!("chromatic: on, R/G/B at {nm} nm ({why})");
         }
-        (_, Some(why)) => println!("chromatic: off ({why})"),
-        (_, None) => println!("chromatic: off"),
+        (_, Some(why)) => say!("chromatic: off ({why})"),
+        (_, None) => say!("chromatic: off"),
     }
     if let Some(table) = &rendered.table {
         if table.baked_now {
-            println!("baked {}", table.dir.display());
+            say!("baked {}", table.dir.display());
         }
         let (covered, needed) = (table.covered_film_radius_mm, table.needed_film_radius_mm);
         if covered < needed * (1.0 - 1e-9) {
-            println!(
+            say!(
                 "note: table {} covers film radii to {covered:.3} mm, this sensor reaches \
                  {needed:.3} mm: rays from beyond render black (rebake into another --table)",
                 table.dir.display()
@@ -334,18 +343,19 @@ fn print_decisions(job: &RenderJob, rendered: &Rendered) {
         }
     }
     if let Some((peel, surfels)) = rendered.peel.mesh {
-        println!(
+        say!(
             "peeled {} layers ({peel:?}, cap {}), {surfels} surfels",
-            rendered.peel.layers, job.settings.max_layers
+            rendered.peel.layers,
+            job.settings.max_layers
         );
     }
     match &rendered.backend {
-        BackendUsed::Gpu { adapter } => println!("backend: gpu ({adapter})"),
+        BackendUsed::Gpu { adapter } => say!("backend: gpu ({adapter})"),
         BackendUsed::Cpu {
             gpu_unavailable: Some(why),
-        } => println!("backend: cpu ({why})"),
+        } => say!("backend: cpu ({why})"),
         BackendUsed::Cpu {
             gpu_unavailable: None,
-        } => println!("backend: cpu"),
+        } => say!("backend: cpu"),
     }
 }

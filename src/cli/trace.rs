@@ -4,7 +4,7 @@ use super::lens::LensArgs;
 use anyhow::{Context, bail};
 use clap::Args;
 use lensbake::system::LensSystem;
-use lensbake::trace::{Ray, Tracer, Travel};
+use lensbake::trace::{Ray, Tracer, Travel, check_start};
 use serde::{Deserialize, Serialize};
 use std::io::Read;
 
@@ -45,13 +45,17 @@ struct RayOutput {
 pub fn run(args: TraceArgs) -> anyhow::Result<()> {
     let system = args.lens.load()?.system;
     let wavelength_nm = wavelength(args.wavelength_nm, &system)?;
-    let tracer = Tracer::new(&system.at(wavelength_nm));
+    let at = system.at_checked(wavelength_nm)?;
+    let tracer = Tracer::new(&at);
     let rays = read_rays(&args.rays)?;
     let travel = if args.backward {
         Travel::Backward
     } else {
         Travel::Forward
     };
+    for (i, ray) in rays.iter().enumerate() {
+        check_start(&at, ray, travel).with_context(|| format!("{}: ray {i}", args.rays))?;
+    }
     let traced: Vec<RayOutput> = rays
         .into_iter()
         .map(|ray| {
@@ -65,15 +69,17 @@ pub fn run(args: TraceArgs) -> anyhow::Result<()> {
         })
         .collect();
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&traced)?);
+        say!("{}", serde_json::to_string_pretty(&traced)?);
     } else {
         for (i, t) in traced.iter().enumerate() {
             let surface = t
                 .surface
                 .map_or(String::new(), |s| format!(" at surface {s}"));
-            println!(
+            say!(
                 "ray {i}: {}{surface}  position {:?}  direction {:?}",
-                t.status, t.position, t.direction
+                t.status,
+                t.position,
+                t.direction
             );
         }
     }
@@ -97,7 +103,7 @@ fn read_rays(source: &str) -> anyhow::Result<Vec<Ray>> {
             .context("cannot read rays from standard input")?;
         ("<stdin>".to_string(), text)
     } else {
-        let text = std::fs::read_to_string(source)
+        let text = lensbake::limits::read_input_text(std::path::Path::new(source))
             .with_context(|| format!("cannot read rays file {source}"))?;
         (source.to_string(), text)
     };

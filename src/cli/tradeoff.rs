@@ -11,9 +11,11 @@ use serde::Serialize;
 
 use super::lens::LensArgs;
 use lensbake::lenses::LoadedLens;
+use lensbake::limits;
 use lensbake::lrtf::io::write_table;
 use lensbake::model::ModelKind;
-use lensbake::plot::{ParetoPlot, ParetoPoint, write_atomic, write_plot};
+use lensbake::output::write_bytes;
+use lensbake::plot::{ParetoPlot, ParetoPoint, write_plot};
 use lensbake::render::scene::Scene;
 use lensbake::tradeoff::choose::{Choice, choose_model};
 use lensbake::tradeoff::render::RenderBench;
@@ -230,6 +232,7 @@ pub fn run(args: TradeoffArgs) -> anyhow::Result<()> {
     if args.rays == 0 {
         anyhow::bail!("--rays must be positive");
     }
+    limits::check("--rays", args.rays as u64, limits::MAX_RAYS)?;
     let bench = RenderBench {
         width: args.render_width,
         height: args.render_height,
@@ -257,15 +260,15 @@ pub fn run(args: TradeoffArgs) -> anyhow::Result<()> {
         .out
         .unwrap_or_else(|| Path::new("notebooks-out/tradeoff").join(&name));
     std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
-    write_atomic(&out.join("tradeoff.json"), format!("{json}\n").as_bytes())?;
+    write_bytes(&out.join("tradeoff.json"), format!("{json}\n").as_bytes())?;
     let md = markdown(&name, &domain, &measured, args.rays, &bench);
-    write_atomic(&out.join("tradeoff.md"), md.as_bytes())?;
+    write_bytes(&out.join("tradeoff.md"), md.as_bytes())?;
     write_plot(&pareto(&name, &measured, &bench), &out.join("pareto.png"))?;
     if args.json {
-        println!("{json}");
+        say!("{json}");
     } else {
-        print!("{md}");
-        println!(
+        say_raw!("{md}");
+        say!(
             "\nwrote tradeoff.md, tradeoff.json and pareto.png to {}",
             out.display()
         );
@@ -275,11 +278,14 @@ pub fn run(args: TradeoffArgs) -> anyhow::Result<()> {
 
 /// Prints a choice: the model, its domain, and predicted against measured error.
 fn report(choice: &Choice) {
-    println!(
+    say!(
         "chose {} for a {:.3} px budget: predicted {:.3} px, measured {:.3} px (p99, 1920 px)",
-        choice.label, choice.budget_px, choice.predicted_px, choice.measured_px
+        choice.label,
+        choice.budget_px,
+        choice.predicted_px,
+        choice.measured_px
     );
-    println!(
+    say!(
         "  domain: film radius {:.3} of {:.3} mm, f/{:.3}, focus {}, wavelengths {:?} nm (lateral colour {:.3} px)",
         choice.domain.film_radius,
         choice.domain.full_film_radius,
@@ -292,7 +298,7 @@ fn report(choice: &Choice) {
         choice.lateral_colour_px
     );
     for c in &choice.considered {
-        println!(
+        say!(
             "  considered {}: predicted {:.3} px, {}",
             c.label,
             c.predicted_px,
@@ -320,9 +326,9 @@ pub fn bake_within_budget(
         Some(table) => {
             let out = out.unwrap_or_else(|| PathBuf::from("tables").join(&name));
             write_table(table, &name, &lens.system.prescription, &out)?;
-            println!("wrote {}", out.display());
+            say!("wrote {}", out.display());
         }
-        None => println!("no table written: the {} model needs none", choice.label),
+        None => say!("no table written: the {} model needs none", choice.label),
     }
     Ok(())
 }

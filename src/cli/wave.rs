@@ -260,10 +260,10 @@ pub fn run_wavefront(args: WavefrontArgs) -> anyhow::Result<()> {
             "zernike": zernike,
             "fft_assumptions_broken": assumptions,
         });
-        println!("{}", serde_json::to_string_pretty(&value)?);
+        say!("{}", serde_json::to_string_pretty(&value)?);
         return Ok(());
     }
-    println!(
+    say!(
         "{}  field {}°  {} nm  ({} x {} pupil samples, {} transmitted)",
         setup.name,
         setup.field_deg,
@@ -272,20 +272,23 @@ pub fn run_wavefront(args: WavefrontArgs) -> anyhow::Result<()> {
         map.samples,
         stats.transmitted_samples
     );
-    println!(
+    say!(
         "  RMS wavefront error   {:.4} waves (piston removed)",
         stats.rms_waves
     );
-    println!("  peak to valley        {:.4} waves", stats.pv_waves);
-    println!("  Strehl ratio          {:.4}", stats.strehl);
-    println!("  Zernike ({:?}), waves:", zernike.ordering);
+    say!("  peak to valley        {:.4} waves", stats.pv_waves);
+    say!("  Strehl ratio          {:.4}", stats.strehl);
+    say!("  Zernike ({:?}), waves:", zernike.ordering);
     for term in zernike.terms.iter().filter(|t| t.waves.abs() >= 5e-4) {
-        println!(
+        say!(
             "    Z{:<3} n={:<2} m={:<3} {:>10.4}",
-            term.j, term.n, term.m, term.waves
+            term.j,
+            term.n,
+            term.m,
+            term.waves
         );
     }
-    println!(
+    say!(
         "  fit residual RMS      {:.4} waves",
         zernike.residual_rms_waves
     );
@@ -344,18 +347,23 @@ pub fn run_mtf(args: MtfArgs) -> anyhow::Result<()> {
             "geometric": {"tangential": geometric.tangential, "sagittal": geometric.sagittal},
             "fft_assumptions_broken": assumptions,
         });
-        println!("{}", serde_json::to_string_pretty(&value)?);
+        say!("{}", serde_json::to_string_pretty(&value)?);
         return Ok(());
     }
-    println!(
+    say!(
         "{}  field {}°  cutoff {:.1} cycles/mm",
-        setup.name, setup.field_deg, mtf.cutoff_per_mm
+        setup.name,
+        setup.field_deg,
+        mtf.cutoff_per_mm
     );
-    println!("  cycles/mm  tangential  sagittal  diffraction limit");
+    say!("  cycles/mm  tangential  sagittal  diffraction limit");
     for i in 0..frequencies.len() {
-        println!(
+        say!(
             "  {:>9.2}  {:>10.4}  {:>8.4}  {:>17.4}",
-            frequencies[i], mtf.tangential[i], mtf.sagittal[i], mtf.diffraction_limit[i]
+            frequencies[i],
+            mtf.tangential[i],
+            mtf.sagittal[i],
+            mtf.diffraction_limit[i]
         );
     }
     print_assumptions(&assumptions);
@@ -387,8 +395,8 @@ pub fn run_psf(args: PsfArgs) -> anyhow::Result<()> {
     } else {
         encode_png(&image)?
     };
-    lensbake::plot::write_atomic(&args.out, &bytes)?;
-    println!(
+    lensbake::output::write_bytes(&args.out, &bytes)?;
+    say!(
         "{}: {} x {} PSF, pixel {:.3} x {:.3} µm, peak {:.4} (Strehl {:.4})",
         args.out.display(),
         image.size,

@@ -76,6 +76,8 @@ pub enum BakeError {
     Wavelength(#[from] PrescriptionError),
     #[error("f-number {asked} is faster than the lens wide open (f/{wide_open:.3})")]
     FNumber { asked: f64, wide_open: f64 },
+    #[error(transparent)]
+    Limit(#[from] crate::limits::LimitError),
     #[error("resolution {0:?} needs at least 2 nodes on every axis")]
     Resolution([usize; 3]),
     #[error("{0} wavelengths asked; a table holds 1 or 3")]
@@ -307,6 +309,25 @@ pub fn first_order(system: &SystemAt, focus_mm: Option<f64>) -> Result<Paraxial,
 }
 
 /// Bakes a table; `progress` is called from worker threads as nodes complete.
+/// Refuses a table over the node limit or larger than the memory available, before the bake
+/// allocates it (the entries, then the same again while the file is encoded).
+fn check_size(resolution: [usize; 3], layers: usize) -> Result<(), crate::limits::LimitError> {
+    use crate::limits;
+    let nodes = limits::product(&[
+        resolution[0] as u64,
+        resolution[1] as u64,
+        resolution[2] as u64,
+        layers as u64,
+    ]);
+    limits::check(
+        "the table's node count (all layers)",
+        nodes,
+        limits::MAX_TABLE_NODES,
+    )?;
+    let entry_bytes = (super::param::CHANNELS * std::mem::size_of::<f32>()) as u64;
+    limits::check_memory("the table", limits::product(&[nodes, entry_bytes, 2]))
+}
+
 pub fn bake(
     system: &LensSystem,
     request: &BakeRequest,
@@ -323,6 +344,7 @@ pub fn bake(
     if wavelengths.len() != 1 && wavelengths.len() != 3 {
         return Err(BakeError::WavelengthCount(wavelengths.len()));
     }
+    check_size(request.resolution, wavelengths.len())?;
     // Every layer is traced through `stopped_down`, which trusts the wavelength: refuse the ones
     // where a medium's dispersion formula no longer gives an index.
     for &nm in &wavelengths {
@@ -348,6 +370,7 @@ pub fn bake(
         });
     }
     // The stop scales as 1 / f-number (the entrance pupil is its paraxial image).
+    crate::limits::check_f_number(f_number, wide_open)?;
     let stop_semi_aperture = design.surfaces[design.stop].semi_aperture * wide_open / f_number;
     // One physical film plane per focus for every wavelength: the design wavelength's image
     // plane. The far focus's is the table's reference plane; the near focus's lies behind it.

@@ -1,8 +1,14 @@
 //! Table files: `lrtf.exr` (entries) and `lrtf.ron` (sidecar: meaning, domain, pupil, hashes).
-//! Layout in docs/lrtf.md. Both files are written to a temporary name in the target directory
-//! and renamed into place, so a reader never sees half a file; the sidecar records the CRC-32 of
-//! the data file's bytes, so a reader never pairs the data of one bake with the sidecar of
-//! another (a writer killed between the two renames leaves exactly that pair).
+//! Layout in docs/lrtf.md. Both files go through the one atomic writer ([`crate::output`]), so a
+//! reader never sees half a file. The sidecar records the CRC-32 of the data file's bytes and a
+//! CRC-32 of its own fields, so a table verifies as a whole: the data of one bake is never paired
+//! with the sidecar of another, and an edited sidecar field is refused.
+//!
+//! The two files cannot be renamed together, so a re-bake first keeps the old data under
+//! `.lrtf.exr.<its CRC-32>.previous` (a hard link); a writer killed after the new data replaced
+//! the old but before the new sidecar did leaves the old sidecar, whose data the reader then
+//! finds there. The directory is shared with focus-range subdirectories, so it is not published
+//! as a whole.
 
 use std::path::{Path, PathBuf};
 
@@ -21,7 +27,8 @@ use crate::pupil::{FocusPupilTable, PupilTable};
 /// records the data file's CRC-32, the aperture channel is the signed margin, and each layer
 /// carries its sampling pupil over film radius and focus (two changes made apart, each once
 /// called version 2, so a version-2 file of either kind is refused).
-pub const FORMAT_VERSION: u32 = 3;
+/// 4: the sidecar also records a CRC-32 of its own fields.
+pub const FORMAT_VERSION: u32 = 4;
 pub const SIDECAR_FILE: &str = "lrtf.ron";
 pub const DATA_FILE: &str = "lrtf.exr";
 
@@ -51,8 +58,24 @@ pub struct Sidecar {
     /// format versions 1 and 2, which are refused by their version before this is read.
     #[serde(default)]
     pub data_crc32: Option<String>,
+    /// [`Sidecar::fields_checksum`]: covers every other field, so an edited f-number, frame or
+    /// pupil circle is refused. Absent only in sidecars of format versions 1 to 3.
+    #[serde(default)]
+    pub sidecar_crc32: Option<String>,
     pub info: TableInfo,
     pub layers: Vec<LayerInfo>,
+}
+
+impl Sidecar {
+    /// CRC-32 of the compact RON of every field but `sidecar_crc32`. Parsing and printing an f64
+    /// round-trips exactly, so a sidecar read back hashes as it was written.
+    pub fn fields_checksum(&self) -> String {
+        let unsealed = Sidecar {
+            sidecar_crc32: None,
+            ..self.clone()
+        };
+        data_checksum(ron::to_string(&unsealed).unwrap_or_default().as_bytes())
+    }
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -88,6 +111,20 @@ pub enum TableError {
         dir: PathBuf,
     },
     #[error(
+        "{path}: the sidecar's fields were altered (CRC-32 {found}, the sidecar records {expected}); rebake it with `lensbake bake {lens} --out {dir}`"
+    )]
+    SidecarAltered {
+        path: PathBuf,
+        found: String,
+        expected: String,
+        lens: String,
+        dir: PathBuf,
+    },
+    #[error(
+        "{dir}: holds {DATA_FILE} but no {SIDECAR_FILE}: not a table lensbake wrote, or a damaged one; refusing to overwrite it (move it away first)"
+    )]
+    DataWithoutSidecar { dir: PathBuf },
+    #[error(
         "{path}: the data file does not belong to its sidecar (CRC-32 {found}, the sidecar records {expected}): the two come from different bakes or the data was altered; rebake it with `lensbake bake {lens} --out {dir}`"
     )]
     DataMismatch {
@@ -117,6 +154,21 @@ pub fn data_checksum(bytes: &[u8]) -> String {
     format!("{:08x}", crc32fast::hash(bytes))
 }
 
+impl From<crate::output::OutputError> for TableError {
+    fn from(error: crate::output::OutputError) -> TableError {
+        match error {
+            crate::output::OutputError::Io { path, source } => TableError::Io {
+                path,
+                cause: source,
+            },
+            refused @ crate::output::OutputError::Refused { .. } => TableError::Io {
+                path: PathBuf::new(),
+                cause: std::io::Error::other(refused.to_string()),
+            },
+        }
+    }
+}
+
 fn io_error(path: &Path) -> impl FnOnce(std::io::Error) -> TableError + '_ {
     move |cause| TableError::Io {
         path: path.to_path_buf(),
@@ -124,19 +176,10 @@ fn io_error(path: &Path) -> impl FnOnce(std::io::Error) -> TableError + '_ {
     }
 }
 
-/// Writes `bytes_writer`'s output to `path` through a temporary file in the same directory.
-fn write_atomically(
-    path: &Path,
-    write: impl FnOnce(&Path) -> Result<(), TableError>,
-) -> Result<(), TableError> {
-    let dir = path.parent().unwrap_or(Path::new("."));
-    let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("table");
-    let temp = dir.join(format!(".{name}.tmp-{}", std::process::id()));
-    let result = write(&temp).and_then(|()| std::fs::rename(&temp, path).map_err(io_error(path)));
-    if result.is_err() {
-        let _ = std::fs::remove_file(&temp);
-    }
-    result
+/// Where a re-bake keeps the data file that the sidecar with `crc32` describes until the new
+/// sidecar is in place.
+fn previous_data_path(dir: &Path, crc32: &str) -> PathBuf {
+    dir.join(format!(".{DATA_FILE}.{crc32}.previous"))
 }
 
 /// Writes `table` into `dir` (created if missing) as lrtf.exr + lrtf.ron.
@@ -147,6 +190,13 @@ pub fn write_table(
     dir: &Path,
 ) -> Result<(), TableError> {
     std::fs::create_dir_all(dir).map_err(io_error(dir))?;
+    let data_path = dir.join(DATA_FILE);
+    let sidecar_path = dir.join(SIDECAR_FILE);
+    if data_path.exists() && !sidecar_path.exists() {
+        return Err(TableError::DataWithoutSidecar {
+            dir: dir.to_path_buf(),
+        });
+    }
     let [n0, n1, n2] = table.info.resolution;
     let size = Vec2(n0, n1 * n2);
     let exr_layers: Vec<exr::image::Layer<AnyChannels<FlatSamples>>> = table
@@ -177,7 +227,6 @@ pub fn write_table(
         ImageAttributes::new(IntegerBounds::from_dimensions(size)),
         SmallVec::from_vec(exr_layers),
     );
-    let data_path = dir.join(DATA_FILE);
     // Encoded in memory first, so the checksum the sidecar records is of the exact bytes written.
     let mut data = std::io::Cursor::new(Vec::new());
     image
@@ -188,15 +237,13 @@ pub fn write_table(
             message: e.to_string(),
         })?;
     let data = data.into_inner();
-    write_atomically(&data_path, |temp| {
-        std::fs::write(temp, &data).map_err(io_error(temp))
-    })?;
-    let sidecar = Sidecar {
+    let mut sidecar = Sidecar {
         format_version: FORMAT_VERSION,
         parameterisation_version: table.info.parameterisation.version(),
         lens: lens.to_string(),
         prescription_hash: prescription_hash(prescription),
         data_crc32: Some(data_checksum(&data)),
+        sidecar_crc32: None,
         info: table.info.clone(),
         layers: table
             .layers
@@ -212,12 +259,26 @@ pub fn write_table(
             })
             .collect(),
     };
+    sidecar.sidecar_crc32 = Some(sidecar.fields_checksum());
     let text = ron::ser::to_string_pretty(&sidecar, ron::ser::PrettyConfig::default())
         .expect("sidecar is plain data");
-    let sidecar_path = dir.join(SIDECAR_FILE);
-    write_atomically(&sidecar_path, |temp| {
-        std::fs::write(temp, text).map_err(io_error(temp))
-    })
+    // The old data stays reachable from the old sidecar until the new sidecar replaces it.
+    let previous = read_sidecar(dir)
+        .ok()
+        .and_then(|old| old.data_crc32)
+        .map(|crc32| previous_data_path(dir, &crc32));
+    if let Some(previous) = &previous
+        && data_path.exists()
+        && !previous.exists()
+    {
+        std::fs::hard_link(&data_path, previous).map_err(io_error(previous))?;
+    }
+    crate::output::write_bytes(&data_path, &data)?;
+    crate::output::write_bytes(&sidecar_path, text.as_bytes())?;
+    if let Some(previous) = previous {
+        let _ = std::fs::remove_file(previous);
+    }
+    Ok(())
 }
 
 fn layer_name(k: usize) -> String {
@@ -447,7 +508,33 @@ pub fn read_table(
             message,
         })
     })?;
-    let data_path = dir.join(DATA_FILE);
+    let fields = sidecar.fields_checksum();
+    if sidecar.sidecar_crc32.as_deref() != Some(fields.as_str()) {
+        return Err(TableError::SidecarAltered {
+            path: sidecar_path,
+            found: fields,
+            expected: sidecar.sidecar_crc32.unwrap_or_else(|| "nothing".into()),
+            lens: sidecar.lens,
+            dir: dir.to_path_buf(),
+        });
+    }
+    let mut data_path = dir.join(DATA_FILE);
+    let mut bytes = std::fs::read(&data_path).map_err(|e| TableError::Data {
+        path: data_path.clone(),
+        message: e.to_string(),
+    })?;
+    let mut found = data_checksum(&bytes);
+    // A re-bake killed between its two renames leaves this sidecar's data under its CRC.
+    if let Some(expected) = &sidecar.data_crc32
+        && *expected != found
+    {
+        let previous = previous_data_path(dir, expected);
+        if let Ok(kept) = std::fs::read(&previous)
+            && data_checksum(&kept) == *expected
+        {
+            (data_path, bytes, found) = (previous, kept, expected.clone());
+        }
+    }
     let data_error = |message: String| TableError::Data {
         path: data_path.clone(),
         message,
@@ -459,8 +546,6 @@ pub fn read_table(
             message: format!("resolution {n0}x{n1}x{n2} needs at least 2 nodes per axis"),
         });
     }
-    // One read: the decoder and the checksum see the same bytes.
-    let bytes = std::fs::read(&data_path).map_err(|e| data_error(e.to_string()))?;
     // Reading reports corrupted or truncated files as errors; catch_unwind guards against a
     // decoder panic on hostile input so a bad file can never abort the caller.
     let image = std::panic::catch_unwind(|| {
@@ -476,7 +561,6 @@ pub fn read_table(
     .map_err(|e| data_error(e.to_string()))?;
     // After decoding, so a file the decoder cannot read keeps its precise message; a file that
     // decodes but is not the one this sidecar was written with is refused here.
-    let found = data_checksum(&bytes);
     if sidecar.data_crc32.as_deref() != Some(found.as_str()) {
         return Err(TableError::DataMismatch {
             path: data_path,

@@ -38,10 +38,8 @@ struct LrtfParams {
 @group(0) @binding(2) var<storage, read> lrtf_pupil: array<vec2<f32>>;
 @group(0) @binding(3) var<uniform> lrtf: LrtfParams;
 
-const LRTF_PASSES: u32 = 0u;
-const LRTF_BLOCKED: u32 = 1u;
-const LRTF_OUTSIDE: u32 = 2u;
-const LRTF_PI: f32 = 3.14159265358979;
+// LRTF_PASSES, LRTF_BLOCKED, LRTF_OUTSIDE, PARAMETERISATION_* and PI come from the Rust
+// prelude (src/render/wgsl.rs; src/lrtf/table.rs and param.rs).
 
 struct LrtfResult {
     // Where the ray leaves surface 1, and its unit direction (lens frame, mm).
@@ -140,7 +138,7 @@ fn lrtf_locate(origin: vec3<f32>, direction: vec3<f32>) -> LrtfLocated {
         return out;
     }
     let rear = lrtf_crossing(origin, direction, lrtf.rear_plane_z);
-    if lrtf.parameterisation == 0u {
+    if lrtf.parameterisation == PARAMETERISATION_SPHERICAL {
         let cs = lrtf_azimuth(rear);
         let d = lrtf_rotate(direction.xy, vec2<f32>(cs.x, -cs.y));
         out.mirror = select(1.0, -1.0, d.y < 0.0);
@@ -149,7 +147,7 @@ fn lrtf_locate(origin: vec3<f32>, direction: vec3<f32>) -> LrtfLocated {
         out.coords = vec3<f32>(
             length(rear) / lrtf.max_rear_radius,
             polar / lrtf.max_polar_angle,
-            azimuth / LRTF_PI,
+            azimuth / PI,
         );
         out.rotation = cs;
     } else {
@@ -208,7 +206,7 @@ fn lrtf_fetch(coords: vec3<f32>) -> LrtfEntry {
 }
 
 fn lrtf_decode_direction(e: vec2<f32>) -> vec3<f32> {
-    if lrtf.parameterisation == 0u {
+    if lrtf.parameterisation == PARAMETERISATION_SPHERICAL {
         return vec3<f32>(sin(e.x) * cos(e.y), sin(e.x) * sin(e.y), -cos(e.x));
     }
     let m = dot(e, e);
@@ -228,7 +226,7 @@ fn lrtf_sample(origin: vec3<f32>, direction: vec3<f32>) -> LrtfResult {
         return result;
     }
     if !at.in_domain {
-        let beyond_film = lrtf.parameterisation == 1u && at.coords.x > 1.0;
+        let beyond_film = lrtf.parameterisation == PARAMETERISATION_PUPIL_PLANES && at.coords.x > 1.0;
         result.status = select(LRTF_BLOCKED, LRTF_OUTSIDE, beyond_film);
         return result;
     }

@@ -22,6 +22,10 @@ pub enum Parameterisation {
     PupilPlanes,
 }
 
+/// `LrtfParams::parameterisation` codes of the shader (`Parameterisation::shader_id`).
+pub const PARAMETERISATION_SPHERICAL: u32 = 0;
+pub const PARAMETERISATION_PUPIL_PLANES: u32 = 1;
+
 impl Parameterisation {
     /// Bumped whenever coordinates or stored values change meaning; stored in the sidecar.
     pub fn version(self) -> u32 {
@@ -47,8 +51,8 @@ impl Parameterisation {
     /// Shader constant selecting this parameterisation in `lrtf_sample.wgsl`.
     pub fn shader_id(self) -> u32 {
         match self {
-            Parameterisation::Spherical => 0,
-            Parameterisation::PupilPlanes => 1,
+            Parameterisation::Spherical => PARAMETERISATION_SPHERICAL,
+            Parameterisation::PupilPlanes => PARAMETERISATION_PUPIL_PLANES,
         }
     }
 }

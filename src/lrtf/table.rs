@@ -106,6 +106,11 @@ pub struct GpuParams {
     pub focus_coordinate: f32,
 }
 
+/// `LrtfResult::status` codes of the shader's `lrtf_sample`, one per [`Lookup`] variant.
+pub const LRTF_PASSES: u32 = 0;
+pub const LRTF_BLOCKED: u32 = 1;
+pub const LRTF_OUTSIDE: u32 = 2;
+
 /// What the table says about one film-side ray.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Lookup {

@@ -47,6 +47,8 @@ pub enum ModelError {
     FocalLength(f64),
     #[error("f-number must be positive, got {0}")]
     FNumber(f64),
+    #[error(transparent)]
+    Limit(#[from] crate::limits::LimitError),
     #[error("f-number {f_number} is faster than the lens wide open (f/{wide_open:.3})")]
     FasterThanLens { f_number: f64, wide_open: f64 },
     #[error("f-number {f_number} is faster than the table's f/{table:.3}; rebake with --f-number")]

@@ -27,6 +27,9 @@ impl ParaxialLens {
         if !(f_number.is_finite() && f_number > 0.0) {
             return Err(ModelError::FNumber(f_number));
         }
+        let [shortest, longest] = crate::limits::FOCAL_LENGTH_RANGE_MM;
+        crate::limits::check_range("the focal length (mm)", focal_length_mm, shortest, longest)?;
+        crate::limits::check_range("the f-number", f_number, 0.5, crate::limits::MAX_F_NUMBER)?;
         let radius = focal_length_mm / (2.0 * f_number);
         Ok(ParaxialLens {
             focal_length_mm,
@@ -123,6 +126,7 @@ impl FirstOrderModels {
                 wide_open,
             });
         }
+        crate::limits::check_f_number(f_number, wide_open)?;
         // Pupils scale with the stop, as 1 / f-number.
         let thick = thick_model(&paraxial, wide_open / f_number)?;
         let z = paraxial.entrance_pupil.z;

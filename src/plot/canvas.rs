@@ -3,7 +3,6 @@
 use super::font::{FONT_FAMILY, ensure_registered, svg_font_face};
 use super::{Drawn, PlotError, View, draw_error};
 use plotters::prelude::{BitMapBackend, IntoDrawingArea, SVGBackend, WHITE};
-use std::io::Write;
 use std::path::Path;
 
 /// Output format, chosen by the file extension.
@@ -117,37 +116,6 @@ fn encode_png(rgb: &[u8], width: u32, height: u32) -> Result<Vec<u8>, PlotError>
 /// Draws `view` into `path` (format from its extension), atomically.
 pub fn write_plot<V: View>(view: &V, path: &Path) -> Result<Drawn, PlotError> {
     let rendered = render(view, Format::of_path(path)?)?;
-    write_atomic(path, &rendered.bytes)?;
+    crate::output::write_bytes(path, &rendered.bytes)?;
     Ok(rendered.drawn)
-}
-
-/// Writes `bytes` to a temporary file beside `path` and renames it into place, so a reader
-/// never sees a half-written file.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), PlotError> {
-    let io_error = |source| PlotError::Io {
-        path: path.display().to_string(),
-        source,
-    };
-    let directory = match path.parent() {
-        Some(parent) if !parent.as_os_str().is_empty() => parent,
-        _ => Path::new("."),
-    };
-    let name = path
-        .file_name()
-        .ok_or_else(|| io_error(std::io::Error::other("not a file name")))?;
-    let temporary = directory.join(format!(
-        ".{}.{}.tmp",
-        name.to_string_lossy(),
-        std::process::id()
-    ));
-    let result = std::fs::File::create(&temporary)
-        .and_then(|mut file| {
-            file.write_all(bytes)?;
-            file.sync_all()
-        })
-        .and_then(|()| std::fs::rename(&temporary, path));
-    if result.is_err() {
-        let _ = std::fs::remove_file(&temporary);
-    }
-    result.map_err(io_error)
 }

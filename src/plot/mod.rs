@@ -21,7 +21,7 @@ mod seidel;
 mod spot;
 mod wave;
 
-pub use canvas::{Format, Rendered, render, write_atomic, write_plot};
+pub use canvas::{Format, Rendered, render, write_plot};
 pub use chart::{Drawn, PanelDrawn, SeriesDrawn};
 pub use color::wavelength_color;
 pub use curves::{
@@ -52,12 +52,8 @@ pub enum PlotError {
     Draw(String),
     #[error("PNG encoding failed: {0}")]
     Encode(String),
-    #[error("{path}: {source}")]
-    Io {
-        path: String,
-        #[source]
-        source: std::io::Error,
-    },
+    #[error(transparent)]
+    Output(#[from] crate::output::OutputError),
 }
 
 /// A plot that can draw itself on any plotters backend.

@@ -102,6 +102,8 @@ pub enum Problem {
     MultipleStops { surfaces: Vec<usize> },
     #[error("stop has {count} blades; a diaphragm needs at least 3")]
     TooFewBlades { count: u32 },
+    #[error("{0}")]
+    OverLimit(#[from] crate::limits::LimitError),
     #[error("blade curvature {value} is outside 0 (straight edges) ..= 1 (edges on the circle)")]
     BladeCurvatureOutOfRange { value: f64 },
     #[error("unknown glass `{name}`{}", suggest(.suggestions))]

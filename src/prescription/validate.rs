@@ -2,6 +2,7 @@
 
 use super::error::{Location, PrescriptionError, Problem};
 use super::model::{MAX_ASPHERE_TERMS, Medium, Prescription, Shape, StopShape};
+use crate::limits;
 use std::path::PathBuf;
 
 /// Where each surface came from in its file, so errors found after parsing still cite lines.
@@ -49,6 +50,12 @@ pub fn validate(p: &Prescription, map: &SourceMap) -> Result<(), PrescriptionErr
     if p.surfaces.is_empty() {
         return Err(PrescriptionError::new(map.whole_file(), Problem::Empty));
     }
+    limits::check(
+        "the number of surfaces",
+        p.surfaces.len() as u64,
+        limits::MAX_SURFACES,
+    )
+    .map_err(|e| PrescriptionError::new(map.whole_file(), e.into()))?;
     check_medium(
         &p.object_medium,
         Location {
@@ -57,11 +64,46 @@ pub fn validate(p: &Prescription, map: &SourceMap) -> Result<(), PrescriptionErr
             ..Location::default()
         },
     )?;
+    check_provenance(p, map)?;
     for (i, s) in p.surfaces.iter().enumerate() {
         check_surface(i, s, map)?;
     }
     check_stop(p, map)?;
     check_crossings(p, map)
+}
+
+/// The numbers a file claims about itself are printed and compared against: each must be finite
+/// (an f-number positive), and the design wavelength one lensbake can trace at.
+fn check_provenance(p: &Prescription, map: &SourceMap) -> Result<(), PrescriptionError> {
+    let field = |name: &str| Location {
+        file: map.file.clone(),
+        field: Some(format!("provenance.{name}")),
+        ..Location::default()
+    };
+    // A diverging lens claims a negative focal length; an f-number is positive.
+    let claims = [
+        (
+            "claimed_focal_length_mm",
+            p.provenance.claimed_focal_length_mm,
+            -f64::MAX,
+        ),
+        (
+            "claimed_f_number",
+            p.provenance.claimed_f_number,
+            f64::MIN_POSITIVE,
+        ),
+    ];
+    for (name, value, low) in claims {
+        if let Some(value) = value {
+            limits::check_range(name, value, low, f64::MAX)
+                .map_err(|e| PrescriptionError::new(field(name), e.into()))?;
+        }
+    }
+    if let Some(nm) = p.provenance.design_wavelength_nm {
+        limits::check_wavelength(nm)
+            .map_err(|e| PrescriptionError::new(field("design_wavelength_nm"), e.into()))?;
+    }
+    Ok(())
 }
 
 fn finite(value: f64, location: Location) -> Result<(), PrescriptionError> {
@@ -168,6 +210,8 @@ fn check_surface(i: usize, s: &Surface, map: &SourceMap) -> Result<(), Prescript
                 Problem::TooFewBlades { count: *count },
             ));
         }
+        limits::check("the stop's blade count", *count as u64, limits::MAX_BLADES)
+            .map_err(|e| PrescriptionError::new(map.surface(i, "stop"), e.into()))?;
         finite(*rotation_deg, map.surface(i, "stop"))?;
         finite(*blade_curvature, map.surface(i, "stop"))?;
         if !(0.0..=1.0).contains(blade_curvature) {

@@ -117,6 +117,12 @@ impl Camera {
             Focus::FilmZ(z) => z,
             Focus::ObjectDistance(d) => model.paraxial().film_z_for_object(d)?,
         };
+        crate::limits::check_position("the film's z (mm)", film_z)?;
+        crate::limits::check_length("the film width (mm)", film.width_mm)?;
+        crate::limits::check_length("the film height (mm)", film.height_mm)?;
+        for shift in film.shift_mm {
+            crate::limits::check_position("the film shift (mm)", shift)?;
+        }
         let rear = model.paraxial().rear_principal_z;
         if !(film_z.is_finite() && film_z > rear) {
             return Err(RenderError::InvalidSetting(format!(

@@ -14,9 +14,17 @@
 //! factor times `KHR_materials_emissive_strength`, `doubleSided`. Not read: points and lines
 //! (no area), alpha (every surface is opaque), emissive textures, vertex colours, texture
 //! transforms, skins and morph targets (the bind pose is used), lights.
+//!
+//! Hostile files are refused before the `gltf` crate walks them: buffers and images load only
+//! from data: URIs and relative paths inside the file's folder (regular files under the input
+//! limit); nodes must form trees no deeper than [`limits::MAX_SCENE_DEPTH`]; every accessor a
+//! primitive reads must have the component type its attribute allows, no sparse part, and lie
+//! inside its buffer view and buffer (the crate panics on float indices and silently drops
+//! overrunning items); colours must be radiances ([`limits::is_radiance`]).
 
 use super::RenderError;
 use super::mesh::{Filter, Image, Material, MeshScene, Sampler, TextureRef, Triangle, Wrap};
+use crate::limits;
 use gltf::mesh::Mode;
 use nalgebra::Matrix4;
 use std::path::{Path, PathBuf};
@@ -189,13 +197,14 @@ impl Converter<'_> {
             .base_colour
             .iter()
             .chain(&ours.emissive)
-            .all(|v| v.is_finite() && *v >= 0.0);
+            .all(|&v| limits::is_radiance(v as f64));
         if !finite {
             return Err(read_error(
                 self.path,
                 format!(
-                    "material {}: colours must be finite and non-negative",
-                    key.map_or("(default)".to_string(), |k| k.to_string())
+                    "material {}: colours must be finite, non-negative and at most {:e}",
+                    key.map_or("(default)".to_string(), |k| k.to_string()),
+                    limits::MAX_RADIANCE
                 ),
             ));
         }
@@ -239,6 +248,8 @@ impl Converter<'_> {
                     Mode::Points | Mode::Lines | Mode::LineLoop | Mode::LineStrip => continue,
                 };
                 let (material, set) = self.material(primitive.material())?;
+                check_accessors(&primitive, set, buffers)
+                    .map_err(|reason| read_error(self.path, format!("{what}: {reason}")))?;
                 let reader = primitive.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
                 let positions: Vec<[f64; 3]> = reader
                     .read_positions()
@@ -286,6 +297,13 @@ impl Converter<'_> {
                         ),
                     ));
                 }
+                let triangles = self.scene.triangles.len() as u64 + indices.len() as u64 / 3;
+                limits::check(
+                    "the scene's triangle count",
+                    triangles,
+                    limits::MAX_TRIANGLES,
+                )
+                .map_err(|e| read_error(self.path, e.to_string()))?;
                 for corners in corners_of(indices.len()) {
                     let v = corners.map(|c| indices[c]);
                     self.scene.triangles.push(Triangle {
@@ -306,8 +324,49 @@ impl Converter<'_> {
 /// Loads a glTF 2.0 file (`.gltf` or `.glb`) as a mesh scene in the lens frame (see the module
 /// notes for units and camera).
 pub fn load_gltf(path: &Path) -> Result<MeshScene, RenderError> {
-    let (document, buffers, images) = gltf::import(path)
-        .map_err(|e| read_error(path, format!("not a readable glTF 2.0 file: {e}")))?;
+    let bytes = limits::read_input(path).map_err(|e| read_error(path, e.to_string()))?;
+    let unreadable =
+        |e: gltf::Error| read_error(path, format!("not a readable glTF 2.0 file: {e}"));
+    let gltf::Gltf { document, mut blob } = gltf::Gltf::from_slice(&bytes).map_err(unreadable)?;
+    check_node_trees(&document).map_err(|reason| read_error(path, reason))?;
+    let folder = path
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let mut buffers = Vec::new();
+    for buffer in document.buffers() {
+        if let gltf::buffer::Source::Uri(uri) = buffer.source() {
+            check_uri(folder, uri).map_err(|reason| {
+                read_error(path, format!("buffer {}: {reason}", buffer.index()))
+            })?;
+        }
+        let data =
+            gltf::buffer::Data::from_source_and_blob(buffer.source(), Some(folder), &mut blob)
+                .map_err(unreadable)?;
+        if data.len() < buffer.length() {
+            return Err(read_error(
+                path,
+                format!(
+                    "buffer {} holds {} bytes, its byteLength says {}",
+                    buffer.index(),
+                    data.len(),
+                    buffer.length()
+                ),
+            ));
+        }
+        buffers.push(data);
+    }
+    let mut images = Vec::new();
+    for image in document.images() {
+        if let gltf::image::Source::Uri { uri, .. } = image.source() {
+            check_uri(folder, uri)
+                .map_err(|reason| read_error(path, format!("image {}: {reason}", image.index())))?;
+        }
+        images.push(
+            gltf::image::Data::from_source(image.source(), Some(folder), &buffers)
+                .map_err(unreadable)?,
+        );
+    }
     let scene = document
         .default_scene()
         .or_else(|| document.scenes().next())
@@ -332,6 +391,186 @@ pub fn load_gltf(path: &Path) -> Result<MeshScene, RenderError> {
         return Err(read_error(path, "the scene has no triangles".to_string()));
     }
     Ok(converter.scene)
+}
+
+/// Refuses a buffer or image URI that is not a data: URI or a relative path to a regular file
+/// inside `folder` (no absolute path, no `..`, no other scheme, no link out of the folder).
+fn check_uri(folder: &Path, uri: &str) -> Result<(), String> {
+    if uri.starts_with("data:") {
+        return Ok(());
+    }
+    let refuse = |why: &str| {
+        Err(format!(
+            "uri `{}` {why}; only data: URIs and relative paths inside the glTF file's folder are read",
+            uri.chars().take(80).collect::<String>()
+        ))
+    };
+    if uri.contains(':') {
+        return refuse("names a scheme or drive");
+    }
+    let Some(decoded) = percent_decode(uri) else {
+        return refuse("has a malformed percent escape");
+    };
+    let relative = Path::new(&decoded);
+    if relative.as_os_str().is_empty()
+        || !relative.components().all(|c| {
+            matches!(
+                c,
+                std::path::Component::Normal(_) | std::path::Component::CurDir
+            )
+        })
+    {
+        return refuse("leaves the folder");
+    }
+    let full = folder.join(relative);
+    let metadata = std::fs::metadata(&full).map_err(|e| format!("{}: {e}", full.display()))?;
+    if !metadata.is_file() {
+        return refuse("is not a regular file");
+    }
+    limits::check(
+        "the referenced file's size in bytes",
+        metadata.len(),
+        limits::MAX_INPUT_BYTES,
+    )
+    .map_err(|e| e.to_string())?;
+    let inside = match (full.canonicalize(), folder.canonicalize()) {
+        (Ok(file), Ok(folder)) => file.starts_with(folder),
+        _ => false,
+    };
+    if !inside {
+        return refuse("links out of the folder");
+    }
+    Ok(())
+}
+
+/// `%XX` escapes decoded; None when an escape is malformed or the result is not UTF-8.
+fn percent_decode(text: &str) -> Option<String> {
+    let bytes = text.as_bytes();
+    let mut out = Vec::with_capacity(bytes.len());
+    let mut i = 0;
+    while i < bytes.len() {
+        if bytes[i] == b'%' {
+            let hex = std::str::from_utf8(bytes.get(i + 1..i + 3)?).ok()?;
+            out.push(u8::from_str_radix(hex, 16).ok()?);
+            i += 3;
+        } else {
+            out.push(bytes[i]);
+            i += 1;
+        }
+    }
+    String::from_utf8(out).ok()
+}
+
+/// Refuses node graphs that are not trees (a node with two parents, a scene root that is also a
+/// child, so also every cycle reachable from a scene) and trees deeper than
+/// [`limits::MAX_SCENE_DEPTH`], before anything recurses over them.
+fn check_node_trees(document: &gltf::Document) -> Result<(), String> {
+    let mut parents = vec![0usize; document.nodes().len()];
+    for node in document.nodes() {
+        for child in node.children() {
+            parents[child.index()] += 1;
+            if parents[child.index()] > 1 {
+                return Err(format!(
+                    "node {} has more than one parent (glTF nodes form trees)",
+                    child.index()
+                ));
+            }
+        }
+    }
+    for scene in document.scenes() {
+        let mut stack: Vec<(gltf::Node, u64)> = Vec::new();
+        for root in scene.nodes() {
+            if parents[root.index()] > 0 {
+                return Err(format!(
+                    "scene {} lists node {} as a root, but it is a child",
+                    scene.index(),
+                    root.index()
+                ));
+            }
+            stack.push((root, 1));
+        }
+        while let Some((node, depth)) = stack.pop() {
+            limits::check("the node tree's depth", depth, limits::MAX_SCENE_DEPTH)
+                .map_err(|e| e.to_string())?;
+            stack.extend(node.children().map(|child| (child, depth + 1)));
+        }
+    }
+    Ok(())
+}
+
+/// Refuses accessors the `gltf` reader cannot read safely: a component type its attribute does
+/// not allow (the reader panics on float indices), a sparse part, or items beyond the end of the
+/// buffer view or buffer (the reader silently yields fewer).
+fn check_accessors(
+    primitive: &gltf::Primitive,
+    tex_coord_set: u32,
+    buffers: &[gltf::buffer::Data],
+) -> Result<(), String> {
+    use gltf::Semantic;
+    use gltf::accessor::{DataType, Dimensions};
+    let mut checks = Vec::new();
+    if let Some(indices) = primitive.indices() {
+        checks.push((
+            "indices",
+            indices,
+            &[DataType::U8, DataType::U16, DataType::U32][..],
+            Dimensions::Scalar,
+        ));
+    }
+    if let Some(positions) = primitive.get(&Semantic::Positions) {
+        checks.push((
+            "POSITION",
+            positions,
+            &[DataType::F32][..],
+            Dimensions::Vec3,
+        ));
+    }
+    if let Some(uvs) = primitive.get(&Semantic::TexCoords(tex_coord_set)) {
+        checks.push((
+            "TEXCOORD",
+            uvs,
+            &[DataType::U8, DataType::U16, DataType::F32][..],
+            Dimensions::Vec2,
+        ));
+    }
+    for (name, accessor, types, dimensions) in checks {
+        let at = format!("{name} (accessor {})", accessor.index());
+        if !types.contains(&accessor.data_type()) || accessor.dimensions() != dimensions {
+            return Err(format!(
+                "{at} is {:?} {:?}; it must be {dimensions:?} of {types:?}",
+                accessor.dimensions(),
+                accessor.data_type()
+            ));
+        }
+        if accessor.sparse().is_some() {
+            return Err(format!("{at} is sparse, which is not read"));
+        }
+        let view = accessor
+            .view()
+            .ok_or_else(|| format!("{at} has no buffer view"))?;
+        let item = accessor.size();
+        let stride = view.stride().unwrap_or(item);
+        let end = accessor
+            .count()
+            .checked_sub(1)
+            .and_then(|n| n.checked_mul(stride))
+            .and_then(|n| n.checked_add(accessor.offset()))
+            .and_then(|n| n.checked_add(item));
+        let view_end = view.offset().checked_add(view.length());
+        let buffer_length = buffers.get(view.buffer().index()).map(|b| b.len());
+        match (end, view_end, buffer_length) {
+            (Some(end), Some(view_end), Some(buffer_length))
+                if end <= view.length() && view_end <= buffer_length => {}
+            _ => {
+                return Err(format!(
+                    "{at} reaches beyond its buffer view {} or buffer {}",
+                    view.index(),
+                    view.buffer().index()
+                ));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Where a `--scene` argument points: a glTF file by its extension, else None.

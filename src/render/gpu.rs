@@ -1,19 +1,11 @@
-//! The wgpu backend: runs `shaders/ibrt.wgsl` as a compute shader.
+//! The wgpu backend: runs `shaders/ibrt.wgsl` as a compute shader (modules assembled by
+//! [`super::wgsl`]).
 
 use super::RenderError;
 use super::gpu_types::{ChannelParams, FrameParams, LayerData, LensData, LensParams, LensSurface};
+use super::wgsl::{ibrt_shader, lens_trace_shader};
+use std::sync::OnceLock;
 use wgpu::util::DeviceExt;
-
-/// The lens trace alone (bind groups 2 and 3), with the `trace_lens_rays` test entry point.
-pub const LENS_TRACE_SHADER: &str = include_str!("shaders/lens_trace.wgsl");
-/// The renderer: the LRTF sampler (group 0), the lens trace (group 2), the IBRT kernel
-/// (group 1) and the Seidel model (group 3), one module.
-pub const IBRT_SHADER: &str = concat!(
-    include_str!("../lrtf/lrtf_sample.wgsl"),
-    include_str!("shaders/lens_trace.wgsl"),
-    include_str!("shaders/ibrt.wgsl"),
-    include_str!("shaders/seidel_lens.wgsl")
-);
 
 /// Samples per pixel per dispatch: keeps each submission short on slow (software) adapters.
 const SAMPLES_PER_DISPATCH: u32 = 32;
@@ -58,9 +50,10 @@ pub struct GpuRenderer {
     device: wgpu::Device,
     queue: wgpu::Queue,
     pipeline: wgpu::ComputePipeline,
-    trace_pipeline: wgpu::ComputePipeline,
+    /// The ray-by-ray harness `trace_lens_rays`, built on first use (only tests ask for it).
+    trace_pipeline: OnceLock<wgpu::ComputePipeline>,
     /// `render_chromatic`, built on first use so monochrome work never compiles it.
-    chromatic_pipeline: std::sync::OnceLock<wgpu::ComputePipeline>,
+    chromatic_pipeline: OnceLock<wgpu::ComputePipeline>,
     /// The adapter's name and backend, for reports.
     pub adapter_description: String,
 }
@@ -72,8 +65,7 @@ impl GpuRenderer {
         let (device, queue, adapter_description) = open_device("lensbake ibrt")?;
         // Capture validation errors instead of letting wgpu's default handler panic.
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let pipeline = compute_pipeline(&device, IBRT_SHADER, "render");
-        let trace_pipeline = compute_pipeline(&device, LENS_TRACE_SHADER, "trace_lens_rays");
+        let pipeline = compute_pipeline(&device, ibrt_shader(), "render");
         if let Some(error) = pollster::block_on(scope.pop()) {
             return Err(RenderError::Gpu(format!(
                 "building the IBRT pipeline: {error}"
@@ -83,8 +75,8 @@ impl GpuRenderer {
             device,
             queue,
             pipeline,
-            trace_pipeline,
-            chromatic_pipeline: std::sync::OnceLock::new(),
+            trace_pipeline: OnceLock::new(),
+            chromatic_pipeline: OnceLock::new(),
             adapter_description,
         })
     }
@@ -97,17 +89,31 @@ impl GpuRenderer {
 
     /// The `render_chromatic` pipeline, built the first time it is asked for.
     fn chromatic_pipeline(&self) -> Result<&wgpu::ComputePipeline, RenderError> {
-        if let Some(pipeline) = self.chromatic_pipeline.get() {
+        self.pipeline_once(&self.chromatic_pipeline, ibrt_shader(), "render_chromatic")
+    }
+
+    /// The `trace_lens_rays` harness pipeline, built the first time it is asked for.
+    fn trace_pipeline(&self) -> Result<&wgpu::ComputePipeline, RenderError> {
+        self.pipeline_once(&self.trace_pipeline, lens_trace_shader(), "trace_lens_rays")
+    }
+
+    fn pipeline_once<'a>(
+        &self,
+        cell: &'a OnceLock<wgpu::ComputePipeline>,
+        source: &str,
+        entry: &str,
+    ) -> Result<&'a wgpu::ComputePipeline, RenderError> {
+        if let Some(pipeline) = cell.get() {
             return Ok(pipeline);
         }
         let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let pipeline = compute_pipeline(&self.device, IBRT_SHADER, "render_chromatic");
+        let pipeline = compute_pipeline(&self.device, source, entry);
         if let Some(error) = pollster::block_on(scope.pop()) {
             return Err(RenderError::Gpu(format!(
-                "building the chromatic IBRT pipeline: {error}"
+                "building the {entry} pipeline: {error}"
             )));
         }
-        Ok(self.chromatic_pipeline.get_or_init(|| pipeline))
+        Ok(cell.get_or_init(|| pipeline))
     }
 
     fn storage(&self, label: &str, contents: &[u8]) -> wgpu::Buffer {
@@ -232,6 +238,7 @@ impl GpuRenderer {
             .flat_map(|[o, d]| [[o[0], o[1], o[2], 0.0], [d[0], d[1], d[2], 0.0]])
             .collect();
         let bytes = (input.len() * 16) as u64;
+        let pipeline = self.trace_pipeline()?;
         let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
         let rays_in = self.storage("rays in", bytemuck::cast_slice(&input));
         let rays_out = self.device.create_buffer(&wgpu::BufferDescriptor {
@@ -240,7 +247,6 @@ impl GpuRenderer {
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         });
-        let pipeline = &self.trace_pipeline;
         let empty = |group| self.bind_group(pipeline, group, &[]);
         let groups = [
             empty(0),

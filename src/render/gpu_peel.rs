@@ -5,8 +5,6 @@ use super::gpu_types::{PeelData, PeelParams, PeelVertex};
 use super::layers::{Layer, LayeredDepthImage, Surfel, View};
 use wgpu::util::DeviceExt;
 
-pub const PEEL_SHADER: &str = include_str!("shaders/peel.wgsl");
-
 /// Radiance in rgb, depth in a: the layer format both the target and the previous layer use.
 const LAYER_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
 const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
@@ -75,7 +73,7 @@ impl GpuPeeler {
         });
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("peel"),
-            source: wgpu::ShaderSource::Wgsl(PEEL_SHADER.into()),
+            source: wgpu::ShaderSource::Wgsl(super::wgsl::peel_shader().into()),
         });
         let attributes = wgpu::vertex_attr_array![0 => Float32x3, 1 => Uint32];
         let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {

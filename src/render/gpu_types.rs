@@ -29,6 +29,10 @@ pub const TRACE_OK: u32 = 0;
 pub const TRACE_VIGNETTED: u32 = 1;
 pub const TRACE_TIR: u32 = 2;
 pub const TRACE_MISSED: u32 = 3;
+/// The shader's asphere search stops at these (relative) sag residual and step sizes: the f32
+/// counterparts of the f64 tracer's 1e-15 and 1e-14, a few ulps of the quantities involved.
+pub const ASPHERE_SAG_TOLERANCE: f32 = 4e-7;
+pub const ASPHERE_STEP_TOLERANCE: f32 = 1e-6;
 
 /// Uniform block of one dispatch. Mirrors `FrameParams` in the shader.
 #[repr(C)]

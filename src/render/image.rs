@@ -4,6 +4,9 @@
 
 use super::RenderError;
 use super::layers::{LayeredDepthImage, Surfel, View};
+use crate::limits;
+use std::fs::File;
+use std::io::BufWriter;
 use std::path::{Path, PathBuf};
 
 /// Linear RGB radiance, row-major, row 0 at the top.
@@ -30,40 +33,50 @@ impl RgbImage {
     }
 }
 
-fn temp_beside(path: &Path) -> PathBuf {
-    let name = path
-        .file_name()
-        .map_or_else(|| "out".into(), |n| n.to_string_lossy().into_owned());
-    path.with_file_name(format!(".{name}.{}.tmp", std::process::id()))
-}
-
+/// Writes `path` through the one atomic writer, naming the file in any failure.
 fn write_atomically(
     path: &Path,
-    write: impl FnOnce(&Path) -> Result<(), String>,
+    write: impl FnOnce(&mut BufWriter<&File>) -> Result<(), String>,
 ) -> Result<(), RenderError> {
-    let temp = temp_beside(path);
-    let failed = |reason: String| RenderError::Write {
-        path: path.to_path_buf(),
-        reason,
-    };
-    if let Err(reason) = write(&temp) {
-        let _ = std::fs::remove_file(&temp);
-        return Err(failed(reason));
+    crate::output::write_file(path, |out| write(out).map_err(std::io::Error::other)).map_err(
+        |error| RenderError::Write {
+            path: path.to_path_buf(),
+            reason: error.cause(),
+        },
+    )
+}
+
+/// The tone-mapped PNG written beside the EXR `exr_path`. Refuses a path that does not end in
+/// `.exr`, whose PNG would otherwise land on the EXR itself (`--out x.png`).
+pub fn png_beside(exr_path: &Path) -> Result<PathBuf, RenderError> {
+    let is_exr = exr_path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+    if !is_exr {
+        return Err(RenderError::Write {
+            path: exr_path.to_path_buf(),
+            reason: "the image is OpenEXR, so its name must end in .exr (a tone-mapped .png is \
+                     written beside it)"
+                .into(),
+        });
     }
-    std::fs::rename(&temp, path).map_err(|e| {
-        let _ = std::fs::remove_file(&temp);
-        failed(e.to_string())
-    })
+    Ok(exr_path.with_extension("png"))
 }
 
 /// Writes linear R, G, B as 32-bit float channels.
 pub fn write_exr(image: &RgbImage, path: &Path) -> Result<(), RenderError> {
-    write_atomically(path, |temp| {
-        exr::prelude::write_rgb_file(temp, image.width as usize, image.height as usize, |x, y| {
-            let p = image.pixels[y * image.width as usize + x];
-            (p[0], p[1], p[2])
-        })
-        .map_err(|e| e.to_string())
+    use exr::prelude::WritableImage;
+    let channels = exr::prelude::SpecificChannels::rgb(|position: exr::prelude::Vec2<usize>| {
+        let p = image.pixels[position.y() * image.width as usize + position.x()];
+        (p[0], p[1], p[2])
+    });
+    let exr_image =
+        exr::prelude::Image::from_channels((image.width as usize, image.height as usize), channels);
+    write_atomically(path, |out| {
+        exr_image
+            .write()
+            .to_buffered(out)
+            .map_err(|e| e.to_string())
     })
 }
 
@@ -74,10 +87,8 @@ pub fn write_png(image: &RgbImage, exposure: f32, path: &Path) -> Result<(), Ren
         .iter()
         .flat_map(|p| p.map(|c| tone_map(c * exposure)))
         .collect();
-    write_atomically(path, |temp| {
-        let file = std::fs::File::create(temp).map_err(|e| e.to_string())?;
-        let mut encoder =
-            png::Encoder::new(std::io::BufWriter::new(file), image.width, image.height);
+    write_atomically(path, |out| {
+        let mut encoder = png::Encoder::new(out, image.width, image.height);
         encoder.set_color(png::ColorType::Rgb);
         encoder.set_depth(png::BitDepth::Eight);
         let mut writer = encoder.write_header().map_err(|e| e.to_string())?;
@@ -109,8 +120,35 @@ pub fn read_exr_rgbz(
         path: path.to_path_buf(),
         reason,
     };
-    let image =
-        exr::prelude::read_first_flat_layer_from_file(path).map_err(|e| bad(e.to_string()))?;
+    let bytes = crate::limits::read_input(path).map_err(|e| bad(e.to_string()))?;
+    // The header's size is checked before the decoder allocates the pixels it claims.
+    let meta = exr::meta::MetaData::read_from_buffered(std::io::Cursor::new(&bytes), false)
+        .map_err(|e| bad(e.to_string()))?;
+    let header = meta
+        .headers
+        .first()
+        .ok_or_else(|| bad("the file holds no image".into()))?;
+    let (width, height) = (header.layer_size.0 as u64, header.layer_size.1 as u64);
+    for (what, value, limit) in [
+        ("the image's width", width, limits::MAX_IMAGE_SIDE),
+        ("the image's height", height, limits::MAX_IMAGE_SIDE),
+        (
+            "the image's pixel count",
+            width * height,
+            limits::MAX_LAYER_PIXELS,
+        ),
+    ] {
+        limits::check(what, value, limit).map_err(|e| bad(e.to_string()))?;
+    }
+    use exr::prelude::{ReadChannels, ReadLayers};
+    let image = exr::prelude::read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .from_buffered(std::io::Cursor::new(&bytes))
+        .map_err(|e| bad(e.to_string()))?;
     let layer = &image.layer_data;
     let channel = |name: &str| {
         layer
@@ -128,20 +166,27 @@ pub fn read_exr_rgbz(
         width: layer.size.0 as u32,
         height: layer.size.1 as u32,
     };
-    let lists = (0..z.len())
-        .map(|i| {
-            let depth_ok = z[i].is_finite() && z[i] > 0.0;
-            let colour = [r[i], g[i], b[i]];
-            if depth_ok && colour.iter().all(|c| c.is_finite()) {
-                vec![Surfel {
-                    depth_mm: z[i],
-                    radiance: colour,
-                }]
-            } else {
-                Vec::new()
-            }
-        })
-        .collect();
+    let mut lists = Vec::with_capacity(z.len());
+    for i in 0..z.len() {
+        // A pixel without a finite positive depth is background: nothing there.
+        if !(z[i].is_finite() && z[i] > 0.0) {
+            lists.push(Vec::new());
+            continue;
+        }
+        let colour = [r[i], g[i], b[i]];
+        if let Some(c) = colour.iter().find(|&&c| !limits::is_radiance(c as f64)) {
+            return Err(bad(format!(
+                "pixel ({}, {}) has radiance {c}, not a light level in [0, {:e}]",
+                i % view.width.max(1) as usize,
+                i / view.width.max(1) as usize,
+                limits::MAX_RADIANCE
+            )));
+        }
+        lists.push(vec![Surfel {
+            depth_mm: z[i],
+            radiance: colour,
+        }]);
+    }
     Ok(LayeredDepthImage::from_pixel_lists(view, lists, 1))
 }
 
@@ -171,7 +216,7 @@ pub fn write_exr_rgbz(ldi: &LayeredDepthImage, path: &Path) -> Result<(), Render
         Encoding::FAST_LOSSLESS,
         channels,
     ));
-    write_atomically(path, |temp| {
-        image.write().to_file(temp).map_err(|e| e.to_string())
+    write_atomically(path, |out| {
+        image.write().to_buffered(out).map_err(|e| e.to_string())
     })
 }

@@ -15,16 +15,21 @@ use crate::trace::{Tracer, Travel};
 use rayon::prelude::*;
 
 const PI: f32 = std::f32::consts::PI;
-const FOOTPRINT_CLAMP_ITERATIONS: u32 = 3;
-const DEPTH_TOLERANCE: f32 = 1e-5;
+pub(crate) const FOOTPRINT_CLAMP_ITERATIONS: u32 = 3;
+pub(crate) const DEPTH_TOLERANCE: f32 = 1e-5;
 /// Rounding of an inverse depth interpolated along the march, in units of the march's end
 /// values (four f32 ulps): a far layer's w is a small difference of the near end's large w, so a
 /// relative tolerance alone missed a background at 100 km behind a subject at 2 m.
-const DEPTH_SLACK: f32 = 4.0 * f32::EPSILON;
-const NO_CROSSING: f32 = 1e30;
+pub(crate) const DEPTH_SLACK: f32 = 4.0 * f32::EPSILON;
+pub(crate) const NO_CROSSING: f32 = 1e30;
 /// The shader's `MONOCHROME_SAMPLING_BLOCK`: a monochrome render's sampling pupil follows the
 /// coordinate pupil's block.
-const MONOCHROME_SAMPLING_BLOCK: u32 = 1;
+pub(crate) const MONOCHROME_SAMPLING_BLOCK: u32 = 1;
+/// The multipliers of the integer hash `mix_bits` (Wellons' lowbias32).
+pub(crate) const HASH_MULTIPLIER_1: u32 = 0x7feb_352d;
+pub(crate) const HASH_MULTIPLIER_2: u32 = 0x846c_a68b;
+/// 2^32 / golden ratio: the lattice's second coordinate steps by it.
+pub(crate) const LATTICE_GOLDEN: u32 = 0x9e37_79b9;
 
 type Vec2 = [f32; 2];
 type Vec3 = [f32; 3];
@@ -42,9 +47,9 @@ fn mix3(a: Vec3, b: Vec3, t: f32) -> Vec3 {
 pub(crate) fn mix_bits(x: u32) -> u32 {
     let mut h = x;
     h ^= h >> 16;
-    h = h.wrapping_mul(0x7feb352d);
+    h = h.wrapping_mul(HASH_MULTIPLIER_1);
     h ^= h >> 15;
-    h = h.wrapping_mul(0x846ca68b);
+    h = h.wrapping_mul(HASH_MULTIPLIER_2);
     h ^= h >> 16;
     h
 }
@@ -57,7 +62,7 @@ fn unit_from_bits(bits: u32) -> f32 {
 pub(crate) fn lattice_point(index: u32, count: u32, scramble_x: u32, scramble_y: u32) -> Vec2 {
     let stratum = 0xffff_ffff / count.max(1);
     let x_bits = index.wrapping_mul(stratum).wrapping_add(scramble_x);
-    let y_bits = index.wrapping_mul(0x9e37_79b9).wrapping_add(scramble_y);
+    let y_bits = index.wrapping_mul(LATTICE_GOLDEN).wrapping_add(scramble_y);
     [unit_from_bits(x_bits), unit_from_bits(y_bits)]
 }
 

@@ -24,7 +24,9 @@ pub mod mesh_trace;
 pub mod raster;
 pub mod reference;
 pub mod scene;
+pub mod wgsl;
 
+use crate::limits;
 use camera::Camera;
 use gpu_types::{LayerData, LensData, frame_params};
 use image::RgbImage;
@@ -35,6 +37,8 @@ use std::path::PathBuf;
 pub enum RenderError {
     #[error("{0}")]
     InvalidSetting(String),
+    #[error(transparent)]
+    Limit(#[from] crate::limits::LimitError),
     #[error(transparent)]
     Model(#[from] crate::model::ModelError),
     #[error("the scene has no surface in view")]
@@ -68,7 +72,9 @@ pub struct RenderSettings {
 }
 
 impl RenderSettings {
-    pub(crate) fn check(&self) -> Result<(), RenderError> {
+    /// Refuses settings that are zero or over the size policy ([`crate::limits`]), before anything
+    /// is allocated for them.
+    pub fn check(&self) -> Result<(), RenderError> {
         if self.width == 0
             || self.height == 0
             || self.samples_per_pixel == 0
@@ -78,6 +84,29 @@ impl RenderSettings {
                 "width, height, samples per pixel and layer cap must be positive (got {}x{}, {} spp, {} layers)",
                 self.width, self.height, self.samples_per_pixel, self.max_layers
             )));
+        }
+        let pixels = limits::product(&[self.width as u64, self.height as u64]);
+        for (what, value, limit) in [
+            ("the image width", self.width as u64, limits::MAX_IMAGE_SIDE),
+            (
+                "the image height",
+                self.height as u64,
+                limits::MAX_IMAGE_SIDE,
+            ),
+            ("the pixel count", pixels, limits::MAX_IMAGE_PIXELS),
+            (
+                "samples per pixel",
+                self.samples_per_pixel as u64,
+                limits::MAX_SAMPLES_PER_PIXEL,
+            ),
+            (
+                "samples per image (pixels x samples per pixel)",
+                limits::product(&[pixels, self.samples_per_pixel as u64]),
+                limits::MAX_RENDER_SAMPLES,
+            ),
+            ("the layer cap", self.max_layers as u64, limits::MAX_LAYERS),
+        ] {
+            limits::check(what, value, limit)?;
         }
         Ok(())
     }

@@ -35,11 +35,11 @@ use rayon::prelude::*;
 /// which two layers are one surface to it.
 pub const PEEL_SEPARATION: f64 = 1e-5;
 /// Depth returned for "beyond everything" (the end of an unbounded umbra); above any fragment.
-const BEYOND_ALL: f32 = 3.0e38;
+pub(crate) const BEYOND_ALL: f32 = 3.0e38;
 /// A fragment deeper than this is a grazing hit's overflow, not a surface.
-const MAX_DEPTH: f32 = 1.0e30;
+pub(crate) const MAX_DEPTH: f32 = 1.0e30;
 /// Texture coordinates are clamped to +-2^24 texels before indexing (exact in f32 and i32).
-const TEXEL_LIMIT: f32 = 16_777_216.0;
+pub(crate) const TEXEL_LIMIT: f32 = 16_777_216.0;
 /// Mesh layer views size their margin for geometry no nearer than this many entrance-pupil
 /// radii; nearer geometry is so blurred that its border pixels may miss a little of it.
 pub const MARGIN_DEPTH_PUPIL_RADII: f64 = 20.0;

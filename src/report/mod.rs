@@ -8,18 +8,15 @@ mod wave_figures;
 pub use figures::{Figure, FigureError, FigureOptions, PlotKind, figure};
 pub use page::{Page, PlotEntry, Table, analysis_tables};
 
-use crate::plot::{PlotError, write_atomic, write_plot};
+use crate::output::{OutputError, publish_dir, write_bytes};
+use crate::plot::{PlotError, write_plot};
 use crate::system::LensSystem;
 use std::path::{Path, PathBuf};
 
 #[derive(Debug, thiserror::Error)]
 pub enum ReportError {
-    #[error("{path}: {source}")]
-    Io {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
+    #[error(transparent)]
+    Output(#[from] OutputError),
     #[error("{kind} plot of {lens}: {source}")]
     Plot {
         lens: String,
@@ -38,17 +35,27 @@ pub struct Written {
     pub skipped: Vec<(PlotKind, String)>,
 }
 
-/// Writes the report of `system` into `directory` (created if missing).
+/// Publishes the report of `system` as the directory `directory`: the old report stays whole
+/// until the new one is complete ([`publish_dir`]).
 pub fn write_report(
     lens: &str,
     system: &LensSystem,
     options: &FigureOptions,
     directory: &Path,
 ) -> Result<Written, ReportError> {
-    std::fs::create_dir_all(directory).map_err(|source| ReportError::Io {
-        path: directory.to_path_buf(),
-        source,
-    })?;
+    publish_dir(directory, |stage| {
+        fill_report(lens, system, options, stage, directory)
+    })
+}
+
+/// Writes the report's files into `stage`, listing them as they will be named in `directory`.
+fn fill_report(
+    lens: &str,
+    system: &LensSystem,
+    options: &FigureOptions,
+    stage: &Path,
+    directory: &Path,
+) -> Result<Written, ReportError> {
     let mut page = Page::for_lens(lens, system);
     let wavelength_nm = options
         .wavelengths_nm
@@ -74,17 +81,16 @@ pub fn write_report(
         match figure(kind, lens, system, options) {
             Ok(view) => {
                 let file = format!("{}.png", kind.name());
-                let path = directory.join(&file);
-                write_plot(&view, &path).map_err(|source| ReportError::Plot {
+                write_plot(&view, &stage.join(&file)).map_err(|source| ReportError::Plot {
                     lens: lens.to_string(),
                     kind,
                     source,
                 })?;
+                written.files.push(directory.join(&file));
                 page.plots.push(PlotEntry {
                     file,
                     caption: kind.describe().to_string(),
                 });
-                written.files.push(path);
             }
             Err(FigureError::Plot(source)) => {
                 return Err(ReportError::Plot {
@@ -101,19 +107,8 @@ pub fn write_report(
         }
     }
     for (file, text) in [("README.md", page.markdown()), ("index.html", page.html())] {
-        let path = directory.join(file);
-        write_atomic(&path, text.as_bytes()).map_err(|error| match error {
-            PlotError::Io { source, .. } => ReportError::Io {
-                path: path.clone(),
-                source,
-            },
-            other => ReportError::Plot {
-                lens: lens.to_string(),
-                kind: PlotKind::Layout,
-                source: other,
-            },
-        })?;
-        written.files.push(path);
+        write_bytes(&stage.join(file), text.as_bytes())?;
+        written.files.push(directory.join(file));
     }
     Ok(written)
 }

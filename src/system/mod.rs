@@ -99,6 +99,9 @@ impl LensSystem {
                 PrescriptionError::new(SourceMap::default().surface(i, "medium"), problem)
             })?;
         }
+        // After the media, whose own ranges name the surface; this bounds constant indices too.
+        crate::limits::check_wavelength(wavelength_nm)
+            .map_err(|e| PrescriptionError::new(Location::default(), e.into()))?;
         Ok(self.at(wavelength_nm))
     }
 

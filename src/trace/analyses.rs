@@ -281,6 +281,17 @@ impl RealRays {
             .map(|&field| {
                 let real_height = self.chief_height(field)?;
                 let paraxial_height = self.ideal_height(field)?;
+                if field == 0.0 {
+                    // On axis both heights are zero and distortion, the limit of their relative
+                    // difference, is zero by definition (the ratio itself would be 0/0).
+                    return Ok(DistortionPoint {
+                        field,
+                        real_height,
+                        paraxial_height,
+                        percent: 0.0,
+                        percent_f_theta: self.paraxial.object_distance.is_none().then_some(0.0),
+                    });
+                }
                 let percent_f_theta = self.paraxial.object_distance.is_none().then(|| {
                     let theta = field.to_radians();
                     let reference = (f * theta).copysign(paraxial_height);

@@ -65,7 +65,12 @@ pub(crate) struct Hit {
 }
 
 /// Most Newton steps an asphere intersection may take before it is declared missed.
-const ASPHERE_MAX_STEPS: usize = 40;
+pub(crate) const ASPHERE_MAX_STEPS: usize = 40;
+/// The asphere search stops when the sag residual is below this times (1 + search radius), or
+/// when a step moves the ray parameter t by less than [`ASPHERE_STEP_TOLERANCE`] (1 + |t|): a
+/// few f64 ulps of the quantities involved.
+const ASPHERE_SAG_TOLERANCE: f64 = 1e-15;
+const ASPHERE_STEP_TOLERANCE: f64 = 1e-14;
 
 /// Meets a plane z = 0: only when the ray crosses it in the travel sense.
 #[inline(always)]
@@ -224,7 +229,7 @@ pub(crate) fn even_asphere(
         // g(t) = sag(r(t)) - z(t): positive while the point is on the object side.
         let g = sag - q[2];
         let gradient = [2.0 * slope * q[0], 2.0 * slope * q[1], -1.0];
-        if g.abs() <= 1e-15 * scale {
+        if g.abs() <= ASPHERE_SAG_TOLERANCE * scale {
             return finish_asphere(q, gradient, d, sense);
         }
         if g > 0.0 {
@@ -244,7 +249,7 @@ pub(crate) fn even_asphere(
                 next = 0.5 * (lo + hi);
             }
         }
-        if (next - t).abs() <= 1e-14 * (1.0 + t.abs()) {
+        if (next - t).abs() <= ASPHERE_STEP_TOLERANCE * (1.0 + t.abs()) {
             return finish_asphere(q, gradient, d, sense);
         }
         t = next;

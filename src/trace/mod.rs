@@ -24,6 +24,8 @@ mod refract;
 pub use aim::{AimError, RaySource, aim_at_stop, traceable_field_deg};
 pub use batch::{BatchTrace, RayBatch};
 pub use bundle::FieldBundle;
+#[cfg(feature = "render")]
+pub(crate) use intersect::ASPHERE_MAX_STEPS;
 pub(crate) use lanes::{LANES, LaneVisitor, Lanes};
 
 use crate::paraxial::Pupil;
@@ -49,6 +51,52 @@ pub enum RayError {
     NonFinite { what: &'static str, value: Vec3 },
     #[error("ray direction {0:?} has zero length")]
     ZeroDirection(Vec3),
+    #[error(
+        "ray starts at z = {z} mm, {} surface {surface} (z = {surface_z} mm at its height): a {} ray must start {} the lens",
+        if *.forward { "behind" } else { "in front of" },
+        if *.forward { "forward" } else { "backward" },
+        if *.forward { "in front of" } else { "behind" }
+    )]
+    StartsInside {
+        z: f64,
+        surface: usize,
+        surface_z: f64,
+        forward: bool,
+    },
+}
+
+/// Refuses a ray that starts on the wrong side of the lens for its travel: a forward ray must
+/// start in front of surface 1 (at or below its z at the ray's height, the rim's z beyond the
+/// clear aperture), a backward ray behind the last surface. The tracer looks only for crossings
+/// ahead of the ray, so a ray starting inside the glass would otherwise be traced as if it
+/// started outside.
+pub fn check_start(system: &SystemAt, ray: &Ray, travel: Travel) -> Result<(), RayError> {
+    let forward = travel == Travel::Forward;
+    let index = if forward {
+        0
+    } else {
+        system.surfaces.len().saturating_sub(1)
+    };
+    let Some(surface) = system.surfaces.get(index) else {
+        return Ok(());
+    };
+    let [x, y, z] = ray.position;
+    let height = x.hypot(y).min(surface.geometric_semi_aperture);
+    let surface_z = surface.vertex_z + surface.shape.sag(height).unwrap_or(0.0);
+    let wrong_side = if forward {
+        z > surface_z
+    } else {
+        z < surface_z
+    };
+    if wrong_side {
+        return Err(RayError::StartsInside {
+            z,
+            surface: index + 1,
+            surface_z,
+            forward,
+        });
+    }
+    Ok(())
 }
 
 impl Ray {
@@ -59,14 +107,21 @@ impl Ray {
                 return Err(RayError::NonFinite { what, value });
             }
         }
-        let length = dot(direction, direction).sqrt();
-        if !(length > 0.0 && length.is_finite()) {
+        // Scaled first, so a direction such as (1e308, 0, 0) is not mistaken for zero length
+        // when its squared length overflows.
+        let largest = direction.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        if largest == 0.0 {
             return Err(RayError::ZeroDirection(direction));
         }
+        let length = dot(direction, direction).sqrt();
         let direction = if length == 1.0 {
             direction
-        } else {
+        } else if length.is_finite() && length > f64::MIN_POSITIVE {
             direction.map(|v| v / length)
+        } else {
+            let scaled = direction.map(|v| v / largest);
+            let scaled_length = dot(scaled, scaled).sqrt();
+            scaled.map(|v| v / scaled_length)
         };
         Ok(Ray {
             position,

@@ -137,6 +137,13 @@ pub fn render_costs(
         seed: bench.seed,
         max_layers: 8,
     };
+    settings.check()?;
+    crate::limits::check(
+        "the frames timed per model",
+        bench.frames as u64,
+        crate::limits::MAX_RENDER_FRAMES,
+    )
+    .map_err(crate::render::RenderError::from)?;
     let scene = Scene::demo();
     let nearest = scene.nearest_distance_mm().unwrap_or(1000.0) + reference.eye_z();
     // Every model shares the traced camera's eye (the entrance pupil), so one set of layers.

@@ -535,3 +535,11 @@ pub fn cartesian_singlet(
 pub fn f095_singlet(as_asphere: bool) -> lensbake::system::LensSystem {
     cartesian_singlet(1.8, 20.0, 20.0, 23.7, as_asphere)
 }
+
+/// A table sidecar's text with its fields' checksum recomputed, as a faulty writer would have
+/// sealed it, so a test reaches the checks behind the checksum.
+pub fn sealed(text: &str) -> String {
+    let mut sidecar: lensbake::lrtf::io::Sidecar = ron::from_str(text).unwrap();
+    sidecar.sidecar_crc32 = Some(sidecar.fields_checksum());
+    ron::ser::to_string_pretty(&sidecar, ron::ser::PrettyConfig::default()).unwrap()
+}

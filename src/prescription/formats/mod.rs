@@ -29,7 +29,7 @@ use super::error::{Location, PrescriptionError, Problem};
 use super::model::{MAX_ASPHERE_TERMS, Medium, Prescription, Shape};
 use super::validate::SourceMap;
 use std::fmt;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::str::FromStr;
 
 /// A lens file format.
@@ -260,7 +260,7 @@ pub fn read_file(path: &Path, options: &LoadOptions) -> Result<Loaded, Prescript
         None => Format::from_path(path)
             .map_err(|problem| PrescriptionError::new(Location::file(path), problem))?,
     };
-    let bytes = std::fs::read(path)
+    let bytes = crate::limits::read_input(path)
         .map_err(|e| PrescriptionError::new(Location::file(path), Problem::Io(e.to_string())))?;
     read_bytes(&bytes, Some(path), format, options)
 }
@@ -274,33 +274,8 @@ pub fn write_ron(p: &Prescription) -> String {
 /// Writes the canonical RON of `p` to `path` atomically: the text goes to a temporary file in the
 /// same directory, which then replaces `path` in one rename, so a reader never sees half a file.
 pub fn write_ron_file(path: &Path, p: &Prescription) -> Result<(), PrescriptionError> {
-    let io_error = |e: std::io::Error| {
-        PrescriptionError::new(Location::file(path), Problem::Io(e.to_string()))
-    };
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    let name = path
-        .file_name()
-        .ok_or_else(|| io_error(std::io::Error::other("the output path names no file")))?;
-    let temp = dir.join(format!(
-        ".{}.tmp-{}",
-        name.to_string_lossy(),
-        std::process::id()
-    ));
-    let result = (|| {
-        use std::io::Write;
-        let mut f = std::fs::File::create(&temp)?;
-        f.write_all(write_ron(p).as_bytes())?;
-        f.sync_all()?;
-        std::fs::rename(&temp, path)
-    })();
-    if result.is_err() {
-        // Best effort: the temporary file is ours and useless after a failure.
-        let _ = std::fs::remove_file(&temp);
-    }
-    result.map_err(io_error)
+    crate::output::write_bytes(path, write_ron(p).as_bytes())
+        .map_err(|error| PrescriptionError::new(Location::file(path), Problem::Io(error.cause())))
 }
 
 /// Decodes file bytes to text; on failure, the 1-based line of the first bad byte.

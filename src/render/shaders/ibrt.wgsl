@@ -8,7 +8,7 @@
 //
 // This file is compiled after src/lrtf/lrtf_sample.wgsl (bind group 0: the baked table and the
 // pupil circles every model samples in) and lens_trace.wgsl (group 2: the surfaces), and before
-// seidel_lens.wgsl (group 3: the Seidel polynomial); see IBRT_SHADER in gpu.rs.
+// seidel_lens.wgsl (group 3: the Seidel polynomial); see ibrt_shader in src/render/wgsl.rs.
 
 struct FrameParams {
     width: u32,
@@ -80,27 +80,16 @@ struct ChannelParams {
 
 @group(1) @binding(5) var<uniform> channels: ChannelParams;
 
-const PI: f32 = 3.14159265358979;
-const MODEL_PARAXIAL: u32 = 0u;
-const MODEL_TRACED: u32 = 1u;
-const MODEL_BAKED: u32 = 2u;
-const MODEL_SEIDEL: u32 = 3u;
-const FOOTPRINT_CLAMP_ITERATIONS: u32 = 3u;
-const DEPTH_TOLERANCE: f32 = 1e-5;
-// Rounding of an inverse depth interpolated along the march, in units of the march's end values
-// (four f32 ulps): a far layer's w is a small difference of the near end's large w.
-const DEPTH_SLACK: f32 = 4.0 * 1.1920929e-7;
-const NO_CROSSING: f32 = 1e30;
-// The block of lrtf_pupil a monochrome render samples lenses from: the sampling pupil, after the
-// coordinate pupil's block.
-const MONOCHROME_SAMPLING_BLOCK: u32 = 1u;
+// PI, MODEL_*, FOOTPRINT_CLAMP_ITERATIONS, DEPTH_TOLERANCE, DEPTH_SLACK, NO_CROSSING,
+// MONOCHROME_SAMPLING_BLOCK and the hash constants come from the Rust prelude
+// (src/render/wgsl.rs; the values and their reasons are in src/render/kernel.rs).
 
 fn mix_bits(x: u32) -> u32 {
     var h = x;
     h ^= h >> 16u;
-    h *= 0x7feb352du;
+    h *= HASH_MULTIPLIER_1;
     h ^= h >> 15u;
-    h *= 0x846ca68bu;
+    h *= HASH_MULTIPLIER_2;
     h ^= h >> 16u;
     return h;
 }
@@ -115,7 +104,7 @@ fn unit_from_bits(bits: u32) -> f32 {
 fn lattice_point(index: u32, count: u32, scramble_x: u32, scramble_y: u32) -> vec2<f32> {
     let stratum = 0xffffffffu / max(count, 1u);
     let x_bits = index * stratum + scramble_x;
-    let y_bits = index * 0x9e3779b9u + scramble_y;
+    let y_bits = index * LATTICE_GOLDEN + scramble_y;
     return vec2<f32>(unit_from_bits(x_bits), unit_from_bits(y_bits));
 }
 

@@ -51,14 +51,8 @@ struct PeelTexture {
     pad1: u32,
 }
 
-const PEEL_UMBRA: u32 = 1u;
-const WRAP_REPEAT: u32 = 0u;
-const WRAP_CLAMP: u32 = 1u;
-const FILTER_NEAREST: u32 = 0u;
-const NO_TEXTURE: u32 = 0xffffffffu;
-const BEYOND_ALL: f32 = 3.0e38;
-const MAX_DEPTH: f32 = 1.0e30;
-const TEXEL_LIMIT: f32 = 16777216.0;
+// PEEL_UMBRA, WRAP_*, FILTER_NEAREST, NO_TEXTURE, BEYOND_ALL, MAX_DEPTH and TEXEL_LIMIT come
+// from the Rust prelude (src/render/wgsl.rs; gpu_types.rs and raster.rs).
 
 @group(0) @binding(0) var<uniform> params: PeelParams;
 @group(0) @binding(1) var<storage, read> triangles: array<PeelTriangle>;

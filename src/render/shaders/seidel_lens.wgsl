@@ -4,7 +4,7 @@
 // src/render/models.rs, which the tests compare it with ray by ray.
 //
 // Compiled after ibrt.wgsl (it uses `ObjectRay`, `blocked_ray` and `paraxial_lens_ray`, which
-// reads the thick lens from `frame`); bind group 3. See IBRT_SHADER in gpu.rs.
+// reads the thick lens from `frame`); bind group 3. See ibrt_shader in src/render/wgsl.rs.
 
 // Mirrors `SeidelParams` in src/render/gpu_types.rs. Coefficients in mm of the monomials of
 // normalised field h and pupil (px across the field direction, py along it):
@@ -27,10 +27,8 @@ struct SeidelParams {
 
 @group(3) @binding(0) var<uniform> seidel: SeidelParams;
 
-// SEIDEL_INVERSE_STEPS, SEIDEL_CONVERGED_MM and SEIDEL_SETTLED_MM in src/render/models.rs.
-const SEIDEL_INVERSE_STEPS: u32 = 16u;
-const SEIDEL_CONVERGED_MM: f32 = 1e-5;
-const SEIDEL_SETTLED_MM: f32 = 1e-3;
+// SEIDEL_INVERSE_STEPS, SEIDEL_CONVERGED_MM and SEIDEL_SETTLED_MM come from the Rust prelude
+// (src/render/models.rs).
 
 // Transverse aberration (mm) of the ray to Gaussian image point `g` through normalised
 // exit-pupil point `p`.

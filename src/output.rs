@@ -1,0 +1,326 @@
+//! Publishing results. Every file lensbake writes goes through [`write_file`] (a uniquely named
+//! temporary file in the destination's directory, fsynced, renamed over the destination, the
+//! directory fsynced), and every result that is a directory of files through [`publish_dir`]
+//! (the files are staged in a temporary directory beside the destination, which then takes the
+//! destination's place in one exchange). A reader, or a run killed at any instant, therefore sees
+//! the old complete result or the new complete one, never a mixture.
+//!
+//! Temporary names are `.<destination name>.<process id>.<random>.tmp`, so two writers never
+//! share one, and a later writer to the same destination removes the ones whose process is gone
+//! (a run killed by SIGKILL cannot clean up after itself).
+
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+/// Written into every published directory: its presence says lensbake may replace the directory
+/// as a whole.
+pub const PUBLISHED_MARKER: &str = ".lensbake-output";
+
+#[derive(Debug, thiserror::Error)]
+pub enum OutputError {
+    #[error("writing {path}: {source}")]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("refusing to replace {path}: {reason}")]
+    Refused { path: PathBuf, reason: String },
+}
+
+impl OutputError {
+    /// The cause without the path, for errors that name the path themselves.
+    pub fn cause(&self) -> String {
+        match self {
+            OutputError::Io { source, .. } => source.to_string(),
+            OutputError::Refused { reason, .. } => format!("refusing to replace it: {reason}"),
+        }
+    }
+
+    fn io(path: &Path) -> impl FnOnce(std::io::Error) -> OutputError + '_ {
+        move |source| OutputError::Io {
+            path: path.to_path_buf(),
+            source,
+        }
+    }
+}
+
+/// The directory holding `path` ("." for a bare file name).
+fn parent_of(path: &Path) -> &Path {
+    match path.parent() {
+        Some(parent) if !parent.as_os_str().is_empty() => parent,
+        _ => Path::new("."),
+    }
+}
+
+fn name_of(path: &Path) -> Result<String, OutputError> {
+    path.file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .ok_or_else(|| OutputError::Refused {
+            path: path.to_path_buf(),
+            reason: "the path names no file or directory".into(),
+        })
+}
+
+/// Creates (with `create`) a temporary file or directory named for the destination `name`:
+/// `.<name>.<pid>.<random>.tmp`.
+fn temporary<R>(
+    name: &str,
+    create: impl FnOnce(&tempfile::Builder) -> std::io::Result<R>,
+) -> std::io::Result<R> {
+    let prefix = format!(".{name}.{}.", std::process::id());
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(&prefix).suffix(".tmp");
+    create(&builder)
+}
+
+/// Removes temporary files and directories left beside `name` in `dir` by writers that no longer
+/// run. Only Linux can tell a live process from a dead one (`/proc`); elsewhere nothing is
+/// removed, since the writer may still be at work.
+fn remove_abandoned(dir: &Path, name: &str) {
+    if !Path::new("/proc/self").exists() {
+        return;
+    }
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    let prefix = format!(".{name}.");
+    for entry in entries.flatten() {
+        let file_name = entry.file_name().to_string_lossy().into_owned();
+        let Some(rest) = file_name
+            .strip_prefix(&prefix)
+            .and_then(|r| r.strip_suffix(".tmp"))
+        else {
+            continue;
+        };
+        let Some(pid) = rest.split('.').next().and_then(|p| p.parse::<u32>().ok()) else {
+            continue;
+        };
+        if pid != std::process::id() && !Path::new(&format!("/proc/{pid}")).exists() {
+            let path = entry.path();
+            let _ = if path.is_dir() {
+                std::fs::remove_dir_all(&path)
+            } else {
+                std::fs::remove_file(&path)
+            };
+        }
+    }
+}
+
+/// Makes a rename inside `dir` durable. Best effort: some file systems refuse to fsync a
+/// directory, and the rename itself has already happened.
+fn sync_dir(dir: &Path) {
+    if let Ok(handle) = File::open(dir) {
+        let _ = handle.sync_all();
+    }
+}
+
+/// Writes `path` atomically: `write` fills a buffered temporary file beside it, which is flushed,
+/// fsynced and renamed over `path`. On any failure the temporary file is removed and `path` is
+/// untouched.
+pub fn write_file(
+    path: &Path,
+    write: impl FnOnce(&mut BufWriter<&File>) -> std::io::Result<()>,
+) -> Result<(), OutputError> {
+    let dir = parent_of(path);
+    let name = name_of(path)?;
+    remove_abandoned(dir, &name);
+    let temp = temporary(&name, |b| b.tempfile_in(dir)).map_err(OutputError::io(path))?;
+    {
+        let mut buffered = BufWriter::new(temp.as_file());
+        write(&mut buffered)
+            .and_then(|()| buffered.flush())
+            .map_err(OutputError::io(path))?;
+    }
+    temp.as_file().sync_all().map_err(OutputError::io(path))?;
+    temp.persist(path)
+        .map_err(|error| OutputError::io(path)(error.error))?;
+    sync_dir(dir);
+    Ok(())
+}
+
+/// [`write_file`] of a byte string.
+pub fn write_bytes(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
+    write_file(path, |out| out.write_all(bytes))
+}
+
+/// Publishes the directory `dest` as a whole: `fill` writes the new contents into a staging
+/// directory beside `dest`, which then replaces `dest` in one exchange (Linux `renameat2`
+/// RENAME_EXCHANGE; elsewhere two renames, with a window where `dest` is absent). If `fill` fails,
+/// or the process dies first, `dest` keeps its old contents.
+///
+/// An existing `dest` is replaced only when it is empty, was published by lensbake (it holds
+/// [`PUBLISHED_MARKER`]), or holds nothing the new contents do not also name: a directory of the
+/// user's own files is never swept away by a mistyped `--out`.
+pub fn publish_dir<T, E: From<OutputError>>(
+    dest: &Path,
+    fill: impl FnOnce(&Path) -> Result<T, E>,
+) -> Result<T, E> {
+    let parent = parent_of(dest);
+    let name = name_of(dest)?;
+    if dest.exists() && !dest.is_dir() {
+        return Err(OutputError::Refused {
+            path: dest.to_path_buf(),
+            reason: "it is not a directory".into(),
+        }
+        .into());
+    }
+    std::fs::create_dir_all(parent).map_err(OutputError::io(parent))?;
+    remove_abandoned(parent, &name);
+    let staging = temporary(&name, |b| b.tempdir_in(parent)).map_err(OutputError::io(dest))?;
+    let value = fill(staging.path())?;
+    write_bytes(
+        &staging.path().join(PUBLISHED_MARKER),
+        b"Written by lensbake, which replaces this directory as a whole on its next run.\n",
+    )?;
+    check_replaceable(dest, staging.path())?;
+    sync_dir(staging.path());
+    let staged = staging.keep();
+    swap_into_place(&staged, dest).inspect_err(|_| {
+        let _ = std::fs::remove_dir_all(&staged);
+    })?;
+    sync_dir(parent);
+    Ok(value)
+}
+
+fn check_replaceable(dest: &Path, staged: &Path) -> Result<(), OutputError> {
+    let Ok(entries) = std::fs::read_dir(dest) else {
+        return Ok(());
+    };
+    if dest.join(PUBLISHED_MARKER).exists() {
+        return Ok(());
+    }
+    for entry in entries {
+        let entry = entry.map_err(OutputError::io(dest))?;
+        if !staged.join(entry.file_name()).exists() {
+            return Err(OutputError::Refused {
+                path: dest.to_path_buf(),
+                reason: format!(
+                    "it holds {}, which this run does not write and lensbake did not publish; \
+                     move it away or choose another output directory",
+                    entry.file_name().to_string_lossy()
+                ),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Puts the directory `staged` at `dest`; the old `dest`, if any, is removed afterwards.
+fn swap_into_place(staged: &Path, dest: &Path) -> Result<(), OutputError> {
+    if !dest.exists() {
+        return std::fs::rename(staged, dest).map_err(OutputError::io(dest));
+    }
+    #[cfg(target_os = "linux")]
+    {
+        use rustix::fs::{CWD, RenameFlags, renameat_with};
+        if renameat_with(CWD, staged, CWD, dest, RenameFlags::EXCHANGE).is_ok() {
+            // `staged` now names the old contents.
+            let _ = std::fs::remove_dir_all(staged);
+            return Ok(());
+        }
+    }
+    let parent = parent_of(dest);
+    let old = temporary(&name_of(dest)?, |b| b.tempdir_in(parent))
+        .map_err(OutputError::io(dest))?
+        .keep();
+    std::fs::remove_dir(&old).map_err(OutputError::io(dest))?;
+    std::fs::rename(dest, &old).map_err(OutputError::io(dest))?;
+    if let Err(source) = std::fs::rename(staged, dest) {
+        let _ = std::fs::rename(&old, dest);
+        return Err(OutputError::io(dest)(source));
+    }
+    let _ = std::fs::remove_dir_all(&old);
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scratch(name: &str) -> PathBuf {
+        let dir =
+            std::env::temp_dir().join(format!("lensbake-output-{}-{name}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        dir
+    }
+
+    fn names(dir: &Path) -> Vec<String> {
+        let mut names: Vec<String> = std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        names.sort();
+        names
+    }
+
+    #[test]
+    fn a_failed_write_leaves_the_old_file_and_no_temporary() {
+        let dir = scratch("failed-write");
+        let path = dir.join("a.txt");
+        write_bytes(&path, b"old").unwrap();
+        let result = write_file(&path, |out| {
+            out.write_all(b"half")?;
+            Err(std::io::Error::other("encoder failed"))
+        });
+        assert!(result.is_err());
+        assert_eq!(std::fs::read(&path).unwrap(), b"old");
+        assert_eq!(names(&dir), ["a.txt"]);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn temporaries_of_dead_writers_are_removed_and_live_ones_kept() {
+        let dir = scratch("abandoned");
+        // Process id 0 is never a user process, so its temporary file is abandoned.
+        std::fs::write(dir.join(".a.txt.0.x1.tmp"), b"stray").unwrap();
+        let live = format!(".a.txt.{}.x2.tmp", std::process::id());
+        std::fs::write(dir.join(&live), b"in progress").unwrap();
+        write_bytes(&dir.join("a.txt"), b"new").unwrap();
+        assert_eq!(names(&dir), [live, "a.txt".to_string()]);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_published_directory_is_replaced_whole_and_a_failed_one_not_at_all() {
+        let dir = scratch("publish");
+        let dest = dir.join("out");
+        let publish = |files: &[&str]| {
+            publish_dir(&dest, |stage| -> Result<(), OutputError> {
+                for file in files {
+                    write_bytes(&stage.join(file), file.as_bytes())?;
+                }
+                Ok(())
+            })
+        };
+        publish(&["a", "b"]).unwrap();
+        publish(&["c"]).unwrap();
+        assert_eq!(names(&dest), [PUBLISHED_MARKER, "c"]);
+        let failed = publish_dir(&dest, |stage| -> Result<(), OutputError> {
+            write_bytes(&stage.join("d"), b"d")?;
+            Err(OutputError::Refused {
+                path: stage.to_path_buf(),
+                reason: "a bad argument found late".into(),
+            })
+        });
+        assert!(failed.is_err());
+        assert_eq!(names(&dest), [PUBLISHED_MARKER, "c"]);
+        assert_eq!(names(&dir), ["out"], "no staging directory is left");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_directory_of_foreign_files_is_not_replaced() {
+        let dir = scratch("foreign");
+        std::fs::write(dir.join("thesis.tex"), b"mine").unwrap();
+        let result = publish_dir(&dir, |stage| write_bytes(&stage.join("x.png"), b"png"));
+        assert!(
+            matches!(result, Err(OutputError::Refused { .. })),
+            "{result:?}"
+        );
+        assert_eq!(names(&dir), ["thesis.tex"]);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
