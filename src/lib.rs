@@ -170,6 +170,7 @@ pub mod system;
 pub mod trace;
 #[cfg(feature = "render")]
 pub mod tradeoff;
+pub mod wave;
 
 pub use analysis::{Analysis, AnalyzeOptions, analyze};
 #[cfg(feature = "render")]

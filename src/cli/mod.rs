@@ -26,6 +26,7 @@ mod render;
 pub mod stdout;
 mod trace;
 mod tradeoff;
+mod wave;
 
 use clap::{Parser, Subcommand};
 
@@ -71,6 +72,12 @@ pub enum Command {
     Bench(bench::BenchCommand),
     /// Every lens model's cost and error side by side, with a Pareto plot.
     Tradeoff(tradeoff::TradeoffArgs),
+    /// Wavefront error of one field point: OPD RMS and peak-to-valley, Strehl, Zernike fit.
+    Wavefront(wave::WavefrontArgs),
+    /// Diffraction MTF (tangential, sagittal, diffraction limit) of one field point.
+    Mtf(wave::MtfArgs),
+    /// Point spread function of one field point, written as OpenEXR or PNG.
+    Psf(wave::PsfArgs),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
@@ -87,5 +94,8 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Trace(args) => trace::run(args),
         Command::Bench(command) => bench::run(command),
         Command::Tradeoff(args) => tradeoff::run(args),
+        Command::Wavefront(args) => wave::run_wavefront(args),
+        Command::Mtf(args) => wave::run_mtf(args),
+        Command::Psf(args) => wave::run_psf(args),
     }
 }

@@ -6,8 +6,9 @@ use super::{Drawn, PlotError, View};
 use plotters::coord::Shift;
 use plotters::prelude::{DrawingArea, DrawingBackend};
 
-/// One fan at one wavelength: (relative pupil coordinate -1..1, transverse aberration in mm at the
-/// image plane, relative to the chief ray). Vignetted rays are simply absent.
+/// One fan at one wavelength: (relative pupil coordinate -1..1, the aberration: transverse in mm
+/// at the image plane for a ray fan, OPD in waves for an OPD fan, relative to the chief ray).
+/// Vignetted rays are simply absent.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FanCurve {
     pub wavelength_nm: f64,
@@ -30,55 +31,94 @@ pub struct RayFanPlot {
     pub fields: Vec<FanField>,
 }
 
+/// Optical path difference fans: the same layout as [`RayFanPlot`], OPD in waves against the
+/// chief ray along the tangential (py) and sagittal (px) pupil cuts.
+#[derive(Clone, Debug, PartialEq)]
+pub struct OpdFanPlot {
+    pub lens: String,
+    /// Drawn top to bottom in the order given.
+    pub fields: Vec<FanField>,
+}
+
 impl View for RayFanPlot {
     fn size(&self) -> (u32, u32) {
-        (1200, 60 + 330 * self.fields.len().max(1) as u32)
+        fan_grid_size(&self.fields)
     }
 
     fn draw<DB: DrawingBackend>(&self, area: &DrawingArea<DB, Shift>) -> Result<Drawn, PlotError> {
         let title = format!("{}: transverse ray aberration", self.lens);
-        let cells = titled_grid(area, &title, self.fields.len(), 2)?;
-        // One error scale for every panel, so fields compare at a glance.
-        let scale = symmetric_range(
-            self.fields
-                .iter()
-                .flat_map(|f| f.tangential.iter().chain(&f.sagittal))
-                .flat_map(|c| c.points.iter().map(|p| p.1)),
-        );
-        let mut drawn = Drawn::default();
-        for (field, row) in self.fields.iter().zip(cells.chunks(2)) {
-            for (cell, (name, axis, curves)) in row.iter().zip([
-                ("tangential", "ey", &field.tangential),
-                ("sagittal", "ex", &field.sagittal),
-            ]) {
-                let y_label = format!("{axis} (mm)");
-                let x_label = if axis == "ey" {
-                    "relative pupil py"
-                } else {
-                    "relative pupil px"
-                };
-                let panel = Panel {
-                    title: format!("{name}, field {:.2}°", field.field_deg),
-                    x_label,
-                    y_label: &y_label,
-                    series: curves
-                        .iter()
-                        .map(|c| Series {
-                            label: format!("{:.1} nm", c.wavelength_nm),
-                            color: wavelength_color(c.wavelength_nm),
-                            dashed: false,
-                            markers: false,
-                            points: c.points.clone(),
-                        })
-                        .collect(),
-                    empty_message: format!("All rays vignetted at {:.2}°", field.field_deg),
-                    x_range: Some(-1.05..1.05),
-                    y_range: Some(scale.clone()),
-                    title_size: 20,
-                };
-                drawn.panels.push(draw_panel(cell, panel)?);
-            }
-        }
-        Ok(drawn)
+        draw_fan_grid(area, &title, &self.fields, ["ey (mm)", "ex (mm)"])
     }
+}
+
+impl View for OpdFanPlot {
+    fn size(&self) -> (u32, u32) {
+        fan_grid_size(&self.fields)
+    }
+
+    fn draw<DB: DrawingBackend>(&self, area: &DrawingArea<DB, Shift>) -> Result<Drawn, PlotError> {
+        let title = format!("{}: optical path difference", self.lens);
+        draw_fan_grid(area, &title, &self.fields, ["OPD (waves)", "OPD (waves)"])
+    }
+}
+
+fn fan_grid_size(fields: &[FanField]) -> (u32, u32) {
+    (1200, 60 + 330 * fields.len().max(1) as u32)
+}
+
+/// One row per field, tangential left and sagittal right, on one vertical scale; `y_labels`
+/// name the tangential and sagittal quantity with its unit.
+fn draw_fan_grid<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    title: &str,
+    fields: &[FanField],
+    y_labels: [&str; 2],
+) -> Result<Drawn, PlotError> {
+    let cells = titled_grid(area, title, fields.len(), 2)?;
+    // One scale for every panel, so fields compare at a glance.
+    let scale = symmetric_range(
+        fields
+            .iter()
+            .flat_map(|f| f.tangential.iter().chain(&f.sagittal))
+            .flat_map(|c| c.points.iter().map(|p| p.1)),
+    );
+    let mut drawn = Drawn::default();
+    for (field, row) in fields.iter().zip(cells.chunks(2)) {
+        for (cell, (name, y_label, x_label, curves)) in row.iter().zip([
+            (
+                "tangential",
+                y_labels[0],
+                "relative pupil py",
+                &field.tangential,
+            ),
+            (
+                "sagittal",
+                y_labels[1],
+                "relative pupil px",
+                &field.sagittal,
+            ),
+        ]) {
+            let panel = Panel {
+                title: format!("{name}, field {:.2}°", field.field_deg),
+                x_label,
+                y_label,
+                series: curves
+                    .iter()
+                    .map(|c| Series {
+                        label: format!("{:.1} nm", c.wavelength_nm),
+                        color: wavelength_color(c.wavelength_nm),
+                        dashed: false,
+                        markers: false,
+                        points: c.points.clone(),
+                    })
+                    .collect(),
+                empty_message: format!("All rays vignetted at {:.2}°", field.field_deg),
+                x_range: Some(-1.05..1.05),
+                y_range: Some(scale.clone()),
+                title_size: 20,
+            };
+            drawn.panels.push(draw_panel(cell, panel)?);
+        }
+    }
+    Ok(drawn)
 }

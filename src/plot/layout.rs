@@ -76,8 +76,8 @@ impl LayoutSurface {
 }
 
 impl LayoutPlot {
-    /// Surfaces and glass of `system`, with no rays yet; the image plane at the film distance
-    /// the prescription gives after the last surface.
+    /// Surfaces and glass of `system`, with no rays yet; the image plane at the paraxial
+    /// focus of an object at infinity (at the prescription's last gap for an afocal lens).
     pub fn of_system(lens: &str, system: &SystemAt) -> LayoutPlot {
         let surfaces = system
             .surfaces
@@ -98,10 +98,18 @@ impl LayoutPlot {
                 back: i + 1,
             })
             .collect();
-        let image_z = system
-            .surfaces
-            .last()
-            .map_or(0.0, |s| s.vertex_z + s.thickness);
+        // The paraxial image of a distant object; the prescription's last gap only where the
+        // lens has no focus (pbrt files carry 0 there, which would put the film on the glass).
+        let image_z = crate::paraxial::FirstOrder::of(system)
+            .ok()
+            .map(|first| first.z_rear_focal)
+            .filter(|z| z.is_finite())
+            .unwrap_or_else(|| {
+                system
+                    .surfaces
+                    .last()
+                    .map_or(0.0, |s| s.vertex_z + s.thickness)
+            });
         let largest = system
             .surfaces
             .iter()
@@ -355,4 +363,26 @@ fn element_outline(front: &LayoutSurface, back: &LayoutSurface) -> Vec<(f64, f64
         outline.push((z, -rim));
     }
     outline
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::lenses;
+    use crate::prescription::formats::LoadOptions;
+
+    #[test]
+    fn the_image_plane_is_the_paraxial_focus_not_the_last_vertex() {
+        // The pbrt double Gauss ends with a zero gap.
+        let system = lenses::load("dgauss-50mm", &LoadOptions::default())
+            .unwrap()
+            .system
+            .at(587.5618);
+        let plot = LayoutPlot::of_system("dgauss-50mm", &system);
+        let focus = crate::paraxial::FirstOrder::of(&system)
+            .unwrap()
+            .z_rear_focal;
+        assert_eq!(plot.image_z, focus);
+        assert!(plot.image_z > system.last_vertex_z() + 10.0);
+    }
 }

@@ -19,6 +19,7 @@ mod lrtf_error;
 mod pareto;
 mod seidel;
 mod spot;
+mod wave;
 
 pub use canvas::{Format, Rendered, render, write_plot};
 pub use chart::{Drawn, PanelDrawn, SeriesDrawn};
@@ -27,12 +28,15 @@ pub use curves::{
     DistortionPlot, FieldCurve, FieldCurvesPlot, LateralColorPlot, LsaPlot, VignettingPlot,
     WavelengthCurve,
 };
-pub use fan::{FanCurve, FanField, RayFanPlot};
+pub use fan::{FanCurve, FanField, OpdFanPlot, RayFanPlot};
 pub use layout::{LayoutElement, LayoutPlot, LayoutRay, LayoutSurface};
 pub use lrtf_error::{LrtfErrorCurve, LrtfErrorLens, LrtfErrorPlot, TARGET_LABEL};
 pub use pareto::{ParetoPlot, ParetoPoint, pareto_front};
 pub use seidel::{SeidelBar, SeidelPlot};
 pub use spot::{Spot, SpotField, SpotPlot};
+pub use wave::{
+    Grid, MtfField, MtfFieldPlot, MtfPlot, PsfPlot, ThroughFocusPlot, WavefrontMapPlot,
+};
 
 use plotters::coord::Shift;
 use plotters::prelude::{DrawingArea, DrawingBackend};

@@ -1,12 +1,16 @@
 //! Which plots exist and how each is filled from the analyses of one lens.
 
+use super::wave_figures::{
+    mtf_field_plot, mtf_plot, opd_fan_plot, psf_plot, through_focus_plot, wavefront_map_plot,
+};
 use crate::analysis::{AnalysisError, AnalyzeOptions, analyze};
 use crate::glass::{C_LINE_NM, F_LINE_NM};
 use crate::paraxial::{Field, Paraxial, ParaxialOptions};
 use crate::plot::{
     DistortionPlot, Drawn, FanCurve, FanField, FieldCurve, FieldCurvesPlot, LateralColorPlot,
-    LayoutPlot, LayoutRay, LsaPlot, PlotError, RayFanPlot, SeidelBar, SeidelPlot, Spot, SpotField,
-    SpotPlot, View, VignettingPlot, WavelengthCurve,
+    LayoutPlot, LayoutRay, LsaPlot, MtfFieldPlot, MtfPlot, OpdFanPlot, PlotError, PsfPlot,
+    RayFanPlot, SeidelBar, SeidelPlot, Spot, SpotField, SpotPlot, ThroughFocusPlot, View,
+    VignettingPlot, WavefrontMapPlot, WavelengthCurve,
 };
 use crate::system::{LensSystem, SystemAt};
 use crate::trace::analyses::{FanPoint, RealRayError, RealRays};
@@ -28,10 +32,16 @@ pub enum PlotKind {
     LateralColor,
     Vignetting,
     Seidel,
+    OpdFan,
+    WavefrontMap,
+    Psf,
+    Mtf,
+    ThroughFocusMtf,
+    MtfField,
 }
 
 impl PlotKind {
-    pub const ALL: [PlotKind; 9] = [
+    pub const ALL: [PlotKind; 15] = [
         PlotKind::Layout,
         PlotKind::RayFan,
         PlotKind::Spot,
@@ -41,6 +51,12 @@ impl PlotKind {
         PlotKind::LateralColor,
         PlotKind::Vignetting,
         PlotKind::Seidel,
+        PlotKind::OpdFan,
+        PlotKind::WavefrontMap,
+        PlotKind::Psf,
+        PlotKind::Mtf,
+        PlotKind::ThroughFocusMtf,
+        PlotKind::MtfField,
     ];
 
     /// The command-line name, also the report's file stem.
@@ -55,6 +71,12 @@ impl PlotKind {
             PlotKind::LateralColor => "lateral-color",
             PlotKind::Vignetting => "vignetting",
             PlotKind::Seidel => "seidel",
+            PlotKind::OpdFan => "opd-fan",
+            PlotKind::WavefrontMap => "wavefront-map",
+            PlotKind::Psf => "psf",
+            PlotKind::Mtf => "mtf",
+            PlotKind::ThroughFocusMtf => "through-focus-mtf",
+            PlotKind::MtfField => "mtf-field",
         }
     }
 
@@ -70,6 +92,12 @@ impl PlotKind {
             PlotKind::LateralColor => "Lateral colour",
             PlotKind::Vignetting => "Relative illumination and vignetting",
             PlotKind::Seidel => "Seidel sums per surface",
+            PlotKind::OpdFan => "Optical path difference fans (tangential and sagittal)",
+            PlotKind::WavefrontMap => "Wavefront error over the pupil at the largest field",
+            PlotKind::Psf => "Point spread function (FFT) at the largest field",
+            PlotKind::Mtf => "Diffraction MTF with the diffraction limit",
+            PlotKind::ThroughFocusMtf => "MTF through focus",
+            PlotKind::MtfField => "MTF across the field",
         }
     }
 }
@@ -108,6 +136,8 @@ pub enum FigureError {
     Analysis(#[from] AnalysisError),
     #[error(transparent)]
     Plot(#[from] PlotError),
+    #[error(transparent)]
+    Wave(crate::wave::WaveError),
 }
 
 /// Any one plot, ready to draw.
@@ -122,6 +152,12 @@ pub enum Figure {
     LateralColor(LateralColorPlot),
     Vignetting(VignettingPlot),
     Seidel(SeidelPlot),
+    OpdFan(OpdFanPlot),
+    WavefrontMap(WavefrontMapPlot),
+    Psf(PsfPlot),
+    Mtf(MtfPlot),
+    ThroughFocusMtf(ThroughFocusPlot),
+    MtfField(MtfFieldPlot),
 }
 
 impl View for Figure {
@@ -136,6 +172,12 @@ impl View for Figure {
             Figure::LateralColor(v) => v.size(),
             Figure::Vignetting(v) => v.size(),
             Figure::Seidel(v) => v.size(),
+            Figure::OpdFan(v) => v.size(),
+            Figure::WavefrontMap(v) => v.size(),
+            Figure::Psf(v) => v.size(),
+            Figure::Mtf(v) => v.size(),
+            Figure::ThroughFocusMtf(v) => v.size(),
+            Figure::MtfField(v) => v.size(),
         }
     }
 
@@ -150,6 +192,12 @@ impl View for Figure {
             Figure::LateralColor(v) => v.draw(area),
             Figure::Vignetting(v) => v.draw(area),
             Figure::Seidel(v) => v.draw(area),
+            Figure::OpdFan(v) => v.draw(area),
+            Figure::WavefrontMap(v) => v.draw(area),
+            Figure::Psf(v) => v.draw(area),
+            Figure::Mtf(v) => v.draw(area),
+            Figure::ThroughFocusMtf(v) => v.draw(area),
+            Figure::MtfField(v) => v.draw(area),
         }
     }
 }
@@ -221,6 +269,16 @@ pub fn figure(
             lens, system, options,
         )?)),
         PlotKind::Vignetting => Ok(Figure::Vignetting(vignetting_plot(lens, system, options)?)),
+        PlotKind::OpdFan => Ok(Figure::OpdFan(opd_fan_plot(lens, system, options)?)),
+        PlotKind::WavefrontMap => Ok(Figure::WavefrontMap(wavefront_map_plot(
+            lens, system, options,
+        )?)),
+        PlotKind::Psf => Ok(Figure::Psf(psf_plot(lens, system, options)?)),
+        PlotKind::Mtf => Ok(Figure::Mtf(mtf_plot(lens, system, options)?)),
+        PlotKind::ThroughFocusMtf => Ok(Figure::ThroughFocusMtf(through_focus_plot(
+            lens, system, options,
+        )?)),
+        PlotKind::MtfField => Ok(Figure::MtfField(mtf_field_plot(lens, system, options)?)),
     }
 }
 
@@ -244,15 +302,15 @@ const NEAR_AXIS: f64 = 1e-3;
 
 /// The wavelengths one plot draws, and the one whose paraxial image plane and pupil every
 /// wavelength is measured in.
-struct Spectrum {
-    reference_nm: f64,
-    drawn_nm: Vec<f64>,
+pub(super) struct Spectrum {
+    pub(super) reference_nm: f64,
+    pub(super) drawn_nm: Vec<f64>,
 }
 
 impl Spectrum {
     /// The user's wavelengths (the first is the reference), else F, the design wavelength and C
     /// for a dispersive lens, else the design wavelength alone.
-    fn of(system: &LensSystem, options: &FigureOptions) -> Spectrum {
+    pub(super) fn of(system: &LensSystem, options: &FigureOptions) -> Spectrum {
         if let Some(&first) = options.wavelengths_nm.first() {
             return Spectrum {
                 reference_nm: first,
@@ -547,7 +605,7 @@ fn vignetting_plot(
 }
 
 /// The field the user asked for, else the largest whose real chief ray passes the lens.
-fn max_field_deg(tracer: &Tracer, options: &FigureOptions) -> f64 {
+pub(super) fn max_field_deg(tracer: &Tracer, options: &FigureOptions) -> f64 {
     options
         .field_deg
         .unwrap_or_else(|| traceable_field_deg(tracer, FIELD_SCAN_DEG))

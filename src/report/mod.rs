@@ -3,6 +3,7 @@
 
 mod figures;
 mod page;
+mod wave_figures;
 
 pub use figures::{Figure, FigureError, FigureOptions, PlotKind, figure};
 pub use page::{Page, PlotEntry, Table, analysis_tables};

@@ -1,0 +1,148 @@
+//! `lensbake wavefront`, `mtf` and `psf` end to end: JSON keys, the ideal lens's diffraction
+//! limit, written images, and one `error:` line with exit code 2 for bad input.
+
+mod common;
+
+use common::nums;
+use lensbake::wave::diffraction_limited_mtf;
+use serde_json::Value;
+use std::process::{Command, Output};
+
+fn lensbake(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_lensbake"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn json(args: &[&str]) -> Value {
+    let output = lensbake(args);
+    assert!(
+        output.status.success(),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    serde_json::from_slice(&output.stdout).unwrap()
+}
+
+#[test]
+fn wavefront_json_has_the_numbers_a_designer_reads() {
+    let value = json(&["wavefront", "cooke-triplet", "--field-deg", "10", "--json"]);
+    let rms = value["rms_waves"].as_f64().unwrap();
+    let pv = value["pv_waves"].as_f64().unwrap();
+    let strehl = value["strehl"].as_f64().unwrap();
+    assert!(rms > 0.0 && pv > rms, "rms {rms}, pv {pv}");
+    assert!((0.0..=1.0).contains(&strehl));
+    let terms = value["zernike"]["terms"].as_array().unwrap();
+    assert_eq!(terms.len(), 37);
+    assert_eq!(value["zernike"]["ordering"], "fringe");
+}
+
+#[test]
+fn mtf_of_an_ideal_lens_is_the_diffraction_limit() {
+    let value = json(&[
+        "mtf",
+        "ideal:50",
+        "--field-deg",
+        "0",
+        "--f-number",
+        "4",
+        "--samples",
+        "256",
+        "--grid",
+        "512",
+        "--json",
+    ]);
+    let cutoff = value["cutoff_per_mm"].as_f64().unwrap();
+    let frequencies = nums(&value["frequencies_per_mm"]);
+    assert_eq!(frequencies.len(), 41);
+    let limit = nums(&value["diffraction_limit"]);
+    for key in ["tangential", "sagittal"] {
+        for ((f, m), d) in frequencies.iter().zip(nums(&value[key])).zip(&limit) {
+            let analytic = diffraction_limited_mtf(f / cutoff);
+            assert!((d - analytic).abs() < 1e-12);
+            assert!(
+                (m - analytic).abs() < 0.005,
+                "{key} at {f}: {m} against {analytic}"
+            );
+        }
+    }
+}
+
+#[test]
+fn psf_is_written_as_exr_and_png() {
+    let dir = std::env::temp_dir().join(format!("lensbake-cli-psf-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    for name in ["psf.exr", "psf.png"] {
+        let path = dir.join(name);
+        let output = lensbake(&[
+            "psf",
+            "cooke-triplet",
+            "--field-deg",
+            "5",
+            "--out",
+            path.to_str().unwrap(),
+        ]);
+        assert!(
+            output.status.success(),
+            "{}",
+            String::from_utf8_lossy(&output.stderr)
+        );
+        assert!(std::fs::metadata(&path).unwrap().len() > 1000);
+    }
+    let image = exr::prelude::read_first_flat_layer_from_file(dir.join("psf.exr")).unwrap();
+    assert_eq!(image.layer_data.size.0, 256);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn bad_input_is_one_error_line_and_exit_code_2() {
+    for args in [
+        &["mtf", "ideal:-3", "--field-deg", "0"][..],
+        &["mtf", "cooke-triplet", "--field-deg", "95"],
+        &[
+            "wavefront",
+            "cooke-triplet",
+            "--field-deg",
+            "0",
+            "--samples",
+            "4",
+        ],
+        &[
+            "wavefront",
+            "cooke-triplet",
+            "--field-deg",
+            "0",
+            "--zernike",
+            "fringe",
+            "--terms",
+            "40",
+        ],
+        &[
+            "psf",
+            "cooke-triplet",
+            "--field-deg",
+            "0",
+            "--out",
+            "psf.jpg",
+        ],
+        &[
+            "mtf",
+            "cooke-triplet",
+            "--field-deg",
+            "0",
+            "--wavelength-nm",
+            "500",
+            "--weight",
+            "1",
+            "--weight",
+            "2",
+        ],
+    ] {
+        let output = lensbake(args);
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert_eq!(output.status.code(), Some(2), "{args:?}: {stderr}");
+        assert!(stderr.starts_with("error: "), "{args:?}: {stderr}");
+        assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+    }
+}
