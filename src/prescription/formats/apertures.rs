@@ -12,7 +12,7 @@
 //! and the field wide; for the F/2, 14° CODE V double Gauss the derived apertures lie within about
 //! 10% of the real-ray ones (documented in tests/formats.rs). Apertures the file gives are kept.
 //!
-//! For reference: the semi-apertures in ../shared/testdata/oracle/codev_ag_dblgauss.json (28.18,
+//! For reference: the semi-apertures in tests/data/truth/oracle/codev_ag_dblgauss.json (28.18,
 //! 27.14, 24.63, ...) are rayoptics 0.9.8's real-ray clear apertures for that ray set (28.1719,
 //! 27.1359, 24.6262, ... mm, chief rays aimed at the stop centre) rounded up to 0.01 mm. Matching
 //! them needs the real-ray trace, which runs on a validated system; a later stage can refine the
