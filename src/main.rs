@@ -6,7 +6,8 @@ use clap::Parser;
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
-    give_drivers_a_runtime_dir();
+    // Held to the end of main: dropping it removes the directory.
+    let _runtime_dir = give_drivers_a_runtime_dir();
     let args = cli::Cli::parse();
     let result = cli::run(args);
     // After the job: a closed stdout must not stop it from writing its files.
@@ -25,22 +26,21 @@ fn main() -> ExitCode {
 }
 
 /// Graphics drivers (Mesa's among them) print `error: XDG_RUNTIME_DIR is invalid or not set` on
-/// successful runs when the variable names no directory, which reads as a failure. A private
-/// directory under the temporary directory stands in for it then.
-fn give_drivers_a_runtime_dir() {
+/// successful runs when the variable names no directory, which reads as a failure. A fresh
+/// private directory (random name, mode 0700) stands in for it then; a fixed name under the
+/// shared temporary directory could be made in advance, and owned, by another user.
+fn give_drivers_a_runtime_dir() -> Option<tempfile::TempDir> {
     let valid =
         std::env::var_os("XDG_RUNTIME_DIR").is_some_and(|dir| std::path::Path::new(&dir).is_dir());
     if valid {
-        return;
+        return None;
     }
-    let user = std::env::var("USER").unwrap_or_else(|_| "user".into());
-    let dir = std::env::temp_dir().join(format!("lensbake-runtime-{user}"));
-    let mut builder = std::fs::DirBuilder::new();
-    #[cfg(unix)]
-    std::os::unix::fs::DirBuilderExt::mode(&mut builder, 0o700);
-    if builder.create(&dir).is_ok() || dir.is_dir() {
-        // SAFETY: called first thing in main, before any other thread exists that could read
-        // the environment concurrently.
-        unsafe { std::env::set_var("XDG_RUNTIME_DIR", &dir) };
-    }
+    let dir = tempfile::Builder::new()
+        .prefix("lensbake-runtime-")
+        .tempdir()
+        .ok()?;
+    // SAFETY: called first thing in main, before any other thread exists that could read the
+    // environment concurrently.
+    unsafe { std::env::set_var("XDG_RUNTIME_DIR", dir.path()) };
+    Some(dir)
 }
