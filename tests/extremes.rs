@@ -189,7 +189,7 @@ fn a_wavelength_beyond_a_glass_formula_is_a_typed_error_naming_the_surface() {
         ("codev-dgauss-f2", 150.0, 1),
         ("codev-dgauss-f2", 200.0, 4),
         ("cooke-triplet", 9000.0, 3),
-        ("tessar", 30.0, 1),
+        ("tessar", 150.0, 1),
     ];
     for (name, nm, surface) in cases {
         let system = bundled(name);
@@ -219,6 +219,15 @@ fn a_wavelength_beyond_a_glass_formula_is_a_typed_error_naming_the_surface() {
         assert!(
             message.contains(&format!("surface {surface}")) && message.contains("medium"),
             "{message}"
+        );
+    }
+    // Outside the range lensbake traces at all, the range is the cause, not the first medium.
+    let tessar = bundled("tessar");
+    for nm in [30.0, 1e30, f64::NAN] {
+        let error = tessar.at_checked(nm).expect_err("outside every formula");
+        assert!(
+            matches!(error.problem, Problem::OverLimit(_)) && error.location.surface.is_none(),
+            "{nm} nm: {error}"
         );
     }
     // The checked view at a good wavelength is the plain view.

@@ -306,14 +306,19 @@ fn first_axial_position_not_zero() {
 
 #[test]
 fn unknown_format_and_io() {
-    let e = read_file(Path::new("lens.xyz"), &LoadOptions::default()).unwrap_err();
+    let unknown = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("lens.xyz");
+    std::fs::write(&unknown, "50 5 1.5 20\n").unwrap();
+    let e = read_file(&unknown, &LoadOptions::default()).unwrap_err();
     assert_eq!(
         e.problem,
         Problem::UnknownFormat {
             extension: Some("xyz".into())
         }
     );
-    assert_eq!(e.location.file, Some(PathBuf::from("lens.xyz")));
+    assert_eq!(e.location.file, Some(unknown));
+    // A file that is not there is that, whatever its name says about a format.
+    let missing = read_file(Path::new("missing.xyz"), &LoadOptions::default()).unwrap_err();
+    assert!(matches!(missing.problem, Problem::Io(_)), "{missing}");
     let missing = lens_file("no-such-file.dat");
     let e = read_file(&missing, &LoadOptions::default()).unwrap_err();
     assert!(matches!(e.problem, Problem::Io(_)), "{e}");
