@@ -12,6 +12,7 @@ mod canvas;
 mod chart;
 mod color;
 mod curves;
+mod error_map;
 mod fan;
 pub mod font;
 mod layout;
@@ -24,6 +25,7 @@ mod wave;
 pub use canvas::{Format, Rendered, render, write_plot};
 pub use chart::{Drawn, PanelDrawn, SeriesDrawn};
 pub use color::wavelength_color;
+pub use error_map::ErrorMapPlot;
 pub use curves::{
     DistortionPlot, FieldCurve, FieldCurvesPlot, LateralColorPlot, LsaPlot, VignettingPlot,
     WavelengthCurve,
