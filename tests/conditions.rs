@@ -50,10 +50,8 @@ fn plotted_top_fields(lens: &str, system: &LensSystem, options: &FigureOptions) 
 }
 
 fn report_readme(lens: &str, system: &LensSystem, options: &FigureOptions, tag: &str) -> String {
-    let dir: PathBuf = std::env::temp_dir().join(format!(
-        "lensbake-conditions-{}-{tag}",
-        std::process::id()
-    ));
+    let dir: PathBuf =
+        std::env::temp_dir().join(format!("lensbake-conditions-{}-{tag}", std::process::id()));
     write_report(lens, system, options, &dir).unwrap();
     let text = std::fs::read_to_string(dir.join("README.md")).unwrap();
     std::fs::remove_dir_all(&dir).unwrap();
@@ -87,7 +85,10 @@ fn analyze_every_plot_and_the_report_header_use_one_field() {
     );
     let epd = header_row(&readme, "entrance-pupil diameter");
     assert!(
-        epd.contains(&format!("{:.3} mm", analysis.first_order.entrance_pupil.diameter)),
+        epd.contains(&format!(
+            "{:.3} mm",
+            analysis.first_order.entrance_pupil.diameter
+        )),
         "{epd}"
     );
 }
@@ -130,16 +131,24 @@ fn flags_override_the_analysis_the_plots_and_the_report_alike() {
         header_row(&readme, "half fields"),
         "| half fields | 5.00, 3.50, 0.00 deg | flag |"
     );
-    assert!(header_row(&readme, "entrance-pupil diameter").starts_with("| entrance-pupil diameter | 30.000 mm"));
+    assert!(
+        header_row(&readme, "entrance-pupil diameter")
+            .starts_with("| entrance-pupil diameter | 30.000 mm")
+    );
 }
 
 #[test]
 fn a_code_v_file_with_fields_0_10_14_is_analysed_at_14_degrees_and_its_epd() {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/truth/lenses/ag_dblgauss.seq");
+    let path =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/truth/lenses/ag_dblgauss.seq");
     let system = system(path.to_str().unwrap());
     let conditions = resolve(&system, &ConditionOverrides::default());
     assert_eq!(conditions.field_from, Origin::File);
-    let rounded: Vec<f64> = conditions.fields_deg.iter().map(|f| (f * 1e6).round() / 1e6).collect();
+    let rounded: Vec<f64> = conditions
+        .fields_deg
+        .iter()
+        .map(|f| (f * 1e6).round() / 1e6)
+        .collect();
     assert_eq!(rounded, [14.0, 10.0, 0.0]);
     assert_eq!(conditions.epd_mm, 50.0);
     assert_eq!(conditions.aperture_from, Origin::File);
@@ -148,7 +157,10 @@ fn a_code_v_file_with_fields_0_10_14_is_analysed_at_14_degrees_and_its_epd() {
     let analysis = analyze("ag_dblgauss", &system, &AnalyzeOptions::default()).unwrap();
     assert!((analysis.field_deg - 14.0).abs() < 1e-6);
     // The bundled RON of the same file states the same conditions.
-    let bundled = resolve(&self::system("codev-dgauss-f2"), &ConditionOverrides::default());
+    let bundled = resolve(
+        &self::system("codev-dgauss-f2"),
+        &ConditionOverrides::default(),
+    );
     assert_eq!(bundled.fields_deg, conditions.fields_deg);
     assert_eq!(bundled.epd_mm, 50.0);
     // Every drawn wavelength's fan reaches the image at 14 degrees: none is dropped.
@@ -161,7 +173,11 @@ fn a_code_v_file_with_fields_0_10_14_is_analysed_at_14_degrees_and_its_epd() {
     .unwrap() else {
         panic!("fan")
     };
-    assert!(fan.fields.iter().all(|f| f.dropped_nm.is_empty() && f.tangential.len() == 3));
+    assert!(
+        fan.fields
+            .iter()
+            .all(|f| f.dropped_nm.is_empty() && f.tangential.len() == 3)
+    );
 }
 
 /// Whether the real chief ray of `deg`, aimed at the stop centre, passes every clear aperture.
@@ -185,9 +201,13 @@ fn the_rule_is_the_last_passing_chief_ray_capped_well_below_90_degrees() {
     let conditions = resolve(&singlet, &ConditionOverrides::default());
     assert_eq!(conditions.field_from, Origin::Rule);
     assert_eq!(conditions.field_deg(), RULE_MAX_FIELD_DEG);
-    let Figure::Spot(spot) =
-        figure(PlotKind::Spot, "biconvex-singlet", &singlet, &FigureOptions::default()).unwrap()
-    else {
+    let Figure::Spot(spot) = figure(
+        PlotKind::Spot,
+        "biconvex-singlet",
+        &singlet,
+        &FigureOptions::default(),
+    )
+    .unwrap() else {
         panic!("spot")
     };
     assert_eq!(spot.fields[0].field_deg, 45.0);
@@ -214,7 +234,11 @@ fn a_claimed_f_number_sets_the_pupil_only_where_the_stop_allows_it() {
     // The telephoto claims f/5.6; its stop opens to f/5.42, so f/5.6 is used.
     let telephoto = resolve(&system("telephoto-250mm"), &ConditionOverrides::default());
     assert_eq!(telephoto.aperture_from, Origin::Source);
-    assert!((telephoto.f_number - 5.6).abs() < 1e-6, "{}", telephoto.f_number);
+    assert!(
+        (telephoto.f_number - 5.6).abs() < 1e-6,
+        "{}",
+        telephoto.f_number
+    );
     // The pbrt double Gauss claims f/2 but opens to f/2.03: wide open, with a note.
     let dgauss = resolve(&system("dgauss-50mm"), &ConditionOverrides::default());
     assert_eq!(dgauss.aperture_from, Origin::Rule);

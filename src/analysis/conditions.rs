@@ -124,15 +124,21 @@ impl DesignConditions {
         if !(reference_nm.is_finite() && reference_nm > 0.0) {
             return Err(AnalysisError::InvalidWavelength(reference_nm));
         }
-        let (wavelengths_nm, wavelengths_from) =
-            drawn_wavelengths(system, overrides, stated.map(|c| &c.wavelengths_nm[..]), reference_nm);
+        let (wavelengths_nm, wavelengths_from) = drawn_wavelengths(
+            system,
+            overrides,
+            stated.map(|c| &c.wavelengths_nm[..]),
+            reference_nm,
+        );
 
-        let (object_distance_mm, object_from) =
-            match (overrides.object_distance_mm, stated.and_then(|c| c.object_distance_mm)) {
-                (Some(d), _) => (Some(d), Origin::Flag),
-                (None, Some(d)) => (Some(d), Origin::File),
-                (None, None) => (None, Origin::Rule),
-            };
+        let (object_distance_mm, object_from) = match (
+            overrides.object_distance_mm,
+            stated.and_then(|c| c.object_distance_mm),
+        ) {
+            (Some(d), _) => (Some(d), Origin::Flag),
+            (None, Some(d)) => (Some(d), Origin::File),
+            (None, None) => (None, Origin::Rule),
+        };
         let object = object_distance_mm.map_or(ObjectPosition::Infinite, |distance| {
             ObjectPosition::Finite { distance }
         });
@@ -157,7 +163,10 @@ impl DesignConditions {
             (epd, Origin::File)
         } else {
             let open = wide_open.entrance_pupil.diameter;
-            match claimed.claimed_f_number.filter(|f| *f > 0.0 && object_distance_mm.is_none()) {
+            match claimed
+                .claimed_f_number
+                .filter(|f| *f > 0.0 && object_distance_mm.is_none())
+            {
                 // A claim a little faster than the stop allows is the nominal f-number of a
                 // product; the lens as built cannot open further than its stop.
                 Some(f) if efl / f <= open => (efl / f, Origin::Source),
@@ -284,8 +293,9 @@ impl DesignConditions {
             ),
             (
                 "object".into(),
-                self.object_distance_mm
-                    .map_or("at infinity".into(), |d| format!("{d:.3} mm before surface 1")),
+                self.object_distance_mm.map_or("at infinity".into(), |d| {
+                    format!("{d:.3} mm before surface 1")
+                }),
                 self.object_from.describe(),
             ),
             (
@@ -387,38 +397,45 @@ fn stated_fields(
         .collect();
     let largest = radial.iter().copied().fold(0.0, f64::max);
     if largest <= 0.0 {
-        notes.push("the file's fields are all on axis: the field comes from the next source".into());
+        notes
+            .push("the file's fields are all on axis: the field comes from the next source".into());
         return None;
     }
     let efl = probe.first_order.efl.abs();
     let pupil_z = probe.entrance_pupil.z;
-    let (to_angle, field): (Box<dyn Fn(f64) -> f64>, Field) = match (fields.kind, object_distance_mm) {
-        (FieldKind::AngleDeg, _) => (Box::new(|a| a), Field::Angle { deg: largest }),
-        (FieldKind::ObjectHeight, Some(d)) => (
-            Box::new(move |h| (h / (d + pupil_z)).atan().to_degrees()),
-            Field::ObjectHeight { mm: largest },
-        ),
-        (FieldKind::ParaxialImageHeight, None) => {
-            let angle = move |h: f64| (h / efl).atan().to_degrees();
-            (Box::new(angle), Field::Angle { deg: angle(largest) })
-        }
-        (FieldKind::ParaxialImageHeight, Some(d)) => {
-            let m = probe.magnification.filter(|m| *m != 0.0)?;
-            (
-                Box::new(move |h| (h / m.abs() / (d + pupil_z)).atan().to_degrees()),
-                Field::ObjectHeight {
-                    mm: largest / m.abs(),
-                },
-            )
-        }
-        (kind, _) => {
-            notes.push(format!(
-                "the file's {kind:?} fields need a real-ray search this build does not do: \
+    let (to_angle, field): (Box<dyn Fn(f64) -> f64>, Field) =
+        match (fields.kind, object_distance_mm) {
+            (FieldKind::AngleDeg, _) => (Box::new(|a| a), Field::Angle { deg: largest }),
+            (FieldKind::ObjectHeight, Some(d)) => (
+                Box::new(move |h| (h / (d + pupil_z)).atan().to_degrees()),
+                Field::ObjectHeight { mm: largest },
+            ),
+            (FieldKind::ParaxialImageHeight, None) => {
+                let angle = move |h: f64| (h / efl).atan().to_degrees();
+                (
+                    Box::new(angle),
+                    Field::Angle {
+                        deg: angle(largest),
+                    },
+                )
+            }
+            (FieldKind::ParaxialImageHeight, Some(d)) => {
+                let m = probe.magnification.filter(|m| *m != 0.0)?;
+                (
+                    Box::new(move |h| (h / m.abs() / (d + pupil_z)).atan().to_degrees()),
+                    Field::ObjectHeight {
+                        mm: largest / m.abs(),
+                    },
+                )
+            }
+            (kind, _) => {
+                notes.push(format!(
+                    "the file's {kind:?} fields need a real-ray search this build does not do: \
                  the field comes from the next source"
-            ));
-            return None;
-        }
-    };
+                ));
+                return None;
+            }
+        };
     let mut angles: Vec<f64> = radial.iter().map(|&v| to_angle(v)).collect();
     angles.sort_by(|a, b| b.total_cmp(a));
     angles.dedup();

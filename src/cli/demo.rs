@@ -6,14 +6,14 @@ use super::lens::ReadArgs;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use lensbake::job::tables::DEFAULT_TABLES_ROOT;
+use lensbake::job::tables::chromatic_table_dir;
 use lensbake::job::{RenderLens, TracedAndBaked, default_table_dir};
+use lensbake::plot::{ErrorMapPlot, write_plot};
 use lensbake::render::camera::{Camera, Film};
+use lensbake::render::chromatic::default_wavelengths;
 use lensbake::render::gpu::GpuRenderer;
 use lensbake::render::image::{RgbImage, write_exr, write_png};
 use lensbake::render::reference::psnr;
-use lensbake::plot::{ErrorMapPlot, write_plot};
-use lensbake::render::chromatic::default_wavelengths;
-use lensbake::job::tables::chromatic_table_dir;
 use lensbake::render::scene::{DEMO_LENS, DEMO_SIZE, Scene};
 use lensbake::render::{Backend, RenderSettings, layer_view, render_layers};
 use lensbake::report::{FigureOptions, write_report};
@@ -124,7 +124,6 @@ fn error_scale(values: &[f64]) -> f64 {
 pub(super) fn write_text(path: &Path, text: &str) -> anyhow::Result<()> {
     Ok(lensbake::output::write_bytes(path, text.as_bytes())?)
 }
-
 
 /// Publishes the whole output directory or nothing: a run that fails or is killed part way
 /// leaves the previous demo's files as they were.

@@ -30,8 +30,8 @@ use crate::model::{
 };
 use crate::paraxial::{ObjectPosition, ParaxialError, object_in_focus};
 use crate::render::RenderError;
-use crate::render::chromatic::{CHANNELS, Chromatic};
 use crate::render::camera::{Camera, Film, Focus};
+use crate::render::chromatic::{CHANNELS, Chromatic};
 use crate::tradeoff::TradeoffError;
 use std::path::{Path, PathBuf};
 
@@ -171,8 +171,13 @@ impl TracedAndBaked {
             Focus::FilmZ(film_z),
         )?;
         if let Some(nm) = wavelengths_nm {
-            let baked_channels =
-                Chromatic::for_camera(&baked, &real.system, first_order, nm, CHROMATIC_PUPIL_NODES)?;
+            let baked_channels = Chromatic::for_camera(
+                &baked,
+                &real.system,
+                first_order,
+                nm,
+                CHROMATIC_PUPIL_NODES,
+            )?;
             let mut traced_channels = Chromatic::for_camera(
                 &traced,
                 &real.system,

@@ -103,6 +103,7 @@ pub(crate) fn draw_panel<DB: DrawingBackend>(
     // No data: the title and a note, not a frame whose made-up axes look like a result.
     if !has_points {
         let body = area
+            .margin(8, 0, 0, 0)
             .titled(&panel.title, (FONT_FAMILY, panel.title_size))
             .map_err(draw_error)?;
         draw_notice(&body, &panel.empty_message)?;
@@ -262,7 +263,8 @@ pub(crate) fn draw_footnote<DB: DrawingBackend>(
     note: &str,
 ) -> Result<(), PlotError> {
     let (_, height) = area.dim_in_pixel();
-    let style = TextStyle::from((FONT_FAMILY, LABEL_SIZE - 3).into_font()).color(&RGBColor(160, 0, 0));
+    let style =
+        TextStyle::from((FONT_FAMILY, LABEL_SIZE - 3).into_font()).color(&RGBColor(160, 0, 0));
     area.draw(&Text::new(note.to_string(), (6, height as i32 - 16), style))
         .map_err(draw_error)
 }

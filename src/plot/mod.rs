@@ -25,11 +25,11 @@ mod wave;
 pub use canvas::{Format, Rendered, render, write_plot};
 pub use chart::{Drawn, PanelDrawn, SeriesDrawn};
 pub use color::wavelength_color;
-pub use error_map::ErrorMapPlot;
 pub use curves::{
     DistortionPlot, FieldCurve, FieldCurvesPlot, LateralColorPlot, LsaPlot, VignettingPlot,
     WavelengthCurve,
 };
+pub use error_map::ErrorMapPlot;
 pub use fan::{FanCurve, FanField, OpdFanPlot, RayFanPlot};
 pub use layout::{LayoutElement, LayoutPlot, LayoutRay, LayoutSurface};
 pub use lrtf_error::{LrtfErrorCurve, LrtfErrorLens, LrtfErrorPlot, TARGET_LABEL};

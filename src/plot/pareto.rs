@@ -75,7 +75,10 @@ fn log_tick_label(value: f64) -> String {
         return String::new();
     }
     let mantissa = value / 10f64.powf(value.log10().floor());
-    if [1.0, 2.0, 5.0, 10.0].iter().any(|m| (mantissa - m).abs() < 1e-6 * m) {
+    if [1.0, 2.0, 5.0, 10.0]
+        .iter()
+        .any(|m| (mantissa - m).abs() < 1e-6 * m)
+    {
         tick_label(value)
     } else {
         String::new()
@@ -88,7 +91,11 @@ type LabelBox = (i32, i32, i32, i32);
 fn overlap(a: LabelBox, b: LabelBox) -> i64 {
     let w = (a.0 + a.2).min(b.0 + b.2) - a.0.max(b.0);
     let h = (a.1 + a.3).min(b.1 + b.3) - a.1.max(b.1);
-    if w > 0 && h > 0 { w as i64 * h as i64 } else { 0 }
+    if w > 0 && h > 0 {
+        w as i64 * h as i64
+    } else {
+        0
+    }
 }
 
 /// Places each label (`size` in pixels) beside its point (`anchors`, pixels) in the first of
@@ -99,30 +106,51 @@ fn place_labels(anchors: &[(i32, i32)], sizes: &[(i32, i32)], bounds: LabelBox) 
     const GAP: i32 = 7;
     let markers: Vec<LabelBox> = anchors
         .iter()
-        .map(|&(x, y)| (x - MARKER_RADIUS, y - MARKER_RADIUS, 2 * MARKER_RADIUS, 2 * MARKER_RADIUS))
+        .map(|&(x, y)| {
+            (
+                x - MARKER_RADIUS,
+                y - MARKER_RADIUS,
+                2 * MARKER_RADIUS,
+                2 * MARKER_RADIUS,
+            )
+        })
         .collect();
     let mut placed: Vec<LabelBox> = Vec::new();
     anchors
         .iter()
         .zip(sizes)
         .map(|(&(x, y), &(w, h))| {
-            let candidates = [
-                (x + GAP, y - h - 2),
-                (x + GAP, y + 2),
-                (x - GAP - w, y - h - 2),
-                (x - GAP - w, y + 2),
-                (x - w / 2, y - h - GAP),
-                (x - w / 2, y + GAP),
-                (x + GAP, y - h / 2),
-                (x - GAP - w, y - h / 2),
+            // Eight places around the point, then the same moved one, two, three label
+            // heights further out, for crowded corners.
+            let near = [
+                (x + GAP, y - h - 2, -1),
+                (x + GAP, y + 2, 1),
+                (x - GAP - w, y - h - 2, -1),
+                (x - GAP - w, y + 2, 1),
+                (x - w / 2, y - h - GAP, -1),
+                (x - w / 2, y + GAP, 1),
+                (x + GAP, y - h / 2, 0),
+                (x - GAP - w, y - h / 2, 0),
             ];
+            let candidates: Vec<(i32, i32)> = (0..4)
+                .flat_map(|ring| {
+                    near.iter()
+                        .filter(move |c| ring == 0 || c.2 != 0)
+                        .map(move |&(left, top, away)| (left, top + away * ring * (h + 2)))
+                })
+                .collect();
             let cost = |&(left, top): &(i32, i32)| -> i64 {
                 let own = (left, top, w, h);
                 let outside = {
                     let inside = overlap(own, bounds);
                     (w as i64 * h as i64 - inside) * 4
                 };
-                placed.iter().chain(&markers).map(|&b| overlap(own, b)).sum::<i64>() + outside
+                placed
+                    .iter()
+                    .chain(&markers)
+                    .map(|&b| overlap(own, b))
+                    .sum::<i64>()
+                    + outside
             };
             let best = candidates
                 .iter()
@@ -321,10 +349,15 @@ mod tests {
 
     #[test]
     fn log_ticks_keep_one_two_and_five_of_each_decade() {
-        let written: Vec<String> = [100.0, 200.0, 300.0, 500.0, 700.0, 800.0, 900.0, 1000.0, 0.02]
-            .map(log_tick_label)
-            .to_vec();
-        assert_eq!(written, ["100", "200", "", "500", "", "", "", "1000", "0.02"]);
+        let written: Vec<String> = [
+            100.0, 200.0, 300.0, 500.0, 700.0, 800.0, 900.0, 1000.0, 0.02,
+        ]
+        .map(log_tick_label)
+        .to_vec();
+        assert_eq!(
+            written,
+            ["100", "200", "", "500", "", "", "", "1000", "0.02"]
+        );
     }
 
     #[test]
@@ -344,7 +377,10 @@ mod tests {
             }
         }
         // An isolated point keeps the first position: up and to the right.
-        assert_eq!(place_labels(&[(500, 400)], &[(60, 16)], (0, 0, 1000, 700)), [(507, 382)]);
+        assert_eq!(
+            place_labels(&[(500, 400)], &[(60, 16)], (0, 0, 1000, 700)),
+            [(507, 382)]
+        );
     }
 
     #[test]

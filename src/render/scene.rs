@@ -215,7 +215,10 @@ mod tests {
         let lens = crate::lenses::load(DEMO_LENS, &Default::default()).unwrap();
         assert!(lens.system.disperses());
         let index = |nm: f64| lens.system.at(nm).surfaces[0].index_after;
-        assert!(index(486.13) - index(656.27) > 1e-3, "no dispersion in the first element");
+        assert!(
+            index(486.13) - index(656.27) > 1e-3,
+            "no dispersion in the first element"
+        );
     }
 
     #[test]

@@ -3,7 +3,9 @@
 use super::wave_figures::{
     mtf_field_plot, mtf_plot, opd_fan_plot, psf_plot, through_focus_plot, wavefront_map_plot,
 };
-use crate::analysis::{AnalysisError, AnalyzeOptions, ConditionOverrides, DesignConditions, analyze};
+use crate::analysis::{
+    AnalysisError, AnalyzeOptions, ConditionOverrides, DesignConditions, analyze,
+};
 use crate::paraxial::{Aperture, Paraxial, ParaxialOptions};
 use crate::plot::{
     DistortionPlot, Drawn, FanCurve, FanField, FieldCurve, FieldCurvesPlot, LateralColorPlot,

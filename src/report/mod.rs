@@ -59,7 +59,8 @@ fn fill_report(
     let mut page = Page::for_lens(lens, system);
     match crate::analysis::analyze(lens, system, &options.analyze_options()) {
         Ok(analysis) => {
-            page.tables.insert(0, conditions_table(&analysis.conditions));
+            page.tables
+                .insert(0, conditions_table(&analysis.conditions));
             page.tables.extend(analysis_tables(&analysis));
         }
         Err(error) => page

@@ -7,8 +7,7 @@ use crate::plot::{
 };
 use crate::system::LensSystem;
 use crate::wave::{
-    FieldTrace, PupilTrace, Sampling, Spectrum, WaveError, WaveLens, frequencies_to,
-    mtf_across_field, psf,
+    FieldTrace, Sampling, Spectrum, WaveError, WaveLens, frequencies_to, mtf_across_field, psf,
 };
 
 /// Odd pupil sampling for the fans and maps, so the pupil's centre lines are sampled.
@@ -71,33 +70,28 @@ impl<'a> WaveSet<'a> {
             system,
             epd_mm: Some(conditions.epd_mm),
         };
-        let max_field = conditions.field_deg();
         let probe = Sampling {
             samples: 16,
             grid: 32,
         };
-        let top = (0..=FIELD_SEARCH_STEPS)
-            .map(|i| max_field * (1.0 - i as f64 / FIELD_SEARCH_STEPS as f64))
-            .find(|&f| {
-                PupilTrace::trace(
-                    &lens,
-                    f,
-                    spectrum.reference_nm(),
-                    spectrum.reference_nm(),
-                    probe,
-                )
-                .and_then(|t| t.wavefront(0.0))
-                .is_ok()
+        // Every drawn field and wavelength must trace, or a whole plot would be lost: the
+        // design fields shrink together until they all do (the plots' titles give the fields
+        // drawn).
+        let traces_at = |scale: f64| {
+            conditions.fields_deg.iter().all(|f| {
+                FieldTrace::new(&lens, f * scale, &spectrum, probe)
+                    .and_then(|t| t.wavefronts(0.0).map(|_| ()))
+                    .is_ok()
             })
+        };
+        let scale = (0..=FIELD_SEARCH_STEPS)
+            .map(|i| 1.0 - i as f64 / FIELD_SEARCH_STEPS as f64)
+            .find(|&scale| traces_at(scale))
             .ok_or(FigureError::Wave(WaveError::NoLight { field_deg: 0.0 }))?;
         Ok(WaveSet {
             lens,
             label,
-            fields: conditions
-                .fields_deg
-                .iter()
-                .map(|f| f * top / max_field.max(f64::MIN_POSITIVE))
-                .collect(),
+            fields: conditions.fields_deg.iter().map(|f| f * scale).collect(),
             spectrum,
         })
     }
