@@ -39,9 +39,7 @@ pub struct AnalyzeOptions {
 pub enum AnalysisError {
     #[error(transparent)]
     Limit(#[from] crate::limits::LimitError),
-    #[error("wavelength must be positive and finite, got {0} nm")]
-    InvalidWavelength(f64),
-    #[error("at this wavelength: {0}")]
+    #[error(transparent)]
     Wavelength(#[from] PrescriptionError),
     #[error(transparent)]
     Paraxial(#[from] ParaxialError),
@@ -130,18 +128,18 @@ pub fn analyze(
     system: &LensSystem,
     options: &AnalyzeOptions,
 ) -> Result<Analysis, AnalysisError> {
-    if let Some(w) = options.wavelength_nm
-        && !(w.is_finite() && w > 0.0)
-    {
-        return Err(AnalysisError::InvalidWavelength(w));
-    }
     // A pupil that is not a positive number is the paraxial module's error; the limit bounds
     // the sizes it would accept.
     if let Some(epd) = options.epd_mm.filter(|epd| epd.is_finite() && *epd > 0.0) {
         crate::limits::check_length("the entrance-pupil diameter (mm)", epd)?;
     }
     if let Some(distance) = options.object_distance_mm {
-        crate::limits::check_position("the object distance (mm)", distance)?;
+        crate::limits::check_range(
+            "the object distance (mm)",
+            distance,
+            f64::NEG_INFINITY,
+            f64::INFINITY,
+        )?;
     }
     let conditions = DesignConditions::resolve(system, &options.overrides())?;
     let wavelength_nm = conditions.reference_nm;

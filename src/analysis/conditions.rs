@@ -121,9 +121,6 @@ impl DesignConditions {
             (None, None, Some(w)) => (w, Origin::Source),
             (None, None, None) => (system.design_wavelength_nm(), Origin::Rule),
         };
-        if !(reference_nm.is_finite() && reference_nm > 0.0) {
-            return Err(AnalysisError::InvalidWavelength(reference_nm));
-        }
         let (wavelengths_nm, wavelengths_from) = drawn_wavelengths(
             system,
             overrides,
@@ -139,6 +136,10 @@ impl DesignConditions {
             (None, Some(d)) => (Some(d), Origin::File),
             (None, None) => (None, Origin::Rule),
         };
+        // One rule for a flag and a file: an object 1000 km away or farther is at infinity
+        // (files write 1e10 for it), where a finite distance would only lose digits.
+        let object_distance_mm =
+            object_distance_mm.filter(|d| d.abs() < crate::limits::MAX_LENGTH_MM);
         let object = object_distance_mm.map_or(ObjectPosition::Infinite, |distance| {
             ObjectPosition::Finite { distance }
         });
