@@ -294,7 +294,7 @@ fn run_into(args: &DemoArgs, staging: &Path) -> anyhow::Result<(usize, f64, f64)
     let markdown = format!(
         "# lensbake demo: {lens}\n\n\
          `lensbake demo` renders the built-in scene (checkered wall at 6 m, chart at 2 m, a post \
-         and bar in front, HDR emitters at 5 m, 1.2 m and 0.5 m whose defocus blur shows the \
+         and bar in front, HDR emitters at 5 m, 1.2 m and 0.3 m whose defocus blur shows the \
          lens's bokeh discs) through the {lens} at f/{f_number:.2}, focused at {focus:.0} mm, \
          {w}x{h} pixels, {spp} samples per pixel, {colour}, on the {backend} backend. The \
          traced image runs the exact sequential trace per sample; the baked one looks rays up \
