@@ -1,28 +1,34 @@
 //! The `analyze` report: first-order data, pupils, paraxial rays and Seidel sums of one lens
 //! at one wavelength, field, aperture and object distance, as one serialisable value.
 
-use crate::paraxial::{
-    Aperture, Field, ObjectPosition, Paraxial, ParaxialError, ParaxialOptions, Pupil, RayAtSurface,
-    StopChoice,
+mod conditions;
+
+pub use conditions::{
+    ConditionOverrides, DesignConditions, FIELD_FRACTIONS, Origin, RULE_MAX_FIELD_DEG,
+    rule_field_deg,
 };
-use crate::prescription::{ApertureSpec, FieldKind, PrescriptionError};
+
+use crate::paraxial::{Paraxial, ParaxialError, Pupil, RayAtSurface, StopChoice};
+use crate::prescription::PrescriptionError;
 use crate::seidel::{IndexDifferences, Seidel};
-use crate::system::{LensSystem, SystemAt};
+use crate::system::LensSystem;
 use crate::trace::analyses::{RealRays, RealReport};
 use serde::Serialize;
 
-/// What to analyse; `None` takes what the lens file states (its
-/// [`crate::prescription::Conditions`]), else the documented default.
+/// What to analyse; `None` takes the lens's design conditions ([`DesignConditions`]: the
+/// file's stated conditions, else the source's claims, else the rule of docs/conditions.md).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct AnalyzeOptions {
-    /// Default: the lens's design wavelength (587.56 nm when it states none).
+    /// Default: the file's primary wavelength, else the design wavelength (587.56 nm when the
+    /// lens states none).
     pub wavelength_nm: Option<f64>,
     /// Half-field angle; default: the file's largest field (angle, object height or paraxial
-    /// image height), else the largest angle whose paraxial chief ray passes every clear
-    /// aperture.
+    /// image height), else the source's claimed half field, else the largest angle whose real
+    /// chief ray passes every clear aperture, at most 45 degrees.
     pub field_deg: Option<f64>,
     /// Entrance-pupil diameter; default: the file's aperture (EPD, F-number or object NA), else
-    /// the stop's clear aperture imaged to object space.
+    /// the source's claimed f-number where the stop allows it, else the stop's clear aperture
+    /// imaged to object space.
     pub epd_mm: Option<f64>,
     /// Object distance from surface 1; default: the file's, else infinity.
     pub object_distance_mm: Option<f64>,
@@ -90,6 +96,8 @@ pub struct RaysReport {
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Analysis {
     pub lens: String,
+    /// The conditions analysed, each with where it came from.
+    pub conditions: DesignConditions,
     pub wavelength_nm: f64,
     pub field_deg: f64,
     /// null for an object at infinity.
@@ -101,91 +109,17 @@ pub struct Analysis {
     pub real: RealReport,
 }
 
-/// The paraxial conditions `options` ask for, with what they leave open taken from the lens
-/// file's stated conditions. An F-number, object NA or image-height field is turned into an
-/// entrance-pupil diameter or a field the paraxial module takes, using this lens's first-order
-/// data at the analysis wavelength. A real-image-height field (which needs a real-ray search)
-/// is left to the default.
-pub fn paraxial_options(
-    system: &LensSystem,
-    at: &SystemAt,
-    options: &AnalyzeOptions,
-) -> Result<ParaxialOptions, AnalysisError> {
-    let stated = system.prescription.provenance.conditions.as_ref();
-    let object_distance = options
-        .object_distance_mm
-        .or_else(|| stated.and_then(|c| c.object_distance_mm));
-    // One rule for a flag and a file: an object 1000 km away or farther is at infinity (files
-    // write 1e10 for it), where a finite distance would only lose digits.
-    let object = object_distance
-        .filter(|distance| distance.abs() < crate::limits::MAX_LENGTH_MM)
-        .map_or(ObjectPosition::Infinite, |distance| ObjectPosition::Finite {
-            distance,
-        });
-    let mut chosen = ParaxialOptions {
-        object,
-        aperture: options
-            .epd_mm
-            .map_or(Aperture::StopClearAperture, Aperture::EntrancePupilDiameter),
-        field: options
-            .field_deg
-            .map_or(Field::LargestUnvignetted, |deg| Field::Angle { deg }),
-        stop: options.stop,
-    };
-    let Some(stated) = stated else {
-        return Ok(chosen);
-    };
-    // First-order data and pupil position do not depend on the aperture or field chosen.
-    let probe = Paraxial::new(at, &chosen)?;
-    if options.epd_mm.is_none() {
-        let epd = match (&stated.aperture, object_distance) {
-            (Some(ApertureSpec::EntrancePupilDiameter(d)), _) => Some(*d),
-            (Some(ApertureSpec::FNumber(f)), None) => Some(probe.first_order.efl.abs() / f),
-            (Some(ApertureSpec::ObjectNumericalAperture(na)), Some(distance)) => {
-                let n = probe.first_order.object_index;
-                (*na > 0.0 && *na < n)
-                    .then(|| 2.0 * (distance + probe.entrance_pupil.z) * (na / n).asin().tan())
-            }
-            _ => None,
-        };
-        if let Some(epd) = epd.filter(|d| d.is_finite() && *d > 0.0) {
-            chosen.aperture = Aperture::EntrancePupilDiameter(epd);
+impl AnalyzeOptions {
+    /// The same choices as overrides of the lens's design conditions.
+    pub fn overrides(&self) -> ConditionOverrides {
+        ConditionOverrides {
+            wavelengths_nm: self.wavelength_nm.into_iter().collect(),
+            field_deg: self.field_deg,
+            epd_mm: self.epd_mm,
+            object_distance_mm: self.object_distance_mm,
+            stop: self.stop,
         }
     }
-    if options.field_deg.is_none()
-        && let Some(fields) = &stated.fields
-    {
-        let largest = fields.max_radial();
-        let field = match (fields.kind, object_distance) {
-            (FieldKind::AngleDeg, _) => Some(Field::Angle {
-                deg: fields
-                    .x
-                    .iter()
-                    .zip(&fields.y)
-                    .map(|(x, y)| x.to_radians().tan().hypot(y.to_radians().tan()))
-                    .fold(0.0, f64::max)
-                    .atan()
-                    .to_degrees(),
-            }),
-            (FieldKind::ObjectHeight, Some(_)) => Some(Field::ObjectHeight { mm: largest }),
-            (FieldKind::ParaxialImageHeight, None) => Some(Field::Angle {
-                deg: (largest / probe.first_order.efl.abs()).atan().to_degrees(),
-            }),
-            (FieldKind::ParaxialImageHeight, Some(_)) => probe
-                .magnification
-                .filter(|m| *m != 0.0)
-                .map(|m| Field::ObjectHeight {
-                    mm: largest / m.abs(),
-                }),
-            _ => None,
-        };
-        // An on-axis-only field list leaves the field to the default: a zero field measures
-        // no off-axis aberration.
-        if let Some(field) = field.filter(|_| largest > 0.0) {
-            chosen.field = field;
-        }
-    }
-    Ok(chosen)
 }
 
 /// Analyses `system` under `options`; `lens` names it in the report.
@@ -194,10 +128,6 @@ pub fn analyze(
     system: &LensSystem,
     options: &AnalyzeOptions,
 ) -> Result<Analysis, AnalysisError> {
-    let wavelength_nm = options
-        .wavelength_nm
-        .unwrap_or_else(|| system.design_wavelength_nm());
-    let at = system.at_checked(wavelength_nm)?;
     // A pupil that is not a positive number is the paraxial module's error; the limit bounds
     // the sizes it would accept.
     if let Some(epd) = options.epd_mm.filter(|epd| epd.is_finite() && *epd > 0.0) {
@@ -211,14 +141,17 @@ pub fn analyze(
             f64::INFINITY,
         )?;
     }
-    let paraxial_options = paraxial_options(system, &at, options)?;
-    let paraxial = Paraxial::new(&at, &paraxial_options)?;
+    let conditions = DesignConditions::resolve(system, &options.overrides())?;
+    let wavelength_nm = conditions.reference_nm;
+    let at = system.at_checked(wavelength_nm)?;
+    let paraxial = Paraxial::new(&at, &conditions.paraxial_options())?;
     let colour = IndexDifferences::fraunhofer(system);
     let seidel = Seidel::new(&at, &paraxial, colour.as_ref());
     let real = RealReport::new(&RealRays::new(&at, paraxial.clone()));
     let f = &paraxial.first_order;
     let analysis = Analysis {
         lens: lens.to_string(),
+        conditions,
         wavelength_nm,
         field_deg: paraxial.field_angle_deg,
         object_distance_mm: paraxial.object_distance,

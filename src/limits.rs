@@ -194,9 +194,8 @@ fn available_memory() -> Option<u64> {
 /// never end) and files over [`MAX_INPUT_BYTES`]. The errors are `std::io::Error`s, so each
 /// reader keeps its own way of naming the file.
 pub fn read_input(path: &Path) -> std::io::Result<Vec<u8>> {
-    read_bounded(path).map_err(|error| {
-        std::io::Error::new(error.kind(), crate::output::describe_io(&error))
-    })
+    read_bounded(path)
+        .map_err(|error| std::io::Error::new(error.kind(), crate::output::describe_io(&error)))
 }
 
 fn read_bounded(path: &Path) -> std::io::Result<Vec<u8>> {

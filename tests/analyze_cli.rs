@@ -137,12 +137,13 @@ fn defaults_and_finite_object() {
     let json = stdout_json(&lensbake(&["analyze", lens, "--json"]));
     let first = &json["first_order"];
     // Default EPD: the stop's clear aperture (r = 3.87 mm) imaged to object space; default
-    // field: the paraxial limit.
+    // field: the rule (largest passing real chief ray, at most 45 degrees; tests/conditions.rs).
     assert!(num(get(first, "entrance_pupil.diameter")) > 2.0 * 3.87);
-    assert_eq!(
-        num(&json["field_deg"]),
-        num(&first["max_field_deg_paraxial"])
-    );
+    assert_eq!(json["conditions"]["field_from"], "rule");
+    assert_eq!(json["conditions"]["aperture_from"], "rule");
+    let field = num(&json["field_deg"]);
+    assert!((field / num(&json["conditions"]["fields_deg"][0]) - 1.0).abs() < 1e-12);
+    assert!(field > 20.0 && field <= 45.0);
 
     let json = stdout_json(&lensbake(&[
         "analyze",

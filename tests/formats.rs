@@ -660,6 +660,7 @@ fn ron_round_trip_is_bit_exact_for_awkward_numbers() {
             design_wavelength_nm: Some(587.5618),
             claimed_focal_length_mm: Some(1.0 / 7.0),
             claimed_f_number: None,
+            claimed_half_field_deg: Some(21.5),
             notes: Some("line one\nline two".into()),
             conditions: None,
         },

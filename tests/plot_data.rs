@@ -210,3 +210,33 @@ fn lateral_colour_is_zero_on_axis_and_absent_without_dispersion() {
         drawn.messages().collect::<Vec<_>>()
     );
 }
+
+/// Layout rays are whole: each starts in front of the lens and crosses at least surface 1 (a
+/// ray stopped outside the first clear aperture once floated as a fragment below the lens), and
+/// the legend says what the faint (vignetted) rays are.
+#[test]
+fn layouts_draw_only_complete_rays_and_name_the_faint_ones() {
+    for lens in ["dgauss-50mm", "fisheye-10mm", "petzval"] {
+        let Figure::Layout(layout) = plot(PlotKind::Layout, lens) else {
+            panic!("not a layout")
+        };
+        assert!(
+            layout.rays.iter().any(|r| r.vignetted),
+            "{lens}: no vignetted ray"
+        );
+        for ray in &layout.rays {
+            assert!(ray.path.len() >= 3, "{lens}: a fragment {:?}", ray.path);
+            assert!(
+                ray.path[0].0 < ray.path[1].0,
+                "{lens}: a ray drawn backwards from its start"
+            );
+        }
+        let drawn = render(&layout, Format::Svg).unwrap().drawn;
+        assert!(
+            drawn
+                .messages()
+                .any(|m| m.starts_with("faint: vignetted rays")),
+            "{lens}"
+        );
+    }
+}

@@ -179,11 +179,13 @@ fn a_field_whose_rays_all_vignette_says_so() {
                     points: vec![],
                 }],
                 sagittal: vec![],
+                dropped_nm: vec![],
             },
             FanField {
                 field_deg: 0.0,
                 tangential: vec![fan(0.01)],
                 sagittal: vec![fan(0.01)],
+                dropped_nm: vec![486.13],
             },
         ],
     };
@@ -193,7 +195,16 @@ fn a_field_whose_rays_all_vignette_says_so() {
         "fan-vignetted",
     );
     let messages: Vec<&str> = drawn.messages().collect();
-    assert_eq!(messages, ["All rays vignetted at 40.00°"; 2]);
+    let dropped = "not drawn: 486.1 nm (pupil-centre ray vignetted)";
+    assert_eq!(
+        messages,
+        [
+            "All rays vignetted at 40.00°",
+            "All rays vignetted at 40.00°",
+            dropped,
+            dropped
+        ]
+    );
     let svg = render(&view, Format::Svg).unwrap();
     assert!(
         String::from_utf8(svg.bytes)
@@ -201,8 +212,9 @@ fn a_field_whose_rays_all_vignette_says_so() {
             .contains("All rays vignetted at 40.00°")
     );
     assert_eq!(drawn.panels.len(), 4);
-    assert!(
-        drawn.panels[2].messages.is_empty(),
+    assert_eq!(
+        drawn.panels[2].series.len(),
+        1,
         "the on-axis fans have data"
     );
 }

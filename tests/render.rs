@@ -329,8 +329,10 @@ fn ibrt_converges_to_true_geometry_reference_as_layers_refine() {
         let reference = render_reference(&camera, &scene, &settings).unwrap();
         // Same samples on both sides, so what remains is the layers' point sampling of
         // textures and silhouettes: at the output's pixel pitch every checker edge moves by up
-        // to half a pixel (measured 23.7 dB, tilted 26.4 dB); it must fall away as the layers
-        // are refined (34.6 dB at 4x, tilted 36.2 dB).
+        // to half a pixel (measured 23.2 dB untilted); it must fall away as the layers are
+        // refined (32.9 dB at 4x untilted). The scene's near emitters (radiance up to 44, for
+        // the demo's bokeh) put HDR silhouettes in it; with only the old far lights the figures
+        // were 23.7 and 34.6 dB.
         let mut scores = Vec::new();
         for refine in [1, 4] {
             let mut view = layer_view(&camera, &settings, scene.nearest_distance_mm().unwrap());
@@ -347,7 +349,7 @@ fn ibrt_converges_to_true_geometry_reference_as_layers_refine() {
         );
         assert!(scores[0] > 22.0, "{scores:?}");
         assert!(
-            scores[1] > 33.0 && scores[1] > scores[0] + 8.0,
+            scores[1] > 32.0 && scores[1] > scores[0] + 8.0,
             "{scores:?}"
         );
     }

@@ -462,7 +462,9 @@ fn the_f095_singlet_images_a_far_axial_light_without_spreading_it() {
 fn baked_frames_follow_traced_ones_through_the_opened_aspheric_lens() {
     // The demo scene through asph-50mm opened to f/1.56, its real rays vignetted by apertures
     // grown past the design: the 12^3 table's frame against the trace's (identical samples).
-    // Measured 33.5 dB; a table that mislaid the stop or the vignetting edges falls below 25.
+    // Measured 28.8 dB (33.5 before the scene held HDR near emitters, radiance up to 44, whose
+    // blurred edges dominate the squared error); a table that mislaid the stop or the
+    // vignetting edges falls below 25.
     let case = extremes().into_iter().next().unwrap();
     let scene = Scene::demo();
     let cameras = cameras(&case, 12);
@@ -470,7 +472,7 @@ fn baked_frames_follow_traced_ones_through_the_opened_aspheric_lens() {
     let traced = render(case.name, &cameras[4], &scene);
     let db = psnr(&baked, &traced);
     eprintln!("{}: baked 12^3 against traced {db:.1} dB", case.name);
-    assert!(db > 30.0, "{db} dB");
+    assert!(db > 27.0, "{db} dB");
 }
 
 #[test]

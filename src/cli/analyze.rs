@@ -14,12 +14,13 @@ pub struct AnalyzeArgs {
     /// Wavelength in nm [default: the lens's design wavelength, else 587.56].
     #[arg(long, allow_negative_numbers = true)]
     pub wavelength_nm: Option<f64>,
-    /// Half-field angle in degrees [default: the lens file's largest field, else the largest
-    /// whose paraxial chief ray passes every clear aperture].
+    /// Half-field angle in degrees [default: the lens file's largest field, else the source's
+    /// claimed half field, else the largest whose real chief ray passes, at most 45].
     #[arg(long, allow_negative_numbers = true)]
     pub field_deg: Option<f64>,
     /// Entrance-pupil diameter in mm [default: the lens file's aperture (EPD, F-number or object
-    /// NA), else the stop's clear aperture imaged to object space].
+    /// NA), else the source's claimed f-number where the stop allows it, else the stop's clear
+    /// aperture imaged to object space].
     #[arg(long, allow_negative_numbers = true)]
     pub epd_mm: Option<f64>,
     /// Object distance from the first vertex in mm [default: the lens file's, else infinity].
@@ -74,6 +75,13 @@ fn report(a: &Analysis) -> String {
         "wavelength {} nm   half field {:.4} deg   object {object}",
         a.wavelength_nm, a.field_deg
     );
+    let _ = writeln!(out, "\nDesign conditions (docs/conditions.md)");
+    for (name, value, from) in a.conditions.summary_rows() {
+        let _ = writeln!(out, "  {name:<26} {value:<40} from the {from}");
+    }
+    for note in &a.conditions.notes {
+        let _ = writeln!(out, "  note: {note}");
+    }
     let _ = writeln!(
         out,
         "\nFirst order (z absolute from the vertex of surface 1)"

@@ -134,6 +134,7 @@ pub fn run(args: RenderBenchArgs) -> anyhow::Result<()> {
         args.focus_mm,
         &table_dir,
         args.bake_resolution,
+        None,
         &|_| {},
     )?;
     let mut cameras: Vec<(String, Camera)> = Vec::new();

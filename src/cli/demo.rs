@@ -6,12 +6,15 @@ use super::lens::ReadArgs;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use lensbake::job::tables::DEFAULT_TABLES_ROOT;
+use lensbake::job::tables::chromatic_table_dir;
 use lensbake::job::{RenderLens, TracedAndBaked, default_table_dir};
+use lensbake::plot::{ErrorMapPlot, write_plot};
 use lensbake::render::camera::{Camera, Film};
+use lensbake::render::chromatic::default_wavelengths;
 use lensbake::render::gpu::{GpuRenderer, gpu_worth_using};
 use lensbake::render::image::{RgbImage, write_exr, write_png};
 use lensbake::render::reference::psnr;
-use lensbake::render::scene::Scene;
+use lensbake::render::scene::{DEMO_LENS, DEMO_SIZE, Scene};
 use lensbake::render::{Backend, RenderSettings, layer_view, render_layers};
 use lensbake::report::{FigureOptions, write_report};
 use serde::Serialize;
@@ -20,15 +23,20 @@ use std::time::{Duration, Instant};
 
 #[derive(Args, Debug)]
 pub struct DemoArgs {
-    /// Lens file or bundled lens name.
-    #[arg(long, default_value = "dgauss-50mm")]
+    /// Lens file or bundled lens name [default: a 50 mm of real glasses, so the render shows
+    /// colour].
+    #[arg(long, default_value = DEMO_LENS)]
     lens: String,
     #[command(flatten)]
     read: ReadArgs,
-    #[arg(long, default_value_t = 320)]
+    #[arg(long, default_value_t = DEMO_SIZE.0)]
     width: u32,
-    #[arg(long, default_value_t = 240)]
+    #[arg(long, default_value_t = DEMO_SIZE.1)]
     height: u32,
+    /// Render one wavelength even when the lens disperses (by default a dispersive lens renders
+    /// R, G and B at the C line, its design wavelength and the F line).
+    #[arg(long)]
+    monochrome: bool,
     #[arg(long, default_value_t = 64)]
     spp: u32,
     /// Table nodes per axis (64^3 bakes in about 1.5 s on two cores).
@@ -57,6 +65,8 @@ struct Timings {
     table_baked_now: bool,
     analysis_seconds: f64,
     bake_or_load_seconds: f64,
+    /// R, G, B wavelengths (nm) of a chromatic render; null for a monochrome one.
+    wavelengths_nm: Option<[f64; 3]>,
     peel_seconds: f64,
     layers: usize,
     traced_render_seconds: f64,
@@ -82,30 +92,38 @@ fn done(bar: ProgressBar, what: &str, started: Instant) -> f64 {
     seconds
 }
 
-/// Per-pixel |a - b| summed over the channels, as a grey image.
-fn error_map(a: &RgbImage, b: &RgbImage) -> RgbImage {
-    RgbImage {
-        width: a.width,
-        height: a.height,
-        pixels: a
-            .pixels
-            .iter()
-            .zip(&b.pixels)
-            .map(|(p, q)| {
-                let e = (0..3).map(|c| (p[c] - q[c]).abs()).sum::<f32>();
-                [e, e, e]
-            })
-            .collect(),
-    }
+/// Per-pixel |a - b| averaged over R, G and B (linear radiance), row-major.
+fn error_values(a: &RgbImage, b: &RgbImage) -> Vec<f64> {
+    a.pixels
+        .iter()
+        .zip(&b.pixels)
+        .map(|(p, q)| (0..3).map(|c| (p[c] - q[c]).abs() as f64).sum::<f64>() / 3.0)
+        .collect()
+}
+
+/// The top of the error map's colour scale: the 99.9th percentile of the errors rounded up to
+/// 1, 2 or 5 times a power of ten, so the rare largest errors (a vignetting edge, a silhouette)
+/// do not flatten the rest into the bottom colour.
+fn error_scale(values: &[f64]) -> f64 {
+    let mut sorted: Vec<f64> = values.iter().copied().filter(|v| v.is_finite()).collect();
+    sorted.sort_by(f64::total_cmp);
+    let p999 = sorted
+        .get(((sorted.len() as f64 * 0.999) as usize).min(sorted.len().saturating_sub(1)))
+        .copied()
+        .unwrap_or(0.0)
+        .max(1e-6);
+    let decade = 10f64.powf(p999.log10().floor());
+    [1.0, 2.0, 5.0, 10.0]
+        .into_iter()
+        .map(|m| m * decade)
+        .find(|&top| top >= p999)
+        .unwrap_or(10.0 * decade)
 }
 
 /// Writes `text` to `path` through the one atomic writer.
 pub(super) fn write_text(path: &Path, text: &str) -> anyhow::Result<()> {
     Ok(lensbake::output::write_bytes(path, text.as_bytes())?)
 }
-
-/// Exposure applied to the error map so one-percent errors are visible.
-const ERROR_MAP_EXPOSURE: f32 = 10.0;
 
 /// Publishes the whole output directory or nothing: a run that fails or is killed part way
 /// leaves the previous demo's files as they were.
@@ -140,7 +158,13 @@ fn run_into(args: &DemoArgs, staging: &Path) -> anyhow::Result<(usize, f64, f64)
     let analysis_seconds = done(bar, "analysis and plots", started);
 
     let film = Film::full_frame_for(args.width, args.height);
-    let table_dir = default_table_dir(Path::new(DEFAULT_TABLES_ROOT), &name, Some(args.focus_mm));
+    let wavelengths_nm =
+        (real.system.disperses() && !args.monochrome).then(|| default_wavelengths(&real.system));
+    let mono_dir = default_table_dir(Path::new(DEFAULT_TABLES_ROOT), &name, Some(args.focus_mm));
+    let table_dir = match wavelengths_nm {
+        Some(nm) => chromatic_table_dir(&mono_dir, nm),
+        None => mono_dir,
+    };
     let started = Instant::now();
     let bar = ProgressBar::new(1);
     bar.set_style(
@@ -155,6 +179,7 @@ fn run_into(args: &DemoArgs, staging: &Path) -> anyhow::Result<(usize, f64, f64)
         args.focus_mm,
         &table_dir,
         args.bake_resolution,
+        wavelengths_nm,
         &|p| {
             bar.set_length(p.total as u64);
             bar.set_position(p.done as u64);
@@ -193,12 +218,19 @@ fn run_into(args: &DemoArgs, staging: &Path) -> anyhow::Result<(usize, f64, f64)
     let (gpu, gpu_passed_over) = match args.backend.as_str() {
         "cpu" => (None, None),
         "gpu" => (Some(GpuRenderer::new()?), None),
-        "auto" => match gpu_worth_using().and_then(|()| GpuRenderer::new().map_err(|e| e.to_string())) {
-            Ok(gpu) => (Some(gpu), None),
-            Err(why) => (None, Some(why)),
-        },
+        "auto" => {
+            match gpu_worth_using().and_then(|()| GpuRenderer::new().map_err(|e| e.to_string())) {
+                Ok(gpu) => (Some(gpu), None),
+                Err(why) => (None, Some(why)),
+            }
+        }
         other => anyhow::bail!("--backend {other}: expected gpu, cpu or auto"),
     };
+    if let Some(g) = &gpu
+        && wavelengths_nm.is_some()
+    {
+        g.prepare_chromatic()?;
+    }
     let (backend, backend_name) = match (&gpu, gpu_passed_over) {
         (Some(g), _) => (Backend::Gpu, format!("gpu ({})", g.adapter_description)),
         (None, Some(why)) => (Backend::Cpu, format!("cpu ({why})")),
@@ -215,19 +247,25 @@ fn run_into(args: &DemoArgs, staging: &Path) -> anyhow::Result<(usize, f64, f64)
     let (traced_image, traced_seconds) = render(&traced)?;
     let (baked_image, baked_seconds) = render(&baked)?;
 
-    let errors = error_map(&baked_image, &traced_image);
-    let (mut sum, mut max) = (0.0f64, 0.0f32);
-    for p in &errors.pixels {
-        sum += p[0] as f64 / 3.0;
-        max = max.max(p[0] / 3.0);
-    }
-    let mean_abs_error = sum / errors.pixels.len() as f64;
+    let errors = error_values(&baked_image, &traced_image);
+    let mean_abs_error = errors.iter().sum::<f64>() / errors.len() as f64;
+    let max_abs_error = errors.iter().copied().fold(0.0, f64::max);
     for (image, file) in [(&traced_image, "traced"), (&baked_image, "baked")] {
         write_exr(image, &staging.join(format!("{file}.exr")))?;
         write_png(image, 1.0, &staging.join(format!("{file}.png")))?;
     }
-    write_png(&errors, ERROR_MAP_EXPOSURE, &staging.join("error-map.png"))?;
-
+    let scale = error_scale(&errors);
+    write_plot(
+        &ErrorMapPlot {
+            title: format!("{name}: |baked - traced|, mean over R, G, B"),
+            width: args.width as usize,
+            height: args.height as usize,
+            values: errors,
+            range: (0.0, scale),
+            bar_label: "abs difference (linear radiance)".into(),
+        },
+        &staging.join("error-map.png"),
+    )?;
     let timings = Timings {
         lens: name.clone(),
         backend: backend_name,
@@ -238,6 +276,7 @@ fn run_into(args: &DemoArgs, staging: &Path) -> anyhow::Result<(usize, f64, f64)
         table_baked_now: baked_now,
         analysis_seconds,
         bake_or_load_seconds: bake_seconds,
+        wavelengths_nm,
         peel_seconds,
         layers: ldi.layers.len(),
         traced_render_seconds: traced_seconds,
@@ -245,7 +284,7 @@ fn run_into(args: &DemoArgs, staging: &Path) -> anyhow::Result<(usize, f64, f64)
         baked_speedup: traced_seconds / baked_seconds,
         psnr_baked_vs_traced_db: psnr(&baked_image, &traced_image),
         mean_abs_error,
-        max_abs_error: max as f64,
+        max_abs_error,
     };
     write_text(
         &staging.join("timings.json"),
@@ -255,12 +294,14 @@ fn run_into(args: &DemoArgs, staging: &Path) -> anyhow::Result<(usize, f64, f64)
     let markdown = format!(
         "# lensbake demo: {lens}\n\n\
          `lensbake demo` renders the built-in scene (checkered wall at 6 m, chart at 2 m, a post \
-         and bar in front, small emitters) through the {lens} at f/{f_number:.2}, focused at \
-         {focus:.0} mm, {w}x{h} pixels, {spp} samples per pixel, on the {backend} backend. The \
+         and bar in front, HDR emitters at 5 m, 1.2 m and 0.3 m whose defocus blur shows the \
+         lens's bokeh discs) through the {lens} at f/{f_number:.2}, focused at {focus:.0} mm, \
+         {w}x{h} pixels, {spp} samples per pixel, {colour}, on the {backend} backend. The \
          traced image runs the exact sequential trace per sample; the baked one looks rays up \
          in a {res}^3 LRTF table baked for this focus. Both draw the same lens samples on the \
-         table's effective-pupil circles, so their difference is the table's error.\n\n\
-         | traced | baked | abs(baked - traced) x{exposure} |\n|---|---|---|\n\
+         table's effective-pupil circles, so their difference is the table's error; the error \
+         map's colour bar gives its scale in linear radiance.\n\n\
+         | traced | baked | abs(baked - traced) |\n|---|---|---|\n\
          | ![traced](traced.png) | ![baked](baked.png) | ![error](error-map.png) |\n\n\
          | stage | seconds |\n|---|---|\n\
          | analysis and plots (analysis/) | {analysis:.2} |\n\
@@ -278,7 +319,10 @@ fn run_into(args: &DemoArgs, staging: &Path) -> anyhow::Result<(usize, f64, f64)
         spp = t.samples_per_pixel,
         backend = t.backend,
         res = t.bake_resolution,
-        exposure = ERROR_MAP_EXPOSURE,
+        colour = match t.wavelengths_nm {
+            Some([r, g, b]) => format!("R, G, B traced at {r:.1}, {g:.1} and {b:.1} nm"),
+            None => "one wavelength".to_string(),
+        },
         analysis = t.analysis_seconds,
         bake_what = if t.table_baked_now {
             "bake and camera set-up"

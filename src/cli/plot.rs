@@ -20,12 +20,38 @@ pub struct PlotArgs {
     /// Output file; .png or .svg.
     #[arg(long)]
     out: PathBuf,
-    /// Largest half-field angle to plot (degrees; default: the largest traceable field).
+    #[command(flatten)]
+    conditions: ConditionArgs,
+}
+
+/// The design-condition flags `plot` and `report` share with `analyze`: each overrides the
+/// lens's design conditions (docs/conditions.md) in every plot and table alike.
+#[derive(Args, Debug, Default)]
+pub struct ConditionArgs {
+    /// Top half-field angle in degrees [default: the lens file's largest field, else the
+    /// source's claimed half field, else the largest whose real chief ray passes, at most 45].
     #[arg(long)]
     field_deg: Option<f64>,
-    /// Wavelengths to draw (nm), comma separated (default: F, d, C or the design wavelength).
+    /// Wavelengths to draw (nm), comma separated, the first the reference [default: the lens
+    /// file's, else F, d, C for a dispersive lens, else the design wavelength].
     #[arg(long, value_delimiter = ',', num_args = 1..)]
     wavelength_nm: Vec<f64>,
+    /// Entrance-pupil diameter in mm [default: the lens file's aperture, else the source's
+    /// claimed f-number where the stop allows it, else the stop wide open].
+    #[arg(long)]
+    epd_mm: Option<f64>,
+}
+
+impl ConditionArgs {
+    fn options(&self) -> anyhow::Result<FigureOptions> {
+        let options = FigureOptions {
+            field_deg: self.field_deg,
+            wavelengths_nm: self.wavelength_nm.clone(),
+            epd_mm: self.epd_mm,
+        };
+        check_options(&options)?;
+        Ok(options)
+    }
 }
 
 #[derive(Args, Debug)]
@@ -39,6 +65,8 @@ pub struct ReportArgs {
     /// Output directory (default: notebooks-out/<lens>/; with --all, the parent directory).
     #[arg(long)]
     out: Option<PathBuf>,
+    #[command(flatten)]
+    conditions: ConditionArgs,
 }
 
 pub fn run_plot(args: PlotArgs) -> anyhow::Result<()> {
@@ -47,11 +75,7 @@ pub fn run_plot(args: PlotArgs) -> anyhow::Result<()> {
     }
     let kind: PlotKind = args.kind.parse()?;
     let (name, system) = load_lens(&args.lens)?;
-    let options = FigureOptions {
-        field_deg: args.field_deg,
-        wavelengths_nm: args.wavelength_nm,
-    };
-    check_options(&options)?;
+    let options = args.conditions.options()?;
     let view = figure(kind, &name, &system, &options)?;
     let drawn = write_plot(&view, &args.out)?;
     for message in drawn.messages() {
@@ -69,6 +93,7 @@ pub fn run_report(args: ReportArgs) -> anyhow::Result<()> {
     if lenses.is_empty() {
         bail!("no bundled lenses in this build");
     }
+    let options = args.conditions.options()?;
     for lens in lenses {
         let (name, system) = load_lens(&lens)?;
         let directory = match (&args.out, args.all) {
@@ -76,7 +101,7 @@ pub fn run_report(args: ReportArgs) -> anyhow::Result<()> {
             (Some(out), true) => out.join(&name),
             (None, _) => Path::new("notebooks-out").join(&name),
         };
-        let written = write_report(&name, &system, &FigureOptions::default(), &directory)?;
+        let written = write_report(&name, &system, &options, &directory)?;
         for (kind, reason) in &written.skipped {
             eprintln!("note: {name}: {kind} skipped: {reason}");
         }
@@ -90,6 +115,11 @@ fn check_options(options: &FigureOptions) -> anyhow::Result<()> {
         && !(field.is_finite() && (0.0..90.0).contains(&field))
     {
         bail!("--field-deg must be in [0, 90), got {field}");
+    }
+    if let Some(epd) = options.epd_mm
+        && !(epd.is_finite() && epd > 0.0)
+    {
+        bail!("--epd-mm must be positive, got {epd}");
     }
     Ok(())
 }

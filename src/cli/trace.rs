@@ -87,7 +87,6 @@ pub fn run(args: TraceArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-
 fn read_rays(source: &str) -> anyhow::Result<Vec<Ray>> {
     let (name, text) = if source == "-" {
         let mut text = String::new();

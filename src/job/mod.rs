@@ -31,6 +31,7 @@ use crate::model::{
 use crate::paraxial::{ObjectPosition, ParaxialError, object_in_focus};
 use crate::render::RenderError;
 use crate::render::camera::{Camera, Film, Focus};
+use crate::render::chromatic::{CHANNELS, Chromatic};
 use crate::tradeoff::TradeoffError;
 use std::path::{Path, PathBuf};
 
@@ -117,10 +118,15 @@ pub fn focus_of_film(lens: &LoadedLens, film_z: f64) -> Result<Option<f64>, Para
     })
 }
 
+/// Film-radius nodes of the traced channels' own pupil fit (replaced by the table's circles).
+const CHROMATIC_PUPIL_NODES: usize = 16;
+
 /// The traced and the baked camera of a real lens focused at `focus_mm`, drawing identical lens
 /// samples: both sample the table's effective-pupil circles on its film plane, so the difference
 /// between their images is the table's error, not noise. The table comes from `table_dir`,
-/// baked there first when missing.
+/// baked there first when missing. With `wavelengths_nm` both render R, G and B at their own
+/// wavelengths (a table with a layer per channel), still from one set of sampling circles: the
+/// union of the table's channel pupils.
 #[derive(Clone, Debug)]
 pub struct TracedAndBaked {
     pub traced: Camera,
@@ -139,13 +145,14 @@ impl TracedAndBaked {
         focus_mm: f64,
         table_dir: &Path,
         bake_resolution: usize,
+        wavelengths_nm: Option<[f64; CHANNELS]>,
         progress: &(dyn Fn(BakeProgress) + Sync),
     ) -> Result<TracedAndBaked, JobError> {
         let fallback = BakeFallback {
             focus_mm: Some(focus_mm),
             max_film_radius: (film.width_mm / 2.0).hypot(film.height_mm / 2.0),
             resolution: bake_resolution,
-            wavelengths_nm: Vec::new(),
+            wavelengths_nm: wavelengths_nm.map_or_else(Vec::new, |w| w.to_vec()),
         };
         let (table, baked_now) = load_or_bake(real, table_dir, &fallback, progress)?;
         let pupil = table.layers[0].pupil.clone();
@@ -153,17 +160,40 @@ impl TracedAndBaked {
         let baked = BakedLens::new(table, first_order, f_number)?;
         let film_z = baked.film_z();
         let traced = TracedLens::new(&real.system, first_order, f_number, pupil);
+        let mut traced = Camera::new(
+            LensModel::Traced(Box::new(traced)),
+            film,
+            Focus::FilmZ(film_z),
+        )?;
+        let mut baked = Camera::new(
+            LensModel::Baked(Box::new(baked)),
+            film,
+            Focus::FilmZ(film_z),
+        )?;
+        if let Some(nm) = wavelengths_nm {
+            let baked_channels = Chromatic::for_camera(
+                &baked,
+                &real.system,
+                first_order,
+                nm,
+                CHROMATIC_PUPIL_NODES,
+            )?;
+            let mut traced_channels = Chromatic::for_camera(
+                &traced,
+                &real.system,
+                first_order,
+                nm,
+                CHROMATIC_PUPIL_NODES,
+            )?;
+            // The table's circles contain every channel's pupil (they are fitted conservative);
+            // sampling the same ones keeps the two images' difference the table's error.
+            traced_channels.sampling = baked_channels.sampling.clone();
+            traced = traced.with_chromatic(traced_channels)?;
+            baked = baked.with_chromatic(baked_channels)?;
+        }
         Ok(TracedAndBaked {
-            traced: Camera::new(
-                LensModel::Traced(Box::new(traced)),
-                film,
-                Focus::FilmZ(film_z),
-            )?,
-            baked: Camera::new(
-                LensModel::Baked(Box::new(baked)),
-                film,
-                Focus::FilmZ(film_z),
-            )?,
+            traced,
+            baked,
             baked_now,
             table_resolution,
         })

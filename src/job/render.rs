@@ -438,9 +438,7 @@ impl RenderJob {
         let gpu = match self.backend {
             BackendChoice::Cpu => None,
             BackendChoice::Gpu => Some(GpuPeeler::new()?),
-            BackendChoice::Auto => gpu_worth_using()
-                .ok()
-                .and_then(|()| GpuPeeler::new().ok()),
+            BackendChoice::Auto => gpu_worth_using().ok().and_then(|()| GpuPeeler::new().ok()),
         };
         let report = SceneReport {
             triangles: Some(mesh.triangles.len()),
@@ -624,9 +622,9 @@ impl RenderJob {
                 ));
             }
             BackendChoice::Gpu => GpuRenderer::new()?,
-            BackendChoice::Auto => match gpu_worth_using().and_then(|()| {
-                GpuRenderer::new().map_err(|e| e.to_string())
-            }) {
+            BackendChoice::Auto => match gpu_worth_using()
+                .and_then(|()| GpuRenderer::new().map_err(|e| e.to_string()))
+            {
                 Ok(gpu) => gpu,
                 Err(why) => {
                     let used = BackendUsed::Cpu {

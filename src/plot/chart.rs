@@ -100,6 +100,19 @@ pub(crate) fn draw_panel<DB: DrawingBackend>(
     panel: Panel,
 ) -> Result<PanelDrawn, PlotError> {
     let has_points = panel.series.iter().any(|s| !s.points.is_empty());
+    // No data: the title and a note, not a frame whose made-up axes look like a result.
+    if !has_points {
+        let body = area
+            .margin(8, 0, 0, 0)
+            .titled(&panel.title, (FONT_FAMILY, panel.title_size))
+            .map_err(draw_error)?;
+        draw_notice(&body, &panel.empty_message)?;
+        return Ok(PanelDrawn {
+            title: panel.title.clone(),
+            series: Vec::new(),
+            messages: vec![panel.empty_message.clone()],
+        });
+    }
     let x_range = panel.x_range.clone().unwrap_or_else(|| {
         range_with_zero(
             panel
@@ -203,20 +216,15 @@ pub(crate) fn draw_panel<DB: DrawingBackend>(
             points: series.points.clone(),
         });
     }
-    if has_points {
-        if panel.series.iter().any(|s| !s.label.is_empty()) {
-            chart
-                .configure_series_labels()
-                .position(SeriesLabelPosition::UpperRight)
-                .label_font((FONT_FAMILY, LABEL_SIZE))
-                .background_style(WHITE.mix(0.85))
-                .border_style(BLACK.mix(0.5))
-                .draw()
-                .map_err(draw_error)?;
-        }
-    } else {
-        draw_notice(area, &panel.empty_message)?;
-        drawn.messages.push(panel.empty_message.clone());
+    if panel.series.iter().any(|s| !s.label.is_empty()) {
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperRight)
+            .label_font((FONT_FAMILY, LABEL_SIZE))
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK.mix(0.5))
+            .draw()
+            .map_err(draw_error)?;
     }
     Ok(drawn)
 }
@@ -246,6 +254,19 @@ pub(crate) fn draw_notice<DB: DrawingBackend>(
     area.draw(&Text::new(message.to_string(), top_left, style))
         .map_err(draw_error)?;
     Ok(())
+}
+
+/// Writes a short note in the bottom-left corner of `area`, below the axis labels' baseline:
+/// what a panel leaves out and why.
+pub(crate) fn draw_footnote<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    note: &str,
+) -> Result<(), PlotError> {
+    let (_, height) = area.dim_in_pixel();
+    let style =
+        TextStyle::from((FONT_FAMILY, LABEL_SIZE - 3).into_font()).color(&RGBColor(160, 0, 0));
+    area.draw(&Text::new(note.to_string(), (6, height as i32 - 16), style))
+        .map_err(draw_error)
 }
 
 /// Tick labels with few significant digits and no float noise ("0.1", "-2e-4", "0").

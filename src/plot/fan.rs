@@ -1,6 +1,6 @@
 //! Transverse ray aberration fans: tangential and sagittal, per field, all wavelengths.
 
-use super::chart::{Panel, Series, draw_panel, symmetric_range, titled_grid};
+use super::chart::{Panel, Series, draw_footnote, draw_panel, symmetric_range, titled_grid};
 use super::color::wavelength_color;
 use super::{Drawn, PlotError, View};
 use plotters::coord::Shift;
@@ -22,6 +22,9 @@ pub struct FanField {
     pub field_deg: f64,
     pub tangential: Vec<FanCurve>,
     pub sagittal: Vec<FanCurve>,
+    /// Wavelengths (nm) with no curve at this field, because their pupil-centre ray (the
+    /// fan's reference) does not reach the image: each panel says so.
+    pub dropped_nm: Vec<f64>,
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -117,7 +120,21 @@ fn draw_fan_grid<DB: DrawingBackend>(
                 y_range: Some(scale.clone()),
                 title_size: 20,
             };
-            drawn.panels.push(draw_panel(cell, panel)?);
+            let mut panel_drawn = draw_panel(cell, panel)?;
+            if !field.dropped_nm.is_empty() && !curves.is_empty() {
+                let note = format!(
+                    "not drawn: {} nm (pupil-centre ray vignetted)",
+                    field
+                        .dropped_nm
+                        .iter()
+                        .map(|w| format!("{w:.1}"))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                );
+                draw_footnote(cell, &note)?;
+                panel_drawn.messages.push(note);
+            }
+            drawn.panels.push(panel_drawn);
         }
     }
     Ok(drawn)

@@ -269,6 +269,18 @@ impl View for LayoutPlot {
                     PathElement::new(vec![(x, y), (x + 22, y)], color.stroke_width(2))
                 });
         }
+        if self.rays.iter().any(|r| r.vignetted) {
+            let faint = BLACK.mix(0.35);
+            let note = "faint: vignetted rays, to the last surface they cross";
+            chart
+                .draw_series(std::iter::empty::<PathElement<(f64, f64)>>())
+                .map_err(draw_error)?
+                .label(note)
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 22, y)], faint.stroke_width(1))
+                });
+            panel.messages.push(note.to_string());
+        }
         for surface in &self.surfaces {
             let style = if surface.stop {
                 BLACK.stroke_width(3)

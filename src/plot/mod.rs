@@ -12,6 +12,7 @@ mod canvas;
 mod chart;
 mod color;
 mod curves;
+mod error_map;
 mod fan;
 pub mod font;
 mod layout;
@@ -28,6 +29,7 @@ pub use curves::{
     DistortionPlot, FieldCurve, FieldCurvesPlot, LateralColorPlot, LsaPlot, VignettingPlot,
     WavelengthCurve,
 };
+pub use error_map::ErrorMapPlot;
 pub use fan::{FanCurve, FanField, OpdFanPlot, RayFanPlot};
 pub use layout::{LayoutElement, LayoutPlot, LayoutRay, LayoutSurface};
 pub use lrtf_error::{LrtfErrorCurve, LrtfErrorLens, LrtfErrorPlot, TARGET_LABEL};

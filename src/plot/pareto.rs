@@ -1,7 +1,7 @@
 //! Cost against error of lens models on log axes, each point labelled, with the Pareto front
 //! (the models no other model beats on both) joined by a line.
 
-use super::chart::{PanelDrawn, SeriesDrawn};
+use super::chart::{PanelDrawn, SeriesDrawn, tick_label};
 use super::font::FONT_FAMILY;
 use super::{Drawn, PlotError, View, draw_error};
 use plotters::coord::Shift;
@@ -68,6 +68,106 @@ fn log_range(values: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
     (low / 2.0)..(high * 2.0)
 }
 
+/// A log axis's tick label: only the 1, 2 and 5 of each decade are written, so the nine ticks
+/// a decade gets never run into each other ("700.0800.0900.0").
+fn log_tick_label(value: f64) -> String {
+    if !(value.is_finite() && value > 0.0) {
+        return String::new();
+    }
+    let mantissa = value / 10f64.powf(value.log10().floor());
+    if [1.0, 2.0, 5.0, 10.0]
+        .iter()
+        .any(|m| (mantissa - m).abs() < 1e-6 * m)
+    {
+        tick_label(value)
+    } else {
+        String::new()
+    }
+}
+
+/// A label's box in pixels: left, top, width, height.
+type LabelBox = (i32, i32, i32, i32);
+
+fn overlap(a: LabelBox, b: LabelBox) -> i64 {
+    let w = (a.0 + a.2).min(b.0 + b.2) - a.0.max(b.0);
+    let h = (a.1 + a.3).min(b.1 + b.3) - a.1.max(b.1);
+    if w > 0 && h > 0 {
+        w as i64 * h as i64
+    } else {
+        0
+    }
+}
+
+/// Places each label (`size` in pixels) beside its point (`anchors`, pixels) in the first of
+/// eight positions around it that overlaps no label placed before, no point marker and stays
+/// inside `bounds` (left, top, width, height); where none is free, the least overlapping one.
+/// Returns each label's top-left corner.
+fn place_labels(anchors: &[(i32, i32)], sizes: &[(i32, i32)], bounds: LabelBox) -> Vec<(i32, i32)> {
+    const GAP: i32 = 7;
+    let markers: Vec<LabelBox> = anchors
+        .iter()
+        .map(|&(x, y)| {
+            (
+                x - MARKER_RADIUS,
+                y - MARKER_RADIUS,
+                2 * MARKER_RADIUS,
+                2 * MARKER_RADIUS,
+            )
+        })
+        .collect();
+    let mut placed: Vec<LabelBox> = Vec::new();
+    anchors
+        .iter()
+        .zip(sizes)
+        .map(|(&(x, y), &(w, h))| {
+            // Eight places around the point, then the same moved one, two, three label
+            // heights further out, for crowded corners.
+            let near = [
+                (x + GAP, y - h - 2, -1),
+                (x + GAP, y + 2, 1),
+                (x - GAP - w, y - h - 2, -1),
+                (x - GAP - w, y + 2, 1),
+                (x - w / 2, y - h - GAP, -1),
+                (x - w / 2, y + GAP, 1),
+                (x + GAP, y - h / 2, 0),
+                (x - GAP - w, y - h / 2, 0),
+            ];
+            let candidates: Vec<(i32, i32)> = (0..4)
+                .flat_map(|ring| {
+                    near.iter()
+                        .filter(move |c| ring == 0 || c.2 != 0)
+                        .map(move |&(left, top, away)| (left, top + away * ring * (h + 2)))
+                })
+                .collect();
+            let cost = |&(left, top): &(i32, i32)| -> i64 {
+                let own = (left, top, w, h);
+                let outside = {
+                    let inside = overlap(own, bounds);
+                    (w as i64 * h as i64 - inside) * 4
+                };
+                placed
+                    .iter()
+                    .chain(&markers)
+                    .map(|&b| overlap(own, b))
+                    .sum::<i64>()
+                    + outside
+            };
+            let best = candidates
+                .iter()
+                .copied()
+                .enumerate()
+                .min_by_key(|(i, c)| (cost(c), *i as i64))
+                .map(|(_, c)| c)
+                .unwrap_or((x, y));
+            placed.push((best.0, best.1, w, h));
+            best
+        })
+        .collect()
+}
+
+const MARKER_RADIUS: i32 = 5;
+const LABEL_FONT_SIZE: u32 = 13;
+
 /// The label of point `k`, joined with those of the points drawn at the same place; None for a
 /// point whose place an earlier point already labels.
 fn joined_label(points: &[ParetoPoint], k: usize) -> Option<String> {
@@ -116,6 +216,8 @@ impl View for ParetoPlot {
             .y_desc(&self.error_label)
             .label_style((FONT_FAMILY, 15))
             .axis_desc_style((FONT_FAMILY, 17))
+            .x_label_formatter(&|v| log_tick_label(*v))
+            .y_label_formatter(&|v| log_tick_label(*v))
             .light_line_style(RGBColor(235, 235, 235))
             .bold_line_style(RGBColor(205, 205, 205))
             .draw()
@@ -158,7 +260,7 @@ impl View for ParetoPlot {
                 .draw_series(
                     members
                         .iter()
-                        .map(|p| Circle::new((p.cost, p.error), 5, color.filled())),
+                        .map(|p| Circle::new((p.cost, p.error), MARKER_RADIUS, color.filled())),
                 )
                 .map_err(draw_error)?
                 .label(*group)
@@ -168,15 +270,35 @@ impl View for ParetoPlot {
                 points: members.iter().map(|p| (p.cost, p.error)).collect(),
             });
         }
-        let font = (FONT_FAMILY, 13).into_font().color(&BLACK);
-        chart
-            .draw_series((0..placed.len()).filter_map(|k| {
-                joined_label(&placed, k).map(|label| {
-                    let p = &placed[k];
-                    EmptyElement::at((p.cost, p.error)) + Text::new(label, (8, -16), font.clone())
-                })
-            }))
-            .map_err(draw_error)?;
+        let font = (FONT_FAMILY, LABEL_FONT_SIZE).into_font().color(&BLACK);
+        let labels: Vec<(usize, String)> = (0..placed.len())
+            .filter_map(|k| joined_label(&placed, k).map(|label| (k, label)))
+            .collect();
+        let anchors: Vec<(i32, i32)> = labels
+            .iter()
+            .map(|(k, _)| chart.backend_coord(&(placed[*k].cost, placed[*k].error)))
+            .collect();
+        let sizes = labels
+            .iter()
+            .map(|(_, label)| {
+                plot_area
+                    .estimate_text_size(label, &font)
+                    .map(|(w, h)| (w as i32, h as i32))
+                    .map_err(draw_error)
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        let (x_pixels, y_pixels) = chart.plotting_area().get_pixel_range();
+        let bounds = (
+            x_pixels.start,
+            y_pixels.start,
+            x_pixels.end - x_pixels.start,
+            y_pixels.end - y_pixels.start,
+        );
+        for ((_, label), corner) in labels.iter().zip(place_labels(&anchors, &sizes, bounds)) {
+            plot_area
+                .draw(&Text::new(label.clone(), corner, font.clone()))
+                .map_err(draw_error)?;
+        }
         chart
             .configure_series_labels()
             .background_style(WHITE.mix(0.85))
@@ -223,6 +345,42 @@ mod tests {
             point(4.0, 1.0),
         ];
         assert_eq!(pareto_front(&points), vec![0, 2]);
+    }
+
+    #[test]
+    fn log_ticks_keep_one_two_and_five_of_each_decade() {
+        let written: Vec<String> = [
+            100.0, 200.0, 300.0, 500.0, 700.0, 800.0, 900.0, 1000.0, 0.02,
+        ]
+        .map(log_tick_label)
+        .to_vec();
+        assert_eq!(
+            written,
+            ["100", "200", "", "500", "", "", "", "1000", "0.02"]
+        );
+    }
+
+    #[test]
+    fn labels_of_crowded_points_do_not_overlap() {
+        // The trade-off's crowded corner: five points within a few pixels of each other.
+        let anchors = [(300, 300), (304, 302), (310, 298), (300, 310), (296, 305)];
+        let sizes = [(110, 16); 5];
+        let corners = place_labels(&anchors, &sizes, (0, 0, 1000, 700));
+        let boxes: Vec<LabelBox> = corners
+            .iter()
+            .zip(&sizes)
+            .map(|(&(x, y), &(w, h))| (x, y, w, h))
+            .collect();
+        for i in 0..boxes.len() {
+            for j in 0..i {
+                assert_eq!(overlap(boxes[i], boxes[j]), 0, "labels {i} and {j} overlap");
+            }
+        }
+        // An isolated point keeps the first position: up and to the right.
+        assert_eq!(
+            place_labels(&[(500, 400)], &[(60, 16)], (0, 0, 1000, 700)),
+            [(507, 382)]
+        );
     }
 
     #[test]

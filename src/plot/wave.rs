@@ -301,7 +301,7 @@ const DIVERGING: [(f64, (u8, u8, u8)); 5] = [
 ];
 
 /// Dark blue through green to yellow (viridis's anchors), monotonic in lightness.
-const SEQUENTIAL: [(f64, (u8, u8, u8)); 5] = [
+pub(crate) const SEQUENTIAL: [(f64, (u8, u8, u8)); 5] = [
     (0.0, (68, 1, 84)),
     (0.25, (59, 82, 139)),
     (0.5, (33, 145, 140)),
@@ -309,7 +309,7 @@ const SEQUENTIAL: [(f64, (u8, u8, u8)); 5] = [
     (1.0, (253, 231, 37)),
 ];
 
-fn colour_at(colours: &[(f64, (u8, u8, u8))], t: f64) -> RGBColor {
+pub(crate) fn colour_at(colours: &[(f64, (u8, u8, u8))], t: f64) -> RGBColor {
     let t = t.clamp(0.0, 1.0);
     let upper = colours
         .iter()
@@ -404,35 +404,42 @@ impl Heatmap<'_> {
     }
 
     fn draw_bar<DB: DrawingBackend>(&self, area: &DrawingArea<DB, Shift>) -> Result<(), PlotError> {
-        let mut bar = ChartBuilder::on(area)
-            .margin_top(60)
-            .margin_bottom(60)
-            .margin_right(10)
-            .y_label_area_size(70)
-            .build_cartesian_2d(0.0..1.0, self.range.0..self.range.1)
-            .map_err(draw_error)?;
-        bar.configure_mesh()
-            .disable_mesh()
-            .disable_x_axis()
-            .y_desc(self.bar_label)
-            .label_style((FONT_FAMILY, LABEL_SIZE))
-            .axis_desc_style((FONT_FAMILY, LABEL_SIZE))
-            .y_label_formatter(&|v| tick_label(*v))
-            .draw()
-            .map_err(draw_error)?;
-        const STEPS: usize = 100;
-        let span = self.range.1 - self.range.0;
-        bar.draw_series((0..STEPS).map(|k| {
-            let (a, b) = (k as f64 / STEPS as f64, (k + 1) as f64 / STEPS as f64);
-            Rectangle::new(
-                [
-                    (0.0, self.range.0 + a * span),
-                    (1.0, self.range.0 + b * span),
-                ],
-                colour_at(self.colours, 0.5 * (a + b)).filled(),
-            )
-        }))
-        .map_err(draw_error)?;
-        Ok(())
+        draw_colour_bar(area, self.range, self.colours, self.bar_label)
     }
+}
+
+/// A vertical colour bar for `range` on `colours`, its axis labelled `label` (with units).
+pub(crate) fn draw_colour_bar<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    range: (f64, f64),
+    colours: &[(f64, (u8, u8, u8))],
+    label: &str,
+) -> Result<(), PlotError> {
+    let mut bar = ChartBuilder::on(area)
+        .margin_top(60)
+        .margin_bottom(60)
+        .margin_right(10)
+        .y_label_area_size(70)
+        .build_cartesian_2d(0.0..1.0, range.0..range.1)
+        .map_err(draw_error)?;
+    bar.configure_mesh()
+        .disable_mesh()
+        .disable_x_axis()
+        .y_desc(label)
+        .label_style((FONT_FAMILY, LABEL_SIZE))
+        .axis_desc_style((FONT_FAMILY, LABEL_SIZE))
+        .y_label_formatter(&|v| tick_label(*v))
+        .draw()
+        .map_err(draw_error)?;
+    const STEPS: usize = 100;
+    let span = range.1 - range.0;
+    bar.draw_series((0..STEPS).map(|k| {
+        let (a, b) = (k as f64 / STEPS as f64, (k + 1) as f64 / STEPS as f64);
+        Rectangle::new(
+            [(0.0, range.0 + a * span), (1.0, range.0 + b * span)],
+            colour_at(colours, 0.5 * (a + b)).filled(),
+        )
+    }))
+    .map_err(draw_error)?;
+    Ok(())
 }

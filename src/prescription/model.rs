@@ -32,6 +32,10 @@ pub struct Provenance {
     pub claimed_focal_length_mm: Option<f64>,
     #[serde(default)]
     pub claimed_f_number: Option<f64>,
+    /// Half-field angle the source claims (degrees; a title's "22deg HFOV", half of a stated
+    /// full field of view): the design field where the file states no fields.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub claimed_half_field_deg: Option<f64>,
     #[serde(default)]
     pub notes: Option<String>,
     /// The conditions the source analyses the lens under (Zemax and CODE V files state them);

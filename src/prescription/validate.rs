@@ -97,6 +97,11 @@ fn check_provenance(p: &Prescription, map: &SourceMap) -> Result<(), Prescriptio
             f64::MIN_POSITIVE,
         ),
     ];
+    // A half field is an angle a chief ray can have: above 0, below 90 degrees.
+    if let Some(deg) = p.provenance.claimed_half_field_deg {
+        limits::check_range("claimed_half_field_deg", deg, f64::MIN_POSITIVE, 89.999)
+            .map_err(|e| PrescriptionError::new(field("claimed_half_field_deg"), e.into()))?;
+    }
     for (name, value, low) in claims {
         if let Some(value) = value {
             limits::check_range(name, value, low, f64::MAX)

@@ -738,16 +738,23 @@ fn render_pixel(
 ) -> Vec3 {
     let mut sum = [0.0f32; 3];
     let mut object = [blocked_ray(); SAMPLE_GROUP];
-    for_sample_groups(frame, lens, MONOCHROME_SAMPLING_BLOCK, x, y, |film, pupil, weight| {
-        lens_rays(frame, rays, film, pupil, &mut object);
-        for (ray, &w) in object.iter().zip(weight) {
-            if let Some(colour) = trace_layers(frame, layers, ray) {
-                for (acc, c) in sum.iter_mut().zip(colour) {
-                    *acc += w * c;
+    for_sample_groups(
+        frame,
+        lens,
+        MONOCHROME_SAMPLING_BLOCK,
+        x,
+        y,
+        |film, pupil, weight| {
+            lens_rays(frame, rays, film, pupil, &mut object);
+            for (ray, &w) in object.iter().zip(weight) {
+                if let Some(colour) = trace_layers(frame, layers, ray) {
+                    for (acc, c) in sum.iter_mut().zip(colour) {
+                        *acc += w * c;
+                    }
                 }
             }
-        }
-    });
+        },
+    );
     sum
 }
 
@@ -786,16 +793,31 @@ fn render_pixel_chromatic(
 ) -> Vec3 {
     let mut sum = [0.0f32; 3];
     let mut object = [blocked_ray(); SAMPLE_GROUP];
-    for_sample_groups(frame, lens, channels.sampling_block, x, y, |film, pupil, weight| {
-        for (channel, channel_rays) in rays.iter().enumerate() {
-            channel_lens_rays(frame, channels, channel, *channel_rays, film, pupil, &mut object);
-            for (ray, &w) in object.iter().zip(weight) {
-                if let Some(colour) = trace_layers(frame, layers, ray) {
-                    sum[channel] += w * colour[channel];
+    for_sample_groups(
+        frame,
+        lens,
+        channels.sampling_block,
+        x,
+        y,
+        |film, pupil, weight| {
+            for (channel, channel_rays) in rays.iter().enumerate() {
+                channel_lens_rays(
+                    frame,
+                    channels,
+                    channel,
+                    *channel_rays,
+                    film,
+                    pupil,
+                    &mut object,
+                );
+                for (ray, &w) in object.iter().zip(weight) {
+                    if let Some(colour) = trace_layers(frame, layers, ray) {
+                        sum[channel] += w * colour[channel];
+                    }
                 }
             }
-        }
-    });
+        },
+    );
     sum
 }
 

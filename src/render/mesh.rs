@@ -168,7 +168,10 @@ impl MeshScene {
     /// field of view.
     pub fn why_unseen(&self, eye_z: f64) -> String {
         let flat = |t: &Triangle| {
-            let n = cross3(sub3(t.corners[1], t.corners[0]), sub3(t.corners[2], t.corners[0]));
+            let n = cross3(
+                sub3(t.corners[1], t.corners[0]),
+                sub3(t.corners[2], t.corners[0]),
+            );
             n.iter().all(|c| *c == 0.0)
         };
         let behind = |t: &Triangle| t.corners.iter().all(|c| eye_z - c[2] <= 0.0);

@@ -59,6 +59,27 @@ pub struct Panel {
     pub texture: Texture,
 }
 
+/// The lens `lensbake demo` renders the demo scene through by default: a 50 mm of real
+/// (model) glasses, so the main job shows lateral and axial colour.
+pub const DEMO_LENS: &str = "asph-50mm-f1.8";
+
+/// The demo's emitters: (distance in front of the lens, radius, centre, all mm; linear RGB
+/// radiance).
+pub const DEMO_EMITTERS: [(f64, f64, [f64; 2], [f32; 3]); 8] = [
+    (5000.0, 12.0, [1500.0, 800.0], [8.0, 6.0, 2.4]),
+    (5000.0, 12.0, [1400.0, -900.0], [2.4, 6.0, 9.0]),
+    (5000.0, 12.0, [-1500.0, 950.0], [9.0, 2.4, 6.0]),
+    (5000.0, 12.0, [-1600.0, -950.0], [7.0, 7.0, 7.0]),
+    (1200.0, 4.0, [-350.0, 250.0], [6.0, 5.5, 4.0]),
+    (300.0, 3.0, [-75.0, 45.0], [40.0, 32.0, 20.0]),
+    (300.0, 3.0, [55.0, -42.0], [20.0, 32.0, 44.0]),
+    (300.0, 3.0, [80.0, 50.0], [36.0, 36.0, 36.0]),
+];
+
+/// The demo's default frame (pixels): the largest 4:3 frame whose chromatic traced and baked
+/// renders take about a minute together on the 2-core CPU twin / lavapipe (docs in README).
+pub const DEMO_SIZE: (u32, u32) = (320, 240);
+
 #[derive(Clone, Debug, PartialEq)]
 pub struct Scene {
     pub panels: Vec<Panel>,
@@ -111,30 +132,18 @@ impl Scene {
             texture: Texture::Solid([0.08, 0.30, 0.06]),
         };
         let mut panels = vec![wall, chart, post, bar];
-        let far_lights = [
-            ([1500.0, 800.0], [40.0, 30.0, 12.0]),
-            ([1400.0, -900.0], [12.0, 30.0, 45.0]),
-            ([-1500.0, 950.0], [45.0, 12.0, 30.0]),
-            ([-1600.0, -950.0], [35.0, 35.0, 35.0]),
-        ];
-        for (centre, radiance) in far_lights {
+        // Emitters are HDR: small discs whose light spreads over a defocus disc many times their
+        // image, so each disc's radiance times (image radius / blur radius)^2 lands near
+        // 1 to 8, bright but not clipped white by the tone curve x / (1 + x). Far lights (5 m)
+        // blur a little behind the chart; near lights (0.3 m) into discs over 30 px wide in
+        // the default frame for a 50 mm f/1.8 focused at 2 m (tested below).
+        for (distance_mm, radius, centre, colour) in DEMO_EMITTERS {
             panels.push(Panel {
-                distance_mm: 5000.0,
-                outline: Outline::Disc {
-                    centre,
-                    radius: 12.0,
-                },
-                texture: Texture::Solid(radiance),
+                distance_mm,
+                outline: Outline::Disc { centre, radius },
+                texture: Texture::Solid(colour),
             });
         }
-        panels.push(Panel {
-            distance_mm: 1200.0,
-            outline: Outline::Disc {
-                centre: [-350.0, 250.0],
-                radius: 4.0,
-            },
-            texture: Texture::Solid([60.0, 55.0, 40.0]),
-        });
         Scene { panels }
     }
 
@@ -196,6 +205,44 @@ impl Scene {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The demo's bokeh is judged on a 50 mm f/1.8 focused at 2 m, the default frame's width
+    /// across a 36 mm film (thin lens): every emitter is HDR (above 1), the near ones blur into discs at least 30 px
+    /// wide, and each disc's level (radiance times the emitter's image area over the blur
+    /// disc's) sits between 1 and 8, bright after the tone curve x / (1 + x) but not white.
+    #[test]
+    fn the_demo_lens_disperses() {
+        let lens = crate::lenses::load(DEMO_LENS, &Default::default()).unwrap();
+        assert!(lens.system.disperses());
+        let index = |nm: f64| lens.system.at(nm).surfaces[0].index_after;
+        assert!(
+            index(486.13) - index(656.27) > 1e-3,
+            "no dispersion in the first element"
+        );
+    }
+
+    #[test]
+    fn demo_emitters_are_hdr_and_blur_into_visible_unclipped_discs() {
+        let (f, aperture, focus) = (50.0, 50.0 / 1.8, 2000.0);
+        let px_per_mm = DEMO_SIZE.0 as f64 / 36.0;
+        let image = |d: f64| f * d / (d - f);
+        let mut near_discs = 0;
+        for (distance, radius, _, colour) in DEMO_EMITTERS {
+            let brightest = colour.iter().copied().fold(0.0f32, f32::max) as f64;
+            assert!(colour.iter().all(|&c| c > 1.0), "{colour:?} is not HDR");
+            let blur_mm = aperture * (image(distance) - image(focus)).abs() / image(distance);
+            let image_radius = radius * image(focus) / distance;
+            let level = brightest * (image_radius / (0.5 * blur_mm)).powi(2);
+            assert!(
+                (1.0..8.0).contains(&level),
+                "emitter at {distance} mm: disc level {level}"
+            );
+            if blur_mm * px_per_mm >= 30.0 {
+                near_discs += 1;
+            }
+        }
+        assert!(near_discs >= 3, "{near_discs} discs of 30 px or more");
+    }
 
     #[test]
     fn peeled_layers_are_ordered_and_dense() {

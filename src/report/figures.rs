@@ -3,9 +3,10 @@
 use super::wave_figures::{
     mtf_field_plot, mtf_plot, opd_fan_plot, psf_plot, through_focus_plot, wavefront_map_plot,
 };
-use crate::analysis::{AnalysisError, AnalyzeOptions, analyze};
-use crate::glass::{C_LINE_NM, F_LINE_NM};
-use crate::paraxial::{Field, Paraxial, ParaxialOptions};
+use crate::analysis::{
+    AnalysisError, AnalyzeOptions, ConditionOverrides, DesignConditions, analyze,
+};
+use crate::paraxial::{Aperture, Paraxial, ParaxialOptions};
 use crate::plot::{
     DistortionPlot, Drawn, FanCurve, FanField, FieldCurve, FieldCurvesPlot, LateralColorPlot,
     LayoutPlot, LayoutRay, LsaPlot, MtfFieldPlot, MtfPlot, OpdFanPlot, PlotError, PsfPlot,
@@ -14,7 +15,7 @@ use crate::plot::{
 };
 use crate::system::{LensSystem, SystemAt};
 use crate::trace::analyses::{FanPoint, RealRayError, RealRays};
-use crate::trace::{Apertures, RaySource, Tracer, Travel, aim_at_stop, traceable_field_deg};
+use crate::trace::{Apertures, RaySource, Tracer, Travel, aim_at_stop};
 use plotters::coord::Shift;
 use plotters::prelude::{DrawingArea, DrawingBackend};
 use std::fmt;
@@ -83,7 +84,7 @@ impl PlotKind {
     /// A caption for reports.
     pub fn describe(self) -> &'static str {
         match self {
-            PlotKind::Layout => "Cross-section with ray bundles for three fields",
+            PlotKind::Layout => "Cross-section with ray bundles at the design fields",
             PlotKind::RayFan => "Transverse ray aberration fans (tangential and sagittal)",
             PlotKind::Spot => "Spot diagrams with RMS radius and Airy disk",
             PlotKind::Lsa => "Longitudinal spherical aberration",
@@ -93,8 +94,8 @@ impl PlotKind {
             PlotKind::Vignetting => "Relative illumination and vignetting",
             PlotKind::Seidel => "Seidel sums per surface",
             PlotKind::OpdFan => "Optical path difference fans (tangential and sagittal)",
-            PlotKind::WavefrontMap => "Wavefront error over the pupil at the largest field",
-            PlotKind::Psf => "Point spread function (FFT) at the largest field",
+            PlotKind::WavefrontMap => "Wavefront error over the pupil at the top design field",
+            PlotKind::Psf => "Point spread function (FFT) at the top design field",
             PlotKind::Mtf => "Diffraction MTF with the diffraction limit",
             PlotKind::ThroughFocusMtf => "MTF through focus",
             PlotKind::MtfField => "MTF across the field",
@@ -119,13 +120,44 @@ impl FromStr for PlotKind {
     }
 }
 
-/// What the user asked to see; `None` and empty pick the lens's defaults.
+/// What the user asked to see; `None` and empty take the lens's design conditions
+/// ([`DesignConditions`]), the same ones `analyze` uses.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct FigureOptions {
-    /// Largest half-field angle plotted (default: the largest traceable field).
+    /// Top half-field angle plotted (default: the design field).
     pub field_deg: Option<f64>,
-    /// Wavelengths drawn (default: F, d, C when the lens disperses, else its design wavelength).
+    /// Wavelengths drawn, the first the reference (default: the file's, else F, d, C when the
+    /// lens disperses, else its design wavelength).
     pub wavelengths_nm: Vec<f64>,
+    /// Entrance-pupil diameter (default: the design aperture).
+    pub epd_mm: Option<f64>,
+}
+
+impl FigureOptions {
+    /// These choices as overrides of the design conditions.
+    pub fn overrides(&self) -> ConditionOverrides {
+        ConditionOverrides {
+            wavelengths_nm: self.wavelengths_nm.clone(),
+            field_deg: self.field_deg,
+            epd_mm: self.epd_mm,
+            ..ConditionOverrides::default()
+        }
+    }
+
+    /// The paraxial analysis under the same choices.
+    pub fn analyze_options(&self) -> AnalyzeOptions {
+        AnalyzeOptions {
+            wavelength_nm: self.wavelengths_nm.first().copied(),
+            field_deg: self.field_deg,
+            epd_mm: self.epd_mm,
+            ..AnalyzeOptions::default()
+        }
+    }
+
+    /// The design conditions of `system` under these choices.
+    pub fn conditions(&self, system: &LensSystem) -> Result<DesignConditions, FigureError> {
+        Ok(DesignConditions::resolve(system, &self.overrides())?)
+    }
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -214,40 +246,10 @@ pub fn figure(
     for &nm in &options.wavelengths_nm {
         system.at_checked(nm).map_err(AnalysisError::Wavelength)?;
     }
-    let wavelength_nm = options
-        .wavelengths_nm
-        .first()
-        .copied()
-        .unwrap_or_else(|| system.design_wavelength_nm());
     match kind {
-        PlotKind::Layout => {
-            let at = system.at(wavelength_nm);
-            let tracer = Tracer::new(&at);
-            let max_field = max_field_deg(&tracer, options);
-            let mut plot = LayoutPlot::of_system(lens, &at);
-            for fraction in [0.0, 0.7, 1.0] {
-                plot.rays.extend(layout_rays(
-                    &tracer,
-                    &at,
-                    fraction * max_field,
-                    plot.image_z,
-                ));
-            }
-            // The image plane as tall as the bundles that reach it.
-            let reached = plot
-                .rays
-                .iter()
-                .filter(|r| !r.vignetted)
-                .filter_map(|r| r.path.last())
-                .map(|p| p.1.abs())
-                .fold(0.0, f64::max);
-            if reached > 0.0 {
-                plot.image_half_height = 1.05 * reached;
-            }
-            Ok(Figure::Layout(plot))
-        }
+        PlotKind::Layout => Ok(Figure::Layout(layout_plot(lens, system, options)?)),
         PlotKind::Seidel => {
-            let analysis = analyze(lens, system, &analyze_options(options, wavelength_nm))?;
+            let analysis = analyze(lens, system, &options.analyze_options())?;
             Ok(Figure::Seidel(SeidelPlot {
                 lens: lens.to_string(),
                 wavelength_nm: analysis.wavelength_nm,
@@ -287,10 +289,6 @@ pub fn figure(
     }
 }
 
-/// Fields of the fan and spot plots as fractions of the largest, drawn top to bottom.
-const GRID_FIELD_FRACTIONS: [f64; 3] = [1.0, 0.7, 0.0];
-/// Steps of the search, from the largest field down, for the top field of the fans and spots.
-const GRID_FIELD_SEARCH_STEPS: usize = 200;
 /// Points along the field axis of the curve plots (axis and edge included).
 const CURVE_FIELD_STEPS: usize = 24;
 /// Rays per fan, across the whole pupil (odd, so the pupil centre is one of them).
@@ -313,24 +311,11 @@ pub(super) struct Spectrum {
 }
 
 impl Spectrum {
-    /// The user's wavelengths (the first is the reference), else F, the design wavelength and C
-    /// for a dispersive lens, else the design wavelength alone.
-    pub(super) fn of(system: &LensSystem, options: &FigureOptions) -> Spectrum {
-        if let Some(&first) = options.wavelengths_nm.first() {
-            return Spectrum {
-                reference_nm: first,
-                drawn_nm: options.wavelengths_nm.clone(),
-            };
-        }
-        let design = system.design_wavelength_nm();
-        let mut drawn_nm = vec![design];
-        if system.disperses() {
-            drawn_nm = vec![F_LINE_NM, design, C_LINE_NM];
-            drawn_nm.dedup();
-        }
+    /// The wavelengths of the design conditions.
+    pub(super) fn of(conditions: &DesignConditions) -> Spectrum {
         Spectrum {
-            reference_nm: design,
-            drawn_nm,
+            reference_nm: conditions.reference_nm,
+            drawn_nm: conditions.wavelengths_nm.clone(),
         }
     }
 }
@@ -338,20 +323,16 @@ impl Spectrum {
 /// The real-ray analyses of `system` at each drawn wavelength, all in the paraxial image plane
 /// of the reference wavelength, with the largest field to plot.
 struct RealSet {
-    max_field_deg: f64,
+    conditions: DesignConditions,
     reference: RealRays,
     by_wavelength: Vec<(f64, RealRays)>,
 }
 
 impl RealSet {
     fn new(system: &LensSystem, options: &FigureOptions) -> Result<RealSet, FigureError> {
-        let spectrum = Spectrum::of(system, options);
-        let paraxial_options = ParaxialOptions {
-            field: options
-                .field_deg
-                .map_or(Field::LargestUnvignetted, |deg| Field::Angle { deg }),
-            ..ParaxialOptions::default()
-        };
+        let conditions = options.conditions(system)?;
+        let spectrum = Spectrum::of(&conditions);
+        let paraxial_options = conditions.paraxial_options_at_infinity();
         let real_at = |wavelength_nm: f64| -> Result<RealRays, FigureError> {
             let at = system.at(wavelength_nm);
             let paraxial = Paraxial::new(&at, &paraxial_options).map_err(AnalysisError::from)?;
@@ -365,26 +346,22 @@ impl RealSet {
             .map(|&w| Ok((w, real_at(w)?.with_image_plane(z_image))))
             .collect::<Result<_, FigureError>>()?;
         Ok(RealSet {
-            max_field_deg: max_field_deg(reference.tracer(), options),
+            conditions,
             reference,
             by_wavelength,
         })
     }
 
-    /// The fields of the fan and spot plots, up to the largest whose pupil-centre ray (the fans'
-    /// reference) reaches the image: at a larger field the top row would be empty.
-    fn grid_fields(&self) -> [f64; 3] {
-        let top = (0..=GRID_FIELD_SEARCH_STEPS)
-            .map(|i| self.max_field_deg * (1.0 - i as f64 / GRID_FIELD_SEARCH_STEPS as f64))
-            .find(|&f| self.reference.ray_fan(f, 1).is_ok())
-            .unwrap_or(0.0);
-        GRID_FIELD_FRACTIONS.map(|f| f * top)
+    /// The design fields of the fan and spot plots, top first.
+    fn grid_fields(&self) -> Vec<f64> {
+        self.conditions.fields_deg.clone()
     }
 
-    /// Evenly spaced fields from the axis to the largest; the axis is moved out to `first`.
+    /// Evenly spaced fields from the axis to the design field; the axis is moved out to
+    /// `first`.
     fn curve_fields(&self, first: f64) -> Vec<f64> {
         (0..=CURVE_FIELD_STEPS)
-            .map(|i| (i as f64 / CURVE_FIELD_STEPS as f64).max(first) * self.max_field_deg)
+            .map(|i| (i as f64 / CURVE_FIELD_STEPS as f64).max(first) * self.conditions.field_deg())
             .collect()
     }
 }
@@ -409,10 +386,12 @@ fn ray_fan_plot(
                 field_deg,
                 tangential: Vec::new(),
                 sagittal: Vec::new(),
+                dropped_nm: Vec::new(),
             };
             for (wavelength_nm, real) in &set.by_wavelength {
-                // A field whose centre ray is blocked gets no curve: the panel says so.
+                // A wavelength whose centre ray is blocked gets no curve: the panel says so.
                 let Ok(fan) = real.ray_fan(field_deg, FAN_SAMPLES) else {
+                    field.dropped_nm.push(*wavelength_nm);
                     continue;
                 };
                 let curve = |points: &[FanPoint], axis: usize| FanCurve {
@@ -609,29 +588,67 @@ fn vignetting_plot(
     })
 }
 
-/// The field the user asked for, else the largest whose real chief ray passes the lens.
-pub(super) fn max_field_deg(tracer: &Tracer, options: &FigureOptions) -> f64 {
-    options
-        .field_deg
-        .unwrap_or_else(|| traceable_field_deg(tracer, FIELD_SCAN_DEG))
-}
-
-/// Step of the scan for the largest traceable field (degrees); bisection refines it.
-const FIELD_SCAN_DEG: f64 = 1.0;
-
 /// Where layout rays cross the stop, as fractions of its radius (meridional plane). Just inside
 /// the rim, so the marginal rays are not lost to round-off at the stop's edge.
 const LAYOUT_STOP_HEIGHTS: [f64; 5] = [-0.999, -0.5, 0.0, 0.5, 0.999];
 
+/// The cross-section with ray bundles at the design fields, in the design aperture.
+fn layout_plot(
+    lens: &str,
+    system: &LensSystem,
+    options: &FigureOptions,
+) -> Result<LayoutPlot, FigureError> {
+    let conditions = options.conditions(system)?;
+    let at = system.at(conditions.reference_nm);
+    let tracer = Tracer::new(&at);
+    // The bundles fill the design entrance pupil, a fraction of the stop wide open.
+    let wide_open = Paraxial::new(
+        &at,
+        &ParaxialOptions {
+            aperture: Aperture::StopClearAperture,
+            ..conditions.paraxial_options_at_infinity()
+        },
+    )
+    .map_err(AnalysisError::from)?;
+    let fill = (conditions.epd_mm / wide_open.entrance_pupil.diameter).min(1.0);
+    let mut plot = LayoutPlot::of_system(lens, &at);
+    let mut fields = conditions.fields_deg.clone();
+    fields.reverse();
+    for field_deg in fields {
+        plot.rays
+            .extend(layout_rays(&tracer, &at, field_deg, fill, plot.image_z));
+    }
+    // The image plane as tall as the bundles that reach it.
+    let reached = plot
+        .rays
+        .iter()
+        .filter(|r| !r.vignetted)
+        .filter_map(|r| r.path.last())
+        .map(|p| p.1.abs())
+        .fold(0.0, f64::max);
+    if reached > 0.0 {
+        plot.image_half_height = 1.05 * reached;
+    }
+    Ok(plot)
+}
+
 /// The meridional rays of one field for the layout, from in front of the lens to the image
-/// plane or to the surface that stops them. Rays that cannot be aimed are left out.
-fn layout_rays(tracer: &Tracer, at: &SystemAt, field_deg: f64, image_z: f64) -> Vec<LayoutRay> {
+/// plane or to the surface that stops them, crossing the stop at `fill` of its radius at most.
+/// Rays that cannot be aimed, and vignetted rays that never enter the lens (they would float
+/// as fragments in front of it), are left out.
+fn layout_rays(
+    tracer: &Tracer,
+    at: &SystemAt,
+    field_deg: f64,
+    fill: f64,
+    image_z: f64,
+) -> Vec<LayoutRay> {
     let angle = field_deg.to_radians();
     let source = RaySource::Collimated {
         direction: [0.0, angle.sin(), angle.cos()],
         start_z: tracer.front_start_z(),
     };
-    let stop_radius = at.surfaces[at.stop].semi_aperture;
+    let stop_radius = at.surfaces[at.stop].semi_aperture * fill;
     let largest = at
         .surfaces
         .iter()
@@ -652,11 +669,14 @@ fn layout_rays(tracer: &Tracer, at: &SystemAt, field_deg: f64, image_z: f64) -> 
     LAYOUT_STOP_HEIGHTS
         .iter()
         .filter_map(|&h| aim_at_stop(tracer, &source, [0.0, h * stop_radius]).ok())
-        .map(|ray| {
+        .filter_map(|ray| {
             let traced = tracer.trace_path(ray, Travel::Forward, Apertures::Checked);
-            let mut path: Vec<(f64, f64)> = ray
-                .point_at_z(draw_from(&ray))
-                .into_iter()
+            let start = ray.point_at_z(draw_from(&ray))?;
+            let first = traced.crossings.first()?;
+            if start[2] >= first.point[2] {
+                return None;
+            }
+            let mut path: Vec<(f64, f64)> = std::iter::once(start)
                 .chain(traced.crossings.iter().map(|c| c.point))
                 .map(|p| (p[2], p[1]))
                 .collect();
@@ -664,23 +684,15 @@ fn layout_rays(tracer: &Tracer, at: &SystemAt, field_deg: f64, image_z: f64) -> 
             if vignetted {
                 let stopped = traced.traced.ray.position();
                 path.push((stopped[2], stopped[1]));
-            } else if let Some(end) = traced.traced.ray.point_at_z(image_z) {
+            } else {
+                let end = traced.traced.ray.point_at_z(image_z)?;
                 path.push((end[2], end[1]));
             }
-            LayoutRay {
+            Some(LayoutRay {
                 field_deg,
                 path,
                 vignetted,
-            }
+            })
         })
         .collect()
-}
-
-/// The paraxial analysis at the plotted wavelength and field.
-pub(crate) fn analyze_options(options: &FigureOptions, wavelength_nm: f64) -> AnalyzeOptions {
-    AnalyzeOptions {
-        wavelength_nm: Some(wavelength_nm),
-        field_deg: options.field_deg,
-        ..AnalyzeOptions::default()
-    }
 }

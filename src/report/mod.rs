@@ -6,7 +6,7 @@ mod page;
 mod wave_figures;
 
 pub use figures::{Figure, FigureError, FigureOptions, PlotKind, figure};
-pub use page::{Page, PlotEntry, Table, analysis_tables};
+pub use page::{Page, PlotEntry, Table, analysis_tables, conditions_table};
 
 use crate::output::{OutputError, publish_dir, write_bytes};
 use crate::plot::{PlotError, write_plot};
@@ -57,17 +57,12 @@ fn fill_report(
     directory: &Path,
 ) -> Result<Written, ReportError> {
     let mut page = Page::for_lens(lens, system);
-    let wavelength_nm = options
-        .wavelengths_nm
-        .first()
-        .copied()
-        .unwrap_or_else(|| system.design_wavelength_nm());
-    match crate::analysis::analyze(
-        lens,
-        system,
-        &figures::analyze_options(options, wavelength_nm),
-    ) {
-        Ok(analysis) => page.tables.extend(analysis_tables(&analysis)),
+    match crate::analysis::analyze(lens, system, &options.analyze_options()) {
+        Ok(analysis) => {
+            page.tables
+                .insert(0, conditions_table(&analysis.conditions));
+            page.tables.extend(analysis_tables(&analysis));
+        }
         Err(error) => page
             .notes
             .push(format!("Paraxial analysis failed: {error}.")),

@@ -46,6 +46,12 @@ impl Page {
         if let Some(n) = provenance.claimed_f_number {
             about.push(("f-number claimed by the source".into(), format!("f/{n}")));
         }
+        if let Some(deg) = provenance.claimed_half_field_deg {
+            about.push((
+                "Half field claimed by the source".into(),
+                format!("{deg} deg"),
+            ));
+        }
         if let Some(notes) = &provenance.notes {
             about.push(("Notes".into(), notes.clone()));
         }
@@ -239,6 +245,27 @@ fn escape(text: &str) -> String {
 }
 
 /// First-order data, pupils and Seidel sums per surface as report tables.
+/// The conditions every number and plot of the report is computed under, with where each
+/// came from: the report's header.
+pub fn conditions_table(conditions: &crate::analysis::DesignConditions) -> Table {
+    let mut rows: Vec<Vec<String>> = conditions
+        .summary_rows()
+        .into_iter()
+        .map(|(name, value, from)| vec![name, value, from.to_string()])
+        .collect();
+    rows.extend(
+        conditions
+            .notes
+            .iter()
+            .map(|note| vec!["note".to_string(), note.clone(), String::new()]),
+    );
+    Table {
+        title: "Design conditions (used by the analysis and every plot)".into(),
+        header: vec!["condition".into(), "value".into(), "from".into()],
+        rows,
+    }
+}
+
 pub fn analysis_tables(analysis: &crate::analysis::Analysis) -> Vec<Table> {
     let f = &analysis.first_order;
     let mm = |v: f64| format!("{v:.6}");

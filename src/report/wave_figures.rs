@@ -1,15 +1,13 @@
 //! The wave-optics plots of a report, filled from [`crate::wave`].
 
-use super::figures::{FigureError, FigureOptions, Spectrum as Drawn, max_field_deg};
+use super::figures::{FigureError, FigureOptions, Spectrum as Drawn};
 use crate::plot::{
     FanCurve, FanField, Grid, MtfField, MtfFieldPlot, MtfPlot, OpdFanPlot, PsfPlot,
     ThroughFocusPlot, WavefrontMapPlot,
 };
 use crate::system::LensSystem;
-use crate::trace::Tracer;
 use crate::wave::{
-    FieldTrace, PupilTrace, Sampling, Spectrum, WaveError, WaveLens, frequencies_to,
-    mtf_across_field, psf,
+    FieldTrace, Sampling, Spectrum, WaveError, WaveLens, frequencies_to, mtf_across_field, psf,
 };
 
 /// Odd pupil sampling for the fans and maps, so the pupil's centre lines are sampled.
@@ -17,9 +15,8 @@ const FAN_SAMPLING: Sampling = Sampling {
     samples: 65,
     grid: 256,
 };
-/// Fields drawn, as fractions of the largest that the wave analysis reaches, top first.
-const FIELD_FRACTIONS: [f64; 3] = [1.0, 0.7, 0.0];
-/// Steps of the search, from the largest traceable field down, for that largest field.
+/// Steps of the search, from the design field down, for the largest field the wave analysis
+/// reaches (its chief ray may be vignetted at the design field).
 const FIELD_SEARCH_STEPS: usize = 40;
 /// Points of the MTF curves, from 0 to the cutoff.
 const MTF_POINTS: usize = 41;
@@ -41,12 +38,13 @@ struct WaveSet<'a> {
     lens: WaveLens<'a>,
     spectrum: Spectrum,
     label: String,
-    fields: [f64; 3],
+    fields: Vec<f64>,
 }
 
 impl<'a> WaveSet<'a> {
     fn new(system: &'a LensSystem, options: &FigureOptions) -> Result<WaveSet<'a>, FigureError> {
-        let drawn = Drawn::of(system, options);
+        let conditions = options.conditions(system)?;
+        let drawn = Drawn::of(&conditions);
         let reference = drawn
             .drawn_nm
             .iter()
@@ -70,31 +68,30 @@ impl<'a> WaveSet<'a> {
         };
         let lens = WaveLens::Real {
             system,
-            epd_mm: None,
+            epd_mm: Some(conditions.epd_mm),
         };
-        let max_field = max_field_deg(&Tracer::new(&system.at(spectrum.reference_nm())), options);
         let probe = Sampling {
             samples: 16,
             grid: 32,
         };
-        let top = (0..=FIELD_SEARCH_STEPS)
-            .map(|i| max_field * (1.0 - i as f64 / FIELD_SEARCH_STEPS as f64))
-            .find(|&f| {
-                PupilTrace::trace(
-                    &lens,
-                    f,
-                    spectrum.reference_nm(),
-                    spectrum.reference_nm(),
-                    probe,
-                )
-                .and_then(|t| t.wavefront(0.0))
-                .is_ok()
+        // Every drawn field and wavelength must trace, or a whole plot would be lost: the
+        // design fields shrink together until they all do (the plots' titles give the fields
+        // drawn).
+        let traces_at = |scale: f64| {
+            conditions.fields_deg.iter().all(|f| {
+                FieldTrace::new(&lens, f * scale, &spectrum, probe)
+                    .and_then(|t| t.wavefronts(0.0).map(|_| ()))
+                    .is_ok()
             })
+        };
+        let scale = (0..=FIELD_SEARCH_STEPS)
+            .map(|i| 1.0 - i as f64 / FIELD_SEARCH_STEPS as f64)
+            .find(|&scale| traces_at(scale))
             .ok_or(FigureError::Wave(WaveError::NoLight { field_deg: 0.0 }))?;
         Ok(WaveSet {
             lens,
             label,
-            fields: FIELD_FRACTIONS.map(|f| f * top),
+            fields: conditions.fields_deg.iter().map(|f| f * scale).collect(),
             spectrum,
         })
     }
@@ -121,12 +118,13 @@ pub(super) fn opd_fan_plot(
     let centre = n / 2;
     let coordinate = |k: usize| -1.0 + 2.0 * k as f64 / (n - 1) as f64;
     let mut fields = Vec::new();
-    for field_deg in set.fields {
+    for field_deg in set.fields.clone() {
         let trace = set.trace(field_deg, FAN_SAMPLING)?;
         let mut field = FanField {
             field_deg,
             tangential: Vec::new(),
             sagittal: Vec::new(),
+            dropped_nm: Vec::new(),
         };
         for (map, _) in trace.wavefronts(0.0).map_err(FigureError::Wave)? {
             let cut = |index: &dyn Fn(usize) -> usize| FanCurve {
@@ -216,7 +214,7 @@ pub(super) fn mtf_plot(
     let frequencies = frequencies_to(set.cutoff()?, MTF_POINTS);
     let mut fields = Vec::new();
     let mut diffraction_limit = Vec::new();
-    for field_deg in set.fields {
+    for field_deg in set.fields.clone() {
         let mtf = set
             .trace(field_deg, Sampling::default())?
             .mtf(0.0, &frequencies)
@@ -258,7 +256,7 @@ pub(super) fn through_focus_plot(
         .map(|i| -half + 2.0 * half * i as f64 / (THROUGH_FOCUS_STEPS - 1) as f64)
         .collect();
     let mut fields = Vec::new();
-    for field_deg in set.fields {
+    for field_deg in set.fields.clone() {
         let curve = set
             .trace(field_deg, Sampling::default())?
             .through_focus(frequency, &defocus)

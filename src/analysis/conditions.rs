@@ -1,0 +1,444 @@
+//! The one set of design conditions (wavelengths, object, aperture, fields) a lens is
+//! analysed, plotted and reported under, each with where it came from (docs/conditions.md).
+//!
+//! Order of precedence, the same for every condition: a flag the user gave, else what the
+//! lens file states ([`crate::prescription::Conditions`], read from Zemax and CODE V files),
+//! else what the source claims ([`crate::prescription::Provenance`]: design wavelength,
+//! f-number, half field), else one rule. `analyze`, every plot kind and the report header call
+//! [`DesignConditions::resolve`], so they cannot disagree about the field or the aperture.
+
+use super::AnalysisError;
+use crate::glass::{C_LINE_NM, F_LINE_NM};
+use crate::paraxial::{Aperture, Field, ObjectPosition, Paraxial, ParaxialOptions, StopChoice};
+use crate::prescription::{ApertureSpec, FieldKind, FieldSpec};
+use crate::system::{LensSystem, SystemAt};
+use crate::trace::{Tracer, traceable_field_deg};
+use serde::Serialize;
+
+/// Largest half field the rule picks (degrees). A lens whose clear apertures pass the chief
+/// ray almost to 90° (a singlet with its stop on the front surface) would otherwise be
+/// analysed at a grazing field no design covers; tan 45° = 1 is wider than any lens here that
+/// does not state its field, and the fisheye states its own.
+pub const RULE_MAX_FIELD_DEG: f64 = 45.0;
+
+/// Step of the scan for the largest field whose real chief ray passes (degrees); bisection
+/// refines it.
+const FIELD_SCAN_DEG: f64 = 1.0;
+
+/// The fields of the fans, spots and layout under the rule or a single stated field: the top
+/// field, 0.7 of it and the axis, top first.
+pub const FIELD_FRACTIONS: [f64; 3] = [1.0, 0.7, 0.0];
+
+/// Where one condition came from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Origin {
+    /// A command-line flag (or the caller's override).
+    Flag,
+    /// The lens file's stated conditions (Zemax, CODE V, or a RON file's `conditions`).
+    File,
+    /// A value the source claims (design wavelength, f-number, half field in its title).
+    Source,
+    /// The documented rule (docs/conditions.md).
+    Rule,
+}
+
+impl Origin {
+    pub fn describe(self) -> &'static str {
+        match self {
+            Origin::Flag => "flag",
+            Origin::File => "lens file",
+            Origin::Source => "source's claim",
+            Origin::Rule => "rule",
+        }
+    }
+}
+
+/// What the caller sets; everything `None` or empty is resolved from the lens.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ConditionOverrides {
+    /// Wavelengths to draw (nm); the first is the reference (analysis) wavelength.
+    pub wavelengths_nm: Vec<f64>,
+    /// The top half-field angle (degrees).
+    pub field_deg: Option<f64>,
+    pub epd_mm: Option<f64>,
+    /// Distance of the object in front of surface 1 (mm).
+    pub object_distance_mm: Option<f64>,
+    pub stop: StopChoice,
+}
+
+/// The resolved conditions of one lens.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct DesignConditions {
+    /// The wavelength of the paraxial analysis and of every plot's image plane.
+    pub reference_nm: f64,
+    pub reference_from: Origin,
+    /// The wavelengths the plots draw (the reference among them).
+    pub wavelengths_nm: Vec<f64>,
+    pub wavelengths_from: Origin,
+    /// null for an object at infinity.
+    pub object_distance_mm: Option<f64>,
+    pub object_from: Origin,
+    /// Half-field angles the fans, spots, layout and wave plots draw, top first; the first is
+    /// the analysed field. For a finite object, the angle the object point subtends at the
+    /// entrance-pupil centre.
+    pub fields_deg: Vec<f64>,
+    pub field_from: Origin,
+    pub epd_mm: f64,
+    pub f_number: f64,
+    pub aperture_from: Origin,
+    /// Choices worth a reader's attention (a claim not used, a field kind converted).
+    pub notes: Vec<String>,
+    #[serde(skip)]
+    paraxial_field: Field,
+    #[serde(skip)]
+    stop: StopChoice,
+}
+
+impl DesignConditions {
+    /// Resolves every condition of `system` under `overrides` (see the module docs for the
+    /// order of precedence).
+    pub fn resolve(
+        system: &LensSystem,
+        overrides: &ConditionOverrides,
+    ) -> Result<DesignConditions, AnalysisError> {
+        let stated = system.prescription.provenance.conditions.as_ref();
+        let claimed = &system.prescription.provenance;
+        let mut notes = Vec::new();
+
+        let stated_primary = stated.and_then(|c| {
+            c.primary
+                .and_then(|i| c.wavelengths_nm.get(i).copied())
+                .or_else(|| c.wavelengths_nm.first().copied())
+        });
+        let (reference_nm, reference_from) = match (
+            overrides.wavelengths_nm.first(),
+            stated_primary,
+            claimed.design_wavelength_nm,
+        ) {
+            (Some(&w), _, _) => (w, Origin::Flag),
+            (None, Some(w), _) => (w, Origin::File),
+            (None, None, Some(w)) => (w, Origin::Source),
+            (None, None, None) => (system.design_wavelength_nm(), Origin::Rule),
+        };
+        let (wavelengths_nm, wavelengths_from) = drawn_wavelengths(
+            system,
+            overrides,
+            stated.map(|c| &c.wavelengths_nm[..]),
+            reference_nm,
+        );
+
+        let (object_distance_mm, object_from) = match (
+            overrides.object_distance_mm,
+            stated.and_then(|c| c.object_distance_mm),
+        ) {
+            (Some(d), _) => (Some(d), Origin::Flag),
+            (None, Some(d)) => (Some(d), Origin::File),
+            (None, None) => (None, Origin::Rule),
+        };
+        // One rule for a flag and a file: an object 1000 km away or farther is at infinity
+        // (files write 1e10 for it), where a finite distance would only lose digits.
+        let object_distance_mm =
+            object_distance_mm.filter(|d| d.abs() < crate::limits::MAX_LENGTH_MM);
+        let object = object_distance_mm.map_or(ObjectPosition::Infinite, |distance| {
+            ObjectPosition::Finite { distance }
+        });
+
+        let at = system.at_checked(reference_nm)?;
+        let wide_open = Paraxial::new(
+            &at,
+            &ParaxialOptions {
+                object,
+                aperture: Aperture::StopClearAperture,
+                field: Field::Angle { deg: 0.0 },
+                stop: overrides.stop,
+            },
+        )?;
+        let efl = wide_open.first_order.efl.abs();
+        let (epd_mm, aperture_from) = if let Some(epd) = overrides.epd_mm {
+            (epd, Origin::Flag)
+        } else if let Some(epd) = stated
+            .and_then(|c| c.aperture.as_ref())
+            .and_then(|a| stated_epd(a, &wide_open, object_distance_mm))
+        {
+            (epd, Origin::File)
+        } else {
+            let open = wide_open.entrance_pupil.diameter;
+            match claimed
+                .claimed_f_number
+                .filter(|f| *f > 0.0 && object_distance_mm.is_none())
+            {
+                // A claim a little faster than the stop allows is the nominal f-number of a
+                // product; the lens as built cannot open further than its stop.
+                Some(f) if efl / f <= open => (efl / f, Origin::Source),
+                Some(f) => {
+                    notes.push(format!(
+                        "the claimed f/{f} needs a {:.3} mm entrance pupil, larger than the \
+                         stop's {open:.3} mm: the lens is used wide open",
+                        efl / f
+                    ));
+                    (open, Origin::Rule)
+                }
+                None => (open, Origin::Rule),
+            }
+        };
+
+        let file_fields = if overrides.field_deg.is_some() {
+            None
+        } else {
+            stated
+                .and_then(|c| c.fields.as_ref())
+                .and_then(|f| stated_fields(f, &wide_open, object_distance_mm, &mut notes))
+        };
+        let (fields_deg, paraxial_field, field_from) = if let Some(deg) = overrides.field_deg {
+            (fractions_of(deg), Field::Angle { deg }, Origin::Flag)
+        } else if let Some((fields, field)) = file_fields {
+            (fields, field, Origin::File)
+        } else if let Some(deg) = claimed.claimed_half_field_deg {
+            (fractions_of(deg), Field::Angle { deg }, Origin::Source)
+        } else {
+            let deg = rule_field_deg(&at);
+            (fractions_of(deg), Field::Angle { deg }, Origin::Rule)
+        };
+
+        if field_from != Origin::Rule && object_distance_mm.is_none() {
+            let passes = rule_field_deg(&at);
+            if let Some(&top) = fields_deg.first()
+                && top > passes
+                && passes < RULE_MAX_FIELD_DEG
+            {
+                notes.push(format!(
+                    "the real chief ray at {top:.2} deg is stopped by a clear aperture (it \
+                     passes up to {passes:.2} deg): plots show what reaches the image there"
+                ));
+            }
+        }
+        let chosen = Paraxial::new(
+            &at,
+            &ParaxialOptions {
+                object,
+                aperture: Aperture::EntrancePupilDiameter(epd_mm),
+                field: Field::Angle { deg: 0.0 },
+                stop: overrides.stop,
+            },
+        )?;
+        Ok(DesignConditions {
+            reference_nm,
+            reference_from,
+            wavelengths_nm,
+            wavelengths_from,
+            object_distance_mm,
+            object_from,
+            fields_deg,
+            field_from,
+            epd_mm,
+            f_number: chosen.f_number,
+            aperture_from,
+            notes,
+            paraxial_field,
+            stop: overrides.stop,
+        })
+    }
+
+    /// The analysed (top) half field, degrees.
+    pub fn field_deg(&self) -> f64 {
+        self.fields_deg.first().copied().unwrap_or(0.0)
+    }
+
+    /// The options of the paraxial analysis under these conditions.
+    pub fn paraxial_options(&self) -> ParaxialOptions {
+        ParaxialOptions {
+            object: self
+                .object_distance_mm
+                .map_or(ObjectPosition::Infinite, |distance| {
+                    ObjectPosition::Finite { distance }
+                }),
+            aperture: Aperture::EntrancePupilDiameter(self.epd_mm),
+            field: self.paraxial_field,
+            stop: self.stop,
+        }
+    }
+
+    /// The same options with the object at infinity and the field as an angle: what the plots,
+    /// which trace collimated beams, use.
+    pub fn paraxial_options_at_infinity(&self) -> ParaxialOptions {
+        ParaxialOptions {
+            object: ObjectPosition::Infinite,
+            field: Field::Angle {
+                deg: self.field_deg(),
+            },
+            ..self.paraxial_options()
+        }
+    }
+
+    /// One line per condition with its origin, for report headers.
+    pub fn summary_rows(&self) -> Vec<(String, String, &'static str)> {
+        let list = |values: &[f64], unit: &str| {
+            values
+                .iter()
+                .map(|v| format!("{v:.2}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+                + unit
+        };
+        vec![
+            (
+                "half fields".into(),
+                list(&self.fields_deg, " deg"),
+                self.field_from.describe(),
+            ),
+            (
+                "entrance-pupil diameter".into(),
+                format!("{:.3} mm (f/{:.2})", self.epd_mm, self.f_number),
+                self.aperture_from.describe(),
+            ),
+            (
+                "object".into(),
+                self.object_distance_mm.map_or("at infinity".into(), |d| {
+                    format!("{d:.3} mm before surface 1")
+                }),
+                self.object_from.describe(),
+            ),
+            (
+                "reference wavelength".into(),
+                format!("{:.2} nm", self.reference_nm),
+                self.reference_from.describe(),
+            ),
+            (
+                "wavelengths drawn".into(),
+                list(&self.wavelengths_nm, " nm"),
+                self.wavelengths_from.describe(),
+            ),
+        ]
+    }
+}
+
+/// The top field, 0.7 of it and the axis.
+fn fractions_of(top_deg: f64) -> Vec<f64> {
+    FIELD_FRACTIONS.iter().map(|f| f * top_deg).collect()
+}
+
+/// The rule: the largest half field whose real chief ray, aimed at the stop centre, passes
+/// every clear aperture at the reference wavelength, at most [`RULE_MAX_FIELD_DEG`].
+pub fn rule_field_deg(at: &SystemAt) -> f64 {
+    traceable_field_deg(&Tracer::new(at), FIELD_SCAN_DEG).min(RULE_MAX_FIELD_DEG)
+}
+
+fn drawn_wavelengths(
+    system: &LensSystem,
+    overrides: &ConditionOverrides,
+    stated: Option<&[f64]>,
+    reference_nm: f64,
+) -> (Vec<f64>, Origin) {
+    if !overrides.wavelengths_nm.is_empty() {
+        return (overrides.wavelengths_nm.clone(), Origin::Flag);
+    }
+    // Curves of one colour drawn three times say nothing: a lens of constant indices draws
+    // its reference wavelength alone whatever the file lists.
+    if !system.disperses() {
+        return (vec![reference_nm], Origin::Rule);
+    }
+    match stated.filter(|w| !w.is_empty()) {
+        Some(listed) => {
+            let mut drawn = listed.to_vec();
+            drawn.sort_by(f64::total_cmp);
+            drawn.dedup();
+            (drawn, Origin::File)
+        }
+        None => {
+            let mut drawn = vec![F_LINE_NM, reference_nm, C_LINE_NM];
+            drawn.dedup();
+            (drawn, Origin::Rule)
+        }
+    }
+}
+
+/// The entrance-pupil diameter a stated aperture gives, where it can be turned into one.
+fn stated_epd(
+    aperture: &ApertureSpec,
+    probe: &Paraxial,
+    object_distance_mm: Option<f64>,
+) -> Option<f64> {
+    let epd = match (aperture, object_distance_mm) {
+        (ApertureSpec::EntrancePupilDiameter(d), _) => Some(*d),
+        (ApertureSpec::FNumber(f), None) => Some(probe.first_order.efl.abs() / f),
+        (ApertureSpec::ObjectNumericalAperture(na), Some(distance)) => {
+            let n = probe.first_order.object_index;
+            (*na > 0.0 && *na < n)
+                .then(|| 2.0 * (distance + probe.entrance_pupil.z) * (na / n).asin().tan())
+        }
+        _ => None,
+    };
+    epd.filter(|d| d.is_finite() && *d > 0.0)
+}
+
+/// The stated field points as half-field angles (top first) and the analysed paraxial field.
+/// An on-axis-only list, or a kind this module cannot convert, gives none (the next source
+/// decides), with a note.
+fn stated_fields(
+    fields: &FieldSpec,
+    probe: &Paraxial,
+    object_distance_mm: Option<f64>,
+    notes: &mut Vec<String>,
+) -> Option<(Vec<f64>, Field)> {
+    let radial: Vec<f64> = fields
+        .x
+        .iter()
+        .zip(&fields.y)
+        .map(|(x, y)| match fields.kind {
+            // Angles combine as tangents: (x, y) is the direction (tan x, tan y, 1).
+            FieldKind::AngleDeg => x
+                .to_radians()
+                .tan()
+                .hypot(y.to_radians().tan())
+                .atan()
+                .to_degrees(),
+            _ => x.hypot(*y),
+        })
+        .collect();
+    let largest = radial.iter().copied().fold(0.0, f64::max);
+    if largest <= 0.0 {
+        notes
+            .push("the file's fields are all on axis: the field comes from the next source".into());
+        return None;
+    }
+    let efl = probe.first_order.efl.abs();
+    let pupil_z = probe.entrance_pupil.z;
+    let (to_angle, field): (Box<dyn Fn(f64) -> f64>, Field) =
+        match (fields.kind, object_distance_mm) {
+            (FieldKind::AngleDeg, _) => (Box::new(|a| a), Field::Angle { deg: largest }),
+            (FieldKind::ObjectHeight, Some(d)) => (
+                Box::new(move |h| (h / (d + pupil_z)).atan().to_degrees()),
+                Field::ObjectHeight { mm: largest },
+            ),
+            (FieldKind::ParaxialImageHeight, None) => {
+                let angle = move |h: f64| (h / efl).atan().to_degrees();
+                (
+                    Box::new(angle),
+                    Field::Angle {
+                        deg: angle(largest),
+                    },
+                )
+            }
+            (FieldKind::ParaxialImageHeight, Some(d)) => {
+                let m = probe.magnification.filter(|m| *m != 0.0)?;
+                (
+                    Box::new(move |h| (h / m.abs() / (d + pupil_z)).atan().to_degrees()),
+                    Field::ObjectHeight {
+                        mm: largest / m.abs(),
+                    },
+                )
+            }
+            (kind, _) => {
+                notes.push(format!(
+                    "the file's {kind:?} fields need a real-ray search this build does not do: \
+                 the field comes from the next source"
+                ));
+                return None;
+            }
+        };
+    let mut angles: Vec<f64> = radial.iter().map(|&v| to_angle(v)).collect();
+    angles.sort_by(|a, b| b.total_cmp(a));
+    angles.dedup();
+    Some((angles, field))
+}

@@ -1,0 +1,247 @@
+//! One set of design conditions per lens (docs/conditions.md): `analyze`, every plot and the
+//! report header use the same fields and aperture; the file's conditions, the source's claims
+//! and the rule come in that order; flags override all three everywhere alike.
+
+use lensbake::analysis::{
+    AnalyzeOptions, ConditionOverrides, DesignConditions, Origin, RULE_MAX_FIELD_DEG, analyze,
+};
+use lensbake::lenses;
+use lensbake::prescription::formats::LoadOptions;
+use lensbake::report::{Figure, FigureOptions, PlotKind, figure, write_report};
+use lensbake::system::LensSystem;
+use lensbake::trace::{RaySource, Tracer, Travel, aim_at_stop};
+use std::path::{Path, PathBuf};
+
+fn system(spec: &str) -> LensSystem {
+    lenses::load(spec, &LoadOptions::default())
+        .unwrap_or_else(|e| panic!("{spec}: {e}"))
+        .system
+}
+
+fn resolve(system: &LensSystem, overrides: &ConditionOverrides) -> DesignConditions {
+    DesignConditions::resolve(system, overrides).unwrap()
+}
+
+/// The top field of each field-bearing plot kind, as the figure carries it.
+fn plotted_top_fields(lens: &str, system: &LensSystem, options: &FigureOptions) -> Vec<f64> {
+    let draw = |kind| figure(kind, lens, system, options).unwrap();
+    let Figure::RayFan(fan) = draw(PlotKind::RayFan) else {
+        panic!("ray fan")
+    };
+    let Figure::Spot(spot) = draw(PlotKind::Spot) else {
+        panic!("spot")
+    };
+    let Figure::Layout(layout) = draw(PlotKind::Layout) else {
+        panic!("layout")
+    };
+    let Figure::Distortion(distortion) = draw(PlotKind::Distortion) else {
+        panic!("distortion")
+    };
+    let Figure::OpdFan(opd) = draw(PlotKind::OpdFan) else {
+        panic!("OPD fan")
+    };
+    vec![
+        fan.fields[0].field_deg,
+        spot.fields[0].field_deg,
+        layout.rays.iter().map(|r| r.field_deg).fold(0.0, f64::max),
+        distortion.points.last().unwrap().0,
+        opd.fields[0].field_deg,
+    ]
+}
+
+fn report_readme(lens: &str, system: &LensSystem, options: &FigureOptions, tag: &str) -> String {
+    let dir: PathBuf =
+        std::env::temp_dir().join(format!("lensbake-conditions-{}-{tag}", std::process::id()));
+    write_report(lens, system, options, &dir).unwrap();
+    let text = std::fs::read_to_string(dir.join("README.md")).unwrap();
+    std::fs::remove_dir_all(&dir).unwrap();
+    text
+}
+
+/// The header row of the report's conditions table for `name`.
+fn header_row<'a>(readme: &'a str, name: &str) -> &'a str {
+    readme
+        .lines()
+        .find(|l| l.starts_with(&format!("| {name} |")))
+        .unwrap_or_else(|| panic!("no `{name}` row in the report header"))
+}
+
+#[test]
+fn analyze_every_plot_and_the_report_header_use_one_field() {
+    let lens = "dgauss-50mm";
+    let system = system(lens);
+    let analysis = analyze(lens, &system, &AnalyzeOptions::default()).unwrap();
+    // The pbrt file's title says "22deg HFOV"; the bundled RON carries that claim.
+    assert_eq!(analysis.field_deg, 22.0);
+    assert_eq!(analysis.conditions.field_from, Origin::Source);
+    assert_eq!(analysis.conditions.fields_deg, [22.0, 0.7 * 22.0, 0.0]);
+    for top in plotted_top_fields(lens, &system, &FigureOptions::default()) {
+        assert!((top - 22.0).abs() < 1e-12, "a plot's top field is {top}");
+    }
+    let readme = report_readme(lens, &system, &FigureOptions::default(), "default");
+    assert_eq!(
+        header_row(&readme, "half fields"),
+        "| half fields | 22.00, 15.40, 0.00 deg | source's claim |"
+    );
+    let epd = header_row(&readme, "entrance-pupil diameter");
+    assert!(
+        epd.contains(&format!(
+            "{:.3} mm",
+            analysis.first_order.entrance_pupil.diameter
+        )),
+        "{epd}"
+    );
+}
+
+#[test]
+fn flags_override_the_analysis_the_plots_and_the_report_alike() {
+    let lens = "codev-dgauss-f2";
+    let system = system(lens);
+    let analysis = analyze(
+        lens,
+        &system,
+        &AnalyzeOptions {
+            field_deg: Some(5.0),
+            epd_mm: Some(30.0),
+            ..AnalyzeOptions::default()
+        },
+    )
+    .unwrap();
+    assert_eq!(analysis.field_deg, 5.0);
+    assert_eq!(analysis.first_order.entrance_pupil.diameter, 30.0);
+    assert_eq!(analysis.conditions.field_from, Origin::Flag);
+    assert_eq!(analysis.conditions.aperture_from, Origin::Flag);
+    let options = FigureOptions {
+        field_deg: Some(5.0),
+        epd_mm: Some(30.0),
+        ..FigureOptions::default()
+    };
+    for top in plotted_top_fields(lens, &system, &options) {
+        assert!((top - 5.0).abs() < 1e-12, "a plot's top field is {top}");
+    }
+    // The spot plot's Airy disc follows the working f-number of the flagged pupil.
+    let Figure::Spot(spot) = figure(PlotKind::Spot, lens, &system, &options).unwrap() else {
+        panic!("spot")
+    };
+    let airy = spot.fields[2].spots[0].airy_radius_mm;
+    let expected = 1.21967 * spot.fields[2].spots[0].wavelength_nm * 1e-6 * 100.0 / 30.0;
+    assert!((airy / expected - 1.0).abs() < 0.02, "{airy} vs {expected}");
+    let readme = report_readme(lens, &system, &options, "flags");
+    assert_eq!(
+        header_row(&readme, "half fields"),
+        "| half fields | 5.00, 3.50, 0.00 deg | flag |"
+    );
+    assert!(
+        header_row(&readme, "entrance-pupil diameter")
+            .starts_with("| entrance-pupil diameter | 30.000 mm")
+    );
+}
+
+#[test]
+fn a_code_v_file_with_fields_0_10_14_is_analysed_at_14_degrees_and_its_epd() {
+    let path =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/truth/lenses/ag_dblgauss.seq");
+    let system = system(path.to_str().unwrap());
+    let conditions = resolve(&system, &ConditionOverrides::default());
+    assert_eq!(conditions.field_from, Origin::File);
+    let rounded: Vec<f64> = conditions
+        .fields_deg
+        .iter()
+        .map(|f| (f * 1e6).round() / 1e6)
+        .collect();
+    assert_eq!(rounded, [14.0, 10.0, 0.0]);
+    assert_eq!(conditions.epd_mm, 50.0);
+    assert_eq!(conditions.aperture_from, Origin::File);
+    assert_eq!(conditions.reference_nm, 587.6);
+    assert_eq!(conditions.wavelengths_nm, [486.1, 587.6, 656.3]);
+    let analysis = analyze("ag_dblgauss", &system, &AnalyzeOptions::default()).unwrap();
+    assert!((analysis.field_deg - 14.0).abs() < 1e-6);
+    // The bundled RON of the same file states the same conditions.
+    let bundled = resolve(
+        &self::system("codev-dgauss-f2"),
+        &ConditionOverrides::default(),
+    );
+    assert_eq!(bundled.fields_deg, conditions.fields_deg);
+    assert_eq!(bundled.epd_mm, 50.0);
+    // Every drawn wavelength's fan reaches the image at 14 degrees: none is dropped.
+    let Figure::RayFan(fan) = figure(
+        PlotKind::RayFan,
+        "codev-dgauss-f2",
+        &self::system("codev-dgauss-f2"),
+        &FigureOptions::default(),
+    )
+    .unwrap() else {
+        panic!("fan")
+    };
+    assert!(
+        fan.fields
+            .iter()
+            .all(|f| f.dropped_nm.is_empty() && f.tangential.len() == 3)
+    );
+}
+
+/// Whether the real chief ray of `deg`, aimed at the stop centre, passes every clear aperture.
+fn chief_ray_passes(system: &LensSystem, deg: f64) -> bool {
+    let tracer = Tracer::new(&system.at(system.design_wavelength_nm()));
+    let a = deg.to_radians();
+    let source = RaySource::Collimated {
+        direction: [0.0, a.sin(), a.cos()],
+        start_z: tracer.front_start_z(),
+    };
+    aim_at_stop(&tracer, &source, [0.0, 0.0])
+        .is_ok_and(|ray| tracer.trace(ray, Travel::Forward).outcome.is_ok())
+}
+
+#[test]
+fn the_rule_is_the_last_passing_chief_ray_capped_well_below_90_degrees() {
+    // The singlet's stop is its front surface: its chief ray passes almost to 90 degrees, and
+    // the report once analysed it at 89.9 (spot axes of +-2e6 um). The cap holds it at 45.
+    let singlet = system("biconvex-singlet");
+    assert!(chief_ray_passes(&singlet, 80.0));
+    let conditions = resolve(&singlet, &ConditionOverrides::default());
+    assert_eq!(conditions.field_from, Origin::Rule);
+    assert_eq!(conditions.field_deg(), RULE_MAX_FIELD_DEG);
+    let Figure::Spot(spot) = figure(
+        PlotKind::Spot,
+        "biconvex-singlet",
+        &singlet,
+        &FigureOptions::default(),
+    )
+    .unwrap() else {
+        panic!("spot")
+    };
+    assert_eq!(spot.fields[0].field_deg, 45.0);
+    let extent = spot.fields[0].spots[0]
+        .points
+        .iter()
+        .map(|p| p.0.hypot(p.1))
+        .fold(0.0, f64::max);
+    // At 89.9 degrees the blur ran to 2 m; at 45 it stays inside the image height f tan 45.
+    assert!(extent < 0.6 * 51.72, "spot extends {extent} mm");
+
+    // The telephoto states no field: the rule's field is where its chief ray stops passing.
+    let telephoto = system("telephoto-250mm");
+    let conditions = resolve(&telephoto, &ConditionOverrides::default());
+    assert_eq!(conditions.field_from, Origin::Rule);
+    let top = conditions.field_deg();
+    assert!(top > 5.0 && top < RULE_MAX_FIELD_DEG, "{top}");
+    assert!(chief_ray_passes(&telephoto, top));
+    assert!(!chief_ray_passes(&telephoto, top + 1e-6));
+}
+
+#[test]
+fn a_claimed_f_number_sets_the_pupil_only_where_the_stop_allows_it() {
+    // The telephoto claims f/5.6; its stop opens to f/5.42, so f/5.6 is used.
+    let telephoto = resolve(&system("telephoto-250mm"), &ConditionOverrides::default());
+    assert_eq!(telephoto.aperture_from, Origin::Source);
+    assert!(
+        (telephoto.f_number - 5.6).abs() < 1e-6,
+        "{}",
+        telephoto.f_number
+    );
+    // The pbrt double Gauss claims f/2 but opens to f/2.03: wide open, with a note.
+    let dgauss = resolve(&system("dgauss-50mm"), &ConditionOverrides::default());
+    assert_eq!(dgauss.aperture_from, Origin::Rule);
+    assert!(dgauss.notes.iter().any(|n| n.contains("claimed f/2")));
+    assert!((dgauss.f_number - 2.03).abs() < 0.01);
+}
