@@ -170,6 +170,8 @@ pub mod system;
 pub mod trace;
 #[cfg(feature = "render")]
 pub mod tradeoff;
+#[cfg(feature = "view")]
+pub mod view;
 pub mod wave;
 
 pub use analysis::{Analysis, AnalyzeOptions, analyze};

@@ -119,7 +119,27 @@ pub enum ChromaticArg {
     Auto,
 }
 
-fn parse_pair<T: std::str::FromStr>(text: &str) -> Result<(T, T), String> {
+impl From<BackendArg> for BackendChoice {
+    fn from(arg: BackendArg) -> BackendChoice {
+        match arg {
+            BackendArg::Gpu => BackendChoice::Gpu,
+            BackendArg::Cpu => BackendChoice::Cpu,
+            BackendArg::Auto => BackendChoice::Auto,
+        }
+    }
+}
+
+impl From<ChromaticArg> for ChromaticMode {
+    fn from(arg: ChromaticArg) -> ChromaticMode {
+        match arg {
+            ChromaticArg::On => ChromaticMode::On,
+            ChromaticArg::Off => ChromaticMode::Off,
+            ChromaticArg::Auto => ChromaticMode::Auto,
+        }
+    }
+}
+
+pub fn parse_pair<T: std::str::FromStr>(text: &str) -> Result<(T, T), String> {
     let (a, b) = text
         .split_once(',')
         .ok_or_else(|| format!("expected X,Y, got `{text}`"))?;
@@ -176,11 +196,7 @@ impl RenderArgs {
                 PeelArg::Plain => PeelMode::Plain,
                 PeelArg::Umbra => PeelMode::Umbra,
             },
-            backend: match self.backend {
-                BackendArg::Gpu => BackendChoice::Gpu,
-                BackendArg::Cpu => BackendChoice::Cpu,
-                BackendArg::Auto => BackendChoice::Auto,
-            },
+            backend: self.backend.into(),
             settings: RenderSettings {
                 width: self.width,
                 height: self.height,
@@ -192,11 +208,7 @@ impl RenderArgs {
             focus,
             shift_mm: [self.shift_mm.0, self.shift_mm.1],
             tilt_deg: [self.tilt_deg.0, self.tilt_deg.1],
-            chromatic: match self.chromatic {
-                ChromaticArg::On => ChromaticMode::On,
-                ChromaticArg::Off => ChromaticMode::Off,
-                ChromaticArg::Auto => ChromaticMode::Auto,
-            },
+            chromatic: self.chromatic.into(),
             wavelengths_nm,
             ..RenderJob::new(super::lens::render_lens(&self.lens, &self.read)?)
         })

@@ -7,6 +7,7 @@ use super::{
     load_or_bake,
 };
 use crate::lenses::LoadedLens;
+use crate::lrtf::bake::BakeProgress;
 use crate::model::{
     BakedLens, FirstOrderModels, LensModel, ModelKind, PupilSampling, SeidelLens, TracedLens,
     pupil_film_radius,
@@ -253,6 +254,21 @@ pub struct Rendered {
     pub trace_time: Duration,
 }
 
+/// A job made ready to render: its camera, its peeled layers and every decision but the backend
+/// ([`RenderJob::prepare`]). A progressive viewer keeps one and renders its samples a share at a
+/// time on a renderer it holds; [`RenderJob::run`] renders all of them at once.
+#[derive(Clone, Debug)]
+pub struct PreparedRender {
+    pub camera: Camera,
+    pub layers: LayeredDepthImage,
+    pub scene: SceneReport,
+    pub focus_plane: Option<FocusPlaneReport>,
+    pub budget: Option<BudgetChoice>,
+    pub chromatic: ChromaticDecision,
+    pub table: Option<TableUse>,
+    pub peel: PeelReport,
+}
+
 enum SceneSource {
     /// The demo (as meshes) or a glTF file, peeled by rasterisation.
     Mesh {
@@ -289,6 +305,45 @@ impl RenderJob {
     /// Runs the job: places the film, decides colour and (under a budget) the model, finds or
     /// bakes a table, peels the scene and renders it.
     pub fn run(&self) -> Result<Rendered, JobError> {
+        let prepared = self.prepare(&|_| {})?;
+        let (gpu, backend) = self.renderer()?;
+        if let Some(g) = &gpu
+            && prepared.camera.chromatic.is_some()
+        {
+            g.prepare_chromatic()?;
+        }
+        let started = Instant::now();
+        let kernel = match gpu {
+            Some(_) => Backend::Gpu,
+            None => Backend::Cpu,
+        };
+        let image = render_layers(
+            &prepared.camera,
+            &prepared.layers,
+            &self.settings,
+            kernel,
+            gpu.as_ref(),
+        )?;
+        Ok(Rendered {
+            image,
+            camera: prepared.camera,
+            scene: prepared.scene,
+            focus_plane: prepared.focus_plane,
+            budget: prepared.budget,
+            chromatic: prepared.chromatic,
+            table: prepared.table,
+            peel: prepared.peel,
+            backend,
+            trace_time: started.elapsed(),
+        })
+    }
+
+    /// Everything [`RenderJob::run`] does before the kernel runs: the film placed, colour and
+    /// model decided, the table found or baked (reporting to `progress`), the scene peeled.
+    pub fn prepare(
+        &self,
+        progress: &(dyn Fn(BakeProgress) + Sync),
+    ) -> Result<PreparedRender, JobError> {
         // Focus is found, and the budget chosen, with the model asked for (traced by default).
         let asked = match self.model {
             ModelChoice::Model(kind) => kind,
@@ -365,8 +420,15 @@ impl RenderJob {
                 // chromatic render or a tilted sensor needs its own.
                 let chosen = chosen_table
                     .filter(|_| wavelengths.is_none() && camera.film_off_plane() == 0.0);
-                let (baked, table) =
-                    self.baked_lens(real, &first_order, f_number, &camera, wavelengths, chosen)?;
+                let (baked, table) = self.baked_lens(
+                    real,
+                    &first_order,
+                    f_number,
+                    &camera,
+                    wavelengths,
+                    chosen,
+                    progress,
+                )?;
                 let film_z = baked.film_z();
                 let model = LensModel::Baked(Box::new(baked));
                 (Camera::new(model, film, Focus::FilmZ(film_z))?, Some(table))
@@ -391,29 +453,15 @@ impl RenderJob {
             },
             time: started.elapsed(),
         };
-        let (gpu, backend) = self.renderer()?;
-        if let Some(g) = &gpu
-            && camera.chromatic.is_some()
-        {
-            g.prepare_chromatic()?;
-        }
-        let started = Instant::now();
-        let kernel = match gpu {
-            Some(_) => Backend::Gpu,
-            None => Backend::Cpu,
-        };
-        let image = render_layers(&camera, &ldi, settings, kernel, gpu.as_ref())?;
-        Ok(Rendered {
-            image,
+        Ok(PreparedRender {
             camera,
+            layers: ldi,
             scene,
             focus_plane,
             budget,
             chromatic,
             table,
             peel,
-            backend,
-            trace_time: started.elapsed(),
         })
     }
 
@@ -551,6 +599,7 @@ impl RenderJob {
 
     /// The baked lens of `real` for `camera`'s film: `chosen` (a table the error budget baked),
     /// else the job's table directory, else the first covering table, else a new bake.
+    #[allow(clippy::too_many_arguments)]
     fn baked_lens(
         &self,
         real: &LoadedLens,
@@ -559,6 +608,7 @@ impl RenderJob {
         camera: &Camera,
         wavelengths: Option<[f64; CHANNELS]>,
         chosen: Option<crate::lrtf::LrtfTable>,
+        progress: &(dyn Fn(BakeProgress) + Sync),
     ) -> Result<(BakedLens, TableUse), JobError> {
         let focus_mm = focus_of_film(real, camera.film_z)?;
         let film_radius = sensor_film_radius(real, camera);
@@ -587,7 +637,7 @@ impl RenderJob {
                     resolution: self.bake_resolution,
                     wavelengths_nm: wavelengths.map(Vec::from).unwrap_or_default(),
                 };
-                load_or_bake(real, &dir, &fallback, &|_| {})?
+                load_or_bake(real, &dir, &fallback, progress)?
             }
         };
         let covered = table.layers[0].sampling.max_film_radius();
@@ -606,7 +656,7 @@ impl RenderJob {
     }
 
     /// The GPU renderer the backend choice asks for, and what was used.
-    fn renderer(&self) -> Result<(Option<GpuRenderer>, BackendUsed), JobError> {
+    pub fn renderer(&self) -> Result<(Option<GpuRenderer>, BackendUsed), JobError> {
         let gpu = match self.backend {
             BackendChoice::Cpu => {
                 return Ok((

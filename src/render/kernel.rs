@@ -660,7 +660,7 @@ fn render_pixel(
     let scrambles = PixelScrambles::new(frame.seed, y * frame.width + x);
     let mut sum = [0.0f32; 3];
     for s in 0..frame.sample_count {
-        let (film, lens_u) = pixel_sample(frame, &scrambles, x, y, frame.sample_offset + s);
+        let (film, lens_u) = pixel_sample(frame, &scrambles, x, y, frame.sample_offset + s * frame.sample_stride);
         let (pupil, weight) = pupil_sample(frame, lens, MONOCHROME_SAMPLING_BLOCK, film, lens_u);
         let ray = lens_ray(frame, rays, film, pupil);
         if let Some(colour) = trace_layers(frame, layers, &ray) {
@@ -701,7 +701,7 @@ fn render_pixel_chromatic(
     let scrambles = PixelScrambles::new(frame.seed, y * frame.width + x);
     let mut sum = [0.0f32; 3];
     for s in 0..frame.sample_count {
-        let (film, lens_u) = pixel_sample(frame, &scrambles, x, y, frame.sample_offset + s);
+        let (film, lens_u) = pixel_sample(frame, &scrambles, x, y, frame.sample_offset + s * frame.sample_stride);
         let (pupil, weight) = pupil_sample(frame, lens, channels.sampling_block, film, lens_u);
         for (channel, channel_rays) in rays.iter().enumerate() {
             let ray = channel_lens_ray(frame, channels, channel, *channel_rays, film, pupil);
