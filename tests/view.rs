@@ -82,7 +82,10 @@ fn accumulation_matches_render(backend: BackendChoice) {
     );
     assert!(accumulated >= 100.0, "{accumulated} dB");
     assert!(largest < 1e-4, "{largest}");
-    assert!(one_frame < 60.0, "one frame of four already matches: {one_frame} dB");
+    assert!(
+        one_frame < 60.0,
+        "one frame of four already matches: {one_frame} dB"
+    );
 }
 
 #[test]
@@ -140,13 +143,22 @@ fn a_click_on_the_near_chart_sharpens_it_and_softens_the_far_wall() {
     assert!((focus - 2000.0).abs() < 20.0, "focused at {focus} mm");
     converge(&mut viewer);
     let after = viewer.image();
-    let (chart_before, chart_after) = (local_contrast(&before, chart), local_contrast(&after, chart));
+    let (chart_before, chart_after) = (
+        local_contrast(&before, chart),
+        local_contrast(&after, chart),
+    );
     let (wall_before, wall_after) = (local_contrast(&before, wall), local_contrast(&after, wall));
     eprintln!(
         "local contrast: chart {chart_before:.4} -> {chart_after:.4}, wall {wall_before:.4} -> {wall_after:.4}"
     );
-    assert!(chart_after > 1.2 * chart_before, "chart {chart_before} -> {chart_after}");
-    assert!(wall_after < 0.92 * wall_before, "wall {wall_before} -> {wall_after}");
+    assert!(
+        chart_after > 1.2 * chart_before,
+        "chart {chart_before} -> {chart_after}"
+    );
+    assert!(
+        wall_after < 0.92 * wall_before,
+        "wall {wall_before} -> {wall_after}"
+    );
 }
 
 #[test]
@@ -161,14 +173,20 @@ fn model_switch_restarts_with_the_new_model_and_a_refused_one_keeps_the_old() {
         assert_eq!(viewer.samples().0, 0);
         viewer.frame().unwrap();
         let image = viewer.image();
-        assert!(image.pixels != traced.pixels, "{kind:?} renders the traced image");
+        assert!(
+            image.pixels != traced.pixels,
+            "{kind:?} renders the traced image"
+        );
     }
     // An f-number faster than the lens is refused; the viewer keeps its settings and image.
     let kept = viewer.image();
     assert!(viewer.apply(&Action::FNumber(0.5)).is_err());
     assert_eq!(viewer.shown_model(), ModelKind::Seidel);
     assert_eq!(viewer.image().pixels, kept.pixels);
-    assert!(viewer.apply(&Action::Click([64, 0])).is_err(), "outside the render");
+    assert!(
+        viewer.apply(&Action::Click([64, 0])).is_err(),
+        "outside the render"
+    );
 }
 
 #[test]
@@ -253,7 +271,10 @@ fn assert_screenshots(dir: &Path, stdout: &str) {
         let path = dir.join(name);
         let bytes = std::fs::read(&path).unwrap_or_else(|e| panic!("{name}: {e}\n{stdout}"));
         assert_eq!(&bytes[1..4], b"PNG", "{name}");
-        assert!(stdout.contains(&format!("wrote {}", path.display())), "{stdout}");
+        assert!(
+            stdout.contains(&format!("wrote {}", path.display())),
+            "{stdout}"
+        );
     }
 }
 
@@ -267,7 +288,11 @@ fn an_offscreen_script_runs_and_writes_its_screenshots() {
     args.extend(["--offscreen", "--backend", "cpu"]);
     let out = lensbake(&args);
     let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(out.status.success(), "{stdout}\n{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     assert_screenshots(&dir, &stdout);
     assert!(stdout.contains("baked"), "{stdout}");
     std::fs::remove_dir_all(&dir).unwrap();
@@ -328,7 +353,10 @@ fn a_windowed_script_under_xvfb_exits_0_and_writes_its_screenshots() {
     let script = write_script(&dir);
     let tables = dir.join("tables");
     let mut args = vec!["-a", env!("CARGO_BIN_EXE_lensbake")];
-    args.extend(view_args(tables.to_str().unwrap(), script.to_str().unwrap()));
+    args.extend(view_args(
+        tables.to_str().unwrap(),
+        script.to_str().unwrap(),
+    ));
     let out = Command::new("xvfb-run").args(&args).output().unwrap();
     let stdout = String::from_utf8_lossy(&out.stdout);
     let stderr = String::from_utf8_lossy(&out.stderr);

@@ -3,10 +3,10 @@
 //! what the session reports.
 
 use super::lens::ReadArgs;
-use super::render::{BackendArg, ChromaticArg};
+use super::render::{BackendArg, ChromaticArg, backend_line};
 use anyhow::Context;
 use clap::Args;
-use lensbake::job::{BackendUsed, DEFAULT_FOCUS_MM, FocusMode, ModelChoice, RenderJob, SceneSpec};
+use lensbake::job::{DEFAULT_FOCUS_MM, FocusMode, ModelChoice, RenderJob, SceneSpec};
 use lensbake::limits::read_input_text;
 use lensbake::model::ModelKind;
 use lensbake::render::RenderSettings;
@@ -105,15 +105,7 @@ pub fn run(args: ViewArgs) -> anyhow::Result<()> {
         ..RenderJob::new(lens)
     };
     let viewer = Viewer::new(job, args.spp_per_frame)?;
-    match viewer.backend() {
-        BackendUsed::Gpu { adapter } => say!("adapter: {adapter}"),
-        BackendUsed::Cpu {
-            gpu_unavailable: Some(why),
-        } => say!("note: no GPU adapter ({why}); rendering on the CPU twin"),
-        BackendUsed::Cpu {
-            gpu_unavailable: None,
-        } => say!("rendering on the CPU twin"),
-    }
+    say!("{}", backend_line(viewer.backend()));
     let script_file = args.script.clone().unwrap_or_default();
     let mut session = Session::new(viewer, script, script_file, args.frames);
     let mut report = |event: &ViewEvent| match event {
@@ -140,10 +132,11 @@ pub fn run(args: ViewArgs) -> anyhow::Result<()> {
         run_window(&mut session, &session_title(&args), &mut report)?;
     }
     let (samples, target) = session.viewer.samples();
+    let mean = session.viewer.mean_frame().unwrap_or_default();
     say!(
-        "{} frames, {samples}/{target} samples per pixel, last frame {:.1} ms",
+        "{} frames, {samples}/{target} samples per pixel, {:.1} ms per rendered frame (mean)",
         session.frames(),
-        session.viewer.last_frame().as_secs_f64() * 1e3
+        mean.as_secs_f64() * 1e3
     );
     Ok(())
 }

@@ -242,14 +242,8 @@ pub enum BackendUsed {
 #[derive(Clone, Debug)]
 pub struct Rendered {
     pub image: RgbImage,
-    /// The camera rendered through (model, film and its placement, colour channels).
-    pub camera: Camera,
-    pub scene: SceneReport,
-    pub focus_plane: Option<FocusPlaneReport>,
-    pub budget: Option<BudgetChoice>,
-    pub chromatic: ChromaticDecision,
-    pub table: Option<TableUse>,
-    pub peel: PeelReport,
+    /// The camera, the layers and every decision before the kernel ran.
+    pub prepared: PreparedRender,
     pub backend: BackendUsed,
     pub trace_time: Duration,
 }
@@ -259,6 +253,7 @@ pub struct Rendered {
 /// time on a renderer it holds; [`RenderJob::run`] renders all of them at once.
 #[derive(Clone, Debug)]
 pub struct PreparedRender {
+    /// The camera rendered through (model, film and its placement, colour channels).
     pub camera: Camera,
     pub layers: LayeredDepthImage,
     pub scene: SceneReport,
@@ -326,13 +321,7 @@ impl RenderJob {
         )?;
         Ok(Rendered {
             image,
-            camera: prepared.camera,
-            scene: prepared.scene,
-            focus_plane: prepared.focus_plane,
-            budget: prepared.budget,
-            chromatic: prepared.chromatic,
-            table: prepared.table,
-            peel: prepared.peel,
+            prepared,
             backend,
             trace_time: started.elapsed(),
         })
@@ -759,17 +748,17 @@ mod tests {
             max_layers: 4,
         };
         let first = job.run().unwrap();
-        let baked = first.table.clone().unwrap();
+        let baked = first.prepared.table.clone().unwrap();
         assert!(baked.baked_now);
         assert_eq!(baked.dir, root.join("dgauss-50mm").join("focus-2000mm"));
         assert!(baked.covered_film_radius_mm >= baked.needed_film_radius_mm * (1.0 - 1e-9));
         // The second run reads the table the first one wrote, and renders the same image.
         let second = job.run().unwrap();
-        let found = second.table.clone().unwrap();
+        let found = second.prepared.table.clone().unwrap();
         assert!(!found.baked_now);
         assert_eq!(found.dir, baked.dir);
         assert_eq!(second.image.pixels, first.image.pixels);
-        assert_eq!(second.camera.model.kind(), ModelKind::Baked);
+        assert_eq!(second.prepared.camera.model.kind(), ModelKind::Baked);
         std::fs::remove_dir_all(&root).unwrap();
     }
 }

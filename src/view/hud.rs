@@ -103,7 +103,11 @@ pub fn error_map(baked: &RgbImage, traced: &RgbImage) -> (Vec<u8>, f32) {
     let mut sorted = errors.clone();
     sorted.sort_by(f32::total_cmp);
     let at = ((sorted.len() as f64 * 0.995) as usize).min(sorted.len().saturating_sub(1));
-    let scale = sorted.get(at).copied().unwrap_or(0.0).max(f32::MIN_POSITIVE);
+    let scale = sorted
+        .get(at)
+        .copied()
+        .unwrap_or(0.0)
+        .max(f32::MIN_POSITIVE);
     let width = baked.width as usize;
     let height = baked.height as usize;
     let bar_rows = 8.min(height);

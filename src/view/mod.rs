@@ -108,7 +108,10 @@ struct PendingBake {
 pub enum ViewEvent {
     Screenshot(PathBuf),
     /// The baked model is ready (`baked_now`: its table was baked rather than found).
-    TableReady { dir: PathBuf, baked_now: bool },
+    TableReady {
+        dir: PathBuf,
+        baked_now: bool,
+    },
     /// The background bake failed; the traced model stays on screen.
     BakeFailed(String),
     /// An interactive action was refused (the viewer kept its settings).
@@ -135,6 +138,8 @@ pub struct Viewer {
     bake: Option<PendingBake>,
     frames_done: u32,
     last_frame: Duration,
+    /// Frames rendered since the viewer opened, and their time (whatever restarted since).
+    rendered: (u64, Duration),
     events: Vec<ViewEvent>,
 }
 
@@ -175,6 +180,7 @@ impl Viewer {
             bake,
             frames_done: 0,
             last_frame: Duration::ZERO,
+            rendered: (0, Duration::ZERO),
             events: Vec::new(),
         };
         viewer.restart();
@@ -239,6 +245,12 @@ impl Viewer {
         self.last_frame
     }
 
+    /// Mean time of the frames rendered since the viewer opened (None before the first).
+    pub fn mean_frame(&self) -> Option<Duration> {
+        let (frames, time) = self.rendered;
+        (frames > 0).then(|| time / frames as u32)
+    }
+
     /// Events since the last call.
     pub fn take_events(&mut self) -> Vec<ViewEvent> {
         std::mem::take(&mut self.events)
@@ -294,6 +306,8 @@ impl Viewer {
         }
         self.frames_done += 1;
         self.last_frame = started.elapsed();
+        self.rendered.0 += 1;
+        self.rendered.1 += self.last_frame;
         Ok(true)
     }
 
@@ -454,7 +468,12 @@ impl Viewer {
     /// Writes [`Viewer::display`] as a PNG.
     pub fn screenshot(&mut self, path: &Path) -> Result<(), ViewError> {
         let (bytes, _) = self.display();
-        write_rgb8_png(&bytes, self.job.settings.width, self.job.settings.height, path)?;
+        write_rgb8_png(
+            &bytes,
+            self.job.settings.width,
+            self.job.settings.height,
+            path,
+        )?;
         self.events.push(ViewEvent::Screenshot(path.to_path_buf()));
         Ok(())
     }

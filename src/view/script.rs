@@ -180,7 +180,11 @@ pub fn parse_action(content: &str) -> Result<Action, String> {
             expect(0)?;
             Action::Quit
         }
-        other => return Err(format!("unknown action `{other}` (expected one of: {ACTIONS})")),
+        other => {
+            return Err(format!(
+                "unknown action `{other}` (expected one of: {ACTIONS})"
+            ));
+        }
     })
 }
 

@@ -121,7 +121,12 @@ impl App<'_> {
         let viewer = &self.session.viewer;
         let settings = viewer.job().settings;
         let (mut rgb, _) = viewer.display();
-        hud::draw_lines(&mut rgb, settings.width, settings.height, &viewer.hud_lines());
+        hud::draw_lines(
+            &mut rgb,
+            settings.width,
+            settings.height,
+            &viewer.hud_lines(),
+        );
         if let Some(presenter) = &mut self.presenter
             && let Err(error) = presenter.show(&rgb, settings.width, settings.height)
         {
@@ -330,10 +335,12 @@ struct Presenter {
 
 impl Presenter {
     fn new(event_loop: &ActiveEventLoop, window: Arc<Window>) -> Result<Presenter, ViewError> {
-        let fail = |what: &str, e: &dyn std::fmt::Display| ViewError::Window(format!("{what}: {e}"));
-        let descriptor =
-            wgpu::InstanceDescriptor::new_with_display_handle(Box::new(event_loop.owned_display_handle()))
-                .with_env();
+        let fail =
+            |what: &str, e: &dyn std::fmt::Display| ViewError::Window(format!("{what}: {e}"));
+        let descriptor = wgpu::InstanceDescriptor::new_with_display_handle(Box::new(
+            event_loop.owned_display_handle(),
+        ))
+        .with_env();
         let instance = wgpu::Instance::new(descriptor);
         let size = window.inner_size();
         let surface = instance
@@ -346,8 +353,8 @@ impl Presenter {
         .map_err(|e| fail("no adapter can present to this window", &e))?;
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("lensbake view"),
-            required_limits: wgpu::Limits::downlevel_webgl2_defaults()
-                .using_resolution(adapter.limits()),
+            required_limits:
+                wgpu::Limits::downlevel_webgl2_defaults().using_resolution(adapter.limits()),
             ..Default::default()
         }))
         .map_err(|e| fail("opening the presentation device", &e))?;
@@ -441,10 +448,16 @@ impl Presenter {
                 return Ok(());
             }
             wgpu::CurrentSurfaceTexture::Validation => {
-                return Err(ViewError::Window("acquiring the window's frame failed".into()));
+                return Err(ViewError::Window(
+                    "acquiring the window's frame failed".into(),
+                ));
             }
         };
-        if self.texture.as_ref().is_none_or(|(_, size)| *size != [width, height]) {
+        if self
+            .texture
+            .as_ref()
+            .is_none_or(|(_, size)| *size != [width, height])
+        {
             let texture = self.device.create_texture(&wgpu::TextureDescriptor {
                 label: Some("frame"),
                 size: wgpu::Extent3d {
