@@ -131,6 +131,9 @@ pub fn run(args: ViewArgs) -> anyhow::Result<()> {
     } else {
         run_window(&mut session, &session_title(&args), &mut report)?;
     }
+    for line in session.viewer.hud_lines() {
+        say!("hud: {line}");
+    }
     let (samples, target) = session.viewer.samples();
     let mean = session.viewer.mean_frame().unwrap_or_default();
     say!(

@@ -5,6 +5,7 @@ use super::Viewer;
 use crate::job::{BackendUsed, RenderLens};
 use crate::plot::font::{FONT_FAMILY, ensure_registered};
 use crate::render::image::RgbImage;
+use crate::render::reference::psnr;
 use plotters::prelude::*;
 
 /// The HUD: frame time, samples so far, model, f-number, focus distance, lens, adapter, and a
@@ -63,8 +64,13 @@ pub fn lines(viewer: &Viewer) -> Vec<String> {
     if let Some((done, total)) = viewer.bake_progress() {
         lines.push(format!("baking table: {done}/{total}"));
     }
-    if viewer.overlay() && viewer.split() {
-        lines.push("overlay: |baked - traced|, black 0 to white at the scale".to_string());
+    if let Some(traced) = viewer.twin_image() {
+        let baked = viewer.image();
+        let (_, scale) = error_map(&baked, &traced);
+        lines.push(format!(
+            "baked vs traced: PSNR {:.1} dB; overlay white = {scale:.3}",
+            psnr(&baked, &traced)
+        ));
     }
     lines
 }

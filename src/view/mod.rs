@@ -442,7 +442,8 @@ impl Viewer {
     }
 
     /// What the viewer shows, as 8-bit sRGB: the render tone-mapped as `render` writes its PNG;
-    /// in the split view the baked render's left half beside the traced render's right half;
+    /// in the split view the baked render's left half beside the traced render's right half,
+    /// a grey column between them;
     /// with the error overlay the error map of [`hud::error_map`]. Also the overlay's scale
     /// (radiance at the top of the colour bar) when it is on.
     pub fn display(&self) -> (Vec<u8>, Option<f32>) {
@@ -462,7 +463,12 @@ impl Viewer {
             }
         }
         let composed = RgbImage { pixels, ..baked };
-        (srgb8(&composed, 1.0), None)
+        let mut bytes = srgb8(&composed, 1.0);
+        // A grey line down the middle marks the split.
+        for row in bytes.chunks_mut(width * 3) {
+            row[width / 2 * 3..width / 2 * 3 + 3].fill(SPLIT_LINE);
+        }
+        (bytes, None)
     }
 
     /// Writes [`Viewer::display`] as a PNG.
@@ -483,6 +489,9 @@ impl Viewer {
         hud::lines(self)
     }
 }
+
+/// The split view's dividing column (8-bit grey).
+const SPLIT_LINE: u8 = 128;
 
 /// `value` rounded up to a multiple of `step`.
 fn round_up(value: u32, step: u32) -> u32 {
