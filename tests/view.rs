@@ -367,5 +367,26 @@ fn a_windowed_script_under_xvfb_exits_0_and_writes_its_screenshots() {
     assert!(out.status.success(), "{stdout}\n{stderr}");
     assert_screenshots(&dir, &stdout);
     assert!(!stderr.contains("panicked"), "{stderr}");
+    // Without a script the window renders until --frames and closes.
+    let out = Command::new("xvfb-run")
+        .args([
+            "-a",
+            env!("CARGO_BIN_EXE_lensbake"),
+            "view",
+            "--lens",
+            "cooke-triplet",
+        ])
+        .args([
+            "--width", "64", "--height", "48", "--spp", "64", "--frames", "3",
+        ])
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains("3 frames, 3/64 samples"), "{stdout}");
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -8,7 +8,7 @@ bin="${1:-lensbake}"
 work="$(mktemp -d)"
 trap 'rm -rf "$work"' EXIT
 printf 'wait-bake\nframes 3\nquit\n' > "$work/script.txt"
-echo "backend,adapter,model,spp_per_frame,frames,mean_ms_per_frame"
+echo "backend,backend_used,model,spp_per_frame,frames,mean_ms_per_frame"
 for backend in cpu gpu; do
   for model in thin thick seidel traced baked; do
     for n in 1 4 16; do

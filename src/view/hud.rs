@@ -156,3 +156,51 @@ pub fn draw_lines(rgb: &mut [u8], width: u32, height: u32, lines: &[String]) -> 
     });
     ok && drawn && root.present().is_ok()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn hud_text_lands_inside_its_box_and_nowhere_else() {
+        let (width, height) = (320, 120);
+        let mut rgb = vec![0u8; width as usize * height as usize * 3];
+        let lines = [
+            "12.5 ms/frame, 4 spp/frame".to_string(),
+            "lens dgauss-50mm".to_string(),
+        ];
+        assert!(draw_lines(&mut rgb, width, height, &lines));
+        let lit = |x0: u32, x1: u32, y0: u32, y1: u32| {
+            let mut n = 0;
+            for y in y0..y1 {
+                for x in x0..x1 {
+                    let i = (y * width + x) as usize * 3;
+                    n += usize::from(rgb[i] > 128 && rgb[i + 1] > 128 && rgb[i + 2] > 128);
+                }
+            }
+            n
+        };
+        // White glyph pixels on both lines' rows, none below the box or right of it.
+        assert!(lit(0, 200, 0, 20) > 50, "first line");
+        assert!(lit(0, 200, 20, 38) > 50, "second line");
+        assert_eq!(lit(0, width, 45, height), 0);
+        assert_eq!(lit(220, width, 0, height), 0);
+    }
+
+    #[test]
+    fn the_error_ramp_runs_black_to_white_and_the_bar_spans_it() {
+        assert_eq!(ramp(0.0), [0, 0, 0]);
+        assert_eq!(ramp(1.0), [255, 255, 255]);
+        assert_eq!(ramp(2.0), [255, 255, 255]);
+        let image = |v: f32| RgbImage {
+            width: 10,
+            height: 10,
+            pixels: vec![[v; 3]; 100],
+        };
+        let (bytes, scale) = error_map(&image(0.5), &image(0.25));
+        assert!((scale - 0.25).abs() < 1e-6);
+        // Above the bar every pixel is at the top of the scale; the bar starts black.
+        assert_eq!(&bytes[0..3], &[255, 255, 255]);
+        assert_eq!(&bytes[9 * 30..9 * 30 + 3], &[0, 0, 0]);
+    }
+}
