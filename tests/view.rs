@@ -387,6 +387,6 @@ fn a_windowed_script_under_xvfb_exits_0_and_writes_its_screenshots() {
         "{stdout}\n{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    assert!(stdout.contains("3 frames, 3/64 samples"), "{stdout}");
+    assert!(stdout.contains("3 frames, 12/64 samples"), "{stdout}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
