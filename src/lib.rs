@@ -125,7 +125,7 @@
 //! let rendered = job.run()?;
 //! assert_eq!(rendered.image.pixels.len(), 48 * 32);
 //! assert!(rendered.image.pixels.iter().flatten().all(|v| v.is_finite()));
-//! assert_eq!(rendered.camera.model.kind(), ModelKind::Traced);
+//! assert_eq!(rendered.prepared.camera.model.kind(), ModelKind::Traced);
 //! # }
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```

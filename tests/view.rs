@@ -10,7 +10,7 @@
 
 mod common;
 
-use lensbake::job::{BackendChoice, FocusMode, ModelChoice, RenderJob, RenderLens};
+use lensbake::job::{BackendChoice, FocusMode, RenderJob, RenderLens};
 use lensbake::lenses;
 use lensbake::model::ModelKind;
 use lensbake::prescription::formats::LoadOptions;

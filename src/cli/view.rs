@@ -67,11 +67,12 @@ pub struct ViewArgs {
     /// scene demo|FILE, frames N, wait-bake, screenshot PATH, quit.
     #[arg(long)]
     script: Option<PathBuf>,
-    /// Run the same loop without a window (tests, CI, machines without a display).
+    /// Run the same loop without a window (tests, CI, machines without a display); with no
+    /// script and no --frames it renders until --spp samples are in.
     #[arg(long)]
     offscreen: bool,
     /// Exit after this many frames.
-    #[arg(long)]
+    #[arg(long, value_parser = clap::value_parser!(u64).range(1..=lensbake::limits::MAX_VIEW_FRAMES))]
     frames: Option<u64>,
 }
 

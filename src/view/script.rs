@@ -1,6 +1,7 @@
 //! Scripted viewer sessions: one action a line, parsed whole before the first frame so a typo on
 //! the last line is refused before anything renders.
 
+use crate::limits::MAX_VIEW_FRAMES;
 use crate::model::ModelKind;
 use std::path::{Path, PathBuf};
 
@@ -166,7 +167,11 @@ pub fn parse_action(content: &str) -> Result<Action, String> {
         }
         "frames" => {
             expect(1)?;
-            Action::Frames(whole(args[0], "frame count")?)
+            let n = whole(args[0], "frame count")?;
+            if n as u64 > MAX_VIEW_FRAMES {
+                return Err(format!("`frames` takes at most {MAX_VIEW_FRAMES}, got {n}"));
+            }
+            Action::Frames(n)
         }
         "wait-bake" => {
             expect(0)?;
@@ -213,6 +218,7 @@ mod tests {
             ("fnumber -2", "positive"),
             ("fnumber nan", "finite"),
             ("spp-per-frame 0", "at least 1"),
+            ("frames 10000001", "at most 10000000"),
             ("zoom 2", "unknown action `zoom`"),
         ] {
             let text = format!("frames 1\n\n{bad}\nquit\n");
