@@ -33,9 +33,7 @@ pub struct AnalyzeOptions {
 pub enum AnalysisError {
     #[error(transparent)]
     Limit(#[from] crate::limits::LimitError),
-    #[error("wavelength must be positive and finite, got {0} nm")]
-    InvalidWavelength(f64),
-    #[error("at this wavelength: {0}")]
+    #[error(transparent)]
     Wavelength(#[from] PrescriptionError),
     #[error(transparent)]
     Paraxial(#[from] ParaxialError),
@@ -117,9 +115,13 @@ pub fn paraxial_options(
     let object_distance = options
         .object_distance_mm
         .or_else(|| stated.and_then(|c| c.object_distance_mm));
-    let object = object_distance.map_or(ObjectPosition::Infinite, |distance| {
-        ObjectPosition::Finite { distance }
-    });
+    // One rule for a flag and a file: an object 1000 km away or farther is at infinity (files
+    // write 1e10 for it), where a finite distance would only lose digits.
+    let object = object_distance
+        .filter(|distance| distance.abs() < crate::limits::MAX_LENGTH_MM)
+        .map_or(ObjectPosition::Infinite, |distance| ObjectPosition::Finite {
+            distance,
+        });
     let mut chosen = ParaxialOptions {
         object,
         aperture: options
@@ -195,9 +197,6 @@ pub fn analyze(
     let wavelength_nm = options
         .wavelength_nm
         .unwrap_or_else(|| system.design_wavelength_nm());
-    if !(wavelength_nm.is_finite() && wavelength_nm > 0.0) {
-        return Err(AnalysisError::InvalidWavelength(wavelength_nm));
-    }
     let at = system.at_checked(wavelength_nm)?;
     // A pupil that is not a positive number is the paraxial module's error; the limit bounds
     // the sizes it would accept.
@@ -205,7 +204,12 @@ pub fn analyze(
         crate::limits::check_length("the entrance-pupil diameter (mm)", epd)?;
     }
     if let Some(distance) = options.object_distance_mm {
-        crate::limits::check_position("the object distance (mm)", distance)?;
+        crate::limits::check_range(
+            "the object distance (mm)",
+            distance,
+            f64::NEG_INFINITY,
+            f64::INFINITY,
+        )?;
     }
     let paraxial_options = paraxial_options(system, &at, options)?;
     let paraxial = Paraxial::new(&at, &paraxial_options)?;

@@ -98,6 +98,8 @@ pub enum LimitError {
         low: f64,
         high: f64,
     },
+    #[error("{what} is NaN, not a number")]
+    NotANumber { what: String },
     #[error(
         "{what} needs about {needed_mib} MiB of memory and only {available_mib} MiB is available"
     )]
@@ -122,6 +124,11 @@ pub fn check(what: &str, requested: u64, limit: u64) -> Result<(), LimitError> {
 
 /// Refuses `value` outside `low..=high` (NaN included).
 pub fn check_range(what: &str, value: f64, low: f64, high: f64) -> Result<(), LimitError> {
+    if value.is_nan() {
+        return Err(LimitError::NotANumber {
+            what: what.to_string(),
+        });
+    }
     if !(low..=high).contains(&value) {
         return Err(LimitError::OutOfRange {
             what: what.to_string(),
@@ -189,6 +196,12 @@ fn available_memory() -> Option<u64> {
 /// never end) and files over [`MAX_INPUT_BYTES`]. The errors are `std::io::Error`s, so each
 /// reader keeps its own way of naming the file.
 pub fn read_input(path: &Path) -> std::io::Result<Vec<u8>> {
+    read_bounded(path).map_err(|error| {
+        std::io::Error::new(error.kind(), crate::output::describe_io(&error))
+    })
+}
+
+fn read_bounded(path: &Path) -> std::io::Result<Vec<u8>> {
     // Looked at before opening: opening a FIFO for reading blocks until a writer comes.
     let metadata = std::fs::metadata(path)?;
     if metadata.is_dir() {

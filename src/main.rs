@@ -19,10 +19,24 @@ fn main() -> ExitCode {
             ExitCode::from(2)
         }
         (Err(error), _) => {
-            eprintln!("error: {error:#}");
+            eprintln!("error: {}", describe(&error));
             ExitCode::from(2)
         }
     }
+}
+
+/// The error and its causes on one line, each said once: a library error that prints its cause
+/// in its own message also returns it as its `source`, and the plain chain would repeat it.
+fn describe(error: &anyhow::Error) -> String {
+    let mut message = error.to_string();
+    for cause in error.chain().skip(1) {
+        let text = cause.to_string();
+        if !message.contains(&text) {
+            message.push_str(": ");
+            message.push_str(&text);
+        }
+    }
+    message
 }
 
 /// Graphics drivers (Mesa's among them) print `error: XDG_RUNTIME_DIR is invalid or not set` on

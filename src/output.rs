@@ -19,11 +19,10 @@ pub const PUBLISHED_MARKER: &str = ".lensbake-output";
 
 #[derive(Debug, thiserror::Error)]
 pub enum OutputError {
-    #[error("writing {path}: {source}")]
+    #[error("writing {path}: {}", describe_io(.error))]
     Io {
         path: PathBuf,
-        #[source]
-        source: std::io::Error,
+        error: std::io::Error,
     },
     #[error("refusing to replace {path}: {reason}")]
     Refused { path: PathBuf, reason: String },
@@ -33,17 +32,56 @@ impl OutputError {
     /// The cause without the path, for errors that name the path themselves.
     pub fn cause(&self) -> String {
         match self {
-            OutputError::Io { source, .. } => source.to_string(),
+            OutputError::Io { error, .. } => describe_io(error),
             OutputError::Refused { reason, .. } => format!("refusing to replace it: {reason}"),
         }
     }
 
     fn io(path: &Path) -> impl FnOnce(std::io::Error) -> OutputError + '_ {
-        move |source| OutputError::Io {
+        move |error| OutputError::Io {
             path: path.to_path_buf(),
-            source,
+            error,
         }
     }
+}
+
+/// An I/O error as a sentence for a user: the operating system's own words without the
+/// "(os error N)" code, and without the name of a temporary file that the user never asked for
+/// (`tempfile` appends "at path ...").
+pub fn describe_io(error: &std::io::Error) -> String {
+    let text = error.to_string();
+    let cut = [" (os error", " at path "]
+        .iter()
+        .filter_map(|marker| text.find(marker))
+        .min()
+        .unwrap_or(text.len());
+    let mut plain = text[..cut].to_string();
+    // The OS capitalises its sentence ("No such file"); after a colon it reads lower case.
+    // Acronyms ("EOF") stay as they are.
+    let mut chars = plain.chars();
+    if let (Some(first), Some(second)) = (chars.next(), chars.next())
+        && first.is_uppercase()
+        && second.is_lowercase()
+    {
+        plain.replace_range(..first.len_utf8(), &first.to_lowercase().to_string());
+    }
+    plain
+}
+
+/// Refuses to write into a folder that is not there (the OS would name only the temporary file).
+fn check_folder(path: &Path, dir: &Path) -> Result<(), OutputError> {
+    if dir.is_dir() {
+        return Ok(());
+    }
+    let reason = if dir.exists() {
+        format!("{} is not a folder", dir.display())
+    } else {
+        format!("the folder {} does not exist", dir.display())
+    };
+    Err(OutputError::Io {
+        path: path.to_path_buf(),
+        error: std::io::Error::new(std::io::ErrorKind::NotFound, reason),
+    })
 }
 
 /// The directory holding `path` ("." for a bare file name).
@@ -125,6 +163,7 @@ pub fn write_file(
 ) -> Result<(), OutputError> {
     let dir = parent_of(path);
     let name = name_of(path)?;
+    check_folder(path, dir)?;
     remove_abandoned(dir, &name);
     let temp = temporary(&name, |b| b.tempfile_in(dir)).map_err(OutputError::io(path))?;
     {
@@ -184,6 +223,58 @@ pub fn publish_dir<T, E: From<OutputError>>(
     Ok(value)
 }
 
+/// An exclusive advisory lock on the folder `dir` (created if missing), held until the returned
+/// handle drops; other lensbake writers that lock it wait. Where folders cannot be opened as
+/// files (not Unix), nothing is locked.
+pub fn lock_folder(dir: &Path) -> Result<Option<File>, OutputError> {
+    let dir = if dir.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        dir
+    };
+    std::fs::create_dir_all(dir).map_err(OutputError::io(dir))?;
+    let Ok(handle) = File::open(dir) else {
+        return Ok(None);
+    };
+    handle.lock().map_err(OutputError::io(dir))?;
+    Ok(Some(handle))
+}
+
+/// Creates the directory `dest`, which does not exist yet, with the files `files` (name, bytes)
+/// in one rename: no reader ever sees it part-written. Ok(false), with nothing changed, when
+/// another writer created `dest` first (two runs racing to make the same new directory).
+pub fn create_dir_whole(dest: &Path, files: &[(&str, &[u8])]) -> Result<bool, OutputError> {
+    let parent = parent_of(dest);
+    let name = name_of(dest)?;
+    std::fs::create_dir_all(parent).map_err(OutputError::io(parent))?;
+    remove_abandoned(parent, &name);
+    let staging = temporary(&name, |b| b.tempdir_in(parent)).map_err(OutputError::io(dest))?;
+    for (file, bytes) in files {
+        write_bytes(&staging.path().join(file), bytes)?;
+    }
+    sync_dir(staging.path());
+    if dest.exists() {
+        return Ok(false);
+    }
+    let staged = staging.keep();
+    // rename(2) replaces an empty directory but not one with files: a writer that lost the race
+    // to a finished one fails here and leaves the winner's files alone.
+    match std::fs::rename(&staged, dest) {
+        Ok(()) => {
+            sync_dir(parent);
+            Ok(true)
+        }
+        Err(error) => {
+            let _ = std::fs::remove_dir_all(&staged);
+            if dest.is_dir() {
+                Ok(false)
+            } else {
+                Err(OutputError::io(dest)(error))
+            }
+        }
+    }
+}
+
 fn check_replaceable(dest: &Path, staged: &Path) -> Result<(), OutputError> {
     let Ok(entries) = std::fs::read_dir(dest) else {
         return Ok(());
@@ -227,9 +318,9 @@ fn swap_into_place(staged: &Path, dest: &Path) -> Result<(), OutputError> {
         .keep();
     std::fs::remove_dir(&old).map_err(OutputError::io(dest))?;
     std::fs::rename(dest, &old).map_err(OutputError::io(dest))?;
-    if let Err(source) = std::fs::rename(staged, dest) {
+    if let Err(error) = std::fs::rename(staged, dest) {
         let _ = std::fs::rename(&old, dest);
-        return Err(OutputError::io(dest)(source));
+        return Err(OutputError::io(dest)(error));
     }
     let _ = std::fs::remove_dir_all(&old);
     Ok(())

@@ -244,3 +244,33 @@ fn bad_input_exits_2_with_an_error_line() {
         );
     }
 }
+
+#[test]
+fn an_object_1000_km_away_or_farther_is_at_infinity_and_nan_is_refused() {
+    let image_z = |distance: Option<&str>| {
+        let mut args = vec!["analyze", "dgauss-50mm", "--json"];
+        if let Some(d) = distance {
+            args.extend(["--object-distance-mm", d]);
+        }
+        let json = stdout_json(&lensbake(&args));
+        (
+            json["object_distance_mm"].clone(),
+            json["first_order"]["z_paraxial_image"].as_f64().unwrap(),
+        )
+    };
+    let (none, at_infinity) = image_z(None);
+    assert!(none.is_null());
+    for beyond in ["1e9", "1e12", "-1e30", "inf"] {
+        assert_eq!(image_z(Some(beyond)), (Value::Null, at_infinity), "{beyond}");
+    }
+    // Just inside the limit the object is finite, and its image lies behind the focus by
+    // about f^2 / d (Newton): 50^2 / 5e8 mm = 5e-6 mm.
+    let (distance, near_image) = image_z(Some("5e8"));
+    assert_eq!(distance.as_f64(), Some(5e8));
+    let newton = near_image - at_infinity;
+    assert!((newton - 5e-6).abs() < 5e-7, "{newton}");
+    let refused = lensbake(&["analyze", "dgauss-50mm", "--object-distance-mm", "NaN"]);
+    assert_eq!(refused.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&refused.stderr);
+    assert!(stderr.contains("the object distance (mm) is NaN, not a number"), "{stderr}");
+}

@@ -85,3 +85,64 @@ fn bench_render_measures_every_model_against_the_reference_and_accumulates() {
     assert!(markdown.contains("| cpu | 8 | baked |"), "{markdown}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn concurrent_runs_into_one_directory_keep_every_row() {
+    let dir = std::env::temp_dir().join(format!(
+        "lensbake-bench-render-concurrent-{}",
+        std::process::id()
+    ));
+    let _ = std::fs::remove_dir_all(&dir);
+    let table = dir.join("table");
+    let out = dir.join("out");
+    let run = |spp: &str| {
+        Command::new(env!("CARGO_BIN_EXE_lensbake"))
+            .args([
+                "bench",
+                "render",
+                "--width",
+                "24",
+                "--height",
+                "16",
+                "--backends",
+                "cpu",
+                "--models",
+                "thin,thick",
+                "--bake-resolution",
+                "8",
+                "--table",
+                table.to_str().unwrap(),
+                "--out",
+                out.to_str().unwrap(),
+                "--spp",
+                spp,
+            ])
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .expect("run lensbake")
+    };
+    // Six runs at once, each a different sample count: every one's rows must survive.
+    let sample_counts = ["1", "2", "3", "4", "5", "6"];
+    let children: Vec<_> = sample_counts.iter().map(|spp| run(spp)).collect();
+    for child in children {
+        let output = child.wait_with_output().unwrap();
+        assert_eq!(
+            output.status.code(),
+            Some(0),
+            "{}",
+            String::from_utf8_lossy(&output.stderr)
+        );
+    }
+    let measured = rows(&out);
+    for spp in sample_counts {
+        let spp: u64 = spp.parse().unwrap();
+        // The reference row and the two models at each sample count.
+        let at = measured
+            .iter()
+            .filter(|r| r["samples_per_pixel"].as_u64() == Some(spp))
+            .count();
+        assert_eq!(at, 3, "{spp} spp: {measured:?}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

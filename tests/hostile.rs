@@ -1465,6 +1465,23 @@ fn base64(bytes: &[u8]) -> String {
     out
 }
 
+/// A PNG signature, header (8-bit RGB, `width` x `height`) and one empty data chunk: enough for
+/// a decoder to learn the size, nothing to decode.
+fn png_header_only(width: u32, height: u32) -> Vec<u8> {
+    let mut header = b"IHDR".to_vec();
+    header.extend(width.to_be_bytes());
+    header.extend(height.to_be_bytes());
+    header.extend([8, 2, 0, 0, 0]);
+    let mut png = b"\x89PNG\r\n\x1a\n".to_vec();
+    png.extend(13u32.to_be_bytes());
+    png.extend(&header);
+    png.extend(crc32fast::hash(&header).to_be_bytes());
+    png.extend(0u32.to_be_bytes());
+    png.extend(b"IDAT");
+    png.extend(crc32fast::hash(b"IDAT").to_be_bytes());
+    png
+}
+
 /// Hostile glTF scenes: each edit of the valid file is one case.
 fn gltf_cases(dir: &Path) -> Vec<(String, serde_json::Value)> {
     use serde_json::json;
@@ -1495,6 +1512,15 @@ fn gltf_cases(dir: &Path) -> Vec<(String, serde_json::Value)> {
         (
             "texture coordinates as VEC3".into(),
             edit(&|g| g["accessors"][1]["type"] = json!("VEC3")),
+        ),
+        (
+            "a PNG whose header claims 100000 x 100000 pixels".into(),
+            edit(&|g| {
+                g["images"][0]["uri"] = json!(format!(
+                    "data:image/png;base64,{}",
+                    base64(&png_header_only(100_000, 100_000))
+                ))
+            }),
         ),
         (
             "a node that is its own child".into(),
@@ -2132,6 +2158,25 @@ fn rays_that_start_inside_or_behind_the_lens_are_refused() {
             ));
         }
     }
+    // Petzval's last surface curves back towards the film (sag +0.43 mm at its 8.04 mm rim):
+    // 0.1 mm behind its vertex plane, 7.5 mm off axis, is still inside the glass. The table
+    // alone knows only the vertex plane; given the lens, `lrtf eval` checks as `trace` does.
+    sh_ok(dir, &["bake", "petzval", "--resolution", "6", "--out", "petzval-table"]);
+    std::fs::write(
+        dir.join("rim.json"),
+        r#"[{"origin": [7.5, 0, 56.5388], "direction": [0, 0, -1]}]"#,
+    )
+    .unwrap();
+    for (label, extra) in [
+        ("lrtf eval: inside the glass at a rim that curves back, lens given", true),
+        ("lrtf eval: the same without the lens (accepted)", false),
+    ] {
+        let mut args = strings(&["lrtf", "eval", "petzval-table", "--rays", "rim.json"]);
+        if extra {
+            args.extend(strings(&["--lens", "petzval"]));
+        }
+        cases.push((label.into(), args));
+    }
     cases.push((
         "trace at 1e30 nm".into(),
         strings(&[
@@ -2182,4 +2227,142 @@ fn valid_edge_inputs_are_accepted() {
 fn sh_ok(dir: &Path, args: &[&str]) {
     let run = run_in(dir, &strings(args), None);
     assert_eq!(run.code, Some(0), "{args:?}: {}", run.stderr);
+}
+
+/// What a message must never hold, whatever the case: a cause said twice (a chain that repeats
+/// its own text), the operating system's error code, a temporary file's name the user never
+/// gave, a placeholder for a missing location, or a number printed with 20 and more digits.
+fn message_defects(line: &str) -> Option<String> {
+    let parts: Vec<&str> = line.split(": ").filter(|p| p.len() >= 12).collect();
+    for (i, part) in parts.iter().enumerate() {
+        if parts[i + 1..].contains(part) {
+            return Some(format!("says `{part}` twice"));
+        }
+    }
+    for marker in ["(os error", ".tmp", "<input>", "at path"] {
+        if line.contains(marker) {
+            return Some(format!("holds `{marker}`"));
+        }
+    }
+    let mut digits = 0;
+    for c in line.chars() {
+        digits = if c.is_ascii_digit() { digits + 1 } else { 0 };
+        if digits >= 20 {
+            return Some("prints a number of 20 or more digits".into());
+        }
+    }
+    None
+}
+
+#[test]
+fn each_error_says_its_real_cause_once() {
+    let scratch = Scratch::new("messages");
+    let dir = scratch.path();
+    let scene_edit = |name: &str, edit: &dyn Fn(&mut serde_json::Value)| {
+        let mut gltf = quads_gltf();
+        edit(&mut gltf);
+        std::fs::write(dir.join(name), serde_json::to_vec(&gltf).unwrap()).unwrap();
+    };
+    // The stage node holds every mesh: scaled to nothing, moved behind the camera, moved aside.
+    scene_edit("flat.gltf", &|g| g["nodes"][2]["scale"] = serde_json::json!([0.0, 0.0, 0.0]));
+    scene_edit("behind.gltf", &|g| {
+        g["nodes"][2]["translation"] = serde_json::json!([50.0, 0.0, 0.0])
+    });
+    scene_edit("aside.gltf", &|g| {
+        g["nodes"][2]["translation"] = serde_json::json!([-1.0, 500.0, 0.0])
+    });
+    scene_edit("huge-image.gltf", &|g| {
+        g["images"][0]["uri"] = serde_json::json!(format!(
+            "data:image/png;base64,{}",
+            base64(&png_header_only(100_000, 100_000))
+        ))
+    });
+    std::fs::create_dir_all(dir.join("a-folder.zmx")).unwrap();
+    let render = |scene: &str, out: &str| {
+        strings(&[
+            "render", "--lens", "dgauss-50mm", "--model", "thick", "--width", "16", "--height",
+            "12", "--spp", "1", "--backend", "cpu", "--scene", scene, "--out", out,
+        ])
+    };
+    // (case, arguments, a phrase the error must hold)
+    let cases: Vec<(&str, Vec<String>, &str)> = vec![
+        (
+            "analyze below a glass's range",
+            strings(&["analyze", "codev-dgauss-f2", "--wavelength-nm", "200"]),
+            "wavelength 200 nm is outside the range",
+        ),
+        (
+            "plot below a glass's range",
+            strings(&["plot", "spot", "codev-dgauss-f2", "--wavelength-nm", "200", "--out", "p.png"]),
+            "wavelength 200 nm is outside the range",
+        ),
+        (
+            "mtf at 1e300 nm",
+            strings(&["mtf", "codev-dgauss-f2", "--field-deg", "0", "--wavelength-nm", "1e300", "--json"]),
+            "the wavelength (nm) is 1e300",
+        ),
+        (
+            "trace at NaN nm",
+            strings(&["trace", "codev-dgauss-f2", "--wavelength-nm", "NaN", "--rays", "-"]),
+            "the wavelength (nm) is NaN",
+        ),
+        (
+            "bake at 1e30 nm",
+            strings(&["bake", "dgauss-50mm", "--wavelengths-nm", "1e30", "--resolution", "4", "--out", "t"]),
+            "the wavelength (nm) is 1e30",
+        ),
+        (
+            "analyze at 1e300 nm (constant indices)",
+            strings(&["analyze", "dgauss-50mm", "--wavelength-nm", "1e300"]),
+            "the wavelength (nm) is 1e300",
+        ),
+        (
+            "a lens file that is a folder",
+            strings(&["analyze", "a-folder.zmx"]),
+            "is a directory",
+        ),
+        (
+            "an image into a folder that is not there",
+            render("demo", "missing/r.exr"),
+            "the folder missing does not exist",
+        ),
+        ("a scene whose triangles have no area", render("flat.gltf", "r.exr"), "have no area"),
+        (
+            "a glTF image whose header claims 100000 x 100000 pixels",
+            render("huge-image.gltf", "r.exr"),
+            "image 0: its header claims a size",
+        ),
+        (
+            "a scene behind the camera",
+            render("behind.gltf", "r.exr"),
+            "lie behind the camera",
+        ),
+        (
+            "a scene outside the field",
+            render("aside.gltf", "r.exr"),
+            "lie outside the field of view",
+        ),
+    ];
+    let expected: std::collections::HashMap<String, &str> = cases
+        .iter()
+        .map(|(label, _, phrase)| (label.to_string(), *phrase))
+        .collect();
+    run_class(
+        "messages",
+        dir,
+        cases
+            .into_iter()
+            .map(|(label, args, _)| (label.to_string(), args))
+            .collect(),
+        &|label, run| {
+            let Some(line) = run.stderr.lines().find(|l| l.starts_with("error:")) else {
+                return Some(format!("no error line (exit {:?})", run.code));
+            };
+            let phrase = expected[label];
+            if !line.contains(phrase) {
+                return Some(format!("`{line}` does not say `{phrase}`"));
+            }
+            message_defects(line).map(|defect| format!("`{line}` {defect}"))
+        },
+    );
 }

@@ -331,3 +331,29 @@ fn a_bad_error_budget_is_refused_with_status_2() {
     }
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// `--backend auto` takes the GPU only when it is hardware; a software rasteriser (lavapipe in
+/// CI) or no adapter gives the CPU twin, and the run says why.
+#[test]
+fn auto_backend_passes_over_a_software_rasteriser_and_says_why() {
+    let dir = temp_dir("auto-backend");
+    let out = dir.join("auto.exr");
+    let o = lensbake(&[
+        "render", "--lens", "dgauss-50mm", "--model", "thick", "--width", "32", "--height", "24",
+        "--spp", "1", "--backend", "auto", "--out", out.to_str().unwrap(),
+    ]);
+    let stdout = String::from_utf8_lossy(&o.stdout).into_owned();
+    assert_eq!(o.status.code(), Some(0), "{stdout}{}", String::from_utf8_lossy(&o.stderr));
+    let line = stdout
+        .lines()
+        .find(|l| l.starts_with("backend: "))
+        .unwrap_or_else(|| panic!("no backend line: {stdout}"));
+    match lensbake::render::gpu::gpu_worth_using() {
+        Ok(()) => assert!(line.starts_with("backend: gpu ("), "{line}"),
+        Err(why) => assert_eq!(line, format!("backend: cpu ({why})")),
+    }
+    if std::env::var_os("CI").is_some() {
+        // CI machines have lavapipe and no GPU: the twin, for that reason.
+        assert!(line.contains("software rasteriser"), "{line}");
+    }
+}

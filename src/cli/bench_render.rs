@@ -185,20 +185,6 @@ pub fn run(args: RenderBenchArgs) -> anyhow::Result<()> {
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
     let json_path = args.out.join("timings.json");
-    let mut timings = match std::fs::read_to_string(&json_path) {
-        Ok(text) => match serde_json::from_str::<Timings>(&text) {
-            Ok(t) if t.frame == frame => t,
-            _ => Timings {
-                frame: frame.clone(),
-                rows: Vec::new(),
-            },
-        },
-        Err(_) => Timings {
-            frame: frame.clone(),
-            rows: Vec::new(),
-        },
-    };
-
     for &spp in &args.spp {
         let settings = RenderSettings {
             samples_per_pixel: spp,
@@ -210,8 +196,9 @@ pub fn run(args: RenderBenchArgs) -> anyhow::Result<()> {
         let seconds = started.elapsed().as_secs_f64();
         bar.finish_and_clear();
         say!("reference {spp} spp: {seconds:.1} s");
-        record(
-            &mut timings,
+        save(
+            &args.out,
+            &frame,
             Row {
                 model: ModelKind::Traced.name().into(),
                 backend: "reference".into(),
@@ -221,7 +208,7 @@ pub fn run(args: RenderBenchArgs) -> anyhow::Result<()> {
                 mean_abs_error: None,
                 measured_at: now_unix(),
             },
-        );
+        )?;
         for (backend, backend_name) in &backends {
             for (model, camera) in &cameras {
                 let bar = stage(&format!("{model} on {backend_name}, {spp} spp"));
@@ -242,16 +229,32 @@ pub fn run(args: RenderBenchArgs) -> anyhow::Result<()> {
                 say!(
                     "{model} on {backend_name}, {spp} spp: {seconds:.2} s, {db:.1} dB against the reference"
                 );
-                record(&mut timings, row);
-                // Written after every frame: a long run stopped part-way keeps what it measured.
-                write_text(&json_path, &serde_json::to_string_pretty(&timings)?)?;
-                write_text(&args.out.join("timings.md"), &markdown(&timings))?;
+                // Saved after every frame: a long run stopped part-way keeps what it measured.
+                save(&args.out, &frame, row)?;
             }
         }
-        write_text(&json_path, &serde_json::to_string_pretty(&timings)?)?;
     }
-    write_text(&args.out.join("timings.md"), &markdown(&timings))?;
     say!("wrote {} and timings.md", json_path.display());
+    Ok(())
+}
+
+/// Adds `row` to `<out>/timings.json` (rows of another frame are dropped) and rewrites
+/// timings.md. Runs into one directory at the same time take turns (a lock on the folder), each
+/// re-reading the file, so no run loses another's rows.
+fn save(out: &Path, frame: &Frame, row: Row) -> anyhow::Result<()> {
+    let _turn = lensbake::output::lock_folder(out)?;
+    let json_path = out.join("timings.json");
+    let mut timings = std::fs::read_to_string(&json_path)
+        .ok()
+        .and_then(|text| serde_json::from_str::<Timings>(&text).ok())
+        .filter(|t| t.frame == *frame)
+        .unwrap_or_else(|| Timings {
+            frame: frame.clone(),
+            rows: Vec::new(),
+        });
+    record(&mut timings, row);
+    write_text(&json_path, &serde_json::to_string_pretty(&timings)?)?;
+    write_text(&out.join("timings.md"), &markdown(&timings))?;
     Ok(())
 }
 

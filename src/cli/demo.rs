@@ -8,7 +8,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use lensbake::job::tables::DEFAULT_TABLES_ROOT;
 use lensbake::job::{RenderLens, TracedAndBaked, default_table_dir};
 use lensbake::render::camera::{Camera, Film};
-use lensbake::render::gpu::GpuRenderer;
+use lensbake::render::gpu::{GpuRenderer, gpu_worth_using};
 use lensbake::render::image::{RgbImage, write_exr, write_png};
 use lensbake::render::reference::psnr;
 use lensbake::render::scene::Scene;
@@ -190,15 +190,19 @@ fn run_into(args: &DemoArgs, staging: &Path) -> anyhow::Result<(usize, f64, f64)
     let ldi = scene.peel(layer_view(&traced, &settings, nearest), settings.max_layers);
     let peel_seconds = done(bar, "depth peeling", started);
 
-    let gpu = match args.backend.as_str() {
-        "cpu" => None,
-        "gpu" => Some(GpuRenderer::new()?),
-        "auto" => GpuRenderer::new().ok(),
+    let (gpu, gpu_passed_over) = match args.backend.as_str() {
+        "cpu" => (None, None),
+        "gpu" => (Some(GpuRenderer::new()?), None),
+        "auto" => match gpu_worth_using().and_then(|()| GpuRenderer::new().map_err(|e| e.to_string())) {
+            Ok(gpu) => (Some(gpu), None),
+            Err(why) => (None, Some(why)),
+        },
         other => anyhow::bail!("--backend {other}: expected gpu, cpu or auto"),
     };
-    let (backend, backend_name) = match &gpu {
-        Some(g) => (Backend::Gpu, format!("gpu ({})", g.adapter_description)),
-        None => (Backend::Cpu, "cpu".to_string()),
+    let (backend, backend_name) = match (&gpu, gpu_passed_over) {
+        (Some(g), _) => (Backend::Gpu, format!("gpu ({})", g.adapter_description)),
+        (None, Some(why)) => (Backend::Cpu, format!("cpu ({why})")),
+        (None, None) => (Backend::Cpu, "cpu".to_string()),
     };
     say!("backend: {backend_name}");
     let render = |camera: &Camera| -> anyhow::Result<(RgbImage, f64)> {

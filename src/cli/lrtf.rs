@@ -339,11 +339,21 @@ pub fn run(command: LrtfCommand) -> anyhow::Result<()> {
                     .with_context(|| format!("table {}", table.display()))?,
                 None => loaded.layers[0].frame.film_plane_z,
             };
+            // With the lens at hand a ray is checked against the last surface at its height,
+            // as `trace` checks it; a table alone knows only the last vertex plane.
+            let lens_at = lens
+                .as_ref()
+                .map(|l| l.system.at_checked(loaded.layers[0].wavelength_nm))
+                .transpose()?;
             let mut output = Vec::with_capacity(input.len());
             for (k, r) in input.iter().enumerate() {
                 // The exact tracer's ray: the same checks and normalisation.
                 let checked = lensbake::trace::Ray::new(r.origin, r.direction)
                     .with_context(|| format!("{rays}: ray {k}"))?;
+                if let Some(at) = &lens_at {
+                    lensbake::trace::check_start(at, &checked, lensbake::trace::Travel::Backward)
+                        .with_context(|| format!("{rays}: ray {k}"))?;
+                }
                 let rear_plane_z = loaded.layers[0].frame.rear_plane_z;
                 if r.origin[2] < rear_plane_z {
                     bail!(

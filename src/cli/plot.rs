@@ -91,11 +91,6 @@ fn check_options(options: &FigureOptions) -> anyhow::Result<()> {
     {
         bail!("--field-deg must be in [0, 90), got {field}");
     }
-    for &w in &options.wavelengths_nm {
-        if !(w.is_finite() && w > 0.0) {
-            bail!("--wavelength-nm must be positive, got {w}");
-        }
-    }
     Ok(())
 }
 

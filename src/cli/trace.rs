@@ -1,9 +1,8 @@
 //! `lensbake trace`: exact rays through a lens, JSON in and out.
 
 use super::lens::LensArgs;
-use anyhow::{Context, bail};
+use anyhow::Context;
 use clap::Args;
-use lensbake::system::LensSystem;
 use lensbake::trace::{Ray, Tracer, Travel, check_start};
 use serde::{Deserialize, Serialize};
 use std::io::Read;
@@ -44,7 +43,9 @@ struct RayOutput {
 
 pub fn run(args: TraceArgs) -> anyhow::Result<()> {
     let system = args.lens.load()?.system;
-    let wavelength_nm = wavelength(args.wavelength_nm, &system)?;
+    let wavelength_nm = args
+        .wavelength_nm
+        .unwrap_or_else(|| system.design_wavelength_nm());
     let at = system.at_checked(wavelength_nm)?;
     let tracer = Tracer::new(&at);
     let rays = read_rays(&args.rays)?;
@@ -86,14 +87,6 @@ pub fn run(args: TraceArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The requested wavelength, checked, or the lens's design wavelength.
-pub(super) fn wavelength(requested: Option<f64>, system: &LensSystem) -> anyhow::Result<f64> {
-    match requested {
-        None => Ok(system.design_wavelength_nm()),
-        Some(nm) if nm.is_finite() && nm > 0.0 => Ok(nm),
-        Some(nm) => bail!("--wavelength-nm must be a positive number of nanometres, got {nm}"),
-    }
-}
 
 fn read_rays(source: &str) -> anyhow::Result<Vec<Ray>> {
     let (name, text) = if source == "-" {

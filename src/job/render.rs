@@ -21,7 +21,7 @@ use crate::render::focus::{
     scene_point_under, spot_rms_on_sensor,
 };
 use crate::render::gltf_scene::{gltf_path, load_gltf};
-use crate::render::gpu::GpuRenderer;
+use crate::render::gpu::{GpuRenderer, gpu_worth_using};
 use crate::render::gpu_peel::GpuPeeler;
 use crate::render::image::{RgbImage, read_exr_rgbz};
 use crate::render::layers::LayeredDepthImage;
@@ -83,7 +83,8 @@ pub enum PeelMode {
 pub enum BackendChoice {
     Gpu,
     Cpu,
-    /// The GPU when an adapter exists, else the CPU twin.
+    /// The GPU when the best adapter is a hardware one, else the CPU twin (see
+    /// [`gpu_worth_using`]); [`BackendUsed`] says which and why.
     Auto,
 }
 
@@ -287,7 +288,11 @@ impl SceneSource {
                     PeelMode::Umbra => Peeling::umbra_for(camera),
                 };
                 let view = mesh_layer_view(camera, settings, scene)?;
-                peel_mesh(scene, view, peeling, settings.max_layers, gpu.as_ref())
+                let layers = peel_mesh(scene, view, peeling, settings.max_layers, gpu.as_ref())?;
+                if layers.depth_range().is_none() {
+                    return Err(RenderError::NothingInView(scene.why_unseen(camera.eye_z())));
+                }
+                Ok(layers)
             }
             SceneSource::Exr(path) => {
                 read_exr_rgbz(path, camera.eye_z(), camera.half_field_tangents())
@@ -470,7 +475,9 @@ impl RenderJob {
         let gpu = match self.backend {
             BackendChoice::Cpu => None,
             BackendChoice::Gpu => Some(GpuPeeler::new()?),
-            BackendChoice::Auto => GpuPeeler::new().ok(),
+            BackendChoice::Auto => gpu_worth_using()
+                .ok()
+                .and_then(|()| GpuPeeler::new().ok()),
         };
         let report = SceneReport {
             triangles: Some(mesh.triangles.len()),
@@ -656,11 +663,13 @@ impl RenderJob {
                 ));
             }
             BackendChoice::Gpu => GpuRenderer::new()?,
-            BackendChoice::Auto => match GpuRenderer::new() {
+            BackendChoice::Auto => match gpu_worth_using().and_then(|()| {
+                GpuRenderer::new().map_err(|e| e.to_string())
+            }) {
                 Ok(gpu) => gpu,
-                Err(e) => {
+                Err(why) => {
                     let used = BackendUsed::Cpu {
-                        gpu_unavailable: Some(e.to_string()),
+                        gpu_unavailable: Some(why),
                     };
                     return Ok((None, used));
                 }

@@ -80,7 +80,7 @@ impl Sidecar {
 
 #[derive(Debug, thiserror::Error)]
 pub enum TableError {
-    #[error("{path}: {cause}")]
+    #[error("{path}: {}", crate::output::describe_io(.cause))]
     Io {
         path: PathBuf,
         cause: std::io::Error,
@@ -157,13 +157,10 @@ pub fn data_checksum(bytes: &[u8]) -> String {
 impl From<crate::output::OutputError> for TableError {
     fn from(error: crate::output::OutputError) -> TableError {
         match error {
-            crate::output::OutputError::Io { path, source } => TableError::Io {
+            crate::output::OutputError::Io { path, error } => TableError::Io { path, cause: error },
+            crate::output::OutputError::Refused { path, reason } => TableError::Io {
                 path,
-                cause: source,
-            },
-            refused @ crate::output::OutputError::Refused { .. } => TableError::Io {
-                path: PathBuf::new(),
-                cause: std::io::Error::other(refused.to_string()),
+                cause: std::io::Error::other(format!("refusing to replace it: {reason}")),
             },
         }
     }
@@ -189,7 +186,9 @@ pub fn write_table(
     prescription: &Prescription,
     dir: &Path,
 ) -> Result<(), TableError> {
-    std::fs::create_dir_all(dir).map_err(io_error(dir))?;
+    // Writers of tables in one folder take turns (readers never wait): two runs that bake the
+    // same table at once would otherwise interleave their file-by-file replacements.
+    let _turn = crate::output::lock_folder(dir.parent().unwrap_or(Path::new(".")))?;
     let data_path = dir.join(DATA_FILE);
     let sidecar_path = dir.join(SIDECAR_FILE);
     if data_path.exists() && !sidecar_path.exists() {
@@ -262,6 +261,15 @@ pub fn write_table(
     sidecar.sidecar_crc32 = Some(sidecar.fields_checksum());
     let text = ron::ser::to_string_pretty(&sidecar, ron::ser::PrettyConfig::default())
         .expect("sidecar is plain data");
+    // A new table appears whole; only a table that already exists is replaced file by file.
+    if !dir.exists()
+        && crate::output::create_dir_whole(
+            dir,
+            &[(DATA_FILE, &data), (SIDECAR_FILE, text.as_bytes())],
+        )?
+    {
+        return Ok(());
+    }
     // The old data stays reachable from the old sidecar until the new sidecar replaces it.
     let previous = read_sidecar(dir)
         .ok()

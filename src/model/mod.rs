@@ -43,21 +43,22 @@ pub enum ModelError {
     Paraxial(ParaxialError),
     #[error("lens: {0}")]
     Wavelength(PrescriptionError),
-    #[error("focal length must be a positive number of mm, got {0}")]
+    #[error("focal length must be a positive number of mm, got {}", crate::limits::short(*.0))]
     FocalLength(f64),
-    #[error("f-number must be positive, got {0}")]
+    #[error("f-number must be positive, got {}", crate::limits::short(*.0))]
     FNumber(f64),
     #[error(transparent)]
     Limit(#[from] crate::limits::LimitError),
-    #[error("f-number {f_number} is faster than the lens wide open (f/{wide_open:.3})")]
+    #[error("f-number {} is faster than the lens wide open (f/{wide_open:.3})", crate::limits::short(*.f_number))]
     FasterThanLens { f_number: f64, wide_open: f64 },
-    #[error("f-number {f_number} is faster than the table's f/{table:.3}; rebake with --f-number")]
+    #[error("f-number {} is faster than the table's f/{table:.3}; rebake with --f-number", crate::limits::short(*.f_number))]
     FasterThanTable { f_number: f64, table: f64 },
     #[error("lens: the exit pupil is at infinity; thick and thin models need a finite one")]
     ExitPupilAtInfinity,
     #[error(
-        "cannot focus at {distance_mm} mm: the object must lie beyond the front focal point \
-         ({front_focal_mm:.3} mm in front of the first vertex)"
+        "cannot focus at {} mm: the object must lie beyond the front focal point \
+         ({front_focal_mm:.3} mm in front of the first vertex)",
+        crate::limits::short(*.distance_mm)
     )]
     CannotFocus {
         distance_mm: f64,

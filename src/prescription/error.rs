@@ -72,7 +72,7 @@ pub enum Problem {
     Empty,
     #[error("cannot parse `{text}` as a number")]
     NotANumber { text: String },
-    #[error("value {value} is not finite")]
+    #[error("value {} is not finite", crate::limits::short(*.value))]
     NonFinite { value: f64 },
     #[error("expected {expected} columns, found {found}")]
     WrongColumnCount { expected: String, found: usize },
@@ -80,11 +80,11 @@ pub enum Problem {
     Syntax(String),
     #[error("unsupported: {0}")]
     Unsupported(String),
-    #[error("refractive index {index} is below 1")]
+    #[error("refractive index {} is below 1", crate::limits::short(*.index))]
     IndexBelowOne { index: f64 },
-    #[error("semi-aperture must be positive, got {value}")]
+    #[error("semi-aperture must be positive, got {}", crate::limits::short(*.value))]
     NonPositiveAperture { value: f64 },
-    #[error("semi-aperture {semi_aperture} mm is larger than |radius| {radius} mm")]
+    #[error("semi-aperture {} mm is larger than |radius| {} mm", crate::limits::short(*.semi_aperture), crate::limits::short(*.radius))]
     ApertureExceedsRadius { semi_aperture: f64, radius: f64 },
     #[error(
         "the conic surface is undefined beyond r = {limit} mm, inside its semi-aperture {semi_aperture} mm"
@@ -102,9 +102,9 @@ pub enum Problem {
     MultipleStops { surfaces: Vec<usize> },
     #[error("stop has {count} blades; a diaphragm needs at least 3")]
     TooFewBlades { count: u32 },
-    #[error("{0}")]
+    #[error(transparent)]
     OverLimit(#[from] crate::limits::LimitError),
-    #[error("blade curvature {value} is outside 0 (straight edges) ..= 1 (edges on the circle)")]
+    #[error("blade curvature {} is outside 0 (straight edges) ..= 1 (edges on the circle)", crate::limits::short(*.value))]
     BladeCurvatureOutOfRange { value: f64 },
     #[error("unknown glass `{name}`{}", suggest(.suggestions))]
     UnknownGlass {
@@ -114,7 +114,8 @@ pub enum Problem {
     #[error("bad index table: {reason}")]
     BadIndexTable { reason: String },
     #[error(
-        "wavelength {nm} nm is outside the range where this medium's dispersion formula is defined"
+        "wavelength {} nm is outside the range where this medium's dispersion formula is defined",
+        crate::limits::short(*.nm)
     )]
     WavelengthOutOfRange { nm: f64 },
     #[error("the file is not text: invalid UTF-8 at byte {byte_offset}")]
@@ -144,9 +145,18 @@ fn suggest(suggestions: &[String]) -> String {
     }
 }
 
+/// "location: ", or nothing for a problem of no place in the input (a wavelength asked for).
+fn prefix(location: &Location) -> String {
+    if *location == Location::default() {
+        String::new()
+    } else {
+        format!("{location}: ")
+    }
+}
+
 /// A problem at a location.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
-#[error("{location}: {problem}")]
+#[error("{}{problem}", prefix(.location))]
 pub struct PrescriptionError {
     pub location: Location,
     pub problem: Problem,

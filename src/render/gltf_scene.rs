@@ -362,10 +362,20 @@ pub fn load_gltf(path: &Path) -> Result<MeshScene, RenderError> {
             check_uri(folder, uri)
                 .map_err(|reason| read_error(path, format!("image {}: {reason}", image.index())))?;
         }
-        images.push(
-            gltf::image::Data::from_source(image.source(), Some(folder), &buffers)
-                .map_err(unreadable)?,
-        );
+        let decoded = gltf::image::Data::from_source(image.source(), Some(folder), &buffers)
+            .map_err(|e| match e {
+                // The decoder reads the size from the header and refuses before allocating.
+                gltf::Error::Image(image::ImageError::Limits(_)) => read_error(
+                    path,
+                    format!(
+                        "image {}: its header claims a size that needs more than the decoder's \
+                         512 MiB (docs/limits.md)",
+                        image.index()
+                    ),
+                ),
+                other => unreadable(other),
+            })?;
+        images.push(decoded);
     }
     let scene = document
         .default_scene()

@@ -13,16 +13,12 @@ const WORKGROUP_SIZE: u32 = 8;
 
 /// Opens the first GPU adapter wgpu finds (honouring WGPU_BACKEND and friends) with the limits
 /// the renderer and the peeler need: the device, its queue, and the adapter's name and backend.
+///
+/// Mesa's drivers print an `error:` line here when `XDG_RUNTIME_DIR` names no directory; the
+/// binary sets one up first (`main.rs`), library users are told so in README.md.
 pub(crate) fn open_device(label: &str) -> Result<(wgpu::Device, wgpu::Queue, String), RenderError> {
-    let descriptor = wgpu::InstanceDescriptor::new_without_display_handle().with_env();
-    let instance = wgpu::Instance::new(descriptor);
-    let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
-        power_preference: wgpu::PowerPreference::HighPerformance,
-        ..Default::default()
-    }))
-    .map_err(|e| RenderError::NoAdapter(e.to_string()))?;
-    let info = adapter.get_info();
-    let adapter_description = format!("{} ({:?})", info.name, info.backend);
+    let adapter = request_adapter()?;
+    let adapter_description = describe(&adapter.get_info());
     let limits = adapter.limits();
     let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
         label: Some(label),
@@ -43,6 +39,37 @@ pub(crate) fn open_device(label: &str) -> Result<(wgpu::Device, wgpu::Queue, Str
     }))
     .map_err(|e| RenderError::Gpu(e.to_string()))?;
     Ok((device, queue, adapter_description))
+}
+
+/// The adapter wgpu picks (honouring WGPU_BACKEND and friends), preferring a fast one.
+fn request_adapter() -> Result<wgpu::Adapter, RenderError> {
+    let descriptor = wgpu::InstanceDescriptor::new_without_display_handle().with_env();
+    let instance = wgpu::Instance::new(descriptor);
+    pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
+        power_preference: wgpu::PowerPreference::HighPerformance,
+        ..Default::default()
+    }))
+    .map_err(|e| RenderError::NoAdapter(e.to_string()))
+}
+
+fn describe(info: &wgpu::AdapterInfo) -> String {
+    format!("{} ({:?})", info.name, info.backend)
+}
+
+/// Whether an automatic backend choice should use the GPU: Ok when the best adapter is a
+/// hardware one, else why not. A software rasteriser (Mesa's llvmpipe, WARP, SwiftShader:
+/// device type `Cpu`) runs the kernel on the same cores as the CPU twin, only slower: `lensbake
+/// bench render` measured the twin 3-4x faster than llvmpipe on a two-core machine.
+pub fn gpu_worth_using() -> Result<(), String> {
+    let adapter = request_adapter().map_err(|e| e.to_string())?;
+    let info = adapter.get_info();
+    if info.device_type == wgpu::DeviceType::Cpu {
+        return Err(format!(
+            "the only GPU adapter, {}, is a software rasteriser, slower than the CPU twin",
+            describe(&info)
+        ));
+    }
+    Ok(())
 }
 
 /// A device with the IBRT pipeline built.

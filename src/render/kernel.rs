@@ -11,7 +11,7 @@ use super::chromatic::{CHANNELS, ChannelLenses, Chromatic};
 use super::gpu_types::{ChannelParams, FrameParams, LayerData, LensData, SeidelParams};
 use crate::lrtf::{self, Lookup, LrtfTable};
 use crate::model::{LensModel, SEIDEL_CONVERGED_MM, SEIDEL_INVERSE_STEPS, SEIDEL_SETTLED_MM};
-use crate::trace::{Tracer, Travel};
+use crate::trace::{LANES, Tracer, Travel};
 use rayon::prelude::*;
 
 const PI: f32 = std::f32::consts::PI;
@@ -481,29 +481,73 @@ fn to_f64(v: Vec3) -> [f64; 3] {
     v.map(f64::from)
 }
 
+/// The object-space ray that leaves the lens along the traced (film-to-object) `ray`: light
+/// travels towards +z, against the traced direction.
+fn leaving(ray: &crate::trace::Ray) -> ObjectRay {
+    ObjectRay {
+        origin: ray.position().map(|v| v as f32),
+        direction: ray.direction().map(|v| -v as f32),
+        valid: true,
+    }
+}
+
 /// The object-space ray for the film-side ray from `film` through `pupil`; invalid when the lens
 /// blocks it (vignetted, TIR, missed; or outside the table).
 fn lens_ray(frame: &FrameParams, rays: LensRays, film: Vec3, pupil: Vec3) -> ObjectRay {
-    let blocked = blocked_ray();
-    let towards = [pupil[0] - film[0], pupil[1] - film[1], pupil[2] - film[2]];
-    let object = |origin: [f64; 3], direction: [f64; 3]| ObjectRay {
-        origin: origin.map(|v| v as f32),
-        // Light travels towards +z, against the traced direction.
-        direction: direction.map(|v| -v as f32),
-        valid: true,
-    };
+    let mut one = [blocked_ray()];
+    lens_rays(frame, rays, &[film], &[pupil], &mut one);
+    one[0]
+}
+
+/// Samples of one pixel that go through the lens together: the traced model runs them through
+/// the lane kernels ([`Tracer::trace_group`], the same bits as one ray at a time) instead of one
+/// scalar trace per sample.
+const SAMPLE_GROUP: usize = LANES;
+
+/// [`lens_ray`] for up to [`SAMPLE_GROUP`] film-side rays (`film[k]` through `pupil[k]`) into
+/// `out[k]`.
+fn lens_rays(
+    frame: &FrameParams,
+    rays: LensRays,
+    film: &[Vec3],
+    pupil: &[Vec3],
+    out: &mut [ObjectRay],
+) {
+    let pairs = film.iter().zip(pupil).zip(out.iter_mut());
     match rays {
-        LensRays::Paraxial => paraxial_lens_ray(frame, film, pupil),
-        LensRays::Seidel(seidel) => seidel_lens_ray(frame, &seidel, film, pupil),
+        LensRays::Paraxial => {
+            for ((&f, &p), o) in pairs {
+                *o = paraxial_lens_ray(frame, f, p);
+            }
+        }
+        LensRays::Seidel(seidel) => {
+            for ((&f, &p), o) in pairs {
+                *o = seidel_lens_ray(frame, &seidel, f, p);
+            }
+        }
         LensRays::Traced(tracer) => {
-            let Ok(ray) = crate::trace::Ray::new(to_f64(film), to_f64(towards)) else {
-                return blocked;
-            };
-            let traced = tracer.trace(ray, Travel::Backward);
-            if traced.outcome.is_ok() {
-                object(traced.ray.position(), traced.ray.direction())
-            } else {
-                blocked
+            // Rays that cannot be built (a zero direction) stay blocked and are not traced.
+            let mut group = [crate::trace::Ray::ALONG_AXIS; SAMPLE_GROUP];
+            let mut slot = [0usize; SAMPLE_GROUP];
+            let mut count = 0;
+            for (k, ((&f, &p), o)) in pairs.enumerate() {
+                *o = blocked_ray();
+                let towards = [p[0] - f[0], p[1] - f[1], p[2] - f[2]];
+                if let Ok(ray) = crate::trace::Ray::new(to_f64(f), to_f64(towards)) {
+                    group[count] = ray;
+                    slot[count] = k;
+                    count += 1;
+                }
+            }
+            let mut traced = [crate::trace::Traced {
+                outcome: crate::trace::Outcome::Ok,
+                ray: crate::trace::Ray::ALONG_AXIS,
+            }; SAMPLE_GROUP];
+            tracer.trace_group(&group[..count], Travel::Backward, &mut traced);
+            for (t, &k) in traced[..count].iter().zip(&slot) {
+                if t.outcome.is_ok() {
+                    out[k] = leaving(&t.ray);
+                }
             }
         }
         LensRays::Baked {
@@ -511,15 +555,21 @@ fn lens_ray(frame: &FrameParams, rays: LensRays, film: Vec3, pupil: Vec3) -> Obj
             stop_radius,
             layer,
         } => {
-            let d = to_f64(towards);
-            let length = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-            let ray = lrtf::Ray {
-                origin: to_f64(film),
-                direction: d.map(|v| v / length),
-            };
-            match table.lookup(layer, &ray, stop_radius) {
-                Lookup::Passes(out) => object(out.origin, out.direction),
-                Lookup::Blocked | Lookup::OutsideDomain => blocked,
+            for ((&f, &p), o) in pairs {
+                let d = to_f64([p[0] - f[0], p[1] - f[1], p[2] - f[2]]);
+                let length = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+                let ray = lrtf::Ray {
+                    origin: to_f64(f),
+                    direction: d.map(|v| v / length),
+                };
+                *o = match table.lookup(layer, &ray, stop_radius) {
+                    Lookup::Passes(out) => ObjectRay {
+                        origin: out.origin.map(|v| v as f32),
+                        direction: out.direction.map(|v| -v as f32),
+                        valid: true,
+                    },
+                    Lookup::Blocked | Lookup::OutsideDomain => blocked_ray(),
+                };
             }
         }
     }
@@ -647,8 +697,37 @@ fn film_point(frame: &FrameParams, p: Vec2) -> Vec3 {
     ]
 }
 
+/// This dispatch's samples of output pixel (x, y), [`SAMPLE_GROUP`] at a time: film points,
+/// pupil points and weights, handed to `group` in sample order.
+fn for_sample_groups(
+    frame: &FrameParams,
+    lens: &LensData,
+    sampling_block: u32,
+    x: u32,
+    y: u32,
+    mut group: impl FnMut(&[Vec3], &[Vec3], &[f32]),
+) {
+    let scrambles = PixelScrambles::new(frame.seed, y * frame.width + x);
+    let mut film = [[0.0f32; 3]; SAMPLE_GROUP];
+    let mut pupil = [[0.0f32; 3]; SAMPLE_GROUP];
+    let mut weight = [0.0f32; SAMPLE_GROUP];
+    let mut first = 0;
+    while first < frame.sample_count {
+        let count = (frame.sample_count - first).min(SAMPLE_GROUP as u32) as usize;
+        for k in 0..count {
+            let index = frame.sample_offset + (first + k as u32) * frame.sample_stride;
+            let (film_point, lens_u) = pixel_sample(frame, &scrambles, x, y, index);
+            (pupil[k], weight[k]) = pupil_sample(frame, lens, sampling_block, film_point, lens_u);
+            film[k] = film_point;
+        }
+        group(&film[..count], &pupil[..count], &weight[..count]);
+        first += count as u32;
+    }
+}
+
 /// Weighted radiance summed over this dispatch's samples for output pixel (x, y): the body of
-/// the shader's `render` entry point.
+/// the shader's `render` entry point (which takes the samples one at a time; the sums are the
+/// same, added in the same order).
 fn render_pixel(
     frame: &FrameParams,
     layers: &LayerData,
@@ -657,38 +736,45 @@ fn render_pixel(
     x: u32,
     y: u32,
 ) -> Vec3 {
-    let scrambles = PixelScrambles::new(frame.seed, y * frame.width + x);
     let mut sum = [0.0f32; 3];
-    for s in 0..frame.sample_count {
-        let (film, lens_u) = pixel_sample(frame, &scrambles, x, y, frame.sample_offset + s * frame.sample_stride);
-        let (pupil, weight) = pupil_sample(frame, lens, MONOCHROME_SAMPLING_BLOCK, film, lens_u);
-        let ray = lens_ray(frame, rays, film, pupil);
-        if let Some(colour) = trace_layers(frame, layers, &ray) {
-            for (acc, c) in sum.iter_mut().zip(colour) {
-                *acc += weight * c;
+    let mut object = [blocked_ray(); SAMPLE_GROUP];
+    for_sample_groups(frame, lens, MONOCHROME_SAMPLING_BLOCK, x, y, |film, pupil, weight| {
+        lens_rays(frame, rays, film, pupil, &mut object);
+        for (ray, &w) in object.iter().zip(weight) {
+            if let Some(colour) = trace_layers(frame, layers, ray) {
+                for (acc, c) in sum.iter_mut().zip(colour) {
+                    *acc += w * c;
+                }
             }
         }
-    }
+    });
     sum
 }
 
-/// The shader's `channel_lens_ray`: channel `channel`'s object ray in a chromatic render.
-fn channel_lens_ray(
+/// The shader's `channel_lens_ray` for a group of samples: channel `channel`'s object rays in a
+/// chromatic render.
+fn channel_lens_rays(
     frame: &FrameParams,
     channels: &ChannelParams,
     channel: usize,
     rays: LensRays,
-    film: Vec3,
-    pupil: Vec3,
-) -> ObjectRay {
+    film: &[Vec3],
+    pupil: &[Vec3],
+    out: &mut [ObjectRay],
+) {
     match rays {
-        LensRays::Paraxial => channel_paraxial_ray(channels, channel, film, pupil),
-        _ => lens_ray(frame, rays, film, pupil),
+        LensRays::Paraxial => {
+            for ((&f, &p), o) in film.iter().zip(pupil).zip(out.iter_mut()) {
+                *o = channel_paraxial_ray(channels, channel, f, p);
+            }
+        }
+        _ => lens_rays(frame, rays, film, pupil, out),
     }
 }
 
 /// The body of the shader's `render_chromatic`: each sample's film and pupil point traced once
-/// per colour channel through that channel's lens, each channel keeping its own colour.
+/// per colour channel through that channel's lens, each channel keeping its own colour (each
+/// channel's sum gets its samples in the shader's order).
 fn render_pixel_chromatic(
     frame: &FrameParams,
     layers: &LayerData,
@@ -698,18 +784,18 @@ fn render_pixel_chromatic(
     x: u32,
     y: u32,
 ) -> Vec3 {
-    let scrambles = PixelScrambles::new(frame.seed, y * frame.width + x);
     let mut sum = [0.0f32; 3];
-    for s in 0..frame.sample_count {
-        let (film, lens_u) = pixel_sample(frame, &scrambles, x, y, frame.sample_offset + s * frame.sample_stride);
-        let (pupil, weight) = pupil_sample(frame, lens, channels.sampling_block, film, lens_u);
+    let mut object = [blocked_ray(); SAMPLE_GROUP];
+    for_sample_groups(frame, lens, channels.sampling_block, x, y, |film, pupil, weight| {
         for (channel, channel_rays) in rays.iter().enumerate() {
-            let ray = channel_lens_ray(frame, channels, channel, *channel_rays, film, pupil);
-            if let Some(colour) = trace_layers(frame, layers, &ray) {
-                sum[channel] += weight * colour[channel];
+            channel_lens_rays(frame, channels, channel, *channel_rays, film, pupil, &mut object);
+            for (ray, &w) in object.iter().zip(weight) {
+                if let Some(colour) = trace_layers(frame, layers, ray) {
+                    sum[channel] += w * colour[channel];
+                }
             }
         }
-    }
+    });
     sum
 }
 

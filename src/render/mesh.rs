@@ -163,6 +163,29 @@ impl MeshScene {
         mesh
     }
 
+    /// Why no triangle reached a pixel of a view from `eye_z` (mm, lens frame): how many have
+    /// no area, how many lie wholly behind the eye, and how many are left, which lie outside the
+    /// field of view.
+    pub fn why_unseen(&self, eye_z: f64) -> String {
+        let flat = |t: &Triangle| {
+            let n = cross3(sub3(t.corners[1], t.corners[0]), sub3(t.corners[2], t.corners[0]));
+            n.iter().all(|c| *c == 0.0)
+        };
+        let behind = |t: &Triangle| t.corners.iter().all(|c| eye_z - c[2] <= 0.0);
+        let without_area = self.triangles.iter().filter(|t| flat(t)).count();
+        let behind_eye = self
+            .triangles
+            .iter()
+            .filter(|t| !flat(t) && behind(t))
+            .count();
+        let outside = self.triangles.len() - without_area - behind_eye;
+        format!(
+            "of its {} triangles, {without_area} have no area, {behind_eye} lie behind the \
+             camera and {outside} lie outside the field of view",
+            self.triangles.len()
+        )
+    }
+
     /// Nearest corner distance in front of the first vertex (mm), or None without triangles.
     pub fn nearest_distance_mm(&self) -> Option<f64> {
         self.triangles

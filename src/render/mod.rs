@@ -43,6 +43,8 @@ pub enum RenderError {
     Model(#[from] crate::model::ModelError),
     #[error("the scene has no surface in view")]
     EmptyScene,
+    #[error("no surface of the scene is in view: {0}")]
+    NothingInView(String),
     #[error("no GPU adapter: {0}")]
     NoAdapter(String),
     #[error("GPU failure: {0}")]

@@ -209,6 +209,11 @@ pub fn figure(
     system: &LensSystem,
     options: &FigureOptions,
 ) -> Result<Figure, FigureError> {
+    // The same check `analyze`, `trace` and `bake` apply: a formula outside its range would
+    // draw a plausible-looking plot of nothing.
+    for &nm in &options.wavelengths_nm {
+        system.at_checked(nm).map_err(AnalysisError::Wavelength)?;
+    }
     let wavelength_nm = options
         .wavelengths_nm
         .first()

@@ -83,6 +83,10 @@ impl LensSystem {
     /// check: a tracer built from such a view stops its rays with TIR at the first affected
     /// surface, and the paraxial code sees NaN.
     pub fn at_checked(&self, wavelength_nm: f64) -> Result<SystemAt, PrescriptionError> {
+        // First: NaN or 1e30 nm is wrong for every medium, not a fault of the first one checked;
+        // this also bounds constant indices, which accept any wavelength.
+        crate::limits::check_wavelength(wavelength_nm)
+            .map_err(|e| PrescriptionError::new(Location::default(), e.into()))?;
         self.object_dispersion
             .checked_index(wavelength_nm)
             .map_err(|problem| {
@@ -99,9 +103,6 @@ impl LensSystem {
                 PrescriptionError::new(SourceMap::default().surface(i, "medium"), problem)
             })?;
         }
-        // After the media, whose own ranges name the surface; this bounds constant indices too.
-        crate::limits::check_wavelength(wavelength_nm)
-            .map_err(|e| PrescriptionError::new(Location::default(), e.into()))?;
         Ok(self.at(wavelength_nm))
     }
 

@@ -110,6 +110,22 @@ pub struct BatchTrace {
 }
 
 impl Tracer {
+    /// Traces up to [`LANES`] rays in lockstep on this thread, apertures checked: `traced[i]`
+    /// gets ray `i`'s result, bit for bit what [`Tracer::trace`] gives. For callers that make
+    /// their rays a few at a time (the renderer's samples of one pixel).
+    pub(crate) fn trace_group(&self, rays: &[Ray], travel: Travel, traced: &mut [super::Traced]) {
+        debug_assert!(rays.len() <= LANES && traced.len() >= rays.len());
+        let mut lanes = Lanes::new(rays.iter().copied());
+        match travel {
+            Travel::Forward => self.run_lanes::<true>(&mut lanes, true),
+            Travel::Backward => self.run_lanes::<false>(&mut lanes, true),
+        }
+        for (l, out) in traced.iter_mut().enumerate().take(rays.len()) {
+            let (outcome, ray, _) = lanes.result(l);
+            *out = super::Traced { outcome, ray };
+        }
+    }
+
     /// Traces every ray of `rays` on the current rayon thread pool.
     pub fn trace_batch(&self, rays: &RayBatch, travel: Travel, apertures: Apertures) -> BatchTrace {
         let n = rays.len();

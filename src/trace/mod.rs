@@ -100,6 +100,12 @@ pub fn check_start(system: &SystemAt, ray: &Ray, travel: Travel) -> Result<(), R
 }
 
 impl Ray {
+    /// From the origin along +z: a filler for fixed-size arrays of rays.
+    pub(crate) const ALONG_AXIS: Ray = Ray {
+        position: [0.0; 3],
+        direction: [0.0, 0.0, 1.0],
+    };
+
     /// A ray from `position` along `direction` (any non-zero length; it is normalised).
     pub fn new(position: Vec3, direction: Vec3) -> Result<Ray, RayError> {
         for (what, value) in [("position", position), ("direction", direction)] {

@@ -92,6 +92,8 @@ pub enum WaveError {
     Paraxial(#[from] ParaxialError),
     #[error(transparent)]
     Ray(#[from] RealRayError),
+    #[error(transparent)]
+    Limit(#[from] crate::limits::LimitError),
     #[error(
         "the exit pupil lies at infinity (image-space telecentric): there is no reference sphere \
          centred on the image"
@@ -111,9 +113,9 @@ pub enum WaveError {
          so the pupil's frequency scale is unknown"
     )]
     PupilEdge { field_deg: f64, px: f64, py: f64 },
-    #[error("{what} must be a finite number greater than zero; got {value}")]
+    #[error("{what} must be a finite number greater than zero; got {}", crate::limits::short(*.value))]
     NotPositive { what: &'static str, value: f64 },
-    #[error("{what} must be finite; got {value}")]
+    #[error("{what} must be finite; got {}", crate::limits::short(*.value))]
     NotFinite { what: &'static str, value: f64 },
     #[error("polychromatic analysis needs at least one wavelength with a positive weight")]
     NoWeights,

@@ -2,7 +2,7 @@
 
 use super::fft::pupil_function;
 use super::pupil::{PupilTrace, WaveLens, WavefrontMap};
-use super::{Sampling, WaveError, finite, positive};
+use super::{Sampling, WaveError, finite};
 use rustfft::num_complex::Complex;
 use serde::Serialize;
 
@@ -31,7 +31,7 @@ impl Spectrum {
         reference: usize,
     ) -> Result<Spectrum, WaveError> {
         for &w in &wavelengths_nm {
-            positive("wavelength (nm)", w)?;
+            crate::limits::check_wavelength(w)?;
         }
         for &w in &weights {
             if !(w.is_finite() && w >= 0.0) {

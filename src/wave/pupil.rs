@@ -136,8 +136,8 @@ impl PupilTrace {
         sampling: Sampling,
     ) -> Result<PupilTrace, WaveError> {
         let sampling = sampling.checked()?;
-        positive("wavelength (nm)", wavelength_nm)?;
-        positive("reference wavelength (nm)", reference_nm)?;
+        crate::limits::check_wavelength(wavelength_nm)?;
+        crate::limits::check_wavelength(reference_nm)?;
         match *lens {
             WaveLens::Real { system, epd_mm } => trace_real(
                 system,
