@@ -125,7 +125,7 @@
 //! let rendered = job.run()?;
 //! assert_eq!(rendered.image.pixels.len(), 48 * 32);
 //! assert!(rendered.image.pixels.iter().flatten().all(|v| v.is_finite()));
-//! assert_eq!(rendered.camera.model.kind(), ModelKind::Traced);
+//! assert_eq!(rendered.prepared.camera.model.kind(), ModelKind::Traced);
 //! # }
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
@@ -170,6 +170,8 @@ pub mod system;
 pub mod trace;
 #[cfg(feature = "render")]
 pub mod tradeoff;
+#[cfg(feature = "view")]
+pub mod view;
 pub mod wave;
 
 pub use analysis::{Analysis, AnalyzeOptions, analyze};

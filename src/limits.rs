@@ -25,6 +25,8 @@ pub const MAX_TABLE_NODES: u64 = 1 << 25;
 pub const MAX_RAYS: u64 = 1 << 26;
 /// Most rendered frames a tradeoff averages over.
 pub const MAX_RENDER_FRAMES: u64 = 1_000;
+/// Most frames one viewer run or one script action renders (hours at interactive rates).
+pub const MAX_VIEW_FRAMES: u64 = 10_000_000;
 /// Most worker threads.
 pub const MAX_THREADS: u64 = 1_024;
 /// Most surfaces in a lens (real designs have under 60).

@@ -58,7 +58,8 @@ fn frame_params_layout_matches_wgsl() {
             film_normal_y,
             film_normal_z,
             pupil_lipschitz,
-            pupil_centre_slack
+            pupil_centre_slack,
+            sample_stride
         }
     );
 }

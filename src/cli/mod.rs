@@ -26,6 +26,7 @@ mod render;
 pub mod stdout;
 mod trace;
 mod tradeoff;
+mod view;
 mod wave;
 
 use clap::{Parser, Subcommand};
@@ -78,6 +79,9 @@ pub enum Command {
     Mtf(wave::MtfArgs),
     /// Point spread function of one field point, written as OpenEXR or PNG.
     Psf(wave::PsfArgs),
+    /// A real-time viewer: progressive IBRT through a lens with click-to-focus, live model
+    /// switching and a baked-versus-traced split view; scripted and headless runs for tests.
+    View(view::ViewArgs),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
@@ -97,5 +101,6 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Wavefront(args) => wave::run_wavefront(args),
         Command::Mtf(args) => wave::run_mtf(args),
         Command::Psf(args) => wave::run_psf(args),
+        Command::View(args) => view::run(args),
     }
 }

@@ -119,7 +119,27 @@ pub enum ChromaticArg {
     Auto,
 }
 
-fn parse_pair<T: std::str::FromStr>(text: &str) -> Result<(T, T), String> {
+impl From<BackendArg> for BackendChoice {
+    fn from(arg: BackendArg) -> BackendChoice {
+        match arg {
+            BackendArg::Gpu => BackendChoice::Gpu,
+            BackendArg::Cpu => BackendChoice::Cpu,
+            BackendArg::Auto => BackendChoice::Auto,
+        }
+    }
+}
+
+impl From<ChromaticArg> for ChromaticMode {
+    fn from(arg: ChromaticArg) -> ChromaticMode {
+        match arg {
+            ChromaticArg::On => ChromaticMode::On,
+            ChromaticArg::Off => ChromaticMode::Off,
+            ChromaticArg::Auto => ChromaticMode::Auto,
+        }
+    }
+}
+
+pub fn parse_pair<T: std::str::FromStr>(text: &str) -> Result<(T, T), String> {
     let (a, b) = text
         .split_once(',')
         .ok_or_else(|| format!("expected X,Y, got `{text}`"))?;
@@ -176,11 +196,7 @@ impl RenderArgs {
                 PeelArg::Plain => PeelMode::Plain,
                 PeelArg::Umbra => PeelMode::Umbra,
             },
-            backend: match self.backend {
-                BackendArg::Gpu => BackendChoice::Gpu,
-                BackendArg::Cpu => BackendChoice::Cpu,
-                BackendArg::Auto => BackendChoice::Auto,
-            },
+            backend: self.backend.into(),
             settings: RenderSettings {
                 width: self.width,
                 height: self.height,
@@ -192,11 +208,7 @@ impl RenderArgs {
             focus,
             shift_mm: [self.shift_mm.0, self.shift_mm.1],
             tilt_deg: [self.tilt_deg.0, self.tilt_deg.1],
-            chromatic: match self.chromatic {
-                ChromaticArg::On => ChromaticMode::On,
-                ChromaticArg::Off => ChromaticMode::Off,
-                ChromaticArg::Auto => ChromaticMode::Auto,
-            },
+            chromatic: self.chromatic.into(),
             wavelengths_nm,
             ..RenderJob::new(super::lens::render_lens(&self.lens, &self.read)?)
         })
@@ -212,8 +224,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let image = &rendered.image;
     write_exr(image, &args.out)?;
     write_png(image, 1.0, &png)?;
-    let camera = &rendered.camera;
-    let peel = &rendered.peel;
+    let camera = &rendered.prepared.camera;
+    let peel = &rendered.prepared.peel;
     say!(
         "model {}, film centre at z = {:.3} mm, tilt ({:.3}, {:.3}) deg, {} layers ({}x{}), {} \
          spp: peel {:.1} ms, trace {:.1} ms",
@@ -234,14 +246,14 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
 
 /// Prints what the job decided, in the order it decided it.
 fn print_decisions(job: &RenderJob, rendered: &Rendered) {
-    if let Some(triangles) = rendered.scene.triangles {
-        let on = match &rendered.scene.peeled_on_gpu {
+    if let Some(triangles) = rendered.prepared.scene.triangles {
+        let on = match &rendered.prepared.scene.peeled_on_gpu {
             Some(adapter) => format!("the gpu ({adapter})"),
             None => "the cpu".to_string(),
         };
         say!("scene: {triangles} triangles, peeled on {on}");
     }
-    if let Some(plane) = &rendered.focus_plane {
+    if let Some(plane) = &rendered.prepared.focus_plane {
         for (k, p) in plane.objects.iter().enumerate() {
             say!(
                 "focus point {}: ({:.1}, {:.1}, {:.1}) mm in the lens frame",
@@ -274,7 +286,9 @@ fn print_decisions(job: &RenderJob, rendered: &Rendered) {
             placement.film_z
         );
     }
-    if let (Some(budget), ModelChoice::ErrorBudgetPx(budget_px)) = (&rendered.budget, job.model) {
+    if let (Some(budget), ModelChoice::ErrorBudgetPx(budget_px)) =
+        (&rendered.prepared.budget, job.model)
+    {
         if budget.film_corner_mm > budget.full_film_radius_mm {
             say!(
                 "note: the film corner ({:.3} mm off the axis) lies beyond the largest \
@@ -303,7 +317,7 @@ fn print_decisions(job: &RenderJob, rendered: &Rendered) {
             choice.measured_px
         );
     }
-    let chromatic = &rendered.chromatic;
+    let chromatic = &rendered.prepared.chromatic;
     let why = match chromatic.reason {
         ChromaticReason::Off => None,
         ChromaticReason::SeidelModel => Some("the Seidel model is monochrome".to_string()),
@@ -329,7 +343,7 @@ fn print_decisions(job: &RenderJob, rendered: &Rendered) {
         (_, Some(why)) => say!("chromatic: off ({why})"),
         (_, None) => say!("chromatic: off"),
     }
-    if let Some(table) = &rendered.table {
+    if let Some(table) = &rendered.prepared.table {
         if table.baked_now {
             say!("baked {}", table.dir.display());
         }
@@ -342,20 +356,25 @@ fn print_decisions(job: &RenderJob, rendered: &Rendered) {
             );
         }
     }
-    if let Some((peel, surfels)) = rendered.peel.mesh {
+    if let Some((peel, surfels)) = rendered.prepared.peel.mesh {
         say!(
             "peeled {} layers ({peel:?}, cap {}), {surfels} surfels",
-            rendered.peel.layers,
+            rendered.prepared.peel.layers,
             job.settings.max_layers
         );
     }
-    match &rendered.backend {
-        BackendUsed::Gpu { adapter } => say!("backend: gpu ({adapter})"),
+    say!("{}", backend_line(&rendered.backend));
+}
+
+/// `backend: gpu (<adapter>)`, `backend: cpu (<why no GPU>)` or `backend: cpu`.
+pub fn backend_line(backend: &BackendUsed) -> String {
+    match backend {
+        BackendUsed::Gpu { adapter } => format!("backend: gpu ({adapter})"),
         BackendUsed::Cpu {
             gpu_unavailable: Some(why),
-        } => say!("backend: cpu ({why})"),
+        } => format!("backend: cpu ({why})"),
         BackendUsed::Cpu {
             gpu_unavailable: None,
-        } => say!("backend: cpu"),
+        } => "backend: cpu".to_string(),
     }
 }

@@ -15,8 +15,8 @@ pub mod tables;
 pub use budget::{BudgetChoice, choose_for_render};
 pub use render::{
     BackendChoice, BackendUsed, ChromaticDecision, ChromaticReason, DEFAULT_FOCUS_MM, FocusMode,
-    FocusPlaneReport, ModelChoice, PeelMode, PeelReport, RenderJob, Rendered, SceneReport,
-    SceneSpec, TableUse,
+    FocusPlaneReport, ModelChoice, PeelMode, PeelReport, PreparedRender, RenderJob, Rendered,
+    SceneReport, SceneSpec, TableUse,
 };
 pub use tables::{BakeFallback, TableNeeds, default_table_dir, find_covering_table, load_or_bake};
 
@@ -64,6 +64,8 @@ pub enum JobError {
     SeidelIsMonochrome,
     #[error("chromatic on: an ideal lens has no glass to disperse; use a lens file")]
     IdealDoesNotDisperse,
+    #[error("a traced twin needs the baked model of a real lens")]
+    NoTracedTwin,
 }
 
 /// The lens a job renders through: an ideal thin lens of a focal length, or a real prescription.
@@ -120,6 +122,27 @@ pub fn focus_of_film(lens: &LoadedLens, film_z: f64) -> Result<Option<f64>, Para
 
 /// Film-radius nodes of the traced channels' own pupil fit (replaced by the table's circles).
 const CHROMATIC_PUPIL_NODES: usize = 16;
+
+/// The traced twin of a baked camera: the exact lens at the same f-number on the same film,
+/// drawing the baked model's lens samples (its table's effective-pupil circles), so the
+/// difference between their images is the table's error, not noise. Monochrome.
+pub fn traced_twin(
+    lens: &RenderLens,
+    f_number: Option<f64>,
+    baked: &Camera,
+) -> Result<Camera, JobError> {
+    let (LensModel::Baked(table), Some(real)) = (&baked.model, lens.real()) else {
+        return Err(JobError::NoTracedTwin);
+    };
+    let (first_order, f_number) = lens.first_order(f_number)?;
+    let pupil = table.pupil(table.layer).circles;
+    let traced = TracedLens::new(&real.system, &first_order, f_number, pupil);
+    Ok(Camera::new(
+        LensModel::Traced(Box::new(traced)),
+        baked.film,
+        Focus::FilmZ(baked.film_z),
+    )?)
+}
 
 /// The traced and the baked camera of a real lens focused at `focus_mm`, drawing identical lens
 /// samples: both sample the table's effective-pupil circles on its film plane, so the difference

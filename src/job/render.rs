@@ -7,6 +7,7 @@ use super::{
     load_or_bake,
 };
 use crate::lenses::LoadedLens;
+use crate::lrtf::bake::BakeProgress;
 use crate::model::{
     BakedLens, FirstOrderModels, LensModel, ModelKind, PupilSampling, SeidelLens, TracedLens,
     pupil_film_radius,
@@ -242,16 +243,26 @@ pub enum BackendUsed {
 #[derive(Clone, Debug)]
 pub struct Rendered {
     pub image: RgbImage,
+    /// The camera, the layers and every decision before the kernel ran.
+    pub prepared: PreparedRender,
+    pub backend: BackendUsed,
+    pub trace_time: Duration,
+}
+
+/// A job made ready to render: its camera, its peeled layers and every decision but the backend
+/// ([`RenderJob::prepare`]). A progressive viewer keeps one and renders its samples a share at a
+/// time on a renderer it holds; [`RenderJob::run`] renders all of them at once.
+#[derive(Clone, Debug)]
+pub struct PreparedRender {
     /// The camera rendered through (model, film and its placement, colour channels).
     pub camera: Camera,
+    pub layers: LayeredDepthImage,
     pub scene: SceneReport,
     pub focus_plane: Option<FocusPlaneReport>,
     pub budget: Option<BudgetChoice>,
     pub chromatic: ChromaticDecision,
     pub table: Option<TableUse>,
     pub peel: PeelReport,
-    pub backend: BackendUsed,
-    pub trace_time: Duration,
 }
 
 enum SceneSource {
@@ -294,6 +305,39 @@ impl RenderJob {
     /// Runs the job: places the film, decides colour and (under a budget) the model, finds or
     /// bakes a table, peels the scene and renders it.
     pub fn run(&self) -> Result<Rendered, JobError> {
+        let prepared = self.prepare(&|_| {})?;
+        let (gpu, backend) = self.renderer()?;
+        if let Some(g) = &gpu
+            && prepared.camera.chromatic.is_some()
+        {
+            g.prepare_chromatic()?;
+        }
+        let started = Instant::now();
+        let kernel = match gpu {
+            Some(_) => Backend::Gpu,
+            None => Backend::Cpu,
+        };
+        let image = render_layers(
+            &prepared.camera,
+            &prepared.layers,
+            &self.settings,
+            kernel,
+            gpu.as_ref(),
+        )?;
+        Ok(Rendered {
+            image,
+            prepared,
+            backend,
+            trace_time: started.elapsed(),
+        })
+    }
+
+    /// Everything [`RenderJob::run`] does before the kernel runs: the film placed, colour and
+    /// model decided, the table found or baked (reporting to `progress`), the scene peeled.
+    pub fn prepare(
+        &self,
+        progress: &(dyn Fn(BakeProgress) + Sync),
+    ) -> Result<PreparedRender, JobError> {
         // Focus is found, and the budget chosen, with the model asked for (traced by default).
         let asked = match self.model {
             ModelChoice::Model(kind) => kind,
@@ -370,8 +414,15 @@ impl RenderJob {
                 // chromatic render or a tilted sensor needs its own.
                 let chosen = chosen_table
                     .filter(|_| wavelengths.is_none() && camera.film_off_plane() == 0.0);
-                let (baked, table) =
-                    self.baked_lens(real, &first_order, f_number, &camera, wavelengths, chosen)?;
+                let (baked, table) = self.baked_lens(
+                    real,
+                    &first_order,
+                    f_number,
+                    &camera,
+                    wavelengths,
+                    chosen,
+                    progress,
+                )?;
                 let film_z = baked.film_z();
                 let model = LensModel::Baked(Box::new(baked));
                 (Camera::new(model, film, Focus::FilmZ(film_z))?, Some(table))
@@ -396,29 +447,15 @@ impl RenderJob {
             },
             time: started.elapsed(),
         };
-        let (gpu, backend) = self.renderer()?;
-        if let Some(g) = &gpu
-            && camera.chromatic.is_some()
-        {
-            g.prepare_chromatic()?;
-        }
-        let started = Instant::now();
-        let kernel = match gpu {
-            Some(_) => Backend::Gpu,
-            None => Backend::Cpu,
-        };
-        let image = render_layers(&camera, &ldi, settings, kernel, gpu.as_ref())?;
-        Ok(Rendered {
-            image,
+        Ok(PreparedRender {
             camera,
+            layers: ldi,
             scene,
             focus_plane,
             budget,
             chromatic,
             table,
             peel,
-            backend,
-            trace_time: started.elapsed(),
         })
     }
 
@@ -556,6 +593,7 @@ impl RenderJob {
 
     /// The baked lens of `real` for `camera`'s film: `chosen` (a table the error budget baked),
     /// else the job's table directory, else the first covering table, else a new bake.
+    #[allow(clippy::too_many_arguments)]
     fn baked_lens(
         &self,
         real: &LoadedLens,
@@ -564,6 +602,7 @@ impl RenderJob {
         camera: &Camera,
         wavelengths: Option<[f64; CHANNELS]>,
         chosen: Option<crate::lrtf::LrtfTable>,
+        progress: &(dyn Fn(BakeProgress) + Sync),
     ) -> Result<(BakedLens, TableUse), JobError> {
         let focus_mm = focus_of_film(real, camera.film_z)?;
         let film_radius = sensor_film_radius(real, camera);
@@ -592,7 +631,7 @@ impl RenderJob {
                     resolution: self.bake_resolution,
                     wavelengths_nm: wavelengths.map(Vec::from).unwrap_or_default(),
                 };
-                load_or_bake(real, &dir, &fallback, &|_| {})?
+                load_or_bake(real, &dir, &fallback, progress)?
             }
         };
         let covered = table.layers[0].sampling.max_film_radius();
@@ -611,7 +650,7 @@ impl RenderJob {
     }
 
     /// The GPU renderer the backend choice asks for, and what was used.
-    fn renderer(&self) -> Result<(Option<GpuRenderer>, BackendUsed), JobError> {
+    pub fn renderer(&self) -> Result<(Option<GpuRenderer>, BackendUsed), JobError> {
         let gpu = match self.backend {
             BackendChoice::Cpu => {
                 return Ok((
@@ -716,17 +755,17 @@ mod tests {
             max_layers: 4,
         };
         let first = job.run().unwrap();
-        let baked = first.table.clone().unwrap();
+        let baked = first.prepared.table.clone().unwrap();
         assert!(baked.baked_now);
         assert_eq!(baked.dir, root.join("dgauss-50mm").join("focus-2000mm"));
         assert!(baked.covered_film_radius_mm >= baked.needed_film_radius_mm * (1.0 - 1e-9));
         // The second run reads the table the first one wrote, and renders the same image.
         let second = job.run().unwrap();
-        let found = second.table.clone().unwrap();
+        let found = second.prepared.table.clone().unwrap();
         assert!(!found.baked_now);
         assert_eq!(found.dir, baked.dir);
         assert_eq!(second.image.pixels, first.image.pixels);
-        assert_eq!(second.camera.model.kind(), ModelKind::Baked);
+        assert_eq!(second.prepared.camera.model.kind(), ModelKind::Baked);
         std::fs::remove_dir_all(&root).unwrap();
     }
 }

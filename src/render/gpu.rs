@@ -364,11 +364,13 @@ impl GpuRenderer {
         let channel_uniform = channels.map(|c| self.uniform("channels", bytemuck::bytes_of(c)));
         let seidel = self.uniform("seidel params", bytemuck::bytes_of(&lens.seidel));
         let seidel_group = self.bind_group(pipeline, 3, &[seidel.as_entire_binding()]);
-        let mut offset = 0;
-        while offset < frame.samples_per_pixel {
+        // The frame's samples (offset, count, stride) in dispatches of at most
+        // SAMPLES_PER_DISPATCH, each starting where the last one stopped.
+        let mut done = 0;
+        while done < frame.sample_count {
             let chunk = FrameParams {
-                sample_offset: offset,
-                sample_count: SAMPLES_PER_DISPATCH.min(frame.samples_per_pixel - offset),
+                sample_offset: frame.sample_offset + done * frame.sample_stride,
+                sample_count: SAMPLES_PER_DISPATCH.min(frame.sample_count - done),
                 ..*frame
             };
             let uniform = self.uniform("frame", bytemuck::bytes_of(&chunk));
@@ -398,7 +400,7 @@ impl GpuRenderer {
                 );
             }
             self.queue.submit([encoder.finish()]);
-            offset += chunk.sample_count;
+            done += chunk.sample_count;
         }
         if let Some(error) = pollster::block_on(scope.pop()) {
             return Err(RenderError::Gpu(format!("dispatching IBRT: {error}")));

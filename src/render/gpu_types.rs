@@ -85,6 +85,11 @@ pub struct FrameParams {
     /// The pupil circles' bound for film points off `film_z` ([`crate::model::OffPlaneBound`]).
     pub pupil_lipschitz: f32,
     pub pupil_centre_slack: f32,
+    /// Sample `s` of this dispatch is lattice point `sample_offset + s * sample_stride` of
+    /// `samples_per_pixel`: 1 for a render's consecutive chunks; a progressive viewer that
+    /// spreads one lattice over K frames takes every K-th point, so each frame is a stratified
+    /// subset and K frames together are exactly the render's samples.
+    pub sample_stride: u32,
 }
 
 /// The layers as the kernel reads them: four inverse depths per pixel per group, one colour per
@@ -167,7 +172,8 @@ fn build_pyramid(level0: Vec<[f32; 2]>, width: u32, height: u32) -> (Vec<[f32; 2
 }
 
 /// Dispatch parameters for rendering `width` x `height` pixels of `camera` over `layers`.
-/// `sample_offset`/`sample_count` select this dispatch's share of the pixel's samples.
+/// `sample_offset`/`sample_count`/`sample_stride` select this dispatch's share of the pixel's
+/// samples (here all of them).
 pub fn frame_params(
     camera: &Camera,
     layers: &LayerData,
@@ -204,6 +210,7 @@ pub fn frame_params(
         pyramid_levels: layers.pyramid_levels,
         sample_offset: 0,
         sample_count: samples_per_pixel,
+        sample_stride: 1,
         model: match camera.model {
             LensModel::Thin(_) | LensModel::Thick(_) => MODEL_PARAXIAL,
             LensModel::Traced(_) => MODEL_TRACED,

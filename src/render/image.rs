@@ -82,17 +82,38 @@ pub fn write_exr(image: &RgbImage, path: &Path) -> Result<(), RenderError> {
 
 /// Writes an 8-bit sRGB PNG: radiance scaled by `exposure`, Reinhard tone curve, sRGB encoding.
 pub fn write_png(image: &RgbImage, exposure: f32, path: &Path) -> Result<(), RenderError> {
-    let bytes: Vec<u8> = image
+    write_rgb8_png(&srgb8(image, exposure), image.width, image.height, path)
+}
+
+/// The image as 8-bit sRGB, RGB interleaved: radiance scaled by `exposure`, Reinhard tone
+/// curve, sRGB encoding (what [`write_png`] writes).
+pub fn srgb8(image: &RgbImage, exposure: f32) -> Vec<u8> {
+    image
         .pixels
         .iter()
         .flat_map(|p| p.map(|c| tone_map(c * exposure)))
-        .collect();
+        .collect()
+}
+
+/// Writes `width` x `height` 8-bit sRGB pixels (RGB interleaved) as a PNG.
+pub fn write_rgb8_png(
+    bytes: &[u8],
+    width: u32,
+    height: u32,
+    path: &Path,
+) -> Result<(), RenderError> {
+    if bytes.len() != width as usize * height as usize * 3 {
+        return Err(RenderError::Write {
+            path: path.to_path_buf(),
+            reason: format!("{} bytes are not {width}x{height} RGB pixels", bytes.len()),
+        });
+    }
     write_atomically(path, |out| {
-        let mut encoder = png::Encoder::new(out, image.width, image.height);
+        let mut encoder = png::Encoder::new(out, width, height);
         encoder.set_color(png::ColorType::Rgb);
         encoder.set_depth(png::BitDepth::Eight);
         let mut writer = encoder.write_header().map_err(|e| e.to_string())?;
-        writer.write_image_data(&bytes).map_err(|e| e.to_string())?;
+        writer.write_image_data(bytes).map_err(|e| e.to_string())?;
         writer.finish().map_err(|e| e.to_string())
     })
 }

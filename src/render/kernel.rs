@@ -715,7 +715,7 @@ fn for_sample_groups(
     while first < frame.sample_count {
         let count = (frame.sample_count - first).min(SAMPLE_GROUP as u32) as usize;
         for k in 0..count {
-            let index = frame.sample_offset + first + k as u32;
+            let index = frame.sample_offset + (first + k as u32) * frame.sample_stride;
             let (film_point, lens_u) = pixel_sample(frame, &scrambles, x, y, index);
             (pupil[k], weight[k]) = pupil_sample(frame, lens, sampling_block, film_point, lens_u);
             film[k] = film_point;

@@ -28,7 +28,7 @@ pub mod wgsl;
 
 use crate::limits;
 use camera::Camera;
-use gpu_types::{LayerData, LensData, frame_params};
+use gpu_types::{FrameParams, LayerData, LensData, frame_params};
 use image::RgbImage;
 use layers::{LayeredDepthImage, View};
 use std::path::PathBuf;
@@ -149,6 +149,123 @@ pub fn layer_view(camera: &Camera, settings: &RenderSettings, nearest_depth_mm: 
     }
 }
 
+/// Which of a render's `samples_per_pixel` lattice points one pass takes: `count` of them,
+/// starting at `offset`, every `stride`-th. [`SampleShare::all`] is a whole render; a
+/// progressive viewer splits the lattice into `stride` interleaved shares (each one stratified
+/// over the lens) that sum to the whole render.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SampleShare {
+    pub offset: u32,
+    pub count: u32,
+    pub stride: u32,
+}
+
+impl SampleShare {
+    /// Every sample of `settings`.
+    pub fn all(settings: &RenderSettings) -> SampleShare {
+        SampleShare {
+            offset: 0,
+            count: settings.samples_per_pixel,
+            stride: 1,
+        }
+    }
+
+    /// Share `index` of `shares` interleaved shares of a lattice of `samples_per_pixel`, which
+    /// `shares` must divide.
+    pub fn interleaved(index: u32, shares: u32, samples_per_pixel: u32) -> SampleShare {
+        debug_assert!(shares > 0 && samples_per_pixel % shares == 0 && index < shares);
+        SampleShare {
+            offset: index,
+            count: samples_per_pixel / shares,
+            stride: shares,
+        }
+    }
+}
+
+/// Adds the weighted radiance of `share` of `settings`' samples of `layers` (packed from a layer
+/// view with half-field tangents `view_tan_half`) through `camera` to `radiance_sum` (one RGBA
+/// entry per output pixel, row-major; alpha unused).
+#[allow(clippy::too_many_arguments)]
+pub fn accumulate_share(
+    camera: &Camera,
+    layers: &LayerData,
+    view_tan_half: [f64; 2],
+    settings: &RenderSettings,
+    share: SampleShare,
+    backend: Backend,
+    gpu: Option<&gpu::GpuRenderer>,
+    radiance_sum: &mut [[f32; 4]],
+) -> Result<(), RenderError> {
+    settings.check()?;
+    let pixels = settings.width as usize * settings.height as usize;
+    let last = share.offset as u64 + (share.count.max(1) as u64 - 1) * share.stride as u64;
+    if radiance_sum.len() != pixels
+        || share.stride == 0
+        || (share.count > 0 && last >= settings.samples_per_pixel as u64)
+    {
+        return Err(RenderError::InvalidSetting(format!(
+            "a share of samples (offset {}, count {}, stride {}) of {} per pixel into {} sums for \
+             {} pixels",
+            share.offset,
+            share.count,
+            share.stride,
+            settings.samples_per_pixel,
+            radiance_sum.len(),
+            pixels
+        )));
+    }
+    let frame = FrameParams {
+        sample_offset: share.offset,
+        sample_count: share.count,
+        sample_stride: share.stride,
+        ..frame_params(
+            camera,
+            layers,
+            view_tan_half,
+            settings.width,
+            settings.height,
+            settings.samples_per_pixel,
+            settings.seed,
+        )
+    };
+    let (lens, channels) = match &camera.chromatic {
+        Some(chromatic) => {
+            let (lens, channels) = LensData::chromatic(camera, chromatic)?;
+            (lens, Some(channels))
+        }
+        None => (LensData::of(&camera.model), None),
+    };
+    match (backend, gpu) {
+        (Backend::Gpu, gpu) => {
+            let opened;
+            let renderer = match gpu {
+                Some(renderer) => renderer,
+                None => {
+                    opened = gpu::GpuRenderer::new()?;
+                    &opened
+                }
+            };
+            let sums = renderer.accumulate_channels(&frame, layers, &lens, channels.as_ref())?;
+            for (total, s) in radiance_sum.iter_mut().zip(sums) {
+                for c in 0..3 {
+                    total[c] += s[c];
+                }
+            }
+        }
+        (Backend::Cpu, _) => match (&camera.chromatic, &channels) {
+            (Some(chromatic), Some(channels)) => {
+                let rays = kernel::LensRays::channels(chromatic, &camera.model)?;
+                kernel::accumulate_chromatic(&frame, layers, &lens, channels, rays, radiance_sum);
+            }
+            _ => {
+                let rays = kernel::LensRays::of(&camera.model);
+                kernel::accumulate(&frame, layers, &lens, rays, radiance_sum);
+            }
+        },
+    }
+    Ok(())
+}
+
 /// Renders `ldi` through `camera`. Returns the image; radiance is the mean over samples.
 pub fn render_layers(
     camera: &Camera,
@@ -159,47 +276,17 @@ pub fn render_layers(
 ) -> Result<RgbImage, RenderError> {
     settings.check()?;
     let layers = LayerData::pack(ldi)?;
-    let frame = frame_params(
+    let mut sums = vec![[0.0f32; 4]; (settings.width * settings.height) as usize];
+    accumulate_share(
         camera,
         &layers,
         ldi.view.tan_half,
-        settings.width,
-        settings.height,
-        settings.samples_per_pixel,
-        settings.seed,
-    );
-    let (lens, channels) = match &camera.chromatic {
-        Some(chromatic) => {
-            let (lens, channels) = LensData::chromatic(camera, chromatic)?;
-            (lens, Some(channels))
-        }
-        None => (LensData::of(&camera.model), None),
-    };
-    let sums = match (backend, gpu) {
-        (Backend::Gpu, Some(renderer)) => {
-            renderer.accumulate_channels(&frame, &layers, &lens, channels.as_ref())?
-        }
-        (Backend::Gpu, None) => gpu::GpuRenderer::new()?.accumulate_channels(
-            &frame,
-            &layers,
-            &lens,
-            channels.as_ref(),
-        )?,
-        (Backend::Cpu, _) => {
-            let mut sums = vec![[0.0f32; 4]; (settings.width * settings.height) as usize];
-            match (&camera.chromatic, &channels) {
-                (Some(chromatic), Some(channels)) => {
-                    let rays = kernel::LensRays::channels(chromatic, &camera.model)?;
-                    kernel::accumulate_chromatic(&frame, &layers, &lens, channels, rays, &mut sums);
-                }
-                _ => {
-                    let rays = kernel::LensRays::of(&camera.model);
-                    kernel::accumulate(&frame, &layers, &lens, rays, &mut sums);
-                }
-            }
-            sums
-        }
-    };
+        settings,
+        SampleShare::all(settings),
+        backend,
+        gpu,
+        &mut sums,
+    )?;
     let scale = 1.0 / settings.samples_per_pixel as f32;
     Ok(RgbImage {
         width: settings.width,

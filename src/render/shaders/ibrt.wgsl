@@ -51,6 +51,8 @@ struct FrameParams {
     // Off-plane pupil bound (src/render/models.rs OffPlaneBound).
     pupil_lipschitz: f32,
     pupil_centre_slack: f32,
+    // Sample s of this dispatch is lattice point sample_offset + s * sample_stride.
+    sample_stride: u32,
 }
 
 @group(1) @binding(0) var<uniform> frame: FrameParams;
@@ -454,7 +456,7 @@ fn render(@builtin(global_invocation_id) id: vec3<u32>) {
     let scrambles = pixel_scrambles(pixel);
     var sum = vec3<f32>(0.0);
     for (var s = 0u; s < frame.sample_count; s += 1u) {
-        let at = pixel_sample(id.xy, scrambles, frame.sample_offset + s);
+        let at = pixel_sample(id.xy, scrambles, frame.sample_offset + s * frame.sample_stride);
         let sample = pupil_sample(at.film, at.lens_u, MONOCHROME_SAMPLING_BLOCK);
         let found = trace_layers(lens_ray(at.film, sample.point));
         if (found.hit) {
@@ -476,7 +478,7 @@ fn render_chromatic(@builtin(global_invocation_id) id: vec3<u32>) {
     let scrambles = pixel_scrambles(pixel);
     var sum = vec3<f32>(0.0);
     for (var s = 0u; s < frame.sample_count; s += 1u) {
-        let at = pixel_sample(id.xy, scrambles, frame.sample_offset + s);
+        let at = pixel_sample(id.xy, scrambles, frame.sample_offset + s * frame.sample_stride);
         let sample = pupil_sample(at.film, at.lens_u, channels.sampling_block);
         for (var channel = 0u; channel < 3u; channel += 1u) {
             let found = trace_layers(channel_lens_ray(channel, at.film, sample.point));

@@ -1,0 +1,639 @@
+//! The interactive viewer's core (`lensbake view`): the settings, the progressive accumulation,
+//! the actions a key, a click, a dropped file or a script line applies, and the scripted session
+//! loop. The window ([`window`]) and the headless run share all of it; they differ only in how a
+//! frame is shown.
+//!
+//! Accumulation spreads one render's lattice over frames: with `T` samples per pixel in all and
+//! `N` a frame, frame `k` takes lattice points `k, k + T/N, k + 2T/N, ...` (a stratified share of
+//! the lens), so after `T/N` frames the viewer holds exactly the samples `lensbake render --spp T`
+//! sums (only the order of the f32 additions differs) and stops. Any change of settings restarts.
+//!
+//! A baked model's table is loaded or baked on a worker thread; the traced model is shown until
+//! it is ready, so baking never blocks the window.
+
+pub mod hud;
+pub mod script;
+pub mod window;
+
+use crate::job::{
+    BackendChoice, BackendUsed, FocusMode, JobError, ModelChoice, PreparedRender, RenderJob,
+    RenderLens, SceneSpec, focus_of_film, traced_twin,
+};
+use crate::lenses::{self, LensError};
+use crate::lrtf::bake::BakeProgress;
+use crate::model::ModelKind;
+use crate::prescription::formats::LoadOptions;
+use crate::render::camera::Camera;
+use crate::render::chromatic::ChromaticMode;
+use crate::render::gpu::GpuRenderer;
+use crate::render::gpu_types::LayerData;
+use crate::render::image::{RgbImage, srgb8, write_rgb8_png};
+use crate::render::{Backend, RenderError, SampleShare, accumulate_share};
+use script::{Action, ScriptError, ScriptLine};
+use std::collections::VecDeque;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+/// Why the viewer could not do something.
+#[derive(Debug, thiserror::Error)]
+pub enum ViewError {
+    #[error(transparent)]
+    Job(#[from] JobError),
+    #[error(transparent)]
+    Render(#[from] RenderError),
+    #[error(transparent)]
+    Lens(#[from] LensError),
+    #[error(transparent)]
+    Script(#[from] ScriptError),
+    #[error("pixel ({x}, {y}) is outside the {width}x{height} render")]
+    OutsideRender {
+        x: u32,
+        y: u32,
+        width: u32,
+        height: u32,
+    },
+    #[error("the table bake's worker thread stopped without a result")]
+    BakeWorker,
+    #[error("{}:{line}: {cause}", file.display())]
+    AtLine {
+        file: PathBuf,
+        line: usize,
+        cause: Box<ViewError>,
+    },
+    #[error("window: {0}")]
+    Window(String),
+}
+
+/// One render being accumulated: the prepared camera and layers and the running sums.
+struct Accumulating {
+    camera: Camera,
+    layers: LayerData,
+    view_tan_half: [f64; 2],
+    sums: Vec<[f32; 4]>,
+}
+
+impl Accumulating {
+    fn new(prepared: PreparedRender) -> Result<Accumulating, ViewError> {
+        let layers = LayerData::pack(&prepared.layers)?;
+        Ok(Accumulating {
+            view_tan_half: prepared.layers.view.tan_half,
+            camera: prepared.camera,
+            layers,
+            sums: Vec::new(),
+        })
+    }
+
+    fn twin(&self, camera: Camera) -> Accumulating {
+        Accumulating {
+            camera,
+            layers: self.layers.clone(),
+            view_tan_half: self.view_tan_half,
+            sums: Vec::new(),
+        }
+    }
+}
+
+/// A table loading or baking on a worker thread.
+struct PendingBake {
+    worker: JoinHandle<Result<PreparedRender, JobError>>,
+    done: Arc<AtomicUsize>,
+    total: Arc<AtomicUsize>,
+}
+
+/// Something the viewer did that its caller may want to tell the user about.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ViewEvent {
+    Screenshot(PathBuf),
+    /// The baked model is ready (`baked_now`: its table was baked rather than found).
+    TableReady {
+        dir: PathBuf,
+        baked_now: bool,
+    },
+    /// The background bake failed; the traced model stays on screen.
+    BakeFailed(String),
+    /// An interactive action was refused (the viewer kept its settings).
+    Refused(String),
+}
+
+/// The viewer: its settings (a [`RenderJob`] whose `samples_per_pixel` is the accumulation
+/// target), what it is accumulating, and the renderer it holds.
+pub struct Viewer {
+    job: RenderJob,
+    /// Samples per pixel asked for in all; the job's is this rounded up to a multiple of
+    /// `spp_per_frame`.
+    target_spp: u32,
+    spp_per_frame: u32,
+    split: bool,
+    overlay: bool,
+    gpu: Option<GpuRenderer>,
+    backend: BackendUsed,
+    /// The main view: the model asked for, or the traced model while a table bakes; in the
+    /// split view, the baked (left) half.
+    view: Accumulating,
+    /// The split view's traced half, drawing the baked half's lens samples.
+    twin: Option<Accumulating>,
+    bake: Option<PendingBake>,
+    frames_done: u32,
+    last_frame: Duration,
+    /// Frames rendered since the viewer opened, and their time (whatever restarted since).
+    rendered: (u64, Duration),
+    events: Vec<ViewEvent>,
+}
+
+/// The model names in the order the `M` key steps through them.
+pub const MODEL_CYCLE: [ModelKind; 5] = [
+    ModelKind::Thin,
+    ModelKind::Thick,
+    ModelKind::Seidel,
+    ModelKind::Traced,
+    ModelKind::Baked,
+];
+
+impl Viewer {
+    /// A viewer of `job` (its `samples_per_pixel` the accumulation target), rendering
+    /// `spp_per_frame` samples per pixel a frame on the GPU the job's backend choice asks for (the
+    /// CPU twin when `Auto` finds none; [`Viewer::backend`] says which, and why).
+    pub fn new(mut job: RenderJob, spp_per_frame: u32) -> Result<Viewer, ViewError> {
+        let (gpu, backend) = job.renderer()?;
+        job.backend = match gpu {
+            Some(_) => BackendChoice::Gpu,
+            None => BackendChoice::Cpu,
+        };
+        let target_spp = job.settings.samples_per_pixel;
+        let spp_per_frame = spp_per_frame.max(1);
+        job.settings.samples_per_pixel = round_up(target_spp, spp_per_frame);
+        job.settings.check()?;
+        let (view, twin, bake) = build(&job, false)?;
+        let mut viewer = Viewer {
+            job,
+            target_spp,
+            spp_per_frame,
+            split: false,
+            overlay: false,
+            gpu,
+            backend,
+            view,
+            twin,
+            bake,
+            frames_done: 0,
+            last_frame: Duration::ZERO,
+            rendered: (0, Duration::ZERO),
+            events: Vec::new(),
+        };
+        viewer.restart();
+        Ok(viewer)
+    }
+
+    /// The settings the viewer renders with.
+    pub fn job(&self) -> &RenderJob {
+        &self.job
+    }
+
+    pub fn backend(&self) -> &BackendUsed {
+        &self.backend
+    }
+
+    pub fn spp_per_frame(&self) -> u32 {
+        self.spp_per_frame
+    }
+
+    pub fn split(&self) -> bool {
+        self.split
+    }
+
+    pub fn overlay(&self) -> bool {
+        self.overlay
+    }
+
+    /// The camera of the main view (the baked half in the split view).
+    pub fn camera(&self) -> &Camera {
+        &self.view.camera
+    }
+
+    /// The model on screen: the traced one while a baked model's table is on its way.
+    pub fn shown_model(&self) -> ModelKind {
+        self.view.camera.model.kind()
+    }
+
+    /// Samples per pixel accumulated so far, and the target.
+    pub fn samples(&self) -> (u32, u32) {
+        (
+            self.frames_done * self.spp_per_frame,
+            self.job.settings.samples_per_pixel,
+        )
+    }
+
+    pub fn converged(&self) -> bool {
+        self.frames_done >= self.shares()
+    }
+
+    /// Progress of a background bake (nodes done, nodes in all), if one is running.
+    pub fn bake_progress(&self) -> Option<(usize, usize)> {
+        self.bake.as_ref().map(|b| {
+            (
+                b.done.load(Ordering::Relaxed),
+                b.total.load(Ordering::Relaxed),
+            )
+        })
+    }
+
+    /// Time the last frame took.
+    pub fn last_frame(&self) -> Duration {
+        self.last_frame
+    }
+
+    /// Mean time of the frames rendered since the viewer opened (None before the first).
+    pub fn mean_frame(&self) -> Option<Duration> {
+        let (frames, time) = self.rendered;
+        (frames > 0).then(|| time / frames as u32)
+    }
+
+    /// Events since the last call.
+    pub fn take_events(&mut self) -> Vec<ViewEvent> {
+        std::mem::take(&mut self.events)
+    }
+
+    /// The object distance in focus (mm from the first vertex; None: infinity), for a real lens.
+    pub fn focus_distance_mm(&self) -> Option<Option<f64>> {
+        let real = self.job.lens.real()?;
+        focus_of_film(real, self.view.camera.film_z).ok()
+    }
+
+    fn shares(&self) -> u32 {
+        self.job.settings.samples_per_pixel / self.spp_per_frame
+    }
+
+    fn restart(&mut self) {
+        let pixels = self.job.settings.width as usize * self.job.settings.height as usize;
+        self.frames_done = 0;
+        for acc in std::iter::once(&mut self.view).chain(self.twin.as_mut()) {
+            acc.sums.clear();
+            acc.sums.resize(pixels, [0.0; 4]);
+        }
+    }
+
+    /// Renders the next frame's share of samples into every view; false when accumulation is
+    /// complete (nothing rendered). Picks up a finished background bake first.
+    pub fn frame(&mut self) -> Result<bool, ViewError> {
+        self.poll_bake(false)?;
+        if self.converged() {
+            return Ok(false);
+        }
+        let started = Instant::now();
+        let share = SampleShare::interleaved(
+            self.frames_done,
+            self.shares(),
+            self.job.settings.samples_per_pixel,
+        );
+        let backend = match self.gpu {
+            Some(_) => Backend::Gpu,
+            None => Backend::Cpu,
+        };
+        for acc in std::iter::once(&mut self.view).chain(self.twin.as_mut()) {
+            accumulate_share(
+                &acc.camera,
+                &acc.layers,
+                acc.view_tan_half,
+                &self.job.settings,
+                share,
+                backend,
+                self.gpu.as_ref(),
+                &mut acc.sums,
+            )?;
+        }
+        self.frames_done += 1;
+        self.last_frame = started.elapsed();
+        self.rendered.0 += 1;
+        self.rendered.1 += self.last_frame;
+        Ok(true)
+    }
+
+    /// Blocks until a background bake finishes (scripts use it to make runs repeatable).
+    pub fn wait_bake(&mut self) -> Result<(), ViewError> {
+        self.poll_bake(true)
+    }
+
+    fn poll_bake(&mut self, wait: bool) -> Result<(), ViewError> {
+        let finished = self
+            .bake
+            .as_ref()
+            .is_some_and(|b| wait || b.worker.is_finished());
+        if !finished {
+            return Ok(());
+        }
+        let Some(pending) = self.bake.take() else {
+            return Ok(());
+        };
+        let result = pending.worker.join().map_err(|_| ViewError::BakeWorker)?;
+        match result {
+            Ok(prepared) => {
+                let table = prepared.table.clone();
+                let view = Accumulating::new(prepared)?;
+                let twin = match self.split {
+                    true => {
+                        let camera = traced_twin(&self.job.lens, self.job.f_number, &view.camera)?;
+                        Some(view.twin(camera))
+                    }
+                    false => None,
+                };
+                self.view = view;
+                self.twin = twin;
+                if let Some(table) = table {
+                    self.events.push(ViewEvent::TableReady {
+                        dir: table.dir,
+                        baked_now: table.baked_now,
+                    });
+                }
+                self.restart();
+            }
+            Err(error) => self.events.push(ViewEvent::BakeFailed(error.to_string())),
+        }
+        Ok(())
+    }
+
+    /// Applies a settings action (not `frames`, `wait-bake`, `screenshot` or `quit`, which the
+    /// session loop runs). On an error the viewer keeps its previous settings and image.
+    pub fn apply(&mut self, action: &Action) -> Result<(), ViewError> {
+        let mut job = self.job.clone();
+        let mut split = self.split;
+        let mut spp_per_frame = self.spp_per_frame;
+        match action {
+            Action::SppPerFrame(n) => spp_per_frame = *n,
+            Action::Click([x, y]) => {
+                let [width, height] = [job.settings.width, job.settings.height];
+                if *x >= width || *y >= height {
+                    return Err(ViewError::OutsideRender {
+                        x: *x,
+                        y: *y,
+                        width,
+                        height,
+                    });
+                }
+                job.focus = FocusMode::Pixel([*x, *y]);
+            }
+            Action::FNumber(f) => job.f_number = Some(*f),
+            Action::Model(kind) => job.model = ModelChoice::Model(*kind),
+            Action::Split(on) => split = *on,
+            Action::ErrorOverlay(on) => {
+                self.overlay = *on;
+                return Ok(());
+            }
+            Action::Chromatic(on) => {
+                job.chromatic = if *on {
+                    ChromaticMode::On
+                } else {
+                    ChromaticMode::Off
+                }
+            }
+            Action::Shift(mm) => job.shift_mm = *mm,
+            Action::Tilt(deg) => job.tilt_deg = *deg,
+            Action::Lens(spec) => {
+                let lens = lenses::load(spec, &LoadOptions::default())?;
+                job.lens = RenderLens::Real(Box::new(lens));
+                job.f_number = None;
+            }
+            Action::Scene(spec) => job.scene = SceneSpec::parse(spec),
+            Action::Frames(_) | Action::WaitBake | Action::Screenshot(_) | Action::Quit => {
+                return Ok(());
+            }
+        }
+        job.settings.samples_per_pixel = round_up(self.target_spp, spp_per_frame);
+        job.settings.check()?;
+        let (view, twin, bake) = build(&job, split)?;
+        self.job = job;
+        self.split = split;
+        self.spp_per_frame = spp_per_frame;
+        self.view = view;
+        self.twin = twin;
+        // A bake for the old settings is left to finish on its own (its table stays on disk).
+        self.bake = bake;
+        self.restart();
+        Ok(())
+    }
+
+    /// The mean radiance accumulated so far in `acc`.
+    fn mean(&self, acc: &Accumulating) -> Vec<[f32; 3]> {
+        let samples = (self.frames_done * self.spp_per_frame).max(1) as f32;
+        acc.sums
+            .iter()
+            .map(|s| [s[0] / samples, s[1] / samples, s[2] / samples])
+            .collect()
+    }
+
+    /// The accumulated render of the main view (the baked half's model in the split view).
+    pub fn image(&self) -> RgbImage {
+        RgbImage {
+            width: self.job.settings.width,
+            height: self.job.settings.height,
+            pixels: self.mean(&self.view),
+        }
+    }
+
+    /// The accumulated traced twin of the split view, once the table is ready.
+    pub fn twin_image(&self) -> Option<RgbImage> {
+        self.twin.as_ref().map(|twin| RgbImage {
+            width: self.job.settings.width,
+            height: self.job.settings.height,
+            pixels: self.mean(twin),
+        })
+    }
+
+    /// What the viewer shows, as 8-bit sRGB: the render tone-mapped as `render` writes its PNG;
+    /// in the split view the baked render's left half beside the traced render's right half,
+    /// a grey column between them;
+    /// with the error overlay the error map of [`hud::error_map`]. Also the overlay's scale
+    /// (radiance at the top of the colour bar) when it is on.
+    pub fn display(&self) -> (Vec<u8>, Option<f32>) {
+        let width = self.job.settings.width as usize;
+        let baked = self.image();
+        let Some(traced) = self.twin_image() else {
+            return (srgb8(&baked, 1.0), None);
+        };
+        if self.overlay {
+            let (bytes, scale) = hud::error_map(&baked, &traced);
+            return (bytes, Some(scale));
+        }
+        let mut pixels = baked.pixels;
+        for (i, p) in pixels.iter_mut().enumerate() {
+            if i % width >= width / 2 {
+                *p = traced.pixels[i];
+            }
+        }
+        let composed = RgbImage { pixels, ..baked };
+        let mut bytes = srgb8(&composed, 1.0);
+        // A grey line down the middle marks the split.
+        for row in bytes.chunks_mut(width * 3) {
+            row[width / 2 * 3..width / 2 * 3 + 3].fill(SPLIT_LINE);
+        }
+        (bytes, None)
+    }
+
+    /// Writes [`Viewer::display`] as a PNG.
+    pub fn screenshot(&mut self, path: &Path) -> Result<(), ViewError> {
+        let (bytes, _) = self.display();
+        write_rgb8_png(
+            &bytes,
+            self.job.settings.width,
+            self.job.settings.height,
+            path,
+        )?;
+        self.events.push(ViewEvent::Screenshot(path.to_path_buf()));
+        Ok(())
+    }
+
+    /// The HUD's lines: frame time, samples, model, f-number, focus, lens, adapter.
+    pub fn hud_lines(&self) -> Vec<String> {
+        hud::lines(self)
+    }
+}
+
+/// The split view's dividing column (8-bit grey).
+const SPLIT_LINE: u8 = 128;
+
+/// `value` rounded up to a multiple of `step`.
+fn round_up(value: u32, step: u32) -> u32 {
+    value.div_ceil(step).saturating_mul(step)
+}
+
+type Built = (Accumulating, Option<Accumulating>, Option<PendingBake>);
+
+/// The views for `job`: its model, prepared now; or, for a baked model or the split view, the
+/// traced model now and the baked one on a worker thread.
+fn build(job: &RenderJob, split: bool) -> Result<Built, ViewError> {
+    let asked = match job.model {
+        ModelChoice::Model(kind) => kind,
+        ModelChoice::ErrorBudgetPx(_) => ModelKind::Traced,
+    };
+    let mut job = job.clone();
+    if split {
+        // The traced twin draws the baked model's monochrome lens samples.
+        job.chromatic = ChromaticMode::Off;
+    }
+    if asked != ModelKind::Baked && !split {
+        let view = Accumulating::new(job.prepare(&|_| {})?)?;
+        return Ok((view, None, None));
+    }
+    let traced = RenderJob {
+        model: ModelChoice::Model(ModelKind::Traced),
+        ..job.clone()
+    };
+    let view = Accumulating::new(traced.prepare(&|_| {})?)?;
+    let baked = RenderJob {
+        model: ModelChoice::Model(ModelKind::Baked),
+        ..job
+    };
+    let done = Arc::new(AtomicUsize::new(0));
+    let total = Arc::new(AtomicUsize::new(0));
+    let (worker_done, worker_total) = (done.clone(), total.clone());
+    let worker = std::thread::spawn(move || {
+        baked.prepare(&|p: BakeProgress| {
+            worker_done.store(p.done, Ordering::Relaxed);
+            worker_total.store(p.total, Ordering::Relaxed);
+        })
+    });
+    let pending = PendingBake {
+        worker,
+        done,
+        total,
+    };
+    Ok((view, None, Some(pending)))
+}
+
+/// What one step of a [`Session`] did.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Step {
+    /// Rendered a frame (or, with accumulation complete, had nothing left to render).
+    Frame { rendered: bool },
+    /// Ran a script action.
+    Action,
+    /// The script said `quit`, or the frame limit is reached.
+    Quit,
+    /// The script is done and nothing is left to render or wait for.
+    Idle,
+}
+
+/// A viewer driven by a script and a frame limit: the one loop the window and the headless run
+/// share.
+pub struct Session {
+    pub viewer: Viewer,
+    script: VecDeque<ScriptLine>,
+    script_file: PathBuf,
+    frames_owed: u32,
+    frame_limit: Option<u64>,
+    frames: u64,
+}
+
+impl Session {
+    pub fn new(
+        viewer: Viewer,
+        script: Vec<ScriptLine>,
+        script_file: PathBuf,
+        frame_limit: Option<u64>,
+    ) -> Session {
+        Session {
+            viewer,
+            script: script.into(),
+            script_file,
+            frames_owed: 0,
+            frame_limit,
+            frames: 0,
+        }
+    }
+
+    /// Frames rendered so far (including those with nothing left to accumulate).
+    pub fn frames(&self) -> u64 {
+        self.frames
+    }
+
+    /// Whether the script still has actions or owed frames.
+    pub fn scripted(&self) -> bool {
+        self.frames_owed > 0 || !self.script.is_empty()
+    }
+
+    /// Does the next thing: a frame the script owes, else the script's next action, else (with
+    /// the script done) a frame while there is anything left to accumulate or a table baking.
+    pub fn step(&mut self) -> Result<Step, ViewError> {
+        if self.frame_limit.is_some_and(|limit| self.frames >= limit) {
+            return Ok(Step::Quit);
+        }
+        if self.frames_owed > 0 {
+            self.frames_owed -= 1;
+            return self.frame();
+        }
+        if let Some(next) = self.script.pop_front() {
+            return self.run(&next).map_err(|cause| ViewError::AtLine {
+                file: self.script_file.clone(),
+                line: next.line,
+                cause: Box::new(cause),
+            });
+        }
+        if self.viewer.converged() && self.viewer.bake.is_none() {
+            return Ok(if self.frame_limit.is_some() {
+                self.frame()?
+            } else {
+                Step::Idle
+            });
+        }
+        self.frame()
+    }
+
+    fn frame(&mut self) -> Result<Step, ViewError> {
+        let rendered = self.viewer.frame()?;
+        self.frames += 1;
+        Ok(Step::Frame { rendered })
+    }
+
+    fn run(&mut self, line: &ScriptLine) -> Result<Step, ViewError> {
+        match &line.action {
+            Action::Frames(n) => self.frames_owed = *n,
+            Action::WaitBake => self.viewer.wait_bake()?,
+            Action::Screenshot(path) => self.viewer.screenshot(path)?,
+            Action::Quit => return Ok(Step::Quit),
+            other => self.viewer.apply(other)?,
+        }
+        Ok(Step::Action)
+    }
+}

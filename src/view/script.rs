@@ -1,0 +1,232 @@
+//! Scripted viewer sessions: one action a line, parsed whole before the first frame so a typo on
+//! the last line is refused before anything renders.
+
+use crate::limits::MAX_VIEW_FRAMES;
+use crate::model::ModelKind;
+use std::path::{Path, PathBuf};
+
+/// One thing a script (or a key, a click or a dropped file in the window) asks the viewer to do.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Action {
+    /// Samples per pixel rendered each frame.
+    SppPerFrame(u32),
+    /// Focus on the surface under this pixel of the render.
+    Click([u32; 2]),
+    FNumber(f64),
+    Model(ModelKind),
+    /// Left half baked, right half traced, identical samples.
+    Split(bool),
+    /// The split view's |baked - traced| in false colour instead of the two halves.
+    ErrorOverlay(bool),
+    Chromatic(bool),
+    /// Sensor shift (mm).
+    Shift([f64; 2]),
+    /// Sensor tilt (degrees about x and y).
+    Tilt([f64; 2]),
+    /// A bundled lens name or a lens file.
+    Lens(String),
+    /// `demo`, a glTF file or an RGB + Z EXR.
+    Scene(String),
+    /// Render this many frames.
+    Frames(u32),
+    /// Wait until a table baking in the background is ready.
+    WaitBake,
+    /// Write the accumulated view as a PNG.
+    Screenshot(PathBuf),
+    Quit,
+}
+
+/// The words a script understands, for error messages.
+const ACTIONS: &str = "spp-per-frame N, click X Y, fnumber F, model NAME, split on|off, \
+     overlay on|off, chromatic on|off, shift X Y, tilt X Y, lens NAME|FILE, scene demo|FILE, \
+     frames N, wait-bake, screenshot PATH, quit";
+
+/// A script line that is not an action.
+#[derive(Debug, thiserror::Error)]
+#[error("{}:{line}: {message}", file.display())]
+pub struct ScriptError {
+    pub file: PathBuf,
+    pub line: usize,
+    pub message: String,
+}
+
+/// An action and the script line it came from (1-based).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ScriptLine {
+    pub line: usize,
+    pub action: Action,
+}
+
+/// Parses a script (`file` names it in errors). Blank lines and `#` comments are skipped.
+pub fn parse_script(text: &str, file: &Path) -> Result<Vec<ScriptLine>, ScriptError> {
+    let mut lines = Vec::new();
+    for (index, raw) in text.lines().enumerate() {
+        let content = raw.split('#').next().unwrap_or("").trim();
+        if content.is_empty() {
+            continue;
+        }
+        let action = parse_action(content).map_err(|message| ScriptError {
+            file: file.to_path_buf(),
+            line: index + 1,
+            message,
+        })?;
+        lines.push(ScriptLine {
+            line: index + 1,
+            action,
+        });
+    }
+    Ok(lines)
+}
+
+/// One action from its words (`click 400 300`).
+pub fn parse_action(content: &str) -> Result<Action, String> {
+    let words: Vec<&str> = content.split_whitespace().collect();
+    let (verb, args) = words
+        .split_first()
+        .ok_or_else(|| "empty action".to_string())?;
+    let expect = |n: usize| -> Result<(), String> {
+        if args.len() == n {
+            Ok(())
+        } else {
+            Err(format!(
+                "`{verb}` takes {n} argument{}, got {}",
+                if n == 1 { "" } else { "s" },
+                args.len()
+            ))
+        }
+    };
+    let whole = |word: &str, what: &str| -> Result<u32, String> {
+        word.parse::<u32>()
+            .map_err(|_| format!("`{verb}`: {what} `{word}` is not a whole number"))
+    };
+    let number = |word: &str, what: &str| -> Result<f64, String> {
+        word.parse::<f64>()
+            .ok()
+            .filter(|v| v.is_finite())
+            .ok_or_else(|| format!("`{verb}`: {what} `{word}` is not a finite number"))
+    };
+    let switch = |word: &str| -> Result<bool, String> {
+        match word {
+            "on" => Ok(true),
+            "off" => Ok(false),
+            _ => Err(format!("`{verb}` takes on or off, got `{word}`")),
+        }
+    };
+    Ok(match *verb {
+        "spp-per-frame" => {
+            expect(1)?;
+            let n = whole(args[0], "samples per frame")?;
+            if n == 0 {
+                return Err("`spp-per-frame` must be at least 1".into());
+            }
+            Action::SppPerFrame(n)
+        }
+        "click" => {
+            expect(2)?;
+            Action::Click([whole(args[0], "x")?, whole(args[1], "y")?])
+        }
+        "fnumber" => {
+            expect(1)?;
+            let f = number(args[0], "f-number")?;
+            if f <= 0.0 {
+                return Err(format!("`fnumber` must be positive, got {f}"));
+            }
+            Action::FNumber(f)
+        }
+        "model" => {
+            expect(1)?;
+            Action::Model(args[0].parse().map_err(|e| format!("{e}"))?)
+        }
+        "split" => {
+            expect(1)?;
+            Action::Split(switch(args[0])?)
+        }
+        "overlay" => {
+            expect(1)?;
+            Action::ErrorOverlay(switch(args[0])?)
+        }
+        "chromatic" => {
+            expect(1)?;
+            Action::Chromatic(switch(args[0])?)
+        }
+        "shift" => {
+            expect(2)?;
+            Action::Shift([number(args[0], "x")?, number(args[1], "y")?])
+        }
+        "tilt" => {
+            expect(2)?;
+            Action::Tilt([number(args[0], "x")?, number(args[1], "y")?])
+        }
+        "lens" => {
+            expect(1)?;
+            Action::Lens(args[0].to_string())
+        }
+        "scene" => {
+            expect(1)?;
+            Action::Scene(args[0].to_string())
+        }
+        "frames" => {
+            expect(1)?;
+            let n = whole(args[0], "frame count")?;
+            if n as u64 > MAX_VIEW_FRAMES {
+                return Err(format!("`frames` takes at most {MAX_VIEW_FRAMES}, got {n}"));
+            }
+            Action::Frames(n)
+        }
+        "wait-bake" => {
+            expect(0)?;
+            Action::WaitBake
+        }
+        "screenshot" => {
+            expect(1)?;
+            Action::Screenshot(PathBuf::from(args[0]))
+        }
+        "quit" => {
+            expect(0)?;
+            Action::Quit
+        }
+        other => {
+            return Err(format!(
+                "unknown action `{other}` (expected one of: {ACTIONS})"
+            ));
+        }
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_action_parses_and_errors_name_the_line() {
+        let text = "# demo\nspp-per-frame 4\nclick 400 300\nfnumber 2.8\nmodel baked\n\
+                    split on\noverlay off\nchromatic on\nshift 1 -2\ntilt 0 3.5\nlens cooke-triplet\n\
+                    scene demo\nframes 10 # ten\nwait-bake\nscreenshot out/a.png\nquit\n";
+        let lines = parse_script(text, Path::new("s.txt")).unwrap();
+        assert_eq!(lines.len(), 15);
+        assert_eq!(lines[0].line, 2);
+        assert_eq!(lines[1].action, Action::Click([400, 300]));
+        assert_eq!(lines[3].action, Action::Model(ModelKind::Baked));
+        assert_eq!(lines[7].action, Action::Shift([1.0, -2.0]));
+        assert_eq!(lines[11].action, Action::Frames(10));
+        assert_eq!(lines[14].action, Action::Quit);
+        for (bad, needle) in [
+            ("frames ten", "not a whole number"),
+            ("click 1", "takes 2 arguments"),
+            ("model pinhole", "unknown lens model"),
+            ("split maybe", "on or off"),
+            ("fnumber -2", "positive"),
+            ("fnumber nan", "finite"),
+            ("spp-per-frame 0", "at least 1"),
+            ("frames 10000001", "at most 10000000"),
+            ("zoom 2", "unknown action `zoom`"),
+        ] {
+            let text = format!("frames 1\n\n{bad}\nquit\n");
+            let error = parse_script(&text, Path::new("dir/s.txt")).unwrap_err();
+            assert_eq!(error.line, 3, "{bad}");
+            let message = error.to_string();
+            assert!(message.starts_with("dir/s.txt:3: "), "{message}");
+            assert!(message.contains(needle), "{bad}: {message}");
+        }
+    }
+}
