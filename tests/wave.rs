@@ -223,6 +223,56 @@ fn fft_and_huygens_psf_agree_on_a_real_lens() {
 }
 
 #[test]
+fn polychromatic_psf_weights_energy_and_keeps_the_aberration_free_peak() {
+    let sampling = Sampling {
+        samples: 32,
+        grid: 128,
+    };
+    let field = |wavelengths: Vec<f64>, weights: Vec<f64>| {
+        FieldTrace::new(&IDEAL, 0.0, &Spectrum::new(wavelengths, weights, 0).unwrap(), sampling)
+            .unwrap()
+    };
+    let energy = |p: &lensbake::wave::Psf| {
+        p.intensity.iter().sum::<f64>() * p.pixel_mm[0] * p.pixel_mm[1]
+    };
+    // One wavelength given twice is that wavelength's PSF.
+    let mono = field(vec![550.0], vec![1.0]).psf(0.0, sampling.grid).unwrap();
+    let twice = field(vec![550.0, 550.0], vec![1.0, 3.0])
+        .psf(0.0, sampling.grid)
+        .unwrap();
+    assert_eq!(mono.pixel_mm, twice.pixel_mm);
+    for (a, b) in mono.intensity.iter().zip(&twice.intensity) {
+        assert!((a - b).abs() < 1e-12, "{a} {b}");
+    }
+    // Three wavelengths through an aberration-free lens: every one peaks at 1 on the shared
+    // centre, so the sum does too; each brings energy in proportion to its weight.
+    let (wavelengths, weights) = (vec![550.0, 450.0, 650.0], vec![2.0, 1.0, 1.0]);
+    let poly = field(wavelengths.clone(), weights.clone())
+        .psf(0.0, sampling.grid)
+        .unwrap();
+    let centre = poly.intensity[(poly.size / 2) * poly.size + poly.size / 2];
+    assert!((centre - 1.0).abs() < 1e-9, "peak {centre}");
+    let scales: f64 = wavelengths
+        .iter()
+        .zip(&weights)
+        .map(|(nm, w)| w * (550.0 / nm).powi(2))
+        .sum();
+    let expected = energy(&mono) * weights.iter().sum::<f64>() / scales;
+    let measured = energy(&poly);
+    assert!(
+        (measured / expected - 1.0).abs() < 0.02,
+        "energy {measured}, expected {expected}"
+    );
+    // And it lies between the blue and the red PSF: broader than blue, narrower than red.
+    let at = |p: &lensbake::wave::Psf, r_mm: f64| p.sample(r_mm, 0.0);
+    let first_dark_550 = 1.22 * 550e-6 * 4.0;
+    let blue = field(vec![450.0], vec![1.0]).psf(0.0, sampling.grid).unwrap();
+    let red = field(vec![650.0], vec![1.0]).psf(0.0, sampling.grid).unwrap();
+    let half = 0.5 * first_dark_550;
+    assert!(at(&blue, half) < at(&poly, half) && at(&poly, half) < at(&red, half));
+}
+
+#[test]
 fn polychromatic_mtf_of_one_repeated_wavelength_is_the_monochromatic_one() {
     let system = lenses::load("cooke-triplet", &LoadOptions::default())
         .unwrap()

@@ -221,7 +221,7 @@ impl Setup {
 
     fn monochromatic(&self, command: &str) -> anyhow::Result<PupilTrace> {
         if self.spectrum.wavelengths_nm.len() > 1 {
-            bail!("`{command}` takes one --wavelength-nm; `mtf` is the polychromatic one");
+            bail!("`{command}` takes one --wavelength-nm; `mtf` and `psf` take several");
         }
         Ok(self.trace()?.traces.remove(0))
     }
@@ -381,14 +381,20 @@ pub fn run_psf(args: PsfArgs) -> anyhow::Result<()> {
         Some("png") => false,
         _ => bail!("{}: the PSF is written as .exr or .png", args.out.display()),
     };
-    let trace = setup.monochromatic("psf")?;
-    let map = trace.wavefront(0.0)?;
-    let fft = psf(&map, setup.sampling.grid)?;
-    let image = if args.huygens {
+    let field = setup.trace()?;
+    let map = field.reference().wavefront(0.0)?;
+    let image = if setup.spectrum.wavelengths_nm.len() > 1 {
+        if args.huygens {
+            bail!("--huygens computes one wavelength; give one --wavelength-nm");
+        }
+        print_assumptions(&fft_assumptions(&map, setup.sampling.grid));
+        field.psf(0.0, setup.sampling.grid)?
+    } else if args.huygens {
+        let fft = psf(&map, setup.sampling.grid)?;
         huygens_psf(&map, fft.size, fft.pixel_mm)?
     } else {
         print_assumptions(&fft_assumptions(&map, setup.sampling.grid));
-        fft
+        psf(&map, setup.sampling.grid)?
     };
     let bytes = if exr {
         encode_exr(&image)?
@@ -397,14 +403,15 @@ pub fn run_psf(args: PsfArgs) -> anyhow::Result<()> {
     };
     lensbake::output::write_bytes(&args.out, &bytes)?;
     say!(
-        "{}: {} x {} PSF, pixel {:.3} x {:.3} µm, peak {:.4} (Strehl {:.4})",
+        "{}: {} x {} PSF, pixel {:.3} x {:.3} µm, peak {:.4} (Strehl {:.4} at {} nm)",
         args.out.display(),
         image.size,
         image.size,
         image.pixel_mm[0] * 1e3,
         image.pixel_mm[1] * 1e3,
         image.peak(),
-        map.stats().strehl
+        map.stats().strehl,
+        map.wavelength_nm
     );
     Ok(())
 }

@@ -24,7 +24,7 @@ mod mtf;
 mod pupil;
 mod zernike;
 
-pub use fft::{Psf, psf};
+pub use fft::{Psf, polychromatic_psf, psf};
 pub use huygens::{FftAssumption, fft_assumptions, huygens_psf};
 pub use mtf::{
     FieldTrace, Mtf, MtfAcrossField, MtfAtField, Spectrum, ThroughFocus, diffraction_limited_mtf,

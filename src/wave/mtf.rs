@@ -166,6 +166,13 @@ impl FieldTrace {
         Ok(maps)
     }
 
+    /// The PSF `defocus_mm` beyond the image plane on a `grid` x `grid` FFT, over the whole
+    /// spectrum ([`super::polychromatic_psf`]); one wavelength gives its monochromatic PSF.
+    pub fn psf(&self, defocus_mm: f64, grid: usize) -> Result<super::Psf, WaveError> {
+        let maps = self.wavefronts(defocus_mm)?;
+        super::polychromatic_psf(&maps, self.spectrum.reference_nm(), grid)
+    }
+
     /// Diffraction MTF `defocus_mm` beyond the image plane.
     pub fn mtf(&self, defocus_mm: f64, frequencies_per_mm: &[f64]) -> Result<Mtf, WaveError> {
         let maps = self.wavefronts(defocus_mm)?;
