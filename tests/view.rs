@@ -240,7 +240,8 @@ fn lensbake(args: &[&str]) -> Output {
 fn write_script(dir: &Path) -> PathBuf {
     let script = dir.join("session.txt");
     let text = format!(
-        "# a short session\nspp-per-frame 2\nframes 2\nscreenshot {a}\nclick 40 30\nmodel thick\n\
+        "# a short session\nspp-per-frame 2\nframes 2\nscreenshot {a}\nwindow 200 150\nframes 1\n\
+         minimise on\nframes 1\nminimise off\nwindow 1 1\nframes 1\nwindow 80 60\nclick 40 30\nmodel thick\n\
          frames 1\nsplit on\nwait-bake\nframes 2\nscreenshot {b}\noverlay on\nscreenshot {c}\nquit\n",
         a = dir.join("first.png").display(),
         b = dir.join("split.png").display(),

@@ -396,7 +396,12 @@ impl Viewer {
                 job.f_number = None;
             }
             Action::Scene(spec) => job.scene = SceneSpec::parse(spec),
-            Action::Frames(_) | Action::WaitBake | Action::Screenshot(_) | Action::Quit => {
+            Action::Frames(_)
+            | Action::WaitBake
+            | Action::Screenshot(_)
+            | Action::WindowSize(_)
+            | Action::Minimise(_)
+            | Action::Quit => {
                 return Ok(());
             }
         }
@@ -553,6 +558,8 @@ pub enum Step {
     Quit,
     /// The script is done and nothing is left to render or wait for.
     Idle,
+    /// The script asks the window for a size or to be minimised (headless runs go on).
+    Window(Action),
 }
 
 /// A viewer driven by a script and a frame limit: the one loop the window and the headless run
@@ -632,6 +639,9 @@ impl Session {
             Action::WaitBake => self.viewer.wait_bake()?,
             Action::Screenshot(path) => self.viewer.screenshot(path)?,
             Action::Quit => return Ok(Step::Quit),
+            Action::WindowSize(_) | Action::Minimise(_) => {
+                return Ok(Step::Window(line.action.clone()));
+            }
             other => self.viewer.apply(other)?,
         }
         Ok(Step::Action)

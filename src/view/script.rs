@@ -33,13 +33,17 @@ pub enum Action {
     WaitBake,
     /// Write the accumulated view as a PNG.
     Screenshot(PathBuf),
+    /// Ask for this window size in pixels (a window only; headless runs ignore it).
+    WindowSize([u32; 2]),
+    /// Minimise or restore the window (a window only; headless runs ignore it).
+    Minimise(bool),
     Quit,
 }
 
 /// The words a script understands, for error messages.
 const ACTIONS: &str = "spp-per-frame N, click X Y, fnumber F, model NAME, split on|off, \
      overlay on|off, chromatic on|off, shift X Y, tilt X Y, lens NAME|FILE, scene demo|FILE, \
-     frames N, wait-bake, screenshot PATH, quit";
+     frames N, wait-bake, screenshot PATH, window W H, minimise on|off, quit";
 
 /// A script line that is not an action.
 #[derive(Debug, thiserror::Error)]
@@ -180,6 +184,21 @@ pub fn parse_action(content: &str) -> Result<Action, String> {
         "screenshot" => {
             expect(1)?;
             Action::Screenshot(PathBuf::from(args[0]))
+        }
+        "window" => {
+            expect(2)?;
+            let size = [whole(args[0], "width")?, whole(args[1], "height")?];
+            if size.contains(&0) || size.iter().any(|&side| u64::from(side) > crate::limits::MAX_IMAGE_SIDE) {
+                return Err(format!(
+                    "`window`: each side must be 1 to {} pixels",
+                    crate::limits::MAX_IMAGE_SIDE
+                ));
+            }
+            Action::WindowSize(size)
+        }
+        "minimise" => {
+            expect(1)?;
+            Action::Minimise(switch(args[0])?)
         }
         "quit" => {
             expect(0)?;

@@ -118,6 +118,16 @@ impl App<'_> {
             event_loop.exit();
             return;
         }
+        if let (Step::Window(request), Some(window)) = (&step, &self.window) {
+            match request {
+                Action::WindowSize([width, height]) => {
+                    // The reply, if any, comes as a Resized event.
+                    let _ = window.request_inner_size(PhysicalSize::new(*width, *height));
+                }
+                Action::Minimise(on) => window.set_minimized(*on),
+                _ => {}
+            }
+        }
         let viewer = &self.session.viewer;
         let settings = viewer.job().settings;
         let (mut rgb, _) = viewer.display();
