@@ -262,7 +262,11 @@ fn an_object_1000_km_away_or_farther_is_at_infinity_and_nan_is_refused() {
     let (none, at_infinity) = image_z(None);
     assert!(none.is_null());
     for beyond in ["1e9", "1e12", "-1e30", "inf"] {
-        assert_eq!(image_z(Some(beyond)), (Value::Null, at_infinity), "{beyond}");
+        assert_eq!(
+            image_z(Some(beyond)),
+            (Value::Null, at_infinity),
+            "{beyond}"
+        );
     }
     // Just inside the limit the object is finite, and its image lies behind the focus by
     // about f^2 / d (Newton): 50^2 / 5e8 mm = 5e-6 mm.
@@ -273,5 +277,8 @@ fn an_object_1000_km_away_or_farther_is_at_infinity_and_nan_is_refused() {
     let refused = lensbake(&["analyze", "dgauss-50mm", "--object-distance-mm", "NaN"]);
     assert_eq!(refused.status.code(), Some(2));
     let stderr = String::from_utf8_lossy(&refused.stderr);
-    assert!(stderr.contains("the object distance (mm) is NaN, not a number"), "{stderr}");
+    assert!(
+        stderr.contains("the object distance (mm) is NaN, not a number"),
+        "{stderr}"
+    );
 }

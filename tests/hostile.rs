@@ -2161,14 +2161,27 @@ fn rays_that_start_inside_or_behind_the_lens_are_refused() {
     // Petzval's last surface curves back towards the film (sag +0.43 mm at its 8.04 mm rim):
     // 0.1 mm behind its vertex plane, 7.5 mm off axis, is still inside the glass. The table
     // alone knows only the vertex plane; given the lens, `lrtf eval` checks as `trace` does.
-    sh_ok(dir, &["bake", "petzval", "--resolution", "6", "--out", "petzval-table"]);
+    sh_ok(
+        dir,
+        &[
+            "bake",
+            "petzval",
+            "--resolution",
+            "6",
+            "--out",
+            "petzval-table",
+        ],
+    );
     std::fs::write(
         dir.join("rim.json"),
         r#"[{"origin": [7.5, 0, 56.5388], "direction": [0, 0, -1]}]"#,
     )
     .unwrap();
     for (label, extra) in [
-        ("lrtf eval: inside the glass at a rim that curves back, lens given", true),
+        (
+            "lrtf eval: inside the glass at a rim that curves back, lens given",
+            true,
+        ),
         ("lrtf eval: the same without the lens (accepted)", false),
     ] {
         let mut args = strings(&["lrtf", "eval", "petzval-table", "--rays", "rim.json"]);
@@ -2264,7 +2277,9 @@ fn each_error_says_its_real_cause_once() {
         std::fs::write(dir.join(name), serde_json::to_vec(&gltf).unwrap()).unwrap();
     };
     // The stage node holds every mesh: scaled to nothing, moved behind the camera, moved aside.
-    scene_edit("flat.gltf", &|g| g["nodes"][2]["scale"] = serde_json::json!([0.0, 0.0, 0.0]));
+    scene_edit("flat.gltf", &|g| {
+        g["nodes"][2]["scale"] = serde_json::json!([0.0, 0.0, 0.0])
+    });
     scene_edit("behind.gltf", &|g| {
         g["nodes"][2]["translation"] = serde_json::json!([50.0, 0.0, 0.0])
     });
@@ -2280,8 +2295,23 @@ fn each_error_says_its_real_cause_once() {
     std::fs::create_dir_all(dir.join("a-folder.zmx")).unwrap();
     let render = |scene: &str, out: &str| {
         strings(&[
-            "render", "--lens", "dgauss-50mm", "--model", "thick", "--width", "16", "--height",
-            "12", "--spp", "1", "--backend", "cpu", "--scene", scene, "--out", out,
+            "render",
+            "--lens",
+            "dgauss-50mm",
+            "--model",
+            "thick",
+            "--width",
+            "16",
+            "--height",
+            "12",
+            "--spp",
+            "1",
+            "--backend",
+            "cpu",
+            "--scene",
+            scene,
+            "--out",
+            out,
         ])
     };
     // (case, arguments, a phrase the error must hold)
@@ -2293,22 +2323,54 @@ fn each_error_says_its_real_cause_once() {
         ),
         (
             "plot below a glass's range",
-            strings(&["plot", "spot", "codev-dgauss-f2", "--wavelength-nm", "200", "--out", "p.png"]),
+            strings(&[
+                "plot",
+                "spot",
+                "codev-dgauss-f2",
+                "--wavelength-nm",
+                "200",
+                "--out",
+                "p.png",
+            ]),
             "wavelength 200 nm is outside the range",
         ),
         (
             "mtf at 1e300 nm",
-            strings(&["mtf", "codev-dgauss-f2", "--field-deg", "0", "--wavelength-nm", "1e300", "--json"]),
+            strings(&[
+                "mtf",
+                "codev-dgauss-f2",
+                "--field-deg",
+                "0",
+                "--wavelength-nm",
+                "1e300",
+                "--json",
+            ]),
             "the wavelength (nm) is 1e300",
         ),
         (
             "trace at NaN nm",
-            strings(&["trace", "codev-dgauss-f2", "--wavelength-nm", "NaN", "--rays", "-"]),
+            strings(&[
+                "trace",
+                "codev-dgauss-f2",
+                "--wavelength-nm",
+                "NaN",
+                "--rays",
+                "-",
+            ]),
             "the wavelength (nm) is NaN",
         ),
         (
             "bake at 1e30 nm",
-            strings(&["bake", "dgauss-50mm", "--wavelengths-nm", "1e30", "--resolution", "4", "--out", "t"]),
+            strings(&[
+                "bake",
+                "dgauss-50mm",
+                "--wavelengths-nm",
+                "1e30",
+                "--resolution",
+                "4",
+                "--out",
+                "t",
+            ]),
             "the wavelength (nm) is 1e30",
         ),
         (
@@ -2326,7 +2388,11 @@ fn each_error_says_its_real_cause_once() {
             render("demo", "missing/r.exr"),
             "the folder missing does not exist",
         ),
-        ("a scene whose triangles have no area", render("flat.gltf", "r.exr"), "have no area"),
+        (
+            "a scene whose triangles have no area",
+            render("flat.gltf", "r.exr"),
+            "have no area",
+        ),
         (
             "a glTF image whose header claims 100000 x 100000 pixels",
             render("huge-image.gltf", "r.exr"),

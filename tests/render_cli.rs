@@ -339,11 +339,29 @@ fn auto_backend_passes_over_a_software_rasteriser_and_says_why() {
     let dir = temp_dir("auto-backend");
     let out = dir.join("auto.exr");
     let o = lensbake(&[
-        "render", "--lens", "dgauss-50mm", "--model", "thick", "--width", "32", "--height", "24",
-        "--spp", "1", "--backend", "auto", "--out", out.to_str().unwrap(),
+        "render",
+        "--lens",
+        "dgauss-50mm",
+        "--model",
+        "thick",
+        "--width",
+        "32",
+        "--height",
+        "24",
+        "--spp",
+        "1",
+        "--backend",
+        "auto",
+        "--out",
+        out.to_str().unwrap(),
     ]);
     let stdout = String::from_utf8_lossy(&o.stdout).into_owned();
-    assert_eq!(o.status.code(), Some(0), "{stdout}{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{stdout}{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
     let line = stdout
         .lines()
         .find(|l| l.starts_with("backend: "))

@@ -229,14 +229,20 @@ fn polychromatic_psf_weights_energy_and_keeps_the_aberration_free_peak() {
         grid: 128,
     };
     let field = |wavelengths: Vec<f64>, weights: Vec<f64>| {
-        FieldTrace::new(&IDEAL, 0.0, &Spectrum::new(wavelengths, weights, 0).unwrap(), sampling)
-            .unwrap()
+        FieldTrace::new(
+            &IDEAL,
+            0.0,
+            &Spectrum::new(wavelengths, weights, 0).unwrap(),
+            sampling,
+        )
+        .unwrap()
     };
-    let energy = |p: &lensbake::wave::Psf| {
-        p.intensity.iter().sum::<f64>() * p.pixel_mm[0] * p.pixel_mm[1]
-    };
+    let energy =
+        |p: &lensbake::wave::Psf| p.intensity.iter().sum::<f64>() * p.pixel_mm[0] * p.pixel_mm[1];
     // One wavelength given twice is that wavelength's PSF.
-    let mono = field(vec![550.0], vec![1.0]).psf(0.0, sampling.grid).unwrap();
+    let mono = field(vec![550.0], vec![1.0])
+        .psf(0.0, sampling.grid)
+        .unwrap();
     let twice = field(vec![550.0, 550.0], vec![1.0, 3.0])
         .psf(0.0, sampling.grid)
         .unwrap();
@@ -266,8 +272,12 @@ fn polychromatic_psf_weights_energy_and_keeps_the_aberration_free_peak() {
     // And it lies between the blue and the red PSF: broader than blue, narrower than red.
     let at = |p: &lensbake::wave::Psf, r_mm: f64| p.sample(r_mm, 0.0);
     let first_dark_550 = 1.22 * 550e-6 * 4.0;
-    let blue = field(vec![450.0], vec![1.0]).psf(0.0, sampling.grid).unwrap();
-    let red = field(vec![650.0], vec![1.0]).psf(0.0, sampling.grid).unwrap();
+    let blue = field(vec![450.0], vec![1.0])
+        .psf(0.0, sampling.grid)
+        .unwrap();
+    let red = field(vec![650.0], vec![1.0])
+        .psf(0.0, sampling.grid)
+        .unwrap();
     let half = 0.5 * first_dark_550;
     assert!(at(&blue, half) < at(&poly, half) && at(&poly, half) < at(&red, half));
 }

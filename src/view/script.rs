@@ -188,7 +188,11 @@ pub fn parse_action(content: &str) -> Result<Action, String> {
         "window" => {
             expect(2)?;
             let size = [whole(args[0], "width")?, whole(args[1], "height")?];
-            if size.contains(&0) || size.iter().any(|&side| u64::from(side) > crate::limits::MAX_IMAGE_SIDE) {
+            if size.contains(&0)
+                || size
+                    .iter()
+                    .any(|&side| u64::from(side) > crate::limits::MAX_IMAGE_SIDE)
+            {
                 return Err(format!(
                     "`window`: each side must be 1 to {} pixels",
                     crate::limits::MAX_IMAGE_SIDE
