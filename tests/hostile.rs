@@ -1679,31 +1679,34 @@ fn with_data_window(bytes: &[u8], width: i32, height: i32) -> Vec<u8> {
     out
 }
 
+/// A 16 x 12, one-sample thick-lens render of `scene` on the CPU twin into `out`.
+fn small_render(scene: &str, out: &str) -> Vec<String> {
+    strings(&[
+        "render",
+        "--lens",
+        "dgauss-50mm",
+        "--model",
+        "thick",
+        "--width",
+        "16",
+        "--height",
+        "12",
+        "--spp",
+        "1",
+        "--backend",
+        "cpu",
+        "--scene",
+        scene,
+        "--out",
+        out,
+    ])
+}
+
 #[test]
 fn hostile_scenes_end_cleanly() {
     let scratch = Scratch::new("scenes");
     let dir = scratch.path();
-    let render = |scene: &str| {
-        strings(&[
-            "render",
-            "--lens",
-            "dgauss-50mm",
-            "--model",
-            "thick",
-            "--width",
-            "16",
-            "--height",
-            "12",
-            "--spp",
-            "1",
-            "--backend",
-            "cpu",
-            "--scene",
-            scene,
-            "--out",
-            "r.exr",
-        ])
-    };
+    let render = |scene: &str| small_render(scene, "r.exr");
     let mut cases = Vec::new();
     for (k, (label, gltf)) in gltf_cases(dir).into_iter().enumerate() {
         let file = format!("scene{k}.gltf");
@@ -2293,27 +2296,7 @@ fn each_error_says_its_real_cause_once() {
         ))
     });
     std::fs::create_dir_all(dir.join("a-folder.zmx")).unwrap();
-    let render = |scene: &str, out: &str| {
-        strings(&[
-            "render",
-            "--lens",
-            "dgauss-50mm",
-            "--model",
-            "thick",
-            "--width",
-            "16",
-            "--height",
-            "12",
-            "--spp",
-            "1",
-            "--backend",
-            "cpu",
-            "--scene",
-            scene,
-            "--out",
-            out,
-        ])
-    };
+    let render = small_render;
     // (case, arguments, a phrase the error must hold)
     let cases: Vec<(&str, Vec<String>, &str)> = vec![
         (

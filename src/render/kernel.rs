@@ -481,12 +481,12 @@ fn to_f64(v: Vec3) -> [f64; 3] {
     v.map(f64::from)
 }
 
-/// The object-space ray that leaves the lens along the traced (film-to-object) `ray`: light
-/// travels towards +z, against the traced direction.
-fn leaving(ray: &crate::trace::Ray) -> ObjectRay {
+/// The object-space ray that leaves the lens from `origin` along the film-to-object
+/// `direction` (f64, from the tracer or the table): light travels towards +z, against it.
+fn leaving(origin: [f64; 3], direction: [f64; 3]) -> ObjectRay {
     ObjectRay {
-        origin: ray.position().map(|v| v as f32),
-        direction: ray.direction().map(|v| -v as f32),
+        origin: origin.map(|v| v as f32),
+        direction: direction.map(|v| -v as f32),
         valid: true,
     }
 }
@@ -546,7 +546,7 @@ fn lens_rays(
             tracer.trace_group(&group[..count], Travel::Backward, &mut traced);
             for (t, &k) in traced[..count].iter().zip(&slot) {
                 if t.outcome.is_ok() {
-                    out[k] = leaving(&t.ray);
+                    out[k] = leaving(t.ray.position(), t.ray.direction());
                 }
             }
         }
@@ -563,11 +563,7 @@ fn lens_rays(
                     direction: d.map(|v| v / length),
                 };
                 *o = match table.lookup(layer, &ray, stop_radius) {
-                    Lookup::Passes(out) => ObjectRay {
-                        origin: out.origin.map(|v| v as f32),
-                        direction: out.direction.map(|v| -v as f32),
-                        valid: true,
-                    },
+                    Lookup::Passes(out) => leaving(out.origin, out.direction),
                     Lookup::Blocked | Lookup::OutsideDomain => blocked_ray(),
                 };
             }

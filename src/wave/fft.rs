@@ -39,19 +39,21 @@ impl Psf {
 
 impl Psf {
     /// The intensity at image point (x, y) mm from the reference point, bilinear between pixel
-    /// centres; zero outside the sampled window.
+    /// centres; zero beyond the outermost pixel centres.
     pub fn sample(&self, x: f64, y: f64) -> f64 {
         let half = (self.size / 2) as f64;
+        let last = (self.size - 1) as f64;
         let (u, v) = (x / self.pixel_mm[0] + half, y / self.pixel_mm[1] + half);
-        let (c, r) = (u.floor(), v.floor());
-        if !(c >= 0.0 && r >= 0.0 && c + 1.0 < self.size as f64 && r + 1.0 < self.size as f64) {
+        if !((0.0..=last).contains(&u) && (0.0..=last).contains(&v)) {
             return 0.0;
         }
-        let (fu, fv) = (u - c, v - r);
-        let (c, r) = (c as usize, r as usize);
+        // The far neighbour is clamped, so a point on the last row or column is that pixel.
+        let (c, r) = (u.floor() as usize, v.floor() as usize);
+        let (c1, r1) = ((c + 1).min(self.size - 1), (r + 1).min(self.size - 1));
+        let (fu, fv) = (u - c as f64, v - r as f64);
         let at = |col: usize, row: usize| self.intensity[row * self.size + col];
-        (1.0 - fv) * ((1.0 - fu) * at(c, r) + fu * at(c + 1, r))
-            + fv * ((1.0 - fu) * at(c, r + 1) + fu * at(c + 1, r + 1))
+        (1.0 - fv) * ((1.0 - fu) * at(c, r) + fu * at(c1, r))
+            + fv * ((1.0 - fu) * at(c, r1) + fu * at(c1, r1))
     }
 }
 
@@ -77,12 +79,19 @@ pub fn polychromatic_psf(
     let grid_nm = sum.wavelength_nm;
     let mut total = vec![0.0; sum.intensity.len()];
     let mut scales = 0.0;
-    for (map, weight) in maps {
+    for (k, (map, weight)) in maps.iter().enumerate() {
         let scale = weight * (grid_nm / map.wavelength_nm).powi(2);
         if !(scale > 0.0) {
             continue;
         }
         scales += scale;
+        if k == reference {
+            // Already on the grid: no second FFT, no resampling.
+            for (t, v) in total.iter_mut().zip(&sum.intensity) {
+                *t += scale * v;
+            }
+            continue;
+        }
         let mono = psf(map, grid)?;
         for row in 0..sum.size {
             for col in 0..sum.size {
