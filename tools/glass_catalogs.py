@@ -10,10 +10,15 @@ per glass:
 
 formula is the vendor's published dispersion formula:
     sellmeier3   n^2 = 1 + sum B_i l^2 / (l^2 - C_i)                (SCHOTT, OHARA)
+    sellmeier4   the same with four terms                           (CaF2 after Daimon, misc.tsv)
     schott6      n^2 = A0 + A1 l^2 + A2 l^-2 + A3 l^-4 + A4 l^-6 + A5 l^-8   (HOYA, CDGM, SUMITA)
     hikari9      n^2 = A0 + A1 l^2 + A2 l^4 + A3 l^-2 + ... + A8 l^-12      (HIKARI)
 l in micrometres. nd and vd are the sheet's own (datasheet) values; min_nm..max_nm is the span of
 wavelengths at which the sheet lists a measured index for that glass.
+
+OHARA's spreadsheet keeps its low-softening-point moulding glasses (L-BAL35, L-LAH53, ...) on a
+sheet of their own, "Low Tg glasses", which the opticalglass catalogue class does not read; they
+are written to ohara-low-tg.tsv straight from that sheet (same columns, same formula).
 
 Run:  python3 -m venv /tmp/venv && /tmp/venv/bin/pip install opticalglass==1.1.1 openpyxl xlrd
       /tmp/venv/bin/python tools/glass_catalogs.py
@@ -43,8 +48,9 @@ VENDORS = [
 
 def index(formula, a, nm):
     l2 = (nm * 1e-3) ** 2
-    if formula == "sellmeier3":
-        n2 = 1 + sum(a[i] * l2 / (l2 - a[i + 3]) for i in range(3))
+    if formula.startswith("sellmeier"):
+        terms = len(a) // 2
+        n2 = 1 + sum(a[i] * l2 / (l2 - a[i + terms]) for i in range(terms))
     elif formula == "schott6":
         inv = 1 / l2
         n2 = a[0] + a[1] * l2 + sum(a[2 + k] * inv ** (k + 1) for k in range(4))
@@ -140,11 +146,62 @@ def main():
               f"max |vd-vd_sheet| {worst_vd:.3f}")
 
 
+OHARA_LOW_TG_SHEET = "Low Tg glasses 5\u6841"
+# Column numbers on that sheet (0-based): name, nd, vd, Sellmeier A1 A2 A3 B1 B2 B3 (OHARA's
+# letters for B1 B2 B3 C1 C2 C3), and the first and last refractive-index columns.
+LOW_TG_NAME, LOW_TG_ND, LOW_TG_VD, LOW_TG_COEFS = 1, 16, 24, range(60, 66)
+LOW_TG_INDICES = range(4, 24)
+
+
+def ohara_low_tg_rows():
+    import pandas as pd
+    import opticalglass
+
+    path = os.path.join(os.path.dirname(opticalglass.__file__), "data", "OHARA.xlsx")
+    sheet = pd.read_excel(path, sheet_name=OHARA_LOW_TG_SHEET, header=None)
+    headers = sheet.iloc[1]
+    rows = []
+    for k in range(2, len(sheet)):
+        row = sheet.iloc[k]
+        name = str(row[LOW_TG_NAME]).replace(" ", "")
+        if name == "nan":
+            continue
+        coefs = [float(f"{float(row[c]):.12g}") for c in LOW_TG_COEFS]
+        nd, vd = float(row[LOW_TG_ND]), float(row[LOW_TG_VD])
+        waves = []
+        for c in LOW_TG_INDICES:
+            label = str(headers[c]).strip()[1:]
+            nm = float(label) if label.isdigit() else spectra.get(label)
+            if nm is not None and not math.isnan(float(row[c])):
+                waves.append(nm)
+        nd_f = index("sellmeier3", coefs, D)
+        vd_f = (nd_f - 1) / (index("sellmeier3", coefs, F) - index("sellmeier3", coefs, C))
+        if abs(nd_f - nd) > 2e-5 or abs(vd_f - vd) > 0.05:
+            print(f"ohara low Tg: {name}: formula nd {nd_f:.6f} vd {vd_f:.3f}, sheet {nd} {vd}",
+                  file=sys.stderr)
+        rows.append("\t".join([name, "sellmeier3", " ".join(repr(c) for c in coefs), repr(nd),
+                               repr(vd), repr(min(waves)), repr(max(waves))]))
+    return rows
+
+
+def write_ohara_low_tg():
+    path = os.path.join(OUT, "ohara-low-tg.tsv")
+    with open(path, "w", encoding="utf-8") as out:
+        out.write("# OHARA low-Tg moulding glasses from the sheet \"Low Tg glasses\" of the maker's "
+                  "spreadsheet OHARA.xlsx (opticalglass 1.1.1 data/)\n")
+        out.write("# name\tformula\tcoefficients\tnd\tvd\tmin_nm\tmax_nm\n")
+        out.write("\n".join(ohara_low_tg_rows()) + "\n")
+
+
 # Crystals and special glasses that no vendor sheet above holds, from the refractiveindex.info
 # database (CC0) as shipped inside optiland 0.6.3 (optiland/database/data-nk/...).
 MISC = [
     ("SILICA", "main/SiO2/Malitson.yml", "fused silica, Malitson, JOSA 55, 1205 (1965)"),
     ("CAF2", "main/CaF2/Malitson.yml", "calcium fluoride, Malitson, Appl. Opt. 2, 1103 (1963)"),
+    # Named as lens files name it (optiland's CODE V sample telescope_objective.seq): the
+    # database's page CaF2 "Daimon-20", measured at 20 degrees C.
+    ("CAF2_DAIMON-20", "main/CaF2/Daimon-20.yml",
+     "calcium fluoride at 20 C, Daimon and Masumura, Appl. Opt. 41, 5275 (2002)"),
     ("SAPPHIRE", "main/Al2O3/Malitson-o.yml",
      "sapphire ordinary ray, Malitson and Dodge, JOSA 62, 1405 (1972)"),
     ("B270", "glass/schott/misc/B270.yml", "SCHOTT B 270 datasheet, August 1993 (tabulated)"),
@@ -166,6 +223,14 @@ def misc_rows():
             assert c[0] == 0.0, rel
             coefs = [c[1], c[3], c[5], c[2] ** 2, c[4] ** 2, c[6] ** 2]
             formula = "sellmeier3"
+            lo, hi = (float(x) * 1e3 for x in data["wavelength_range"].split())
+        elif data["type"].strip() == "formula 2":
+            c = [float(x) for x in data["coefficients"].split()]
+            # formula 2: n^2 - 1 = c0 + sum B l^2 / (l^2 - C), C in square micrometres
+            assert c[0] == 0.0, rel
+            terms = (len(c) - 1) // 2
+            coefs = c[1::2] + c[2::2]
+            formula = f"sellmeier{terms}"
             lo, hi = (float(x) * 1e3 for x in data["wavelength_range"].split())
         else:
             pairs = [line.split() for line in data["data"].strip().splitlines()]
@@ -206,4 +271,5 @@ def write_misc():
 
 if __name__ == "__main__":
     main()
+    write_ohara_low_tg()
     write_misc()

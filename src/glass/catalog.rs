@@ -79,6 +79,7 @@ const DATA: &[(&str, &str)] = &[
     ("SCHOTT", include_str!("data/schott.tsv")),
     ("SCHOTT", include_str!("data/schott-legacy.tsv")),
     ("OHARA", include_str!("data/ohara.tsv")),
+    ("OHARA", include_str!("data/ohara-low-tg.tsv")),
     ("HOYA", include_str!("data/hoya.tsv")),
     ("CDGM", include_str!("data/cdgm.tsv")),
     ("HIKARI", include_str!("data/hikari.tsv")),
@@ -163,10 +164,13 @@ fn parse_file(
 
 fn formula(kind: &str, c: &[f64]) -> Option<Dispersion> {
     Some(match (kind, c.len()) {
-        ("sellmeier3", 6) => Dispersion::Sellmeier {
-            b: [c[0], c[1], c[2]],
-            c: [c[3], c[4], c[5]],
-        },
+        ("sellmeier3", 6) | ("sellmeier4", 8) => {
+            let (b, c) = c.split_at(c.len() / 2);
+            Dispersion::Sellmeier {
+                b: b.to_vec(),
+                c: c.to_vec(),
+            }
+        }
         ("schott6", 6) => Dispersion::PowerSeries {
             a: c.try_into().ok()?,
         },

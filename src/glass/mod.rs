@@ -20,10 +20,12 @@ pub const C_LINE_NM: f64 = 656.2725;
 #[derive(Clone, Debug, PartialEq)]
 pub enum Dispersion {
     Constant(f64),
-    /// Sellmeier with three terms, wavelengths in micrometres.
+    /// Sellmeier n^2 = 1 + sum B l^2 / (l^2 - C), l in micrometres: three terms for the glass
+    /// makers' catalogues, four for crystals measured that finely (CaF2 after Daimon and
+    /// Masumura).
     Sellmeier {
-        b: [f64; 3],
-        c: [f64; 3],
+        b: Vec<f64>,
+        c: Vec<f64>,
     },
     /// Two-term Cauchy n = A + B / l^2 (l in micrometres), fitted so that n(d) = nd and
     /// n(F) - n(C) = (nd - 1) / vd: the simplest formula that honours both numbers a model glass
@@ -63,7 +65,10 @@ impl Dispersion {
             Medium::Air => Dispersion::Constant(1.0),
             Medium::Index(n) => Dispersion::Constant(*n),
             Medium::Glass(name) => lookup(name)?.dispersion(),
-            Medium::Sellmeier { b, c } => Dispersion::Sellmeier { b: *b, c: *c },
+            Medium::Sellmeier { b, c } => Dispersion::Sellmeier {
+                b: b.to_vec(),
+                c: c.to_vec(),
+            },
             Medium::Model { nd, vd } => Dispersion::model(*nd, *vd),
             Medium::Table {
                 wavelengths_nm,
@@ -121,7 +126,7 @@ impl Dispersion {
         match self {
             Dispersion::Constant(n) => *n,
             Dispersion::Sellmeier { b, c } => {
-                let sum: f64 = (0..3).map(|i| b[i] * l2 / (l2 - c[i])).sum();
+                let sum: f64 = b.iter().zip(c).map(|(b, c)| b * l2 / (l2 - c)).sum();
                 (1.0 + sum).sqrt()
             }
             Dispersion::Cauchy { a, b } => a + b / l2,
