@@ -20,12 +20,36 @@ const LOADS: &[&str] = &[
     "optiland__cooke_triplet.seq",
     "optiland__fno_fields.seq",
     "optiland__lens1.zmx",
+    "optiland__lens2.zmx",
+    "optiland__lens_floa.zmx",
+    "optiland__telescope_objective.seq",
     "rayoptics__CODV_32327.seq",
+    "rayoptics__CODV_49664.seq",
     "rayoptics__CODV_65564.seq",
+    "rayoptics__CODV_65988_noDOE.seq",
     "rayoptics__US00583336-2-scaled.zmx",
     "rayoptics__asp46.seq",
+    "rayoptics__landscape_lens.seq",
+    "rayoptics__singlet.seq",
     "rayoptics__unfolded_lenses_w_ape.seq",
 ];
+
+/// Loaded files rayoptics reads with other surfaces or glasses, so no peer numbers are compared:
+/// - optiland__lens2.zmx: rayoptics 0.9.8 reads OHARA L-BAL35 (a low-Tg moulding glass in
+///   OHARA's sheet "Low Tg glasses") as S-BAL35, another glass.
+/// - optiland__telescope_objective.seq: rayoptics knows no CaF2 `CAF2_DAIMON-20`.
+/// - rayoptics__CODV_49664.seq: its fictitious glass 517000.520000 is given by nd and vd only,
+///   and the file's reference wavelength is 587.6 nm, off the d line: there each program's model
+///   of such a glass gives its own index (rayoptics 1.5169980739, lensbake's Cauchy fit
+///   1.5169980392, 3.5e-8 apart), which moves the EFL by 3e-9 relative. Neither is the glass.
+/// - rayoptics__landscape_lens.seq, rayoptics__singlet.seq: written without `RDM`; rayoptics
+///   reads their surface values as curvatures, lensbake as radii (CODE V's radius mode, the
+///   default lensbake documents in docs/formats.md), so the two analyse different lenses.
+///
+/// Files whose aperture rayoptics does not read: only EFL and BFL, which no aperture changes, are
+/// compared. optiland__lens_floa.zmx states FLOA (Zemax: the stop's own size sets the beam);
+/// rayoptics 0.9.8 ignores it and takes an entrance pupil of 1 mm.
+const PEER_APERTURE_UNREAD: &[&str] = &["optiland__lens_floa.zmx"];
 
 fn lens_files() -> Vec<PathBuf> {
     let mut files: Vec<PathBuf> = std::fs::read_dir(corpus())
@@ -79,7 +103,7 @@ fn first_order_data_and_seidel_sums_match_rayoptics() {
         serde_json::from_str(&std::fs::read_to_string(corpus().join("peers.json")).unwrap())
             .unwrap();
     let lenses = peers["lenses"].as_object().unwrap();
-    assert_eq!(lenses.len(), 5);
+    assert_eq!(lenses.len(), 7);
     for (name, peer) in lenses {
         let loaded = read_file(&corpus().join(name), &LoadOptions::default()).unwrap();
         let by_f_number = matches!(
@@ -107,6 +131,16 @@ fn first_order_data_and_seidel_sums_match_rayoptics() {
         let a = analyze(name, &system, &options).unwrap();
         let f = &a.first_order;
         let peer_number = |what: &str| peer[what].as_f64().unwrap();
+        if PEER_APERTURE_UNREAD.contains(&name.as_str()) {
+            for (what, ours) in [("efl", f.efl), ("bfl", f.bfl)] {
+                let theirs = peer_number(what);
+                assert!(
+                    ((ours - theirs) / theirs).abs() < 1e-9,
+                    "{name} {what}: {ours} vs rayoptics {theirs}"
+                );
+            }
+            continue;
+        }
         // The f-number is EFL / EPD by definition (ARCHITECTURE.md); rayoptics' own `fno` comes
         // from its marginal-ray slope and differs from its own EFL / EPD by up to 3e-9 relative
         // (lens1.zmx), so the definition is checked on rayoptics' EFL and EPD.

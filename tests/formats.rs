@@ -399,7 +399,8 @@ fn ag_dblgauss_seq_derives_paraxial_clear_apertures() {
     assert_eq!(
         loaded.notes[..1],
         vec![LoadNote::AperturesDerived {
-            surfaces: (1..=11).collect()
+            surfaces: (1..=11).collect(),
+            limited_at_edge: Vec::new(),
         }]
     );
 
@@ -583,7 +584,8 @@ fn derived_apertures_of_a_singlet_follow_the_paraxial_rays() {
     assert_eq!(
         loaded.notes,
         vec![LoadNote::AperturesDerived {
-            surfaces: vec![1, 2]
+            surfaces: vec![1, 2],
+            limited_at_edge: Vec::new(),
         }]
     );
 }

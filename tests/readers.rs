@@ -174,7 +174,10 @@ fn diam_clap_and_unsized_surfaces() {
     assert!(
         loaded
             .notes
-            .contains(&LoadNote::AperturesDerived { surfaces: vec![2] }),
+            .contains(&LoadNote::AperturesDerived {
+                surfaces: vec![2],
+                limited_at_edge: Vec::new()
+            }),
         "{:?}",
         loaded.notes
     );
@@ -353,4 +356,145 @@ fn conditions_survive_the_ron_round_trip() {
     let back = read_str(&ron, None, Format::Ron, &LoadOptions::default()).unwrap();
     assert_eq!(back.prescription, loaded.prescription);
     assert!(ron.contains("conditions"), "{ron}");
+}
+
+/// `STOP` is CODE V's `STO` written out (CODE V reads a command by its first three letters):
+/// a copy of rayoptics' achroMangin.seq with the mirror and the withdrawn SCHOTT glasses replaced
+/// by refracting N-SK16 and N-KZFS4, and the stop moved behind surface 2 so that it differs from
+/// CODE V's default (surface 1).
+#[test]
+fn codev_stop_written_out_marks_the_stop() {
+    let text = "rdm y\nso 0 1e11\ns -9.435 0.346 N-SK16_Schott\ns 37.5 1.092 N-KZFS4_Schott\n\
+                stop\ns -14.357 5\nsi 0 0\nwl 488. 587. 656.\nepd 5.0\nyan 0\n";
+    let loaded = codev(text).unwrap();
+    let stops: Vec<usize> = loaded
+        .prescription
+        .surfaces
+        .iter()
+        .enumerate()
+        .filter_map(|(i, s)| s.stop.as_ref().map(|_| i + 1))
+        .collect();
+    assert_eq!(stops, [2]);
+    let e = codev("EPD 4\nSO 0 1e11\nSTOP\nS 50 5 N-BK7\nSI 0 0\n").unwrap_err();
+    assert_eq!(e.location.line, Some(3), "{e}");
+}
+
+/// `CUF 0.0`, which CODE V writes into every ASP block, leaves the asphere as K and A..J give
+/// it; another value is refused where it stands.
+#[test]
+fn codev_cuf_zero_is_read_and_other_values_refused() {
+    let asphere = |cuf: &str| {
+        format!(
+            "EPD 10\nSO 0 1e11\nS 50 5 N-BK7\n  ASP\n  K -0.5\n  CUF {cuf}\n  A 1e-6; B 0.0\n\
+             S -50 47\nSI 0 0\n"
+        )
+    };
+    let loaded = codev(&asphere("0.0")).unwrap();
+    assert!(skipped(&loaded).contains(&"CUF 0".to_string()));
+    let shape = &loaded.prescription.surfaces[0].shape;
+    assert_eq!((shape.conic(), shape.curvature()), (-0.5, 0.02));
+    let e = codev(&asphere("0.25")).unwrap_err();
+    assert!(matches!(&e.problem, Problem::Unsupported(w) if w.contains("CUF 0.25")), "{e}");
+    assert_eq!((e.location.line, e.location.surface), (Some(6), Some(1)));
+}
+
+/// Pickups: item of surface k = scale * item of surface j + offset, evaluated after the last
+/// surface, in file order (the Questar file's two forms, `PIK RDY S4 Z1 RDY S2 Z1` and
+/// `PIK THI S3 Z1 THI S2 Z1 -1.0`, plus an offset and a chained pickup).
+#[test]
+fn codev_pickups_copy_radius_thickness_and_conic() {
+    let text = "RDM N\nEPD 10\nSO 0 1e11\nS 0.02 5 N-BK7\n  CON\n  K -0.5\nS -0.01 3 N-SF5\n\
+                S 0 40\nS 0 10\nSI 0 0\nPIK RDY S3 Z1 RDY S2 Z1 -2.0\n\
+                PIK THI S4 Z1 THI S2 Z1 2.0 1.5\nPIK K S2 K S1\nPIK CUY S4 CUY S3\nGO\n";
+    let loaded = codev(text).unwrap();
+    let s = &loaded.prescription.surfaces;
+    // R2 = -100, so R3 = -2 * -100 = 200; surface 4 then picks up its curvature 1/200.
+    assert!((s[2].shape.curvature() - 1.0 / 200.0).abs() < 1e-15);
+    assert!((s[3].shape.curvature() - 1.0 / 200.0).abs() < 1e-15);
+    assert_eq!(s[3].thickness, 2.0 * 3.0 + 1.5);
+    assert_eq!(s[1].shape.conic(), -0.5);
+
+    for (pickup, why) in [
+        ("PIK RDY S3 Z2 RDY S2 Z2", "zoom position Z2"),
+        ("PIK RDY S9 RDY S2", "surface S9"),
+        ("PIK GLA S3 GLA S2", "item GLA"),
+        ("PIK RDY S3 THI S2", "different items"),
+    ] {
+        let e = codev(&text.replace("PIK K S2 K S1", pickup)).unwrap_err();
+        assert!(matches!(&e.problem, Problem::Unsupported(w) if w.contains(why)), "{e}");
+        assert_eq!(e.location.line, Some(line_of(text, "PIK K S2")), "{e}");
+    }
+}
+
+/// A derived clear aperture never reaches past the end of its surface: a sphere of R = 4 mm in a
+/// 10 mm beam ends at 4 mm (its hemisphere), a conic of R = -3 mm, k = 0.5 at 3 / sqrt(1.5); the note
+/// says which surfaces were limited, and the lens loads.
+#[test]
+fn derived_apertures_stop_at_the_rim_of_the_surface() {
+    let text = "EPD 10\nSO 0 1e11\nS 4 4 N-BK7\nS -3 1\n  CON\n  K 0.5\nS 0 20\nSI 0 0\n";
+    let loaded = codev(text).unwrap();
+    let s = &loaded.prescription.surfaces;
+    assert_eq!(s[0].semi_aperture, 4.0);
+    let conic_rim = 3.0 / 1.5f64.sqrt();
+    assert!((s[1].semi_aperture - conic_rim).abs() < 1e-12, "{}", s[1].semi_aperture);
+    // The plane's derived aperture is the marginal height there, unlimited.
+    assert!(s[2].semi_aperture > 0.0);
+    let note = loaded
+        .notes
+        .iter()
+        .find(|n| matches!(n, LoadNote::AperturesDerived { .. }))
+        .unwrap();
+    assert_eq!(
+        note,
+        &LoadNote::AperturesDerived {
+            surfaces: vec![1, 2, 3],
+            limited_at_edge: vec![1, 2],
+        }
+    );
+    assert!(note.to_string().contains("surfaces 1-2 those rays reach beyond"), "{note}");
+    LensSystem::new(loaded.prescription, &loaded.map).unwrap();
+    // An aperture the file states is the file's: too large, it is still refused.
+    let stated = codev(&text.replace("S 4 4 N-BK7\n", "S 4 4 N-BK7\nCIR 4.5\n")).unwrap();
+    let e = LensSystem::new(stated.prescription, &stated.map).unwrap_err();
+    assert!(e.to_string().contains("larger than |radius|"), "{e}");
+}
+
+/// CODE V's FNO with a finite object is the working F-number 1 / (2 n' u') at that object
+/// distance (rayoptics reads it so), and YIM image heights of a finite object are the paraxial
+/// image heights the magnification gives: the analysis meets both.
+#[test]
+fn codev_f_number_and_image_heights_of_a_finite_object() {
+    let text = "dim m\nso 0 200\ns 50 5 N-BK7\ns -50 100\nsi 0 0\nfno 5\nwl 587.5618\nyim 0 3\n";
+    let loaded = codev(text).unwrap();
+    let conditions = loaded.prescription.provenance.conditions.clone().unwrap();
+    assert_eq!(conditions.aperture, Some(ApertureSpec::WorkingFNumber(5.0)));
+    let system = LensSystem::new(loaded.prescription, &loaded.map).unwrap();
+    let a = analyze("finite", &system, &AnalyzeOptions::default()).unwrap();
+    assert!(
+        (a.first_order.working_f_number - 5.0).abs() < 1e-12,
+        "{}",
+        a.first_order.working_f_number
+    );
+    assert!(
+        (a.first_order.image_height.abs() - 3.0).abs() < 1e-9,
+        "{}",
+        a.first_order.image_height
+    );
+}
+
+/// Nor does a derived aperture reach past the knife edge where a lens's two faces meet: a
+/// biconvex singlet R = +-20 mm, 5 mm thick, has its edge at sqrt(20^2 - 17.5^2) mm, inside the
+/// 30 mm beam the file asks for (optiland's lens_floa.zmx is this lens behind a floating stop).
+#[test]
+fn derived_apertures_stop_where_the_faces_of_a_lens_meet() {
+    let loaded = codev("EPD 30\nSO 0 1e11\nS 20 5 N-BK7\nS -20 30\nSI 0 0\n").unwrap();
+    let edge = (20.0f64 * 20.0 - 17.5 * 17.5).sqrt();
+    for s in &loaded.prescription.surfaces {
+        assert!((s.semi_aperture - edge).abs() < 1e-9, "{}", s.semi_aperture);
+    }
+    assert!(loaded.notes.contains(&LoadNote::AperturesDerived {
+        surfaces: vec![1, 2],
+        limited_at_edge: vec![1, 2],
+    }));
+    LensSystem::new(loaded.prescription, &loaded.map).unwrap();
 }

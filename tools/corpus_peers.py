@@ -24,6 +24,9 @@ PEER_FILES = [
     "rayoptics__CODV_32327.seq",
     "rayoptics__CODV_65564.seq",
     "rayoptics__unfolded_lenses_w_ape.seq",
+    "rayoptics__CODV_65988_noDOE.seq",
+    # rayoptics ignores FLOA (float by stop size) and takes EPD 1: only EFL and BFL compare.
+    "optiland__lens_floa.zmx",
 ]
 
 

@@ -361,7 +361,13 @@ fn stated_epd(
 ) -> Option<f64> {
     let epd = match (aperture, object_distance_mm) {
         (ApertureSpec::EntrancePupilDiameter(d), _) => Some(*d),
-        (ApertureSpec::FNumber(f), None) => Some(probe.first_order.efl.abs() / f),
+        (ApertureSpec::FNumber(f), _) => Some(probe.first_order.efl.abs() / f),
+        // The marginal ray scales with the pupil: F = 1 / (2 n' u') fixes u', hence the pupil.
+        (ApertureSpec::WorkingFNumber(f), _) => {
+            let slope = probe.marginal.image_slope().abs();
+            let wanted = 1.0 / (2.0 * probe.first_order.image_index * f);
+            (slope > 0.0).then(|| probe.entrance_pupil.diameter * wanted / slope)
+        }
         (ApertureSpec::ObjectNumericalAperture(na), Some(distance)) => {
             let n = probe.first_order.object_index;
             (*na > 0.0 && *na < n)

@@ -70,8 +70,12 @@ pub struct Conditions {
 pub enum ApertureSpec {
     /// Entrance-pupil diameter, mm (Zemax `ENPD`, CODE V `EPD`).
     EntrancePupilDiameter(f64),
-    /// Image-space F-number for an object at infinity (Zemax `FNUM`, CODE V `FNO`).
+    /// Image-space F-number EFL / EPD, the paraxial infinite-conjugate one at any object
+    /// distance (Zemax `FNUM`, CODE V `FNO` with the object at infinity).
     FNumber(f64),
+    /// Working F-number 1 / (2 n' u') of the paraxial marginal ray from the axial object point,
+    /// at the file's object distance (CODE V `FNO` with a finite object, as rayoptics reads it).
+    WorkingFNumber(f64),
     /// Object-space numerical aperture n sin u (Zemax `OBNA`, CODE V `NAO`).
     ObjectNumericalAperture(f64),
     /// The stop's own semi-aperture sets the beam (Zemax "float by stop size").

@@ -28,8 +28,10 @@ use crate::prescription::validate::{SourceMap, check_stop};
 #[derive(Clone, Debug, PartialEq)]
 pub(super) enum PupilSize {
     Diameter(f64),
-    /// Image-space F-number for an object at infinity: EPD = EFL / F.
+    /// Image-space F-number: EPD = EFL / F at any object distance.
     FNumber(f64),
+    /// Working F-number 1 / (2 n' u') of the axial marginal ray at the object distance.
+    WorkingFNumber(f64),
     /// The stop's own semi-aperture sets the beam (Zemax "float by stop size").
     FloatByStop,
     /// Object-space numerical aperture n sin u (finite objects).
@@ -82,6 +84,7 @@ impl BeamSpec {
         let pupil = match &conditions.aperture {
             Some(ApertureSpec::EntrancePupilDiameter(d)) => PupilSize::Diameter(*d),
             Some(ApertureSpec::FNumber(f)) => PupilSize::FNumber(*f),
+            Some(ApertureSpec::WorkingFNumber(f)) => PupilSize::WorkingFNumber(*f),
             Some(ApertureSpec::ObjectNumericalAperture(na)) => {
                 PupilSize::ObjectNumericalAperture(*na)
             }
@@ -144,12 +147,13 @@ pub(super) fn complete(
     map: SourceMap,
     format: Format,
 ) -> Result<Loaded, PrescriptionError> {
-    derive(&mut prescription, missing, beams, &map)?;
+    let at_edge = derive(&mut prescription, missing, beams, &map)?;
     let notes = if missing.is_empty() {
         Vec::new()
     } else {
         vec![LoadNote::AperturesDerived {
             surfaces: missing.iter().map(|i| i + 1).collect(),
+            limited_at_edge: at_edge.iter().map(|i| i + 1).collect(),
         }]
     };
     Ok(Loaded {
@@ -160,15 +164,17 @@ pub(super) fn complete(
     })
 }
 
+/// Derives the missing apertures; returns the surfaces (0-based) limited where they end.
 fn derive(
     p: &mut Prescription,
     missing: &[usize],
     beams: &BeamSpec,
     map: &SourceMap,
-) -> Result<(), PrescriptionError> {
+) -> Result<Vec<usize>, PrescriptionError> {
     let Some(&first) = missing.first() else {
-        return Ok(());
+        return Ok(Vec::new());
     };
+    let mut at_edge = Vec::new();
     let cannot = |reason: String| {
         PrescriptionError::new(
             map.surface(first, "semi_aperture"),
@@ -192,6 +198,20 @@ fn derive(
     // The entrance pupil: a ray with slope 1 crosses the axis at z = b/a and passes the stop centre.
     let pupil_z = b / a;
 
+    // Image-space slope of a ray from the axial object point with object-space slope 1 (at
+    // infinity: of a ray parallel to the axis at height 1), and the paraxial magnification.
+    let axial = match beams.object_distance {
+        None => unit_height.final_slope,
+        Some(distance) => trace(p, &indices, distance, 1.0).final_slope,
+    };
+    let image_index = indices[indices.len() - 1];
+    let from_slope = |y_per_unit: f64, u_per_unit: f64, slope: f64| {
+        if axial == 0.0 || !axial.is_finite() {
+            return Err(cannot("an F-number needs a lens with focal power".into()));
+        }
+        let scale = slope / axial.abs();
+        Ok((y_per_unit * scale, u_per_unit * scale))
+    };
     // The axial marginal ray as (y1, u0).
     let (y1, u0) = match (&beams.pupil, beams.object_distance) {
         (PupilSize::Diameter(d), None) => (d / 2.0, 0.0),
@@ -203,18 +223,28 @@ fn derive(
             let u = d / 2.0 / reach;
             (u * distance, u)
         }
-        (PupilSize::FNumber(f), None) => {
+        (PupilSize::FNumber(f), distance) => {
             let final_slope = unit_height.final_slope;
             if final_slope == 0.0 || !final_slope.is_finite() {
                 return Err(cannot("an F-number needs a lens with focal power".into()));
             }
             let efl = -1.0 / final_slope;
-            (efl.abs() / f / 2.0, 0.0)
+            let d = efl.abs() / f;
+            match distance {
+                None => (d / 2.0, 0.0),
+                Some(distance) => {
+                    let reach = pupil_z + distance;
+                    if reach <= 0.0 {
+                        return Err(cannot("the entrance pupil lies before the object".into()));
+                    }
+                    let u = d / 2.0 / reach;
+                    (u * distance, u)
+                }
+            }
         }
-        (PupilSize::FNumber(_), Some(_)) => {
-            return Err(cannot(
-                "an F-number aperture needs an object at infinity".into(),
-            ));
+        (PupilSize::WorkingFNumber(f), None) => from_slope(1.0, 0.0, 1.0 / (2.0 * image_index * f))?,
+        (PupilSize::WorkingFNumber(f), Some(distance)) => {
+            from_slope(distance, 1.0, 1.0 / (2.0 * image_index * f))?
         }
         (PupilSize::FloatByStop, distance) => {
             let stop_radius = p.surfaces[stop].semi_aperture;
@@ -267,10 +297,14 @@ fn derive(
                 }
                 h * power
             }
-            (FieldPosition::ImageHeight(_), Some(_)) => {
-                return Err(cannot(
-                    "the fields are image heights of an object at a finite distance".into(),
-                ));
+            // A finite object: the object height the paraxial magnification
+            // m = n u / (n' u') images to that height.
+            (FieldPosition::ImageHeight(h), Some(distance)) => {
+                let magnification = indices[0] / (image_index * axial);
+                if magnification == 0.0 || !magnification.is_finite() {
+                    return Err(cannot("the object is imaged to infinity".into()));
+                }
+                h / magnification.abs() / (distance + pupil_z)
             }
         };
         chiefs.push((field, trace(p, &indices, -pupil_z * slope, slope).heights));
@@ -296,9 +330,71 @@ fn derive(
                 },
             ));
         }
+        // Rays this far out would miss the surface: a sphere ends at |R|, a conic (k > -1) at
+        // 1 / (|c| sqrt(1 + k)). The paraxial estimate knows no such end; the surface does.
+        let shape = &p.surfaces[i].shape;
+        let rim_sq = (1.0 + shape.conic()) * shape.curvature().powi(2);
+        if rim_sq > 0.0 && radius > 1.0 / rim_sq.sqrt() {
+            radius = 1.0 / rim_sq.sqrt();
+            at_edge.push(i);
+        }
         p.surfaces[i].semi_aperture = radius;
     }
-    Ok(())
+    // Nor does a surface go on past the height where it meets its neighbour (an element's
+    // knife edge, or two elements touching): no glass, or no room, lies beyond it. Lowering an
+    // aperture never makes another pair cross, since pairs are checked within the smaller one.
+    for i in 0..p.surfaces.len().saturating_sub(1) {
+        let derived = [missing.contains(&i), missing.contains(&(i + 1))];
+        if derived == [false, false] {
+            continue;
+        }
+        if let Some(meet) = meeting_height(p, i) {
+            for (k, was_derived) in [i, i + 1].into_iter().zip(derived) {
+                if was_derived && p.surfaces[k].semi_aperture > meet {
+                    p.surfaces[k].semi_aperture = meet;
+                    at_edge.push(k);
+                }
+            }
+        }
+    }
+    at_edge.sort_unstable();
+    at_edge.dedup();
+    Ok(at_edge)
+}
+
+/// Samples of the gap between two surfaces in the search for where they meet.
+const MEETING_SAMPLES: usize = 512;
+
+/// The smallest height, within the smaller of the two apertures, at which surface `i` and the
+/// next meet (their gap falls to zero), if they do; None when they stay apart there, or already
+/// cross on the axis (validation reports that).
+fn meeting_height(p: &Prescription, i: usize) -> Option<f64> {
+    let (a, b) = (&p.surfaces[i], &p.surfaces[i + 1]);
+    let gap = |r: f64| Some(a.thickness + b.shape.sag(r)? - a.shape.sag(r)?);
+    if !(a.thickness > 0.0) {
+        return None;
+    }
+    let r_max = a.semi_aperture.min(b.semi_aperture);
+    let mut apart = 0.0;
+    for k in 1..=MEETING_SAMPLES {
+        let r = r_max * k as f64 / MEETING_SAMPLES as f64;
+        if gap(r)? >= 0.0 {
+            apart = r;
+            continue;
+        }
+        // The gap changes sign between `apart` and r: bisect to the meeting height.
+        let mut crossed = r;
+        for _ in 0..60 {
+            let middle = 0.5 * (apart + crossed);
+            if gap(middle)? >= 0.0 {
+                apart = middle;
+            } else {
+                crossed = middle;
+            }
+        }
+        return Some(apart);
+    }
+    None
 }
 
 /// Index before surface 1 (entry 0) and after each surface, at one wavelength.

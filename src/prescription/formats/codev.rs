@@ -9,15 +9,16 @@
 //! `XAN`/`YAN` (angles), `XOB`/`YOB` (object heights), `XIM`/`YIM` (paraxial image heights) or
 //! `XRI`/`YRI` (real image heights) with `WTF` (weights), `VUY`/`VLY`/`VUX`/`VLX` (vignetting
 //! factors), `SO` (object: distance, medium), `S value thickness [glass]`, `SI` (image), `STO`
-//! (without one, surface 1 is the stop, as in CODE V), `CIR` (clear aperture radius), `K`
+//! or `STOP` (without one, surface 1 is the stop, as in CODE V), `CIR` (clear aperture radius), `K`
 //! (conic), `A` `B` `C` `D` `E` `F` `G` `H` `J` (even-asphere terms r^4 .. r^20), `RDY`, `CUY`,
-//! `THI`, `GLA`, `GO` (end of input). Object distance, aperture, fields and wavelengths become the
+//! `THI`, `GLA`, `CUF 0` (written into every ASP block), pickups `PIK` of `RDY`, `CUY`, `THI`
+//! and `K` with scale and offset (evaluated after the last surface), `GO` (end of input). Object distance, aperture, fields and wavelengths become the
 //! prescription's [`crate::prescription::Conditions`].
 //!
 //! Skipped as harmless (they change no surface) and listed in one note: see `HARMLESS`.
 //!
 //! Refused with a message naming the command and line: every other command (decentres, tilts,
-//! pickups `PIK`, solves such as `CUF`, zoom positions, mirrors (`REFL`), non-circular
+//! other pickups, a `CUF` other than 0, solves, zoom positions, mirrors (`REFL`), non-circular
 //! apertures and obscurations (`REX`, `REY`, `CA OBS`, ...), private catalogues `PRV`), a curved
 //! object or image surface, and `CIR` forms other than a plain radius. Image-height fields and
 //! numerical apertures are refused only when a clear aperture must be derived from them (see
@@ -192,6 +193,28 @@ struct Reader {
     object_medium: Option<Medium>,
     surfaces: Vec<SeqSurface>,
     current: Option<Current>,
+    /// Pickups (`PIK`), applied in file order once every surface is read.
+    pickups: Vec<Pickup>,
+}
+
+/// Lens data a pickup copies between surfaces.
+#[derive(Clone, Copy, PartialEq)]
+enum PickupItem {
+    Radius,
+    Curvature,
+    Thickness,
+    Conic,
+}
+
+/// `PIK item Sk item Sj [scale [offset]]`: item of surface k = scale * (item of surface j) +
+/// offset, as CODE V defines a pickup (both items the same).
+struct Pickup {
+    line: usize,
+    item: PickupItem,
+    target: usize,
+    source: usize,
+    scale: f64,
+    offset: f64,
 }
 
 pub(super) fn read(text: &str, source: &Source) -> Result<Loaded, PrescriptionError> {
@@ -390,12 +413,13 @@ impl Reader {
                 }
                 self.current = Some(Current::Image);
             }
-            "STO" => match self.current() {
+            // CODE V reads a command by its first three letters; files write STOP for STO too.
+            "STO" | "STOP" => match self.current() {
                 Current::Surface(i) => self.surfaces[i].stop = true,
                 _ => {
                     return Err(PrescriptionError::new(
-                        at("STO"),
-                        Problem::Syntax("STO must follow a lens surface (S)".into()),
+                        at(name),
+                        Problem::Syntax(format!("{name} must follow a lens surface (S)")),
                     ));
                 }
             },
@@ -483,6 +507,23 @@ impl Reader {
                     Current::Image | Current::Nothing => {}
                 }
             }
+            // CODE V writes `CUF 0.0` into every ASP block; zero leaves the profile as K and
+            // A..J give it. lensbake does not model another value.
+            "CUF" => {
+                let value = one("CUF")?;
+                if value != 0.0 {
+                    return Err(unsupported(format!(
+                        "CUF {value} (only the CUF 0 that CODE V writes in every ASP block is read)"
+                    )));
+                }
+                self.skipped.insert("CUF 0".into());
+            }
+            "PIK" => {
+                let pickup = pickup(c).map_err(|why| {
+                    unsupported(format!("pickup `PIK {}`: {why}", c.args.join(" ")))
+                })?;
+                self.pickups.push(pickup);
+            }
             harmless if HARMLESS.contains(&harmless) => {
                 self.skipped.insert(harmless.to_string());
             }
@@ -561,10 +602,11 @@ impl Reader {
         }
     }
 
-    fn finish(self, source: &Source) -> Result<Loaded, PrescriptionError> {
+    fn finish(mut self, source: &Source) -> Result<Loaded, PrescriptionError> {
         if self.surfaces.is_empty() {
             return Err(source.error(None, Problem::Empty));
         }
+        self.apply_pickups(source)?;
         let wavelength = match self.reference {
             Some((reference, line)) => match self.wavelengths.get(reference - 1) {
                 Some(&nm) => Some(nm),
@@ -652,6 +694,47 @@ impl Reader {
         Ok(loaded)
     }
 
+    /// Evaluates the pickups in file order, so a pickup may read what an earlier one wrote.
+    fn apply_pickups(&mut self, source: &Source) -> Result<(), PrescriptionError> {
+        for pickup in std::mem::take(&mut self.pickups) {
+            let count = self.surfaces.len();
+            for k in [pickup.target, pickup.source] {
+                if !(1..=count).contains(&k) {
+                    return Err(PrescriptionError::new(
+                        source.location(Some(pickup.line)).with_field("PIK"),
+                        Problem::Unsupported(format!(
+                            "a pickup naming surface S{k}; the lens has surfaces S1..S{count}"
+                        )),
+                    ));
+                }
+            }
+            let from = &self.surfaces[pickup.source - 1];
+            let curvature = match (from.radius_mode, from.value) {
+                (false, c) => c,
+                (true, 0.0) => 0.0,
+                (true, r) => 1.0 / r,
+            };
+            let picked = |value: f64| pickup.scale * value + pickup.offset;
+            let value = match pickup.item {
+                PickupItem::Radius if curvature == 0.0 => 0.0,
+                PickupItem::Radius => picked(1.0 / curvature),
+                PickupItem::Curvature => picked(curvature),
+                PickupItem::Thickness => picked(from.thickness),
+                PickupItem::Conic => picked(from.conic),
+            };
+            let to = &mut self.surfaces[pickup.target - 1];
+            match pickup.item {
+                PickupItem::Radius | PickupItem::Curvature => {
+                    to.value = value;
+                    to.radius_mode = pickup.item == PickupItem::Radius;
+                }
+                PickupItem::Thickness => to.thickness = value,
+                PickupItem::Conic => to.conic = value,
+            }
+        }
+        Ok(())
+    }
+
     /// Object distance, aperture, fields and wavelengths as the file states them, in mm and nm.
     fn conditions(&self, primary_nm: Option<f64>) -> Conditions {
         let mm = self.mm_per_unit;
@@ -663,18 +746,22 @@ impl Reader {
                 .map(|k| list.get(k).copied().unwrap_or(0.0) * unit)
                 .collect()
         };
+        let object_distance_mm = self
+            .object_distance
+            .map(|d| d * mm)
+            .filter(|d| d.abs() < INFINITE_OBJECT_MM);
+        let finite_object = object_distance_mm.is_some();
         let aperture = match (self.epd, self.f_number, self.object_na) {
             (Some(epd), _, _) => Some(ApertureSpec::EntrancePupilDiameter(epd * mm)),
+            // CODE V's FNO is the image-space F-number at the lens's conjugates.
+            (None, Some(f), _) if finite_object => Some(ApertureSpec::WorkingFNumber(f)),
             (None, Some(f), _) => Some(ApertureSpec::FNumber(f)),
             (None, None, Some(na)) => Some(ApertureSpec::ObjectNumericalAperture(na)),
             (None, None, None) => None,
         };
         let weights = &self.wavelength_weights;
         Conditions {
-            object_distance_mm: self
-                .object_distance
-                .map(|d| d * mm)
-                .filter(|d| d.abs() < INFINITE_OBJECT_MM),
+            object_distance_mm,
             aperture,
             fields: (count > 0).then(|| FieldSpec {
                 kind,
@@ -691,6 +778,64 @@ impl Reader {
             wavelengths_nm: self.wavelengths.clone(),
         }
     }
+}
+
+/// Parses `PIK item Sk [Z1] item Sj [Z1] [scale [offset]]`; the error says which part is not
+/// read. Zoom positions other than the first are refused with the rest of zoom.
+fn pickup(c: &Command) -> Result<Pickup, String> {
+    let upper: Vec<String> = c.args.iter().map(|w| w.to_ascii_uppercase()).collect();
+    let mut words = upper.into_iter().peekable();
+    let (item, target) = item_and_surface(&mut words)?;
+    let (source_item, source) = item_and_surface(&mut words)?;
+    if source_item != item {
+        return Err("a pickup between different items".into());
+    }
+    let mut number = |name: &str, default: f64| match words.next() {
+        None => Ok(default),
+        Some(w) => w
+            .parse::<f64>()
+            .ok()
+            .filter(|v| v.is_finite())
+            .ok_or_else(|| format!("the {name} `{w}` is not a finite number")),
+    };
+    let scale = number("scale", 1.0)?;
+    let offset = number("offset", 0.0)?;
+    if words.next().is_some() {
+        return Err("more words than item, surface, item, surface, scale and offset".into());
+    }
+    Ok(Pickup {
+        line: c.line,
+        item,
+        target,
+        source,
+        scale,
+        offset,
+    })
+}
+
+type Words = std::iter::Peekable<std::vec::IntoIter<String>>;
+
+/// One `item Sk [Z1]` of a pickup.
+fn item_and_surface(words: &mut Words) -> Result<(PickupItem, usize), String> {
+    let item = match words.next().as_deref() {
+        Some("RDY") => PickupItem::Radius,
+        Some("CUY") => PickupItem::Curvature,
+        Some("THI") => PickupItem::Thickness,
+        Some("K") => PickupItem::Conic,
+        Some(other) => return Err(format!("item {other} is not read (RDY, CUY, THI, K are)")),
+        None => return Err("an item and a surface are missing".into()),
+    };
+    let surface = words.next().ok_or("a surface (Sk) is missing")?;
+    let k = surface
+        .strip_prefix('S')
+        .and_then(|k| k.parse::<usize>().ok())
+        .ok_or_else(|| format!("`{surface}` is not a surface Sk"))?;
+    if let Some(zoom) = words.next_if(|w| w.starts_with('Z'))
+        && zoom != "Z1"
+    {
+        return Err(format!("zoom position {zoom} (zoom files are not read)"));
+    }
+    Ok((item, k))
 }
 
 /// An object distance: a number, possibly infinite, never NaN.

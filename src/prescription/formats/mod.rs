@@ -151,7 +151,13 @@ pub enum LoadNote {
     PbrtFirstThicknessZero,
     /// The file gave no clear aperture for these surfaces (1-based); they were derived from
     /// the paraxial marginal and chief rays of the file's beams (CODE V and Zemax files only).
-    AperturesDerived { surfaces: Vec<usize> },
+    /// `limited_at_edge` lists those whose paraxial height lay beyond where the surface ends (a
+    /// sphere at |R|, or where it meets its neighbour): their aperture ends there, and rays
+    /// beyond it miss the surface.
+    AperturesDerived {
+        surfaces: Vec<usize>,
+        limited_at_edge: Vec<usize>,
+    },
     /// Keywords the file uses that change nothing lensbake models (display, merit function,
     /// tolerancing, coatings, ...), skipped; listed once, sorted.
     SkippedKeywords { keywords: Vec<String> },
@@ -167,15 +173,31 @@ impl fmt::Display for LoadNote {
                  previous surface (axpos), read it with the distance-from-previous option \
                  (--pbrt-from-previous)"
             ),
-            LoadNote::AperturesDerived { surfaces } => write!(
-                f,
-                "the file gives no clear aperture for surface{} {}; derived from paraxial marginal \
-                 and chief rays at the file's entrance pupil, fields and vignetting factors \
-                 (real-ray clear apertures, as CODE V or Zemax compute them, can differ by several \
-                 percent at wide fields)",
-                if surfaces.len() == 1 { "" } else { "s" },
-                list_ranges(surfaces)
-            ),
+            LoadNote::AperturesDerived {
+                surfaces,
+                limited_at_edge,
+            } => {
+                write!(
+                    f,
+                    "the file gives no clear aperture for surface{} {}; derived from paraxial \
+                     marginal and chief rays at the file's entrance pupil, fields and vignetting \
+                     factors (real-ray clear apertures, as CODE V or Zemax compute them, can \
+                     differ by several percent at wide fields)",
+                    plural(surfaces),
+                    list_ranges(surfaces)
+                )?;
+                if !limited_at_edge.is_empty() {
+                    write!(
+                        f,
+                        "; on surface{} {} those rays reach beyond where the surface ends (the \
+                         rim of a sphere or conic, or where it meets its neighbour), so the \
+                         aperture ends there and rays beyond it are vignetted",
+                        plural(limited_at_edge),
+                        list_ranges(limited_at_edge)
+                    )?;
+                }
+                Ok(())
+            }
             LoadNote::SkippedKeywords { keywords } => write!(
                 f,
                 "skipped keywords that change nothing lensbake models: {}",
@@ -183,6 +205,10 @@ impl fmt::Display for LoadNote {
             ),
         }
     }
+}
+
+fn plural(list: &[usize]) -> &'static str {
+    if list.len() == 1 { "" } else { "s" }
 }
 
 /// "1-4, 6, 9-11" for [1, 2, 3, 4, 6, 9, 10, 11].
