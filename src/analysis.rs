@@ -4,8 +4,8 @@
 mod conditions;
 
 pub use conditions::{
-    ConditionOverrides, DesignConditions, FIELD_FRACTIONS, Origin, RULE_MAX_FIELD_DEG,
-    rule_field_deg,
+    ConditionOverrides, DesignConditions, FIELD_FRACTIONS, FileDefaults, Origin,
+    RULE_MAX_FIELD_DEG, rule_field_deg,
 };
 
 use crate::paraxial::{Paraxial, ParaxialError, Pupil, RayAtSurface, StopChoice};

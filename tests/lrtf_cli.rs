@@ -142,3 +142,51 @@ fn eval_with_a_lens_checks_the_prescription_hash() {
         "{message}"
     );
 }
+
+/// A CODE V lens that states EPD 10, an object 2000 mm away and three wavelengths.
+const STATED_CONDITIONS: &str = "EPD 10\nWL 656.2725 587.5618 486.1327\nREF 2\nSO 0 2000\n\
+                                 S 50 5 N-BK7\nS -50 47\nSI 0 0\n";
+
+/// Where no flag is given, a bake takes the lens file's aperture as its f-number and the file's
+/// object distance as its focus, and says so; flags override both.
+#[test]
+fn bake_defaults_to_the_files_aperture_and_object_distance() {
+    let dir = scratch("file-defaults");
+    let lens = dir.join("stated.seq");
+    std::fs::write(&lens, STATED_CONDITIONS).unwrap();
+    let options = lensbake::prescription::formats::LoadOptions::default();
+    let loaded = lensbake::lenses::load(lens.to_str().unwrap(), &options).unwrap();
+    let efl = lensbake::analysis::analyze(
+        "stated",
+        &loaded.system,
+        &lensbake::analysis::AnalyzeOptions::default(),
+    )
+    .unwrap()
+    .first_order
+    .efl;
+    let out = dir.join("table");
+    let bake = |extra: &[&str]| {
+        let mut args = vec![
+            "bake",
+            lens.to_str().unwrap(),
+            "--resolution",
+            "4",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        let o = lensbake(&args);
+        assert!(o.status.success(), "{}", stderr(&o));
+        (stderr(&o), lensbake::lrtf::io::read_sidecar(&out).unwrap().info)
+    };
+    let (said, info) = bake(&[]);
+    assert!((info.f_number - efl / 10.0).abs() < 1e-12, "{}", info.f_number);
+    assert_eq!(info.focus.far_mm, Some(2000.0));
+    assert!(said.contains(&format!("f/{:.3} from the lens file", efl / 10.0)), "{said}");
+    assert!(said.contains("focus 2000.000 mm, the lens file's object distance"), "{said}");
+
+    let (said, info) = bake(&["--f-number", "8", "--focus-mm", "inf"]);
+    assert_eq!((info.f_number, info.focus.far_mm), (8.0, None));
+    assert!(!said.contains("from the lens file"), "{said}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

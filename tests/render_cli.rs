@@ -375,3 +375,42 @@ fn auto_backend_passes_over_a_software_rasteriser_and_says_why() {
         assert!(line.contains("software rasteriser"), "{line}");
     }
 }
+
+/// Where no flag is given, a render takes the lens file's aperture, object distance (as the
+/// focus) and three wavelengths (R, G, B, longest first), and says so; flags override each.
+#[test]
+fn render_defaults_to_the_files_stated_conditions() {
+    let dir = temp_dir("file-defaults");
+    let lens = dir.join("stated.seq");
+    std::fs::write(
+        &lens,
+        "EPD 10\nWL 486.1327 587.5618 656.2725\nREF 2\nSO 0 2000\nS 50 5 N-BK7\nS -50 47\nSI 0 0\n",
+    )
+    .unwrap();
+    let lens = lens.to_str().unwrap();
+    let said = render(&dir, "file", &["--lens", lens, "--chromatic", "on"]);
+    for line in [
+        "lens file: focus 2000.000 mm: the lens file's object distance",
+        "lens file: R/G/B wavelengths 656.3/587.6/486.1 nm from the lens file",
+        "chromatic: on, R/G/B at 656.3/587.6/486.1 nm",
+    ] {
+        assert!(said.contains(line), "{line}\n{said}");
+    }
+    assert!(said.contains(" from the lens file\n") && said.contains("lens file: f/"), "{said}");
+    let flags = [
+        "--lens",
+        lens,
+        "--focus-mm",
+        "5000",
+        "--f-number",
+        "8",
+        "--wavelengths-nm",
+        "640,550,460",
+        "--chromatic",
+        "on",
+    ];
+    let said = render(&dir, "flags", &flags);
+    assert!(!said.contains("lens file:"), "{said}");
+    assert!(said.contains("R/G/B at 640.0/550.0/460.0 nm"), "{said}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -313,6 +313,64 @@ impl DesignConditions {
     }
 }
 
+/// What a lens file states that a bake or a render takes where the user gives no flag: the
+/// f-number of the stated aperture, the stated object distance as the focus, and the stated
+/// wavelengths when there are three (R, G, B: longest first). Each is None where the file
+/// states none, and the command keeps its own default.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct FileDefaults {
+    pub f_number: Option<f64>,
+    pub focus_mm: Option<f64>,
+    pub rgb_wavelengths_nm: Option<[f64; 3]>,
+    /// A stated aperture wider than the stop opens (the stop's own aperture is used).
+    pub notes: Vec<String>,
+}
+
+impl FileDefaults {
+    pub fn of(system: &LensSystem) -> Result<FileDefaults, AnalysisError> {
+        let Some(stated) = system.prescription.provenance.conditions.as_ref() else {
+            return Ok(FileDefaults::default());
+        };
+        let resolved = DesignConditions::resolve(system, &ConditionOverrides::default())?;
+        let mut notes = Vec::new();
+        let f_number = if resolved.aperture_from == Origin::File {
+            let at = system.at_checked(resolved.reference_nm)?;
+            let wide_open = Paraxial::new(
+                &at,
+                &ParaxialOptions {
+                    aperture: Aperture::StopClearAperture,
+                    ..resolved.paraxial_options()
+                },
+            )?
+            .f_number
+            .abs();
+            let stated = resolved.f_number.abs();
+            if stated < wide_open {
+                notes.push(format!(
+                    "the file's aperture (f/{stated:.3}) is wider than the stop opens: the \
+                     stop's f/{wide_open:.3} is used"
+                ));
+            }
+            Some(stated.max(wide_open))
+        } else {
+            None
+        };
+        let mut listed = stated.wavelengths_nm.clone();
+        listed.sort_by(|a, b| b.total_cmp(a));
+        listed.dedup();
+        Ok(FileDefaults {
+            f_number,
+            focus_mm: if resolved.object_from == Origin::File {
+                resolved.object_distance_mm
+            } else {
+                None
+            },
+            rgb_wavelengths_nm: <[f64; 3]>::try_from(listed.as_slice()).ok(),
+            notes,
+        })
+    }
+}
+
 /// The top field, 0.7 of it and the axis.
 fn fractions_of(top_deg: f64) -> Vec<f64> {
     FIELD_FRACTIONS.iter().map(|f| f * top_deg).collect()

@@ -8,6 +8,7 @@ use clap::{Args, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::{Deserialize, Serialize};
 
+use lensbake::analysis::FileDefaults;
 use lensbake::job::default_table_dir;
 use lensbake::job::tables::DEFAULT_TABLES_ROOT;
 use lensbake::lrtf::bake::{BakeRequest, bake, first_order};
@@ -174,17 +175,32 @@ fn parse_resolution(text: &str) -> anyhow::Result<[usize; 3]> {
 
 pub fn run_bake(args: BakeArgs) -> anyhow::Result<()> {
     let lens = args.lens.load()?;
+    // Where no flag is given, the lens file's stated aperture and object distance decide.
+    let defaults = FileDefaults::of(&lens.system)?;
+    for note in &defaults.notes {
+        eprintln!("note: {}: {note}", lens.source.origin);
+    }
+    let f_number = args.f_number.or(defaults.f_number);
+    if let (None, Some(f)) = (args.f_number, defaults.f_number) {
+        eprintln!("note: {}: f/{f:.3} from the lens file", lens.source.origin);
+    }
     let focus = args.focus_mm.unwrap_or(FocusArg {
-        far_mm: None,
+        far_mm: defaults.focus_mm,
         near_mm: None,
     });
+    if let (None, Some(d)) = (&args.focus_mm, defaults.focus_mm) {
+        eprintln!(
+            "note: {}: focus {d:.3} mm, the lens file's object distance",
+            lens.source.origin
+        );
+    }
     if let Some(budget) = args.error_budget_px {
         return super::tradeoff::bake_within_budget(
             &lens,
             budget,
             &args.scene,
             focus.single("--error-budget-px")?,
-            args.f_number,
+            f_number,
             args.out,
         );
     }
@@ -199,7 +215,7 @@ pub fn run_bake(args: BakeArgs) -> anyhow::Result<()> {
         resolution: parse_resolution(&args.resolution)?,
         precision: Precision::from_name(&args.precision).expect("clap restricts the names"),
         wavelengths_nm: args.wavelengths_nm,
-        f_number: args.f_number,
+        f_number,
         focus_mm: focus.far_mm,
         focus_near_mm: focus.near_mm,
         ..BakeRequest::default()

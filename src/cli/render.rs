@@ -3,9 +3,10 @@
 
 use super::lens::ReadArgs;
 use clap::{Args, ValueEnum};
+use lensbake::analysis::FileDefaults;
 use lensbake::job::{
     BackendChoice, BackendUsed, ChromaticReason, DEFAULT_FOCUS_MM, FocusMode, ModelChoice,
-    PeelMode, RenderJob, Rendered, SceneSpec,
+    PeelMode, RenderJob, RenderLens, Rendered, SceneSpec,
 };
 use lensbake::model::ModelKind;
 use lensbake::render::RenderSettings;
@@ -161,8 +162,37 @@ fn parse_focus_points(text: &str) -> Result<[(u32, u32); 3], String> {
 }
 
 impl RenderArgs {
-    /// The job these arguments describe.
-    fn job(&self) -> anyhow::Result<RenderJob> {
+    /// The job these arguments describe, and what it takes from the lens file's stated
+    /// conditions where no flag is given (one line each, for the user).
+    fn job(&self) -> anyhow::Result<(RenderJob, Vec<String>)> {
+        let lens = super::lens::render_lens(&self.lens, &self.read)?;
+        let defaults = match &lens {
+            RenderLens::Real(loaded) => FileDefaults::of(&loaded.system)?,
+            RenderLens::Ideal { .. } => FileDefaults::default(),
+        };
+        let mut from_file = defaults.notes.clone();
+        let file_f_number = self.f_number.is_none().then_some(defaults.f_number).flatten();
+        if let Some(f) = file_f_number {
+            from_file.push(format!("f/{f:.3} from the lens file"));
+        }
+        let no_focus_flag = self.focus_points.is_none()
+            && self.focus_mm.is_none()
+            && self.focus_pixel.is_none()
+            && self.sensor_mm.is_none();
+        let file_focus = no_focus_flag.then_some(defaults.focus_mm).flatten();
+        if let Some(d) = file_focus {
+            from_file.push(format!("focus {d:.3} mm: the lens file's object distance"));
+        }
+        let file_wavelengths = self
+            .wavelengths_nm
+            .is_none()
+            .then_some(defaults.rgb_wavelengths_nm)
+            .flatten();
+        if let Some([r, g, b]) = file_wavelengths {
+            from_file.push(format!(
+                "R/G/B wavelengths {r:.1}/{g:.1}/{b:.1} nm from the lens file"
+            ));
+        }
         let wavelengths_nm = match &self.wavelengths_nm {
             Some(list) => Some(<[f64; CHANNELS]>::try_from(list.as_slice()).map_err(|_| {
                 anyhow::anyhow!(
@@ -170,7 +200,7 @@ impl RenderArgs {
                     list.len()
                 )
             })?),
-            None => None,
+            None => file_wavelengths,
         };
         let focus = match (
             self.focus_points,
@@ -182,9 +212,11 @@ impl RenderArgs {
             (_, Some(d), _, _) => FocusMode::Distance(d),
             (_, _, _, Some(z)) => FocusMode::Sensor(z),
             (_, _, Some((x, y)), _) => FocusMode::Pixel([x, y]),
-            (None, None, None, None) => FocusMode::Distance(DEFAULT_FOCUS_MM),
+            (None, None, None, None) => {
+                FocusMode::Distance(file_focus.unwrap_or(DEFAULT_FOCUS_MM))
+            }
         };
-        Ok(RenderJob {
+        let job = RenderJob {
             model: match self.error_budget_px {
                 Some(budget) => ModelChoice::ErrorBudgetPx(budget),
                 None => ModelChoice::Model(self.model),
@@ -204,21 +236,25 @@ impl RenderArgs {
                 seed: self.seed,
                 max_layers: self.max_layers,
             },
-            f_number: self.f_number,
+            f_number: self.f_number.or(file_f_number),
             focus,
             shift_mm: [self.shift_mm.0, self.shift_mm.1],
             tilt_deg: [self.tilt_deg.0, self.tilt_deg.1],
             chromatic: self.chromatic.into(),
             wavelengths_nm,
-            ..RenderJob::new(super::lens::render_lens(&self.lens, &self.read)?)
-        })
+            ..RenderJob::new(lens)
+        };
+        Ok((job, from_file))
     }
 }
 
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let png = png_beside(&args.out)?;
-    let job = args.job()?;
+    let (job, from_file) = args.job()?;
     job.settings.check()?;
+    for line in &from_file {
+        say!("lens file: {line}");
+    }
     let rendered = job.run()?;
     print_decisions(&job, &rendered);
     let image = &rendered.image;
