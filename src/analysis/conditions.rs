@@ -322,7 +322,7 @@ pub struct FileDefaults {
     pub f_number: Option<f64>,
     pub focus_mm: Option<f64>,
     pub rgb_wavelengths_nm: Option<[f64; 3]>,
-    /// A stated aperture wider than the stop opens (the stop's own aperture is used).
+    /// A stated aperture wider than the stop opens (then `f_number` is None: wide open).
     pub notes: Vec<String>,
 }
 
@@ -348,10 +348,10 @@ impl FileDefaults {
             if stated < wide_open {
                 notes.push(format!(
                     "the file's aperture (f/{stated:.3}) is wider than the stop opens: the \
-                     stop's f/{wide_open:.3} is used"
+                     lens is used wide open, f/{wide_open:.3}"
                 ));
             }
-            Some(stated.max(wide_open))
+            (stated >= wide_open).then_some(stated)
         } else {
             None
         };
