@@ -7,7 +7,7 @@ use lensbake::job::RenderLens;
 use lensbake::lenses::{self, BUNDLED, LensError, LoadedLens};
 use lensbake::model::ModelKind;
 use lensbake::prescription::formats::{
-    Format, LoadOptions, PbrtThickness, read_str, write_ron_file,
+    Format, LoadOptions, PbrtThickness, read_str, write_pbrt, write_ron_file, write_zemax,
 };
 use lensbake::prescription::{Medium, Shape};
 use lensbake::system::LensSystem;
@@ -17,11 +17,12 @@ use std::path::{Path, PathBuf};
 pub enum LensCommand {
     /// Read and validate a lens, then print a one-screen summary of it.
     Check(LensArgs),
-    /// Convert a lens to lensbake's RON format (validated first; written atomically).
+    /// Convert a lens to lensbake's RON, Zemax .zmx or pbrt .dat (validated first; written
+    /// atomically; what a format cannot hold is refused).
     Convert {
         #[command(flatten)]
         input: LensArgs,
-        /// Output file; must end in .ron.
+        /// Output file: .ron, .zmx or .dat (pbrt).
         #[arg(value_name = "OUT.ron")]
         output: PathBuf,
     },
@@ -132,21 +133,36 @@ pub fn run(command: LensCommand) -> anyhow::Result<()> {
 }
 
 fn convert(input: &LensArgs, output: &Path) -> anyhow::Result<()> {
-    if Format::from_path(output).ok() != Some(Format::Ron) {
+    let format = Format::from_path(output).ok();
+    if !matches!(format, Some(Format::Ron | Format::Zemax | Format::Pbrt)) {
         bail!(
-            "{}: the output must be a .ron file (RON is the only format lensbake writes)",
+            "{}: the output must be a .ron, .zmx or .dat (pbrt) file",
             output.display()
         );
     }
     let lens = input.load()?;
-    write_ron_file(output, &lens.system.prescription)?;
+    let p = &lens.system.prescription;
+    let cannot = |what: &str| format!("cannot write {} as {what}", output.display());
+    match format {
+        Some(Format::Zemax) => {
+            let text = write_zemax(p).with_context(|| cannot("a Zemax file"))?;
+            lensbake::output::write_bytes(output, text.as_bytes())?;
+        }
+        Some(Format::Pbrt) => {
+            let nm = lens.system.design_wavelength_nm();
+            let text = write_pbrt(p, nm).with_context(|| cannot("a pbrt lens file"))?;
+            lensbake::output::write_bytes(output, text.as_bytes())?;
+            eprintln!("note: pbrt holds one index per medium: written at {nm} nm");
+        }
+        _ => write_ron_file(output, p)?,
+    }
     for note in &lens.source.loaded.notes {
         eprintln!("note: {note}");
     }
     say!(
         "wrote {} ({} surfaces, from {})",
         output.display(),
-        lens.system.prescription.surfaces.len(),
+        p.surfaces.len(),
         lens.source.origin
     );
     Ok(())

@@ -22,8 +22,11 @@
 mod apertures;
 mod codev;
 mod columns;
+mod export;
 mod native;
 mod zemax;
+
+pub use export::{write_pbrt, write_zemax};
 
 use super::error::{Location, PrescriptionError, Problem};
 use super::model::{MAX_ASPHERE_TERMS, Medium, Prescription, Shape};

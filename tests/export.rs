@@ -1,0 +1,168 @@
+//! `lens convert` to Zemax `.zmx` and pbrt `.dat`: lensbake -> file -> lensbake gives the same
+//! surfaces (every f64 bit for bit, since numbers are written in their shortest exact form; pbrt
+//! writes radii, so curvatures come back within one rounding) and the same first-order data; what a format cannot hold is refused, naming the surface.
+
+use lensbake::analysis::{AnalyzeOptions, analyze};
+use lensbake::glass::lookup;
+use lensbake::lenses::load;
+use lensbake::prescription::formats::{
+    Format, LoadOptions, read_str, write_pbrt, write_zemax,
+};
+use lensbake::prescription::{Medium, Prescription, Problem};
+use lensbake::system::LensSystem;
+use std::path::{Path, PathBuf};
+
+fn corpus(name: &str) -> String {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/corpus")
+        .join(name)
+        .to_string_lossy()
+        .into_owned()
+}
+
+fn system(spec: &str) -> LensSystem {
+    load(spec, &LoadOptions::default())
+        .unwrap_or_else(|e| panic!("{spec}: {e}"))
+        .system
+}
+
+fn read_back(text: &str, format: Format) -> LensSystem {
+    let loaded = read_str(text, Some(Path::new("written")), format, &LoadOptions::default())
+        .unwrap_or_else(|e| panic!("{e}\n{text}"));
+    LensSystem::new(loaded.prescription, &loaded.map).unwrap_or_else(|e| panic!("{e}\n{text}"))
+}
+
+/// Shape, thickness, clear aperture and stop of every surface, bit for bit; a format that
+/// writes radii (pbrt) gives the curvature back as 1 / (1 / c), within one rounding of c.
+fn assert_same_geometry(a: &Prescription, b: &Prescription, radii: bool, what: &str) {
+    assert_eq!(a.surfaces.len(), b.surfaces.len(), "{what}");
+    for (i, (x, y)) in a.surfaces.iter().zip(&b.surfaces).enumerate() {
+        if radii {
+            let (c, d) = (x.shape.curvature(), y.shape.curvature());
+            assert!((c - d).abs() <= 2.0 * f64::EPSILON * c.abs(), "{what} surface {}", i + 1);
+        } else {
+            assert_eq!(x.shape, y.shape, "{what} surface {}", i + 1);
+        }
+        assert_eq!(x.thickness, y.thickness, "{what} surface {}", i + 1);
+        assert_eq!(x.semi_aperture, y.semi_aperture, "{what} surface {}", i + 1);
+        assert_eq!(x.stop.is_some(), y.stop.is_some(), "{what} surface {}", i + 1);
+    }
+}
+
+/// EFL, BFL, entrance pupil and Seidel sums at one wavelength, relative to 1e-12 (the sums to
+/// 1e-12 of the largest).
+fn assert_same_first_order(a: &LensSystem, b: &LensSystem, nm: f64, what: &str) {
+    let options = AnalyzeOptions {
+        wavelength_nm: Some(nm),
+        epd_mm: Some(4.0),
+        field_deg: Some(5.0),
+        ..AnalyzeOptions::default()
+    };
+    let x = analyze(what, a, &options).unwrap();
+    let y = analyze(what, b, &options).unwrap();
+    let (f, g) = (&x.first_order, &y.first_order);
+    for (name, p, q) in [
+        ("efl", f.efl, g.efl),
+        ("bfl", f.bfl, g.bfl),
+        ("entrance pupil z", f.entrance_pupil.z, g.entrance_pupil.z),
+    ] {
+        assert!(
+            (p - q).abs() <= 1e-12 * p.abs().max(1.0),
+            "{what} {name}: {p} vs {q}"
+        );
+    }
+    let (s, t) = (&x.seidel.sums, &y.seidel.sums);
+    let ours = [s.spherical, s.coma, s.astigmatism, s.petzval, s.distortion];
+    let theirs = [t.spherical, t.coma, t.astigmatism, t.petzval, t.distortion];
+    let scale = ours.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    for (k, (p, q)) in ours.iter().zip(&theirs).enumerate() {
+        assert!((p - q).abs() <= 1e-12 * scale, "{what} S{}: {p} vs {q}", k + 1);
+    }
+}
+
+#[test]
+fn zemax_round_trip_keeps_surfaces_glasses_conditions_and_first_order() {
+    for spec in [
+        "cooke-triplet".to_string(),
+        "codev-dgauss-f2".to_string(),
+        "dgauss-50mm".to_string(),
+        // An even asphere on a model-glass layer, glasses named with a maker suffix.
+        corpus("rayoptics__CODV_49664.seq"),
+        corpus("optiland__lens1.zmx"),
+    ] {
+        let original = system(&spec);
+        let text = write_zemax(&original.prescription).unwrap();
+        let back = read_back(&text, Format::Zemax);
+        let (a, b) = (&original.prescription, &back.prescription);
+        assert_same_geometry(a, b, false, &spec);
+        // A catalogue glass comes back as the same catalogue entry (its spelling may differ:
+        // `SK16_HIKARI` in a bundled lens is `SK16` where no other catalogue has an SK16).
+        for (x, y) in a.surfaces.iter().zip(&b.surfaces) {
+            match (&x.medium, &y.medium) {
+                (Medium::Glass(m), Medium::Glass(n)) => {
+                    let (g, h) = (lookup(m).unwrap(), lookup(n).unwrap());
+                    assert_eq!((g.name, g.maker), (h.name, h.maker), "{spec}");
+                }
+                (m, n) => assert_eq!(m, n, "{spec}"),
+            }
+        }
+        // A lens without stated conditions gets its design wavelength as the file's one
+        // wavelength (a Zemax file needs one); stated conditions come back whole.
+        if a.provenance.conditions.is_some() {
+            assert_eq!(
+                a.provenance.conditions, b.provenance.conditions,
+                "{spec}\n{text}"
+            );
+        }
+        assert_eq!(
+            original.design_wavelength_nm(),
+            back.design_wavelength_nm(),
+            "{spec}"
+        );
+        assert_same_first_order(&original, &back, original.design_wavelength_nm(), &spec);
+    }
+}
+
+#[test]
+fn pbrt_round_trip_keeps_surfaces_and_first_order_at_the_design_wavelength() {
+    for spec in ["dgauss-50mm".to_string(), corpus("optiland__lens1.zmx")] {
+        let original = system(&spec);
+        let nm = original.design_wavelength_nm();
+        let text = write_pbrt(&original.prescription, nm).unwrap();
+        let back = read_back(&text, Format::Pbrt);
+        assert_same_geometry(&original.prescription, &back.prescription, true, &spec);
+        // pbrt holds one index per medium: the glass's index at the design wavelength.
+        for (x, y) in original.prescription.surfaces.iter().zip(&back.prescription.surfaces) {
+            if x.stop.is_none() {
+                let n = lensbake::glass::Dispersion::of(&x.medium).unwrap().index(nm);
+                let expected = if n == 1.0 { Medium::Air } else { Medium::Index(n) };
+                assert_eq!(y.medium, expected, "{spec}");
+            }
+        }
+        assert_same_first_order(&original, &back, nm, &spec);
+    }
+}
+
+#[test]
+fn what_a_format_cannot_hold_is_refused_naming_the_surface() {
+    let asphere = system(&corpus("rayoptics__CODV_49664.seq"));
+    let refusal = |r: Result<String, Problem>| match r {
+        Err(Problem::Unsupported(what)) => what,
+        other => panic!("{other:?}"),
+    };
+    let why = refusal(write_pbrt(&asphere.prescription, 587.6));
+    assert!(why.contains("surface 1") && why.contains("stop"), "{why}");
+    let mut p = system("dgauss-50mm").prescription;
+    p.surfaces[3].shape = lensbake::prescription::Shape::Conic {
+        curvature: 0.02,
+        conic: -0.5,
+    };
+    let why = refusal(write_pbrt(&p, 587.6));
+    assert!(why.contains("surface 4: a conic or aspheric surface"), "{why}");
+    p.surfaces[0].medium = Medium::Sellmeier {
+        b: [1.0, 0.2, 1.0],
+        c: [0.006, 0.02, 100.0],
+    };
+    let why = refusal(write_zemax(&p));
+    assert!(why.contains("surface 1: a medium given by its own coefficients"), "{why}");
+}
