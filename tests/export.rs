@@ -5,9 +5,7 @@
 use lensbake::analysis::{AnalyzeOptions, analyze};
 use lensbake::glass::lookup;
 use lensbake::lenses::load;
-use lensbake::prescription::formats::{
-    Format, LoadOptions, read_str, write_pbrt, write_zemax,
-};
+use lensbake::prescription::formats::{Format, LoadOptions, read_str, write_pbrt, write_zemax};
 use lensbake::prescription::{Medium, Prescription, Problem};
 use lensbake::system::LensSystem;
 use std::path::{Path, PathBuf};
@@ -27,8 +25,13 @@ fn system(spec: &str) -> LensSystem {
 }
 
 fn read_back(text: &str, format: Format) -> LensSystem {
-    let loaded = read_str(text, Some(Path::new("written")), format, &LoadOptions::default())
-        .unwrap_or_else(|e| panic!("{e}\n{text}"));
+    let loaded = read_str(
+        text,
+        Some(Path::new("written")),
+        format,
+        &LoadOptions::default(),
+    )
+    .unwrap_or_else(|e| panic!("{e}\n{text}"));
     LensSystem::new(loaded.prescription, &loaded.map).unwrap_or_else(|e| panic!("{e}\n{text}"))
 }
 
@@ -39,13 +42,22 @@ fn assert_same_geometry(a: &Prescription, b: &Prescription, radii: bool, what: &
     for (i, (x, y)) in a.surfaces.iter().zip(&b.surfaces).enumerate() {
         if radii {
             let (c, d) = (x.shape.curvature(), y.shape.curvature());
-            assert!((c - d).abs() <= 2.0 * f64::EPSILON * c.abs(), "{what} surface {}", i + 1);
+            assert!(
+                (c - d).abs() <= 2.0 * f64::EPSILON * c.abs(),
+                "{what} surface {}",
+                i + 1
+            );
         } else {
             assert_eq!(x.shape, y.shape, "{what} surface {}", i + 1);
         }
         assert_eq!(x.thickness, y.thickness, "{what} surface {}", i + 1);
         assert_eq!(x.semi_aperture, y.semi_aperture, "{what} surface {}", i + 1);
-        assert_eq!(x.stop.is_some(), y.stop.is_some(), "{what} surface {}", i + 1);
+        assert_eq!(
+            x.stop.is_some(),
+            y.stop.is_some(),
+            "{what} surface {}",
+            i + 1
+        );
     }
 }
 
@@ -76,7 +88,11 @@ fn assert_same_first_order(a: &LensSystem, b: &LensSystem, nm: f64, what: &str) 
     let theirs = [t.spherical, t.coma, t.astigmatism, t.petzval, t.distortion];
     let scale = ours.iter().fold(0.0f64, |m, v| m.max(v.abs()));
     for (k, (p, q)) in ours.iter().zip(&theirs).enumerate() {
-        assert!((p - q).abs() <= 1e-12 * scale, "{what} S{}: {p} vs {q}", k + 1);
+        assert!(
+            (p - q).abs() <= 1e-12 * scale,
+            "{what} S{}: {p} vs {q}",
+            k + 1
+        );
     }
 }
 
@@ -132,10 +148,21 @@ fn pbrt_round_trip_keeps_surfaces_and_first_order_at_the_design_wavelength() {
         let back = read_back(&text, Format::Pbrt);
         assert_same_geometry(&original.prescription, &back.prescription, true, &spec);
         // pbrt holds one index per medium: the glass's index at the design wavelength.
-        for (x, y) in original.prescription.surfaces.iter().zip(&back.prescription.surfaces) {
+        for (x, y) in original
+            .prescription
+            .surfaces
+            .iter()
+            .zip(&back.prescription.surfaces)
+        {
             if x.stop.is_none() {
-                let n = lensbake::glass::Dispersion::of(&x.medium).unwrap().index(nm);
-                let expected = if n == 1.0 { Medium::Air } else { Medium::Index(n) };
+                let n = lensbake::glass::Dispersion::of(&x.medium)
+                    .unwrap()
+                    .index(nm);
+                let expected = if n == 1.0 {
+                    Medium::Air
+                } else {
+                    Medium::Index(n)
+                };
                 assert_eq!(y.medium, expected, "{spec}");
             }
         }
@@ -158,11 +185,17 @@ fn what_a_format_cannot_hold_is_refused_naming_the_surface() {
         conic: -0.5,
     };
     let why = refusal(write_pbrt(&p, 587.6));
-    assert!(why.contains("surface 4: a conic or aspheric surface"), "{why}");
+    assert!(
+        why.contains("surface 4: a conic or aspheric surface"),
+        "{why}"
+    );
     p.surfaces[0].medium = Medium::Sellmeier {
         b: [1.0, 0.2, 1.0],
         c: [0.006, 0.02, 100.0],
     };
     let why = refusal(write_zemax(&p));
-    assert!(why.contains("surface 1: a medium given by its own coefficients"), "{why}");
+    assert!(
+        why.contains("surface 1: a medium given by its own coefficients"),
+        "{why}"
+    );
 }

@@ -175,7 +175,10 @@ fn ohara_low_tg_glass_meets_its_printed_indices() {
         (1013.98, 1.57795),
     ] {
         let n = glass.formula.index(nm);
-        assert!((n - printed).abs() < 1e-5, "L-BAL35 at {nm} nm: {n} vs {printed}");
+        assert!(
+            (n - printed).abs() < 1e-5,
+            "L-BAL35 at {nm} nm: {n} vs {printed}"
+        );
     }
 }
 

@@ -177,13 +177,26 @@ fn bake_defaults_to_the_files_aperture_and_object_distance() {
         args.extend_from_slice(extra);
         let o = lensbake(&args);
         assert!(o.status.success(), "{}", stderr(&o));
-        (stderr(&o), lensbake::lrtf::io::read_sidecar(&out).unwrap().info)
+        (
+            stderr(&o),
+            lensbake::lrtf::io::read_sidecar(&out).unwrap().info,
+        )
     };
     let (said, info) = bake(&[]);
-    assert!((info.f_number - efl / 10.0).abs() < 1e-12, "{}", info.f_number);
+    assert!(
+        (info.f_number - efl / 10.0).abs() < 1e-12,
+        "{}",
+        info.f_number
+    );
     assert_eq!(info.focus.far_mm, Some(2000.0));
-    assert!(said.contains(&format!("f/{:.3} from the lens file", efl / 10.0)), "{said}");
-    assert!(said.contains("focus 2000.000 mm, the lens file's object distance"), "{said}");
+    assert!(
+        said.contains(&format!("f/{:.3} from the lens file", efl / 10.0)),
+        "{said}"
+    );
+    assert!(
+        said.contains("focus 2000.000 mm, the lens file's object distance"),
+        "{said}"
+    );
 
     let (said, info) = bake(&["--f-number", "8", "--focus-mm", "inf"]);
     assert_eq!((info.f_number, info.focus.far_mm), (8.0, None));

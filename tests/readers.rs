@@ -172,12 +172,10 @@ fn gcat_order_resolves_glass_names_several_makers_use() {
 fn diam_clap_and_unsized_surfaces() {
     let loaded = read(&singlet("", "  DIAM 0 0 0 0 1 \"\"\n", "")).unwrap();
     assert!(
-        loaded
-            .notes
-            .contains(&LoadNote::AperturesDerived {
-                surfaces: vec![2],
-                limited_at_edge: Vec::new()
-            }),
+        loaded.notes.contains(&LoadNote::AperturesDerived {
+            surfaces: vec![2],
+            limited_at_edge: Vec::new()
+        }),
         "{:?}",
         loaded.notes
     );
@@ -394,7 +392,10 @@ fn codev_cuf_zero_is_read_and_other_values_refused() {
     let shape = &loaded.prescription.surfaces[0].shape;
     assert_eq!((shape.conic(), shape.curvature()), (-0.5, 0.02));
     let e = codev(&asphere("0.25")).unwrap_err();
-    assert!(matches!(&e.problem, Problem::Unsupported(w) if w.contains("CUF 0.25")), "{e}");
+    assert!(
+        matches!(&e.problem, Problem::Unsupported(w) if w.contains("CUF 0.25")),
+        "{e}"
+    );
     assert_eq!((e.location.line, e.location.surface), (Some(6), Some(1)));
 }
 
@@ -421,7 +422,10 @@ fn codev_pickups_copy_radius_thickness_and_conic() {
         ("PIK RDY S3 THI S2", "different items"),
     ] {
         let e = codev(&text.replace("PIK K S2 K S1", pickup)).unwrap_err();
-        assert!(matches!(&e.problem, Problem::Unsupported(w) if w.contains(why)), "{e}");
+        assert!(
+            matches!(&e.problem, Problem::Unsupported(w) if w.contains(why)),
+            "{e}"
+        );
         assert_eq!(e.location.line, Some(line_of(text, "PIK K S2")), "{e}");
     }
 }
@@ -436,7 +440,11 @@ fn derived_apertures_stop_at_the_rim_of_the_surface() {
     let s = &loaded.prescription.surfaces;
     assert_eq!(s[0].semi_aperture, 4.0);
     let conic_rim = 3.0 / 1.5f64.sqrt();
-    assert!((s[1].semi_aperture - conic_rim).abs() < 1e-12, "{}", s[1].semi_aperture);
+    assert!(
+        (s[1].semi_aperture - conic_rim).abs() < 1e-12,
+        "{}",
+        s[1].semi_aperture
+    );
     // The plane's derived aperture is the marginal height there, unlimited.
     assert!(s[2].semi_aperture > 0.0);
     let note = loaded
@@ -451,7 +459,11 @@ fn derived_apertures_stop_at_the_rim_of_the_surface() {
             limited_at_edge: vec![1, 2],
         }
     );
-    assert!(note.to_string().contains("surfaces 1-2 those rays reach beyond"), "{note}");
+    assert!(
+        note.to_string()
+            .contains("surfaces 1-2 those rays reach beyond"),
+        "{note}"
+    );
     LensSystem::new(loaded.prescription, &loaded.map).unwrap();
     // An aperture the file states is the file's: too large, it is still refused.
     let stated = codev(&text.replace("S 4 4 N-BK7\n", "S 4 4 N-BK7\nCIR 4.5\n")).unwrap();

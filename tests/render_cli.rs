@@ -396,7 +396,10 @@ fn render_defaults_to_the_files_stated_conditions() {
     ] {
         assert!(said.contains(line), "{line}\n{said}");
     }
-    assert!(said.contains(" from the lens file\n") && said.contains("lens file: f/"), "{said}");
+    assert!(
+        said.contains(" from the lens file\n") && said.contains("lens file: f/"),
+        "{said}"
+    );
     let flags = [
         "--lens",
         lens,

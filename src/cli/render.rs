@@ -171,7 +171,11 @@ impl RenderArgs {
             RenderLens::Ideal { .. } => FileDefaults::default(),
         };
         let mut from_file = defaults.notes.clone();
-        let file_f_number = self.f_number.is_none().then_some(defaults.f_number).flatten();
+        let file_f_number = self
+            .f_number
+            .is_none()
+            .then_some(defaults.f_number)
+            .flatten();
         if let Some(f) = file_f_number {
             from_file.push(format!("f/{f:.3} from the lens file"));
         }
@@ -212,9 +216,7 @@ impl RenderArgs {
             (_, Some(d), _, _) => FocusMode::Distance(d),
             (_, _, _, Some(z)) => FocusMode::Sensor(z),
             (_, _, Some((x, y)), _) => FocusMode::Pixel([x, y]),
-            (None, None, None, None) => {
-                FocusMode::Distance(file_focus.unwrap_or(DEFAULT_FOCUS_MM))
-            }
+            (None, None, None, None) => FocusMode::Distance(file_focus.unwrap_or(DEFAULT_FOCUS_MM)),
         };
         let job = RenderJob {
             model: match self.error_budget_px {

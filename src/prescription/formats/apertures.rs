@@ -242,7 +242,9 @@ fn derive(
                 }
             }
         }
-        (PupilSize::WorkingFNumber(f), None) => from_slope(1.0, 0.0, 1.0 / (2.0 * image_index * f))?,
+        (PupilSize::WorkingFNumber(f), None) => {
+            from_slope(1.0, 0.0, 1.0 / (2.0 * image_index * f))?
+        }
         (PupilSize::WorkingFNumber(f), Some(distance)) => {
             from_slope(distance, 1.0, 1.0 / (2.0 * image_index * f))?
         }

@@ -27,9 +27,7 @@
 use crate::glass::{Dispersion, lookup};
 use crate::prescription::DEFAULT_WAVELENGTH_NM;
 use crate::prescription::error::Problem;
-use crate::prescription::model::{
-    ApertureSpec, FieldKind, FieldSpec, Medium, Prescription, Shape,
-};
+use crate::prescription::model::{ApertureSpec, FieldKind, FieldSpec, Medium, Prescription, Shape};
 
 /// Terms the Zemax even asphere holds: PARM 1..8 multiply r^2 .. r^16.
 const ZEMAX_ASPHERE_TERMS: usize = 8;
@@ -80,9 +78,16 @@ pub fn write_zemax(p: &Prescription) -> Result<String, Problem> {
                 if !catalogues.contains(&glass.maker) {
                     catalogues.push(glass.maker);
                 }
-                Some(format!("GLAS {} 0 0 {} {}", glass.name, num(glass.nd), num(glass.vd)))
+                Some(format!(
+                    "GLAS {} 0 0 {} {}",
+                    glass.name,
+                    num(glass.nd),
+                    num(glass.vd)
+                ))
             }
-            Medium::Model { nd, vd } => Some(format!("GLAS ___BLANK 1 0 {} {}", num(*nd), num(*vd))),
+            Medium::Model { nd, vd } => {
+                Some(format!("GLAS ___BLANK 1 0 {} {}", num(*nd), num(*vd)))
+            }
             Medium::Index(n) => Some(format!("GLAS ___BLANK 1 0 {} 0", num(*n))),
             Medium::Sellmeier { .. } | Medium::Table { .. } => {
                 return refuse(format!(
@@ -105,7 +110,10 @@ pub fn write_zemax(p: &Prescription) -> Result<String, Problem> {
         out.push('\n');
     };
     line("MODE SEQ".into());
-    line(format!("NAME {}", p.provenance.title.replace(['\n', '\r'], " ")));
+    line(format!(
+        "NAME {}",
+        p.provenance.title.replace(['\n', '\r'], " ")
+    ));
     line("UNIT MM X W X CM MR CPMM".into());
     if !catalogues.is_empty() {
         line(format!("GCAT {}", catalogues.join(" ")));
@@ -158,7 +166,12 @@ pub fn write_zemax(p: &Prescription) -> Result<String, Problem> {
     }
     for (k, nm) in wavelengths.iter().enumerate() {
         let weight = conditions.wavelength_weights.get(k).copied().unwrap_or(1.0);
-        line(format!("WAVM {} {} {}", k + 1, num(nm / 1000.0), num(weight)));
+        line(format!(
+            "WAVM {} {} {}",
+            k + 1,
+            num(nm / 1000.0),
+            num(weight)
+        ));
     }
     if !wavelengths.is_empty() {
         let primary = conditions
