@@ -154,8 +154,8 @@ fn convert_writes_ron_that_checks_the_same() {
             .collect::<Vec<_>>()
     };
     assert_eq!(table(&before), table(&after));
-    // Only RON is written, and a refused conversion leaves no file.
-    let wrong = dir.join("kolb.dat");
+    // RON, Zemax and pbrt are written, CODE V is not; a refused conversion leaves no file.
+    let wrong = dir.join("kolb.seq");
     let o = lensbake(&[
         "lens",
         "convert",

@@ -184,13 +184,18 @@ def ohara_low_tg_rows():
     return rows
 
 
+def write_tsv(file_name, source, columns, rows):
+    """One data file: the source line, the column header, one row per glass."""
+    with open(os.path.join(OUT, file_name), "w", encoding="utf-8") as out:
+        out.write(f"# {source}\n# {columns}\n")
+        out.write("\n".join(rows) + "\n")
+
+
 def write_ohara_low_tg():
-    path = os.path.join(OUT, "ohara-low-tg.tsv")
-    with open(path, "w", encoding="utf-8") as out:
-        out.write("# OHARA low-Tg moulding glasses from the sheet \"Low Tg glasses\" of the maker's "
-                  "spreadsheet OHARA.xlsx (opticalglass 1.1.1 data/)\n")
-        out.write("# name\tformula\tcoefficients\tnd\tvd\tmin_nm\tmax_nm\n")
-        out.write("\n".join(ohara_low_tg_rows()) + "\n")
+    write_tsv("ohara-low-tg.tsv",
+              "OHARA low-Tg moulding glasses from the sheet \"Low Tg glasses\" of the maker's "
+              "spreadsheet OHARA.xlsx (opticalglass 1.1.1 data/)",
+              "name\tformula\tcoefficients\tnd\tvd\tmin_nm\tmax_nm", ohara_low_tg_rows())
 
 
 # Crystals and special glasses that no vendor sheet above holds, from the refractiveindex.info
@@ -261,12 +266,10 @@ def index_any(formula, coefs, nm):
 
 
 def write_misc():
-    path = os.path.join(OUT, "misc.tsv")
-    with open(path, "w", encoding="utf-8") as out:
-        out.write("# Crystals and special glasses from the refractiveindex.info database (CC0); "
-                  "nd and vd computed from the data\n")
-        out.write("# name\tformula\tcoefficients\tnd\tvd\tmin_nm\tmax_nm\tsource\n")
-        out.write("\n".join(misc_rows()) + "\n")
+    write_tsv("misc.tsv",
+              "Crystals and special glasses from the refractiveindex.info database (CC0); "
+              "nd and vd computed from the data",
+              "name\tformula\tcoefficients\tnd\tvd\tmin_nm\tmax_nm\tsource", misc_rows())
 
 
 if __name__ == "__main__":

@@ -212,35 +212,27 @@ fn derive(
         let scale = slope / axial.abs();
         Ok((y_per_unit * scale, u_per_unit * scale))
     };
-    // The axial marginal ray as (y1, u0).
-    let (y1, u0) = match (&beams.pupil, beams.object_distance) {
-        (PupilSize::Diameter(d), None) => (d / 2.0, 0.0),
-        (PupilSize::Diameter(d), Some(distance)) => {
+    // The axial marginal ray (y1, u0) through the rim of an entrance pupil of diameter d.
+    let through_pupil = |d: f64| match beams.object_distance {
+        None => Ok((d / 2.0, 0.0)),
+        Some(distance) => {
             let reach = pupil_z + distance;
             if reach <= 0.0 {
                 return Err(cannot("the entrance pupil lies before the object".into()));
             }
             let u = d / 2.0 / reach;
-            (u * distance, u)
+            Ok((u * distance, u))
         }
-        (PupilSize::FNumber(f), distance) => {
+    };
+    // The axial marginal ray as (y1, u0).
+    let (y1, u0) = match (&beams.pupil, beams.object_distance) {
+        (PupilSize::Diameter(d), _) => through_pupil(*d)?,
+        (PupilSize::FNumber(f), _) => {
             let final_slope = unit_height.final_slope;
             if final_slope == 0.0 || !final_slope.is_finite() {
                 return Err(cannot("an F-number needs a lens with focal power".into()));
             }
-            let efl = -1.0 / final_slope;
-            let d = efl.abs() / f;
-            match distance {
-                None => (d / 2.0, 0.0),
-                Some(distance) => {
-                    let reach = pupil_z + distance;
-                    if reach <= 0.0 {
-                        return Err(cannot("the entrance pupil lies before the object".into()));
-                    }
-                    let u = d / 2.0 / reach;
-                    (u * distance, u)
-                }
-            }
+            through_pupil((1.0 / final_slope).abs() / f)?
         }
         (PupilSize::WorkingFNumber(f), None) => {
             from_slope(1.0, 0.0, 1.0 / (2.0 * image_index * f))?
