@@ -23,6 +23,7 @@ fn singlet(radius: f64) -> Prescription {
                 medium: Medium::Index(1.5),
                 semi_aperture: 10.0,
                 stop: Some(StopShape::Circle),
+                obscuration: None,
             },
             Surface {
                 shape: Shape::from_radius(-radius),
@@ -30,6 +31,7 @@ fn singlet(radius: f64) -> Prescription {
                 medium: Medium::Air,
                 semi_aperture: 10.0,
                 stop: None,
+                obscuration: None,
             },
         ],
     }

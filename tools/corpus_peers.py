@@ -24,6 +24,11 @@ PEER_FILES = [
     "rayoptics__CODV_32327.seq",
     "rayoptics__CODV_65564.seq",
     "rayoptics__unfolded_lenses_w_ape.seq",
+    # Mirrors (tests/corpus.rs says why rc_f16.seq, optiland__mirror.seq and HoO-V2C18Ex27.zmx
+    # are not here).
+    "rayoptics__paraboloid.seq",
+    "rayoptics__mangin.seq",
+    "rayoptics__HoO-V2C18Ex03.zmx",
 ]
 
 

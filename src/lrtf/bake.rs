@@ -86,6 +86,11 @@ pub enum BakeError {
     NothingPasses { film_radius: f64 },
     #[error("film plane z = {film_z} mm is not behind the last vertex (z = {rear_z} mm)")]
     FilmPlane { film_z: f64, rear_z: f64 },
+    #[error(
+        "an odd number of mirrors sends the light back towards the object side; a table needs a \
+         lens that images behind its last surface"
+    )]
+    ImageInFront,
     #[error("focus range {far}..{near}: the near focus must not lie beyond the far one")]
     FocusOrder { far: String, near: String },
 }
@@ -336,6 +341,9 @@ pub fn bake(
     if request.resolution.iter().any(|&n| n < 2) {
         return Err(BakeError::Resolution(request.resolution));
     }
+    if !system.images_behind() {
+        return Err(BakeError::ImageInFront);
+    }
     let wavelengths = if request.wavelengths_nm.is_empty() {
         vec![system.design_wavelength_nm()]
     } else {
@@ -511,14 +519,17 @@ fn reference_film_radius(sampling: &FocusPupilTable, rear_z: f64) -> f64 {
 
 /// The aperture margin of lanes traced with apertures ignored, accumulated surface by surface:
 /// the smallest (semi-aperture - hit radius) / semi-aperture over every surface but a circular
-/// stop (the sampler tests that one against the stored stop crossing), and at a bladed stop the
-/// blades' margin over the stop's semi-aperture too. It is continuous across every vignetting
+/// stop (the sampler tests that one against the stored stop crossing), at a bladed stop the
+/// blades' margin over the stop's semi-aperture too, and at a central obscuration (hit radius -
+/// obscuration radius) / semi-aperture, on the stop as well. It is continuous across every vignetting
 /// edge and zero on it, so its interpolant places the edge to second order in the cell size
 /// where a thresholded 0/1 flag places it only to first order.
 struct ApertureMargins<'a> {
     tracer: &'a Tracer,
     /// 1 / semi-aperture per surface (0-based).
     inverse_semi_aperture: Vec<f64>,
+    /// Central obscuration radius per surface (0 for none).
+    obscuration: Vec<f64>,
     stop: usize,
     bladed_stop: bool,
     margin: [f64; LANES],
@@ -532,6 +543,9 @@ impl<'a> ApertureMargins<'a> {
             tracer,
             inverse_semi_aperture: (0..tracer.surface_count())
                 .map(|i| 1.0 / tracer.semi_aperture(i))
+                .collect(),
+            obscuration: (0..tracer.surface_count())
+                .map(|i| tracer.obscuration(i))
                 .collect(),
             stop: tracer.stop_surface() - 1,
             bladed_stop: tracer.blade_margin(0.0, 0.0).is_some(),
@@ -549,6 +563,13 @@ impl LaneVisitor for ApertureMargins<'_> {
     #[inline(always)]
     fn crossed(&mut self, surface: usize, x: &[f64; LANES], y: &[f64; LANES]) {
         let inverse = self.inverse_semi_aperture[surface];
+        let obscuration = self.obscuration[surface];
+        let radius = |l: usize| (x[l] * x[l] + y[l] * y[l]).sqrt();
+        if obscuration > 0.0 {
+            for l in 0..LANES {
+                self.margin[l] = self.margin[l].min((radius(l) - obscuration) * inverse);
+            }
+        }
         if surface == self.stop {
             self.stop_point = [*x, *y];
             if !self.bladed_stop {
@@ -561,8 +582,7 @@ impl LaneVisitor for ApertureMargins<'_> {
             }
         }
         for l in 0..LANES {
-            let radius = (x[l] * x[l] + y[l] * y[l]).sqrt();
-            self.margin[l] = self.margin[l].min(1.0 - radius * inverse);
+            self.margin[l] = self.margin[l].min(1.0 - radius(l) * inverse);
         }
     }
 }

@@ -267,7 +267,10 @@ pub struct LensSurface {
     pub same_medium: u32,
     /// 1 on the stop when its blades must be tested.
     pub bladed: u32,
-    pub pad: [u32; 2],
+    /// 1 when the surface is a mirror.
+    pub reflects: u32,
+    /// Squared radius of the central obscuration (0 for none).
+    pub obscuration_sq: f32,
     /// Even-asphere coefficients of r^2, r^4, ...
     pub coefficients: [f32; crate::prescription::MAX_ASPHERE_TERMS],
 }
@@ -435,6 +438,7 @@ pub fn lens_surfaces(system: &crate::system::SystemAt) -> (LensParams, Vec<LensS
     let surfaces = system
         .path()
         .map(|(i, s, index_before, index_after)| {
+            let (index_before, index_after) = (index_before.abs(), index_after.abs());
             let mut out = LensSurface {
                 vertex_z: s.vertex_z as f32,
                 semi_aperture_sq: (s.semi_aperture * s.semi_aperture) as f32,
@@ -442,6 +446,8 @@ pub fn lens_surfaces(system: &crate::system::SystemAt) -> (LensParams, Vec<LensS
                 search_radius: (2.0 * s.geometric_semi_aperture) as f32,
                 conic_factor: 1.0,
                 same_medium: u32::from(index_before == index_after),
+                reflects: u32::from(s.mirror),
+                obscuration_sq: s.obscuration.map_or(0.0, |r| r * r) as f32,
                 ..LensSurface::zeroed()
             };
             match &s.shape {
