@@ -314,7 +314,7 @@ fn axis_crossing(position: f32, direction: f32, cell: i32) -> f32 {
 /// baseline x86-64 (no SSE4.1): truncation is exact below 2^23, and every f32 from there on is
 /// whole already; the sign of the input is kept (floor(-0.0) = -0.0).
 fn floor(v: f32) -> f32 {
-    if !(v.abs() < 8_388_608.0) {
+    if v.is_nan() || v.abs() >= 8_388_608.0 {
         return v;
     }
     let t = v as i32 as f32;
