@@ -266,7 +266,7 @@ fn assert_table_finite(table: &LrtfTable, what: &str) {
                 "{what}: {c:?}"
             );
         }
-        for (k, entry) in layer.entries.iter().enumerate() {
+        for (k, entry) in layer.entries.row_major().enumerate() {
             assert!(
                 entry.iter().all(|v| v.is_finite()),
                 "{what}: entry {k} {entry:?}"

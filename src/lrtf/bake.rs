@@ -12,6 +12,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use rayon::prelude::*;
 
+use super::entries::Entries;
 use super::focus::{FocusRange, distance_text};
 use super::param::{CHANNELS, Frame, MARGIN, Parameterisation, Ray, Transfer};
 use super::table::{Layer, LrtfTable, Precision, TableInfo};
@@ -597,7 +598,7 @@ fn bake_entries(
     frame: &Frame,
     pupil: &PupilTable,
     report: &(dyn Fn(usize) + Sync),
-) -> Vec<[f32; CHANNELS]> {
+) -> Entries {
     let [n0, n1, n2] = request.resolution;
     let param = request.parameterisation;
     let node = |k: usize, n: usize| k as f64 / (n - 1) as f64;
@@ -642,12 +643,7 @@ fn bake_entries(
             report(slab);
         });
     fill_holes(&mut entries, &mut defined, request.resolution);
-    if request.precision != Precision::F32 {
-        for entry in &mut entries {
-            *entry = entry.map(|v| request.precision.round(v));
-        }
-    }
-    entries
+    Entries::from_row_major(request.resolution, request.precision, &entries)
 }
 
 /// Smallest margin a hole gets, so that it reads as blocked even where its neighbours' margins
@@ -757,7 +753,7 @@ mod tests {
                             request
                                 .parameterisation
                                 .ray_at(&layer.frame, &layer.pupil, coords);
-                        let entry = layer.entries[i0 + n0 * (i1 + n1 * i2)];
+                        let entry = layer.entries.get([i0, i1, i2]);
                         let (exact, passes) = exact_transfer(&tracer, &ray);
                         let Some(exact) = exact else {
                             assert!(entry[MARGIN] < 0.0, "{stop_shape:?} hole at {coords:?}");
