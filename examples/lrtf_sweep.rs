@@ -42,13 +42,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 let table = bake(&system, &request, &|_| {})?;
                 let bake_seconds = start.elapsed().as_secs_f64();
                 for precision in [Precision::F32, Precision::F16] {
-                    let mut t = table.clone();
-                    t.info.precision = precision;
-                    for e in &mut t.layers[0].entries {
-                        for v in e.iter_mut() {
-                            *v = precision.round(*v);
-                        }
-                    }
+                    let t = table.to_precision(precision);
                     let error = table_error(&t, 0, &tracer, efl, 1920.0, 20_000, 0x5eed);
                     eprintln!(
                         "{name} {} {n}^3 {}: {bake_seconds:.2} s, p99 {:.3} px",

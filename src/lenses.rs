@@ -42,6 +42,10 @@ pub const BUNDLED: &[BundledLens] = &[
         ron: include_str!("../lenses/petzval.ron"),
     },
     BundledLens {
+        name: "reflex-1000mm-f7.5",
+        ron: include_str!("../lenses/reflex-1000mm-f7.5.ron"),
+    },
+    BundledLens {
         name: "telephoto-250mm",
         ron: include_str!("../lenses/telephoto-250mm.ron"),
     },

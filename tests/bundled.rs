@@ -101,6 +101,7 @@ fn bundled_names_are_sorted_unique_and_match_the_lens_files() {
         "tessar",
         "petzval",
         "biconvex-singlet",
+        "reflex-1000mm-f7.5",
     ] {
         assert!(names.contains(&name), "{name} is not bundled");
     }

@@ -22,14 +22,24 @@ const LOADS: &[&str] = &[
     "optiland__lens1.zmx",
     "optiland__lens2.zmx",
     "optiland__lens_floa.zmx",
+    "optiland__mirror.seq",
     "optiland__telescope_objective.seq",
     "rayoptics__CODV_32327.seq",
     "rayoptics__CODV_49664.seq",
     "rayoptics__CODV_65564.seq",
     "rayoptics__CODV_65988_noDOE.seq",
+    "rayoptics__HoO-V2C18Ex03.zmx",
+    "rayoptics__HoO-V2C18Ex27.zmx",
     "rayoptics__US00583336-2-scaled.zmx",
+    "rayoptics__US05331467-1.zmx",
+    "rayoptics__achroMangin_ok.seq",
     "rayoptics__asp46.seq",
     "rayoptics__landscape_lens.seq",
+    "rayoptics__mangin.seq",
+    "rayoptics__paraboloid.seq",
+    "rayoptics__paraboloid_f8.seq",
+    "rayoptics__rc_f16.seq",
+    "rayoptics__schmidt_sph.seq",
     "rayoptics__singlet.seq",
     "rayoptics__unfolded_lenses_w_ape.seq",
 ];
@@ -94,6 +104,21 @@ fn the_expected_files_load_and_every_other_is_refused_with_a_located_error() {
     assert_eq!(files.len(), 52);
 }
 
+/// Where rayoptics' number is wrong by physics, the value physics gives instead, as (file,
+/// Seidel sum 1..5, value). A paraboloid images an axial point at infinity perfectly, so its
+/// S_I is exactly 0 (lensbake: -2e-16 mm; tests/mirrors.rs checks the real rays); rayoptics
+/// reports -6.25e-9 mm, 1.1e-6 of the file's largest sum.
+///
+/// Not compared at all: rayoptics__rc_f16.seq (rayoptics' S_I 0.0036070 mm against lensbake's
+/// 0.0036045 mm; a fit of real rays at small apertures through the two conic mirrors gives
+/// 0.0036045, so lensbake is right; tests/mirrors.rs); optiland__mirror.seq (rayoptics reports
+/// an EFL of -0.0025 mm for its single R = -200 mm mirror, whose focal length is R/2 = -100 mm
+/// by the mirror equation); rayoptics__HoO-V2C18Ex27.zmx and rayoptics__schmidt_sph.seq
+/// (model glasses from nd and Vd at 550 and 587.6 nm, not at the d line 587.5618 nm: each
+/// program has its own model-glass formula, so the indices differ there; the EFLs still agree
+/// to 5e-5 and 5e-10).
+const PHYSICS_OVER_PEER: &[(&str, usize, f64)] = &[("rayoptics__paraboloid.seq", 1, 0.0)];
+
 /// rayoptics and lensbake read the same surfaces, glasses and conditions from these files, so
 /// the paraxial numbers agree to rounding (1e-9 relative) and the Seidel sums to 1e-6 of the
 /// largest (rayoptics fits the field angle through its own ray aiming).
@@ -103,7 +128,7 @@ fn first_order_data_and_seidel_sums_match_rayoptics() {
         serde_json::from_str(&std::fs::read_to_string(corpus().join("peers.json")).unwrap())
             .unwrap();
     let lenses = peers["lenses"].as_object().unwrap();
-    assert_eq!(lenses.len(), 7);
+    assert_eq!(lenses.len(), 11);
     for (name, peer) in lenses {
         let loaded = read_file(&corpus().join(name), &LoadOptions::default()).unwrap();
         let by_f_number = matches!(
@@ -152,7 +177,12 @@ fn first_order_data_and_seidel_sums_match_rayoptics() {
                 peer_number("f_number"),
             )
         } else {
-            (peer_number("epd"), peer_number("efl") / peer_number("epd"))
+            // An odd number of mirrors makes the EFL negative (n' < 0); the f-number is
+            // positive for every converging lens.
+            (
+                peer_number("epd"),
+                peer_number("efl").abs() / peer_number("epd"),
+            )
         };
         for (what, ours, theirs) in [
             ("efl", f.efl, peer_number("efl")),
@@ -173,12 +203,17 @@ fn first_order_data_and_seidel_sums_match_rayoptics() {
             sums.petzval,
             sums.distortion,
         ];
-        let theirs: Vec<f64> = peer["seidel_sums"]
+        let mut theirs: Vec<f64> = peer["seidel_sums"]
             .as_array()
             .unwrap()
             .iter()
             .map(|v| v.as_f64().unwrap())
             .collect();
+        for (file, sum, value) in PHYSICS_OVER_PEER {
+            if file == name {
+                theirs[sum - 1] = *value;
+            }
+        }
         let scale = theirs.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         for (k, (o, t)) in ours.iter().zip(&theirs).enumerate().take(compared_sums) {
             assert!(

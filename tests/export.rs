@@ -199,3 +199,17 @@ fn what_a_format_cannot_hold_is_refused_naming_the_surface() {
         "{why}"
     );
 }
+
+/// Mirrors and obscurations are not written yet: a reflex lens is refused, never flattened.
+#[test]
+fn mirrors_and_obscurations_are_refused_not_dropped() {
+    let reflex = system("reflex-1000mm-f7.5").prescription;
+    for written in [write_zemax(&reflex), write_pbrt(&reflex, 587.56)] {
+        match written {
+            Err(Problem::Unsupported(what)) => {
+                assert!(what.contains("mirrors and obscurations"), "{what}")
+            }
+            other => panic!("{other:?}"),
+        }
+    }
+}

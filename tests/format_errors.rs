@@ -239,9 +239,14 @@ fn syntax_errors() {
 fn unsupported_input_is_refused_by_name() {
     let cases = [
         ("EPD 10\nS 0.02 5 N-BK7\nXDE 1.0\n", Format::CodeV, 3, "XDE"),
-        ("EPD 10\nS 0.02 5 REFL\n", Format::CodeV, 2, "mirrors"),
-        // CIR EDG (the mechanical edge) clips nothing and is skipped; an obscuration is not.
-        ("EPD 10\nS 0.02 5\nCIR OBS 2\n", Format::CodeV, 3, "CIR OBS"),
+        // CIR EDG (the mechanical edge) clips nothing and is skipped; an obscuration is read
+        // (tests/mirrors.rs), a rectangular aperture is not.
+        (
+            "EPD 10\nS 0.02 5\nCIR OBS 2 3\n",
+            Format::CodeV,
+            3,
+            "CIR OBS",
+        ),
         ("SO 0.1 100\n", Format::CodeV, 1, "curved object"),
         (
             "MODE SEQ\nSURF 0\nSURF 1\n  TYPE COORDBRK\n",
@@ -250,10 +255,10 @@ fn unsupported_input_is_refused_by_name() {
             "COORDBRK",
         ),
         (
-            "MODE SEQ\nSURF 0\nSURF 1\n  GLAS MIRROR\n",
+            "MODE SEQ\nSURF 0\nSURF 1\n  OBSC 1 2\n",
             Format::Zemax,
             4,
-            "mirrors",
+            "annular obscuration",
         ),
         ("MODE NSC\n", Format::Zemax, 1, "NSC"),
         (

@@ -49,7 +49,7 @@ fn float_bits(p: &Prescription) -> Vec<u64> {
         v.push(x.to_bits());
     }
     let medium = |m: &Medium, v: &mut Vec<u64>| match m {
-        Medium::Air | Medium::Glass(_) => {}
+        Medium::Air | Medium::Glass(_) | Medium::Mirror => {}
         Medium::Index(n) => v.push(n.to_bits()),
         Medium::Sellmeier { b, c } => v.extend(b.iter().chain(c).map(|x| x.to_bits())),
         Medium::Model { nd, vd } => v.extend([nd.to_bits(), vd.to_bits()]),
@@ -64,6 +64,7 @@ fn float_bits(p: &Prescription) -> Vec<u64> {
         v.push(s.shape.conic().to_bits());
         v.extend(s.shape.aspheric_coefficients().iter().map(|x| x.to_bits()));
         v.extend([s.thickness.to_bits(), s.semi_aperture.to_bits()]);
+        v.extend(s.obscuration.map(f64::to_bits));
         medium(&s.medium, &mut v);
         if let Some(StopShape::Blades {
             rotation_deg,
@@ -699,6 +700,7 @@ fn ron_round_trip_is_bit_exact_for_awkward_numbers() {
                     rotation_deg: x,
                     blade_curvature: 0.25,
                 }),
+                obscuration: None,
             })
             .collect(),
     };

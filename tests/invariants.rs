@@ -44,6 +44,7 @@ fn build_lens(specs: &[SurfaceSpec], stop: usize, semi: f64, back: f64) -> Optio
             },
             semi_aperture: semi.min(0.9 * radius.abs()),
             stop: (i == stop).then_some(StopShape::Circle),
+            obscuration: None,
         })
         .collect();
     LensSystem::from_prescription(Prescription {

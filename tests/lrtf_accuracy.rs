@@ -114,3 +114,50 @@ fn default_double_gauss_table_meets_the_issue_targets() {
     // Measured 0.15 px against 0.010 px.
     assert!(s.image_px.p99 > 5.0 * e.image_px.p99, "{s:?} vs {e:?}");
 }
+
+/// The renderer looks rays up in groups (table reads overlapping); each ray's outcome must be
+/// the one it gets alone, for rays that pass, are blocked and fall outside the domain.
+#[test]
+fn group_lookups_are_single_lookups() {
+    use lensbake::lrtf::{Lookup, Ray};
+    let system = dgauss();
+    let table = bake(
+        &system,
+        &BakeRequest {
+            resolution: [16, 16, 16],
+            ..BakeRequest::default()
+        },
+        &|_| {},
+    )
+    .unwrap();
+    let frame = &table.layers[0].frame;
+    let reach = 1.2 * frame.max_film_radius;
+    let rear = 1.5 * table.layers[0].pupil.max_extent();
+    let depth = frame.film_plane_z - frame.rear_plane_z;
+    // A lattice over film points past the domain and rear points past the pupil.
+    let rays: Vec<Ray> = (0..997)
+        .map(|k| {
+            let u = |a: f64| (a * k as f64).fract() * 2.0 - 1.0;
+            let film = [reach * u(0.618_034), reach * u(0.381_966) * 0.5];
+            let to = [
+                rear * u(0.414_214) - film[0],
+                rear * u(0.732_051) - film[1],
+                -depth,
+            ];
+            let n = (to[0] * to[0] + to[1] * to[1] + to[2] * to[2]).sqrt();
+            Ray {
+                origin: [film[0], film[1], frame.film_plane_z],
+                direction: to.map(|v| v / n),
+            }
+        })
+        .collect();
+    let stop = table.stop_radius(0, table.info.f_number).unwrap();
+    let mut grouped = vec![Lookup::Blocked; rays.len()];
+    table.lookup_group(0, &rays, stop, &mut grouped);
+    let single: Vec<Lookup> = rays.iter().map(|r| table.lookup(0, r, stop)).collect();
+    assert_eq!(grouped, single);
+    let count = |f: fn(&Lookup) -> bool| single.iter().filter(|l| f(l)).count();
+    assert!(count(|l| matches!(l, Lookup::Passes(_))) > 50);
+    assert!(count(|l| matches!(l, Lookup::Blocked)) > 50);
+    assert!(count(|l| matches!(l, Lookup::OutsideDomain)) > 50);
+}

@@ -5,7 +5,9 @@ mod common;
 
 use lensbake::lrtf::io::{DATA_FILE, SIDECAR_FILE, TableError, read_table, write_table};
 use lensbake::lrtf::param::{CHANNELS, Frame};
-use lensbake::lrtf::{FocusRange, Layer, LrtfTable, Parameterisation, Precision, TableInfo};
+use lensbake::lrtf::{
+    Entries, FocusRange, Layer, LrtfTable, Parameterisation, Precision, TableInfo,
+};
 use lensbake::prescription::{Medium, Prescription, Provenance, Shape, StopShape, Surface};
 use lensbake::pupil::{FocusPupilTable, PupilCircle, PupilTable};
 
@@ -23,6 +25,7 @@ fn singlet(radius: f64) -> Prescription {
                 medium: Medium::Index(1.5),
                 semi_aperture: 10.0,
                 stop: Some(StopShape::Circle),
+                obscuration: None,
             },
             Surface {
                 shape: Shape::from_radius(-radius),
@@ -30,6 +33,7 @@ fn singlet(radius: f64) -> Prescription {
                 medium: Medium::Air,
                 semi_aperture: 10.0,
                 stop: None,
+                obscuration: None,
             },
         ],
     }
@@ -39,7 +43,7 @@ fn synthetic_table(precision: Precision) -> LrtfTable {
     let resolution = [5, 4, 3];
     let n: usize = resolution.iter().product();
     // Values spanning several magnitudes, so f16 rounding is visible.
-    let entries = (0..n)
+    let entries: Vec<_> = (0..n)
         .map(|k| {
             std::array::from_fn::<f32, CHANNELS, _>(|c| {
                 precision.round((k * CHANNELS + c) as f32 * 0.137 - 3.0)
@@ -86,7 +90,7 @@ fn synthetic_table(precision: Precision) -> LrtfTable {
             pupil: pupil.clone(),
             sampling: FocusPupilTable::single(100.0, pupil),
             stop_semi_aperture: 10.0,
-            entries,
+            entries: Entries::from_row_major(resolution, precision, &entries),
         }],
     }
 }

@@ -27,6 +27,7 @@ fn surface(shape: Shape, thickness: f64, n: f64, semi_aperture: f64, stop: bool)
         },
         semi_aperture,
         stop: stop.then_some(StopShape::Circle),
+        obscuration: None,
     }
 }
 

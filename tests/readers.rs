@@ -107,10 +107,11 @@ fn unknown_or_unsupported_surface_keywords_are_refused_where_they_stand() {
     assert_eq!(e.location.line, Some(line_of(&text, "COORDBRK")));
     assert_eq!(e.location.surface, Some(2));
 
-    let text = singlet("", "  OBSC 0 2\n", "");
+    // A central obscuration is read (tests/mirrors.rs); a square aperture is not.
+    let text = singlet("", "  SQAP 2 2\n", "");
     let e = read(&text).unwrap_err();
     assert!(
-        matches!(&e.problem, Problem::Unsupported(what) if what.contains("OBSC")),
+        matches!(&e.problem, Problem::Unsupported(what) if what.contains("SQAP")),
         "{e}"
     );
     assert_eq!(e.location.surface, Some(2));

@@ -128,19 +128,6 @@ fn gpu_matches_cpu_twin_on_demo_scene() {
     );
 }
 
-fn black_backed_emitter(distance_mm: f64, radius_mm: f64) -> Scene {
-    Scene {
-        panels: vec![Panel {
-            distance_mm,
-            outline: Outline::Disc {
-                centre: [0.0, 0.0],
-                radius: radius_mm,
-            },
-            texture: Texture::Solid([1.0, 1.0, 1.0]),
-        }],
-    }
-}
-
 /// Total flux and the area (in pixels) brighter than half the central plateau.
 fn flux_and_half_max_area(image: &RgbImage, plateau_radius: f64) -> (f64, f64) {
     let (cx, cy) = (image.width as f64 / 2.0, image.height as f64 / 2.0);
@@ -178,7 +165,7 @@ fn thin_lens_point_emitter_blurs_to_analytic_circle_of_confusion() {
         shift_mm: [0.0, 0.0],
         tilt_deg: [0.0, 0.0],
     };
-    let scene = black_backed_emitter(emitter, 2.0);
+    let scene = Scene::highlight(emitter, 2.0, 1.0);
     let defocused = thin_camera(f_number, focus, film);
     let ldi = peel(&scene, &defocused, &settings);
     let image = render_layers(&defocused, &ldi, &settings, Backend::Cpu, None).unwrap();

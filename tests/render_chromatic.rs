@@ -49,6 +49,7 @@ fn sphere(curvature: f64, thickness: f64, medium: Medium, semi_aperture: f64) ->
         medium,
         semi_aperture,
         stop: None,
+        obscuration: None,
     }
 }
 
@@ -62,6 +63,7 @@ fn landscape(flint: Medium) -> LensSystem {
             medium: Medium::Air,
             semi_aperture: 3.0,
             stop: Some(StopShape::Circle),
+            obscuration: None,
         },
         sphere(1.0 / 30.0, 4.0, flint, 12.0),
         sphere(-1.0 / 200.0, 30.0, Medium::Air, 12.0),

@@ -19,6 +19,7 @@ fn exotic_lens() -> Prescription {
         medium,
         semi_aperture,
         stop,
+        obscuration: None,
     };
     Prescription {
         provenance: Provenance {

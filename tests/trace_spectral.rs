@@ -20,6 +20,7 @@ fn singlet(medium: Medium) -> Prescription {
                 medium,
                 semi_aperture: 10.0,
                 stop: Some(StopShape::Circle),
+                obscuration: None,
             },
             Surface {
                 shape: Shape::Sphere { curvature: -0.02 },
@@ -27,6 +28,7 @@ fn singlet(medium: Medium) -> Prescription {
                 medium: Medium::Air,
                 semi_aperture: 10.0,
                 stop: None,
+                obscuration: None,
             },
         ],
     }

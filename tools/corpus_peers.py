@@ -27,6 +27,13 @@ PEER_FILES = [
     "rayoptics__CODV_65988_noDOE.seq",
     # rayoptics ignores FLOA (float by stop size) and takes EPD 1: only EFL and BFL compare.
     "optiland__lens_floa.zmx",
+    # Mirrors (tests/corpus.rs says why rc_f16.seq, optiland__mirror.seq and HoO-V2C18Ex27.zmx
+    # are not here).
+    "rayoptics__paraboloid.seq",
+    "rayoptics__mangin.seq",
+    "rayoptics__HoO-V2C18Ex03.zmx",
+    # CODE V `stop` written out, a Mangin mirror.
+    "rayoptics__achroMangin_ok.seq",
 ]
 
 

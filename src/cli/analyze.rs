@@ -105,7 +105,7 @@ fn report(a: &Analysis) -> String {
     ] {
         row(label, format!("{value:.6}"), "mm");
     }
-    let virtual_image = if f.z_paraxial_image <= f.z_last_vertex {
+    let virtual_image = if (f.z_paraxial_image - f.z_last_vertex) * f.image_index.signum() <= 0.0 {
         "mm (virtual)"
     } else {
         "mm"

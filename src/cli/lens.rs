@@ -6,10 +6,10 @@ use clap::{Args, Subcommand};
 use lensbake::job::RenderLens;
 use lensbake::lenses::{self, BUNDLED, LensError, LoadedLens};
 use lensbake::model::ModelKind;
+use lensbake::prescription::Shape;
 use lensbake::prescription::formats::{
     Format, LoadOptions, PbrtThickness, read_str, write_pbrt, write_ron_file, write_zemax,
 };
-use lensbake::prescription::{Medium, Shape};
 use lensbake::system::LensSystem;
 use std::path::{Path, PathBuf};
 
@@ -218,7 +218,7 @@ fn summary(lens: &LoadedLens) -> String {
     line(format!("  wavelength:  {wavelength} nm ({stated})"));
     line(format!(
         "  object:      {} (n = {:.6})",
-        describe_medium(&p.object_medium),
+        p.object_medium.describe(),
         at.object_index
     ));
     if let Some(f) = p.provenance.claimed_focal_length_mm {
@@ -257,8 +257,8 @@ fn summary(lens: &LoadedLens) -> String {
             radius,
             s.thickness,
             kind,
-            describe_medium(&s.medium),
-            s_at.index_after,
+            s.medium.describe(),
+            s_at.index_after.abs(),
             s.semi_aperture
         ));
     }
@@ -285,20 +285,4 @@ fn summary(lens: &LoadedLens) -> String {
         line(format!("note: {note}"));
     }
     out
-}
-
-fn describe_medium(medium: &Medium) -> String {
-    match medium {
-        Medium::Air => "air".to_string(),
-        Medium::Index(n) => format!("n = {n}"),
-        Medium::Glass(name) => name.clone(),
-        Medium::Sellmeier { .. } => "Sellmeier".to_string(),
-        Medium::Model { nd, vd } => format!("model {nd}/{vd}"),
-        Medium::Table { wavelengths_nm, .. } => format!(
-            "table of {} indices, {}-{} nm",
-            wavelengths_nm.len(),
-            wavelengths_nm.first().copied().unwrap_or_default(),
-            wavelengths_nm.last().copied().unwrap_or_default()
-        ),
-    }
 }

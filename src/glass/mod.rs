@@ -80,6 +80,14 @@ impl Dispersion {
                     .zip(indices.iter().copied())
                     .collect(),
             )?,
+            // LensSystem gives a mirror the medium before it; only an object space that is a
+            // mirror gets here.
+            Medium::Mirror => {
+                return Err(Problem::Unsupported(
+                    "a mirror has no index of its own; it reflects back into the medium before it"
+                        .into(),
+                ));
+            }
         })
     }
 

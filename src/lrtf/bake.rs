@@ -12,6 +12,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use rayon::prelude::*;
 
+use super::entries::Entries;
 use super::focus::{FocusRange, distance_text};
 use super::param::{CHANNELS, Frame, MARGIN, Parameterisation, Ray, Transfer};
 use super::table::{Layer, LrtfTable, Precision, TableInfo};
@@ -86,6 +87,11 @@ pub enum BakeError {
     NothingPasses { film_radius: f64 },
     #[error("film plane z = {film_z} mm is not behind the last vertex (z = {rear_z} mm)")]
     FilmPlane { film_z: f64, rear_z: f64 },
+    #[error(
+        "an odd number of mirrors sends the light back towards the object side; a table needs a \
+         lens that images behind its last surface"
+    )]
+    ImageInFront,
     #[error("focus range {far}..{near}: the near focus must not lie beyond the far one")]
     FocusOrder { far: String, near: String },
 }
@@ -336,6 +342,9 @@ pub fn bake(
     if request.resolution.iter().any(|&n| n < 2) {
         return Err(BakeError::Resolution(request.resolution));
     }
+    if !system.images_behind() {
+        return Err(BakeError::ImageInFront);
+    }
     let wavelengths = if request.wavelengths_nm.is_empty() {
         vec![system.design_wavelength_nm()]
     } else {
@@ -511,14 +520,17 @@ fn reference_film_radius(sampling: &FocusPupilTable, rear_z: f64) -> f64 {
 
 /// The aperture margin of lanes traced with apertures ignored, accumulated surface by surface:
 /// the smallest (semi-aperture - hit radius) / semi-aperture over every surface but a circular
-/// stop (the sampler tests that one against the stored stop crossing), and at a bladed stop the
-/// blades' margin over the stop's semi-aperture too. It is continuous across every vignetting
+/// stop (the sampler tests that one against the stored stop crossing), at a bladed stop the
+/// blades' margin over the stop's semi-aperture too, and at a central obscuration (hit radius -
+/// obscuration radius) / semi-aperture, on the stop as well. It is continuous across every vignetting
 /// edge and zero on it, so its interpolant places the edge to second order in the cell size
 /// where a thresholded 0/1 flag places it only to first order.
 struct ApertureMargins<'a> {
     tracer: &'a Tracer,
     /// 1 / semi-aperture per surface (0-based).
     inverse_semi_aperture: Vec<f64>,
+    /// Central obscuration radius per surface (0 for none).
+    obscuration: Vec<f64>,
     stop: usize,
     bladed_stop: bool,
     margin: [f64; LANES],
@@ -532,6 +544,9 @@ impl<'a> ApertureMargins<'a> {
             tracer,
             inverse_semi_aperture: (0..tracer.surface_count())
                 .map(|i| 1.0 / tracer.semi_aperture(i))
+                .collect(),
+            obscuration: (0..tracer.surface_count())
+                .map(|i| tracer.obscuration(i))
                 .collect(),
             stop: tracer.stop_surface() - 1,
             bladed_stop: tracer.blade_margin(0.0, 0.0).is_some(),
@@ -549,6 +564,13 @@ impl LaneVisitor for ApertureMargins<'_> {
     #[inline(always)]
     fn crossed(&mut self, surface: usize, x: &[f64; LANES], y: &[f64; LANES]) {
         let inverse = self.inverse_semi_aperture[surface];
+        let obscuration = self.obscuration[surface];
+        let radius = |l: usize| (x[l] * x[l] + y[l] * y[l]).sqrt();
+        if obscuration > 0.0 {
+            for l in 0..LANES {
+                self.margin[l] = self.margin[l].min((radius(l) - obscuration) * inverse);
+            }
+        }
         if surface == self.stop {
             self.stop_point = [*x, *y];
             if !self.bladed_stop {
@@ -561,8 +583,7 @@ impl LaneVisitor for ApertureMargins<'_> {
             }
         }
         for l in 0..LANES {
-            let radius = (x[l] * x[l] + y[l] * y[l]).sqrt();
-            self.margin[l] = self.margin[l].min(1.0 - radius * inverse);
+            self.margin[l] = self.margin[l].min(1.0 - radius(l) * inverse);
         }
     }
 }
@@ -577,7 +598,7 @@ fn bake_entries(
     frame: &Frame,
     pupil: &PupilTable,
     report: &(dyn Fn(usize) + Sync),
-) -> Vec<[f32; CHANNELS]> {
+) -> Entries {
     let [n0, n1, n2] = request.resolution;
     let param = request.parameterisation;
     let node = |k: usize, n: usize| k as f64 / (n - 1) as f64;
@@ -622,12 +643,7 @@ fn bake_entries(
             report(slab);
         });
     fill_holes(&mut entries, &mut defined, request.resolution);
-    if request.precision != Precision::F32 {
-        for entry in &mut entries {
-            *entry = entry.map(|v| request.precision.round(v));
-        }
-    }
-    entries
+    Entries::from_row_major(request.resolution, request.precision, &entries)
 }
 
 /// Smallest margin a hole gets, so that it reads as blocked even where its neighbours' margins
@@ -737,7 +753,7 @@ mod tests {
                             request
                                 .parameterisation
                                 .ray_at(&layer.frame, &layer.pupil, coords);
-                        let entry = layer.entries[i0 + n0 * (i1 + n1 * i2)];
+                        let entry = layer.entries.get([i0, i1, i2]);
                         let (exact, passes) = exact_transfer(&tracer, &ray);
                         let Some(exact) = exact else {
                             assert!(entry[MARGIN] < 0.0, "{stop_shape:?} hole at {coords:?}");

@@ -18,6 +18,7 @@ use exr::prelude::{
 };
 use serde::{Deserialize, Serialize};
 
+use super::entries::Entries;
 use super::param::{CHANNEL_NAMES, CHANNELS, Frame};
 use super::table::{Layer, LrtfTable, Precision, TableInfo};
 use crate::prescription::Prescription;
@@ -205,7 +206,7 @@ pub fn write_table(
         .map(|(k, layer)| {
             let channels = (0..CHANNELS)
                 .map(|c| {
-                    let values = layer.entries.iter().map(|e| e[c]);
+                    let values = layer.entries.row_major().map(|e| e[c]);
                     let samples = match table.info.precision {
                         Precision::F32 => FlatSamples::F32(values.collect()),
                         Precision::F16 => FlatSamples::F16(values.map(f16::from_f32).collect()),
@@ -628,7 +629,11 @@ pub fn read_table(
             pupil: info.pupil.clone(),
             sampling: info.sampling_pupil.clone(),
             stop_semi_aperture: info.stop_semi_aperture,
-            entries,
+            entries: Entries::from_row_major(
+                sidecar.info.resolution,
+                sidecar.info.precision,
+                &entries,
+            ),
         });
     }
     if layers.is_empty() {

@@ -3,12 +3,14 @@
 //! and sample it exactly the way the renderer's shader does. Design and file layout: docs/lrtf.md.
 
 pub mod bake;
+pub mod entries;
 pub mod focus;
 pub mod io;
 pub mod measure;
 pub mod param;
 pub mod table;
 
+pub use entries::Entries;
 pub use focus::{FocusError, FocusRange};
 pub use param::{Frame, Parameterisation, Ray, Transfer};
 pub use table::{Corners, GpuParams, Layer, Lookup, LrtfTable, Precision, TableInfo};

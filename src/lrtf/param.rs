@@ -149,14 +149,16 @@ fn crossing(ray: &Ray, z: f64) -> Option<[f64; 2]> {
     ])
 }
 
-/// Canonical rotation (cos, sin) putting `p` on +x; the x axis itself when p is the origin.
-fn azimuth_of(p: [f64; 2]) -> [f64; 2] {
+/// Distance of `p` from the axis and the canonical rotation (cos, sin) putting it on +x; the x
+/// axis itself when p is the origin.
+fn polar_of(p: [f64; 2]) -> (f64, [f64; 2]) {
     let r = p[0].hypot(p[1]);
-    if r > 0.0 {
+    let rotation = if r > 0.0 {
         [p[0] / r, p[1] / r]
     } else {
         [1.0, 0.0]
-    }
+    };
+    (r, rotation)
 }
 
 fn in_unit(c: [f64; 3]) -> bool {
@@ -169,13 +171,13 @@ impl Parameterisation {
         let rear = crossing(ray, frame.rear_plane_z)?;
         match self {
             Parameterisation::Spherical => {
-                let [c, s] = azimuth_of(rear);
+                let (rear_radius, [c, s]) = polar_of(rear);
                 let d = rotate([ray.direction[0], ray.direction[1]], c, -s);
                 let mirror = if d[1] < 0.0 { -1.0 } else { 1.0 };
                 let polar = (-ray.direction[2]).clamp(-1.0, 1.0).acos();
                 let azimuth = (d[1] * mirror).atan2(d[0]);
                 let coords = [
-                    rear[0].hypot(rear[1]) / frame.max_rear_radius,
+                    rear_radius / frame.max_rear_radius,
                     polar / frame.max_polar_angle,
                     azimuth / std::f64::consts::PI,
                 ];
@@ -188,8 +190,7 @@ impl Parameterisation {
             }
             Parameterisation::PupilPlanes => {
                 let film = crossing(ray, frame.film_plane_z)?;
-                let [c, s] = azimuth_of(film);
-                let film_radius = film[0].hypot(film[1]);
+                let (film_radius, [c, s]) = polar_of(film);
                 let q = rotate(rear, c, -s);
                 let mirror = if q[1] < 0.0 { -1.0 } else { 1.0 };
                 let circle = pupil.circle_at(film_radius);

@@ -3,12 +3,13 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::entries::Entries;
 use super::focus::FocusRange;
 use super::param::{CHANNELS, Frame, Located, MARGIN, Parameterisation, Ray, to_lens_frame};
 use crate::pupil::{FocusPupilTable, PupilTable};
 
-/// Sample format on disk. In memory values are f32 either way; an f16 table holds the values
-/// rounded to f16, so sampling it in memory gives exactly the error of the file.
+/// Sample format on disk and in memory (see [`Entries`]): sampling a table in memory gives
+/// exactly the error of its file.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Precision {
     F32,
@@ -58,8 +59,7 @@ pub struct Layer {
     pub sampling: FocusPupilTable,
     /// Stop semi-aperture the table was baked with (mm).
     pub stop_semi_aperture: f64,
-    /// Entries, index `i0 + n0 * (i1 + n1 * i2)`.
-    pub entries: Vec<[f32; CHANNELS]>,
+    pub entries: Entries,
 }
 
 /// Everything that fixes what a table means; stored in the RON sidecar.
@@ -123,14 +123,6 @@ pub enum Lookup {
     OutsideDomain,
 }
 
-/// Trilinear addressing of a coordinate in [0,1] on `n` nodes: base index and fraction.
-/// Nodes sit at k / (n - 1), so both ends of the domain are sampled exactly.
-pub fn address(coord: f64, n: usize) -> (usize, f64) {
-    let t = coord.clamp(0.0, 1.0) * (n - 1) as f64;
-    let i = (t.floor() as usize).min(n - 2);
-    (i, t - i as f64)
-}
-
 /// Which corners of the enclosing cell the transfer values are interpolated from.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Corners {
@@ -146,47 +138,20 @@ pub enum Corners {
 
 impl Layer {
     /// Trilinear interpolation of every channel at table coordinates.
-    pub fn fetch(&self, dims: [usize; 3], coords: [f64; 3]) -> [f64; CHANNELS] {
-        self.fetch_from(dims, coords, Corners::All)
+    pub fn fetch(&self, coords: [f64; 3]) -> [f64; CHANNELS] {
+        self.fetch_from(coords, Corners::All)
     }
 
     /// Interpolation at table coordinates with the values taken from `corners`.
-    pub fn fetch_from(
-        &self,
-        dims: [usize; 3],
-        coords: [f64; 3],
-        corners: Corners,
-    ) -> [f64; CHANNELS] {
-        let (i0, f0) = address(coords[0], dims[0]);
-        let (i1, f1) = address(coords[1], dims[1]);
-        let (i2, f2) = address(coords[2], dims[2]);
-        let mut out = [0.0; CHANNELS];
-        let mut valid_out = [0.0; CHANNELS];
-        let mut valid_weight = 0.0;
-        for corner in 0..8 {
-            let (d0, d1, d2) = (corner & 1, (corner >> 1) & 1, (corner >> 2) & 1);
-            let w = if d0 == 1 { f0 } else { 1.0 - f0 }
-                * if d1 == 1 { f1 } else { 1.0 - f1 }
-                * if d2 == 1 { f2 } else { 1.0 - f2 };
-            let entry = &self.entries[(i0 + d0) + dims[0] * ((i1 + d1) + dims[1] * (i2 + d2))];
-            for (o, v) in out.iter_mut().zip(entry) {
-                *o += w * *v as f64;
-            }
-            if corners == Corners::ValidOnly && entry[MARGIN] >= 0.0 {
-                valid_weight += w;
-                for (o, v) in valid_out.iter_mut().zip(entry) {
-                    *o += w * *v as f64;
-                }
-            }
-        }
-        if corners == Corners::ValidOnly && valid_weight > 0.0 {
-            let margin = out[MARGIN];
-            out = valid_out.map(|v| v / valid_weight);
-            out[MARGIN] = margin;
-        }
-        out
+    pub fn fetch_from(&self, coords: [f64; 3], corners: Corners) -> [f64; CHANNELS] {
+        self.entries
+            .interpolate(&self.entries.cell(coords), corners)
     }
 }
+
+/// Rays a lookup handles together: it locates all of them before it reads any table entry, so
+/// the reads of several rays are in flight at once (in a large table most of them miss cache).
+pub const LOOKUP_GROUP: usize = 16;
 
 impl LrtfTable {
     pub fn dims(&self) -> [usize; 3] {
@@ -210,6 +175,12 @@ impl LrtfTable {
     /// `stop_radius` (from [`LrtfTable::stop_radius`]). This is exactly what the shader does.
     pub fn lookup(&self, layer: usize, ray: &Ray, stop_radius: f64) -> Lookup {
         self.lookup_from(layer, ray, stop_radius, Corners::All)
+    }
+
+    /// [`LrtfTable::lookup`] of every ray in `rays` into `out` (same length), the same values
+    /// as one at a time.
+    pub fn lookup_group(&self, layer: usize, rays: &[Ray], stop_radius: f64, out: &mut [Lookup]) {
+        self.lookup_each(layer, rays, stop_radius, Corners::All, out);
     }
 
     /// [`LrtfTable::lookup`] for a render focused on the film plane `film_z`: the table's domain
@@ -239,28 +210,75 @@ impl LrtfTable {
         stop_radius: f64,
         corners: Corners,
     ) -> Lookup {
+        let mut out = [Lookup::OutsideDomain];
+        self.lookup_each(
+            layer,
+            std::slice::from_ref(ray),
+            stop_radius,
+            corners,
+            &mut out,
+        );
+        out[0]
+    }
+
+    /// The one lookup: [`LOOKUP_GROUP`] rays at a time, each located (or settled outside the
+    /// table) first, then the cells read and the outgoing rays decoded.
+    fn lookup_each(
+        &self,
+        layer: usize,
+        rays: &[Ray],
+        stop_radius: f64,
+        corners: Corners,
+        out: &mut [Lookup],
+    ) {
+        assert_eq!(rays.len(), out.len(), "one lookup per ray");
+        let entries = &self.layers[layer].entries;
+        for (rays, out) in rays.chunks(LOOKUP_GROUP).zip(out.chunks_mut(LOOKUP_GROUP)) {
+            let mut located = [None; LOOKUP_GROUP];
+            for ((ray, o), at) in rays.iter().zip(out.iter_mut()).zip(&mut located) {
+                match self.place(layer, ray) {
+                    Ok(place) => *at = Some((place, entries.cell(place.coords))),
+                    Err(settled) => *o = settled,
+                }
+            }
+            for (at, o) in located.iter().zip(out) {
+                if let Some((place, cell)) = at {
+                    let v = entries.interpolate(cell, corners);
+                    *o = self.leaving(place, &v, stop_radius);
+                }
+            }
+        }
+    }
+
+    /// Where `ray` falls in the table, or what it means when it falls outside the domain.
+    fn place(&self, layer: usize, ray: &Ray) -> Result<Located, Lookup> {
         let Some(at) = self.locate(layer, ray) else {
-            return Lookup::OutsideDomain;
+            return Err(Lookup::OutsideDomain);
         };
         if !at.in_domain {
             // Beyond the film radius the table covers (pupil-planes), nothing is known; elsewhere
             // out of range means outside the conservative pupil bound, hence blocked.
             let beyond_film =
                 self.info.parameterisation == Parameterisation::PupilPlanes && at.coords[0] > 1.0;
-            return if beyond_film {
+            return Err(if beyond_film {
                 Lookup::OutsideDomain
             } else {
                 Lookup::Blocked
-            };
+            });
         }
-        let v = self.layers[layer].fetch_from(self.dims(), at.coords, corners);
+        Ok(at)
+    }
+
+    /// The outcome of the interpolated channels `v` at `at`: the stop and aperture-margin tests,
+    /// then the outgoing ray in the lens frame.
+    fn leaving(&self, at: &Located, v: &[f64; CHANNELS], stop_radius: f64) -> Lookup {
         let stop_ok = v[5] * v[5] + v[6] * v[6] <= stop_radius * stop_radius;
         if v[MARGIN] < 0.0 || !stop_ok {
             return Lookup::Blocked;
         }
-        let exit = to_lens_frame([v[0], v[1]], &at);
+        let exit = to_lens_frame([v[0], v[1]], at);
         let d = self.info.parameterisation.decode_direction([v[2], v[3]]);
-        let d_xy = to_lens_frame([d[0], d[1]], &at);
+        let d_xy = to_lens_frame([d[0], d[1]], at);
         Lookup::Passes(Ray {
             origin: [exit[0], exit[1], v[7]],
             direction: [d_xy[0], d_xy[1], d[2]],
@@ -307,20 +325,30 @@ impl LrtfTable {
             * CHANNELS
             * self.info.precision.bytes()
     }
+
+    /// The same table stored in `precision` (what a bake of the same request in that precision
+    /// gives: the bake rounds every value to f32, then to the precision).
+    pub fn to_precision(&self, precision: Precision) -> LrtfTable {
+        LrtfTable {
+            info: TableInfo {
+                precision,
+                ..self.info.clone()
+            },
+            layers: self
+                .layers
+                .iter()
+                .map(|l| Layer {
+                    entries: l.entries.to_precision(precision),
+                    ..l.clone()
+                })
+                .collect(),
+        }
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn address_puts_nodes_at_both_ends() {
-        assert_eq!(address(0.0, 5), (0, 0.0));
-        assert_eq!(address(1.0, 5), (3, 1.0));
-        let (i, f) = address(0.6, 5);
-        assert_eq!(i, 2);
-        assert!((f - 0.4).abs() < 1e-12);
-    }
 
     #[test]
     fn fetch_reproduces_a_trilinear_function_exactly() {
@@ -358,10 +386,10 @@ mod tests {
             pupil: pupil.clone(),
             sampling: FocusPupilTable::single(1.0, pupil),
             stop_semi_aperture: 1.0,
-            entries,
+            entries: Entries::from_row_major(dims, Precision::F32, &entries),
         };
         for c in [[0.1, 0.7, 0.33], [0.99, 0.01, 0.5], [0.5, 0.5, 1.0]] {
-            assert!((layer.fetch(dims, c)[0] - f(c)).abs() < 1e-5);
+            assert!((layer.fetch(c)[0] - f(c)).abs() < 1e-5);
         }
     }
 }

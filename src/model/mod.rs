@@ -53,6 +53,11 @@ pub enum ModelError {
     FasterThanLens { f_number: f64, wide_open: f64 },
     #[error("f-number {} is faster than the table's f/{table:.3}; rebake with --f-number", crate::limits::short(*.f_number))]
     FasterThanTable { f_number: f64, table: f64 },
+    #[error(
+        "lens: an odd number of mirrors sends the light back towards the object side; only a \
+         lens that images behind its last surface can be rendered"
+    )]
+    ImageInFront,
     #[error("lens: the exit pupil is at infinity; thick and thin models need a finite one")]
     ExitPupilAtInfinity,
     #[error(

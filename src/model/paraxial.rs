@@ -116,6 +116,9 @@ pub struct FirstOrderModels {
 impl FirstOrderModels {
     /// The models at `f_number`, wide open when None.
     pub fn of(system: &LensSystem, f_number: Option<f64>) -> Result<FirstOrderModels, ModelError> {
+        if !system.images_behind() {
+            return Err(ModelError::ImageInFront);
+        }
         let at = system.at(system.design_wavelength_nm());
         let paraxial = Paraxial::new(&at, &ParaxialOptions::default())?;
         let wide_open = paraxial.f_number;

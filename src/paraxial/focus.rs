@@ -16,7 +16,7 @@ pub fn sensor_z(system: &SystemAt, object: ObjectPosition) -> Result<f64, Paraxi
             .image_z(-distance)
             .ok_or(ParaxialError::ObjectAtFrontFocalPlane)?,
     };
-    if z_image <= first.z_last_vertex {
+    if !first.ahead_of_last_vertex(z_image) {
         return Err(ParaxialError::VirtualImage {
             z_image,
             z_last_vertex: first.z_last_vertex,
@@ -29,7 +29,7 @@ pub fn sensor_z(system: &SystemAt, object: ObjectPosition) -> Result<f64, Paraxi
 /// rear focal plane, else a real object in front of surface 1.
 pub fn object_in_focus(system: &SystemAt, z_sensor: f64) -> Result<ObjectPosition, ParaxialError> {
     let first = FirstOrder::of(system)?;
-    if !(z_sensor.is_finite() && z_sensor > first.z_last_vertex) {
+    if !(z_sensor.is_finite() && first.ahead_of_last_vertex(z_sensor)) {
         return Err(ParaxialError::SensorInsideLens {
             z_sensor,
             z_last_vertex: first.z_last_vertex,

@@ -105,6 +105,18 @@ pub struct FirstOrder {
 }
 
 impl FirstOrder {
+    /// +1 when light leaves the lens travelling +z, -1 after an odd number of mirrors: the sign
+    /// of the image-space index.
+    pub fn image_sense(&self) -> f64 {
+        self.image_index.signum()
+    }
+
+    /// Whether a point at `z` in image space lies ahead of the last vertex in the sense light
+    /// leaves it, where a real image can form.
+    pub fn ahead_of_last_vertex(&self, z: f64) -> bool {
+        (z - self.z_last_vertex) * self.image_sense() > 0.0
+    }
+
     /// Cardinal points of `system`; an afocal system (zero power) has none.
     pub fn of(system: &SystemAt) -> Result<FirstOrder, ParaxialError> {
         FirstOrder::from_matrix(

@@ -260,8 +260,10 @@ impl Paraxial {
             object_height: object.distance().map(|d| chief.object_space_height(-d)),
             max_field_angle_deg: max_field,
             lagrange_invariant,
-            f_number: first_order.efl / (2.0 * entrance_radius),
-            working_f_number: 1.0 / (2.0 * n_image * image_slope.abs()),
+            // Focal length and index in the sense light leaves the lens: an odd number of
+            // mirrors makes both negative, and a converging mirror's f-number positive.
+            f_number: first_order.efl * first_order.image_sense() / (2.0 * entrance_radius),
+            working_f_number: 1.0 / (2.0 * n_image.abs() * image_slope.abs()),
             z_image,
             image_height: chief.image_space_height(z_image),
             magnification: object

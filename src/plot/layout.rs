@@ -92,7 +92,7 @@ impl LayoutPlot {
             .surfaces
             .windows(2)
             .enumerate()
-            .filter(|(_, pair)| (pair[0].index_after - 1.0).abs() > 1e-9)
+            .filter(|(_, pair)| (pair[0].index_after.abs() - 1.0).abs() > 1e-9)
             .map(|(i, _)| LayoutElement {
                 front: i,
                 back: i + 1,

@@ -84,6 +84,12 @@ pub enum Problem {
     IndexBelowOne { index: f64 },
     #[error("semi-aperture must be positive, got {}", crate::limits::short(*.value))]
     NonPositiveAperture { value: f64 },
+    #[error(
+        "central obscuration radius {} mm must be positive and inside the semi-aperture {} mm",
+        crate::limits::short(*.radius),
+        crate::limits::short(*.semi_aperture)
+    )]
+    ObscurationOutOfRange { radius: f64, semi_aperture: f64 },
     #[error("semi-aperture {} mm is larger than |radius| {} mm", crate::limits::short(*.semi_aperture), crate::limits::short(*.radius))]
     ApertureExceedsRadius { semi_aperture: f64, radius: f64 },
     #[error(

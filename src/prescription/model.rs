@@ -117,12 +117,14 @@ impl FieldSpec {
     }
 }
 
-/// One refracting (or dummy) surface and the gap after it.
+/// One refracting, reflecting (medium [`Medium::Mirror`]) or dummy surface and the gap after it.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Surface {
     pub shape: Shape,
     /// Axial distance from this vertex to the next one (mm); for the last surface, to the film.
+    /// Negative while light travels towards -z, after an odd number of mirrors (the sign
+    /// convention of Zemax and CODE V files).
     pub thickness: f64,
     /// Medium after this surface.
     pub medium: Medium,
@@ -131,6 +133,10 @@ pub struct Surface {
     /// Present when this surface is the aperture stop.
     #[serde(default)]
     pub stop: Option<StopShape>,
+    /// Radius (mm) of a central obscuration: the surface blocks rays that meet it closer to
+    /// the axis than this (a secondary mirror's shadow, a hole in a primary mirror).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub obscuration: Option<f64>,
 }
 
 /// Surface profile. Curvature c = 1/R (plane: 0); positive when the centre of curvature lies at
@@ -258,6 +264,9 @@ pub enum Medium {
         wavelengths_nm: Vec<f64>,
         indices: Vec<f64>,
     },
+    /// The surface reflects: light turns back into the medium it came from (Zemax `GLAS
+    /// MIRROR`, CODE V `REFL`).
+    Mirror,
 }
 
 impl Medium {
@@ -266,8 +275,28 @@ impl Medium {
     }
 
     /// Whether the medium is air or an index of exactly 1 (used to describe the lens, not for optics).
+    /// A mirror is not: what lies after it is the medium before it.
     pub fn is_air(&self) -> bool {
         matches!(self, Medium::Air) || matches!(self, Medium::Index(n) if *n == 1.0)
+    }
+
+    /// A short name for tables and listings: "air", "N-BK7", "n = 1.5", "mirror".
+    pub fn describe(&self) -> String {
+        match self {
+            _ if self.is_air() => "air".into(),
+            Medium::Air => "air".into(),
+            Medium::Index(n) => format!("n = {n}"),
+            Medium::Glass(name) => name.clone(),
+            Medium::Sellmeier { .. } => "Sellmeier".into(),
+            Medium::Model { nd, vd } => format!("model {nd}/{vd}"),
+            Medium::Table { wavelengths_nm, .. } => format!(
+                "table of {} indices, {}-{} nm",
+                wavelengths_nm.len(),
+                wavelengths_nm.first().copied().unwrap_or_default(),
+                wavelengths_nm.last().copied().unwrap_or_default()
+            ),
+            Medium::Mirror => "mirror".into(),
+        }
     }
 }
 

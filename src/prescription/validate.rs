@@ -60,14 +60,18 @@ pub fn validate(p: &Prescription, map: &SourceMap) -> Result<(), PrescriptionErr
         limits::MAX_SURFACES,
     )
     .map_err(|e| PrescriptionError::new(map.whole_file(), e.into()))?;
-    check_medium(
-        &p.object_medium,
-        Location {
-            file: map.file.clone(),
-            field: Some("object_medium".into()),
-            ..Location::default()
-        },
-    )?;
+    let object_medium = Location {
+        file: map.file.clone(),
+        field: Some("object_medium".into()),
+        ..Location::default()
+    };
+    if p.object_medium == Medium::Mirror {
+        return Err(PrescriptionError::new(
+            object_medium,
+            Problem::Unsupported("object space cannot be a mirror".into()),
+        ));
+    }
+    check_medium(&p.object_medium, object_medium)?;
     check_provenance(p, map)?;
     for (i, s) in p.surfaces.iter().enumerate() {
         check_surface(i, s, map)?;
@@ -128,7 +132,7 @@ fn finite(value: f64, location: Location) -> Result<(), PrescriptionError> {
 
 fn check_medium(medium: &Medium, location: Location) -> Result<(), PrescriptionError> {
     match medium {
-        Medium::Air | Medium::Glass(_) => Ok(()),
+        Medium::Air | Medium::Glass(_) | Medium::Mirror => Ok(()),
         Medium::Index(n) => {
             finite(*n, location.clone())?;
             if *n < 1.0 {
@@ -205,6 +209,18 @@ fn check_surface(i: usize, s: &Surface, map: &SourceMap) -> Result<(), Prescript
         ));
     }
     check_medium(&s.medium, map.surface(i, "medium"))?;
+    if let Some(radius) = s.obscuration {
+        finite(radius, map.surface(i, "obscuration"))?;
+        if !(radius > 0.0 && radius < s.semi_aperture) {
+            return Err(PrescriptionError::new(
+                map.surface(i, "obscuration"),
+                Problem::ObscurationOutOfRange {
+                    radius,
+                    semi_aperture: s.semi_aperture,
+                },
+            ));
+        }
+    }
 
     let conic = s.shape.conic();
     let limit_sq = (1.0 + conic) * curvature * curvature;
@@ -277,18 +293,23 @@ pub(crate) fn check_stop(p: &Prescription, map: &SourceMap) -> Result<(), Prescr
 }
 
 /// Neighbouring surfaces must not cross within the smaller of their clear apertures: the gap
-/// z_next(r) - z_this(r) stays non-negative for every sampled r.
+/// z_next(r) - z_this(r), measured in the sense light travels between them (-z after an odd
+/// number of mirrors), stays non-negative for every sampled r.
 fn check_crossings(p: &Prescription, map: &SourceMap) -> Result<(), PrescriptionError> {
     let z = p.vertex_z();
+    let mut sense = 1.0;
     for i in 0..p.surfaces.len().saturating_sub(1) {
         let (a, b) = (&p.surfaces[i], &p.surfaces[i + 1]);
+        if a.medium == Medium::Mirror {
+            sense = -sense;
+        }
         let r_max = a.semi_aperture.min(b.semi_aperture);
         for k in 0..=CROSSING_SAMPLES {
             let r = r_max * k as f64 / CROSSING_SAMPLES as f64;
             let (Some(sag_a), Some(sag_b)) = (a.shape.sag(r), b.shape.sag(r)) else {
                 continue;
             };
-            let gap = (z[i + 1] + sag_b) - (z[i] + sag_a);
+            let gap = sense * ((z[i + 1] + sag_b) - (z[i] + sag_a));
             // Touching edges (a cemented flat rim) pass, and so does the overlap of up to
             // CROSSING_TOLERANCE_MM that design programs leave behind (an optimiser's -1e-8 mm
             // air gap): it is far below any manufacturing tolerance and moves no ray measurably.

@@ -50,7 +50,8 @@ impl PupilTable {
             return self.circles[0];
         }
         let t = (film_radius / self.max_film_radius).clamp(0.0, 1.0) * (n - 1) as f64;
-        let i = (t.floor() as usize).min(n - 2);
+        // t >= 0 (or NaN, 0 either way): truncation is the floor, without a libm call.
+        let i = (t as usize).min(n - 2);
         let f = t - i as f64;
         let (a, b) = (self.circles[i], self.circles[i + 1]);
         PupilCircle {
@@ -488,7 +489,8 @@ impl FocusPupilTable {
         if self.nodes.len() < 2 {
             return (0, 0.0);
         }
-        let j = (t.floor() as usize).min(self.nodes.len() - 2);
+        // t >= 0 (or NaN): truncation is the floor.
+        let j = (t as usize).min(self.nodes.len() - 2);
         (j, t - j as f64)
     }
 

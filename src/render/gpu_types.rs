@@ -5,7 +5,7 @@ use super::RenderError;
 use super::camera::Camera;
 use super::chromatic::{CHANNELS, ChannelLenses, Chromatic, PUPIL_EDGE_TOLERANCE};
 use super::layers::LayeredDepthImage;
-use crate::lrtf::{GpuParams, Parameterisation};
+use crate::lrtf::{GpuParams, Layer, Parameterisation};
 use crate::model::{LensModel, SeidelLens};
 use bytemuck::{Pod, Zeroable};
 
@@ -267,7 +267,10 @@ pub struct LensSurface {
     pub same_medium: u32,
     /// 1 on the stop when its blades must be tested.
     pub bladed: u32,
-    pub pad: [u32; 2],
+    /// 1 when the surface is a mirror.
+    pub reflects: u32,
+    /// Squared radius of the central obscuration (0 for none).
+    pub obscuration_sq: f32,
     /// Even-asphere coefficients of r^2, r^4, ...
     pub coefficients: [f32; crate::prescription::MAX_ASPHERE_TERMS],
 }
@@ -308,8 +311,27 @@ pub struct LensData {
     pub seidel: SeidelParams,
 }
 
+/// Whether [`LensData`] carries a baked table's textures: the GPU uploads them, the CPU twin
+/// reads the table itself (packing 64 MiB of texels per frame of a 128^3 table would cost it
+/// more than the lookups).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TableTexels {
+    Packed,
+    Omitted,
+}
+
+/// Appends `layer`'s entries to the shader's two RGBA textures, in the file's row-major order.
+fn append_texels(layer: &Layer, transfer: &mut Vec<[f32; 4]>, aux: &mut Vec<[f32; 4]>) {
+    transfer.reserve(layer.entries.len());
+    aux.reserve(layer.entries.len());
+    for e in layer.entries.row_major() {
+        transfer.push([e[0], e[1], e[2], e[3]]);
+        aux.push([e[4], e[5], e[6], e[7]]);
+    }
+}
+
 impl LensData {
-    pub fn of(model: &LensModel) -> LensData {
+    pub fn of(model: &LensModel, texels: TableTexels) -> LensData {
         let sampling = model.pupil_sampling();
         let pupil: Vec<[f32; 2]> = sampling
             .circles
@@ -345,28 +367,17 @@ impl LensData {
                 let g = lens
                     .table
                     .gpu_params(lens.layer, lens.stop_radius, lens.film_z());
-                let layer = &lens.table.layers[lens.layer];
-                let split = |range: std::ops::Range<usize>| -> Vec<[f32; 4]> {
-                    layer
-                        .entries
-                        .iter()
-                        .map(|e| {
-                            [
-                                e[range.start],
-                                e[range.start + 1],
-                                e[range.start + 2],
-                                e[range.start + 3],
-                            ]
-                        })
-                        .collect()
-                };
+                let (mut transfer, mut aux) = (Vec::new(), Vec::new());
+                if texels == TableTexels::Packed {
+                    append_texels(&lens.table.layers[lens.layer], &mut transfer, &mut aux);
+                }
                 LensData {
                     params,
                     surfaces,
                     lrtf: g,
                     pupil: lens.table.gpu_pupil(lens.layer),
-                    transfer: split(0..4),
-                    aux: split(4..8),
+                    transfer,
+                    aux,
                     dims: g.dims,
                     seidel: SeidelParams::zeroed(),
                 }
@@ -435,6 +446,7 @@ pub fn lens_surfaces(system: &crate::system::SystemAt) -> (LensParams, Vec<LensS
     let surfaces = system
         .path()
         .map(|(i, s, index_before, index_after)| {
+            let (index_before, index_after) = (index_before.abs(), index_after.abs());
             let mut out = LensSurface {
                 vertex_z: s.vertex_z as f32,
                 semi_aperture_sq: (s.semi_aperture * s.semi_aperture) as f32,
@@ -442,6 +454,8 @@ pub fn lens_surfaces(system: &crate::system::SystemAt) -> (LensParams, Vec<LensS
                 search_radius: (2.0 * s.geometric_semi_aperture) as f32,
                 conic_factor: 1.0,
                 same_medium: u32::from(index_before == index_after),
+                reflects: u32::from(s.mirror),
+                obscuration_sq: s.obscuration.map_or(0.0, |r| r * r) as f32,
                 ..LensSurface::zeroed()
             };
             match &s.shape {
@@ -529,9 +543,10 @@ impl LensData {
     pub fn chromatic(
         camera: &Camera,
         chromatic: &Chromatic,
+        texels: TableTexels,
     ) -> Result<(LensData, ChannelParams), RenderError> {
         chromatic.check_matches(&camera.model)?;
-        let mut lens = LensData::of(&camera.model);
+        let mut lens = LensData::of(&camera.model, texels);
         let mut params = ChannelParams::zeroed();
         let sampling: Vec<[f32; 2]> = chromatic
             .sampling
@@ -607,10 +622,9 @@ impl LensData {
                 lens.pupil.clear();
                 for &k in layers {
                     let layer = &table.layers[k];
-                    lens.transfer
-                        .extend(layer.entries.iter().map(|e| [e[0], e[1], e[2], e[3]]));
-                    lens.aux
-                        .extend(layer.entries.iter().map(|e| [e[4], e[5], e[6], e[7]]));
+                    if texels == TableTexels::Packed {
+                        append_texels(layer, &mut lens.transfer, &mut lens.aux);
+                    }
                     lens.pupil.extend(
                         layer
                             .pupil

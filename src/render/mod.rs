@@ -28,7 +28,7 @@ pub mod wgsl;
 
 use crate::limits;
 use camera::Camera;
-use gpu_types::{FrameParams, LayerData, LensData, frame_params};
+use gpu_types::{FrameParams, LayerData, LensData, TableTexels, frame_params};
 use image::RgbImage;
 use layers::{LayeredDepthImage, View};
 use std::path::PathBuf;
@@ -228,12 +228,16 @@ pub fn accumulate_share(
             settings.seed,
         )
     };
+    let texels = match backend {
+        Backend::Gpu => TableTexels::Packed,
+        Backend::Cpu => TableTexels::Omitted,
+    };
     let (lens, channels) = match &camera.chromatic {
         Some(chromatic) => {
-            let (lens, channels) = LensData::chromatic(camera, chromatic)?;
+            let (lens, channels) = LensData::chromatic(camera, chromatic, texels)?;
             (lens, Some(channels))
         }
-        None => (LensData::of(&camera.model), None),
+        None => (LensData::of(&camera.model, texels), None),
     };
     match (backend, gpu) {
         (Backend::Gpu, gpu) => {

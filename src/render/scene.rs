@@ -147,6 +147,21 @@ impl Scene {
         Scene { panels }
     }
 
+    /// One small round emitter on the axis, `distance_mm` in front of the lens, on black: a
+    /// highlight whose defocused image is the lens's bokeh, the shape of its effective pupil.
+    pub fn highlight(distance_mm: f64, radius_mm: f64, radiance: f32) -> Scene {
+        Scene {
+            panels: vec![Panel {
+                distance_mm,
+                outline: Outline::Disc {
+                    centre: [0.0, 0.0],
+                    radius: radius_mm,
+                },
+                texture: Texture::Solid([radiance; 3]),
+            }],
+        }
+    }
+
     /// Nearest panel distance in front of the first vertex.
     pub fn nearest_distance_mm(&self) -> Option<f64> {
         self.panels.iter().map(|p| p.distance_mm).reduce(f64::min)

@@ -186,8 +186,8 @@ fn prescription_table(system: &LensSystem) -> Table {
                 (i + 1).to_string(),
                 radius,
                 format!("{:.4}", s.thickness),
-                format!("{:.6}", s.index_after),
-                medium_name(&source.medium),
+                format!("{:.6}", s.index_after.abs()),
+                source.medium.describe(),
                 format!("{:.3}", s.semi_aperture),
                 [if s.is_stop() { "stop" } else { "" }, kind]
                     .iter()
@@ -212,24 +212,6 @@ fn prescription_table(system: &LensSystem) -> Table {
         .map(String::from)
         .to_vec(),
         rows,
-    }
-}
-
-fn medium_name(medium: &crate::prescription::Medium) -> String {
-    use crate::prescription::Medium;
-    match medium {
-        _ if medium.is_air() => "air".into(),
-        Medium::Air => "air".into(),
-        Medium::Index(n) => format!("n = {n}"),
-        Medium::Glass(name) => name.clone(),
-        Medium::Sellmeier { .. } => "Sellmeier".into(),
-        Medium::Model { nd, vd } => format!("model {nd}/{vd}"),
-        Medium::Table { wavelengths_nm, .. } => format!(
-            "table of {} indices, {}-{} nm",
-            wavelengths_nm.len(),
-            wavelengths_nm.first().copied().unwrap_or_default(),
-            wavelengths_nm.last().copied().unwrap_or_default()
-        ),
     }
 }
 

@@ -6,7 +6,7 @@
 
 use crate::glass::Dispersion;
 use crate::prescription::{
-    Location, Prescription, PrescriptionError, Shape, SourceMap, StopShape, validate,
+    Location, Medium, Prescription, PrescriptionError, Shape, SourceMap, StopShape, validate,
 };
 
 pub use crate::prescription::DEFAULT_WAVELENGTH_NM;
@@ -39,15 +39,17 @@ impl LensSystem {
                 problem,
             )
         })?;
-        let dispersions = prescription
-            .surfaces
-            .iter()
-            .enumerate()
-            .map(|(i, s)| {
-                Dispersion::of(&s.medium)
-                    .map_err(|problem| PrescriptionError::new(map.surface(i, "medium"), problem))
-            })
-            .collect::<Result<Vec<_>, _>>()?;
+        // A mirror reflects back into the medium it was met in, so it takes that medium's
+        // dispersion; the sign of travel lives in `SystemAt`, not here.
+        let mut dispersions: Vec<Dispersion> = Vec::with_capacity(prescription.surfaces.len());
+        for (i, s) in prescription.surfaces.iter().enumerate() {
+            let dispersion = match s.medium {
+                Medium::Mirror => dispersions.last().unwrap_or(&object_dispersion).clone(),
+                _ => Dispersion::of(&s.medium)
+                    .map_err(|problem| PrescriptionError::new(map.surface(i, "medium"), problem))?,
+            };
+            dispersions.push(dispersion);
+        }
         let stop = prescription
             .stop_index()
             .expect("validate guarantees exactly one stop");
@@ -109,6 +111,7 @@ impl LensSystem {
     /// The lens frozen at one wavelength.
     pub fn at(&self, wavelength_nm: f64) -> SystemAt {
         let mut z = 0.0;
+        let mut travel = 1.0;
         let surfaces = self
             .prescription
             .surfaces
@@ -117,14 +120,20 @@ impl LensSystem {
             .map(|(s, d)| {
                 let vertex_z = z;
                 z += s.thickness;
+                let mirror = s.medium == Medium::Mirror;
+                if mirror {
+                    travel = -travel;
+                }
                 SurfaceAt {
                     vertex_z,
                     thickness: s.thickness,
-                    index_after: d.index(wavelength_nm),
+                    index_after: travel * d.index(wavelength_nm),
                     semi_aperture: s.semi_aperture,
                     geometric_semi_aperture: s.semi_aperture,
                     stop: s.stop.clone(),
                     shape: s.shape.clone(),
+                    mirror,
+                    obscuration: s.obscuration,
                 }
             })
             .collect();
@@ -134,6 +143,26 @@ impl LensSystem {
             surfaces,
             stop: self.stop,
         }
+    }
+
+    /// Whether any surface reflects.
+    pub fn has_mirrors(&self) -> bool {
+        self.prescription
+            .surfaces
+            .iter()
+            .any(|s| s.medium == Medium::Mirror)
+    }
+
+    /// Whether light leaves the last surface travelling +z, towards a film behind the lens: true
+    /// for refracting lenses and for an even number of mirrors (a reflex lens).
+    pub fn images_behind(&self) -> bool {
+        self.prescription
+            .surfaces
+            .iter()
+            .filter(|s| s.medium == Medium::Mirror)
+            .count()
+            % 2
+            == 0
     }
 }
 
@@ -145,7 +174,10 @@ pub struct SurfaceAt {
     pub vertex_z: f64,
     /// Distance to the next vertex (for the last surface: to the film as the source gives it).
     pub thickness: f64,
-    /// Refractive index after the surface.
+    /// Refractive index after the surface, signed: negative while light travels -z (after an
+    /// odd number of mirrors). With this convention (Welford's, and CODE V's) every paraxial
+    /// and third-order formula holds for mirrors unchanged, a mirror being a surface with
+    /// n' = -n; code that needs the physical index takes the absolute value.
     pub index_after: f64,
     /// Radius beyond which rays are blocked: the clear semi-aperture, or for the stop the radius
     /// it is closed to ([`SystemAt::stopped_down`]).
@@ -155,6 +187,10 @@ pub struct SurfaceAt {
     /// with apertures ignored meets the same surface whatever the f-number.
     pub geometric_semi_aperture: f64,
     pub stop: Option<StopShape>,
+    /// Whether the surface reflects.
+    pub mirror: bool,
+    /// Radius inside which the surface blocks rays (mm).
+    pub obscuration: Option<f64>,
 }
 
 impl SurfaceAt {
@@ -178,7 +214,7 @@ pub struct SystemAt {
 }
 
 impl SystemAt {
-    /// Index of the medium before surface `i` (0-based).
+    /// Signed index of the medium before surface `i` (0-based); see [`SurfaceAt::index_after`].
     pub fn index_before(&self, i: usize) -> f64 {
         if i == 0 {
             self.object_index
@@ -187,7 +223,8 @@ impl SystemAt {
         }
     }
 
-    /// Index of image space (after the last surface).
+    /// Signed index of image space (after the last surface): negative when the image lies
+    /// towards -z.
     pub fn image_index(&self) -> f64 {
         self.surfaces
             .last()
@@ -207,7 +244,7 @@ impl SystemAt {
         stopped
     }
 
-    /// Each surface with the indices on both sides: the path every analysis walks.
+    /// Each surface with the (signed) indices on both sides: the path every analysis walks.
     pub fn path(&self) -> impl Iterator<Item = (usize, &SurfaceAt, f64, f64)> + '_ {
         self.surfaces
             .iter()

@@ -211,9 +211,11 @@ fn newton_step(
 }
 
 /// The largest field angle (degrees, in the y-z plane) up to which the real chief ray, aimed at
-/// the stop centre, passes every clear aperture: scanned upward in `scan_deg` steps from the
-/// axis, then bisected to 1e-9 degrees. Stops at 89.9 degrees.
+/// the stop centre, passes every clear aperture (central obscurations, which every chief ray
+/// meets, aside): scanned upward in `scan_deg` steps from the axis, then bisected to 1e-9
+/// degrees. Stops at 89.9 degrees.
 pub fn traceable_field_deg(tracer: &Tracer, scan_deg: f64) -> f64 {
+    let tracer = &tracer.unobscured();
     let start_z = tracer.front_start_z();
     let passes = |deg: f64| {
         let a = deg.to_radians();

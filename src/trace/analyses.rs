@@ -139,6 +139,9 @@ const MAPPING_STEP: f64 = 1e-4;
 pub struct RealRays {
     system: SystemAt,
     tracer: Tracer,
+    /// `tracer` without central obscurations, for the ray through the pupil centre that
+    /// measures a fan: it is the beam's axis, not a ray that must reach the image.
+    reference: Tracer,
     paraxial: Paraxial,
     start_z: f64,
     z_image: f64,
@@ -153,6 +156,7 @@ impl RealRays {
             start_z: tracer.front_start_z(),
             z_image: paraxial.z_image,
             system: system.clone(),
+            reference: tracer.unobscured(),
             tracer,
             paraxial,
         }
@@ -236,7 +240,16 @@ impl RealRays {
 
     /// Where `ray` meets the paraxial image plane, or how it ended.
     fn image_point(&self, ray: Ray, apertures: Apertures) -> Result<Vec3, Outcome> {
-        let traced = self.tracer.trace_with(ray, Travel::Forward, apertures);
+        self.image_point_through(&self.tracer, ray, apertures)
+    }
+
+    fn image_point_through(
+        &self,
+        tracer: &Tracer,
+        ray: Ray,
+        apertures: Apertures,
+    ) -> Result<Vec3, Outcome> {
+        let traced = tracer.trace_with(ray, Travel::Forward, apertures);
         if !traced.outcome.is_ok() {
             return Err(traced.outcome);
         }
@@ -342,7 +355,11 @@ impl RealRays {
     /// with apertures applied. Errors are measured from the ray through the pupil centre.
     pub fn ray_fan(&self, field: f64, samples: usize) -> Result<RayFan, RealRayError> {
         let centre = self
-            .image_point(self.pupil_ray(field, 0.0, 0.0)?, Apertures::Checked)
+            .image_point_through(
+                &self.reference,
+                self.pupil_ray(field, 0.0, 0.0)?,
+                Apertures::Checked,
+            )
             .map_err(|outcome| RealRayError::PupilRay { rho: 0.0, outcome })?;
         let rhos: Vec<f64> = (0..samples)
             .map(|i| {

@@ -209,7 +209,7 @@ impl Tracer {
             let i = if FORWARD { step } else { n - 1 - step };
             let s = &self.surfaces[i];
             let refracts = s.index_before != s.index_after;
-            match (s.profile, s.bladed, refracts) {
+            match (s.profile, s.bladed || !s.plain(), refracts) {
                 (Profile::Sphere { .. }, false, true) => {
                     launch::<AVX2, SphereKernel<FORWARD, true>>(s, lanes, check_apertures)
                 }
@@ -479,6 +479,7 @@ mod tests {
             medium: Medium::Index(n),
             semi_aperture: 9.0,
             stop,
+            obscuration: None,
         };
         let prescription = Prescription {
             provenance: Provenance::default(),

@@ -83,10 +83,11 @@ pub fn check_start(system: &SystemAt, ray: &Ray, travel: Travel) -> Result<(), R
     let [x, y, z] = ray.position;
     let height = x.hypot(y).min(surface.geometric_semi_aperture);
     let surface_z = surface.vertex_z + surface.shape.sag(height).unwrap_or(0.0);
+    // Light leaving the last surface travels +z unless an odd number of mirrors turned it.
     let wrong_side = if forward {
         z > surface_z
     } else {
-        z < surface_z
+        (z - surface_z) * system.image_index().signum() < 0.0
     };
     if wrong_side {
         return Err(RayError::StartsInside {
@@ -274,6 +275,7 @@ struct FlatSurface {
     /// [`crate::system::SurfaceAt::geometric_semi_aperture`]: where the shape ends, whatever
     /// the stop is closed to.
     geometric_semi_aperture: f64,
+    /// Physical (positive) indices on each side.
     index_before: f64,
     index_after: f64,
     /// n_before / n_after, the Snell ratio going forward (its inverse going backward).
@@ -281,6 +283,22 @@ struct FlatSurface {
     mu_backward: f64,
     /// Whether the stop's blades must be tested here.
     bladed: bool,
+    /// Whether the surface reflects instead of refracting.
+    reflects: bool,
+    /// Squared radius of the central obscuration (0 for none).
+    obscuration_sq: f64,
+    /// Sense along z (+1 or -1) in which a forward ray meets this surface; a backward ray meets
+    /// it in `sense_backward`, the opposite of the forward ray's sense on leaving it.
+    sense_forward: f64,
+    sense_backward: f64,
+}
+
+impl FlatSurface {
+    /// Whether the surface bends rays and the lane kernels, which assume a refracting surface
+    /// met travelling +z forward with nothing blocking its centre, can cross it.
+    fn plain(&self) -> bool {
+        !self.reflects && self.obscuration_sq == 0.0 && self.sense_forward == 1.0
+    }
 }
 
 /// A lens at one wavelength, flattened for tracing.
@@ -308,9 +326,15 @@ impl Tracer {
     pub fn new(system: &SystemAt) -> Tracer {
         let mut asphere_terms = Vec::new();
         let mut diaphragm = None;
+        let mut sense = 1.0;
         let surfaces = system
             .path()
             .map(|(i, s, index_before, index_after)| {
+                let (index_before, index_after) = (index_before.abs(), index_after.abs());
+                let sense_forward = sense;
+                if s.mirror {
+                    sense = -sense;
+                }
                 let profile = match &s.shape {
                     Shape::Plane => Profile::Plane,
                     Shape::Sphere { curvature } if *curvature == 0.0 => Profile::Plane,
@@ -359,6 +383,10 @@ impl Tracer {
                     mu_forward: index_before / index_after,
                     mu_backward: index_after / index_before,
                     bladed,
+                    reflects: s.mirror,
+                    obscuration_sq: s.obscuration.map_or(0.0, |r| r * r),
+                    sense_forward,
+                    sense_backward: -sense,
                 }
             })
             .collect();
@@ -377,6 +405,22 @@ impl Tracer {
 
     pub fn wavelength_nm(&self) -> f64 {
         self.wavelength_nm
+    }
+
+    /// This lens with its central obscurations removed, for reference rays. The chief ray of an
+    /// obscured lens (a reflex lens, a Cassegrain) runs through the secondary mirror's shadow;
+    /// design programs still trace it as the axis of the beam, through every clear aperture.
+    pub fn unobscured(&self) -> Tracer {
+        let mut clear = self.clone();
+        for s in &mut clear.surfaces {
+            s.obscuration_sq = 0.0;
+        }
+        clear
+    }
+
+    /// Whether some surface blocks the centre of the beam.
+    pub fn is_obscured(&self) -> bool {
+        self.surfaces.iter().any(|s| s.obscuration_sq > 0.0)
     }
 
     /// Number of surfaces N.
@@ -408,6 +452,11 @@ impl Tracer {
     /// Clear semi-aperture of 0-based surface `i` (mm).
     pub(crate) fn semi_aperture(&self, i: usize) -> f64 {
         self.surfaces[i].semi_aperture_sq.sqrt()
+    }
+
+    /// Central obscuration radius of 0-based surface `i` (mm; 0 for none).
+    pub(crate) fn obscuration(&self, i: usize) -> f64 {
+        self.surfaces[i].obscuration_sq.sqrt()
     }
 
     /// How far inside the stop's blades the stop-plane point (x, y) lies (mm, negative
@@ -533,7 +582,11 @@ impl Tracer {
         ray: &Ray,
         check_apertures: bool,
     ) -> Result<Ray, (Event, Ray)> {
-        let sense = if FORWARD { 1.0 } else { -1.0 };
+        let sense = if FORWARD {
+            s.sense_forward
+        } else {
+            s.sense_backward
+        };
         let d = ray.direction;
         let p = [
             ray.position[0],
@@ -578,7 +631,7 @@ impl Tracer {
         };
         if check_apertures {
             let r_sq = q[0] * q[0] + q[1] * q[1];
-            if r_sq > s.semi_aperture_sq {
+            if r_sq > s.semi_aperture_sq || r_sq < s.obscuration_sq {
                 return Err((Event::Vignetted, at));
             }
             if s.bladed
@@ -589,6 +642,18 @@ impl Tracer {
             {
                 return Err((Event::Vignetted, at));
             }
+        }
+        if s.reflects {
+            let normal = normal.unwrap_or([0.0, 0.0, -1.0]);
+            let twice_cos = 2.0 * dot(d, normal);
+            return Ok(Ray {
+                position: at.position,
+                direction: [
+                    d[0] - twice_cos * normal[0],
+                    d[1] - twice_cos * normal[1],
+                    d[2] - twice_cos * normal[2],
+                ],
+            });
         }
         let (n_in, n_out, mu) = if FORWARD {
             (s.index_before, s.index_after, s.mu_forward)

@@ -418,14 +418,7 @@ pub fn bake_timed(
 /// The table an f16 bake of the same request stores: the bake rounds every f64 value to f32 and
 /// then to the precision, so rounding the f32 entries again gives the identical table.
 pub fn to_f16(table: &LrtfTable) -> LrtfTable {
-    let mut half = table.clone();
-    half.info.precision = Precision::F16;
-    for layer in &mut half.layers {
-        for entry in &mut layer.entries {
-            *entry = entry.map(|v| Precision::F16.round(v));
-        }
-    }
-    half
+    table.to_precision(Precision::F16)
 }
 
 /// Resolutions the trade-off bakes.

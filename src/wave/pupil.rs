@@ -273,7 +273,9 @@ fn trace_real(
     let exit_pupil_z = paraxial.exit_pupil.ok_or(WaveError::ExitPupilAtInfinity)?.z;
     let cutoff_per_mm = 1.0 / (wavelength_nm * NM_TO_MM * paraxial.working_f_number);
     let real = RealRays::new(&at, paraxial);
-    let image_index = at.image_index();
+    // Optical paths weigh lengths by the physical index; the sign of the image-space index only
+    // says which way light travels there.
+    let image_index = at.image_index().abs();
     let chief_start = real.pupil_ray(field_deg, 0.0, 0.0)?;
     let trace = |px: f64, py: f64, apertures: Apertures| -> Result<Option<ExitRay>, WaveError> {
         let ray = real.pupil_ray(field_deg, px, py)?;
@@ -357,7 +359,7 @@ fn exit_ray(
             + (start[2] - origin[2]) * launch[2]);
     let mut previous = start;
     for (crossing, (_, _, index_before, _)) in path.crossings.iter().zip(at.path()) {
-        optical_path += index_before * distance(crossing.point, previous);
+        optical_path += index_before.abs() * distance(crossing.point, previous);
         previous = crossing.point;
     }
     Some(ExitRay {

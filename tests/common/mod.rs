@@ -291,6 +291,7 @@ pub fn oracle_prescription(lens: &Value) -> Prescription {
             medium: Medium::Index(num(&s["n"])),
             semi_aperture: num(&s["semi_aperture"]),
             stop: s["stop"].as_bool().unwrap().then_some(StopShape::Circle),
+            obscuration: None,
         })
         .collect();
     Prescription {
@@ -515,6 +516,7 @@ pub fn cartesian_singlet(
                 medium: Medium::Index(n),
                 semi_aperture,
                 stop: Some(StopShape::Circle),
+                obscuration: None,
             },
             Surface {
                 shape: Shape::Sphere {
@@ -524,6 +526,7 @@ pub fn cartesian_singlet(
                 medium: Medium::Air,
                 semi_aperture: semi_aperture.min(rear_radius),
                 stop: None,
+                obscuration: None,
             },
         ],
     })

@@ -391,7 +391,8 @@ fn meeting_height(p: &Prescription, i: usize) -> Option<f64> {
     None
 }
 
-/// Index before surface 1 (entry 0) and after each surface, at one wavelength.
+/// Index before surface 1 (entry 0) and after each surface, at one wavelength, signed as
+/// [`crate::system::SurfaceAt::index_after`] is: a mirror keeps the medium and turns the sign.
 fn indices(
     p: &Prescription,
     wavelength_nm: f64,
@@ -404,9 +405,15 @@ fn indices(
     })?;
     let mut n = vec![object.index(wavelength_nm)];
     for (i, s) in p.surfaces.iter().enumerate() {
-        let dispersion = Dispersion::of(&s.medium)
-            .map_err(|problem| PrescriptionError::new(map.surface(i, "glass"), problem))?;
-        n.push(dispersion.index(wavelength_nm));
+        let before = n[i];
+        n.push(match s.medium {
+            crate::prescription::Medium::Mirror => -before,
+            _ => {
+                let dispersion = Dispersion::of(&s.medium)
+                    .map_err(|problem| PrescriptionError::new(map.surface(i, "glass"), problem))?;
+                dispersion.index(wavelength_nm).copysign(before)
+            }
+        });
     }
     Ok(n)
 }

@@ -9,7 +9,11 @@
 //! `XAN`/`YAN` (angles), `XOB`/`YOB` (object heights), `XIM`/`YIM` (paraxial image heights) or
 //! `XRI`/`YRI` (real image heights) with `WTF` (weights), `VUY`/`VLY`/`VUX`/`VLX` (vignetting
 //! factors), `SO` (object: distance, medium), `S value thickness [glass]`, `SI` (image), `STO`
-//! or `STOP` (without one, surface 1 is the stop, as in CODE V), `CIR` (clear aperture radius), `K`
+//! or `STOP` (without either, surface 1 is the stop, as in CODE V), `CIR` (clear aperture radius; `CIR OBS`
+//! and `CIR HOL` a central obscuration or hole, which both take the rays inside it off the
+//! sequential path; `CIR EDG` the mechanical edge, skipped), `REFL` as a glass (a mirror: light
+//! turns back into the medium it came from; thicknesses after it are negative while it travels
+//! -z, as CODE V writes them), `K`
 //! (conic), `A` `B` `C` `D` `E` `F` `G` `H` `J` (even-asphere terms r^4 .. r^20), `RDY`, `CUY`,
 //! `THI`, `GLA`, `CUF 0` (written into every ASP block), pickups `PIK` of `RDY`, `CUY`, `THI`
 //! and `K` with scale and offset (evaluated after the last surface), `GO` (end of input). Object distance, aperture, fields and wavelengths become the
@@ -18,9 +22,9 @@
 //! Skipped as harmless (they change no surface) and listed in one note: see `HARMLESS`.
 //!
 //! Refused with a message naming the command and line: every other command (decentres, tilts,
-//! other pickups, a `CUF` other than 0, solves, zoom positions, mirrors (`REFL`), non-circular
-//! apertures and obscurations (`REX`, `REY`, `CA OBS`, ...), private catalogues `PRV`), a curved
-//! object or image surface, and `CIR` forms other than a plain radius. Image-height fields and
+//! other pickups, a `CUF` other than 0, solves, zoom positions, non-circular apertures (`REX`,
+//! `REY`, ...), private catalogues given by a formula), a curved object or image surface, and
+//! other `CIR` forms (several values). Image-height fields and
 //! numerical apertures are refused only when a clear aperture must be derived from them (see
 //! `apertures`).
 //!
@@ -140,6 +144,8 @@ struct SeqSurface {
     conic: f64,
     terms: AsphereTerms,
     clear_radius: Option<f64>,
+    /// Radius inside which the surface blocks rays (`CIR OBS`, `CIR HOL`).
+    obscuration: Option<f64>,
     stop: bool,
 }
 
@@ -403,6 +409,7 @@ impl Reader {
                     conic: 0.0,
                     terms: [0.0; MAX_ASPHERE_TERMS],
                     clear_radius: None,
+                    obscuration: None,
                     stop: false,
                 });
             }
@@ -432,16 +439,30 @@ impl Reader {
                     self.skipped.insert("CIR EDG".into());
                     return Ok(());
                 }
-                if first.parse::<f64>().is_err() || c.args.len() > 1 {
+                // CIR OBS r (an obscuration) and CIR HOL r (a hole, as in a Cassegrain
+                // primary) both take the rays inside r off the sequential path; an aperture
+                // label (L'A') names the aperture and changes nothing.
+                let blocks_inside =
+                    first.eq_ignore_ascii_case("OBS") || first.eq_ignore_ascii_case("HOL");
+                let values: Vec<&String> = c
+                    .args
+                    .iter()
+                    .skip(usize::from(blocks_inside))
+                    .filter(|a| !is_aperture_label(a))
+                    .collect();
+                let [value] = values.as_slice() else {
                     return Err(unsupported(format!(
-                        "CIR {} (obscurations, holes and non-circular apertures are not \
-                         modelled)",
+                        "CIR {} (only a radius, CIR OBS r, CIR HOL r and CIR EDG are read)",
                         c.args.join(" ")
                     )));
-                }
-                let radius = one("CIR")?;
+                };
+                let radius = finite(value, &at("CIR"))?;
                 if let Current::Surface(i) = self.current() {
-                    self.surfaces[i].clear_radius = Some(radius);
+                    if blocks_inside {
+                        self.surfaces[i].obscuration = Some(radius);
+                    } else {
+                        self.surfaces[i].clear_radius = Some(radius);
+                    }
                 }
             }
             "K" => {
@@ -640,6 +661,7 @@ impl Reader {
                     medium: s.medium.clone(),
                     semi_aperture: s.clear_radius.unwrap_or(0.0),
                     stop: (s.stop || (!stop_given && i == 0)).then_some(StopShape::Circle),
+                    obscuration: s.obscuration,
                 }
             })
             .collect();
@@ -870,7 +892,7 @@ fn glass_medium(
         ))
     };
     if glass.eq_ignore_ascii_case("REFL") {
-        return refuse("mirrors (REFL): lensbake models refracting lenses only".into());
+        return Ok(Medium::Mirror);
     }
     // A model glass written as nd:vd ("1.5168:64.17").
     if let Some((nd, vd)) = glass.split_once(':')
@@ -911,4 +933,10 @@ fn glass_medium(
         )),
         _ => Ok(named_medium(glass, &[])),
     }
+}
+
+/// An aperture's label: `L'A'` in `CIR OBS L'A' 0.38`, which reaches the reader as `LA` (quotes
+/// are removed when commands are split).
+fn is_aperture_label(word: &str) -> bool {
+    word.len() > 1 && word[..1].eq_ignore_ascii_case("L") && word.parse::<f64>().is_err()
 }

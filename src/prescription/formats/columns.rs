@@ -144,6 +144,7 @@ pub(super) fn read(
             medium,
             semi_aperture: row.diameter / 2.0,
             stop: row.stop.then_some(StopShape::Circle),
+            obscuration: None,
         });
     }
 

@@ -22,12 +22,14 @@
 //! radius 0 and ior 0. pbrt holds spheres and one constant index per medium: the index is
 //! written at the lens's design wavelength. Refused: conics and aspheres, a plane refracting
 //! surface (pbrt reads radius 0 as the stop), a curved stop or one between different media, a
-//! non-air object space.
+//! non-air object space. Both refuse mirrors and central obscurations (not written yet).
 
 use crate::glass::{Dispersion, lookup};
 use crate::prescription::DEFAULT_WAVELENGTH_NM;
 use crate::prescription::error::Problem;
-use crate::prescription::model::{ApertureSpec, FieldKind, FieldSpec, Medium, Prescription, Shape};
+use crate::prescription::model::{
+    ApertureSpec, FieldKind, FieldSpec, Medium, Prescription, Shape, Surface,
+};
 
 /// Terms the Zemax even asphere holds: PARM 1..8 multiply r^2 .. r^16.
 const ZEMAX_ASPHERE_TERMS: usize = 8;
@@ -45,6 +47,16 @@ fn refuse<T>(what: String) -> Result<T, Problem> {
     Err(Problem::Unsupported(what))
 }
 
+/// Mirrors and central obscurations are not written yet: refused rather than dropped.
+fn not_reflecting_or_obscured(s: &Surface, surface: usize) -> Result<(), Problem> {
+    if s.medium == Medium::Mirror || s.obscuration.is_some() {
+        return refuse(format!(
+            "surface {surface}: mirrors and obscurations are not written to other formats yet"
+        ));
+    }
+    Ok(())
+}
+
 fn object_in_air(p: &Prescription, format: &str) -> Result<(), Problem> {
     if p.object_medium != Medium::Air {
         return refuse(format!("a {format} file has air in object space"));
@@ -60,6 +72,7 @@ pub fn write_zemax(p: &Prescription) -> Result<String, Problem> {
     let mut names: Vec<(&str, &str)> = Vec::new();
     for (i, s) in p.surfaces.iter().enumerate() {
         let surface = i + 1;
+        not_reflecting_or_obscured(s, surface)?;
         glass_lines.push(match &s.medium {
             Medium::Air => None,
             Medium::Glass(name) => {
@@ -89,6 +102,8 @@ pub fn write_zemax(p: &Prescription) -> Result<String, Problem> {
                 Some(format!("GLAS ___BLANK 1 0 {} {}", num(*nd), num(*vd)))
             }
             Medium::Index(n) => Some(format!("GLAS ___BLANK 1 0 {} 0", num(*n))),
+            // Refused by not_reflecting_or_obscured above.
+            Medium::Mirror => None,
             Medium::Sellmeier { .. } | Medium::Table { .. } => {
                 return refuse(format!(
                     "surface {surface}: a medium given by its own coefficients or table; a Zemax \
@@ -230,6 +245,7 @@ pub fn write_pbrt(p: &Prescription, wavelength_nm: f64) -> Result<String, Proble
     let mut before = &p.object_medium;
     for (i, s) in p.surfaces.iter().enumerate() {
         let surface = i + 1;
+        not_reflecting_or_obscured(s, surface)?;
         let radius = match s.shape {
             Shape::Sphere { curvature } => 1.0 / curvature,
             Shape::Plane if s.stop.is_some() => 0.0,

@@ -449,6 +449,7 @@ fn scale_to_mm(p: &mut Prescription, mm_per_unit: f64) {
     for s in &mut p.surfaces {
         s.thickness *= mm_per_unit;
         s.semi_aperture *= mm_per_unit;
+        s.obscuration = s.obscuration.map(|r| r * mm_per_unit);
         s.shape = match &s.shape {
             Shape::Plane => Shape::Plane,
             Shape::Sphere { curvature } => Shape::Sphere {

@@ -13,7 +13,9 @@
 //! compression), `WAVM` (number, µm, weight) or `WAVN`/`WAVL` with `WWGT`, `PWAV` (primary),
 //! `MNUM 1`; per surface: `TYPE STANDARD` or `TYPE EVENASPH`, `CURV`, `CONI`, `PARM 1..8`
 //! (even-asphere r^2 .. r^16), `DISZ` (`SURF 0 DISZ` is the object distance), `GLAS` (a name, or
-//! `___BLANK` with nd and Vd: a model glass), `DIAM`, `CLAP 0 r`, `STOP`.
+//! `___BLANK` with nd and Vd: a model glass; `MIRROR`: the surface reflects), `DIAM`, `CLAP 0 r`,
+//! `OBSC 0 r` (a central obscuration), `STOP`. After a mirror OpticStudio writes thicknesses
+//! negative while light travels back (-z); the model keeps that convention.
 //!
 //! The object distance, aperture, fields and wavelengths become the prescription's
 //! [`crate::prescription::Conditions`], the defaults of `analyze` and the other commands.
@@ -29,8 +31,8 @@
 //! listed in one [`LoadNote::SkippedKeywords`]; so is any unknown keyword of the trailer, the
 //! unindented lines after the surface table, where OpticStudio writes merit-function and
 //! tolerance operands. Any other keyword is refused, naming keyword, line and surface: other
-//! surface types (coordinate breaks, toroids, paraxial, ...), mirrors, multi-configuration files,
-//! annular, obscuring or non-circular apertures, ignored surfaces, a curved image surface,
+//! surface types (coordinate breaks, toroids, paraxial, ...), multi-configuration files,
+//! annular apertures and obscurations, non-circular apertures, ignored surfaces, a curved image surface,
 //! non-sequential mode, and every unknown keyword inside the surface table.
 
 use super::apertures::{self, BeamSpec, INFINITE_OBJECT_MM};
@@ -94,6 +96,8 @@ struct Block {
     parms: [f64; PARM_TERMS],
     semi_diameter: Option<f64>,
     clear_radius: Option<f64>,
+    /// Radius of a central obscuration (`OBSC 0 r`).
+    obscuration: Option<f64>,
     stop: Option<usize>,
     /// Glass as written: a name (resolved once the file's catalogues are known) or a medium.
     glass: Option<Glass>,
@@ -115,6 +119,7 @@ impl Block {
             parms: [0.0; PARM_TERMS],
             semi_diameter: None,
             clear_radius: None,
+            obscuration: None,
             stop: None,
             glass: None,
         }
@@ -276,9 +281,7 @@ impl Reader {
                 "GLAS" => {
                     let name = arg(0, "a glass name")?;
                     block.glass = Some(if name.eq_ignore_ascii_case("MIRROR") {
-                        return Err(unsupported(
-                            "mirrors (GLAS MIRROR): lensbake models refracting lenses only".into(),
-                        ));
+                        Glass::Medium(Medium::Mirror)
                     } else if name.eq_ignore_ascii_case("___BLANK") {
                         let (nd, vd) = (value(3)?, value(4)?);
                         Glass::Medium(if vd == 0.0 {
@@ -321,7 +324,17 @@ impl Reader {
                     block.stop = Some(line);
                     true
                 }
-                "OBSC" | "SQAP" | "ELAP" | "SQOB" | "ELOB" | "UDAP" | "UDAD" => {
+                "OBSC" => {
+                    let (inner, outer) = (value(0)?, value(1)?);
+                    if inner != 0.0 {
+                        return Err(unsupported(format!(
+                            "an annular obscuration (OBSC {inner} {outer})"
+                        )));
+                    }
+                    block.obscuration = Some(outer);
+                    true
+                }
+                "SQAP" | "ELAP" | "SQOB" | "ELOB" | "UDAP" | "UDAD" => {
                     return Err(unsupported(format!(
                         "Zemax aperture type {keyword} (obscurations and non-circular apertures \
                          are not modelled)"
@@ -501,6 +514,7 @@ impl Reader {
                     medium: self.medium(b),
                     semi_aperture: b.clear_radius.or(b.semi_diameter).unwrap_or(0.0),
                     stop: b.stop.map(|_| StopShape::Circle),
+                    obscuration: b.obscuration,
                 }
             })
             .collect();

@@ -19,8 +19,8 @@ struct LensSurface {
     asphere_terms: u32,
     same_medium: u32,
     bladed: u32,
-    pad0: u32,
-    pad1: u32,
+    reflects: u32,
+    obscuration_sq: f32,
     coefficients: array<f32, 10>,
 }
 
@@ -310,10 +310,12 @@ fn refract_plane(d: vec3<f32>, mu: f32) -> vec4<f32> {
 }
 
 // Backward trace of the ray from `origin` along `direction` (towards -z) through surfaces N..1.
+// Only lenses that image behind themselves are rendered, so the ray starts travelling -z and
+// each mirror turns it round.
 fn trace_lens(origin: vec3<f32>, direction: vec3<f32>) -> TracedRay {
     var position = origin;
     var d = normalize(direction);
-    let sense = -1.0;
+    var sense = -1.0;
     for (var k = 0u; k < lens.surface_count; k += 1u) {
         let i = lens.surface_count - 1u - k;
         let s = lens_surfaces[lens_first_surface + i];
@@ -324,11 +326,16 @@ fn trace_lens(origin: vec3<f32>, direction: vec3<f32>) -> TracedRay {
         }
         let q = hit.point;
         let at = q + vec3<f32>(0.0, 0.0, s.vertex_z);
-        if q.x * q.x + q.y * q.y > s.semi_aperture_sq || (s.bladed != 0u && !blades_contain(q.xy)) {
+        let r_sq = q.x * q.x + q.y * q.y;
+        if r_sq > s.semi_aperture_sq || r_sq < s.obscuration_sq
+            || (s.bladed != 0u && !blades_contain(q.xy)) {
             return TracedRay(at, d, TRACE_VIGNETTED, i + 1u);
         }
         position = at;
-        if s.same_medium == 0u {
+        if s.reflects != 0u {
+            d = d - 2.0 * dot(d, hit.normal) * hit.normal;
+            sense = -sense;
+        } else if s.same_medium == 0u {
             var refracted: vec4<f32>;
             if s.kind == SURFACE_PLANE {
                 refracted = refract_plane(d, s.mu);

@@ -1,0 +1,427 @@
+//! A table's entries in memory, laid out for the sampler rather than for the file.
+//!
+//! The file (and the GPU texture) holds each channel as a row-major image of the 3D grid. The CPU
+//! sampler reads the eight corners of one cell per lookup, all channels of each, and the renderer
+//! scatters the lookups of one pixel over the whole pupil plane of its film radius. Row-major,
+//! the corners of one cell lie n0 and n0 n1 nodes apart (at 128^3 f32: 4 KiB and 512 KiB), so
+//! nearly every lookup touched four pages and missed the TLB as well as the cache. Here the grid
+//! is cut into bricks of [`BRICK`]^3 nodes stored one after the other, a node's channels
+//! together and aligned to their size (no node straddles a cache line): most cells lie inside
+//! one brick (1 to 2 KiB). An f16 table stays f16 (half the bytes per node); its values are
+//! widened to f32 on reading, which is what the f32 copy of it held before, bit for bit.
+
+use half::f16;
+
+use super::param::{CHANNELS, MARGIN};
+use super::table::{Corners, Precision};
+
+/// Nodes per brick edge (a power of two, so brick and offset are a shift and a mask).
+pub const BRICK: usize = 4;
+const BRICK_NODES: usize = BRICK * BRICK * BRICK;
+
+/// A node's channels as one stored element type holds them.
+pub trait Node: Copy + Default + PartialEq + std::fmt::Debug + Send + Sync + 'static {
+    fn from_values(values: &[f32; CHANNELS]) -> Self;
+    fn values(&self) -> [f32; CHANNELS];
+}
+
+/// An f32 node, aligned to its 32 bytes.
+#[repr(C, align(32))]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct NodeF32([f32; CHANNELS]);
+
+/// An f16 node, aligned to its 16 bytes.
+#[repr(C, align(16))]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct NodeF16([f16; CHANNELS]);
+
+impl Node for NodeF32 {
+    fn from_values(values: &[f32; CHANNELS]) -> Self {
+        NodeF32(*values)
+    }
+
+    fn values(&self) -> [f32; CHANNELS] {
+        self.0
+    }
+}
+
+impl Node for NodeF16 {
+    fn from_values(values: &[f32; CHANNELS]) -> Self {
+        NodeF16(values.map(f16::from_f32))
+    }
+
+    fn values(&self) -> [f32; CHANNELS] {
+        let mut values = [0.0; CHANNELS];
+        for (v, &h) in values.iter_mut().zip(&self.0) {
+            *v = widen(h);
+        }
+        values
+    }
+}
+
+/// `value` as f32, exactly (what `f16::to_f32` gives), in a form the compiler inlines and
+/// vectorises: the bits shifted into an f32's places make the value times 2^-112, normal and
+/// subnormal alike, and the multiplication by 2^112 is exact. (`half` converts through a call
+/// per value or slice that the sampler's eight channels per corner cannot amortise.)
+#[inline(always)]
+fn widen(value: f16) -> f32 {
+    const TWO_TO_112: f32 = f32::from_bits((127 + 112) << 23);
+    let bits = u32::from(value.to_bits());
+    let magnitude = (bits & 0x7fff) << 13;
+    // Without branches, so the eight channels widen side by side.
+    let widened = if bits & 0x7c00 == 0x7c00 {
+        0x7f80_0000 | magnitude // infinity or NaN
+    } else {
+        (f32::from_bits(magnitude) * TWO_TO_112).to_bits()
+    };
+    f32::from_bits(widened | (bits & 0x8000) << 16)
+}
+
+/// The grid of one element type, brick by brick.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Grid<N> {
+    dims: [usize; 3],
+    /// Bricks along each axis (the last ones padded with nodes no cell reads).
+    bricks: [usize; 3],
+    nodes: Vec<N>,
+}
+
+/// The eight corners of the cell a point falls in: where each node is stored and its trilinear
+/// weight. Corner k is the node offset by (k & 1, k >> 1 & 1, k >> 2 & 1).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Cell {
+    nodes: [usize; 8],
+    weights: [f64; 8],
+}
+
+/// Trilinear addressing of a coordinate in [0,1] on `n` nodes: base index and fraction.
+/// Nodes sit at k / (n - 1), so both ends of the domain are sampled exactly.
+pub fn address(coord: f64, n: usize) -> (usize, f64) {
+    let t = coord.clamp(0.0, 1.0) * (n - 1) as f64;
+    // t is in [0, n-1] (or NaN, which both roundings send to 0): truncation is the floor, without
+    // the libm call `floor` costs on baseline x86-64.
+    let i = (t as usize).min(n - 2);
+    (i, t - i as f64)
+}
+
+impl<N: Node> Grid<N> {
+    fn from_row_major(dims: [usize; 3], values: &[[f32; CHANNELS]]) -> Grid<N> {
+        let bricks = dims.map(|n| n.div_ceil(BRICK));
+        let mut grid = Grid {
+            dims,
+            bricks,
+            nodes: vec![N::default(); bricks.iter().product::<usize>() * BRICK_NODES],
+        };
+        for (k, v) in values.iter().enumerate() {
+            let at = grid.index(row_major_node(dims, k));
+            grid.nodes[at] = N::from_values(v);
+        }
+        grid
+    }
+
+    fn index(&self, [i0, i1, i2]: [usize; 3]) -> usize {
+        let brick = i0 / BRICK + self.bricks[0] * (i1 / BRICK + self.bricks[1] * (i2 / BRICK));
+        let within = i0 % BRICK + BRICK * (i1 % BRICK + BRICK * (i2 % BRICK));
+        brick * BRICK_NODES + within
+    }
+
+    fn cell(&self, coords: [f64; 3]) -> Cell {
+        let (i0, f0) = address(coords[0], self.dims[0]);
+        let (i1, f1) = address(coords[1], self.dims[1]);
+        let (i2, f2) = address(coords[2], self.dims[2]);
+        // The step to the next node along each axis: within the brick, or from the brick's last
+        // layer of nodes to the next brick's first.
+        let brick_strides = [1, self.bricks[0], self.bricks[0] * self.bricks[1]];
+        let step = |i: usize, axis: usize| {
+            let within = BRICK.pow(axis as u32);
+            if i % BRICK == BRICK - 1 {
+                brick_strides[axis] * BRICK_NODES - (BRICK - 1) * within
+            } else {
+                within
+            }
+        };
+        let base = self.index([i0, i1, i2]);
+        let steps = [step(i0, 0), step(i1, 1), step(i2, 2)];
+        let along = |k: usize, axis: usize, f: f64| if (k >> axis) & 1 == 1 { f } else { 1.0 - f };
+        let weight = |k: usize| along(k, 0, f0) * along(k, 1, f1) * along(k, 2, f2);
+        let nodes = std::array::from_fn(|k| {
+            base + (k & 1) * steps[0] + ((k >> 1) & 1) * steps[1] + ((k >> 2) & 1) * steps[2]
+        });
+        for &node in &nodes {
+            prefetch(&self.nodes[node]);
+        }
+        Cell {
+            nodes,
+            weights: std::array::from_fn(weight),
+        }
+    }
+
+    fn interpolate(&self, cell: &Cell, corners: Corners) -> [f64; CHANNELS] {
+        let mut out = [0.0; CHANNELS];
+        let mut valid_out = [0.0; CHANNELS];
+        let mut valid_weight = 0.0;
+        for (&node, &w) in cell.nodes.iter().zip(&cell.weights) {
+            let entry = self.nodes[node].values();
+            for (o, v) in out.iter_mut().zip(entry) {
+                *o += w * v as f64;
+            }
+            if corners == Corners::ValidOnly && entry[MARGIN] >= 0.0 {
+                valid_weight += w;
+                for (o, v) in valid_out.iter_mut().zip(entry) {
+                    *o += w * v as f64;
+                }
+            }
+        }
+        if corners == Corners::ValidOnly && valid_weight > 0.0 {
+            let margin = out[MARGIN];
+            out = valid_out.map(|v| v / valid_weight);
+            out[MARGIN] = margin;
+        }
+        out
+    }
+
+    fn row_major(&self) -> impl Iterator<Item = [f32; CHANNELS]> + '_ {
+        let dims = self.dims;
+        (0..dims.iter().product())
+            .map(move |k| self.nodes[self.index(row_major_node(dims, k))].values())
+    }
+}
+
+/// Asks the cache for the line holding `node` ahead of its use: the lookup places a whole group
+/// of rays before it reads their cells, so their misses overlap instead of following each other.
+/// No effect on any value.
+#[inline(always)]
+fn prefetch<T>(node: &T) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: a prefetch is a hint: it reads no value, cannot fault, and SSE (which has it) is
+    // part of every x86-64 CPU.
+    unsafe {
+        use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+        _mm_prefetch::<_MM_HINT_T0>((node as *const T).cast());
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = node;
+}
+
+/// Grid indices of entry `k` in row-major order (`i0 + n0 * (i1 + n1 * i2)`, the file's order).
+fn row_major_node([n0, n1, _]: [usize; 3], k: usize) -> [usize; 3] {
+    [k % n0, (k / n0) % n1, k / (n0 * n1)]
+}
+
+/// One wavelength's entries in the precision the table was baked with.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Entries {
+    F32(Grid<NodeF32>),
+    F16(Grid<NodeF16>),
+}
+
+impl Entries {
+    /// Entries from the row-major order of the file (`i0 + n0 * (i1 + n1 * i2)`), stored in
+    /// `precision` (f16 rounds each value to nearest).
+    ///
+    /// # Panics
+    /// When `values` does not hold exactly n0 n1 n2 entries (a caller's bug: readers check
+    /// sizes against the sidecar first).
+    pub fn from_row_major(
+        dims: [usize; 3],
+        precision: Precision,
+        values: &[[f32; CHANNELS]],
+    ) -> Entries {
+        assert_eq!(
+            values.len(),
+            dims.iter().product::<usize>(),
+            "entries for a {dims:?} grid"
+        );
+        match precision {
+            Precision::F32 => Entries::F32(Grid::from_row_major(dims, values)),
+            Precision::F16 => Entries::F16(Grid::from_row_major(dims, values)),
+        }
+    }
+
+    pub fn precision(&self) -> Precision {
+        match self {
+            Entries::F32(_) => Precision::F32,
+            Entries::F16(_) => Precision::F16,
+        }
+    }
+
+    pub fn dims(&self) -> [usize; 3] {
+        match self {
+            Entries::F32(g) => g.dims,
+            Entries::F16(g) => g.dims,
+        }
+    }
+
+    /// Number of entries (n0 n1 n2; the padding of the last bricks is not counted).
+    pub fn len(&self) -> usize {
+        self.dims().iter().product()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The entries in row-major order, as f32 (what the file and the GPU textures hold).
+    pub fn row_major(&self) -> Box<dyn Iterator<Item = [f32; CHANNELS]> + '_> {
+        match self {
+            Entries::F32(g) => Box::new(g.row_major()),
+            Entries::F16(g) => Box::new(g.row_major()),
+        }
+    }
+
+    /// The entry at grid node `node`.
+    pub fn get(&self, node: [usize; 3]) -> [f32; CHANNELS] {
+        match self {
+            Entries::F32(g) => g.nodes[g.index(node)].values(),
+            Entries::F16(g) => g.nodes[g.index(node)].values(),
+        }
+    }
+
+    /// The same entries stored in `precision`.
+    pub fn to_precision(&self, precision: Precision) -> Entries {
+        let values: Vec<_> = self.row_major().collect();
+        Entries::from_row_major(self.dims(), precision, &values)
+    }
+
+    /// The cell holding table coordinates `coords` (clamped to [0,1]^3).
+    pub fn cell(&self, coords: [f64; 3]) -> Cell {
+        match self {
+            Entries::F32(g) => g.cell(coords),
+            Entries::F16(g) => g.cell(coords),
+        }
+    }
+
+    /// Every channel interpolated in `cell`, the values taken from `corners`.
+    pub fn interpolate(&self, cell: &Cell, corners: Corners) -> [f64; CHANNELS] {
+        match self {
+            Entries::F32(g) => g.interpolate(cell, corners),
+            Entries::F16(g) => g.interpolate(cell, corners),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ramp(dims: [usize; 3]) -> Vec<[f32; CHANNELS]> {
+        (0..dims.iter().product::<usize>())
+            .map(|k| std::array::from_fn(|c| (k * CHANNELS + c) as f32 * 0.25))
+            .collect()
+    }
+
+    #[test]
+    fn bricks_keep_every_entry_in_both_precisions() {
+        // Sizes that are not multiples of the brick, and one below it.
+        for dims in [[5, 3, 7], [2, 2, 2], [9, 4, 6]] {
+            let values = ramp(dims);
+            for precision in [Precision::F32, Precision::F16] {
+                let entries = Entries::from_row_major(dims, precision, &values);
+                let rounded: Vec<_> = values
+                    .iter()
+                    .map(|v| v.map(|x| precision.round(x)))
+                    .collect();
+                assert_eq!(entries.row_major().collect::<Vec<_>>(), rounded);
+                for (k, v) in rounded.iter().enumerate() {
+                    assert_eq!(entries.get(row_major_node(dims, k)), *v);
+                }
+                assert_eq!(entries.precision(), precision);
+                assert_eq!(entries.len(), values.len());
+            }
+        }
+    }
+
+    #[test]
+    fn interpolation_is_bit_for_bit_the_row_major_one() {
+        // The layout changes, the arithmetic does not: the corners in the same order with the
+        // same weights, read from the file's row-major order, give the same bits.
+        let dims = [9, 6, 7];
+        let values: Vec<[f32; CHANNELS]> = (0..dims.iter().product::<usize>())
+            .map(|k| {
+                std::array::from_fn(|c| ((k * 7919 + c * 104_729) % 1000) as f32 * 0.0137 - 5.0)
+            })
+            .collect();
+        for precision in [Precision::F32, Precision::F16] {
+            let entries = Entries::from_row_major(dims, precision, &values);
+            for step in 0..500 {
+                let coords = [0.618_034, 0.414_214, 0.732_051].map(|a: f64| {
+                    let t = (a * step as f64).fract();
+                    t * 1.2 - 0.1
+                });
+                let (i0, f0) = address(coords[0], dims[0]);
+                let (i1, f1) = address(coords[1], dims[1]);
+                let (i2, f2) = address(coords[2], dims[2]);
+                let mut expected = [0.0f64; CHANNELS];
+                for corner in 0..8 {
+                    let (d0, d1, d2) = (corner & 1, (corner >> 1) & 1, (corner >> 2) & 1);
+                    let w = if d0 == 1 { f0 } else { 1.0 - f0 }
+                        * if d1 == 1 { f1 } else { 1.0 - f1 }
+                        * if d2 == 1 { f2 } else { 1.0 - f2 };
+                    let entry = values[(i0 + d0) + dims[0] * ((i1 + d1) + dims[1] * (i2 + d2))];
+                    for (e, v) in expected.iter_mut().zip(entry) {
+                        *e += w * precision.round(v) as f64;
+                    }
+                }
+                let got = entries.interpolate(&entries.cell(coords), Corners::All);
+                assert_eq!(
+                    got.map(f64::to_bits),
+                    expected.map(f64::to_bits),
+                    "{coords:?}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn cell_corners_are_the_nodes_around_the_point() {
+        let dims = [9, 6, 13];
+        let grid: Grid<NodeF32> = Grid::from_row_major(dims, &ramp(dims));
+        for i2 in 0..dims[2] - 1 {
+            for i1 in 0..dims[1] - 1 {
+                for i0 in 0..dims[0] - 1 {
+                    let coords = [i0, i1, i2].map(|i| i as f64 + 0.5);
+                    let cell = grid.cell([0, 1, 2].map(|a| coords[a] / (dims[a] - 1) as f64));
+                    for k in 0..8 {
+                        let corner = [i0 + (k & 1), i1 + ((k >> 1) & 1), i2 + ((k >> 2) & 1)];
+                        assert_eq!(cell.nodes[k], grid.index(corner), "{corner:?}");
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn widen_is_the_f16_conversion_for_every_value() {
+        for bits in 0..=u16::MAX {
+            let value = f16::from_bits(bits);
+            let (got, expected) = (widen(value), value.to_f32());
+            if expected.is_nan() {
+                assert!(got.is_nan(), "{bits:#06x}");
+            } else {
+                assert_eq!(got.to_bits(), expected.to_bits(), "{bits:#06x}");
+            }
+        }
+    }
+
+    #[test]
+    fn an_f16_grid_holds_half_the_bytes() {
+        assert_eq!(std::mem::size_of::<NodeF32>(), 32);
+        assert_eq!(std::mem::size_of::<NodeF16>(), 16);
+        assert_eq!(std::mem::align_of::<NodeF32>(), 32);
+        assert_eq!(std::mem::align_of::<NodeF16>(), 16);
+    }
+
+    #[test]
+    fn address_puts_nodes_at_both_ends_and_floors() {
+        assert_eq!(address(0.0, 5), (0, 0.0));
+        assert_eq!(address(1.0, 5), (3, 1.0));
+        let (i, f) = address(0.6, 5);
+        assert_eq!(i, 2);
+        assert!((f - 0.4).abs() < 1e-12);
+        // Just below a node, and out of range on both sides.
+        assert_eq!(address(0.5 - 1e-12, 5).0, 1);
+        assert_eq!(address(-3.0, 5), (0, 0.0));
+        assert_eq!(address(7.0, 5), (3, 1.0));
+        assert_eq!(address(f64::NAN, 5).0, 0);
+    }
+}
