@@ -200,16 +200,33 @@ fn what_a_format_cannot_hold_is_refused_naming_the_surface() {
     );
 }
 
-/// Mirrors and obscurations are not written yet: a reflex lens is refused, never flattened.
+/// The reflex lens goes to Zemax with its two mirrors (`GLAS MIRROR`, negative thicknesses) and
+/// its obscuration (`OBSC 0 r`) and comes back the same lens; pbrt's RealisticCamera holds
+/// neither, so the pbrt writer refuses it rather than flattening it.
 #[test]
-fn mirrors_and_obscurations_are_refused_not_dropped() {
-    let reflex = system("reflex-1000mm-f7.5").prescription;
-    for written in [write_zemax(&reflex), write_pbrt(&reflex, 587.56)] {
-        match written {
-            Err(Problem::Unsupported(what)) => {
-                assert!(what.contains("mirrors and obscurations"), "{what}")
-            }
-            other => panic!("{other:?}"),
-        }
+fn mirrors_and_obscurations_go_to_zemax_and_are_refused_by_pbrt() {
+    let reflex = system("reflex-1000mm-f7.5");
+    let text = write_zemax(&reflex.prescription).unwrap();
+    let back = read_back(&text, Format::Zemax);
+    assert_same_geometry(&reflex.prescription, &back.prescription, false, "reflex");
+    for (a, b) in reflex
+        .prescription
+        .surfaces
+        .iter()
+        .zip(&back.prescription.surfaces)
+    {
+        assert_eq!(a.medium == Medium::Mirror, b.medium == Medium::Mirror);
+        assert_eq!(a.obscuration, b.obscuration);
+    }
+    let efl = |s: &LensSystem| {
+        analyze("reflex", s, &AnalyzeOptions::default())
+            .unwrap()
+            .first_order
+            .efl
+    };
+    assert_eq!(efl(&reflex), efl(&back));
+    match write_pbrt(&reflex.prescription, 587.56) {
+        Err(Problem::Unsupported(what)) => assert!(what.contains("mirror"), "{what}"),
+        other => panic!("{other:?}"),
     }
 }

@@ -11,7 +11,8 @@
 //! `PWAV`; the design wavelength where none are stated), the object surface (`DISZ` its distance), then per surface `TYPE STANDARD` or
 //! `EVENASPH`, `CURV`, `CONI`, `PARM 1..8`, `DISZ`, `GLAS` (a catalogue name, or `___BLANK` with
 //! nd and Vd for a model glass or a constant index), `DIAM` and `CLAP 0 r` (the clear
-//! semi-aperture: CLAP is the Zemax aperture that clips, as lensbake's does), `STOP`. Refused:
+//! semi-aperture: CLAP is the Zemax aperture that clips, as lensbake's does), `OBSC 0 r` (a
+//! central obscuration), `GLAS MIRROR` (a mirror; thicknesses keep their signs), `STOP`. Refused:
 //! even-asphere terms beyond r^16 (EVENASPH has PARM 1..8), a medium given by coefficients or a
 //! table (a Zemax file names catalogue glasses), a non-air object space, two glasses of one name
 //! from different catalogues. A working F-number (CODE V `FNO` of a finite object) has no Zemax
@@ -22,7 +23,7 @@
 //! radius 0 and ior 0. pbrt holds spheres and one constant index per medium: the index is
 //! written at the lens's design wavelength. Refused: conics and aspheres, a plane refracting
 //! surface (pbrt reads radius 0 as the stop), a curved stop or one between different media, a
-//! non-air object space. Both refuse mirrors and central obscurations (not written yet).
+//! non-air object space, mirrors and central obscurations.
 
 use crate::glass::{Dispersion, lookup};
 use crate::prescription::DEFAULT_WAVELENGTH_NM;
@@ -47,11 +48,12 @@ fn refuse<T>(what: String) -> Result<T, Problem> {
     Err(Problem::Unsupported(what))
 }
 
-/// Mirrors and central obscurations are not written yet: refused rather than dropped.
+/// pbrt's RealisticCamera has neither mirrors nor obscurations: refused rather than dropped.
 fn not_reflecting_or_obscured(s: &Surface, surface: usize) -> Result<(), Problem> {
     if s.medium == Medium::Mirror || s.obscuration.is_some() {
         return refuse(format!(
-            "surface {surface}: mirrors and obscurations are not written to other formats yet"
+            "surface {surface}: a mirror or a central obscuration; pbrt's RealisticCamera \
+             refracts through open spheres only"
         ));
     }
     Ok(())
@@ -72,7 +74,6 @@ pub fn write_zemax(p: &Prescription) -> Result<String, Problem> {
     let mut names: Vec<(&str, &str)> = Vec::new();
     for (i, s) in p.surfaces.iter().enumerate() {
         let surface = i + 1;
-        not_reflecting_or_obscured(s, surface)?;
         glass_lines.push(match &s.medium {
             Medium::Air => None,
             Medium::Glass(name) => {
@@ -102,8 +103,7 @@ pub fn write_zemax(p: &Prescription) -> Result<String, Problem> {
                 Some(format!("GLAS ___BLANK 1 0 {} {}", num(*nd), num(*vd)))
             }
             Medium::Index(n) => Some(format!("GLAS ___BLANK 1 0 {} 0", num(*n))),
-            // Refused by not_reflecting_or_obscured above.
-            Medium::Mirror => None,
+            Medium::Mirror => Some("GLAS MIRROR 0 0 1.5 40".to_string()),
             Medium::Sellmeier { .. } | Medium::Table { .. } => {
                 return refuse(format!(
                     "surface {surface}: a medium given by its own coefficients or table; a Zemax \
@@ -225,6 +225,9 @@ pub fn write_zemax(p: &Prescription) -> Result<String, Problem> {
         }
         line(format!("  DIAM {} 1 0 0 1 \"\"", num(s.semi_aperture)));
         line(format!("  CLAP 0 {} 0", num(s.semi_aperture)));
+        if let Some(radius) = s.obscuration {
+            line(format!("  OBSC 0 {} 0", num(radius)));
+        }
     }
     line(format!("SURF {}", p.surfaces.len() + 1));
     line("  TYPE STANDARD".into());
