@@ -942,7 +942,9 @@ fn rays_on_and_next_to_the_axis_trace_to_the_paraxial_focus() {
         let focus = analysis.first_order.z_rear_focal;
         // The reflex lens's secondary mirror shadows the axis; the geometry behind it is what
         // these rays test.
-        let tracer = Tracer::new(&system.at(system.design_wavelength_nm())).unobscured();
+        let tracer = Tracer::new(&system.at(system.design_wavelength_nm()))
+            .unobscured()
+            .into_owned();
         let azimuth: f64 = 0.7;
         for r in NEAR_AXIS {
             let start = [r * azimuth.cos(), r * azimuth.sin(), tracer.front_start_z()];

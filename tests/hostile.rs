@@ -1088,23 +1088,8 @@ fn absurd_numeric_arguments_end_cleanly() {
         r#"[{"origin": [0, 1, -10], "direction": [0, 0, 1]}]"#,
     )
     .unwrap();
-    let render: &[&str] = &[
-        "render",
-        "--lens",
-        "dgauss-50mm",
-        "--model",
-        "thick",
-        "--width",
-        "16",
-        "--height",
-        "12",
-        "--spp",
-        "1",
-        "--backend",
-        "cpu",
-        "--out",
-        "r.exr",
-    ];
+    let render = small_render("demo", "r.exr");
+    let render: &[&str] = &render.iter().map(String::as_str).collect::<Vec<_>>();
     let bake: &[&str] = &["bake", "dgauss-50mm", "--resolution", "6", "--out", "t"];
     let analyze: &[&str] = &["analyze", "dgauss-50mm"];
     let trace: &[&str] = &["trace", "dgauss-50mm", "--rays", "rays.json"];
@@ -1219,27 +1204,7 @@ fn printing_commands() -> Vec<(&'static str, Vec<String>, Option<&'static str>)>
             strings(&["trace", "dgauss-50mm", "--rays", "rays.json"]),
             None,
         ),
-        (
-            "render",
-            strings(&[
-                "render",
-                "--lens",
-                "dgauss-50mm",
-                "--model",
-                "thick",
-                "--width",
-                "16",
-                "--height",
-                "12",
-                "--spp",
-                "1",
-                "--backend",
-                "cpu",
-                "--out",
-                "r.exr",
-            ]),
-            Some("r.exr"),
-        ),
+        ("render", small_render("demo", "r.exr"), Some("r.exr")),
         (
             "bake",
             strings(&["bake", "dgauss-50mm", "--resolution", "6", "--out", "t"]),
@@ -1325,25 +1290,7 @@ fn unwritable_and_dangerous_destinations_are_refused_and_leave_old_data() {
     std::fs::write(dir.join("orphan").join(DATA_FILE), b"someone's data").unwrap();
     std::fs::create_dir_all(dir.join("home")).unwrap();
     std::fs::write(dir.join("home").join("thesis.tex"), b"mine").unwrap();
-    let render = |out: &str| {
-        strings(&[
-            "render",
-            "--lens",
-            "dgauss-50mm",
-            "--model",
-            "thick",
-            "--width",
-            "16",
-            "--height",
-            "12",
-            "--spp",
-            "1",
-            "--backend",
-            "cpu",
-            "--out",
-            out,
-        ])
-    };
+    let render = |out: &str| small_render("demo", out);
     let cases = vec![
         (
             "render --out x.png (the EXR would be overwritten by the PNG)".to_string(),
@@ -1679,7 +1626,8 @@ fn with_data_window(bytes: &[u8], width: i32, height: i32) -> Vec<u8> {
     out
 }
 
-/// A 16 x 12, one-sample thick-lens render of `scene` on the CPU twin into `out`.
+/// A 16 x 12, one-sample thick-lens render of `scene` (`demo`: the built-in one) on the CPU
+/// twin into `out`.
 fn small_render(scene: &str, out: &str) -> Vec<String> {
     strings(&[
         "render",

@@ -3,6 +3,9 @@
 //! focus, a fold mirror that only turns the lens round), real rays against third-order sums, and
 //! the readers' mirror and obscuration keywords.
 
+mod common;
+
+use common::surface;
 use lensbake::analysis::{Analysis, AnalyzeOptions, analyze};
 use lensbake::lrtf::bake::{BakeError, BakeRequest, bake};
 use lensbake::model::{FirstOrderModels, ModelError};
@@ -11,17 +14,6 @@ use lensbake::prescription::{Medium, Prescription, Provenance, Shape, StopShape,
 use lensbake::system::LensSystem;
 use lensbake::trace::{Apertures, Outcome, Ray, RayBatch, Tracer, Travel};
 use std::path::PathBuf;
-
-fn surface(shape: Shape, thickness: f64, medium: Medium, semi_aperture: f64) -> Surface {
-    Surface {
-        shape,
-        thickness,
-        medium,
-        semi_aperture,
-        stop: None,
-        obscuration: None,
-    }
-}
 
 fn sphere(radius: f64) -> Shape {
     Shape::from_radius(radius)
@@ -280,13 +272,16 @@ fn load(path: &std::path::Path) -> LensSystem {
 fn two_conic_mirrors_spherical_aberration_matches_real_rays() {
     let lens = load(&corpus("rayoptics__rc_f16.seq"));
     let a = analyze("rc_f16", &lens, &AnalyzeOptions::default()).unwrap();
-    assert!(
-        (a.seidel.sums.spherical - 0.0036045).abs() < 1e-7,
-        "{}",
-        a.seidel.sums.spherical
-    );
-    // The primary's sag reaches -370 mm at its rim: start in front of it.
+    // The primary's sag reaches -370 mm at its rim: start in front of it. The real rays agree
+    // with lensbake's sum to 1e-4 of it (below)...
     assert_spherical_matches_real_rays(&lens, &a, a.first_order.entrance_pupil.diameter, -1000.0);
+    // ...and rayoptics' 0.0036070 mm lies 7e-4 of it away, seven times that tolerance.
+    let rayoptics = 0.0036069543756624967;
+    let ours = a.seidel.sums.spherical;
+    assert!(
+        (rayoptics - ours).abs() > 5e-4 * ours.abs(),
+        "{ours} vs {rayoptics}"
+    );
 }
 
 /// The bundled reflex lens: two Mangin mirrors, a central obscuration, a relay behind.

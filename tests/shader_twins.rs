@@ -5,7 +5,7 @@
 
 mod common;
 
-use common::gpu_or_skip;
+use common::{gpu_or_skip, surface};
 use lensbake::prescription::{Medium, Prescription, Provenance, Shape, StopShape, Surface};
 use lensbake::render::gpu::GpuRenderer;
 use lensbake::render::gpu_types::{
@@ -107,17 +107,6 @@ fn lens_trace_structs_match_wgsl() {
 }
 
 // ---- Ray by ray: the shader's trace_lens against the f64 Tracer ----
-
-fn surface(shape: Shape, thickness: f64, medium: Medium, semi_aperture: f64) -> Surface {
-    Surface {
-        shape,
-        thickness,
-        medium,
-        semi_aperture,
-        stop: None,
-        obscuration: None,
-    }
-}
 
 fn stop(semi_aperture: f64, thickness: f64, shape: StopShape) -> Surface {
     Surface {

@@ -327,6 +327,21 @@ impl Prescription {
             .collect()
     }
 
+    /// The sense along z (+1 or -1) in which light travels after each surface: -1 after an odd
+    /// number of mirrors. The one place the turn at a mirror is counted.
+    pub fn travel_after(&self) -> Vec<f64> {
+        let mut sense = 1.0;
+        self.surfaces
+            .iter()
+            .map(|s| {
+                if s.medium == Medium::Mirror {
+                    sense = -sense;
+                }
+                sense
+            })
+            .collect()
+    }
+
     /// Distance from the first to the last vertex (excludes the gap to the film).
     pub fn total_track(&self) -> f64 {
         let n = self.surfaces.len();

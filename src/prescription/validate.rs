@@ -297,12 +297,10 @@ pub(crate) fn check_stop(p: &Prescription, map: &SourceMap) -> Result<(), Prescr
 /// number of mirrors), stays non-negative for every sampled r.
 fn check_crossings(p: &Prescription, map: &SourceMap) -> Result<(), PrescriptionError> {
     let z = p.vertex_z();
-    let mut sense = 1.0;
+    let travel = p.travel_after();
     for i in 0..p.surfaces.len().saturating_sub(1) {
         let (a, b) = (&p.surfaces[i], &p.surfaces[i + 1]);
-        if a.medium == Medium::Mirror {
-            sense = -sense;
-        }
+        let sense = travel[i];
         let r_max = a.semi_aperture.min(b.semi_aperture);
         for k in 0..=CROSSING_SAMPLES {
             let r = r_max * k as f64 / CROSSING_SAMPLES as f64;

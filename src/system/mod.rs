@@ -111,19 +111,15 @@ impl LensSystem {
     /// The lens frozen at one wavelength.
     pub fn at(&self, wavelength_nm: f64) -> SystemAt {
         let mut z = 0.0;
-        let mut travel = 1.0;
         let surfaces = self
             .prescription
             .surfaces
             .iter()
             .zip(&self.dispersions)
-            .map(|(s, d)| {
+            .zip(self.prescription.travel_after())
+            .map(|((s, d), travel)| {
                 let vertex_z = z;
                 z += s.thickness;
-                let mirror = s.medium == Medium::Mirror;
-                if mirror {
-                    travel = -travel;
-                }
                 SurfaceAt {
                     vertex_z,
                     thickness: s.thickness,
@@ -132,7 +128,7 @@ impl LensSystem {
                     geometric_semi_aperture: s.semi_aperture,
                     stop: s.stop.clone(),
                     shape: s.shape.clone(),
-                    mirror,
+                    mirror: s.medium == Medium::Mirror,
                     obscuration: s.obscuration,
                 }
             })
@@ -145,24 +141,13 @@ impl LensSystem {
         }
     }
 
-    /// Whether any surface reflects.
-    pub fn has_mirrors(&self) -> bool {
-        self.prescription
-            .surfaces
-            .iter()
-            .any(|s| s.medium == Medium::Mirror)
-    }
-
     /// Whether light leaves the last surface travelling +z, towards a film behind the lens: true
     /// for refracting lenses and for an even number of mirrors (a reflex lens).
     pub fn images_behind(&self) -> bool {
         self.prescription
-            .surfaces
-            .iter()
-            .filter(|s| s.medium == Medium::Mirror)
-            .count()
-            % 2
-            == 0
+            .travel_after()
+            .last()
+            .is_none_or(|&sense| sense > 0.0)
     }
 }
 

@@ -215,7 +215,8 @@ fn newton_step(
 /// meets, aside): scanned upward in `scan_deg` steps from the axis, then bisected to 1e-9
 /// degrees. Stops at 89.9 degrees.
 pub fn traceable_field_deg(tracer: &Tracer, scan_deg: f64) -> f64 {
-    let tracer = &tracer.unobscured();
+    let clear = tracer.unobscured();
+    let tracer = clear.as_ref();
     let start_z = tracer.front_start_z();
     let passes = |deg: f64| {
         let a = deg.to_radians();

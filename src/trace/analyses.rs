@@ -139,9 +139,6 @@ const MAPPING_STEP: f64 = 1e-4;
 pub struct RealRays {
     system: SystemAt,
     tracer: Tracer,
-    /// `tracer` without central obscurations, for the ray through the pupil centre that
-    /// measures a fan: it is the beam's axis, not a ray that must reach the image.
-    reference: Tracer,
     paraxial: Paraxial,
     start_z: f64,
     z_image: f64,
@@ -156,7 +153,6 @@ impl RealRays {
             start_z: tracer.front_start_z(),
             z_image: paraxial.z_image,
             system: system.clone(),
-            reference: tracer.unobscured(),
             tracer,
             paraxial,
         }
@@ -355,8 +351,10 @@ impl RealRays {
     /// with apertures applied. Errors are measured from the ray through the pupil centre.
     pub fn ray_fan(&self, field: f64, samples: usize) -> Result<RayFan, RealRayError> {
         let centre = self
+            // The ray through the pupil centre is the fan's axis, not a ray that must reach
+            // the image: central obscurations do not stop it.
             .image_point_through(
-                &self.reference,
+                &self.tracer.unobscured(),
                 self.pupil_ray(field, 0.0, 0.0)?,
                 Apertures::Checked,
             )

@@ -326,15 +326,13 @@ impl Tracer {
     pub fn new(system: &SystemAt) -> Tracer {
         let mut asphere_terms = Vec::new();
         let mut diaphragm = None;
-        let mut sense = 1.0;
         let surfaces = system
             .path()
             .map(|(i, s, index_before, index_after)| {
+                // The signed indices say which way light travels on each side.
+                let (sense_forward, sense_backward) =
+                    (index_before.signum(), -index_after.signum());
                 let (index_before, index_after) = (index_before.abs(), index_after.abs());
-                let sense_forward = sense;
-                if s.mirror {
-                    sense = -sense;
-                }
                 let profile = match &s.shape {
                     Shape::Plane => Profile::Plane,
                     Shape::Sphere { curvature } if *curvature == 0.0 => Profile::Plane,
@@ -386,7 +384,7 @@ impl Tracer {
                     reflects: s.mirror,
                     obscuration_sq: s.obscuration.map_or(0.0, |r| r * r),
                     sense_forward,
-                    sense_backward: -sense,
+                    sense_backward,
                 }
             })
             .collect();
@@ -410,17 +408,16 @@ impl Tracer {
     /// This lens with its central obscurations removed, for reference rays. The chief ray of an
     /// obscured lens (a reflex lens, a Cassegrain) runs through the secondary mirror's shadow;
     /// design programs still trace it as the axis of the beam, through every clear aperture.
-    pub fn unobscured(&self) -> Tracer {
+    /// Borrowed as it is when nothing is obscured.
+    pub fn unobscured(&self) -> std::borrow::Cow<'_, Tracer> {
+        if self.surfaces.iter().all(|s| s.obscuration_sq == 0.0) {
+            return std::borrow::Cow::Borrowed(self);
+        }
         let mut clear = self.clone();
         for s in &mut clear.surfaces {
             s.obscuration_sq = 0.0;
         }
-        clear
-    }
-
-    /// Whether some surface blocks the centre of the beam.
-    pub fn is_obscured(&self) -> bool {
-        self.surfaces.iter().any(|s| s.obscuration_sq > 0.0)
+        std::borrow::Cow::Owned(clear)
     }
 
     /// Number of surfaces N.

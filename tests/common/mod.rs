@@ -546,3 +546,20 @@ pub fn sealed(text: &str) -> String {
     sidecar.sidecar_crc32 = Some(sidecar.fields_checksum());
     ron::ser::to_string_pretty(&sidecar, ron::ser::PrettyConfig::default()).unwrap()
 }
+
+/// A surface that is neither the stop nor obscured.
+pub fn surface(
+    shape: lensbake::prescription::Shape,
+    thickness: f64,
+    medium: lensbake::prescription::Medium,
+    semi_aperture: f64,
+) -> lensbake::prescription::Surface {
+    lensbake::prescription::Surface {
+        shape,
+        thickness,
+        medium,
+        semi_aperture,
+        stop: None,
+        obscuration: None,
+    }
+}

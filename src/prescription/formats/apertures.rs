@@ -404,16 +404,14 @@ fn indices(
         PrescriptionError::new(location, problem)
     })?;
     let mut n = vec![object.index(wavelength_nm)];
-    for (i, s) in p.surfaces.iter().enumerate() {
-        let before = n[i];
-        n.push(match s.medium {
-            crate::prescription::Medium::Mirror => -before,
-            _ => {
-                let dispersion = Dispersion::of(&s.medium)
-                    .map_err(|problem| PrescriptionError::new(map.surface(i, "glass"), problem))?;
-                dispersion.index(wavelength_nm).copysign(before)
-            }
-        });
+    for ((i, s), travel) in p.surfaces.iter().enumerate().zip(p.travel_after()) {
+        let index = match s.medium {
+            crate::prescription::Medium::Mirror => n[i].abs(),
+            _ => Dispersion::of(&s.medium)
+                .map_err(|problem| PrescriptionError::new(map.surface(i, "glass"), problem))?
+                .index(wavelength_nm),
+        };
+        n.push(travel * index);
     }
     Ok(n)
 }
