@@ -98,14 +98,18 @@ fn unknown_or_unsupported_surface_keywords_are_refused_where_they_stand() {
     assert_eq!(e.location.surface, Some(2));
     assert_eq!(e.location.field.as_deref(), Some("ZQXW"));
 
-    let text = singlet("", "", "").replace("SURF 2\n  TYPE STANDARD", "SURF 2\n  TYPE COORDBRK");
+    // A coordinate break that tilts the image plane 5 degrees: no centred lens describes it.
+    let text = singlet("", "", "").replace(
+        "SURF 2\n  TYPE STANDARD",
+        "SURF 2\n  TYPE COORDBRK\n  PARM 3 5",
+    );
     let e = read(&text).unwrap_err();
     assert!(
-        matches!(&e.problem, Problem::Unsupported(what) if what.contains("COORDBRK")),
+        matches!(&e.problem, Problem::Unsupported(what) if what.contains("image plane is tilted 5.000000 deg")),
         "{e}"
     );
-    assert_eq!(e.location.line, Some(line_of(&text, "COORDBRK")));
-    assert_eq!(e.location.surface, Some(2));
+    assert_eq!(e.location.line, Some(line_of(&text, "SURF 3")));
+    assert_eq!(e.location.field.as_deref(), Some("TYPE COORDBRK"));
 
     // A central obscuration is read (tests/mirrors.rs); a square aperture is not.
     let text = singlet("", "  SQAP 2 2\n", "");

@@ -203,6 +203,30 @@ impl Shape {
         }
     }
 
+    /// The same profile seen from its other side (reflected through its vertex plane): every
+    /// sag negated, so the curvature and every aspheric coefficient change sign.
+    pub fn mirrored(&self) -> Shape {
+        match self {
+            Shape::Plane => Shape::Plane,
+            Shape::Sphere { curvature } => Shape::Sphere {
+                curvature: -curvature,
+            },
+            Shape::Conic { curvature, conic } => Shape::Conic {
+                curvature: -curvature,
+                conic: *conic,
+            },
+            Shape::EvenAsphere {
+                curvature,
+                conic,
+                coefficients,
+            } => Shape::EvenAsphere {
+                curvature: -curvature,
+                conic: *conic,
+                coefficients: coefficients.iter().map(|a| -a).collect(),
+            },
+        }
+    }
+
     /// Radius of curvature; infinite for a plane.
     pub fn radius(&self) -> f64 {
         let c = self.curvature();
