@@ -26,7 +26,7 @@
 //! mirrors unfolded) or refuses the lens.
 //!
 //! Refused with a message naming the command and line: every other command (other pickups, a `CUF` other than 0, solves, zoom positions, non-circular apertures (`REX`,
-//! `REY`, ...), private catalogues given by a formula), a curved object or image surface, and
+//! `REY`, ...), private glasses given by a formula other than `LAU` Laurent coefficients), a curved object or image surface, and
 //! other `CIR` forms (several values). Image-height fields and
 //! numerical apertures are refused only when a clear aperture must be derived from them (see
 //! `apertures`).
@@ -295,6 +295,24 @@ impl Reader {
             match name {
                 "PWL" => self.private_block = Some(list("PWL")?),
                 "END" => self.private_block = None,
+                glass
+                    if c.args
+                        .first()
+                        .is_some_and(|f| f.eq_ignore_ascii_case("LAU")) =>
+                {
+                    let a: [f64; 6] = c.args[1..]
+                        .iter()
+                        .map(|v| finite(v, &at(glass)))
+                        .collect::<Result<Vec<f64>, _>>()?
+                        .try_into()
+                        .map_err(|found: Vec<f64>| {
+                            count("6 Laurent coefficients after LAU", found.len())
+                        })?;
+                    let medium = Medium::PowerSeries { a };
+                    crate::glass::Dispersion::of(&medium)
+                        .map_err(|problem| PrescriptionError::new(at(glass), problem))?;
+                    self.private.push((glass.to_string(), medium));
+                }
                 glass => {
                     let indices = c
                         .args
@@ -303,8 +321,8 @@ impl Reader {
                         .collect::<Result<Vec<f64>, _>>()
                         .map_err(|_| {
                             unsupported(format!(
-                                "private glass {glass} given as {} (only indices at the PWL \
-                                 wavelengths are read)",
+                                "private glass {glass} given as {} (indices at the PWL \
+                                 wavelengths and LAU Laurent coefficients are read)",
                                 c.args.first().map_or("nothing", String::as_str)
                             ))
                         })?;
