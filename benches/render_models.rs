@@ -6,10 +6,11 @@
 //!
 //! RAYON_NUM_THREADS=1 cargo bench --bench render_models
 //!
-//! The clock is the process's CPU time where the platform has one (Unix), not wall time: on the
-//! shared 2-core development machine other processes held the core for 10-30 % of a frame's
-//! wall time, differently from one frame to the next, which moved the ratios by up to 15 %.
-//! With one rayon thread the CPU time is the frame's work (the calling thread sleeps).
+//! The clock is the process's CPU time where the platform has one (Unix), not wall time, which
+//! also counts the time other processes hold the core; with one rayon thread the CPU time is
+//! the frame's work (the calling thread sleeps). Other load still shows through caches and
+//! clock frequency: on the 2-core development machine at a load of 3, two rounds of this bench
+//! differed by up to 0.2 in a baked/traced ratio, so compare several rounds.
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use lensbake::lenses;
