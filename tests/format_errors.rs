@@ -248,11 +248,13 @@ fn unsupported_input_is_refused_by_name() {
             "CIR OBS",
         ),
         ("SO 0.1 100\n", Format::CodeV, 1, "curved object"),
+        // A coordinate break that tilts the lens after it by 2 degrees.
         (
-            "MODE SEQ\nSURF 0\nSURF 1\n  TYPE COORDBRK\n",
+            "MODE SEQ\nSURF 0\nSURF 1\n  TYPE COORDBRK\n  PARM 3 2\nSURF 2\n  CURV 0.02\n  \
+             DISZ 5\n  GLAS N-BK7\n  STOP\nSURF 3\n",
             Format::Zemax,
-            4,
-            "COORDBRK",
+            6,
+            "tilted 2.000000 deg to the axis (moved by `TYPE COORDBRK`)",
         ),
         (
             "MODE SEQ\nSURF 0\nSURF 1\n  OBSC 1 2\n",

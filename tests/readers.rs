@@ -98,14 +98,18 @@ fn unknown_or_unsupported_surface_keywords_are_refused_where_they_stand() {
     assert_eq!(e.location.surface, Some(2));
     assert_eq!(e.location.field.as_deref(), Some("ZQXW"));
 
-    let text = singlet("", "", "").replace("SURF 2\n  TYPE STANDARD", "SURF 2\n  TYPE COORDBRK");
+    // A coordinate break that tilts the image plane 5 degrees: no centred lens describes it.
+    let text = singlet("", "", "").replace(
+        "SURF 2\n  TYPE STANDARD",
+        "SURF 2\n  TYPE COORDBRK\n  PARM 3 5",
+    );
     let e = read(&text).unwrap_err();
     assert!(
-        matches!(&e.problem, Problem::Unsupported(what) if what.contains("COORDBRK")),
+        matches!(&e.problem, Problem::Unsupported(what) if what.contains("image plane is tilted 5.000000 deg")),
         "{e}"
     );
-    assert_eq!(e.location.line, Some(line_of(&text, "COORDBRK")));
-    assert_eq!(e.location.surface, Some(2));
+    assert_eq!(e.location.line, Some(line_of(&text, "SURF 3")));
+    assert_eq!(e.location.field.as_deref(), Some("TYPE COORDBRK"));
 
     // A central obscuration is read (tests/mirrors.rs); a square aperture is not.
     let text = singlet("", "  SQAP 2 2\n", "");
@@ -510,4 +514,42 @@ fn derived_apertures_stop_where_the_faces_of_a_lens_meet() {
         limited_at_edge: vec![1, 2],
     }));
     LensSystem::new(loaded.prescription, &loaded.map).unwrap();
+}
+
+/// A CODE V private glass given by Laurent coefficients (`PRV`, `LAU a0..a5`): the index is
+/// n^2 = a0 + a1 l^2 + a2 / l^2 + a3 / l^4 + a4 / l^6 + a5 / l^8 (l in micrometres), here
+/// Norland NOA61 as CODV_35571.seq gives it, n = 1.56 at 550 nm as Norland states; five
+/// coefficients are refused.
+#[test]
+fn codev_private_glasses_by_laurent_coefficients() {
+    let a = [
+        2.36390625,
+        0.0,
+        0.025493134,
+        -0.000580235,
+        -0.349933e-5,
+        0.445404e-7,
+    ];
+    let glass = format!("'NOA61' LAU {}", a.map(|v| v.to_string()).join(" "));
+    let text = format!(
+        "EPD 10\nWL 550\nPRV\nPWL 550\n{glass}\nEND\nSO 0 1e11\nS 50 5 'NOA61'\nSTO\nS -50 45\n\
+         SI 0 0\n"
+    );
+    let loaded = codev(&text).unwrap();
+    let system = LensSystem::new(loaded.prescription, &loaded.map).unwrap();
+    for nm in [450.0, 550.0, 650.0] {
+        let l2 = (nm * 1e-3f64).powi(2);
+        let n2 = a[0]
+            + a[1] * l2
+            + a[2] / l2
+            + a[3] / l2.powi(2)
+            + a[4] / l2.powi(3)
+            + a[5] / l2.powi(4);
+        let ours = system.at(nm).surfaces[0].index_after;
+        assert!((ours - n2.sqrt()).abs() < 1e-15, "{nm} nm: {ours}");
+    }
+    assert!((system.at(550.0).surfaces[0].index_after - 1.56).abs() < 0.005);
+    let e = codev(&text.replace(&glass, &glass[..glass.rfind(' ').unwrap()])).unwrap_err();
+    assert!(e.to_string().contains("6 Laurent coefficients"), "{e}");
+    assert_eq!(e.location.line, Some(5), "{e}");
 }

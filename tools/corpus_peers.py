@@ -34,6 +34,8 @@ PEER_FILES = [
     "rayoptics__HoO-V2C18Ex03.zmx",
     # CODE V `stop` written out, a Mangin mirror.
     "rayoptics__achroMangin_ok.seq",
+    # Three fold mirrors (CODE V BEN), which rayoptics traces folded and lensbake unfolds.
+    "rayoptics__folded_lenses.seq",
 ]
 
 

@@ -69,6 +69,7 @@ impl Dispersion {
                 b: b.to_vec(),
                 c: c.to_vec(),
             },
+            Medium::PowerSeries { a } => Dispersion::PowerSeries { a: *a },
             Medium::Model { nd, vd } => Dispersion::model(*nd, *vd),
             Medium::Table {
                 wavelengths_nm,

@@ -203,6 +203,30 @@ impl Shape {
         }
     }
 
+    /// The same profile seen from its other side (reflected through its vertex plane): every
+    /// sag negated, so the curvature and every aspheric coefficient change sign.
+    pub fn mirrored(&self) -> Shape {
+        match self {
+            Shape::Plane => Shape::Plane,
+            Shape::Sphere { curvature } => Shape::Sphere {
+                curvature: -curvature,
+            },
+            Shape::Conic { curvature, conic } => Shape::Conic {
+                curvature: -curvature,
+                conic: *conic,
+            },
+            Shape::EvenAsphere {
+                curvature,
+                conic,
+                coefficients,
+            } => Shape::EvenAsphere {
+                curvature: -curvature,
+                conic: *conic,
+                coefficients: coefficients.iter().map(|a| -a).collect(),
+            },
+        }
+    }
+
     /// Radius of curvature; infinite for a plane.
     pub fn radius(&self) -> f64 {
         let c = self.curvature();
@@ -256,6 +280,9 @@ pub enum Medium {
     Glass(String),
     /// Sellmeier coefficients, wavelengths in micrometres: n^2 = 1 + sum B_i l^2 / (l^2 - C_i).
     Sellmeier { b: [f64; 3], c: [f64; 3] },
+    /// The Laurent power series of SCHOTT's former catalogue, wavelengths in micrometres:
+    /// n^2 = a0 + a1 l^2 + a2 / l^2 + a3 / l^4 + a4 / l^6 + a5 / l^8 (CODE V `LAU` private glasses).
+    PowerSeries { a: [f64; 6] },
     /// A model glass from its d-line index and Abbe number (see [`crate::glass`] for the formula).
     Model { nd: f64, vd: f64 },
     /// Indices at listed wavelengths (nm, ascending), interpolated by a cubic spline and defined
@@ -288,6 +315,7 @@ impl Medium {
             Medium::Index(n) => format!("n = {n}"),
             Medium::Glass(name) => name.clone(),
             Medium::Sellmeier { .. } => "Sellmeier".into(),
+            Medium::PowerSeries { .. } => "Laurent power series".into(),
             Medium::Model { nd, vd } => format!("model {nd}/{vd}"),
             Medium::Table { wavelengths_nm, .. } => format!(
                 "table of {} indices, {}-{} nm",

@@ -149,6 +149,12 @@ fn check_medium(medium: &Medium, location: Location) -> Result<(), PrescriptionE
             }
             Ok(())
         }
+        Medium::PowerSeries { a } => {
+            for v in a {
+                finite(*v, location.clone())?;
+            }
+            Ok(())
+        }
         Medium::Table {
             wavelengths_nm,
             indices,

@@ -21,9 +21,12 @@
 //!
 //! Skipped as harmless (they change no surface) and listed in one note: see `HARMLESS`.
 //!
-//! Refused with a message naming the command and line: every other command (decentres, tilts,
-//! other pickups, a `CUF` other than 0, solves, zoom positions, non-circular apertures (`REX`,
-//! `REY`, ...), private catalogues given by a formula), a curved object or image surface, and
+//! Decentres and tilts (`XDE`, `YDE`, `ZDE`, `ADE`, `BDE`, `CDE`, with `DAR`, `BEN`, `REV`) on lens
+//! surfaces and `SI` are read; `placement` turns them into the centred lens they describe (fold
+//! mirrors unfolded) or refuses the lens.
+//!
+//! Refused with a message naming the command and line: every other command (other pickups, a `CUF` other than 0, solves, zoom positions, non-circular apertures (`REX`,
+//! `REY`, ...), private glasses given by a formula other than `LAU` Laurent coefficients), a curved object or image surface, and
 //! other `CIR` forms (several values). Image-height fields and
 //! numerical apertures are refused only when a clear aperture must be derived from them (see
 //! `apertures`).
@@ -38,6 +41,7 @@
 //! glass is reported by the reader, with the line of its surface.
 
 use super::apertures::{self, BeamSpec, INFINITE_OBJECT_MM};
+use super::placement::{self, Placement, PlacementKind};
 use super::{
     AsphereTerms, Format, LoadNote, Loaded, Source, finite, named_medium, number, scale_to_mm,
     shape,
@@ -147,6 +151,7 @@ struct SeqSurface {
     /// Radius inside which the surface blocks rays (`CIR OBS`, `CIR HOL`).
     obscuration: Option<f64>,
     stop: bool,
+    placement: Option<Placement>,
 }
 
 #[derive(Clone, Copy, PartialEq)]
@@ -198,6 +203,9 @@ struct Reader {
     object_distance: Option<f64>,
     object_medium: Option<Medium>,
     surfaces: Vec<SeqSurface>,
+    /// The image surface's line and decentre (`SI` followed by `YDE`, `ADE`, ...).
+    image_line: Option<usize>,
+    image_placement: Option<Placement>,
     current: Option<Current>,
     /// Pickups (`PIK`), applied in file order once every surface is read.
     pickups: Vec<Pickup>,
@@ -287,6 +295,24 @@ impl Reader {
             match name {
                 "PWL" => self.private_block = Some(list("PWL")?),
                 "END" => self.private_block = None,
+                glass
+                    if c.args
+                        .first()
+                        .is_some_and(|f| f.eq_ignore_ascii_case("LAU")) =>
+                {
+                    let a: [f64; 6] = c.args[1..]
+                        .iter()
+                        .map(|v| finite(v, &at(glass)))
+                        .collect::<Result<Vec<f64>, _>>()?
+                        .try_into()
+                        .map_err(|found: Vec<f64>| {
+                            count("6 Laurent coefficients after LAU", found.len())
+                        })?;
+                    let medium = Medium::PowerSeries { a };
+                    crate::glass::Dispersion::of(&medium)
+                        .map_err(|problem| PrescriptionError::new(at(glass), problem))?;
+                    self.private.push((glass.to_string(), medium));
+                }
                 glass => {
                     let indices = c
                         .args
@@ -295,8 +321,8 @@ impl Reader {
                         .collect::<Result<Vec<f64>, _>>()
                         .map_err(|_| {
                             unsupported(format!(
-                                "private glass {glass} given as {} (only indices at the PWL \
-                                 wavelengths are read)",
+                                "private glass {glass} given as {} (indices at the PWL \
+                                 wavelengths and LAU Laurent coefficients are read)",
                                 c.args.first().map_or("nothing", String::as_str)
                             ))
                         })?;
@@ -411,6 +437,7 @@ impl Reader {
                     clear_radius: None,
                     obscuration: None,
                     stop: false,
+                    placement: None,
                 });
             }
             "SI" => {
@@ -419,6 +446,7 @@ impl Reader {
                     return Err(unsupported("a curved image surface".into()));
                 }
                 self.current = Some(Current::Image);
+                self.image_line = Some(c.line);
             }
             // CODE V reads a command by its first three letters; files write STOP for STO too.
             "STO" | "STOP" => match self.current() {
@@ -544,6 +572,38 @@ impl Reader {
                     unsupported(format!("pickup `PIK {}`: {why}", c.args.join(" ")))
                 })?;
                 self.pickups.push(pickup);
+            }
+            "XDE" | "YDE" | "ZDE" | "ADE" | "BDE" | "CDE" | "DAR" | "BEN" | "REV" => {
+                let value = if matches!(name, "DAR" | "BEN" | "REV") {
+                    if !c.args.is_empty() {
+                        return Err(count("no value", c.args.len()));
+                    }
+                    0.0
+                } else {
+                    one(name)?
+                };
+                let line = c.line;
+                let placement = match self.current() {
+                    Current::Surface(i) => &mut self.surfaces[i].placement,
+                    Current::Image => &mut self.image_placement,
+                    Current::Object | Current::Nothing => {
+                        return Err(unsupported(format!(
+                            "{name} before the first lens surface (a decentred object)"
+                        )));
+                    }
+                };
+                let placement = placement
+                    .get_or_insert_with(|| Placement::new(PlacementKind::Basic, line, name));
+                match name {
+                    "DAR" => placement.kind = PlacementKind::DecentreAndReturn,
+                    "BEN" => placement.kind = PlacementKind::Bend,
+                    "REV" => placement.kind = PlacementKind::Reverse,
+                    // CODE V's alpha and beta turn left-handed, gamma right-handed.
+                    "ADE" => placement.tilt_deg[0] = -value,
+                    "BDE" => placement.tilt_deg[1] = -value,
+                    "CDE" => placement.tilt_deg[2] = value,
+                    _ => placement.decentre[usize::from(name.as_bytes()[0] - b'X')] = value,
+                }
             }
             harmless if HARMLESS.contains(&harmless) => {
                 self.skipped.insert(harmless.to_string());
@@ -688,6 +748,19 @@ impl Reader {
             surfaces,
         };
         scale_to_mm(&mut prescription, mm);
+        let placements: Vec<Option<Placement>> =
+            self.surfaces.iter().map(|s| s.placement.clone()).collect();
+        let lines: Vec<usize> = self.surfaces.iter().map(|s| s.line).collect();
+        let centred = placement::centre_if_placed(
+            &mut prescription,
+            &placements,
+            self.image_placement.as_ref(),
+            &missing,
+            mm,
+            &lines,
+            self.image_line.unwrap_or(lines[lines.len() - 1]),
+            source,
+        )?;
         let map = SourceMap {
             file: source.file.map(|f| f.to_path_buf()),
             surface_lines: self.surfaces.iter().map(|s| Some(s.line)).collect(),
@@ -708,6 +781,7 @@ impl Reader {
             wavelength.unwrap_or(DEFAULT_WAVELENGTH_NM),
         );
         let mut loaded = apertures::complete(prescription, &missing, &beams, map, Format::CodeV)?;
+        loaded.notes.extend(centred);
         if !self.skipped.is_empty() {
             loaded.notes.push(LoadNote::SkippedKeywords {
                 keywords: self.skipped.into_iter().collect(),

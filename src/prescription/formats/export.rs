@@ -104,7 +104,7 @@ pub fn write_zemax(p: &Prescription) -> Result<String, Problem> {
             }
             Medium::Index(n) => Some(format!("GLAS ___BLANK 1 0 {} 0", num(*n))),
             Medium::Mirror => Some("GLAS MIRROR 0 0 1.5 40".to_string()),
-            Medium::Sellmeier { .. } | Medium::Table { .. } => {
+            Medium::Sellmeier { .. } | Medium::PowerSeries { .. } | Medium::Table { .. } => {
                 return refuse(format!(
                     "surface {surface}: a medium given by its own coefficients or table; a Zemax \
                      file names catalogue glasses"

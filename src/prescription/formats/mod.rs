@@ -24,6 +24,7 @@ mod codev;
 mod columns;
 mod export;
 mod native;
+mod placement;
 mod zemax;
 
 pub use export::{write_pbrt, write_zemax};
@@ -164,11 +165,30 @@ pub enum LoadNote {
     /// Keywords the file uses that change nothing lensbake models (display, merit function,
     /// tolerancing, coatings, ...), skipped; listed once, sorted.
     SkippedKeywords { keywords: Vec<String> },
+    /// The file decentres or tilts surfaces, and the lens read is the centred one they describe
+    /// exactly: `folds` (1-based) are tilted plane mirrors unfolded into planes; every other
+    /// decentre or tilt cancels or moves only a plane that bends no ray.
+    Centred { folds: Vec<usize> },
 }
 
 impl fmt::Display for LoadNote {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
+            LoadNote::Centred { folds } if folds.is_empty() => write!(
+                f,
+                "the file's decentres and tilts leave every surface that bends light on the axis \
+                 (they cancel, or move only planes between equal media); read as the centred lens"
+            ),
+            LoadNote::Centred { folds } => write!(
+                f,
+                "fold mirror{} {} unfolded: read as the centred lens the fold{} straighten{} \
+                 (exact for every ray; the image is seen through the mirrors, so it may be \
+                 mirror-reversed)",
+                plural(folds),
+                list_ranges(folds),
+                plural(folds),
+                if folds.len() == 1 { "s" } else { "" }
+            ),
             LoadNote::PbrtFirstThicknessZero => write!(
                 f,
                 "the first row's thickness is 0, so surfaces 1 and 2 share a vertex; if this is an \

@@ -30,18 +30,22 @@
 //! solver, environment and bookkeeping data: `HARMLESS_TOP`, `HARMLESS_SURFACE`) are skipped and
 //! listed in one [`LoadNote::SkippedKeywords`]; so is any unknown keyword of the trailer, the
 //! unindented lines after the surface table, where OpticStudio writes merit-function and
-//! tolerance operands. Any other keyword is refused, naming keyword, line and surface: other
-//! surface types (coordinate breaks, toroids, paraxial, ...), multi-configuration files,
+//! tolerance operands. Coordinate breaks (`TYPE COORDBRK`, with `PPAR` pickups of their
+//! parameters) are read as planes in the medium before them that move the later surfaces; the
+//! lens they describe is centred by `placement` (fold mirrors unfolded) or refused there. Any
+//! other keyword is refused, naming keyword, line and surface: other surface types (toroids,
+//! gratings, paraxial, ...), surface tilts written as `SCBD`, multi-configuration files,
 //! annular apertures and obscurations, non-circular apertures, ignored surfaces, a curved image surface,
 //! non-sequential mode, and every unknown keyword inside the surface table.
 
 use super::apertures::{self, BeamSpec, INFINITE_OBJECT_MM};
+use super::placement::{self, Placement, PlacementKind};
 use super::{Format, LoadNote, Loaded, Source, finite, named_medium, number, scale_to_mm, shape};
 use crate::prescription::DEFAULT_WAVELENGTH_NM;
 use crate::prescription::error::{PrescriptionError, Problem};
 use crate::prescription::model::{
     ApertureSpec, Conditions, FieldKind, FieldSpec, MAX_ASPHERE_TERMS, Medium, Prescription,
-    Provenance, StopShape, Surface,
+    Provenance, Shape, StopShape, Surface,
 };
 use crate::prescription::validate::SourceMap;
 use std::collections::BTreeSet;
@@ -85,6 +89,8 @@ const PARM_TERMS: usize = 8;
 enum SurfaceType {
     Standard,
     EvenAsphere,
+    /// A coordinate break: PARM 1..6 are decentre x, y, tilts about x, y, z, order flag.
+    CoordinateBreak,
 }
 
 struct Block {
@@ -101,6 +107,9 @@ struct Block {
     stop: Option<usize>,
     /// Glass as written: a name (resolved once the file's catalogues are known) or a medium.
     glass: Option<Glass>,
+    /// Parameter pickups `PPAR n surface scale offset`: PARM n = scale * (PARM n of that
+    /// surface) + offset, with the line.
+    pickups: Vec<(usize, usize, f64, f64, usize)>,
 }
 
 enum Glass {
@@ -122,6 +131,7 @@ impl Block {
             obscuration: None,
             stop: None,
             glass: None,
+            pickups: Vec::new(),
         }
     }
 }
@@ -247,13 +257,7 @@ impl Reader {
                     block.kind = match arg(0, "a surface type")?.to_ascii_uppercase().as_str() {
                         "STANDARD" => SurfaceType::Standard,
                         "EVENASPH" => SurfaceType::EvenAsphere,
-                        "COORDBRK" => {
-                            return Err(unsupported(
-                                "a coordinate break (TYPE COORDBRK): lensbake models centred \
-                                 systems, without decentres or tilts"
-                                    .into(),
-                            ));
-                        }
+                        "COORDBRK" => SurfaceType::CoordinateBreak,
                         other => return Err(unsupported(format!("Zemax surface type {other}"))),
                     };
                     true
@@ -304,6 +308,25 @@ impl Reader {
                     if (1..=PARM_TERMS).contains(&term) {
                         block.parms[term - 1] = v;
                     }
+                    true
+                }
+                "PPAR" => {
+                    let (term, from) = (index(0)?, index(1)?);
+                    if !(1..=PARM_TERMS).contains(&term) {
+                        return Err(unsupported(format!("a pickup of parameter {term} (PPAR)")));
+                    }
+                    block.pickups.push((term, from, value(2)?, value(3)?, line));
+                    true
+                }
+                // OpticStudio's aperture decentre; zero changes nothing.
+                "OBDC" => {
+                    if value(0)? != 0.0 || value(1)? != 0.0 {
+                        return Err(unsupported(format!(
+                            "a decentred clear aperture (OBDC {} {})",
+                            args[0], args[1]
+                        )));
+                    }
+                    self.skipped.insert("OBDC 0 0".into());
                     true
                 }
                 "DIAM" => {
@@ -456,15 +479,37 @@ impl Reader {
         Ok(())
     }
 
+    /// Evaluates parameter pickups in file order, so one may read what an earlier one wrote.
+    fn apply_pickups(&mut self, source: &Source) -> Result<(), PrescriptionError> {
+        for target in 0..self.blocks.len() {
+            for (term, from, scale, offset, line) in
+                std::mem::take(&mut self.blocks[target].pickups)
+            {
+                let Some(picked) = self.blocks.get(from).map(|b| b.parms[term - 1]) else {
+                    return Err(PrescriptionError::new(
+                        source.location(Some(line)).with_field("PPAR"),
+                        Problem::Syntax(format!(
+                            "the pickup names surface {from}; the file has surfaces 0..{}",
+                            self.blocks.len() - 1
+                        )),
+                    ));
+                };
+                self.blocks[target].parms[term - 1] = scale * picked + offset;
+            }
+        }
+        Ok(())
+    }
+
     fn set_aperture(&mut self, aperture: ApertureSpec) {
         self.aperture = Some(aperture);
         self.unusable_aperture = None;
     }
 
-    fn finish(self, source: &Source) -> Result<Loaded, PrescriptionError> {
+    fn finish(mut self, source: &Source) -> Result<Loaded, PrescriptionError> {
         if self.blocks.len() < 3 {
             return Err(source.error(None, Problem::Empty));
         }
+        self.apply_pickups(source)?;
         let (object, rest) = self.blocks.split_first().expect("at least three blocks");
         let (image, lens) = rest
             .split_last()
@@ -501,6 +546,15 @@ impl Reader {
                 .filter(|um| um.is_finite())
                 .map(|um| um * 1000.0),
         };
+        if image.kind == SurfaceType::CoordinateBreak {
+            return Err(PrescriptionError::new(
+                source.location(Some(image.line)).with_field("TYPE"),
+                Problem::Unsupported("a coordinate break as the image surface".into()),
+            ));
+        }
+        // A coordinate break bends no ray: light stays in the medium it was in (the one before
+        // the last mirror when it follows one).
+        let mut medium_before = self.medium(object);
         let surfaces: Vec<Surface> = lens
             .iter()
             .map(|b| {
@@ -508,14 +562,40 @@ impl Reader {
                 if b.kind == SurfaceType::EvenAsphere {
                     terms[..PARM_TERMS].copy_from_slice(&b.parms);
                 }
+                let (profile, medium) = if b.kind == SurfaceType::CoordinateBreak {
+                    (Shape::Plane, medium_before.clone())
+                } else {
+                    (shape(b.curvature, b.conic, &terms), self.medium(b))
+                };
+                if medium != Medium::Mirror {
+                    medium_before = medium.clone();
+                }
                 Surface {
-                    shape: shape(b.curvature, b.conic, &terms),
+                    shape: profile,
                     thickness: b.thickness,
-                    medium: self.medium(b),
+                    medium,
                     semi_aperture: b.clear_radius.or(b.semi_diameter).unwrap_or(0.0),
                     stop: b.stop.map(|_| StopShape::Circle),
                     obscuration: b.obscuration,
                 }
+            })
+            .collect();
+        let placements: Vec<Option<Placement>> = lens
+            .iter()
+            .map(|b| {
+                (b.kind == SurfaceType::CoordinateBreak).then(|| {
+                    let [dx, dy, tx, ty, tz, order, ..] = b.parms;
+                    let kind = if order == 0.0 {
+                        PlacementKind::Basic
+                    } else {
+                        PlacementKind::TiltThenDecentre
+                    };
+                    Placement {
+                        decentre: [dx, dy, 0.0],
+                        tilt_deg: [tx, ty, tz],
+                        ..Placement::new(kind, b.line, "TYPE COORDBRK")
+                    }
+                })
             })
             .collect();
         // A DIAM of 0 (a dummy surface OpticStudio never sized) is no aperture at all.
@@ -543,6 +623,16 @@ impl Reader {
             surfaces,
         };
         scale_to_mm(&mut prescription, mm);
+        let centred = placement::centre_if_placed(
+            &mut prescription,
+            &placements,
+            None,
+            &missing,
+            mm,
+            &lens.iter().map(|b| b.line).collect::<Vec<_>>(),
+            image.line,
+            source,
+        )?;
         let map = SourceMap {
             file: source.file.map(|f| f.to_path_buf()),
             surface_lines: lens.iter().map(|b| Some(b.line)).collect(),
@@ -567,6 +657,7 @@ impl Reader {
             wavelength_nm.unwrap_or(DEFAULT_WAVELENGTH_NM),
         );
         let mut loaded = apertures::complete(prescription, &missing, &beams, map, Format::Zemax)?;
+        loaded.notes.extend(centred);
         if !self.skipped.is_empty() {
             loaded.notes.push(LoadNote::SkippedKeywords {
                 keywords: self.skipped.into_iter().collect(),

@@ -1,0 +1,456 @@
+//! Decentres, tilts and coordinate breaks as Zemax and CODE V files write them, and the centred
+//! lens they describe.
+//!
+//! A reader records where each surface sits ([`Placement`]); [`centre`] walks the surfaces in
+//! three dimensions and rewrites the lens as the centred system lensbake models, when that is
+//! exact:
+//! - a plane mirror tilted to the axis whose following surfaces sit on the reflected axis is a
+//!   pure fold: reflecting everything after it through its plane (unfolding) changes no ray, so
+//!   the mirror becomes a plane in the medium it was met in (for a stated clear aperture, the
+//!   circle inscribed in the mirror's elliptical footprint, r·cos θ);
+//! - a plane between two equal media with no stated aperture (a coordinate break, a dummy)
+//!   bends no ray, so its tilt or decentre is dropped and it keeps its vertex's place along the
+//!   axis;
+//! - decentres that return (CODE V `DAR`, `REV`, a Zemax break undone by another) leave the
+//!   later surfaces on the axis again.
+//!
+//! Anything else off the axis (a tilted lens or curved mirror, a decentred stop, a tilted image
+//! plane) is refused with the surface and line: lensbake's paraxial, Seidel, pupil, bake and
+//! render code all need a rotationally symmetric system.
+//!
+//! Conventions: a frame maps local to global coordinates, x_g = R x_l + o. Tilts are right-handed
+//! rotations (degrees) about x, then the new y, then the new z (Zemax's "tilt about x, y, z";
+//! CODE V's alpha and beta are left-handed, so the CODE V reader negates them).
+
+use super::super::error::{PrescriptionError, Problem};
+use super::super::model::{Medium, Prescription, Shape, Surface};
+use super::{LoadNote, Source};
+
+/// How a decentre moves the frames of its surface and of the surfaces after it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) enum PlacementKind {
+    /// Decentre, then tilt; the surface and every later one use the moved frame (CODE V's
+    /// basic decentre, a Zemax coordinate break with order 0).
+    Basic,
+    /// Tilt about z, the new y and the new x, then decentre: the inverse of `Basic` with the
+    /// values negated (a Zemax coordinate break with order flag 1).
+    TiltThenDecentre,
+    /// The surface only; the frame after it is the one before (CODE V `DAR`).
+    DecentreAndReturn,
+    /// As `Basic`, and the frame after the surface turns by the tilt once more, so that after a
+    /// fold mirror the axis follows the reflected ray (CODE V `BEN`).
+    Bend,
+    /// The surface stays in the incoming frame; after it the frame moves by the inverse of a
+    /// basic decentre with these values (CODE V `REV`).
+    Reverse,
+}
+
+/// One surface's decentre and tilt as its file states them.
+#[derive(Clone, Debug, PartialEq)]
+pub(super) struct Placement {
+    pub kind: PlacementKind,
+    /// Vertex decentre x, y, z in the file's length unit.
+    pub decentre: [f64; 3],
+    /// Right-handed tilts in degrees about x, the new y and the new z.
+    pub tilt_deg: [f64; 3],
+    /// Where the file states it, for errors: line and keyword.
+    pub line: usize,
+    pub keyword: String,
+}
+
+impl Placement {
+    pub fn new(kind: PlacementKind, line: usize, keyword: &str) -> Placement {
+        Placement {
+            kind,
+            decentre: [0.0; 3],
+            tilt_deg: [0.0; 3],
+            line,
+            keyword: keyword.to_string(),
+        }
+    }
+
+    /// The frame of the surface in the incoming frame, and the frame after it in the surface's.
+    fn frames(&self, mm_per_unit: f64) -> (Frame, Frame) {
+        let d = self.decentre.map(|v| v * mm_per_unit);
+        let [a, b, c] = self.tilt_deg.map(f64::to_radians);
+        let tilt = mul(mul(rot_x(a), rot_y(b)), rot_z(c));
+        let basic = Frame::translation(d).then(&Frame::rotation(tilt));
+        match self.kind {
+            PlacementKind::Basic => (basic, Frame::IDENTITY),
+            PlacementKind::TiltThenDecentre => (
+                Frame::rotation(mul(mul(rot_z(c), rot_y(b)), rot_x(a)))
+                    .then(&Frame::translation(d)),
+                Frame::IDENTITY,
+            ),
+            PlacementKind::DecentreAndReturn => (basic, basic.inverse()),
+            PlacementKind::Bend => (basic, Frame::rotation(tilt)),
+            PlacementKind::Reverse => (Frame::IDENTITY, basic.inverse()),
+        }
+    }
+}
+
+type Matrix = [[f64; 3]; 3];
+
+fn rot_x(a: f64) -> Matrix {
+    let (s, c) = a.sin_cos();
+    [[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]]
+}
+
+fn rot_y(a: f64) -> Matrix {
+    let (s, c) = a.sin_cos();
+    [[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]]
+}
+
+fn rot_z(a: f64) -> Matrix {
+    let (s, c) = a.sin_cos();
+    [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]
+}
+
+fn mul(a: Matrix, b: Matrix) -> Matrix {
+    std::array::from_fn(|r| std::array::from_fn(|c| (0..3).map(|k| a[r][k] * b[k][c]).sum()))
+}
+
+fn apply(m: &Matrix, v: [f64; 3]) -> [f64; 3] {
+    std::array::from_fn(|r| (0..3).map(|k| m[r][k] * v[k]).sum())
+}
+
+fn transpose(m: &Matrix) -> Matrix {
+    std::array::from_fn(|r| std::array::from_fn(|c| m[c][r]))
+}
+
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// A coordinate frame: x_parent = linear x_local + origin. `linear` is a rotation, or after an
+/// unfolding a rotation times a reflection.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Frame {
+    linear: Matrix,
+    origin: [f64; 3],
+}
+
+impl Frame {
+    const IDENTITY: Frame = Frame {
+        linear: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+        origin: [0.0; 3],
+    };
+
+    fn translation(d: [f64; 3]) -> Frame {
+        Frame {
+            origin: d,
+            ..Frame::IDENTITY
+        }
+    }
+
+    fn rotation(linear: Matrix) -> Frame {
+        Frame {
+            linear,
+            origin: [0.0; 3],
+        }
+    }
+
+    /// `child` given in this frame's coordinates, expressed in this frame's parent.
+    fn then(&self, child: &Frame) -> Frame {
+        let moved = apply(&self.linear, child.origin);
+        Frame {
+            linear: mul(self.linear, child.linear),
+            origin: std::array::from_fn(|k| moved[k] + self.origin[k]),
+        }
+    }
+
+    /// The inverse of a rigid motion (its linear part orthogonal).
+    fn inverse(&self) -> Frame {
+        let linear = transpose(&self.linear);
+        let back = apply(&linear, self.origin);
+        Frame {
+            linear,
+            origin: back.map(|v| -v),
+        }
+    }
+
+    fn axis(&self) -> [f64; 3] {
+        [self.linear[0][2], self.linear[1][2], self.linear[2][2]]
+    }
+}
+
+/// Largest sine of the angle between a centred surface's axis and the lens axis, and largest
+/// distance of its vertex from the axis per mm of lens: rounding in the sines and cosines of the
+/// file's angles stays orders of magnitude below these, a real tilt or decentre far above.
+const AXIS_TOLERANCE: f64 = 1e-12;
+const OFFSET_TOLERANCE: f64 = 1e-10;
+
+/// [`centre`] for a reader: nothing when the file places no surface; otherwise the centred lens
+/// in `prescription` (in mm) and the note saying what was done. `derived` lists the 0-based
+/// surfaces whose clear aperture the file does not state.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn centre_if_placed(
+    prescription: &mut Prescription,
+    placements: &[Option<Placement>],
+    image_placement: Option<&Placement>,
+    derived: &[usize],
+    mm_per_unit: f64,
+    lines: &[usize],
+    image_line: usize,
+    source: &Source,
+) -> Result<Option<LoadNote>, PrescriptionError> {
+    if placements.iter().all(Option::is_none) && image_placement.is_none() {
+        return Ok(None);
+    }
+    let stated: Vec<bool> = (0..prescription.surfaces.len())
+        .map(|i| !derived.contains(&i))
+        .collect();
+    let object_medium = prescription.object_medium.clone();
+    let centred = centre(
+        &mut prescription.surfaces,
+        &object_medium,
+        placements,
+        image_placement,
+        &stated,
+        mm_per_unit,
+        lines,
+        image_line,
+        source,
+    )?;
+    Ok(Some(LoadNote::Centred {
+        folds: centred.folds,
+    }))
+}
+
+/// What [`centre`] did, for the reader's note.
+#[derive(Debug, Default, PartialEq)]
+pub(super) struct Centred {
+    /// 1-based surfaces that were tilted plane mirrors and were unfolded.
+    pub folds: Vec<usize>,
+}
+
+/// Rewrites `surfaces` (in mm, thicknesses and curvatures as the file writes them in each
+/// surface's own frame) as the centred lens that `placements` (one per surface, then one for the
+/// image) describe, or refuses the lens where no centred lens describes it exactly.
+///
+/// `stated_aperture[i]` says whether surface i's clear aperture came from the file (a derived
+/// one is sized later, on the centred lens, so it cannot clip where the file's would not).
+#[allow(clippy::too_many_arguments)]
+fn centre(
+    surfaces: &mut [Surface],
+    object_medium: &Medium,
+    placements: &[Option<Placement>],
+    image_placement: Option<&Placement>,
+    stated_aperture: &[bool],
+    mm_per_unit: f64,
+    lines: &[usize],
+    image_line: usize,
+    source: &Source,
+) -> Result<Centred, PrescriptionError> {
+    // Each surface's frame in the frame of surface 1, as the file places it.
+    let mut frames = Vec::with_capacity(surfaces.len() + 1);
+    let mut incoming = Frame::IDENTITY;
+    for (surface, placement) in surfaces.iter().zip(placements) {
+        let (before, after) = placement
+            .as_ref()
+            .map_or((Frame::IDENTITY, Frame::IDENTITY), |p| {
+                p.frames(mm_per_unit)
+            });
+        let frame = incoming.then(&before);
+        frames.push(frame);
+        incoming = frame
+            .then(&after)
+            .then(&Frame::translation([0.0, 0.0, surface.thickness]));
+    }
+    let image_frame =
+        incoming.then(&image_placement.map_or(Frame::IDENTITY, |p| p.frames(mm_per_unit).0));
+    // Decentres of 1e300 mm or thicknesses that overflow along a tilted axis: refused before
+    // any comparison with infinity or NaN could pass a surface as centred.
+    let overflow = frames.iter().chain([&image_frame]).position(|f| {
+        !(f.origin.iter().all(|v| v.is_finite())
+            && f.linear.iter().flatten().all(|v| v.is_finite()))
+    });
+    if let Some(i) = overflow {
+        let line = lines.get(i).copied().unwrap_or(image_line);
+        let mut location = source.location(Some(line)).with_field("thickness");
+        if i < surfaces.len() {
+            location = location.with_surface(i + 1);
+        }
+        return Err(PrescriptionError::new(
+            location,
+            Problem::Unsupported(
+                "the decentres, tilts and thicknesses place this surface beyond any finite \
+                 position"
+                    .into(),
+            ),
+        ));
+    }
+    let scale = 1.0
+        + frames
+            .iter()
+            .chain([&image_frame])
+            .map(|f| f.origin.iter().fold(0.0_f64, |m, v| m.max(v.abs())))
+            .fold(0.0, f64::max);
+
+    // The placement named when surface i (the image plane for i = surfaces.len()) is off the
+    // axis: its own, else the nearest one before it.
+    let cause = |i: usize| -> Option<&Placement> {
+        let own = if i < placements.len() {
+            placements[i].as_ref()
+        } else {
+            image_placement
+        };
+        own.or_else(|| {
+            placements[..i.min(placements.len())]
+                .iter()
+                .rev()
+                .flatten()
+                .next()
+        })
+    };
+    let surface_count = surfaces.len();
+    // Located at the placement's own line when the surface carries one, else at the surface.
+    let refuse = |i: usize, line: usize, why: String| {
+        let own = if i < surface_count {
+            placements[i].as_ref()
+        } else {
+            image_placement
+        };
+        let line = own.map_or(line, |p| p.line);
+        let keyword = cause(i).map_or("thickness".to_string(), |p| p.keyword.clone());
+        let mut location = source.location(Some(line)).with_field(&keyword);
+        if i < surface_count {
+            location = location.with_surface(i + 1);
+        }
+        PrescriptionError::new(
+            location,
+            Problem::Unsupported(format!(
+                "{why} (moved by `{keyword}`): lensbake models rotationally symmetric systems \
+                 (fold mirrors are unfolded where that is exact); its paraxial, Seidel, pupil, \
+                 bake and render code need one"
+            )),
+        )
+    };
+    let name = |i: usize| {
+        if i < surface_count {
+            format!("surface {}", i + 1)
+        } else {
+            "the image plane".to_string()
+        }
+    };
+
+    // Unfold: `unfolding` maps the file's space to one where every fold so far is straightened.
+    let mut unfolding = Frame::IDENTITY;
+    let mut vertex_z = Vec::with_capacity(surfaces.len() + 1);
+    let mut centred = Centred::default();
+    let mut medium_before = object_medium.clone();
+    for i in 0..=surfaces.len() {
+        let frame = unfolding.then(if i < surfaces.len() {
+            &frames[i]
+        } else {
+            &image_frame
+        });
+        let axis = frame.axis();
+        let [x, y, z] = frame.origin;
+        let tilted = axis[0].hypot(axis[1]) > AXIS_TOLERANCE;
+        let off_axis = x.hypot(y) > OFFSET_TOLERANCE * scale;
+        let line = lines.get(i).copied().unwrap_or(image_line);
+        if i == surfaces.len() {
+            if tilted || off_axis {
+                return Err(refuse(
+                    i,
+                    image_line,
+                    describe_offence(&name(i), tilted, off_axis, axis, x.hypot(y)),
+                ));
+            }
+            vertex_z.push(z);
+            break;
+        }
+        let surface = &mut surfaces[i];
+        let plane = surface.shape == Shape::Plane;
+        let is_mirror = surface.medium == Medium::Mirror;
+        if !(tilted || off_axis) {
+            // On the axis; facing -z after an odd number of unfoldings, so its profile flips.
+            if axis[2] < 0.0 {
+                surface.shape = surface.shape.mirrored();
+            }
+            vertex_z.push(z);
+        } else if plane && is_mirror && tilted && axis[2].abs() > AXIS_TOLERANCE {
+            // Where the axis crosses the mirror's plane.
+            let crossing = z + (axis[0] * x + axis[1] * y) / axis[2];
+            if stated_aperture[i] && off_axis {
+                return Err(refuse(
+                    i,
+                    line,
+                    format!(
+                        "{} is a fold mirror whose stated clear aperture is centred {:.6} mm off \
+                         the axis",
+                        name(i),
+                        x.hypot(y)
+                    ),
+                ));
+            }
+            if surface.stop.is_some() || surface.obscuration.is_some() {
+                return Err(refuse(
+                    i,
+                    line,
+                    format!(
+                        "{} is a fold mirror that is also the stop or obscured",
+                        name(i)
+                    ),
+                ));
+            }
+            let normal = axis;
+            let reflect: Matrix = std::array::from_fn(|r| {
+                std::array::from_fn(|c| f64::from(u8::from(r == c)) - 2.0 * normal[r] * normal[c])
+            });
+            let offset = 2.0 * dot(normal, [0.0, 0.0, crossing]);
+            unfolding = Frame {
+                linear: reflect,
+                origin: normal.map(|n| n * offset),
+            }
+            .then(&unfolding);
+            surface.medium = medium_before.clone();
+            if stated_aperture[i] {
+                surface.semi_aperture *= axis[2].abs();
+            }
+            centred.folds.push(i + 1);
+            vertex_z.push(crossing);
+        } else if plane
+            && !is_mirror
+            && surface.medium == medium_before
+            && !stated_aperture[i]
+            && surface.stop.is_none()
+            && surface.obscuration.is_none()
+        {
+            // A plane that bends no ray: where it sits along the axis changes no ray, so it
+            // keeps its vertex's place in the sequence.
+            vertex_z.push(z);
+        } else {
+            return Err(refuse(
+                i,
+                line,
+                describe_offence(&name(i), tilted, off_axis, axis, x.hypot(y)),
+            ));
+        }
+        if surfaces[i].medium != Medium::Mirror {
+            medium_before = surfaces[i].medium.clone();
+        }
+    }
+    for (i, surface) in surfaces.iter_mut().enumerate() {
+        surface.thickness = vertex_z[i + 1] - vertex_z[i];
+    }
+    Ok(centred)
+}
+
+fn describe_offence(
+    name: &str,
+    tilted: bool,
+    off_axis: bool,
+    axis: [f64; 3],
+    offset: f64,
+) -> String {
+    let tilt = axis[0].hypot(axis[1]).atan2(axis[2].abs()).to_degrees();
+    match (tilted, off_axis) {
+        (true, true) => format!(
+            "{name} is tilted {tilt:.6} deg to the axis and its vertex lies {offset:.6} mm off it"
+        ),
+        (true, false) => format!("{name} is tilted {tilt:.6} deg to the axis"),
+        _ => format!("{name} is decentred {offset:.6} mm from the axis"),
+    }
+}
