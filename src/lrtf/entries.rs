@@ -23,9 +23,10 @@ const BRICK_NODES: usize = BRICK * BRICK * BRICK;
 pub trait Node: Copy + Default + PartialEq + std::fmt::Debug + Send + Sync + 'static {
     fn from_values(values: &[f32; CHANNELS]) -> Self;
     fn values(&self) -> [f32; CHANNELS];
-    /// Every channel interpolated over all eight corners of `cell` with the processor's vector
-    /// unit, where it has one this build does not assume (see [`vector`]); None elsewhere.
-    fn interpolate_vector(nodes: &[Self], cell: &Cell) -> Option<[f64; CHANNELS]>;
+    /// Every channel interpolated over all eight corners of `cell` with AVX2 and F16C (see
+    /// [`vector`]); to be called only where `vector::available()`.
+    #[cfg(target_arch = "x86_64")]
+    const VECTOR: unsafe fn(&[Self], &Cell) -> [f64; CHANNELS];
 }
 
 /// An f32 node, aligned to its 32 bytes.
@@ -47,15 +48,8 @@ impl Node for NodeF32 {
         self.0
     }
 
-    fn interpolate_vector(nodes: &[Self], cell: &Cell) -> Option<[f64; CHANNELS]> {
-        #[cfg(target_arch = "x86_64")]
-        if vector::available() {
-            // SAFETY: the processor was just found to have AVX2 and F16C.
-            return Some(unsafe { vector::interpolate_f32(nodes, cell) });
-        }
-        let _ = (nodes, cell);
-        None
-    }
+    #[cfg(target_arch = "x86_64")]
+    const VECTOR: unsafe fn(&[Self], &Cell) -> [f64; CHANNELS] = vector::interpolate_f32;
 }
 
 impl Node for NodeF16 {
@@ -71,15 +65,8 @@ impl Node for NodeF16 {
         values
     }
 
-    fn interpolate_vector(nodes: &[Self], cell: &Cell) -> Option<[f64; CHANNELS]> {
-        #[cfg(target_arch = "x86_64")]
-        if vector::available() {
-            // SAFETY: the processor was just found to have AVX2 and F16C.
-            return Some(unsafe { vector::interpolate_f16(nodes, cell) });
-        }
-        let _ = (nodes, cell);
-        None
-    }
+    #[cfg(target_arch = "x86_64")]
+    const VECTOR: unsafe fn(&[Self], &Cell) -> [f64; CHANNELS] = vector::interpolate_f16;
 }
 
 /// `value` as f32, exactly (what `f16::to_f32` gives), in a form the compiler inlines and
@@ -198,10 +185,10 @@ impl<N: Node> Grid<N> {
     }
 
     fn interpolate(&self, cell: &Cell, corners: Corners) -> [f64; CHANNELS] {
-        if corners == Corners::All
-            && let Some(out) = N::interpolate_vector(&self.nodes, cell)
-        {
-            return out;
+        #[cfg(target_arch = "x86_64")]
+        if corners == Corners::All && vector::available() {
+            // SAFETY: the processor was just found to have AVX2 and F16C.
+            return unsafe { (N::VECTOR)(&self.nodes, cell) };
         }
         self.interpolate_portable(cell, corners)
     }
@@ -515,20 +502,20 @@ mod tests {
             for _ in 0..4000 {
                 let coords = [0; 3].map(|_| (random() >> 11) as f64 / (1u64 << 53) as f64 * 1.2 - 0.1);
                 let cell = entries.cell(coords);
-                let (vector, portable) = match &entries {
-                    Entries::F32(g) => (
-                        NodeF32::interpolate_vector(&g.nodes, &cell),
-                        g.interpolate_portable(&cell, Corners::All),
-                    ),
-                    Entries::F16(g) => (
-                        NodeF16::interpolate_vector(&g.nodes, &cell),
-                        g.interpolate_portable(&cell, Corners::All),
-                    ),
+                let portable = match &entries {
+                    Entries::F32(g) => g.interpolate_portable(&cell, Corners::All),
+                    Entries::F16(g) => g.interpolate_portable(&cell, Corners::All),
                 };
-                #[cfg(target_arch = "x86_64")]
-                assert_eq!(vector.is_some(), vector::available());
                 let expected = portable.map(f64::to_bits);
-                if let Some(vector) = vector {
+                #[cfg(target_arch = "x86_64")]
+                if vector::available() {
+                    // SAFETY: the processor has AVX2 and F16C.
+                    let vector = unsafe {
+                        match &entries {
+                            Entries::F32(g) => (NodeF32::VECTOR)(&g.nodes, &cell),
+                            Entries::F16(g) => (NodeF16::VECTOR)(&g.nodes, &cell),
+                        }
+                    };
                     assert_eq!(vector.map(f64::to_bits), expected, "{precision:?} {coords:?}");
                 }
                 let dispatched = entries.interpolate(&cell, Corners::All);
