@@ -45,6 +45,7 @@ const LOADS: &[&str] = &[
     "rayoptics__paraboloid.seq",
     "rayoptics__paraboloid_f8.seq",
     "rayoptics__rc_f16.seq",
+    "rayoptics__schmidt.seq",
     "rayoptics__schmidt_sph.seq",
     "rayoptics__singlet.seq",
     "rayoptics__unfolded_lenses_w_ape.seq",
@@ -119,7 +120,8 @@ fn the_expected_files_load_and_every_other_is_refused_with_a_located_error() {
 /// 0.0036045 mm; a fit of real rays at small apertures through the two conic mirrors gives
 /// 0.0036045, so lensbake is right; tests/mirrors.rs); optiland__mirror.seq (rayoptics reports
 /// an EFL of -0.0025 mm for its single R = -200 mm mirror, whose focal length is R/2 = -100 mm
-/// by the mirror equation); rayoptics__HoO-V2C18Ex27.zmx and rayoptics__schmidt_sph.seq
+/// by the mirror equation); rayoptics__HoO-V2C18Ex27.zmx, rayoptics__schmidt.seq and
+/// rayoptics__schmidt_sph.seq
 /// (model glasses from nd and Vd at 550 and 587.6 nm, not at the d line 587.5618 nm: each
 /// program has its own model-glass formula, so the indices differ there; the EFLs still agree
 /// to 5e-5 and 5e-10).

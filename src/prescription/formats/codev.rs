@@ -163,14 +163,15 @@ enum Current {
 }
 
 /// Commands that change no surface: `LEN` (new lens), `INI` (designer), `POL` (polarisation),
-/// `CCY`, `THC`, `GLC` (optimisation variables), `PIM` (the paraxial image solve; the file still
-/// states the thickness it produced), `DER`, `SLB` (labels), `SPH`, `CON`, `ASP` (surface-type
+/// `CCY`, `THC`, `GLC`, `KC`, `AC` .. `JC` (optimisation variable codes of curvature, thickness,
+/// glass, conic and aspheric terms), `CLS` (plot colours of the wavelengths), `PIM` (the
+/// paraxial image solve; the file still states the thickness it produced), `DER`, `SLB` (labels), `SPH`, `CON`, `ASP` (surface-type
 /// words whose data arrive through `K` and `A`..`J`), `TEM`, `PRE` (temperature and pressure:
 /// the catalogue indices are the makers' at their reference conditions), `COM`, `NOR`, `ZOO 1`
 /// is not among them: zoom files are refused.
 const HARMLESS: &[&str] = &[
-    "LEN", "INI", "POL", "CCY", "THC", "GLC", "PIM", "DER", "SLB", "SPH", "CON", "ASP", "TEM",
-    "PRE", "COM",
+    "LEN", "INI", "POL", "CCY", "THC", "GLC", "KC", "AC", "BC", "CC", "DC", "EC", "FC", "GC", "HC",
+    "JC", "CLS", "PIM", "DER", "SLB", "SPH", "CON", "ASP", "TEM", "PRE", "COM",
 ];
 
 const ASPHERE_LETTERS: [&str; MAX_ASPHERE_TERMS - 1] =
