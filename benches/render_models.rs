@@ -5,6 +5,12 @@
 //! same pupil circles as its table (what `lensbake bench render` compares).
 //!
 //! RAYON_NUM_THREADS=1 cargo bench --bench render_models
+//!
+//! The clock is the process's CPU time where the platform has one (Unix), not wall time, which
+//! also counts the time other processes hold the core; with one rayon thread the CPU time is
+//! the frame's work (the calling thread sleeps). Other load still shows through caches and
+//! clock frequency: on the 2-core development machine at a load of 3, two rounds of this bench
+//! differed by up to 0.2 in a baked/traced ratio, so compare several rounds.
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use lensbake::lenses;
@@ -74,11 +80,39 @@ fn bench_models(c: &mut Criterion) {
         for (name, camera) in &cameras {
             let label = format!("{name} (table {n}^3 {})", precision.name());
             group.bench_function(label, |b| {
-                b.iter(|| black_box(render_layers(camera, &ldi, &SETTINGS, Backend::Cpu, None)))
+                b.iter_custom(|frames| {
+                    let start = process_time();
+                    for _ in 0..frames {
+                        let frame = render_layers(camera, &ldi, &SETTINGS, Backend::Cpu, None);
+                        black_box(frame.expect("CPU render"));
+                    }
+                    process_time() - start
+                })
             });
         }
     }
     group.finish();
+}
+
+/// CPU time of this process (all its threads).
+#[cfg(unix)]
+fn process_time() -> Duration {
+    let mut now = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: `now` is a valid timespec to write, and the process CPU-time clock exists on every
+    // Unix the crate builds for.
+    let status = unsafe { libc::clock_gettime(libc::CLOCK_PROCESS_CPUTIME_ID, &mut now) };
+    assert_eq!(status, 0, "clock_gettime(CLOCK_PROCESS_CPUTIME_ID)");
+    Duration::new(now.tv_sec as u64, now.tv_nsec as u32)
+}
+
+/// Elsewhere, wall time since the first call.
+#[cfg(not(unix))]
+fn process_time() -> Duration {
+    static START: std::sync::OnceLock<std::time::Instant> = std::sync::OnceLock::new();
+    START.get_or_init(std::time::Instant::now).elapsed()
 }
 
 criterion_group!(benches, bench_models);

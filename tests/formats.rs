@@ -52,6 +52,7 @@ fn float_bits(p: &Prescription) -> Vec<u64> {
         Medium::Air | Medium::Glass(_) | Medium::Mirror => {}
         Medium::Index(n) => v.push(n.to_bits()),
         Medium::Sellmeier { b, c } => v.extend(b.iter().chain(c).map(|x| x.to_bits())),
+        Medium::PowerSeries { a } => v.extend(a.iter().map(|x| x.to_bits())),
         Medium::Model { nd, vd } => v.extend([nd.to_bits(), vd.to_bits()]),
         Medium::Table {
             wavelengths_nm,

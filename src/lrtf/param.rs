@@ -150,9 +150,12 @@ fn crossing(ray: &Ray, z: f64) -> Option<[f64; 2]> {
 }
 
 /// Distance of `p` from the axis and the canonical rotation (cos, sin) putting it on +x; the x
-/// axis itself when p is the origin.
+/// axis itself when p is the origin. The distance is the shader's `length`, sqrt(x^2 + y^2):
+/// within an ulp of `hypot`, whose libm call cost 4 % of a baked frame on the CPU twin. It
+/// overflows only 1e154 mm off axis (outside the domain either way) and underflows only within
+/// 1e-154 mm of it (where any rotation serves).
 fn polar_of(p: [f64; 2]) -> (f64, [f64; 2]) {
-    let r = p[0].hypot(p[1]);
+    let r = (p[0] * p[0] + p[1] * p[1]).sqrt();
     let rotation = if r > 0.0 {
         [p[0] / r, p[1] / r]
     } else {

@@ -226,13 +226,8 @@ fn project(frame: &FrameParams, ray: &ObjectRay, depth: f32) -> Vec3 {
     [column, row, inverse_depth]
 }
 
-fn pyramid_texel(
-    frame: &FrameParams,
-    layers: &LayerData,
-    level: u32,
-    column: u32,
-    row: u32,
-) -> Vec2 {
+/// Where level `level` of the depth pyramid starts in `depth_bounds`, and its width in texels.
+fn pyramid_level(frame: &FrameParams, level: u32) -> [u32; 2] {
     let mut offset = 0;
     for l in 0..level {
         let w = (frame.layer_width + (1 << l) - 1) >> l;
@@ -240,6 +235,13 @@ fn pyramid_texel(
         offset += w * h;
     }
     let w = (frame.layer_width + (1 << level) - 1) >> level;
+    [offset, w]
+}
+
+/// The pyramid texel over layer pixel (column, row) at `level`, which starts where
+/// `pyramid_level` says (found once for the four texels a footprint reads).
+fn pyramid_texel(layers: &LayerData, start: [u32; 2], level: u32, column: u32, row: u32) -> Vec2 {
+    let [offset, w] = start;
     layers.depth_bounds[(offset + (row >> level) * w + (column >> level)) as usize]
 }
 
@@ -250,10 +252,11 @@ fn footprint_bounds(frame: &FrameParams, layers: &LayerData, c: [u32; 2], r: [u3
     {
         level += 1;
     }
-    let a = pyramid_texel(frame, layers, level, c[0], r[0]);
-    let b = pyramid_texel(frame, layers, level, c[1], r[0]);
-    let cc = pyramid_texel(frame, layers, level, c[0], r[1]);
-    let d = pyramid_texel(frame, layers, level, c[1], r[1]);
+    let start = pyramid_level(frame, level);
+    let a = pyramid_texel(layers, start, level, c[0], r[0]);
+    let b = pyramid_texel(layers, start, level, c[1], r[0]);
+    let cc = pyramid_texel(layers, start, level, c[0], r[1]);
+    let d = pyramid_texel(layers, start, level, c[1], r[1]);
     [
         a[0].min(b[0]).min(cc[0].min(d[0])),
         a[1].max(b[1]).max(cc[1].max(d[1])),
@@ -310,15 +313,12 @@ fn axis_crossing(position: f32, direction: f32, cell: i32) -> f32 {
     NO_CROSSING
 }
 
-/// The shader's `floor`, exact for every f32 but without the libm call `f32::floor` costs on
-/// baseline x86-64 (no SSE4.1): truncation is exact below 2^23, and every f32 from there on is
-/// whole already; the sign of the input is kept (floor(-0.0) = -0.0).
-fn floor(v: f32) -> f32 {
-    if v.is_nan() || v.abs() >= 8_388_608.0 {
-        return v;
-    }
-    let t = v as i32 as f32;
-    (if t > v { t - 1.0 } else { t }).copysign(v)
+/// The shader's `clamp(floor(v), 0, last)` taken as a whole number (its `u32(...)` and
+/// `i32(...)` of it): above 0 floor is truncation (saturating, then clamped to `last` either
+/// way), and everything else (NaN too) ends at 0, so no floor is computed (baseline x86-64 has
+/// no floor instruction, and libm's costs a call per use).
+fn floor_clamped(v: f32, last: u32) -> u32 {
+    if v > 0.0 { (v as u32).min(last) } else { 0 }
 }
 
 fn trace_layers(frame: &FrameParams, layers: &LayerData, ray: &ObjectRay) -> Option<Vec3> {
@@ -334,14 +334,21 @@ fn trace_layers(frame: &FrameParams, layers: &LayerData, ray: &ObjectRay) -> Opt
     if range[0] >= range[1] {
         return None;
     }
+    let last_column = frame.layer_width - 1;
+    let last_row = frame.layer_height - 1;
     let dw = b[2] - a[2];
     let slack = DEPTH_SLACK * (a[2].abs() + b[2].abs());
     for _ in 0..FOOTPRINT_CLAMP_ITERATIONS {
         let p = mix3(a, b, range[0]);
         let q = mix3(a, b, range[1]);
-        let cell = |v: f32, extent: f32| floor(v).clamp(0.0, extent - 1.0) as u32;
-        let c = [cell(p[0].min(q[0]), lw), cell(p[0].max(q[0]), lw)];
-        let r = [cell(p[1].min(q[1]), lh), cell(p[1].max(q[1]), lh)];
+        let c = [
+            floor_clamped(p[0].min(q[0]), last_column),
+            floor_clamped(p[0].max(q[0]), last_column),
+        ];
+        let r = [
+            floor_clamped(p[1].min(q[1]), last_row),
+            floor_clamped(p[1].max(q[1]), last_row),
+        ];
         let bounds = footprint_bounds(frame, layers, c, r);
         if bounds[0] > bounds[1] {
             return None;
@@ -355,16 +362,15 @@ fn trace_layers(frame: &FrameParams, layers: &LayerData, ray: &ObjectRay) -> Opt
     }
     let start = mix3(a, b, range[0]);
     let end = mix3(a, b, range[1]);
-    let last_column = frame.layer_width as i32 - 1;
-    let last_row = frame.layer_height as i32 - 1;
     let mut cell = [
-        (floor(start[0]) as i32).clamp(0, last_column),
-        (floor(start[1]) as i32).clamp(0, last_row),
+        floor_clamped(start[0], last_column) as i32,
+        floor_clamped(start[1], last_row) as i32,
     ];
     let end_cell = [
-        (floor(end[0]) as i32).clamp(0, last_column),
-        (floor(end[1]) as i32).clamp(0, last_row),
+        floor_clamped(end[0], last_column) as i32,
+        floor_clamped(end[1], last_row) as i32,
     ];
+    let [last_column, last_row] = [last_column as i32, last_row as i32];
     let step_x = if b[0] > a[0] { 1 } else { -1 };
     let step_y = if b[1] > a[1] { 1 } else { -1 };
     let mut next_x = axis_crossing(a[0], b[0] - a[0], cell[0]);
@@ -615,14 +621,14 @@ fn sampling_pupil_at(lens: &LensData, block: u32, film_radius: f32) -> Vec2 {
     let (mut i, mut f) = (0, 0.0);
     if n > 1 && p.sampling_max_film_radius > 0.0 {
         let t = (film_radius / p.sampling_max_film_radius).clamp(0.0, 1.0) * (n - 1) as f32;
-        i = (floor(t) as u32).min(n - 2);
+        i = floor_clamped(t, n - 2);
         f = t - i as f32;
     }
     let i1 = (i + 1).min(n - 1);
     let (mut j, mut g) = (0, 0.0);
     if p.focus_count > 1 {
         let s = p.focus_coordinate.clamp(0.0, (p.focus_count - 1) as f32);
-        j = (floor(s) as u32).min(p.focus_count - 2);
+        j = floor_clamped(s, p.focus_count - 2);
         g = s - j as f32;
     }
     let j1 = (j + 1).min(p.focus_count - 1);
@@ -912,7 +918,7 @@ mod tests {
     }
 
     #[test]
-    fn floor_is_the_libm_floor_bit_for_bit() {
+    fn floor_clamped_is_the_shaders_clamped_floor() {
         let specials = [
             0.0,
             -0.0,
@@ -924,20 +930,25 @@ mod tests {
             8_388_607.5,
             -8_388_607.5,
             8_388_608.0,
-            -8_388_609.0,
+            4_294_967_296.0,
             1e30,
             -1e30,
             f32::MIN_POSITIVE,
             -f32::MIN_POSITIVE,
             f32::INFINITY,
             f32::NEG_INFINITY,
+            f32::NAN,
         ];
-        // Plus a sweep of every magnitude, both signs, with fractions.
+        // Plus a sweep of every magnitude, both signs, with fractions, against limits from 0 on.
         let sweep = (0..4000).map(|k| (k as f32 * 0.37 - 700.0) * 1.013f32.powi(k % 97));
         for v in specials.into_iter().chain(sweep) {
-            assert_eq!(floor(v).to_bits(), v.floor().to_bits(), "{v}");
+            for last in [0u32, 1, 7, 199, 4095] {
+                let as_u32 = v.floor().clamp(0.0, last as f32) as u32;
+                let as_i32 = (v.floor() as i32).clamp(0, last as i32);
+                assert_eq!(floor_clamped(v, last), as_u32, "{v} {last}");
+                assert_eq!(floor_clamped(v, last) as i32, as_i32, "{v} {last}");
+            }
         }
-        assert!(floor(f32::NAN).is_nan());
     }
 
     #[test]

@@ -271,7 +271,8 @@ fn project(ray: ObjectRay, depth: f32) -> vec3<f32> {
     return vec3<f32>(column, row, inverse_depth);
 }
 
-fn pyramid_texel(level: u32, column: u32, row: u32) -> vec2<f32> {
+// Where level `level` of the depth pyramid starts in `depth_bounds`, and its width in texels.
+fn pyramid_level(level: u32) -> vec2<u32> {
     var offset = 0u;
     for (var l = 0u; l < level; l += 1u) {
         let w = (frame.layer_width + (1u << l) - 1u) >> l;
@@ -279,7 +280,13 @@ fn pyramid_texel(level: u32, column: u32, row: u32) -> vec2<f32> {
         offset += w * h;
     }
     let w = (frame.layer_width + (1u << level) - 1u) >> level;
-    return depth_bounds[offset + (row >> level) * w + (column >> level)];
+    return vec2<u32>(offset, w);
+}
+
+// The pyramid texel over layer pixel (column, row) at `level`, which starts where `pyramid_level`
+// says (found once for the four texels a footprint reads).
+fn pyramid_texel(start: vec2<u32>, level: u32, column: u32, row: u32) -> vec2<f32> {
+    return depth_bounds[start.x + (row >> level) * start.y + (column >> level)];
 }
 
 // Min/max inverse depth over the texel rectangle [c0, c1] x [r0, r1], read from the coarsest
@@ -290,10 +297,11 @@ fn footprint_bounds(c0: u32, c1: u32, r0: u32, r1: u32) -> vec2<f32> {
         && (((c1 >> level) - (c0 >> level)) > 1u || ((r1 >> level) - (r0 >> level)) > 1u)) {
         level += 1u;
     }
-    let a = pyramid_texel(level, c0, r0);
-    let b = pyramid_texel(level, c1, r0);
-    let c = pyramid_texel(level, c0, r1);
-    let d = pyramid_texel(level, c1, r1);
+    let start = pyramid_level(level);
+    let a = pyramid_texel(start, level, c0, r0);
+    let b = pyramid_texel(start, level, c1, r0);
+    let c = pyramid_texel(start, level, c0, r1);
+    let d = pyramid_texel(start, level, c1, r1);
     return vec2<f32>(min(min(a.x, b.x), min(c.x, d.x)), max(max(a.y, b.y), max(c.y, d.y)));
 }
 
