@@ -266,7 +266,9 @@ mod vector {
     #[target_feature(enable = "avx2,f16c")]
     pub(super) fn interpolate_f32(nodes: &[NodeF32], cell: &Cell) -> [f64; CHANNELS] {
         // SAFETY: the pointer is to a whole node's eight f32.
-        accumulate(cell, |node| unsafe { _mm256_loadu_ps(nodes[node].0.as_ptr()) })
+        accumulate(cell, |node| unsafe {
+            _mm256_loadu_ps(nodes[node].0.as_ptr())
+        })
     }
 
     #[target_feature(enable = "avx2,f16c")]
@@ -486,21 +488,24 @@ mod tests {
         for precision in [Precision::F32, Precision::F16] {
             let values: Vec<[f32; CHANNELS]> = (0..dims.iter().product::<usize>())
                 .map(|_| {
-                    std::array::from_fn(|_| loop {
-                        let bits = random();
-                        let v = match precision {
-                            Precision::F32 => f32::from_bits(bits as u32),
-                            Precision::F16 => f16::from_bits(bits as u16).to_f32(),
-                        };
-                        if v.is_finite() {
-                            break v;
+                    std::array::from_fn(|_| {
+                        loop {
+                            let bits = random();
+                            let v = match precision {
+                                Precision::F32 => f32::from_bits(bits as u32),
+                                Precision::F16 => f16::from_bits(bits as u16).to_f32(),
+                            };
+                            if v.is_finite() {
+                                break v;
+                            }
                         }
                     })
                 })
                 .collect();
             let entries = Entries::from_row_major(dims, precision, &values);
             for _ in 0..4000 {
-                let coords = [0; 3].map(|_| (random() >> 11) as f64 / (1u64 << 53) as f64 * 1.2 - 0.1);
+                let coords =
+                    [0; 3].map(|_| (random() >> 11) as f64 / (1u64 << 53) as f64 * 1.2 - 0.1);
                 let cell = entries.cell(coords);
                 let portable = match &entries {
                     Entries::F32(g) => g.interpolate_portable(&cell, Corners::All),
@@ -516,10 +521,18 @@ mod tests {
                             Entries::F16(g) => (NodeF16::VECTOR)(&g.nodes, &cell),
                         }
                     };
-                    assert_eq!(vector.map(f64::to_bits), expected, "{precision:?} {coords:?}");
+                    assert_eq!(
+                        vector.map(f64::to_bits),
+                        expected,
+                        "{precision:?} {coords:?}"
+                    );
                 }
                 let dispatched = entries.interpolate(&cell, Corners::All);
-                assert_eq!(dispatched.map(f64::to_bits), expected, "{precision:?} {coords:?}");
+                assert_eq!(
+                    dispatched.map(f64::to_bits),
+                    expected,
+                    "{precision:?} {coords:?}"
+                );
             }
         }
     }

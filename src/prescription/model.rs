@@ -203,28 +203,45 @@ impl Shape {
         }
     }
 
-    /// The same profile seen from its other side (reflected through its vertex plane): every
-    /// sag negated, so the curvature and every aspheric coefficient change sign.
-    pub fn mirrored(&self) -> Shape {
+    /// The same kind of profile with its curvature and aspheric coefficients (by index i, the
+    /// coefficient of r^(2i+2)) mapped; the conic constant, a ratio, is kept.
+    pub fn map_terms(
+        &self,
+        curvature: impl Fn(f64) -> f64,
+        coefficient: impl Fn(usize, f64) -> f64,
+    ) -> Shape {
         match self {
             Shape::Plane => Shape::Plane,
-            Shape::Sphere { curvature } => Shape::Sphere {
-                curvature: -curvature,
+            Shape::Sphere { curvature: c } => Shape::Sphere {
+                curvature: curvature(*c),
             },
-            Shape::Conic { curvature, conic } => Shape::Conic {
-                curvature: -curvature,
+            Shape::Conic {
+                curvature: c,
+                conic,
+            } => Shape::Conic {
+                curvature: curvature(*c),
                 conic: *conic,
             },
             Shape::EvenAsphere {
-                curvature,
+                curvature: c,
                 conic,
                 coefficients,
             } => Shape::EvenAsphere {
-                curvature: -curvature,
+                curvature: curvature(*c),
                 conic: *conic,
-                coefficients: coefficients.iter().map(|a| -a).collect(),
+                coefficients: coefficients
+                    .iter()
+                    .enumerate()
+                    .map(|(i, a)| coefficient(i, *a))
+                    .collect(),
             },
         }
+    }
+
+    /// The same profile seen from its other side (reflected through its vertex plane): every
+    /// sag negated, so the curvature and every aspheric coefficient change sign.
+    pub fn mirrored(&self) -> Shape {
+        self.map_terms(|c| -c, |_, a| -a)
     }
 
     /// Radius of curvature; infinite for a plane.

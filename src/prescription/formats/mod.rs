@@ -470,29 +470,12 @@ fn scale_to_mm(p: &mut Prescription, mm_per_unit: f64) {
         s.thickness *= mm_per_unit;
         s.semi_aperture *= mm_per_unit;
         s.obscuration = s.obscuration.map(|r| r * mm_per_unit);
-        s.shape = match &s.shape {
-            Shape::Plane => Shape::Plane,
-            Shape::Sphere { curvature } => Shape::Sphere {
-                curvature: curvature / mm_per_unit,
-            },
-            Shape::Conic { curvature, conic } => Shape::Conic {
-                curvature: curvature / mm_per_unit,
-                conic: *conic,
-            },
-            Shape::EvenAsphere {
-                curvature,
-                conic,
-                coefficients,
-            } => Shape::EvenAsphere {
-                curvature: curvature / mm_per_unit,
-                conic: *conic,
-                coefficients: coefficients
-                    .iter()
-                    .enumerate()
-                    .map(|(i, a)| a * mm_per_unit.powi(-(2 * i as i32 + 1)))
-                    .collect(),
-            },
-        };
+        // Every length scales by mm_per_unit: c by its inverse, the coefficient of r^(2i+2) by
+        // mm_per_unit^-(2i+1).
+        s.shape = s.shape.map_terms(
+            |c| c / mm_per_unit,
+            |i, a| a * mm_per_unit.powi(-(2 * i as i32 + 1)),
+        );
     }
 }
 

@@ -1,7 +1,7 @@
 //! Decentres, tilts and coordinate breaks as Zemax and CODE V files write them, and the centred
 //! lens they describe.
 //!
-//! A reader records where each surface sits ([`Placement`]); [`centre`] walks the surfaces in
+//! A reader records where each surface sits ([`Placement`]); [`centre_if_placed`] walks the surfaces in
 //! three dimensions and rewrites the lens as the centred system lensbake models, when that is
 //! exact:
 //! - a plane mirror tilted to the axis whose following surfaces sit on the reflected axis is a
@@ -23,7 +23,7 @@
 //! CODE V's alpha and beta are left-handed, so the CODE V reader negates them).
 
 use super::super::error::{PrescriptionError, Problem};
-use super::super::model::{Medium, Prescription, Shape, Surface};
+use super::super::model::{Medium, Prescription, Shape};
 use super::{LoadNote, Source};
 
 /// How a decentre moves the frames of its surface and of the surfaces after it.
@@ -180,9 +180,13 @@ impl Frame {
 const AXIS_TOLERANCE: f64 = 1e-12;
 const OFFSET_TOLERANCE: f64 = 1e-10;
 
-/// [`centre`] for a reader: nothing when the file places no surface; otherwise the centred lens
-/// in `prescription` (in mm) and the note saying what was done. `derived` lists the 0-based
-/// surfaces whose clear aperture the file does not state.
+/// The centred lens a file's placements describe, for a reader: nothing when the file places no
+/// surface; otherwise `prescription` (in mm, thicknesses and curvatures as the file writes them
+/// in each surface's own frame) rewritten as the centred lens that `placements` (one per
+/// surface) and `image_placement` describe, and the note saying what was done; or the lens
+/// refused where no centred lens describes it exactly. `derived` lists the 0-based surfaces
+/// whose clear aperture the file does not state (they are sized later, on the centred lens, so
+/// they cannot clip where the file's would not).
 #[allow(clippy::too_many_arguments)]
 pub(super) fn centre_if_placed(
     prescription: &mut Prescription,
@@ -197,51 +201,9 @@ pub(super) fn centre_if_placed(
     if placements.iter().all(Option::is_none) && image_placement.is_none() {
         return Ok(None);
     }
-    let stated: Vec<bool> = (0..prescription.surfaces.len())
-        .map(|i| !derived.contains(&i))
-        .collect();
-    let object_medium = prescription.object_medium.clone();
-    let centred = centre(
-        &mut prescription.surfaces,
-        &object_medium,
-        placements,
-        image_placement,
-        &stated,
-        mm_per_unit,
-        lines,
-        image_line,
-        source,
-    )?;
-    Ok(Some(LoadNote::Centred {
-        folds: centred.folds,
-    }))
-}
-
-/// What [`centre`] did, for the reader's note.
-#[derive(Debug, Default, PartialEq)]
-pub(super) struct Centred {
-    /// 1-based surfaces that were tilted plane mirrors and were unfolded.
-    pub folds: Vec<usize>,
-}
-
-/// Rewrites `surfaces` (in mm, thicknesses and curvatures as the file writes them in each
-/// surface's own frame) as the centred lens that `placements` (one per surface, then one for the
-/// image) describe, or refuses the lens where no centred lens describes it exactly.
-///
-/// `stated_aperture[i]` says whether surface i's clear aperture came from the file (a derived
-/// one is sized later, on the centred lens, so it cannot clip where the file's would not).
-#[allow(clippy::too_many_arguments)]
-fn centre(
-    surfaces: &mut [Surface],
-    object_medium: &Medium,
-    placements: &[Option<Placement>],
-    image_placement: Option<&Placement>,
-    stated_aperture: &[bool],
-    mm_per_unit: f64,
-    lines: &[usize],
-    image_line: usize,
-    source: &Source,
-) -> Result<Centred, PrescriptionError> {
+    let object_medium = &prescription.object_medium;
+    let surfaces = &mut prescription.surfaces;
+    let stated_aperture: Vec<bool> = (0..surfaces.len()).map(|i| !derived.contains(&i)).collect();
     // Each surface's frame in the frame of surface 1, as the file places it.
     let mut frames = Vec::with_capacity(surfaces.len() + 1);
     let mut incoming = Frame::IDENTITY;
@@ -337,7 +299,8 @@ fn centre(
     // Unfold: `unfolding` maps the file's space to one where every fold so far is straightened.
     let mut unfolding = Frame::IDENTITY;
     let mut vertex_z = Vec::with_capacity(surfaces.len() + 1);
-    let mut centred = Centred::default();
+    // Tilted plane mirrors unfolded (1-based).
+    let mut folds = Vec::new();
     let mut medium_before = object_medium.clone();
     for i in 0..=surfaces.len() {
         let frame = unfolding.then(if i < surfaces.len() {
@@ -409,7 +372,7 @@ fn centre(
             if stated_aperture[i] {
                 surface.semi_aperture *= axis[2].abs();
             }
-            centred.folds.push(i + 1);
+            folds.push(i + 1);
             vertex_z.push(crossing);
         } else if plane
             && !is_mirror
@@ -435,7 +398,7 @@ fn centre(
     for (i, surface) in surfaces.iter_mut().enumerate() {
         surface.thickness = vertex_z[i + 1] - vertex_z[i];
     }
-    Ok(centred)
+    Ok(Some(LoadNote::Centred { folds }))
 }
 
 fn describe_offence(
