@@ -118,10 +118,6 @@ fn transpose(m: &Matrix) -> Matrix {
     std::array::from_fn(|r| std::array::from_fn(|c| m[c][r]))
 }
 
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
 /// A coordinate frame: x_parent = linear x_local + origin. `linear` is a rotation, or after an
 /// unfolding a rotation times a reflection.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -221,66 +217,32 @@ pub(super) fn centre_if_placed(
     }
     let image_frame =
         incoming.then(&image_placement.map_or(Frame::IDENTITY, |p| p.frames(mm_per_unit).0));
-    // Decentres of 1e300 mm or thicknesses that overflow along a tilted axis: refused before
-    // any comparison with infinity or NaN could pass a surface as centred.
-    let overflow = frames.iter().chain([&image_frame]).position(|f| {
-        !(f.origin.iter().all(|v| v.is_finite())
-            && f.linear.iter().flatten().all(|v| v.is_finite()))
-    });
-    if let Some(i) = overflow {
-        let line = lines.get(i).copied().unwrap_or(image_line);
-        let mut location = source.location(Some(line)).with_field("thickness");
-        if i < surfaces.len() {
-            location = location.with_surface(i + 1);
-        }
-        return Err(PrescriptionError::new(
-            location,
-            Problem::Unsupported(
-                "the decentres, tilts and thicknesses place this surface beyond any finite \
-                 position"
-                    .into(),
-            ),
-        ));
-    }
-    let scale = 1.0
-        + frames
-            .iter()
-            .chain([&image_frame])
-            .map(|f| f.origin.iter().fold(0.0_f64, |m, v| m.max(v.abs())))
-            .fold(0.0, f64::max);
-
-    // The placement named when surface i (the image plane for i = surfaces.len()) is off the
-    // axis: its own, else the nearest one before it.
-    let cause = |i: usize| -> Option<&Placement> {
-        let own = if i < placements.len() {
-            placements[i].as_ref()
-        } else {
-            image_placement
-        };
-        own.or_else(|| {
-            placements[..i.min(placements.len())]
-                .iter()
-                .rev()
-                .flatten()
-                .next()
-        })
-    };
     let surface_count = surfaces.len();
-    // Located at the placement's own line when the surface carries one, else at the surface.
-    let refuse = |i: usize, line: usize, why: String| {
-        let own = if i < surface_count {
-            placements[i].as_ref()
-        } else {
-            image_placement
-        };
-        let line = own.map_or(line, |p| p.line);
-        let keyword = cause(i).map_or("thickness".to_string(), |p| p.keyword.clone());
-        let mut location = source.location(Some(line)).with_field(&keyword);
+    // Where to report surface i (the image plane for i = surface_count): the line of its own
+    // placement when it has one, else its own line; the keyword of the placement that moved it
+    // (its own, else the nearest before it).
+    let own = |i: usize| placements.get(i).map_or(image_placement, Option::as_ref);
+    let locate = |i: usize, field: &str| {
+        let line = own(i).map_or_else(|| lines.get(i).copied().unwrap_or(image_line), |p| p.line);
+        let location = source.location(Some(line)).with_field(field);
         if i < surface_count {
-            location = location.with_surface(i + 1);
+            location.with_surface(i + 1)
+        } else {
+            location
         }
+    };
+    let refuse = |i: usize, why: String| {
+        let keyword = own(i)
+            .or_else(|| {
+                placements[..i.min(surface_count)]
+                    .iter()
+                    .rev()
+                    .flatten()
+                    .next()
+            })
+            .map_or("thickness".to_string(), |p| p.keyword.clone());
         PrescriptionError::new(
-            location,
+            locate(i, &keyword),
             Problem::Unsupported(format!(
                 "{why} (moved by `{keyword}`): lensbake models rotationally symmetric systems \
                  (fold mirrors are unfolded where that is exact); its paraxial, Seidel, pupil, \
@@ -296,50 +258,74 @@ pub(super) fn centre_if_placed(
         }
     };
 
+    // Decentres of 1e300 mm or thicknesses that overflow along a tilted axis: refused before
+    // any comparison with infinity or NaN could pass a surface as centred.
+    let overflow = frames.iter().chain([&image_frame]).position(|f| {
+        !(f.origin.iter().all(|v| v.is_finite())
+            && f.linear.iter().flatten().all(|v| v.is_finite()))
+    });
+    if let Some(i) = overflow {
+        return Err(PrescriptionError::new(
+            locate(i, "thickness"),
+            Problem::Unsupported(format!(
+                "the decentres, tilts and thicknesses place {} beyond any finite position",
+                name(i)
+            )),
+        ));
+    }
+    let scale = 1.0
+        + frames
+            .iter()
+            .chain([&image_frame])
+            .map(|f| f.origin.iter().fold(0.0_f64, |m, v| m.max(v.abs())))
+            .fold(0.0, f64::max);
+    // Whether a frame (as unfolded) leaves the axis: tilted, decentred, and the message.
+    let leaves_axis = |i: usize, frame: &Frame| -> Option<String> {
+        let axis = frame.axis();
+        let offset = frame.origin[0].hypot(frame.origin[1]);
+        let tilted = axis[0].hypot(axis[1]) > AXIS_TOLERANCE;
+        let off_axis = offset > OFFSET_TOLERANCE * scale;
+        let tilt = axis[0].hypot(axis[1]).atan2(axis[2].abs()).to_degrees();
+        let name = name(i);
+        match (tilted, off_axis) {
+            (false, false) => None,
+            (true, true) => Some(format!(
+                "{name} is tilted {tilt:.6} deg to the axis and its vertex lies {offset:.6} mm \
+                 off it"
+            )),
+            (true, false) => Some(format!("{name} is tilted {tilt:.6} deg to the axis")),
+            (false, true) => Some(format!("{name} is decentred {offset:.6} mm from the axis")),
+        }
+    };
+
     // Unfold: `unfolding` maps the file's space to one where every fold so far is straightened.
     let mut unfolding = Frame::IDENTITY;
-    let mut vertex_z = Vec::with_capacity(surfaces.len() + 1);
+    let mut vertex_z = Vec::with_capacity(surface_count + 1);
     // Tilted plane mirrors unfolded (1-based).
     let mut folds = Vec::new();
     let mut medium_before = object_medium.clone();
-    for i in 0..=surfaces.len() {
-        let frame = unfolding.then(if i < surfaces.len() {
-            &frames[i]
-        } else {
-            &image_frame
-        });
+    for (i, surface) in surfaces.iter_mut().enumerate() {
+        let frame = unfolding.then(&frames[i]);
         let axis = frame.axis();
         let [x, y, z] = frame.origin;
-        let tilted = axis[0].hypot(axis[1]) > AXIS_TOLERANCE;
-        let off_axis = x.hypot(y) > OFFSET_TOLERANCE * scale;
-        let line = lines.get(i).copied().unwrap_or(image_line);
-        if i == surfaces.len() {
-            if tilted || off_axis {
-                return Err(refuse(
-                    i,
-                    image_line,
-                    describe_offence(&name(i), tilted, off_axis, axis, x.hypot(y)),
-                ));
-            }
-            vertex_z.push(z);
-            break;
-        }
-        let surface = &mut surfaces[i];
         let plane = surface.shape == Shape::Plane;
         let is_mirror = surface.medium == Medium::Mirror;
-        if !(tilted || off_axis) {
+        let Some(offence) = leaves_axis(i, &frame) else {
             // On the axis; facing -z after an odd number of unfoldings, so its profile flips.
             if axis[2] < 0.0 {
                 surface.shape = surface.shape.mirrored();
             }
             vertex_z.push(z);
-        } else if plane && is_mirror && tilted && axis[2].abs() > AXIS_TOLERANCE {
-            // Where the axis crosses the mirror's plane.
-            let crossing = z + (axis[0] * x + axis[1] * y) / axis[2];
-            if stated_aperture[i] && off_axis {
+            if !is_mirror {
+                medium_before = surface.medium.clone();
+            }
+            continue;
+        };
+        let tilted = axis[0].hypot(axis[1]) > AXIS_TOLERANCE;
+        if plane && is_mirror && tilted && axis[2].abs() > AXIS_TOLERANCE {
+            if stated_aperture[i] && x.hypot(y) > OFFSET_TOLERANCE * scale {
                 return Err(refuse(
                     i,
-                    line,
                     format!(
                         "{} is a fold mirror whose stated clear aperture is centred {:.6} mm off \
                          the axis",
@@ -351,21 +337,21 @@ pub(super) fn centre_if_placed(
             if surface.stop.is_some() || surface.obscuration.is_some() {
                 return Err(refuse(
                     i,
-                    line,
                     format!(
                         "{} is a fold mirror that is also the stop or obscured",
                         name(i)
                     ),
                 ));
             }
-            let normal = axis;
+            // Reflect everything after it through its plane, which crosses the axis here.
+            let crossing = z + (axis[0] * x + axis[1] * y) / axis[2];
             let reflect: Matrix = std::array::from_fn(|r| {
-                std::array::from_fn(|c| f64::from(u8::from(r == c)) - 2.0 * normal[r] * normal[c])
+                std::array::from_fn(|c| f64::from(u8::from(r == c)) - 2.0 * axis[r] * axis[c])
             });
-            let offset = 2.0 * dot(normal, [0.0, 0.0, crossing]);
+            let offset = 2.0 * axis[2] * crossing;
             unfolding = Frame {
                 linear: reflect,
-                origin: normal.map(|n| n * offset),
+                origin: axis.map(|n| n * offset),
             }
             .then(&unfolding);
             surface.medium = medium_before.clone();
@@ -385,35 +371,16 @@ pub(super) fn centre_if_placed(
             // keeps its vertex's place in the sequence.
             vertex_z.push(z);
         } else {
-            return Err(refuse(
-                i,
-                line,
-                describe_offence(&name(i), tilted, off_axis, axis, x.hypot(y)),
-            ));
-        }
-        if surfaces[i].medium != Medium::Mirror {
-            medium_before = surfaces[i].medium.clone();
+            return Err(refuse(i, offence));
         }
     }
+    let image = unfolding.then(&image_frame);
+    if let Some(offence) = leaves_axis(surface_count, &image) {
+        return Err(refuse(surface_count, offence));
+    }
+    vertex_z.push(image.origin[2]);
     for (i, surface) in surfaces.iter_mut().enumerate() {
         surface.thickness = vertex_z[i + 1] - vertex_z[i];
     }
     Ok(Some(LoadNote::Centred { folds }))
-}
-
-fn describe_offence(
-    name: &str,
-    tilted: bool,
-    off_axis: bool,
-    axis: [f64; 3],
-    offset: f64,
-) -> String {
-    let tilt = axis[0].hypot(axis[1]).atan2(axis[2].abs()).to_degrees();
-    match (tilted, off_axis) {
-        (true, true) => format!(
-            "{name} is tilted {tilt:.6} deg to the axis and its vertex lies {offset:.6} mm off it"
-        ),
-        (true, false) => format!("{name} is tilted {tilt:.6} deg to the axis"),
-        _ => format!("{name} is decentred {offset:.6} mm from the axis"),
-    }
 }
