@@ -1,6 +1,9 @@
 //! Ray-surface intersections per second of the exact trace, on one core and on all cores, for
 //! the oracle's 50 mm double Gauss (11 surfaces) with the `lensbake bench trace` ray bundle.
 //! Criterion's throughput line reads "elements/s" = ray-surface intersections per second.
+//! `one_core` and `all_cores` trace into one reused result (`Tracer::trace_batch_into`, as a
+//! caller tracing batch after batch does); `one_core_new_output` allocates the result every
+//! call (`Tracer::trace_batch`), so its fresh pages are part of the time.
 
 #[path = "../tests/common/mod.rs"]
 mod common;
@@ -8,7 +11,7 @@ mod common;
 use common::load_oracle;
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use lensbake::system::LensSystem;
-use lensbake::trace::{Apertures, FieldBundle, Tracer, Travel};
+use lensbake::trace::{Apertures, BatchTrace, FieldBundle, Tracer, Travel};
 
 const RAYS: usize = 100_000;
 
@@ -32,12 +35,22 @@ fn trace(c: &mut Criterion) {
             .num_threads(threads)
             .build()
             .unwrap();
+        let mut out = BatchTrace::default();
         group.bench_function(name, |b| {
             b.iter(|| {
-                pool.install(|| tracer.trace_batch(&rays, Travel::Forward, Apertures::Checked))
+                pool.install(|| {
+                    tracer.trace_batch_into(&rays, Travel::Forward, Apertures::Checked, &mut out)
+                })
             })
         });
     }
+    let one = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
+    group.bench_function("one_core_new_output", |b| {
+        b.iter(|| one.install(|| tracer.trace_batch(&rays, Travel::Forward, Apertures::Checked)))
+    });
     group.finish();
 }
 

@@ -22,7 +22,7 @@ use crate::pupil::{
     self, FocusNodeSettings, FocusPupilTable, PupilCircle, PupilFitSettings, PupilTable, RearTest,
 };
 use crate::system::{LensSystem, SystemAt};
-use crate::trace::{Apertures, LANES, LaneVisitor, Lanes, Tracer, Travel};
+use crate::trace::{Apertures, LANES, LaneVisitor, Tracer, Travel};
 
 /// What to bake. `None` fields take the defaults of issue 6: film at the paraxial image plane
 /// for an object at infinity, film radius up to the real chief ray's image height at the largest
@@ -197,11 +197,15 @@ impl RearTest for FilmPointRays<'_> {
             // A ray that cannot be built (non-finite input) does not pass; its lane traces a
             // stand-in.
             let stand_in = crate::trace::Ray::from_parts(origin, [0.0, 0.0, -1.0]);
-            let mut lanes = Lanes::new(rays.iter().map(|r| r.unwrap_or(stand_in)));
-            self.tracer.run_lanes::<false>(&mut lanes, true);
-            for (l, (ray, out)) in rays.iter().zip(passes.iter_mut()).enumerate() {
-                *out = ray.is_some() && lanes.result(l).0.is_ok();
-            }
+            let group: Vec<crate::trace::Ray> =
+                rays.iter().map(|r| r.unwrap_or(stand_in)).collect();
+            self.tracer.trace_group_visiting(
+                &group,
+                Travel::Backward,
+                true,
+                &mut crate::trace::NoVisit,
+                &mut |l, traced| passes[l] = rays[l].is_some() && traced.outcome.is_ok(),
+            );
         }
     }
 }
@@ -532,10 +536,9 @@ struct ApertureMargins<'a> {
     /// Central obscuration radius per surface (0 for none).
     obscuration: Vec<f64>,
     stop: usize,
-    bladed_stop: bool,
     margin: [f64; LANES],
     /// Stop-plane crossing of each lane (x, y).
-    stop_point: [[f64; LANES]; 2],
+    stop_point: [[f64; 2]; LANES],
 }
 
 impl<'a> ApertureMargins<'a> {
@@ -549,9 +552,8 @@ impl<'a> ApertureMargins<'a> {
                 .map(|i| tracer.obscuration(i))
                 .collect(),
             stop: tracer.stop_surface() - 1,
-            bladed_stop: tracer.blade_margin(0.0, 0.0).is_some(),
             margin: [f64::INFINITY; LANES],
-            stop_point: [[0.0; LANES]; 2],
+            stop_point: [[0.0; 2]; LANES],
         }
     }
 
@@ -562,28 +564,30 @@ impl<'a> ApertureMargins<'a> {
 
 impl LaneVisitor for ApertureMargins<'_> {
     #[inline(always)]
-    fn crossed(&mut self, surface: usize, x: &[f64; LANES], y: &[f64; LANES]) {
+    fn crossed(&mut self, surface: usize, ids: &[u32], alive: &[u64], x: &[f64], y: &[f64]) {
         let inverse = self.inverse_semi_aperture[surface];
         let obscuration = self.obscuration[surface];
-        let radius = |l: usize| (x[l] * x[l] + y[l] * y[l]).sqrt();
-        if obscuration > 0.0 {
-            for l in 0..LANES {
-                self.margin[l] = self.margin[l].min((radius(l) - obscuration) * inverse);
+        for (((&id, &alive), &x), &y) in ids.iter().zip(alive).zip(x).zip(y) {
+            if alive == 0 {
+                continue;
             }
-        }
-        if surface == self.stop {
-            self.stop_point = [*x, *y];
-            if !self.bladed_stop {
-                return;
+            let l = id as usize;
+            let radius = (x * x + y * y).sqrt();
+            let mut margin = self.margin[l];
+            if obscuration > 0.0 {
+                margin = margin.min((radius - obscuration) * inverse);
             }
-            for l in 0..LANES {
-                if let Some(blades) = self.tracer.blade_margin(x[l], y[l]) {
-                    self.margin[l] = self.margin[l].min(blades * inverse);
-                }
+            if surface == self.stop {
+                self.stop_point[l] = [x, y];
+                // A circular stop is tested against the stored crossing, not the margin.
+                let Some(blades) = self.tracer.blade_margin(x, y) else {
+                    self.margin[l] = margin;
+                    continue;
+                };
+                margin = margin.min(blades * inverse);
             }
-        }
-        for l in 0..LANES {
-            self.margin[l] = self.margin[l].min(1.0 - radius(l) * inverse);
+            margin = margin.min(1.0 - radius * inverse);
+            self.margin[l] = margin;
         }
     }
 }
@@ -622,18 +626,27 @@ fn bake_entries(
                 if group.len() < LANES && k + 1 < slab {
                     continue;
                 }
-                let mut lanes = Lanes::new(group.iter().map(|g| g.1));
+                let mut rays = [crate::trace::Ray::ALONG_AXIS; LANES];
+                for (ray, g) in rays.iter_mut().zip(&group) {
+                    *ray = g.1;
+                }
                 margins.reset();
-                tracer.run_lanes_visiting::<false>(&mut lanes, false, &mut margins);
+                let mut exits = [None; LANES];
+                tracer.trace_group_visiting(
+                    &rays[..group.len()],
+                    Travel::Backward,
+                    false,
+                    &mut margins,
+                    &mut |l, traced| exits[l] = traced.outcome.is_ok().then_some(traced.ray),
+                );
                 for (l, &(k, _)) in group.iter().enumerate() {
-                    let (outcome, exit, _) = lanes.result(l);
-                    if !outcome.is_ok() {
+                    let Some(exit) = exits[l] else {
                         continue;
-                    }
+                    };
                     let transfer = Transfer {
                         exit_point: exit.position(),
                         exit_direction: exit.direction(),
-                        stop_point: [margins.stop_point[0][l], margins.stop_point[1][l]],
+                        stop_point: margins.stop_point[l],
                     };
                     entries[k] = param.encode(&transfer, margins.margin[l]).map(|v| v as f32);
                     defined[k] = true;

@@ -1,12 +1,17 @@
 //! Many rays at once: a structure-of-arrays batch traced in parallel with rayon.
 
-use super::lanes::{LANES, Lanes};
-use super::{Apertures, Outcome, Ray, Tracer, Travel};
+use super::lanes::{Block, LANES, NoVisit, STRIDE};
+use super::{Apertures, Outcome, Ray, Traced, Tracer, Travel};
 use rayon::prelude::*;
 
 /// Rays per parallel work item: large enough to amortise scheduling, small enough to balance
 /// two to a few dozen cores on batches of a few thousand rays.
 const CHUNK: usize = 1024;
+
+/// Rays traced together by [`Tracer::trace_batch`]: 128, enough that the survivors of a block
+/// fill whole vector strides after the edge rays of the field have been vignetted, few enough
+/// that a block's two states (12 KiB) stay in the first-level cache.
+type BatchBlock = Block<{ 128 / STRIDE }>;
 
 /// Rays stored as six columns (position x, y, z and direction x, y, z). Built only from
 /// [`Ray`]s, so every entry is finite with a unit direction.
@@ -75,15 +80,17 @@ impl RayBatch {
         [&self.x, &self.y, &self.z, &self.dx, &self.dy, &self.dz]
     }
 
-    fn zeroed(n: usize) -> RayBatch {
-        let column = || vec![0.0; n];
-        RayBatch {
-            x: column(),
-            y: column(),
-            z: column(),
-            dx: column(),
-            dy: column(),
-            dz: column(),
+    /// Makes every column `n` long, keeping the storage (new entries are zero).
+    fn resize(&mut self, n: usize) {
+        for column in [
+            &mut self.x,
+            &mut self.y,
+            &mut self.z,
+            &mut self.dx,
+            &mut self.dy,
+            &mut self.dz,
+        ] {
+            column.resize(n, 0.0);
         }
     }
 }
@@ -102,7 +109,7 @@ impl FromIterator<Ray> for RayBatch {
 /// The result of tracing a batch: per ray its outcome and final ray (see
 /// [`super::Traced`] for what the final ray is when the outcome is not ok), and the number of
 /// ray-surface intersections computed.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct BatchTrace {
     pub outcomes: Vec<Outcome>,
     pub rays: RayBatch,
@@ -110,68 +117,70 @@ pub struct BatchTrace {
 }
 
 impl Tracer {
-    /// Traces up to [`LANES`] rays in lockstep on this thread, apertures checked: `traced[i]`
+    /// Traces up to [`LANES`] rays together on this thread, apertures checked: `traced[i]`
     /// gets ray `i`'s result, bit for bit what [`Tracer::trace`] gives. For callers that make
     /// their rays a few at a time (the renderer's samples of one pixel).
-    pub(crate) fn trace_group(&self, rays: &[Ray], travel: Travel, traced: &mut [super::Traced]) {
+    pub(crate) fn trace_group(&self, rays: &[Ray], travel: Travel, traced: &mut [Traced]) {
         debug_assert!(rays.len() <= LANES && traced.len() >= rays.len());
-        let mut lanes = Lanes::new(rays.iter().copied());
-        match travel {
-            Travel::Forward => self.run_lanes::<true>(&mut lanes, true),
-            Travel::Backward => self.run_lanes::<false>(&mut lanes, true),
-        }
-        for (l, out) in traced.iter_mut().enumerate().take(rays.len()) {
-            let (outcome, ray, _) = lanes.result(l);
-            *out = super::Traced { outcome, ray };
-        }
+        self.trace_group_visiting(rays, travel, true, &mut NoVisit, &mut |id, result| {
+            traced[id] = result
+        });
     }
 
     /// Traces every ray of `rays` on the current rayon thread pool.
     pub fn trace_batch(&self, rays: &RayBatch, travel: Travel, apertures: Apertures) -> BatchTrace {
+        let mut out = BatchTrace::default();
+        self.trace_batch_into(rays, travel, apertures, &mut out);
+        out
+    }
+
+    /// [`Tracer::trace_batch`] into `out`, reusing its storage: a caller that traces batch
+    /// after batch allocates the results (and the system maps their pages) once, not per call.
+    pub fn trace_batch_into(
+        &self,
+        rays: &RayBatch,
+        travel: Travel,
+        apertures: Apertures,
+        out: &mut BatchTrace,
+    ) {
         let n = rays.len();
-        let mut out = RayBatch::zeroed(n);
-        let mut outcomes = vec![Outcome::Ok; n];
+        out.outcomes.resize(n, Outcome::Ok);
+        out.rays.resize(n);
         let check = apertures == Apertures::Checked;
-        let ray_surfaces = outcomes
+        let columns = rays.columns();
+        let ended = &mut out.rays;
+        out.ray_surfaces = out
+            .outcomes
             .par_chunks_mut(CHUNK)
-            .zip(out.x.par_chunks_mut(CHUNK))
-            .zip(out.y.par_chunks_mut(CHUNK))
-            .zip(out.z.par_chunks_mut(CHUNK))
-            .zip(out.dx.par_chunks_mut(CHUNK))
-            .zip(out.dy.par_chunks_mut(CHUNK))
-            .zip(out.dz.par_chunks_mut(CHUNK))
+            .zip(ended.x.par_chunks_mut(CHUNK))
+            .zip(ended.y.par_chunks_mut(CHUNK))
+            .zip(ended.z.par_chunks_mut(CHUNK))
+            .zip(ended.dx.par_chunks_mut(CHUNK))
+            .zip(ended.dy.par_chunks_mut(CHUNK))
+            .zip(ended.dz.par_chunks_mut(CHUNK))
             .enumerate()
             .map(|(chunk, ((((((outcome, x), y), z), dx), dy), dz))| {
-                let start = chunk * CHUNK;
-                let mut count = 0u64;
-                for group in (0..outcome.len()).step_by(LANES) {
-                    let width = LANES.min(outcome.len() - group);
-                    let first = start + group;
-                    let mut lanes = Lanes::new(
-                        (first..first + width)
-                            .map(|i| rays.get(i).expect("output chunks mirror the input")),
+                let mut block = BatchBlock::new();
+                let mut count = 0;
+                for first in (0..outcome.len()).step_by(BatchBlock::CAPACITY) {
+                    let width = BatchBlock::CAPACITY.min(outcome.len() - first);
+                    block.load_columns(columns, chunk * CHUNK + first, width);
+                    count += self.trace_block(
+                        &mut block,
+                        travel,
+                        check,
+                        &mut NoVisit,
+                        &mut |id, traced| {
+                            let j = first + id;
+                            outcome[j] = traced.outcome;
+                            let (p, d) = (traced.ray.position, traced.ray.direction);
+                            (x[j], y[j], z[j]) = (p[0], p[1], p[2]);
+                            (dx[j], dy[j], dz[j]) = (d[0], d[1], d[2]);
+                        },
                     );
-                    match travel {
-                        Travel::Forward => self.run_lanes::<true>(&mut lanes, check),
-                        Travel::Backward => self.run_lanes::<false>(&mut lanes, check),
-                    }
-                    for l in 0..width {
-                        let j = group + l;
-                        let (ended, ray, crossed) = lanes.result(l);
-                        count += u64::from(crossed);
-                        outcome[j] = ended;
-                        let (p, d) = (ray.position, ray.direction);
-                        (x[j], y[j], z[j]) = (p[0], p[1], p[2]);
-                        (dx[j], dy[j], dz[j]) = (d[0], d[1], d[2]);
-                    }
                 }
                 count
             })
             .sum();
-        BatchTrace {
-            outcomes,
-            rays: out,
-            ray_surfaces,
-        }
     }
 }

@@ -75,55 +75,93 @@ const ASPHERE_STEP_TOLERANCE: f64 = 1e-14;
 /// Meets a plane z = 0: only when the ray crosses it in the travel sense.
 #[inline(always)]
 pub(crate) fn plane(p: Vec3, d: Vec3, sense: f64) -> Option<Vec3> {
-    if !(d[2] * sense > 0.0) {
-        return None;
-    }
+    let (q, crosses) = plane_candidate(p, d, sense);
+    crosses.then_some(q)
+}
+
+/// [`plane`] without branches, for the lane kernels: the point, and whether it is a crossing.
+#[inline(always)]
+pub(crate) fn plane_candidate(p: Vec3, d: Vec3, sense: f64) -> (Vec3, bool) {
     let t = -p[2] / d[2];
-    Some([p[0] + t * d[0], p[1] + t * d[1], 0.0])
+    (
+        [t.mul_add(d[0], p[0]), t.mul_add(d[1], p[1]), 0.0],
+        d[2] * sense > 0.0,
+    )
 }
 
 /// The wanted root of `a t^2 - 2 B t + C = 0` (see the module notes), or None when the line
 /// misses or the root is not a finite number.
 #[inline(always)]
 fn quadratic_root(a: f64, b: f64, c: f64, sense: f64) -> Option<f64> {
-    let disc = b * b - a * c;
-    if !(disc >= 0.0) {
-        return None;
-    }
-    let root = disc.sqrt();
-    let t = if sense * b >= 0.0 {
-        c / (b + sense * root)
-    } else {
-        (b - sense * root) / a
-    };
-    t.is_finite().then_some(t)
+    let (t, real) = root_candidate(a, b, c, sense);
+    (real && t.is_finite()).then_some(t)
+}
+
+/// [`quadratic_root`] without branches: the root (meaningless when the line misses) and whether
+/// the discriminant is non-negative. One division whichever form is taken, so a vector of lanes
+/// divides once.
+#[inline(always)]
+fn root_candidate(a: f64, b: f64, c: f64, sense: f64) -> (f64, bool) {
+    let disc = b.mul_add(b, -(a * c));
+    let root = disc.max(0.0).sqrt();
+    let near = sense * b >= 0.0;
+    let numerator = if near { c } else { b - sense * root };
+    let denominator = if near { b + sense * root } else { a };
+    (numerator / denominator, disc >= 0.0)
 }
 
 /// The point of the line `p + t d` (d unit) nearest the vertex.
 #[inline(always)]
 fn nearest_to_vertex(p: Vec3, d: Vec3) -> Vec3 {
-    let s = p[0] * d[0] + p[1] * d[1] + p[2] * d[2];
-    [p[0] - s * d[0], p[1] - s * d[1], p[2] - s * d[2]]
+    along(p, d, -dot(p, d))
+}
+
+/// The point `p + t d`, each component with one rounding.
+#[inline(always)]
+fn along(p: Vec3, d: Vec3, t: f64) -> Vec3 {
+    [
+        t.mul_add(d[0], p[0]),
+        t.mul_add(d[1], p[1]),
+        t.mul_add(d[2], p[2]),
+    ]
+}
+
+/// The dot product as every path of the tracer rounds it (two fused multiply-adds).
+#[inline(always)]
+pub(crate) fn dot(a: Vec3, b: Vec3) -> f64 {
+    a[2].mul_add(b[2], a[1].mul_add(b[1], a[0] * b[0]))
+}
+
+/// Squared distance of a hit point from the axis, as every path of the tracer rounds it.
+#[inline(always)]
+pub(crate) fn radius_sq(q: Vec3) -> f64 {
+    q[0].mul_add(q[0], q[1] * q[1])
 }
 
 /// Meets the sphere `c (x^2 + y^2 + z^2) - 2 z = 0` on its vertex sheet. The normal
 /// `(c x, c y, c z - 1)` has unit length on the sphere, so it needs no normalisation.
 #[inline(always)]
 pub(crate) fn sphere(p: Vec3, d: Vec3, curvature: f64, sense: f64) -> Option<Hit> {
+    let (point, nz, hit) = sphere_candidate(p, d, curvature, sense);
+    hit.then_some(Hit {
+        point,
+        normal: [curvature * point[0], curvature * point[1], nz],
+    })
+}
+
+/// [`sphere`] without branches, for the lane kernels: the point, the normal's z component and
+/// whether it is a crossing of the vertex sheet (the point may still be too far out to be
+/// finite).
+#[inline(always)]
+pub(crate) fn sphere_candidate(p: Vec3, d: Vec3, curvature: f64, sense: f64) -> (Vec3, f64, bool) {
     let p = nearest_to_vertex(p, d);
     let c = curvature;
-    let b = d[2] - c * (p[0] * d[0] + p[1] * d[1] + p[2] * d[2]);
-    let cc = c * (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]) - 2.0 * p[2];
-    let t = quadratic_root(c, b, cc, sense)?;
-    let q = [p[0] + t * d[0], p[1] + t * d[1], p[2] + t * d[2]];
-    let nz = c * q[2] - 1.0;
-    if !(nz < 0.0) {
-        return None;
-    }
-    Some(Hit {
-        point: q,
-        normal: [c * q[0], c * q[1], nz],
-    })
+    let b = (-c).mul_add(dot(p, d), d[2]);
+    let cc = c.mul_add(dot(p, p), -2.0 * p[2]);
+    let (t, real) = root_candidate(c, b, cc, sense);
+    let q = along(p, d, t);
+    let nz = c.mul_add(q[2], -1.0);
+    (q, nz, real & t.is_finite() & (nz < 0.0))
 }
 
 /// Meets the conic `c (x^2 + y^2 + e z^2) - 2 z = 0` (e = 1 + k) on its vertex sheet.
@@ -137,12 +175,12 @@ pub(crate) fn conic(
 ) -> Option<Hit> {
     let p = nearest_to_vertex(p, d);
     let (c, e) = (curvature, conic_factor);
-    let a = c * (d[0] * d[0] + d[1] * d[1] + e * d[2] * d[2]);
-    let b = d[2] - c * (p[0] * d[0] + p[1] * d[1] + e * p[2] * d[2]);
-    let cc = c * (p[0] * p[0] + p[1] * p[1] + e * p[2] * p[2]) - 2.0 * p[2];
+    let a = c * dot(d, [d[0], d[1], e * d[2]]);
+    let b = (-c).mul_add(dot(p, [d[0], d[1], e * d[2]]), d[2]);
+    let cc = c.mul_add(dot(p, [p[0], p[1], e * p[2]]), -2.0 * p[2]);
     let t = quadratic_root(a, b, cc, sense)?;
-    let q = [p[0] + t * d[0], p[1] + t * d[1], p[2] + t * d[2]];
-    let nz = c * e * q[2] - 1.0;
+    let q = along(p, d, t);
+    let nz = (c * e).mul_add(q[2], -1.0);
     if !(nz < 0.0) {
         return None;
     }
@@ -260,13 +298,13 @@ pub(crate) fn even_asphere(
 /// Accepts an asphere crossing only in the travel sense (object side to image side forward).
 fn finish_asphere(q: Vec3, gradient: Vec3, d: Vec3, sense: f64) -> Option<Hit> {
     let normal = normalised(gradient);
-    let towards = normal[0] * d[0] + normal[1] * d[1] + normal[2] * d[2];
+    let towards = dot(normal, d);
     (sense * towards < 0.0).then_some(Hit { point: q, normal })
 }
 
 #[inline(always)]
 fn normalised(v: Vec3) -> Vec3 {
-    let inv = 1.0 / (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    let inv = 1.0 / dot(v, v).sqrt();
     [v[0] * inv, v[1] * inv, v[2] * inv]
 }
 

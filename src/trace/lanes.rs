@@ -1,450 +1,707 @@
-//! Several rays in lockstep, for throughput.
+//! Rays in blocks, surface by surface, for throughput.
 //!
 //! One ray's trace is a chain of dependent square roots and divisions, so a single ray keeps
-//! the floating-point units mostly waiting. Tracing [`LANES`] rays surface by surface gives the
-//! processor independent chains to overlap, and the straight-line lane loops below are written
-//! so the compiler packs them into vector instructions (AVX2 where the processor has it).
-//! Spheres and planes (almost every surface of a real lens) have lane kernels; conics,
-//! aspheres and the bladed stop fall back to the one-ray code for each live lane. The lane
-//! kernels repeat the one-ray arithmetic operation for operation, so both paths give
-//! bit-identical results (tested).
+//! the floating-point units mostly waiting. A [`Block`] holds up to a few hundred rays as
+//! columns (structure of arrays) and crosses one surface with all of them before the next, so
+//! the processor overlaps independent chains and the straight-line kernels below pack
+//! [`STRIDE`] rays into vector instructions. After each surface the rays that stopped are
+//! reported, and once enough have stopped to free a whole stride the survivors are packed to
+//! the front of the block (in order), so rays vignetted at surface 3 cost little at surfaces
+//! 4..N: the kernels only run over the strides in use.
+//!
+//! Spheres and planes (almost every surface of a real lens) have kernels; conics, aspheres,
+//! mirrors, obscured surfaces and the bladed stop use the one-ray code ([`Tracer::cross`]) for
+//! each live ray. The kernels call the same branch-free arithmetic as the one-ray path
+//! (`*_candidate` in `intersect` and `refract`: every multiply-add fused the same way), so both
+//! give bit-identical results (tested).
+//!
+//! The whole block trace is compiled three times, for AVX-512, for AVX2 with FMA and for the
+//! baseline instruction set, and picked at run time ([`Isa::detect`]). Fused multiply-adds and
+//! vector square roots and divisions are rounded exactly, so the three give the same bits; on
+//! a processor without FMA, `f64::mul_add` is a (slow, correctly rounded) library call.
 
-use super::{Event, FlatSurface, Outcome, Profile, Ray, Tracer};
+use super::intersect::{self, radius_sq};
+use super::refract;
+use super::{FlatSurface, Outcome, Profile, Ray, Traced, Tracer, Travel, Vec3};
 
-pub(crate) const LANES: usize = 16;
+/// Rays one vector instruction holds at most (eight f64 with AVX-512). Kernels run over whole
+/// strides; slots of stopped rays, and past the last ray, compute numbers nobody reads.
+pub(crate) const STRIDE: usize = 8;
 
-/// Per-lane event codes; 64-bit so that they live in the same vector lanes as the f64 masks.
+/// Rays of a small group: the renderer's samples of one pixel, the bake's table nodes.
+pub(crate) const LANES: usize = 2 * STRIDE;
+
+/// A group of at most [`LANES`] rays.
+pub(crate) type Group = Block<{ LANES / STRIDE }>;
+
+/// What a kernel says about each ray; 64-bit so that the codes live in the same vector lanes as
+/// the f64 comparisons they come from.
 const CROSSED: u64 = 0;
 const MISSED: u64 = 1;
 const VIGNETTED: u64 = 2;
 const TIR: u64 = 3;
+/// Stopped on the one-ray path, which has reported it already.
+const REPORTED: u64 = 4;
+/// A travelling ray's mask: every event code survives `code & ALIVE`.
+const ALIVE: u64 = u64::MAX;
 
-/// Positions and directions of every lane.
+/// Positions and directions of a block's slots: six columns (x, y, z, then dx, dy, dz), each
+/// in strides of [`STRIDE`].
 #[derive(Clone, Copy, Debug)]
-struct State {
-    position: [[f64; LANES]; 3],
-    direction: [[f64; LANES]; 3],
+struct Columns<const STRIDES: usize> {
+    values: [[[f64; STRIDE]; STRIDES]; 6],
 }
 
-impl State {
-    fn ray(&self, l: usize) -> Ray {
-        Ray {
-            position: [
-                self.position[0][l],
-                self.position[1][l],
-                self.position[2][l],
-            ],
-            direction: [
-                self.direction[0][l],
-                self.direction[1][l],
-                self.direction[2][l],
-            ],
+impl<const STRIDES: usize> Columns<STRIDES> {
+    const ZERO: Columns<STRIDES> = Columns {
+        values: [[[0.0; STRIDE]; STRIDES]; 6],
+    };
+
+    fn column(&self, k: usize) -> &[f64] {
+        self.values[k].as_flattened()
+    }
+
+    fn column_mut(&mut self, k: usize) -> &mut [f64] {
+        self.values[k].as_flattened_mut()
+    }
+
+    fn get(&self, k: usize, slot: usize) -> f64 {
+        self.values[k][slot / STRIDE][slot % STRIDE]
+    }
+
+    fn position(&self, slot: usize) -> Vec3 {
+        [0, 1, 2].map(|k| self.get(k, slot))
+    }
+
+    fn ray(&self, slot: usize) -> Ray {
+        Ray::from_parts(self.position(slot), [3, 4, 5].map(|k| self.get(k, slot)))
+    }
+
+    fn set(&mut self, slot: usize, ray: Ray) {
+        let values = ray.position.into_iter().chain(ray.direction);
+        for (k, value) in values.enumerate() {
+            self.values[k][slot / STRIDE][slot % STRIDE] = value;
         }
     }
 
-    fn set(&mut self, l: usize, ray: Ray) {
-        for k in 0..3 {
-            self.position[k][l] = ray.position[k];
-            self.direction[k][l] = ray.direction[k];
+    fn move_slot(&mut self, from: usize, to: usize) {
+        for k in 0..6 {
+            let column = self.column_mut(k);
+            column[to] = column[from];
         }
     }
 }
 
-/// [`LANES`] rays in flight.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct Lanes {
-    /// Two copies of the state: a kernel reads one and writes the other (so that every store
-    /// is a plain one), and `front` says which holds the current rays.
-    states: [State; 2],
-    front: usize,
-    /// Event code per lane from the last kernel.
-    events: [u64; LANES],
-    /// All ones for a lane still travelling, zero once an event ended it (and for unused lanes).
-    live: [u64; LANES],
-    outcome: [Outcome; LANES],
-    /// For ended lanes: the ray as the one-ray path reports it.
-    ended: [Option<Ray>; LANES],
-    /// Ray-surface intersections computed per lane.
-    crossed: [u32; LANES],
+/// Up to `STRIDES` x [`STRIDE`] rays in flight, each with the caller's number for it.
+#[derive(Clone, Debug)]
+pub(crate) struct Block<const STRIDES: usize> {
+    /// Two copies of the columns: a kernel reads one and writes the other, so a ray that stops
+    /// still has the state it arrived with.
+    columns: [Columns<STRIDES>; 2],
+    /// The caller's number of the ray in each slot.
+    ids: [[u32; STRIDE]; STRIDES],
+    /// Code per slot from the last kernel.
+    events: [[u64; STRIDE]; STRIDES],
+    /// [`ALIVE`] for a slot whose ray is travelling, 0 once it stopped.
+    alive: [[u64; STRIDE]; STRIDES],
+    /// Rays loaded (they fill the first slots of `columns[0]`).
+    loaded: usize,
 }
 
-impl Lanes {
-    /// Up to [`LANES`] rays; lanes left over stay unused.
-    pub fn new(rays: impl IntoIterator<Item = Ray>) -> Lanes {
-        let idle = State {
-            position: [[0.0; LANES]; 3],
-            direction: [[0.0; LANES], [0.0; LANES], [1.0; LANES]],
-        };
-        let mut lanes = Lanes {
-            states: [idle; 2],
-            front: 0,
-            events: [CROSSED; LANES],
-            live: [0; LANES],
-            outcome: [Outcome::Ok; LANES],
-            ended: [None; LANES],
-            crossed: [0; LANES],
-        };
-        for (l, ray) in rays.into_iter().take(LANES).enumerate() {
-            lanes.states[0].set(l, ray);
-            lanes.live[l] = u64::MAX;
+impl<const STRIDES: usize> Block<STRIDES> {
+    pub const CAPACITY: usize = STRIDES * STRIDE;
+
+    pub fn new() -> Block<STRIDES> {
+        Block {
+            columns: [Columns::ZERO; 2],
+            ids: [[0; STRIDE]; STRIDES],
+            events: [[CROSSED; STRIDE]; STRIDES],
+            alive: [[0; STRIDE]; STRIDES],
+            loaded: 0,
         }
-        lanes
     }
 
-    /// Lane `l`'s outcome, final ray and intersection count.
-    pub fn result(&self, l: usize) -> (Outcome, Ray, u32) {
-        let ray = self.ended[l].unwrap_or_else(|| self.states[self.front].ray(l));
-        (self.outcome[l], ray, self.crossed[l])
+    /// Loads `rays` (at most [`Block::CAPACITY`]), numbered from 0 in order.
+    pub fn load(&mut self, rays: &[Ray]) {
+        debug_assert!(rays.len() <= Self::CAPACITY);
+        for (slot, ray) in rays.iter().enumerate() {
+            self.columns[0].set(slot, *ray);
+        }
+        self.number(rays.len());
     }
 
-    fn any_live(&self) -> bool {
-        self.live.iter().fold(0, |any, &l| any | l) != 0
+    /// Loads `len` rays from six columns (x, y, z, dx, dy, dz) starting at `start`, numbered
+    /// from 0 in order.
+    pub fn load_columns(&mut self, columns: [&[f64]; 6], start: usize, len: usize) {
+        debug_assert!(len <= Self::CAPACITY);
+        for (k, column) in columns.into_iter().enumerate() {
+            self.columns[0].column_mut(k)[..len].copy_from_slice(&column[start..start + len]);
+        }
+        self.number(len);
     }
 
-    fn end(&mut self, l: usize, event: Event, surface: usize, at: Ray) {
-        self.live[l] = 0;
-        self.outcome[l] = event.outcome(surface + 1);
-        self.ended[l] = Some(at);
+    fn number(&mut self, len: usize) {
+        for (slot, id) in self.ids.as_flattened_mut()[..len].iter_mut().enumerate() {
+            *id = slot as u32;
+        }
+        self.loaded = len;
     }
+}
 
-    /// Ends the lanes the last kernel stopped, with the ray the one-ray path reports (the ray
-    /// before the surface for a miss; the hit point and arriving direction otherwise), and makes
-    /// the kernel's output the current state. Ended lanes carry on with meaningless numbers that
-    /// are never read.
-    fn commit(&mut self, surface: usize) {
-        let stopped = self
-            .events
-            .iter()
-            .zip(&self.live)
-            .fold(0, |any, (&e, &l)| any | (e & l));
-        if stopped != 0 {
-            let (before, after) = (self.front, 1 - self.front);
-            for l in 0..LANES {
-                if self.events[l] & self.live[l] == 0 {
-                    continue;
-                }
-                let arriving = self.states[before].ray(l);
-                let (event, at) = match self.events[l] {
-                    MISSED => (Event::Missed, arriving),
-                    code => {
-                        let event = if code == VIGNETTED {
-                            Event::Vignetted
-                        } else {
-                            Event::Tir
-                        };
-                        let hit = self.states[after].ray(l).position;
-                        (event, Ray::from_parts(hit, arriving.direction))
-                    }
-                };
-                self.end(l, event, surface, at);
+/// The instruction sets the block trace is compiled for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Isa {
+    /// Whatever the build targets (SSE2 on x86-64); `mul_add` may be a library call.
+    Portable,
+    #[cfg(target_arch = "x86_64")]
+    Avx2Fma,
+    #[cfg(target_arch = "x86_64")]
+    Avx512,
+}
+
+impl Isa {
+    /// The widest set this processor runs.
+    pub fn detect() -> Isa {
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::is_x86_feature_detected as has;
+            let fma = has!("avx2") && has!("fma");
+            if fma && has!("avx512f") && has!("avx512dq") && has!("avx512vl") {
+                return Isa::Avx512;
+            }
+            if fma {
+                return Isa::Avx2Fma;
             }
         }
-        self.front = 1 - self.front;
+        Isa::Portable
     }
 
-    /// Shows `visit` the current positions: the hit points on surface `i` just crossed.
-    #[inline(always)]
-    fn show(&self, i: usize, visit: &mut impl LaneVisitor) {
-        let position = &self.states[self.front].position;
-        visit.crossed(i, &position[0], &position[1]);
-    }
-
-    /// The current state to read and the other one to write.
-    fn split(&mut self) -> (&State, &mut State) {
-        let [a, b] = &mut self.states;
-        if self.front == 0 { (a, b) } else { (b, a) }
+    /// Whether multiply-adds are single instructions.
+    pub fn fused(self) -> bool {
+        self != Isa::Portable
     }
 }
 
-/// What a lane visitor sees after each surface: the surface's 0-based index and every lane's
-/// hit point on it (x and y, lens frame). Lanes that have ended hold meaningless numbers.
+/// What a visitor sees after each surface: the surface's 0-based index and, for every slot in
+/// use, the number of the ray in it, whether that ray is still travelling (non-zero) and its
+/// hit point on the surface (x and y, lens frame). Slots of rays that have stopped hold
+/// meaningless numbers.
 pub(crate) trait LaneVisitor {
-    fn crossed(&mut self, surface: usize, x: &[f64; LANES], y: &[f64; LANES]);
+    fn crossed(&mut self, surface: usize, ids: &[u32], alive: &[u64], x: &[f64], y: &[f64]);
 }
 
 /// The visitor of a plain trace.
-struct NoVisit;
+pub(crate) struct NoVisit;
 
 impl LaneVisitor for NoVisit {
     #[inline(always)]
-    fn crossed(&mut self, _: usize, _: &[f64; LANES], _: &[f64; LANES]) {}
+    fn crossed(&mut self, _: usize, _: &[u32], _: &[u64], _: &[f64], _: &[f64]) {}
 }
 
 impl Tracer {
-    /// Traces the live lanes through every surface in `FORWARD` order.
-    pub(crate) fn run_lanes<const FORWARD: bool>(&self, lanes: &mut Lanes, check_apertures: bool) {
-        self.run_lanes_visiting::<FORWARD>(lanes, check_apertures, &mut NoVisit)
-    }
-
-    /// [`Tracer::run_lanes`], showing `visit` every surface's hit points as the lanes cross it.
-    pub(crate) fn run_lanes_visiting<const FORWARD: bool>(
+    /// Traces up to [`LANES`] rays together on this thread: `finish` gets each ray's number
+    /// (its index in `rays`) and its result, bit for bit what [`Tracer::trace_with`] gives, and
+    /// `visit` sees every surface crossed.
+    pub(crate) fn trace_group_visiting(
         &self,
-        lanes: &mut Lanes,
+        rays: &[Ray],
+        travel: Travel,
         check_apertures: bool,
         visit: &mut impl LaneVisitor,
+        finish: &mut impl FnMut(usize, Traced),
     ) {
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") {
-            return self.lanes_body::<FORWARD, true>(lanes, check_apertures, visit);
+        let mut group = Group::new();
+        group.load(rays);
+        self.trace_block(&mut group, travel, check_apertures, visit, finish);
+    }
+
+    /// Traces a loaded block through every surface in `travel` order with the widest
+    /// instruction set the processor has. `finish` gets every ray's number and result (in no
+    /// particular order); returns the number of ray-surface intersections computed.
+    pub(crate) fn trace_block<const STRIDES: usize>(
+        &self,
+        block: &mut Block<STRIDES>,
+        travel: Travel,
+        check_apertures: bool,
+        visit: &mut impl LaneVisitor,
+        finish: &mut impl FnMut(usize, Traced),
+    ) -> u64 {
+        self.trace_block_on(Isa::detect(), block, travel, check_apertures, visit, finish)
+    }
+
+    /// [`Tracer::trace_block`] with the code compiled for `isa`, which the processor must run.
+    pub(crate) fn trace_block_on<const STRIDES: usize>(
+        &self,
+        isa: Isa,
+        block: &mut Block<STRIDES>,
+        travel: Travel,
+        check_apertures: bool,
+        visit: &mut impl LaneVisitor,
+        finish: &mut impl FnMut(usize, Traced),
+    ) -> u64 {
+        match (travel, isa) {
+            (Travel::Forward, Isa::Portable) => {
+                self.block_body::<true, STRIDES, Portable>(block, check_apertures, visit, finish)
+            }
+            (Travel::Backward, Isa::Portable) => {
+                self.block_body::<false, STRIDES, Portable>(block, check_apertures, visit, finish)
+            }
+            // SAFETY (all four): `isa` comes from `Isa::detect` on this processor.
+            #[cfg(target_arch = "x86_64")]
+            (Travel::Forward, Isa::Avx2Fma) => unsafe {
+                self.block_avx2::<true, STRIDES>(block, check_apertures, visit, finish)
+            },
+            #[cfg(target_arch = "x86_64")]
+            (Travel::Backward, Isa::Avx2Fma) => unsafe {
+                self.block_avx2::<false, STRIDES>(block, check_apertures, visit, finish)
+            },
+            #[cfg(target_arch = "x86_64")]
+            (Travel::Forward, Isa::Avx512) => unsafe {
+                self.block_avx512::<true, STRIDES>(block, check_apertures, visit, finish)
+            },
+            #[cfg(target_arch = "x86_64")]
+            (Travel::Backward, Isa::Avx512) => unsafe {
+                self.block_avx512::<false, STRIDES>(block, check_apertures, visit, finish)
+            },
         }
-        self.lanes_body::<FORWARD, false>(lanes, check_apertures, visit)
     }
 
-    /// `AVX2` is true only when the processor has been checked to support it.
-    #[inline(always)]
-    fn lanes_body<const FORWARD: bool, const AVX2: bool>(
+    /// The block trace compiled for AVX2 and FMA (the one-ray code for surfaces without a
+    /// kernel included); its kernels are [`Avx2Fma`]'s.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    #[inline(never)]
+    fn block_avx2<const FORWARD: bool, const STRIDES: usize>(
         &self,
-        lanes: &mut Lanes,
+        block: &mut Block<STRIDES>,
         check_apertures: bool,
         visit: &mut impl LaneVisitor,
-    ) {
+        finish: &mut impl FnMut(usize, Traced),
+    ) -> u64 {
+        self.block_body::<FORWARD, STRIDES, Avx2Fma>(block, check_apertures, visit, finish)
+    }
+
+    /// The block trace compiled for AVX-512 (a stride is one vector register).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f,avx512dq,avx512vl,avx2,fma")]
+    #[inline(never)]
+    fn block_avx512<const FORWARD: bool, const STRIDES: usize>(
+        &self,
+        block: &mut Block<STRIDES>,
+        check_apertures: bool,
+        visit: &mut impl LaneVisitor,
+        finish: &mut impl FnMut(usize, Traced),
+    ) -> u64 {
+        self.block_body::<FORWARD, STRIDES, Avx512>(block, check_apertures, visit, finish)
+    }
+
+    #[inline(always)]
+    fn block_body<const FORWARD: bool, const STRIDES: usize, M: Machine>(
+        &self,
+        block: &mut Block<STRIDES>,
+        check_apertures: bool,
+        visit: &mut impl LaneVisitor,
+        finish: &mut impl FnMut(usize, Traced),
+    ) -> u64 {
+        let Block {
+            columns: [first, second],
+            ids,
+            events,
+            alive,
+            loaded,
+        } = block;
+        let (ids, alive) = (ids.as_flattened_mut(), alive.as_flattened_mut());
+        let (mut current, mut next) = (first, second);
+        // Slots in use (a prefix), and the rays among them still travelling.
+        let mut occupied = *loaded;
+        let mut travelling = occupied;
+        alive[..occupied].fill(ALIVE);
+        let mut ray_surfaces = 0u64;
         let n = self.surfaces.len();
         for step in 0..n {
-            if !lanes.any_live() {
+            if travelling == 0 {
                 break;
             }
-            for l in 0..LANES {
-                lanes.crossed[l] += (lanes.live[l] & 1) as u32;
-            }
+            ray_surfaces += travelling as u64;
             let i = if FORWARD { step } else { n - 1 - step };
             let s = &self.surfaces[i];
+            let strides = occupied.div_ceil(STRIDE);
             let refracts = s.index_before != s.index_after;
+            let check = check_apertures;
+            let (from, to) = (&*current, &mut *next);
             match (s.profile, s.bladed || !s.plain(), refracts) {
                 (Profile::Sphere { .. }, false, true) => {
-                    launch::<AVX2, SphereKernel<FORWARD, true>>(s, lanes, check_apertures)
+                    M::kernel::<SphereCrossing<FORWARD, true>, STRIDES>(
+                        s, from, to, events, strides, check,
+                    )
                 }
                 (Profile::Sphere { .. }, false, false) => {
-                    launch::<AVX2, SphereKernel<FORWARD, false>>(s, lanes, check_apertures)
+                    M::kernel::<SphereCrossing<FORWARD, false>, STRIDES>(
+                        s, from, to, events, strides, check,
+                    )
                 }
                 (Profile::Plane, false, true) => {
-                    launch::<AVX2, PlaneKernel<FORWARD, true>>(s, lanes, check_apertures)
+                    M::kernel::<PlaneCrossing<FORWARD, true>, STRIDES>(
+                        s, from, to, events, strides, check,
+                    )
                 }
                 (Profile::Plane, false, false) => {
-                    launch::<AVX2, PlaneKernel<FORWARD, false>>(s, lanes, check_apertures)
+                    M::kernel::<PlaneCrossing<FORWARD, false>, STRIDES>(
+                        s, from, to, events, strides, check,
+                    )
                 }
                 _ => {
-                    self.lanes_one_by_one::<FORWARD>(s, i, lanes, check_apertures);
-                    lanes.show(i, visit);
-                    continue;
+                    let events = events.as_flattened_mut();
+                    for slot in (0..occupied).filter(|&slot| alive[slot] == ALIVE) {
+                        events[slot] = match self.cross::<FORWARD>(s, &current.ray(slot), check) {
+                            Ok(ray) => {
+                                next.set(slot, ray);
+                                CROSSED
+                            }
+                            Err((event, at)) => {
+                                let outcome = event.outcome(i + 1);
+                                finish(ids[slot] as usize, Traced { outcome, ray: at });
+                                REPORTED
+                            }
+                        };
+                    }
                 }
             }
-            lanes.commit(i);
-            lanes.show(i, visit);
-        }
-    }
-
-    /// Surfaces without a lane kernel: the one-ray code for each live lane.
-    fn lanes_one_by_one<const FORWARD: bool>(
-        &self,
-        s: &FlatSurface,
-        i: usize,
-        lanes: &mut Lanes,
-        check_apertures: bool,
-    ) {
-        for l in 0..LANES {
-            if lanes.live[l] == 0 {
-                continue;
+            let events = events.as_flattened();
+            let stopped = report(i, current, next, events, alive, ids, occupied, finish);
+            travelling -= stopped;
+            // Packing costs a copy per hole filled, worth it only when the kernels then run over
+            // fewer strides.
+            if stopped > 0 && travelling.div_ceil(STRIDE) < strides {
+                pack(next, alive, ids, occupied, travelling);
+                occupied = travelling;
             }
-            let state = &mut lanes.states[lanes.front];
-            match self.cross::<FORWARD>(s, &state.ray(l), check_apertures) {
-                Ok(next) => state.set(l, next),
-                Err((event, at)) => lanes.end(l, event, i, at),
-            }
+            std::mem::swap(&mut current, &mut next);
+            let [x, y] = [0, 1].map(|k| &current.column(k)[..occupied]);
+            visit.crossed(i, &ids[..occupied], &alive[..occupied], x, y);
         }
+        for slot in (0..occupied).filter(|&slot| alive[slot] == ALIVE) {
+            let traced = Traced {
+                outcome: Outcome::Ok,
+                ray: current.ray(slot),
+            };
+            finish(ids[slot] as usize, traced);
+        }
+        ray_surfaces
     }
 }
 
-/// A lane kernel: crosses one surface with every lane of `current`, writing each lane's hit
-/// point (lens frame) and new direction to `next` and its event code to `events`. Dead lanes are
-/// computed too and ignored afterwards.
-trait Kernel {
-    fn cross(
+/// Reports the travelling rays the last kernel stopped at surface `i` (0-based), with the ray
+/// the one-ray path reports (the ray before the surface for a miss; the hit point and arriving
+/// direction otherwise), and marks them stopped. Returns how many stopped.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn report<const STRIDES: usize>(
+    i: usize,
+    current: &Columns<STRIDES>,
+    next: &Columns<STRIDES>,
+    events: &[u64],
+    alive: &mut [u64],
+    ids: &[u32],
+    occupied: usize,
+    finish: &mut impl FnMut(usize, Traced),
+) -> usize {
+    let mut stopped = 0;
+    for first in (0..occupied).step_by(STRIDE) {
+        let slots = first..occupied.min(first + STRIDE);
+        let codes = events[slots.clone()].iter().zip(&alive[slots.clone()]);
+        if codes.fold(0, |any, (&e, &a)| any | (e & a)) == CROSSED {
+            continue;
+        }
+        for slot in slots {
+            let code = events[slot] & alive[slot];
+            if code == CROSSED {
+                continue;
+            }
+            alive[slot] = 0;
+            stopped += 1;
+            let arriving = current.ray(slot);
+            let (outcome, ray) = match code {
+                MISSED => (Outcome::Missed { surface: i + 1 }, arriving),
+                VIGNETTED | TIR => {
+                    let outcome = if code == VIGNETTED {
+                        Outcome::Vignetted { surface: i + 1 }
+                    } else {
+                        Outcome::Tir { surface: i + 1 }
+                    };
+                    (
+                        outcome,
+                        Ray::from_parts(next.position(slot), arriving.direction),
+                    )
+                }
+                _ => continue,
+            };
+            finish(ids[slot] as usize, Traced { outcome, ray });
+        }
+    }
+    stopped
+}
+
+/// Fills the slots of stopped rays below `travelling` with the travelling rays above it, so
+/// that the travelling rays occupy the first `travelling` slots (in no particular order: each
+/// carries its number). Moves only as many rays as there are such holes.
+#[inline(always)]
+fn pack<const STRIDES: usize>(
+    columns: &mut Columns<STRIDES>,
+    alive: &mut [u64],
+    ids: &mut [u32],
+    occupied: usize,
+    travelling: usize,
+) {
+    let mut source = occupied;
+    for hole in 0..travelling {
+        if alive[hole] == ALIVE {
+            continue;
+        }
+        source -= 1;
+        while alive[source] != ALIVE {
+            source -= 1;
+        }
+        columns.move_slot(source, hole);
+        ids[hole] = ids[source];
+        alive[hole] = ALIVE;
+    }
+}
+
+/// One surface's arithmetic for one ray, written without branches on ray data so that a
+/// stride of them becomes vector instructions.
+trait Crossing {
+    fn new(s: &FlatSurface, check_apertures: bool) -> Self;
+    /// The hit point (lens frame), the direction leaving the surface and the event code, from
+    /// the arriving ray's position relative to the vertex `p` and direction `d`.
+    fn lane(&self, p: Vec3, d: Vec3) -> (Vec3, Vec3, u64);
+}
+
+/// The numbers every kernel needs of a surface.
+#[derive(Clone, Copy)]
+struct Common {
+    vertex_z: f64,
+    semi_aperture_sq: f64,
+    check_apertures: bool,
+    /// Travel sense (+1 forward, -1 backward) and Snell ratio in that sense.
+    sense: f64,
+    mu: f64,
+}
+
+impl Common {
+    #[inline(always)]
+    fn new<const FORWARD: bool>(s: &FlatSurface, check_apertures: bool) -> Common {
+        Common {
+            vertex_z: s.vertex_z,
+            semi_aperture_sq: s.semi_aperture_sq,
+            check_apertures,
+            sense: if FORWARD { 1.0 } else { -1.0 },
+            mu: if FORWARD { s.mu_forward } else { s.mu_backward },
+        }
+    }
+
+    #[inline(always)]
+    fn inside(&self, q: Vec3) -> bool {
+        !self.check_apertures | (radius_sq(q) <= self.semi_aperture_sq)
+    }
+}
+
+/// [`intersect::sphere_candidate`], the aperture test and [`refract::refract_candidate`].
+/// `REFRACTS` is false where the media on both sides are the same, as the one-ray path skips
+/// refraction there.
+struct SphereCrossing<const FORWARD: bool, const REFRACTS: bool> {
+    common: Common,
+    curvature: f64,
+}
+
+impl<const FORWARD: bool, const REFRACTS: bool> Crossing for SphereCrossing<FORWARD, REFRACTS> {
+    #[inline(always)]
+    fn new(s: &FlatSurface, check_apertures: bool) -> Self {
+        let Profile::Sphere { curvature } = s.profile else {
+            unreachable!("the sphere kernel runs on spheres only")
+        };
+        let common = Common::new::<FORWARD>(s, check_apertures);
+        SphereCrossing { common, curvature }
+    }
+
+    #[inline(always)]
+    fn lane(&self, p: Vec3, d: Vec3) -> (Vec3, Vec3, u64) {
+        let (c, common) = (self.curvature, &self.common);
+        let (q, nz, crosses) = intersect::sphere_candidate(p, d, c, common.sense);
+        let hit = crosses & q[0].is_finite() & q[1].is_finite() & q[2].is_finite();
+        let (direction, passes) = if REFRACTS {
+            let normal = [c * q[0], c * q[1], nz];
+            let (direction, radicand) = refract::refract_candidate(d, normal, common.mu);
+            (direction, radicand >= 0.0)
+        } else {
+            (d, true)
+        };
+        let position = [q[0], q[1], q[2] + common.vertex_z];
+        (
+            position,
+            direction,
+            event_code(hit, common.inside(q), passes),
+        )
+    }
+}
+
+/// [`intersect::plane_candidate`], the aperture test and [`refract::refract_plane_candidate`].
+struct PlaneCrossing<const FORWARD: bool, const REFRACTS: bool> {
+    common: Common,
+}
+
+impl<const FORWARD: bool, const REFRACTS: bool> Crossing for PlaneCrossing<FORWARD, REFRACTS> {
+    #[inline(always)]
+    fn new(s: &FlatSurface, check_apertures: bool) -> Self {
+        let common = Common::new::<FORWARD>(s, check_apertures);
+        PlaneCrossing { common }
+    }
+
+    #[inline(always)]
+    fn lane(&self, p: Vec3, d: Vec3) -> (Vec3, Vec3, u64) {
+        let common = &self.common;
+        let (q, crosses) = intersect::plane_candidate(p, d, common.sense);
+        let hit = crosses & q[0].is_finite() & q[1].is_finite();
+        let (direction, passes) = if REFRACTS {
+            let (direction, radicand) = refract::refract_plane_candidate(d, common.mu);
+            (direction, radicand >= 0.0)
+        } else {
+            (d, true)
+        };
+        let position = [q[0], q[1], q[2] + common.vertex_z];
+        (
+            position,
+            direction,
+            event_code(hit, common.inside(q), passes),
+        )
+    }
+}
+
+/// One compiled copy of the kernels per instruction set. Each kernel is a function of its
+/// own (never inlined into the block loop, whose two column sets swap places every surface):
+/// there its arguments are known not to overlap, which the compiler needs to vectorise it.
+trait Machine {
+    fn kernel<K: Crossing, const STRIDES: usize>(
         s: &FlatSurface,
-        current: &State,
-        next: &mut State,
-        events: &mut [u64; LANES],
+        current: &Columns<STRIDES>,
+        next: &mut Columns<STRIDES>,
+        events: &mut [[u64; STRIDE]; STRIDES],
+        strides: usize,
         check_apertures: bool,
     );
 }
 
-struct SphereKernel<const FORWARD: bool, const REFRACTS: bool>;
-struct PlaneKernel<const FORWARD: bool, const REFRACTS: bool>;
-
-impl<const FORWARD: bool, const REFRACTS: bool> Kernel for SphereKernel<FORWARD, REFRACTS> {
-    #[inline(always)]
-    fn cross(
-        s: &FlatSurface,
-        current: &State,
-        next: &mut State,
-        events: &mut [u64; LANES],
-        check_apertures: bool,
-    ) {
-        sphere_lanes::<FORWARD, REFRACTS>(s, current, next, events, check_apertures)
-    }
-}
-
-impl<const FORWARD: bool, const REFRACTS: bool> Kernel for PlaneKernel<FORWARD, REFRACTS> {
-    #[inline(always)]
-    fn cross(
-        s: &FlatSurface,
-        current: &State,
-        next: &mut State,
-        events: &mut [u64; LANES],
-        check_apertures: bool,
-    ) {
-        plane_lanes::<FORWARD, REFRACTS>(s, current, next, events, check_apertures)
-    }
-}
-
-/// Runs kernel `K` on the lanes and keeps its event codes.
-#[inline(always)]
-fn launch<const AVX2: bool, K: Kernel>(s: &FlatSurface, lanes: &mut Lanes, check_apertures: bool) {
-    let mut events = [CROSSED; LANES];
-    let (current, next) = lanes.split();
-    #[cfg(target_arch = "x86_64")]
-    if AVX2 {
-        // SAFETY: AVX2 is only true after the processor was found to support it.
-        unsafe { with_avx2::<K>(s, current, next, &mut events, check_apertures) };
-    } else {
-        K::cross(s, current, next, &mut events, check_apertures);
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    K::cross(s, current, next, &mut events, check_apertures);
-    lanes.events = events;
-}
-
-/// Runs a kernel compiled for AVX2. The kernel is a static call to an `inline(always)` function,
-/// so its body is compiled here, with the feature (a kernel passed as a closure or function value
-/// was not inlined and ran as SSE2 code). Only the vector width changes: Rust never fuses a
-/// multiply and an add on its own, and vector square roots and divisions round exactly as scalar
-/// ones, so the results stay bit-identical to the one-ray path.
+struct Portable;
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-#[inline(never)]
-fn with_avx2<K: Kernel>(
-    s: &FlatSurface,
-    current: &State,
-    next: &mut State,
-    events: &mut [u64; LANES],
-    check_apertures: bool,
-) {
-    K::cross(s, current, next, events, check_apertures)
-}
+struct Avx2Fma;
+#[cfg(target_arch = "x86_64")]
+struct Avx512;
 
-/// The sphere kernel: [`super::intersect::sphere`], the aperture test and
-/// [`super::refract::refract`] for every lane, without branches on lane data. `REFRACTS` is
-/// false where the media on both sides are the same, as the one-ray path skips refraction there.
-#[inline(always)]
-fn sphere_lanes<const FORWARD: bool, const REFRACTS: bool>(
-    s: &FlatSurface,
-    current: &State,
-    next: &mut State,
-    events: &mut [u64; LANES],
-    check_apertures: bool,
-) {
-    let Profile::Sphere { curvature: c } = s.profile else {
-        unreachable!("the sphere kernel runs on spheres only")
-    };
-    let sense = if FORWARD { 1.0 } else { -1.0 };
-    let mu = if FORWARD { s.mu_forward } else { s.mu_backward };
-    for l in 0..LANES {
-        let [dx, dy, dz] = [
-            current.direction[0][l],
-            current.direction[1][l],
-            current.direction[2][l],
-        ];
-        let [px, py, pz] = [
-            current.position[0][l],
-            current.position[1][l],
-            current.position[2][l] - s.vertex_z,
-        ];
-        // As the one-ray solver does: start from the line's point nearest the vertex.
-        let along = px * dx + py * dy + pz * dz;
-        let [px, py, pz] = [px - along * dx, py - along * dy, pz - along * dz];
-        let b = dz - c * (px * dx + py * dy + pz * dz);
-        let cc = c * (px * px + py * py + pz * pz) - 2.0 * pz;
-        let disc = b * b - c * cc;
-        let root = disc.max(0.0).sqrt();
-        let near = sense * b >= 0.0;
-        let numerator = if near { cc } else { b - sense * root };
-        let denominator = if near { b + sense * root } else { c };
-        let t = numerator / denominator;
-        let (qx, qy, qz) = (px + t * dx, py + t * dy, pz + t * dz);
-        let nz = c * qz - 1.0;
-        let hit = (disc >= 0.0)
-            & t.is_finite()
-            & (nz < 0.0)
-            & qx.is_finite()
-            & qy.is_finite()
-            & qz.is_finite();
-        let inside = !check_apertures | (qx * qx + qy * qy <= s.semi_aperture_sq);
-        let (out, passes) = if REFRACTS {
-            let (nx, ny) = (c * qx, c * qy);
-            let cos_signed = nx * dx + ny * dy + nz * dz;
-            let radicand = 1.0 - mu * mu * (1.0 - cos_signed * cos_signed);
-            let along = radicand.max(0.0).sqrt().copysign(cos_signed) - mu * cos_signed;
-            (
-                [
-                    mu * dx + along * nx,
-                    mu * dy + along * ny,
-                    mu * dz + along * nz,
-                ],
-                radicand >= 0.0,
-            )
-        } else {
-            ([dx, dy, dz], true)
-        };
-        next.position[0][l] = qx;
-        next.position[1][l] = qy;
-        next.position[2][l] = qz + s.vertex_z;
-        for k in 0..3 {
-            next.direction[k][l] = out[k];
-        }
-        events[l] = event_code(hit, inside, passes);
+impl Machine for Portable {
+    #[inline(never)]
+    fn kernel<K: Crossing, const STRIDES: usize>(
+        s: &FlatSurface,
+        current: &Columns<STRIDES>,
+        next: &mut Columns<STRIDES>,
+        events: &mut [[u64; STRIDE]; STRIDES],
+        strides: usize,
+        check_apertures: bool,
+    ) {
+        kernel::<K, STRIDES>(s, current, next, events, strides, check_apertures)
     }
 }
 
-/// The plane kernel: [`super::intersect::plane`], the aperture test and
-/// [`super::refract::refract_plane`] for every lane.
-#[inline(always)]
-fn plane_lanes<const FORWARD: bool, const REFRACTS: bool>(
+#[cfg(target_arch = "x86_64")]
+impl Machine for Avx2Fma {
+    #[inline(always)]
+    fn kernel<K: Crossing, const STRIDES: usize>(
+        s: &FlatSurface,
+        current: &Columns<STRIDES>,
+        next: &mut Columns<STRIDES>,
+        events: &mut [[u64; STRIDE]; STRIDES],
+        strides: usize,
+        check_apertures: bool,
+    ) {
+        // SAFETY: this machine's kernels run only inside `Tracer::block_avx2`, which runs only
+        // where `Isa::detect` found AVX2 and FMA.
+        unsafe { kernel_avx2::<K, STRIDES>(s, current, next, events, strides, check_apertures) }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+impl Machine for Avx512 {
+    #[inline(always)]
+    fn kernel<K: Crossing, const STRIDES: usize>(
+        s: &FlatSurface,
+        current: &Columns<STRIDES>,
+        next: &mut Columns<STRIDES>,
+        events: &mut [[u64; STRIDE]; STRIDES],
+        strides: usize,
+        check_apertures: bool,
+    ) {
+        // SAFETY: this machine's kernels run only inside `Tracer::block_avx512`, which runs
+        // only where `Isa::detect` found AVX-512 and FMA.
+        unsafe { kernel_avx512::<K, STRIDES>(s, current, next, events, strides, check_apertures) }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+#[inline(never)]
+fn kernel_avx2<K: Crossing, const STRIDES: usize>(
     s: &FlatSurface,
-    current: &State,
-    next: &mut State,
-    events: &mut [u64; LANES],
+    current: &Columns<STRIDES>,
+    next: &mut Columns<STRIDES>,
+    events: &mut [[u64; STRIDE]; STRIDES],
+    strides: usize,
     check_apertures: bool,
 ) {
-    let sense = if FORWARD { 1.0 } else { -1.0 };
-    let mu = if FORWARD { s.mu_forward } else { s.mu_backward };
-    for l in 0..LANES {
-        let [dx, dy, dz] = [
-            current.direction[0][l],
-            current.direction[1][l],
-            current.direction[2][l],
-        ];
-        let pz = current.position[2][l] - s.vertex_z;
-        let t = -pz / dz;
-        let qx = current.position[0][l] + t * dx;
-        let qy = current.position[1][l] + t * dy;
-        let hit = (dz * sense > 0.0) & qx.is_finite() & qy.is_finite();
-        let inside = !check_apertures | (qx * qx + qy * qy <= s.semi_aperture_sq);
-        let (out, passes) = if REFRACTS {
-            let (x, y) = (mu * dx, mu * dy);
-            let radicand = 1.0 - (x * x + y * y);
-            (
-                [x, y, radicand.max(0.0).sqrt().copysign(dz)],
-                radicand >= 0.0,
-            )
-        } else {
-            ([dx, dy, dz], true)
-        };
-        next.position[0][l] = qx;
-        next.position[1][l] = qy;
-        next.position[2][l] = s.vertex_z;
-        for k in 0..3 {
-            next.direction[k][l] = out[k];
-        }
-        events[l] = event_code(hit, inside, passes);
+    kernel::<K, STRIDES>(s, current, next, events, strides, check_apertures)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512dq,avx512vl,avx2,fma")]
+#[inline(never)]
+fn kernel_avx512<K: Crossing, const STRIDES: usize>(
+    s: &FlatSurface,
+    current: &Columns<STRIDES>,
+    next: &mut Columns<STRIDES>,
+    events: &mut [[u64; STRIDE]; STRIDES],
+    strides: usize,
+    check_apertures: bool,
+) {
+    kernel::<K, STRIDES>(s, current, next, events, strides, check_apertures)
+}
+
+/// Crosses surface `s` with the first `strides` strides of `current`, writing `next` and the
+/// event codes.
+#[inline(always)]
+fn kernel<K: Crossing, const STRIDES: usize>(
+    s: &FlatSurface,
+    current: &Columns<STRIDES>,
+    next: &mut Columns<STRIDES>,
+    events: &mut [[u64; STRIDE]; STRIDES],
+    strides: usize,
+    check_apertures: bool,
+) {
+    let crossing = K::new(s, check_apertures);
+    let vertex_z = s.vertex_z;
+    // One flat loop over whole strides: the compiler vectorises it across rays (a loop over
+    // strides around a loop over one stride's rays was unrolled and vectorised across strides,
+    // with gathers).
+    let n = strides * STRIDE;
+    let [px, py, pz, dx, dy, dz] = [0, 1, 2, 3, 4, 5].map(|k| &current.column(k)[..n]);
+    let [qx, qy, qz, ex, ey, ez] = next
+        .values
+        .each_mut()
+        .map(|column| &mut column.as_flattened_mut()[..n]);
+    let codes = &mut events.as_flattened_mut()[..n];
+    for l in 0..n {
+        let p = [px[l], py[l], pz[l] - vertex_z];
+        let (position, direction, code) = crossing.lane(p, [dx[l], dy[l], dz[l]]);
+        (qx[l], qy[l], qz[l]) = (position[0], position[1], position[2]);
+        (ex[l], ey[l], ez[l]) = (direction[0], direction[1], direction[2]);
+        codes[l] = code;
     }
 }
 
@@ -467,12 +724,23 @@ mod tests {
     use super::*;
     use crate::prescription::{Medium, Prescription, Provenance, Shape, StopShape, Surface};
     use crate::system::LensSystem;
-    use crate::trace::{Apertures, Travel};
+    use crate::trace::Apertures;
 
-    /// The portable kernels (the ones non-x86 processors and x86 without AVX2 run) against the
-    /// one-ray path, since the machines that run the tests mostly take the AVX2 branch.
-    #[test]
-    fn portable_lanes_match_one_ray_path() {
+    /// Every instruction set this processor runs, the portable one included.
+    fn runnable() -> Vec<Isa> {
+        let mut isas = vec![Isa::Portable];
+        #[cfg(target_arch = "x86_64")]
+        match Isa::detect() {
+            Isa::Avx512 => isas.extend([Isa::Avx2Fma, Isa::Avx512]),
+            Isa::Avx2Fma => isas.push(Isa::Avx2Fma),
+            Isa::Portable => {}
+        }
+        isas
+    }
+
+    /// Spheres and planes (kernels) around a conic (the one-ray code inside the block), with
+    /// apertures small enough that rays stop at several surfaces, so blocks are compacted.
+    fn tracer() -> Tracer {
         let surface = |shape, thickness, n: f64, stop| Surface {
             shape,
             thickness,
@@ -481,6 +749,10 @@ mod tests {
             stop,
             obscuration: None,
         };
+        let conic = Shape::Conic {
+            curvature: -0.02,
+            conic: -0.6,
+        };
         let prescription = Prescription {
             provenance: Provenance::default(),
             object_medium: Medium::Air,
@@ -488,12 +760,16 @@ mod tests {
                 surface(Shape::Sphere { curvature: 0.04 }, 4.0, 1.7, None),
                 surface(Shape::Plane, 3.0, 1.0, Some(StopShape::Circle)),
                 surface(Shape::Plane, 3.0, 1.5, None),
+                surface(conic, 2.0, 1.5, None),
                 surface(Shape::Sphere { curvature: -0.05 }, 30.0, 1.0, None),
             ],
         };
         let system = LensSystem::from_prescription(prescription).unwrap();
-        let tracer = Tracer::new(&system.at(550.0));
-        let rays: Vec<Ray> = (0..LANES * 8)
+        Tracer::new(&system.at(550.0))
+    }
+
+    fn rays(n: usize) -> Vec<Ray> {
+        (0..n)
             .map(|i| {
                 let a = i as f64 * 0.37;
                 let d = [
@@ -503,25 +779,97 @@ mod tests {
                 ];
                 Ray::new([8.0 * a.cos(), 8.0 * (0.5 * a).sin(), -5.0], d).unwrap()
             })
-            .collect();
+            .collect()
+    }
+
+    /// The block trace compiled for each instruction set (the portable code is what processors
+    /// without AVX2 and FMA run) against the one-ray path compiled for each, bit for bit.
+    #[test]
+    fn every_instruction_set_traces_blocks_bit_for_bit_as_one_ray() {
+        let tracer = tracer();
+        let rays = rays(3 * 128 + 5);
         let mut outcomes = std::collections::HashSet::new();
         for check in [true, false] {
-            for group in rays.chunks(LANES) {
-                let mut lanes = Lanes::new(group.iter().copied());
-                tracer.lanes_body::<true, false>(&mut lanes, check, &mut NoVisit);
-                for (l, ray) in group.iter().enumerate() {
-                    let apertures = if check {
-                        Apertures::Checked
-                    } else {
-                        Apertures::Ignored
-                    };
-                    let single = tracer.trace_with(*ray, Travel::Forward, apertures);
-                    let (outcome, end, _) = lanes.result(l);
-                    assert_eq!((outcome, end), (single.outcome, single.ray));
-                    outcomes.insert(outcome.status());
+            let apertures = if check {
+                Apertures::Checked
+            } else {
+                Apertures::Ignored
+            };
+            let single: Vec<_> = rays
+                .iter()
+                .map(|&ray| tracer.trace_with(ray, Travel::Forward, apertures))
+                .collect();
+            for isa in runnable() {
+                for (k, &ray) in rays.iter().enumerate() {
+                    let (one, _) =
+                        tracer.run_on(isa, ray, Travel::Forward, 0..5, apertures, &mut |_, _| {});
+                    assert_eq!(one, single[k], "{isa:?}, one ray {k}");
+                }
+                for (b, chunk) in rays.chunks(128).enumerate() {
+                    let mut block = Block::<16>::new();
+                    block.load(chunk);
+                    let mut seen = vec![false; chunk.len()];
+                    let count = tracer.trace_block_on(
+                        isa,
+                        &mut block,
+                        Travel::Forward,
+                        check,
+                        &mut NoVisit,
+                        &mut |id, traced| {
+                            assert!(!seen[id], "ray {id} reported twice");
+                            seen[id] = true;
+                            assert_eq!(traced, single[128 * b + id], "{isa:?}, ray {id}");
+                            outcomes.insert(traced.outcome.status());
+                        },
+                    );
+                    assert!(seen.iter().all(|&s| s));
+                    let expected: usize = single[128 * b..128 * b + chunk.len()]
+                        .iter()
+                        .map(|t| t.outcome.surface().unwrap_or(5))
+                        .sum();
+                    assert_eq!(count, expected as u64);
                 }
             }
         }
-        assert!(outcomes.len() >= 2, "a mix of outcomes: {outcomes:?}");
+        assert!(outcomes.len() >= 3, "a mix of outcomes: {outcomes:?}");
+    }
+
+    /// The visitor sees each travelling ray's hit point on every surface, as the one-ray path
+    /// records it, and no ray after it stopped.
+    #[test]
+    fn visitor_sees_the_survivors_hit_points() {
+        struct Record(Vec<(usize, u32, f64, f64)>);
+        impl LaneVisitor for Record {
+            fn crossed(
+                &mut self,
+                surface: usize,
+                ids: &[u32],
+                alive: &[u64],
+                x: &[f64],
+                y: &[f64],
+            ) {
+                for k in (0..ids.len()).filter(|&k| alive[k] != 0) {
+                    self.0.push((surface, ids[k], x[k], y[k]));
+                }
+            }
+        }
+        let tracer = tracer();
+        let rays = rays(LANES);
+        let mut record = Record(Vec::new());
+        tracer.trace_group_visiting(&rays, Travel::Forward, true, &mut record, &mut |_, _| {});
+        let mut expected = Vec::new();
+        for (id, &ray) in rays.iter().enumerate() {
+            for crossing in tracer
+                .trace_path(ray, Travel::Forward, Apertures::Checked)
+                .crossings
+            {
+                let [x, y, _] = crossing.point;
+                expected.push((crossing.surface - 1, id as u32, x, y));
+            }
+        }
+        record.0.sort_by(|a, b| (a.0, a.1).cmp(&(b.0, b.1)));
+        expected.sort_by(|a, b| (a.0, a.1).cmp(&(b.0, b.1)));
+        assert_eq!(record.0, expected);
+        assert!(expected.len() > 2 * LANES && expected.len() < 5 * LANES);
     }
 }

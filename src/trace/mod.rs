@@ -26,13 +26,13 @@ pub use batch::{BatchTrace, RayBatch};
 pub use bundle::FieldBundle;
 #[cfg(feature = "render")]
 pub(crate) use intersect::ASPHERE_MAX_STEPS;
-pub(crate) use lanes::{LANES, LaneVisitor, Lanes};
+pub(crate) use lanes::{LANES, LaneVisitor, NoVisit};
 
 use crate::paraxial::Pupil;
 use crate::prescription::Shape;
 use crate::system::{LensSystem, SystemAt};
 use aperture::Diaphragm;
-use intersect::{AsphereTerms, Profile};
+use intersect::{AsphereTerms, Profile, dot};
 
 /// A point or direction in the lens frame (mm; z along the axis, origin at surface 1's vertex).
 pub type Vec3 = [f64; 3];
@@ -530,10 +530,55 @@ impl Tracer {
         apertures: Apertures,
         visit: &mut impl FnMut(usize, &Ray),
     ) -> (Traced, u32) {
+        self.run_on(lanes::Isa::detect(), ray, travel, steps, apertures, visit)
+    }
+
+    /// [`Tracer::run`] compiled for `isa`, which the processor must run: with FMA the
+    /// multiply-adds are single instructions, without it library calls; the bits are the same.
+    #[inline]
+    fn run_on(
+        &self,
+        isa: lanes::Isa,
+        ray: Ray,
+        travel: Travel,
+        steps: std::ops::Range<usize>,
+        apertures: Apertures,
+        visit: &mut impl FnMut(usize, &Ray),
+    ) -> (Traced, u32) {
         let check = apertures == Apertures::Checked;
+        #[cfg(target_arch = "x86_64")]
+        if isa.fused() {
+            // SAFETY: a fused `isa` comes from `Isa::detect` on this processor, which found FMA.
+            return unsafe { self.run_fma(ray, travel, steps, check, visit) };
+        }
+        self.run_travel(ray, travel, steps, check, visit)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    fn run_fma(
+        &self,
+        ray: Ray,
+        travel: Travel,
+        steps: std::ops::Range<usize>,
+        check_apertures: bool,
+        visit: &mut impl FnMut(usize, &Ray),
+    ) -> (Traced, u32) {
+        self.run_travel(ray, travel, steps, check_apertures, visit)
+    }
+
+    #[inline(always)]
+    fn run_travel(
+        &self,
+        ray: Ray,
+        travel: Travel,
+        steps: std::ops::Range<usize>,
+        check_apertures: bool,
+        visit: &mut impl FnMut(usize, &Ray),
+    ) -> (Traced, u32) {
         match travel {
-            Travel::Forward => self.run_in::<true>(ray, steps, check, visit),
-            Travel::Backward => self.run_in::<false>(ray, steps, check, visit),
+            Travel::Forward => self.run_in::<true>(ray, steps, check_apertures, visit),
+            Travel::Backward => self.run_in::<false>(ray, steps, check_apertures, visit),
         }
     }
 
@@ -627,7 +672,7 @@ impl Tracer {
             direction: d,
         };
         if check_apertures {
-            let r_sq = q[0] * q[0] + q[1] * q[1];
+            let r_sq = intersect::radius_sq(q);
             if r_sq > s.semi_aperture_sq || r_sq < s.obscuration_sq {
                 return Err((Event::Vignetted, at));
             }
@@ -646,9 +691,9 @@ impl Tracer {
             return Ok(Ray {
                 position: at.position,
                 direction: [
-                    d[0] - twice_cos * normal[0],
-                    d[1] - twice_cos * normal[1],
-                    d[2] - twice_cos * normal[2],
+                    (-twice_cos).mul_add(normal[0], d[0]),
+                    (-twice_cos).mul_add(normal[1], d[1]),
+                    (-twice_cos).mul_add(normal[2], d[2]),
                 ],
             });
         }
@@ -690,9 +735,4 @@ impl Event {
             Event::Tir => Outcome::Tir { surface },
         }
     }
-}
-
-#[inline(always)]
-fn dot(a: Vec3, b: Vec3) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }

@@ -6,33 +6,44 @@
 //! side. A negative radicand is total internal reflection.
 
 use super::Vec3;
+use super::intersect::dot;
 
 /// Refracted unit direction, or None on total internal reflection.
 #[inline(always)]
 pub(crate) fn refract(d: Vec3, normal: Vec3, mu: f64) -> Option<Vec3> {
-    let cos_signed = normal[0] * d[0] + normal[1] * d[1] + normal[2] * d[2];
-    let radicand = 1.0 - mu * mu * (1.0 - cos_signed * cos_signed);
-    if !(radicand >= 0.0) {
-        return None;
-    }
-    let along = radicand.sqrt().copysign(cos_signed) - mu * cos_signed;
-    Some([
-        mu * d[0] + along * normal[0],
-        mu * d[1] + along * normal[1],
-        mu * d[2] + along * normal[2],
-    ])
+    let (out, radicand) = refract_candidate(d, normal, mu);
+    (radicand >= 0.0).then_some(out)
+}
+
+/// [`refract`] without branches, for the lane kernels: the direction (meaningless when the
+/// radicand is negative, total internal reflection) and the radicand.
+#[inline(always)]
+pub(crate) fn refract_candidate(d: Vec3, normal: Vec3, mu: f64) -> (Vec3, f64) {
+    let cos_signed = dot(normal, d);
+    let radicand = (-(mu * mu)).mul_add((-cos_signed).mul_add(cos_signed, 1.0), 1.0);
+    let along = (-mu).mul_add(cos_signed, radicand.max(0.0).sqrt().copysign(cos_signed));
+    let out = [
+        along.mul_add(normal[0], mu * d[0]),
+        along.mul_add(normal[1], mu * d[1]),
+        along.mul_add(normal[2], mu * d[2]),
+    ];
+    (out, radicand)
 }
 
 /// Refraction at a plane z = const, where the normal is the axis: the transverse components
 /// scale by `mu` and z keeps its sign.
 #[inline(always)]
 pub(crate) fn refract_plane(d: Vec3, mu: f64) -> Option<Vec3> {
+    let (out, radicand) = refract_plane_candidate(d, mu);
+    (radicand >= 0.0).then_some(out)
+}
+
+/// [`refract_plane`] without branches: the direction and the radicand.
+#[inline(always)]
+pub(crate) fn refract_plane_candidate(d: Vec3, mu: f64) -> (Vec3, f64) {
     let (x, y) = (mu * d[0], mu * d[1]);
-    let radicand = 1.0 - (x * x + y * y);
-    if !(radicand >= 0.0) {
-        return None;
-    }
-    Some([x, y, radicand.sqrt().copysign(d[2])])
+    let radicand = 1.0 - x.mul_add(x, y * y);
+    ([x, y, radicand.max(0.0).sqrt().copysign(d[2])], radicand)
 }
 
 #[cfg(test)]
