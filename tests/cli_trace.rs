@@ -147,4 +147,5 @@ fn bench_trace_reports_rays_and_intersections() {
     // Every ray meets surface 1; none meets more than all 11.
     assert!((20_000..=220_000).contains(&surfaces), "{surfaces}");
     assert!(report["seconds"].as_f64().unwrap() > 0.0);
+    assert!(report["seconds_new_output"].as_f64().unwrap() > 0.0);
 }
