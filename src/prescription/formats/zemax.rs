@@ -30,7 +30,10 @@
 //! solver, environment and bookkeeping data: `HARMLESS_TOP`, `HARMLESS_SURFACE`) are skipped and
 //! listed in one [`LoadNote::SkippedKeywords`]; so is any unknown keyword of the trailer, the
 //! unindented lines after the surface table, where OpticStudio writes merit-function and
-//! tolerance operands. Coordinate breaks (`TYPE COORDBRK`, with `PPAR` pickups of their
+//! tolerance operands. An unknown keyword of the header (before `SURF 0`) is skipped too, but
+//! named in its own [`LoadNote::UnknownHeaderKeywords`]: OpticStudio adds header settings with
+//! its releases (`STUD`, `FSVY`), and every header keyword that defines the lens, its aperture,
+//! fields, wavelengths or units is one this reader applies or refuses by name. Coordinate breaks (`TYPE COORDBRK`, with `PPAR` pickups of their
 //! parameters) are read as planes in the medium before them that move the later surfaces; the
 //! lens they describe is centred by `placement` (fold mirrors unfolded) or refused there. Any
 //! other keyword is refused, naming keyword, line and surface: other surface types (toroids,
@@ -71,11 +74,12 @@ const TOP_APPLIED: &[&str] = &[
 
 /// Surface keywords that change no surface lensbake models: display (HIDE, SLAB, MIRR, the
 /// substrate drawing of a mirror), coating and physical-optics data (COAT, POPS), comments,
-/// solve and variable flags (VCRV, VPAR, VDSZ, VCON, PZUP: the solved values are in CURV, DISZ,
-/// ...), and data the surface types lensbake reads do not use (XDAT, FIMP, MEMA, MAZH, TCE).
+/// solve and variable flags (VCRV, VPAR, VDSZ, VCON, PZUP, and TOLE, a thickness solve for the
+/// length to a later surface: the solved values are in CURV, DISZ, ...), and data the surface
+/// types lensbake reads do not use (XDAT, FIMP, MEMA, MAZH, TCE).
 const HARMLESS_SURFACE: &[&str] = &[
     "FIMP", "HIDE", "MIRR", "SLAB", "MEMA", "POPS", "COMM", "FLAP", "COAT", "MAZH", "PZUP", "VCRV",
-    "VPAR", "VDSZ", "VCON", "XDAT", "TCE", "OEMA", "BLNK",
+    "VPAR", "VDSZ", "VCON", "XDAT", "TCE", "OEMA", "BLNK", "TOLE",
 ];
 
 /// OpticStudio holds at most 24 wavelengths; the bound also keeps a corrupt number from
@@ -161,6 +165,8 @@ struct Reader {
     /// Whether an unindented keyword other than SURF followed a surface: the trailer.
     in_trailer: bool,
     skipped: BTreeSet<String>,
+    /// Header keywords this reader does not know, skipped (see [`LoadNote::UnknownHeaderKeywords`]).
+    unknown_header: BTreeSet<String>,
 }
 
 pub(super) fn read(text: &str, source: &Source) -> Result<Loaded, PrescriptionError> {
@@ -474,6 +480,9 @@ impl Reader {
             k if HARMLESS_TOP.contains(&k) || self.in_trailer => {
                 self.skipped.insert(k.to_string());
             }
+            k if self.blocks.is_empty() => {
+                self.unknown_header.insert(k.to_string());
+            }
             other => return Err(unsupported(format!("Zemax keyword `{other}`"))),
         }
         Ok(())
@@ -661,6 +670,11 @@ impl Reader {
         if !self.skipped.is_empty() {
             loaded.notes.push(LoadNote::SkippedKeywords {
                 keywords: self.skipped.into_iter().collect(),
+            });
+        }
+        if !self.unknown_header.is_empty() {
+            loaded.notes.push(LoadNote::UnknownHeaderKeywords {
+                keywords: self.unknown_header.into_iter().collect(),
             });
         }
         Ok(loaded)
