@@ -44,6 +44,7 @@ const LOADS: &[&str] = &[
     "rayoptics__mangin.seq",
     "rayoptics__paraboloid.seq",
     "rayoptics__paraboloid_f8.seq",
+    "rayoptics__questar35.seq",
     "rayoptics__rc_f16.seq",
     "rayoptics__schmidt.seq",
     "rayoptics__schmidt_sph.seq",
@@ -143,7 +144,7 @@ fn first_order_data_and_seidel_sums_match_rayoptics() {
         serde_json::from_str(&std::fs::read_to_string(corpus().join("peers.json")).unwrap())
             .unwrap();
     let lenses = peers["lenses"].as_object().unwrap();
-    assert_eq!(lenses.len(), 12);
+    assert_eq!(lenses.len(), 13);
     for (name, peer) in lenses {
         let loaded = read_file(&corpus().join(name), &LoadOptions::default()).unwrap();
         let by_f_number = matches!(

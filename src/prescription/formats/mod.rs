@@ -170,6 +170,9 @@ pub enum LoadNote {
     /// and units are all known, so these are settings of a newer OpticStudio, but lensbake cannot
     /// vouch for them.
     UnknownHeaderKeywords { keywords: Vec<String> },
+    /// CODE V paraxial solves (`PIM`, `CUM`, ...) the file uses; the lens is read with the
+    /// curvatures and thicknesses the file writes, which CODE V writes as the solves left them.
+    SolvesAsWritten { solves: Vec<String> },
     /// The file decentres or tilts surfaces, and the lens read is the centred one they describe
     /// exactly: `folds` (1-based) are tilted plane mirrors unfolded into planes; every other
     /// decentre or tilt cancels or moves only a plane that bends no ray.
@@ -230,6 +233,12 @@ impl fmt::Display for LoadNote {
                 f,
                 "skipped keywords that change nothing lensbake models: {}",
                 keywords.join(", ")
+            ),
+            LoadNote::SolvesAsWritten { solves } => write!(
+                f,
+                "solves {} read as the file writes their results (CODE V writes each solved \
+                 curvature and thickness in place); they are not solved again",
+                solves.join(", ")
             ),
             LoadNote::UnknownHeaderKeywords { keywords } => write!(
                 f,
