@@ -269,12 +269,6 @@ fn unsupported_input_is_refused_by_name() {
             2,
             "multi-configuration",
         ),
-        (
-            "MODE SEQ\nSURF 0\nSURF 1\n  CLAP 1 5\n",
-            Format::Zemax,
-            4,
-            "annular",
-        ),
         // An unknown keyword in a surface (one in the header is skipped with a note).
         (
             "MODE SEQ\nSURF 0\nSURF 1\n  FOOB 1\n",

@@ -14,7 +14,8 @@
 //! `MNUM 1`; per surface: `TYPE STANDARD` or `TYPE EVENASPH`, `CURV`, `CONI`, `PARM 1..8`
 //! (even-asphere r^2 .. r^16), `DISZ` (`SURF 0 DISZ` is the object distance), `GLAS` (a name, or
 //! `___BLANK` with nd and Vd: a model glass; `MIRROR`: the surface reflects), `DIAM`, `CLAP 0 r`,
-//! `OBSC 0 r` (a central obscuration), `STOP`. After a mirror OpticStudio writes thicknesses
+//! `OBSC 0 r` (a central obscuration), `CLAP r R` with r > 0 (an annular aperture: clear
+//! aperture R with a central obscuration r), `STOP`. After a mirror OpticStudio writes thicknesses
 //! negative while light travels back (-z); the model keeps that convention.
 //!
 //! The object distance, aperture, fields and wavelengths become the prescription's
@@ -38,7 +39,7 @@
 //! lens they describe is centred by `placement` (fold mirrors unfolded) or refused there. Any
 //! other keyword is refused, naming keyword, line and surface: other surface types (toroids,
 //! gratings, paraxial, ...), surface tilts written as `SCBD`, multi-configuration files,
-//! annular apertures and obscurations, non-circular apertures, ignored surfaces, a curved image surface,
+//! annular obscurations, non-circular apertures, ignored surfaces, a curved image surface,
 //! non-sequential mode, and every unknown keyword inside the surface table.
 
 use super::apertures::{self, BeamSpec, INFINITE_OBJECT_MM};
@@ -106,7 +107,7 @@ struct Block {
     parms: [f64; PARM_TERMS],
     semi_diameter: Option<f64>,
     clear_radius: Option<f64>,
-    /// Radius of a central obscuration (`OBSC 0 r`).
+    /// Radius of a central obscuration (`OBSC 0 r`, or the inner radius of `CLAP r R`).
     obscuration: Option<f64>,
     stop: Option<usize>,
     /// Glass as written: a name (resolved once the file's catalogues are known) or a medium.
@@ -122,6 +123,13 @@ enum Glass {
 }
 
 impl Block {
+    /// Blocks rays nearer the axis than `radius` (0: none), with any obscuration already read.
+    fn obscure(&mut self, radius: f64) {
+        if radius > 0.0 {
+            self.obscuration = Some(self.obscuration.map_or(radius, |r| r.max(radius)));
+        }
+    }
+
     fn new(line: usize) -> Block {
         Block {
             line,
@@ -339,14 +347,21 @@ impl Reader {
                     block.semi_diameter = Some(value(0)?);
                     true
                 }
+                // An annular aperture passes inner <= r <= outer: the clear aperture with a
+                // central obscuration.
                 "CLAP" => {
                     let (inner, outer) = (value(0)?, value(1)?);
-                    if inner != 0.0 {
-                        return Err(unsupported(format!(
-                            "an annular aperture (CLAP {inner} {outer})"
-                        )));
+                    if !(0.0..outer).contains(&inner) {
+                        return Err(PrescriptionError::new(
+                            at("CLAP"),
+                            Problem::Syntax(format!(
+                                "the aperture CLAP {inner} {outer} passes no ray: its inner \
+                                 radius must lie in 0 .. outer"
+                            )),
+                        ));
                     }
                     block.clear_radius = Some(outer);
+                    block.obscure(inner);
                     true
                 }
                 "STOP" => {
@@ -360,7 +375,7 @@ impl Reader {
                             "an annular obscuration (OBSC {inner} {outer})"
                         )));
                     }
-                    block.obscuration = Some(outer);
+                    block.obscure(outer);
                     true
                 }
                 "SQAP" | "ELAP" | "SQOB" | "ELOB" | "UDAP" | "UDAD" => {
