@@ -13,6 +13,16 @@ use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
+/// How every OpenEXR file lensbake writes is laid out: run-length coded 64 x 64 tiles, as the
+/// exr crate's default, but stored in increasing order. The default order leaves blocks where the
+/// parallel compressor finished them, so the same image gave different bytes from run to run.
+pub fn reproducible_exr_encoding() -> exr::prelude::Encoding {
+    exr::prelude::Encoding {
+        line_order: exr::prelude::LineOrder::Increasing,
+        ..exr::prelude::Encoding::FAST_LOSSLESS
+    }
+}
+
 /// Written into every published directory: its presence says lensbake may replace the directory
 /// as a whole.
 pub const PUBLISHED_MARKER: &str = ".lensbake-output";

@@ -16,11 +16,15 @@ use lensbake::system::LensSystem;
 use serde_json::Value;
 use std::path::Path;
 
-/// Whether the reading notes only list skipped harmless keywords (no derived apertures).
+/// Whether the reading notes only list skipped harmless keywords and solves read as written (no
+/// derived apertures).
 fn only_skipped_keywords(notes: &[LoadNote]) -> bool {
-    notes
-        .iter()
-        .all(|n| matches!(n, LoadNote::SkippedKeywords { .. }))
+    notes.iter().all(|n| {
+        matches!(
+            n,
+            LoadNote::SkippedKeywords { .. } | LoadNote::SolvesAsWritten { .. }
+        )
+    })
 }
 
 fn load(path: &Path, options: &LoadOptions) -> Loaded {

@@ -43,11 +43,11 @@ fn list_filters_by_catalogue_and_unknown_names_fail_with_suggestions() {
 
     let o = lensbake(&["glass", "list", "--catalog", "NOPE"]);
     assert_eq!(o.status.code(), Some(2));
-    let o = lensbake(&["glass", "show", "BK7"]);
+    let o = lensbake(&["glass", "show", "N-BK8"]);
     assert_eq!(o.status.code(), Some(2));
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(
-        err.starts_with("error: unknown glass `BK7`; did you mean") && err.contains("N-BK7"),
+        err.starts_with("error: unknown glass `N-BK8`; did you mean") && err.contains("N-BK7"),
         "{err}"
     );
 }

@@ -426,6 +426,26 @@ fn zemax_and_code_v_mirrors_and_obscurations_are_read() {
     assert_eq!(surfaces[0].obscuration, Some(3.0));
     assert_eq!(surfaces[1].medium, Medium::Mirror);
     assert_eq!(surfaces[1].thickness, -100.0);
+    // An annular aperture (Zemax CLAP r R) is the clear aperture R with a central obscuration
+    // r; with an OBSC as well, the larger of the two blocks the middle.
+    let annular = |extra: &str| {
+        let text = zemax.replace("  OBSC 0 3\n", &format!("  CLAP 4 10\n{extra}"));
+        read_str(&text, None, Format::Zemax, &LoadOptions::default())
+    };
+    let first = annular("").unwrap().prescription.surfaces[0].clone();
+    assert_eq!((first.semi_aperture, first.obscuration), (10.0, Some(4.0)));
+    for (extra, blocked) in [("  OBSC 0 3\n", 4.0), ("  OBSC 0 5\n", 5.0)] {
+        let first = &annular(extra).unwrap().prescription.surfaces[0];
+        assert_eq!(first.obscuration, Some(blocked), "{extra}");
+    }
+    let e = read_str(
+        &zemax.replace("  OBSC 0 3\n", "  CLAP 10 4\n"),
+        None,
+        Format::Zemax,
+        &LoadOptions::default(),
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("passes no ray"), "{e}");
     let codev = "LEN\nEPD 20\nWL 550\nSO 0 1e10\nS 0 50\n  CIR 12\n  CIR OBS L'A' 3\nS -200 -100 \
                  REFL\n  STO\n  K -1\n  CIR 12\n  CIR HOL 2\nSI 0 0\nGO\n";
     let loaded = read_str(codev, None, Format::CodeV, &LoadOptions::default()).unwrap();

@@ -86,6 +86,34 @@ fn harmless_keywords_are_skipped_and_listed_in_one_note() {
     );
 }
 
+/// Header settings of a newer OpticStudio (before the surface table) are skipped and named in
+/// their own note; the lens is the one the surfaces give. The same keyword inside a surface is
+/// refused (below).
+#[test]
+fn unknown_header_keywords_are_skipped_and_named_apart() {
+    let plain = read(&singlet("", "  DIAM 6 0 0 0 1 \"\"\n", "")).unwrap();
+    let text = singlet(
+        "STUD 1\nFSVY 3 2 2 0 0.71 0 \"\"\n",
+        "  DIAM 6 0 0 0 1 \"\"\n",
+        "",
+    );
+    let loaded = read(&text).unwrap();
+    assert_eq!(loaded.prescription, plain.prescription);
+    let unknown: Vec<&LoadNote> = loaded
+        .notes
+        .iter()
+        .filter(|n| matches!(n, LoadNote::UnknownHeaderKeywords { .. }))
+        .collect();
+    assert_eq!(
+        unknown,
+        [&LoadNote::UnknownHeaderKeywords {
+            keywords: vec!["FSVY".into(), "STUD".into()]
+        }]
+    );
+    assert!(!skipped(&loaded).iter().any(|k| k == "STUD" || k == "FSVY"));
+    assert!(unknown[0].to_string().contains("does not know: FSVY, STUD"));
+}
+
 #[test]
 fn unknown_or_unsupported_surface_keywords_are_refused_where_they_stand() {
     let text = singlet("", "  ZQXW 1\n  DIAM 6 0 0 0 1 \"\"\n", "");

@@ -13,6 +13,7 @@ formula is the vendor's published dispersion formula:
     sellmeier4   the same with four terms                           (CaF2 after Daimon, misc.tsv)
     schott6      n^2 = A0 + A1 l^2 + A2 l^-2 + A3 l^-4 + A4 l^-6 + A5 l^-8   (HOYA, CDGM, SUMITA)
     hikari9      n^2 = A0 + A1 l^2 + A2 l^4 + A3 l^-2 + ... + A8 l^-12      (HIKARI)
+    buchdahl2    n = n0 + nu1 w + nu2 w^2, w = (l - 0.574) / (1 + 2.5 (l - 0.574))  (1980 glasses)
 l in micrometres. nd and vd are the sheet's own (datasheet) values; min_nm..max_nm is the span of
 wavelengths at which the sheet lists a measured index for that glass.
 
@@ -51,6 +52,9 @@ def index(formula, a, nm):
     if formula.startswith("sellmeier"):
         terms = len(a) // 2
         n2 = 1 + sum(a[i] * l2 / (l2 - a[i + terms]) for i in range(terms))
+    elif formula == "buchdahl2":
+        w = buchdahl_omega(nm)
+        return a[0] + a[1] * w + a[2] * w * w
     elif formula == "schott6":
         inv = 1 / l2
         n2 = a[0] + a[1] * l2 + sum(a[2 + k] * inv ** (k + 1) for k in range(4))
@@ -58,6 +62,12 @@ def index(formula, a, nm):
         inv = 1 / l2
         n2 = a[0] + a[1] * l2 + a[2] * l2 * l2 + sum(a[3 + k] * inv ** (k + 1) for k in range(6))
     return math.sqrt(n2)
+
+
+def buchdahl_omega(nm):
+    """Buchdahl's chromatic coordinate as Robb and Mercado use it: base 0.574 um, alpha 2.5."""
+    shift = nm * 1e-3 - 0.574
+    return shift / (1 + 2.5 * shift)
 
 
 def wavelength_nm(header):
@@ -210,6 +220,13 @@ MISC = [
     ("SAPPHIRE", "main/Al2O3/Malitson-o.yml",
      "sapphire ordinary ray, Malitson and Dodge, JOSA 62, 1405 (1972)"),
     ("B270", "glass/schott/misc/B270.yml", "SCHOTT B 270 datasheet, August 1993 (tabulated)"),
+    # Infrared crystals under the names Zemax's infrared catalogue gives them.
+    ("ZNSE", "main/ZnSe/Connolly.yml",
+     "zinc selenide (CVD, 23 C), Tatian, Appl. Opt. 23, 4477 (1984), fitted to the data of "
+     "Connolly et al., Proc. SPIE 181, 141 (1979)"),
+    ("MGF2", "main/MgF2/Dodge-o.yml",
+     "magnesium fluoride ordinary ray (19 C), Dodge, Appl. Opt. 23, 1980 (1984)"),
+    ("BAF2", "main/BaF2/Malitson.yml", "barium fluoride (25 C), Malitson, JOSA 54, 628 (1964)"),
 ]
 
 
@@ -272,7 +289,81 @@ def write_misc():
               "name\tformula\tcoefficients\tnd\tvd\tmin_nm\tmax_nm\tsource", misc_rows())
 
 
+# Glasses of the 1980 SCHOTT, OHARA and HOYA catalogues as Robb and Mercado fitted them:
+# Buchdahl's quadratic model n = n0 + nu1 w + nu2 w^2 over the visible (Appl. Opt. 22, 1198
+# (1983), Table V), as transcribed in opticalglass 1.1.1 data/robb1983_data_final.txt.
+ROBB_1980 = {"SCHOTT": "schott-1980.tsv", "OHARA": "ohara-1980.tsv", "HOYA": "hoya-1980.tsv"}
+# The sheets each 1980 catalogue stands behind: a name they hold is read from them.
+CURRENT = {"SCHOTT": ["schott.tsv", "schott-legacy.tsv"], "OHARA": ["ohara.tsv", "ohara-low-tg.tsv"],
+           "HOYA": ["hoya.tsv"]}
+# Corroborated when another 1980 catalogue's glass of the same name has nd within this and vd
+# within VD_AGREE: makers matched their rivals' glasses that closely, and the two rows were
+# transcribed apart, so an agreeing pair is read right. Rows nobody corroborates are left out:
+# some of the transcription pairs a name with another glass's numbers (SCHOTT SF56 and SF57 give
+# nd 1.728 and 1.761; the glasses are 1.785 and 1.847).
+ND_AGREE, VD_AGREE = 2e-3, 1.0
+
+
+def glass_key(name):
+    return "".join(ch for ch in name.upper() if ch.isalnum())
+
+
+def robb_1980_tables():
+    import opticalglass
+
+    path = os.path.join(os.path.dirname(opticalglass.__file__), "data", "robb1983_data_final.txt")
+    tables, maker = {}, None
+    with open(path, encoding="utf-8") as f:
+        for line in f:
+            if line.startswith("#"):
+                if "GLASS CATALOGUE" in line:
+                    maker = line[1:].split()[0]
+                continue
+            name, n0, nu1, nu2 = line.split()[:4]
+            coefs = [float(n0), float(nu1), float(nu2)]
+            nd = index("buchdahl2", coefs, D)
+            vd = (nd - 1) / (index("buchdahl2", coefs, F) - index("buchdahl2", coefs, C))
+            tables.setdefault(maker, {})[glass_key(name)] = (name, coefs, nd, vd)
+    return tables
+
+
+def held_names(files):
+    names = set()
+    for file_name in files:
+        with open(os.path.join(OUT, file_name), encoding="utf-8") as f:
+            names |= {glass_key(l.split("\t")[0]) for l in f if not l.startswith("#")}
+    return names
+
+
+def write_robb_1980():
+    tables = robb_1980_tables()
+    for maker, file_name in ROBB_1980.items():
+        held = held_names(CURRENT[maker])
+        rows, alone, disputed = [], 0, []
+        for key, (name, coefs, nd, vd) in tables[maker].items():
+            if key in held:
+                continue
+            others = [t[key] for m, t in tables.items() if m != maker and key in t]
+            if not others:
+                alone += 1
+                continue
+            if not all(abs(nd - o[2]) < ND_AGREE and abs(vd - o[3]) < VD_AGREE for o in others):
+                disputed.append(name)
+                continue
+            rows.append("\t".join([name, "buchdahl2", " ".join(repr(c) for c in coefs),
+                                   f"{nd:.6f}", f"{vd:.2f}", "400", "700"]))
+        print(f"{maker} 1980: {len(rows)} written, {alone} uncorroborated, disputed {disputed}",
+              file=sys.stderr)
+        write_tsv(file_name,
+                  f"{maker} 1980 catalogue glasses that later sheets dropped, as Buchdahl quadratic "
+                  "fits over 400-700 nm by Robb and Mercado, Appl. Opt. 22, 1198 (1983), Table V "
+                  "(transcription in opticalglass 1.1.1 data/robb1983_data_final.txt); nd and vd "
+                  "computed from the fit",
+                  "name\tformula\tcoefficients (n0 nu1 nu2)\tnd\tvd\tmin_nm\tmax_nm", rows)
+
+
 if __name__ == "__main__":
     main()
     write_ohara_low_tg()
     write_misc()
+    write_robb_1980()

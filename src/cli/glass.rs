@@ -102,7 +102,7 @@ fn describe(glass: &CatalogGlass) -> String {
     }
     let _ = writeln!(out, "  formula: {}", formula(&glass.formula));
     if let Some((low, high)) = glass.measured_nm {
-        let _ = writeln!(out, "  measured by the maker from {low} to {high} nm");
+        let _ = writeln!(out, "  index data from {low} to {high} nm");
     }
     let _ = writeln!(out, "  source: {}", glass.source);
     out
@@ -131,6 +131,11 @@ fn formula(dispersion: &Dispersion) -> String {
         Dispersion::ExtendedPowerSeries { a } => format!(
             "HIKARI power series n² = A0 + A1 l² + A2 l⁴ + A3 l⁻² + ... + A8 l⁻¹², l in µm; A = [{}]",
             list(a)
+        ),
+        Dispersion::Buchdahl { n0, nu } => format!(
+            "Buchdahl quadratic n = n0 + ν1 ω + ν2 ω², ω = δl/(1 + 2.5 δl), δl = l - 0.574 µm; \
+             n0 = {n0}, ν1 = {:e}, ν2 = {:e}",
+            nu[0], nu[1]
         ),
         Dispersion::Tabulated { points, .. } => format!(
             "tabulated, {} points from {} to {} nm, natural cubic spline",

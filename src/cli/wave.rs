@@ -425,8 +425,9 @@ fn encode_exr(psf: &lensbake::wave::Psf) -> anyhow::Result<Vec<u8>> {
     use exr::prelude::*;
     let size = psf.size;
     let mut bytes = std::io::Cursor::new(Vec::new());
-    Image::from_channels(
+    Image::from_encoded_channels(
         (size, size),
+        lensbake::output::reproducible_exr_encoding(),
         SpecificChannels::build()
             .with_channel("Y")
             .with_pixel_fn(|position: Vec2<usize>| {

@@ -28,6 +28,10 @@ pub struct CatalogGlass {
     /// Shortest and longest wavelength (nm) at which the maker lists a measured index, where
     /// the data file says.
     pub measured_nm: Option<(f64, f64)>,
+    /// From a 1980 catalogue (a glass withdrawn before its maker published Sellmeier data): a
+    /// name resolves to it only when no current catalogue holds that name, as a design program
+    /// searching the makers' current catalogues would never find it.
+    pub withdrawn: bool,
 }
 
 impl CatalogGlass {
@@ -74,33 +78,41 @@ pub const CATALOGUES: &[&str] = &[
     "SCHOTT", "OHARA", "HOYA", "CDGM", "HIKARI", "SUMITA", "MISC",
 ];
 
-/// (catalogue, embedded data file). A catalogue may span several files.
-const DATA: &[(&str, &str)] = &[
-    ("SCHOTT", include_str!("data/schott.tsv")),
-    ("SCHOTT", include_str!("data/schott-legacy.tsv")),
-    ("OHARA", include_str!("data/ohara.tsv")),
-    ("OHARA", include_str!("data/ohara-low-tg.tsv")),
-    ("HOYA", include_str!("data/hoya.tsv")),
-    ("CDGM", include_str!("data/cdgm.tsv")),
-    ("HIKARI", include_str!("data/hikari.tsv")),
-    ("HIKARI", include_str!("data/hikari-legacy.tsv")),
-    ("SUMITA", include_str!("data/sumita.tsv")),
-    ("MISC", include_str!("data/misc.tsv")),
+/// (catalogue, embedded data file, whether its glasses are withdrawn ones from 1980). A
+/// catalogue may span several files.
+const DATA: &[(&str, &str, bool)] = &[
+    ("SCHOTT", include_str!("data/schott.tsv"), false),
+    ("SCHOTT", include_str!("data/schott-legacy.tsv"), false),
+    ("SCHOTT", include_str!("data/schott-1980.tsv"), true),
+    ("OHARA", include_str!("data/ohara.tsv"), false),
+    ("OHARA", include_str!("data/ohara-low-tg.tsv"), false),
+    ("OHARA", include_str!("data/ohara-1980.tsv"), true),
+    ("HOYA", include_str!("data/hoya.tsv"), false),
+    ("HOYA", include_str!("data/hoya-1980.tsv"), true),
+    ("CDGM", include_str!("data/cdgm.tsv"), false),
+    ("HIKARI", include_str!("data/hikari.tsv"), false),
+    ("HIKARI", include_str!("data/hikari-legacy.tsv"), false),
+    ("SUMITA", include_str!("data/sumita.tsv"), false),
+    ("MISC", include_str!("data/misc.tsv"), false),
 ];
 
 static CATALOG: LazyLock<Vec<CatalogGlass>> = LazyLock::new(|| {
     let mut glasses = Vec::new();
-    for (maker, text) in DATA {
-        parse_file(maker, text, &mut glasses)
+    for (maker, text, withdrawn) in DATA {
+        parse_file(maker, text, *withdrawn, &mut glasses)
             .unwrap_or_else(|e| panic!("embedded glass data for {maker}: {e}"));
     }
     glasses.sort_by(|a, b| {
-        (glass_key(a.name).key, rank(a.maker)).cmp(&(glass_key(b.name).key, rank(b.maker)))
+        (glass_key(a.name).key, a.withdrawn, rank(a.maker)).cmp(&(
+            glass_key(b.name).key,
+            b.withdrawn,
+            rank(b.maker),
+        ))
     });
     glasses
 });
 
-/// Every catalogue glass, sorted by name, homonyms in [`CATALOGUES`] order.
+/// Every catalogue glass, sorted by name; homonyms current before withdrawn, then in [`CATALOGUES`] order.
 pub fn catalog() -> &'static [CatalogGlass] {
     &CATALOG
 }
@@ -117,6 +129,7 @@ fn rank(maker: &str) -> usize {
 fn parse_file(
     maker: &'static str,
     text: &'static str,
+    withdrawn: bool,
     out: &mut Vec<CatalogGlass>,
 ) -> Result<(), String> {
     let mut lines = text.lines();
@@ -157,6 +170,7 @@ fn parse_file(
             vd: number(columns[4])?,
             formula,
             measured_nm,
+            withdrawn,
         });
     }
     Ok(())
@@ -176,6 +190,10 @@ fn formula(kind: &str, c: &[f64]) -> Option<Dispersion> {
         },
         ("hikari9", 9) => Dispersion::ExtendedPowerSeries {
             a: c.try_into().ok()?,
+        },
+        ("buchdahl2", 3) => Dispersion::Buchdahl {
+            n0: c[0],
+            nu: [c[1], c[2]],
         },
         ("tabulated", n) if n >= 4 && n % 2 == 0 => {
             Dispersion::tabulated(c.chunks(2).map(|p| (p[0], p[1])).collect()).ok()?
@@ -212,8 +230,8 @@ pub fn lookup(name: &str) -> Result<&'static CatalogGlass, Problem> {
 
 /// Finds a glass by name, tolerant of case, dashes and a maker suffix. A maker suffix must match
 /// the glass's catalogue, so "SK16_SCHOTT" never resolves to HIKARI SK16. Among glasses of one
-/// name, the first catalogue of `preferred` (case-insensitive) that holds one wins, then
-/// [`CATALOGUES`] order.
+/// name, a current glass wins over a withdrawn 1980 one, then the first catalogue of `preferred`
+/// (case-insensitive) that holds one, then [`CATALOGUES`] order.
 pub fn lookup_in(name: &str, preferred: &[String]) -> Result<&'static CatalogGlass, Problem> {
     let wanted = glass_key(name);
     let preference = |g: &CatalogGlass| {
@@ -227,7 +245,7 @@ pub fn lookup_in(name: &str, preferred: &[String]) -> Result<&'static CatalogGla
         .filter(|g| {
             glass_key(g.name).key == wanted.key && wanted.maker.is_none_or(|m| g.maker == m)
         })
-        .min_by_key(|g| (preference(g), rank(g.maker)))
+        .min_by_key(|g| (g.withdrawn, preference(g), rank(g.maker)))
         .ok_or_else(|| Problem::UnknownGlass {
             name: name.to_string(),
             suggestions: suggestions(name),

@@ -16,6 +16,11 @@ pub const F_LINE_NM: f64 = 486.1327;
 /// Fraunhofer C line (hydrogen).
 pub const C_LINE_NM: f64 = 656.2725;
 
+/// Base wavelength (µm) and constant of Buchdahl's chromatic coordinate as Robb and Mercado
+/// chose them for the visible: w = (l - 0.574) / (1 + 2.5 (l - 0.574)).
+const BUCHDAHL_BASE_UM: f64 = 0.574;
+const BUCHDAHL_ALPHA: f64 = 2.5;
+
 /// A medium with its dispersion resolved: index as a function of wavelength.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Dispersion {
@@ -44,6 +49,14 @@ pub enum Dispersion {
     /// n^2 = A0 + A1 l^2 + A2 l^4 + A3 l^-2 + A4 l^-4 + ... + A8 l^-12.
     ExtendedPowerSeries {
         a: [f64; 9],
+    },
+    /// Buchdahl's quadratic model n = n0 + nu1 w + nu2 w^2 in the chromatic coordinate
+    /// w = dl / (1 + 2.5 dl), dl = l - 0.574 (l in micrometres): the form in which Robb and
+    /// Mercado (Appl. Opt. 22, 1198, 1983) fitted the 1980 catalogues over the visible, to a
+    /// few 1e-5. Glasses withdrawn before the makers published Sellmeier data are held this way.
+    Buchdahl {
+        n0: f64,
+        nu: [f64; 2],
     },
     /// Indices measured at listed wavelengths (nm, ascending), joined by a natural cubic spline
     /// that passes through every point; defined only between the first and last wavelength. A
@@ -151,6 +164,11 @@ impl Dispersion {
                     .rev()
                     .fold(0.0, |acc, coefficient| inv * (coefficient + acc));
                 (a[0] + l2 * (a[1] + l2 * a[2]) + falling).sqrt()
+            }
+            Dispersion::Buchdahl { n0, nu } => {
+                let shift_um = wavelength_nm * 1e-3 - BUCHDAHL_BASE_UM;
+                let w = shift_um / (1.0 + BUCHDAHL_ALPHA * shift_um);
+                n0 + w * (nu[0] + w * nu[1])
             }
             Dispersion::Tabulated { points, curvature } => {
                 spline_value(points, curvature, wavelength_nm)

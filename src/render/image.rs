@@ -70,8 +70,11 @@ pub fn write_exr(image: &RgbImage, path: &Path) -> Result<(), RenderError> {
         let p = image.pixels[position.y() * image.width as usize + position.x()];
         (p[0], p[1], p[2])
     });
-    let exr_image =
-        exr::prelude::Image::from_channels((image.width as usize, image.height as usize), channels);
+    let exr_image = exr::prelude::Image::from_encoded_channels(
+        (image.width as usize, image.height as usize),
+        crate::output::reproducible_exr_encoding(),
+        channels,
+    );
     write_atomically(path, |out| {
         exr_image
             .write()
@@ -234,10 +237,60 @@ pub fn write_exr_rgbz(ldi: &LayeredDepthImage, path: &Path) -> Result<(), Render
     let image = Image::from_layer(Layer::new(
         size,
         LayerAttributes::default(),
-        Encoding::FAST_LOSSLESS,
+        crate::output::reproducible_exr_encoding(),
         channels,
     ));
     write_atomically(path, |out| {
         image.write().to_buffered(out).map_err(|e| e.to_string())
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The same image is written as the same bytes, however the parallel compressor's threads
+    /// finish its tiles: blocks are stored in increasing order, which the file's header states.
+    #[test]
+    fn exr_files_are_byte_reproducible() {
+        let (width, height) = (320, 200);
+        // Tiles of very different run lengths, so they take different times to compress.
+        let pixels = (0..width * height)
+            .map(|i: u32| {
+                let v = if i % width < 150 {
+                    0.25
+                } else {
+                    i.wrapping_mul(2654435761) as f32
+                };
+                [v, 0.5 * v, 1.0]
+            })
+            .collect();
+        let image = RgbImage {
+            width,
+            height,
+            pixels,
+        };
+        let dir = std::env::temp_dir().join(format!("lensbake-exr-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(4)
+            .build()
+            .unwrap();
+        let written: Vec<Vec<u8>> = (0..6)
+            .map(|k| {
+                let path = dir.join(format!("{k}.exr"));
+                pool.install(|| write_exr(&image, &path)).unwrap();
+                std::fs::read(&path).unwrap()
+            })
+            .collect();
+        std::fs::remove_dir_all(&dir).unwrap();
+        assert!(written.iter().all(|bytes| *bytes == written[0]));
+        let meta =
+            exr::meta::MetaData::read_from_buffered(std::io::Cursor::new(&written[0]), false)
+                .unwrap();
+        assert_eq!(
+            meta.headers[0].line_order,
+            exr::prelude::LineOrder::Increasing
+        );
+    }
 }

@@ -25,7 +25,10 @@
 //! surfaces and `SI` are read; `placement` turns them into the centred lens they describe (fold
 //! mirrors unfolded) or refuses the lens.
 //!
-//! Refused with a message naming the command and line: every other command (other pickups, a `CUF` other than 0, solves, zoom positions, non-circular apertures (`REX`,
+//! Paraxial solves (`PIM`, `CUM`, `CUC`, `THM`, `THC`) keep the values the file writes: see
+//! `SOLVES`.
+//!
+//! Refused with a message naming the command and line: every other command (other pickups, a `CUF` other than 0, other solves, zoom positions, non-circular apertures (`REX`,
 //! `REY`, ...), private glasses given by a formula other than `LAU` Laurent coefficients), a curved object or image surface, and
 //! other `CIR` forms (several values). Image-height fields and
 //! numerical apertures are refused only when a clear aperture must be derived from them (see
@@ -163,16 +166,24 @@ enum Current {
 }
 
 /// Commands that change no surface: `LEN` (new lens), `INI` (designer), `POL` (polarisation),
-/// `CCY`, `THC`, `GLC`, `KC`, `AC` .. `JC` (optimisation variable codes of curvature, thickness,
-/// glass, conic and aspheric terms), `CLS` (plot colours of the wavelengths), `PIM` (the
-/// paraxial image solve; the file still states the thickness it produced), `DER`, `SLB` (labels), `SPH`, `CON`, `ASP` (surface-type
+/// `CCY`, `GLC`, `KC`, `AC` .. `JC` (optimisation variable codes of curvature, thickness,
+/// glass, conic and aspheric terms), `CLS` (plot colours of the wavelengths), `DER`, `SLB` (labels), `SPH`, `CON`, `ASP` (surface-type
 /// words whose data arrive through `K` and `A`..`J`), `TEM`, `PRE` (temperature and pressure:
 /// the catalogue indices are the makers' at their reference conditions), `COM`, `NOR`, `ZOO 1`
 /// is not among them: zoom files are refused.
 const HARMLESS: &[&str] = &[
-    "LEN", "INI", "POL", "CCY", "THC", "GLC", "KC", "AC", "BC", "CC", "DC", "EC", "FC", "GC", "HC",
-    "JC", "CLS", "PIM", "DER", "SLB", "SPH", "CON", "ASP", "TEM", "PRE", "COM",
+    "LEN", "INI", "POL", "CCY", "GLC", "KC", "AC", "BC", "CC", "DC", "EC", "FC", "GC", "HC", "JC",
+    "CLS", "DER", "SLB", "SPH", "CON", "ASP", "TEM", "PRE", "COM",
 ];
+
+/// Paraxial solves: `PIM` (image at the paraxial focus), `CUM`, `CUC` (curvature solves on the
+/// marginal and chief rays), `THM`, `THC` (thickness solves on them). CODE V writes every solved
+/// curvature and thickness in place, as the lens stood when it saved the file, so the values
+/// written are the lens and are kept. They are not re-solved: `questar35.seq` (CODE V 10.7)
+/// writes `CUM 0.0; THM 0.601` on a primary mirror whose written curvature gives the marginal
+/// ray slope 0.223 and height 0.354 in at the secondary, and that written lens is the Questar
+/// 3.5" (EFL 1282.7 mm, f/14.4), so what CODE V solves for is not what those names suggest.
+const SOLVES: &[&str] = &["PIM", "CUM", "CUC", "THM", "THC"];
 
 const ASPHERE_LETTERS: [&str; MAX_ASPHERE_TERMS - 1] =
     ["A", "B", "C", "D", "E", "F", "G", "H", "J"];
@@ -196,6 +207,8 @@ struct Reader {
     field_weights: Vec<f64>,
     wavelength_weights: Vec<f64>,
     skipped: BTreeSet<String>,
+    /// Solves whose results the file writes in place (see [`SOLVES`]).
+    solves: BTreeSet<String>,
     /// Private glasses (PRV ... END) by name, and the open PRV block's wavelengths (PWL).
     private: Vec<(String, Medium)>,
     private_block: Option<Vec<f64>>,
@@ -609,6 +622,9 @@ impl Reader {
             harmless if HARMLESS.contains(&harmless) => {
                 self.skipped.insert(harmless.to_string());
             }
+            solve if SOLVES.contains(&solve) => {
+                self.solves.insert(solve.to_string());
+            }
             other => return Err(unsupported(format!("CODE V command `{other}`"))),
         }
         Ok(())
@@ -786,6 +802,11 @@ impl Reader {
         if !self.skipped.is_empty() {
             loaded.notes.push(LoadNote::SkippedKeywords {
                 keywords: self.skipped.into_iter().collect(),
+            });
+        }
+        if !self.solves.is_empty() {
+            loaded.notes.push(LoadNote::SolvesAsWritten {
+                solves: self.solves.into_iter().collect(),
             });
         }
         Ok(loaded)

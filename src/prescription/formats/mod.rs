@@ -165,6 +165,14 @@ pub enum LoadNote {
     /// Keywords the file uses that change nothing lensbake models (display, merit function,
     /// tolerancing, coatings, ...), skipped; listed once, sorted.
     SkippedKeywords { keywords: Vec<String> },
+    /// Zemax header keywords (before the surface table) lensbake does not know, skipped; listed
+    /// once, sorted. The header keywords that define the lens, its aperture, fields, wavelengths
+    /// and units are all known, so these are settings of a newer OpticStudio, but lensbake cannot
+    /// vouch for them.
+    UnknownHeaderKeywords { keywords: Vec<String> },
+    /// CODE V paraxial solves (`PIM`, `CUM`, ...) the file uses; the lens is read with the
+    /// curvatures and thicknesses the file writes, which CODE V writes as the solves left them.
+    SolvesAsWritten { solves: Vec<String> },
     /// The file decentres or tilts surfaces, and the lens read is the centred one they describe
     /// exactly: `folds` (1-based) are tilted plane mirrors unfolded into planes; every other
     /// decentre or tilt cancels or moves only a plane that bends no ray.
@@ -224,6 +232,20 @@ impl fmt::Display for LoadNote {
             LoadNote::SkippedKeywords { keywords } => write!(
                 f,
                 "skipped keywords that change nothing lensbake models: {}",
+                keywords.join(", ")
+            ),
+            LoadNote::SolvesAsWritten { solves } => write!(
+                f,
+                "solves {} read as the file writes their results (CODE V writes each solved \
+                 curvature and thickness in place); they are not solved again",
+                solves.join(", ")
+            ),
+            LoadNote::UnknownHeaderKeywords { keywords } => write!(
+                f,
+                "skipped header keyword{} lensbake does not know: {} (lensbake applies every \
+                 header keyword it knows to define the surfaces, units, aperture, fields or \
+                 wavelengths; check these set none of them)",
+                if keywords.len() == 1 { "" } else { "s" },
                 keywords.join(", ")
             ),
         }

@@ -14,7 +14,8 @@
 //! `MNUM 1`; per surface: `TYPE STANDARD` or `TYPE EVENASPH`, `CURV`, `CONI`, `PARM 1..8`
 //! (even-asphere r^2 .. r^16), `DISZ` (`SURF 0 DISZ` is the object distance), `GLAS` (a name, or
 //! `___BLANK` with nd and Vd: a model glass; `MIRROR`: the surface reflects), `DIAM`, `CLAP 0 r`,
-//! `OBSC 0 r` (a central obscuration), `STOP`. After a mirror OpticStudio writes thicknesses
+//! `OBSC 0 r` (a central obscuration), `CLAP r R` with r > 0 (an annular aperture: clear
+//! aperture R with a central obscuration r), `STOP`. After a mirror OpticStudio writes thicknesses
 //! negative while light travels back (-z); the model keeps that convention.
 //!
 //! The object distance, aperture, fields and wavelengths become the prescription's
@@ -30,12 +31,15 @@
 //! solver, environment and bookkeeping data: `HARMLESS_TOP`, `HARMLESS_SURFACE`) are skipped and
 //! listed in one [`LoadNote::SkippedKeywords`]; so is any unknown keyword of the trailer, the
 //! unindented lines after the surface table, where OpticStudio writes merit-function and
-//! tolerance operands. Coordinate breaks (`TYPE COORDBRK`, with `PPAR` pickups of their
+//! tolerance operands. An unknown keyword of the header (before `SURF 0`) is skipped too, but
+//! named in its own [`LoadNote::UnknownHeaderKeywords`]: OpticStudio adds header settings with
+//! its releases (`STUD`, `FSVY`), and every header keyword that defines the lens, its aperture,
+//! fields, wavelengths or units is one this reader applies or refuses by name. Coordinate breaks (`TYPE COORDBRK`, with `PPAR` pickups of their
 //! parameters) are read as planes in the medium before them that move the later surfaces; the
 //! lens they describe is centred by `placement` (fold mirrors unfolded) or refused there. Any
 //! other keyword is refused, naming keyword, line and surface: other surface types (toroids,
 //! gratings, paraxial, ...), surface tilts written as `SCBD`, multi-configuration files,
-//! annular apertures and obscurations, non-circular apertures, ignored surfaces, a curved image surface,
+//! annular obscurations, non-circular apertures, ignored surfaces, a curved image surface,
 //! non-sequential mode, and every unknown keyword inside the surface table.
 
 use super::apertures::{self, BeamSpec, INFINITE_OBJECT_MM};
@@ -71,11 +75,12 @@ const TOP_APPLIED: &[&str] = &[
 
 /// Surface keywords that change no surface lensbake models: display (HIDE, SLAB, MIRR, the
 /// substrate drawing of a mirror), coating and physical-optics data (COAT, POPS), comments,
-/// solve and variable flags (VCRV, VPAR, VDSZ, VCON, PZUP: the solved values are in CURV, DISZ,
-/// ...), and data the surface types lensbake reads do not use (XDAT, FIMP, MEMA, MAZH, TCE).
+/// solve and variable flags (VCRV, VPAR, VDSZ, VCON, PZUP, and TOLE, a thickness solve for the
+/// length to a later surface: the solved values are in CURV, DISZ, ...), and data the surface
+/// types lensbake reads do not use (XDAT, FIMP, MEMA, MAZH, TCE).
 const HARMLESS_SURFACE: &[&str] = &[
     "FIMP", "HIDE", "MIRR", "SLAB", "MEMA", "POPS", "COMM", "FLAP", "COAT", "MAZH", "PZUP", "VCRV",
-    "VPAR", "VDSZ", "VCON", "XDAT", "TCE", "OEMA", "BLNK",
+    "VPAR", "VDSZ", "VCON", "XDAT", "TCE", "OEMA", "BLNK", "TOLE",
 ];
 
 /// OpticStudio holds at most 24 wavelengths; the bound also keeps a corrupt number from
@@ -102,7 +107,7 @@ struct Block {
     parms: [f64; PARM_TERMS],
     semi_diameter: Option<f64>,
     clear_radius: Option<f64>,
-    /// Radius of a central obscuration (`OBSC 0 r`).
+    /// Radius of a central obscuration (`OBSC 0 r`, or the inner radius of `CLAP r R`).
     obscuration: Option<f64>,
     stop: Option<usize>,
     /// Glass as written: a name (resolved once the file's catalogues are known) or a medium.
@@ -118,6 +123,13 @@ enum Glass {
 }
 
 impl Block {
+    /// Blocks rays nearer the axis than `radius` (0: none), with any obscuration already read.
+    fn obscure(&mut self, radius: f64) {
+        if radius > 0.0 {
+            self.obscuration = Some(self.obscuration.map_or(radius, |r| r.max(radius)));
+        }
+    }
+
     fn new(line: usize) -> Block {
         Block {
             line,
@@ -161,6 +173,8 @@ struct Reader {
     /// Whether an unindented keyword other than SURF followed a surface: the trailer.
     in_trailer: bool,
     skipped: BTreeSet<String>,
+    /// Header keywords this reader does not know, skipped (see [`LoadNote::UnknownHeaderKeywords`]).
+    unknown_header: BTreeSet<String>,
 }
 
 pub(super) fn read(text: &str, source: &Source) -> Result<Loaded, PrescriptionError> {
@@ -333,14 +347,21 @@ impl Reader {
                     block.semi_diameter = Some(value(0)?);
                     true
                 }
+                // An annular aperture passes inner <= r <= outer: the clear aperture with a
+                // central obscuration.
                 "CLAP" => {
                     let (inner, outer) = (value(0)?, value(1)?);
-                    if inner != 0.0 {
-                        return Err(unsupported(format!(
-                            "an annular aperture (CLAP {inner} {outer})"
-                        )));
+                    if !(0.0..outer).contains(&inner) {
+                        return Err(PrescriptionError::new(
+                            at("CLAP"),
+                            Problem::Syntax(format!(
+                                "the aperture CLAP {inner} {outer} passes no ray: its inner \
+                                 radius must lie in 0 .. outer"
+                            )),
+                        ));
                     }
                     block.clear_radius = Some(outer);
+                    block.obscure(inner);
                     true
                 }
                 "STOP" => {
@@ -354,7 +375,7 @@ impl Reader {
                             "an annular obscuration (OBSC {inner} {outer})"
                         )));
                     }
-                    block.obscuration = Some(outer);
+                    block.obscure(outer);
                     true
                 }
                 "SQAP" | "ELAP" | "SQOB" | "ELOB" | "UDAP" | "UDAD" => {
@@ -473,6 +494,9 @@ impl Reader {
             }
             k if HARMLESS_TOP.contains(&k) || self.in_trailer => {
                 self.skipped.insert(k.to_string());
+            }
+            k if self.blocks.is_empty() => {
+                self.unknown_header.insert(k.to_string());
             }
             other => return Err(unsupported(format!("Zemax keyword `{other}`"))),
         }
@@ -661,6 +685,11 @@ impl Reader {
         if !self.skipped.is_empty() {
             loaded.notes.push(LoadNote::SkippedKeywords {
                 keywords: self.skipped.into_iter().collect(),
+            });
+        }
+        if !self.unknown_header.is_empty() {
+            loaded.notes.push(LoadNote::UnknownHeaderKeywords {
+                keywords: self.unknown_header.into_iter().collect(),
             });
         }
         Ok(loaded)
