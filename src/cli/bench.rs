@@ -77,7 +77,11 @@ fn bench_trace(
         let new_output = start.elapsed().as_secs_f64();
         let start = Instant::now();
         tracer.trace_batch_into(&rays, Travel::Forward, Apertures::Checked, &mut traced);
-        (traced.ray_surfaces, new_output, start.elapsed().as_secs_f64())
+        (
+            traced.ray_surfaces,
+            new_output,
+            start.elapsed().as_secs_f64(),
+        )
     });
     if json {
         say!(

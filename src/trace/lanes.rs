@@ -148,8 +148,8 @@ impl<const STRIDES: usize> Block<STRIDES> {
     }
 }
 
-/// The instruction sets the block trace is compiled for.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// The instruction sets the block trace is compiled for, narrowest first.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
 pub(crate) enum Isa {
     /// Whatever the build targets (SSE2 on x86-64); `mul_add` may be a library call.
     Portable,
@@ -160,8 +160,24 @@ pub(crate) enum Isa {
 }
 
 impl Isa {
-    /// The widest set this processor runs.
+    /// The widest set this processor runs, or the narrower one the environment variable
+    /// `LENSBAKE_ISA` names (`portable`, `avx2`, `avx512`), for measurements; never one the
+    /// processor lacks. Found once per process.
     pub fn detect() -> Isa {
+        static CHOSEN: std::sync::OnceLock<Isa> = std::sync::OnceLock::new();
+        *CHOSEN.get_or_init(|| {
+            let widest = Isa::widest();
+            let asked = match std::env::var("LENSBAKE_ISA").as_deref() {
+                Ok("portable") => Isa::Portable,
+                #[cfg(target_arch = "x86_64")]
+                Ok("avx2") => Isa::Avx2Fma,
+                _ => widest,
+            };
+            asked.min(widest)
+        })
+    }
+
+    fn widest() -> Isa {
         #[cfg(target_arch = "x86_64")]
         {
             use std::arch::is_x86_feature_detected as has;
@@ -239,60 +255,58 @@ impl Tracer {
         visit: &mut impl LaneVisitor,
         finish: &mut impl FnMut(usize, Traced),
     ) -> u64 {
-        match (travel, isa) {
-            (Travel::Forward, Isa::Portable) => {
-                self.block_body::<true, STRIDES, Portable>(block, check_apertures, visit, finish)
+        // SAFETY (each machine): callers pass an `isa` no wider than `Isa::widest` found on
+        // this processor (`Isa::detect` never is).
+        unsafe {
+            match isa {
+                Isa::Portable => self.on_machine::<Portable, STRIDES>(
+                    block,
+                    travel,
+                    check_apertures,
+                    visit,
+                    finish,
+                ),
+                #[cfg(target_arch = "x86_64")]
+                Isa::Avx2Fma => self.on_machine::<Avx2Fma, STRIDES>(
+                    block,
+                    travel,
+                    check_apertures,
+                    visit,
+                    finish,
+                ),
+                #[cfg(target_arch = "x86_64")]
+                Isa::Avx512 => self.on_machine::<Avx512, STRIDES>(
+                    block,
+                    travel,
+                    check_apertures,
+                    visit,
+                    finish,
+                ),
             }
-            (Travel::Backward, Isa::Portable) => {
-                self.block_body::<false, STRIDES, Portable>(block, check_apertures, visit, finish)
-            }
-            // SAFETY (all four): `isa` comes from `Isa::detect` on this processor.
-            #[cfg(target_arch = "x86_64")]
-            (Travel::Forward, Isa::Avx2Fma) => unsafe {
-                self.block_avx2::<true, STRIDES>(block, check_apertures, visit, finish)
-            },
-            #[cfg(target_arch = "x86_64")]
-            (Travel::Backward, Isa::Avx2Fma) => unsafe {
-                self.block_avx2::<false, STRIDES>(block, check_apertures, visit, finish)
-            },
-            #[cfg(target_arch = "x86_64")]
-            (Travel::Forward, Isa::Avx512) => unsafe {
-                self.block_avx512::<true, STRIDES>(block, check_apertures, visit, finish)
-            },
-            #[cfg(target_arch = "x86_64")]
-            (Travel::Backward, Isa::Avx512) => unsafe {
-                self.block_avx512::<false, STRIDES>(block, check_apertures, visit, finish)
-            },
         }
     }
 
-    /// The block trace compiled for AVX2 and FMA (the one-ray code for surfaces without a
-    /// kernel included); its kernels are [`Avx2Fma`]'s.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
-    #[inline(never)]
-    fn block_avx2<const FORWARD: bool, const STRIDES: usize>(
+    /// # Safety
+    /// The processor runs machine `M`'s instructions.
+    unsafe fn on_machine<M: Machine, const STRIDES: usize>(
         &self,
         block: &mut Block<STRIDES>,
+        travel: Travel,
         check_apertures: bool,
         visit: &mut impl LaneVisitor,
         finish: &mut impl FnMut(usize, Traced),
     ) -> u64 {
-        self.block_body::<FORWARD, STRIDES, Avx2Fma>(block, check_apertures, visit, finish)
-    }
-
-    /// The block trace compiled for AVX-512 (a stride is one vector register).
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f,avx512dq,avx512vl,avx2,fma")]
-    #[inline(never)]
-    fn block_avx512<const FORWARD: bool, const STRIDES: usize>(
-        &self,
-        block: &mut Block<STRIDES>,
-        check_apertures: bool,
-        visit: &mut impl LaneVisitor,
-        finish: &mut impl FnMut(usize, Traced),
-    ) -> u64 {
-        self.block_body::<FORWARD, STRIDES, Avx512>(block, check_apertures, visit, finish)
+        // SAFETY: passed on from the caller.
+        unsafe {
+            match travel {
+                Travel::Forward => {
+                    M::trace::<true, STRIDES>(self, block, check_apertures, visit, finish)
+                }
+                Travel::Backward => {
+                    M::trace::<false, STRIDES>(self, block, check_apertures, visit, finish)
+                }
+            }
+        }
     }
 
     #[inline(always)]
@@ -329,27 +343,29 @@ impl Tracer {
             let refracts = s.index_before != s.index_after;
             let check = check_apertures;
             let (from, to) = (&*current, &mut *next);
+            // SAFETY (each kernel): the block trace runs on machine `M` only where its caller
+            // found the processor runs `M`'s instructions.
             match (s.profile, s.bladed || !s.plain(), refracts) {
-                (Profile::Sphere { .. }, false, true) => {
+                (Profile::Sphere { .. }, false, true) => unsafe {
                     M::kernel::<SphereCrossing<FORWARD, true>, STRIDES>(
                         s, from, to, events, strides, check,
                     )
-                }
-                (Profile::Sphere { .. }, false, false) => {
+                },
+                (Profile::Sphere { .. }, false, false) => unsafe {
                     M::kernel::<SphereCrossing<FORWARD, false>, STRIDES>(
                         s, from, to, events, strides, check,
                     )
-                }
-                (Profile::Plane, false, true) => {
+                },
+                (Profile::Plane, false, true) => unsafe {
                     M::kernel::<PlaneCrossing<FORWARD, true>, STRIDES>(
                         s, from, to, events, strides, check,
                     )
-                }
-                (Profile::Plane, false, false) => {
+                },
+                (Profile::Plane, false, false) => unsafe {
                     M::kernel::<PlaneCrossing<FORWARD, false>, STRIDES>(
                         s, from, to, events, strides, check,
                     )
-                }
+                },
                 _ => {
                     let events = events.as_flattened_mut();
                     for slot in (0..occupied).filter(|&slot| alive[slot] == ALIVE) {
@@ -577,11 +593,28 @@ impl<const FORWARD: bool, const REFRACTS: bool> Crossing for PlaneCrossing<FORWA
     }
 }
 
-/// One compiled copy of the kernels per instruction set. Each kernel is a function of its
-/// own (never inlined into the block loop, whose two column sets swap places every surface):
-/// there its arguments are known not to overlap, which the compiler needs to vectorise it.
+/// One compiled copy of the block trace and its kernels per instruction set. Each kernel is a
+/// function of its own (never inlined into the block loop, whose two column sets swap places
+/// every surface): there its arguments are known not to overlap, which the compiler needs to
+/// vectorise it.
 trait Machine {
-    fn kernel<K: Crossing, const STRIDES: usize>(
+    /// [`Tracer::trace_block`] compiled for this machine.
+    ///
+    /// # Safety
+    /// The processor runs this machine's instructions.
+    unsafe fn trace<const FORWARD: bool, const STRIDES: usize>(
+        tracer: &Tracer,
+        block: &mut Block<STRIDES>,
+        check_apertures: bool,
+        visit: &mut impl LaneVisitor,
+        finish: &mut impl FnMut(usize, Traced),
+    ) -> u64;
+
+    /// [`kernel`] compiled for this machine.
+    ///
+    /// # Safety
+    /// The processor runs this machine's instructions.
+    unsafe fn kernel<K: Crossing, const STRIDES: usize>(
         s: &FlatSurface,
         current: &Columns<STRIDES>,
         next: &mut Columns<STRIDES>,
@@ -591,15 +624,22 @@ trait Machine {
     );
 }
 
+/// The build's own instruction set (SSE2 on x86-64).
 struct Portable;
-#[cfg(target_arch = "x86_64")]
-struct Avx2Fma;
-#[cfg(target_arch = "x86_64")]
-struct Avx512;
 
 impl Machine for Portable {
+    unsafe fn trace<const FORWARD: bool, const STRIDES: usize>(
+        tracer: &Tracer,
+        block: &mut Block<STRIDES>,
+        check_apertures: bool,
+        visit: &mut impl LaneVisitor,
+        finish: &mut impl FnMut(usize, Traced),
+    ) -> u64 {
+        tracer.block_body::<FORWARD, STRIDES, Portable>(block, check_apertures, visit, finish)
+    }
+
     #[inline(never)]
-    fn kernel<K: Crossing, const STRIDES: usize>(
+    unsafe fn kernel<K: Crossing, const STRIDES: usize>(
         s: &FlatSurface,
         current: &Columns<STRIDES>,
         next: &mut Columns<STRIDES>,
@@ -611,67 +651,87 @@ impl Machine for Portable {
     }
 }
 
-#[cfg(target_arch = "x86_64")]
-impl Machine for Avx2Fma {
-    #[inline(always)]
-    fn kernel<K: Crossing, const STRIDES: usize>(
-        s: &FlatSurface,
-        current: &Columns<STRIDES>,
-        next: &mut Columns<STRIDES>,
-        events: &mut [[u64; STRIDE]; STRIDES],
-        strides: usize,
-        check_apertures: bool,
-    ) {
-        // SAFETY: this machine's kernels run only inside `Tracer::block_avx2`, which runs only
-        // where `Isa::detect` found AVX2 and FMA.
-        unsafe { kernel_avx2::<K, STRIDES>(s, current, next, events, strides, check_apertures) }
-    }
+/// An x86-64 machine whose block trace and kernels are compiled with `$features` (everything
+/// they call is `inline(always)`, so it is compiled with the features too).
+macro_rules! x86_machine {
+    ($(#[$doc:meta])* $machine:ident, $features:tt) => {
+        $(#[$doc])*
+        #[cfg(target_arch = "x86_64")]
+        struct $machine;
+
+        #[cfg(target_arch = "x86_64")]
+        impl $machine {
+            #[target_feature(enable = $features)]
+            #[inline(never)]
+            fn trace_compiled<const FORWARD: bool, const STRIDES: usize>(
+                tracer: &Tracer,
+                block: &mut Block<STRIDES>,
+                check_apertures: bool,
+                visit: &mut impl LaneVisitor,
+                finish: &mut impl FnMut(usize, Traced),
+            ) -> u64 {
+                tracer.block_body::<FORWARD, STRIDES, $machine>(block, check_apertures, visit, finish)
+            }
+
+            #[target_feature(enable = $features)]
+            #[inline(never)]
+            fn kernel_compiled<K: Crossing, const STRIDES: usize>(
+                s: &FlatSurface,
+                current: &Columns<STRIDES>,
+                next: &mut Columns<STRIDES>,
+                events: &mut [[u64; STRIDE]; STRIDES],
+                strides: usize,
+                check_apertures: bool,
+            ) {
+                kernel::<K, STRIDES>(s, current, next, events, strides, check_apertures)
+            }
+        }
+
+        #[cfg(target_arch = "x86_64")]
+        impl Machine for $machine {
+            #[inline(always)]
+            unsafe fn trace<const FORWARD: bool, const STRIDES: usize>(
+                tracer: &Tracer,
+                block: &mut Block<STRIDES>,
+                check_apertures: bool,
+                visit: &mut impl LaneVisitor,
+                finish: &mut impl FnMut(usize, Traced),
+            ) -> u64 {
+                // SAFETY: passed on from the caller.
+                unsafe {
+                    Self::trace_compiled::<FORWARD, STRIDES>(tracer, block, check_apertures, visit, finish)
+                }
+            }
+
+            #[inline(always)]
+            unsafe fn kernel<K: Crossing, const STRIDES: usize>(
+                s: &FlatSurface,
+                current: &Columns<STRIDES>,
+                next: &mut Columns<STRIDES>,
+                events: &mut [[u64; STRIDE]; STRIDES],
+                strides: usize,
+                check_apertures: bool,
+            ) {
+                // SAFETY: passed on from the caller.
+                unsafe {
+                    Self::kernel_compiled::<K, STRIDES>(s, current, next, events, strides, check_apertures)
+                }
+            }
+        }
+    };
 }
 
-#[cfg(target_arch = "x86_64")]
-impl Machine for Avx512 {
-    #[inline(always)]
-    fn kernel<K: Crossing, const STRIDES: usize>(
-        s: &FlatSurface,
-        current: &Columns<STRIDES>,
-        next: &mut Columns<STRIDES>,
-        events: &mut [[u64; STRIDE]; STRIDES],
-        strides: usize,
-        check_apertures: bool,
-    ) {
-        // SAFETY: this machine's kernels run only inside `Tracer::block_avx512`, which runs
-        // only where `Isa::detect` found AVX-512 and FMA.
-        unsafe { kernel_avx512::<K, STRIDES>(s, current, next, events, strides, check_apertures) }
-    }
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-#[inline(never)]
-fn kernel_avx2<K: Crossing, const STRIDES: usize>(
-    s: &FlatSurface,
-    current: &Columns<STRIDES>,
-    next: &mut Columns<STRIDES>,
-    events: &mut [[u64; STRIDE]; STRIDES],
-    strides: usize,
-    check_apertures: bool,
-) {
-    kernel::<K, STRIDES>(s, current, next, events, strides, check_apertures)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512dq,avx512vl,avx2,fma")]
-#[inline(never)]
-fn kernel_avx512<K: Crossing, const STRIDES: usize>(
-    s: &FlatSurface,
-    current: &Columns<STRIDES>,
-    next: &mut Columns<STRIDES>,
-    events: &mut [[u64; STRIDE]; STRIDES],
-    strides: usize,
-    check_apertures: bool,
-) {
-    kernel::<K, STRIDES>(s, current, next, events, strides, check_apertures)
-}
+x86_machine!(
+    /// AVX2 with fused multiply-adds: a stride is two vector registers.
+    Avx2Fma,
+    "avx2,fma"
+);
+x86_machine!(
+    /// AVX-512 (foundation, doubleword/quadword and vector-length extensions): a stride is one
+    /// vector register.
+    Avx512,
+    "avx512f,avx512dq,avx512vl,avx2,fma"
+);
 
 /// Crosses surface `s` with the first `strides` strides of `current`, writing `next` and the
 /// event codes.
@@ -730,7 +790,7 @@ mod tests {
     fn runnable() -> Vec<Isa> {
         let mut isas = vec![Isa::Portable];
         #[cfg(target_arch = "x86_64")]
-        match Isa::detect() {
+        match Isa::widest() {
             Isa::Avx512 => isas.extend([Isa::Avx2Fma, Isa::Avx512]),
             Isa::Avx2Fma => isas.push(Isa::Avx2Fma),
             Isa::Portable => {}

@@ -548,7 +548,7 @@ impl Tracer {
         let check = apertures == Apertures::Checked;
         #[cfg(target_arch = "x86_64")]
         if isa.fused() {
-            // SAFETY: a fused `isa` comes from `Isa::detect` on this processor, which found FMA.
+            // SAFETY: a fused `isa` is one `Isa::widest` allows on this processor: it has FMA.
             return unsafe { self.run_fma(ray, travel, steps, check, visit) };
         }
         self.run_travel(ray, travel, steps, check, visit)
