@@ -351,6 +351,12 @@ fn a_reference_plane_crossed_by_its_neighbour_changes_no_ray() {
         let loaded = read(text).unwrap();
         LensSystem::new(loaded.prescription, &loaded.map).unwrap()
     };
+    // Without a DIAM its aperture is derived from the file's beams, not cut where the rear
+    // surface passes through it (1e-4 mm from the axis).
+    let no_diam = with_dummy.replace("  DIAM 6 0 0 0 1 \"\"\nSURF 3", "SURF 3");
+    assert_ne!(no_diam, with_dummy);
+    let derived = read(&no_diam).unwrap().prescription.surfaces[1].semi_aperture;
+    assert!(derived > 4.0, "{derived}");
     let (plain, dummy) = (system(&plain), system(&with_dummy));
     assert_eq!(dummy.prescription.surfaces.len(), 3);
     let tracers = [&plain, &dummy].map(|s| Tracer::new(&s.at(D_LINE_NM)));

@@ -302,28 +302,13 @@ pub(crate) fn check_stop(p: &Prescription, map: &SourceMap) -> Result<(), Prescr
 /// z_next(r) - z_this(r), measured in the sense light travels between them (-z after an odd
 /// number of mirrors), stays non-negative for every sampled r.
 ///
-/// A reference plane is exempt: a plane between equal media (not a mirror, the stop or an
-/// obscuration) is a place where rays are measured, not a piece of glass, and the tracer meets
-/// it as a line meets a plane, behind the ray's last point if need be, as OpticStudio traces
-/// such a dummy surface. Optimisers leave them a hair inside a curved neighbour.
+/// A reference plane ([`Prescription::is_reference_plane`]) is exempt: it is a place where rays
+/// are measured, not a piece of glass, and optimisers leave one a hair inside a curved neighbour.
 fn check_crossings(p: &Prescription, map: &SourceMap) -> Result<(), PrescriptionError> {
     let z = p.vertex_z();
     let travel = p.travel_after();
-    let reference_plane = |i: usize| {
-        let s = &p.surfaces[i];
-        let before = if i == 0 {
-            &p.object_medium
-        } else {
-            &p.surfaces[i - 1].medium
-        };
-        s.shape == Shape::Plane
-            && s.medium != Medium::Mirror
-            && s.medium == *before
-            && s.stop.is_none()
-            && s.obscuration.is_none()
-    };
     for i in 0..p.surfaces.len().saturating_sub(1) {
-        if reference_plane(i) || reference_plane(i + 1) {
+        if p.is_reference_plane(i) || p.is_reference_plane(i + 1) {
             continue;
         }
         let (a, b) = (&p.surfaces[i], &p.surfaces[i + 1]);
