@@ -40,6 +40,15 @@ fn list_filters_by_catalogue_and_unknown_names_fail_with_suggestions() {
     assert!(out.lines().count() > 100, "{out}");
     assert!(out.lines().all(|l| l.contains(" OHARA ")), "{out}");
     assert!(out.contains("S-LAH64"), "{out}");
+    // A withdrawn glass says so; a current one does not.
+    let o = lensbake(&["glass", "list", "--catalog", "schott"]);
+    let out = String::from_utf8_lossy(&o.stdout);
+    let line = |name: &str| out.lines().find(|l| l.starts_with(name)).unwrap_or("");
+    assert!(
+        line("BK7_SCHOTT ").ends_with("withdrawn (1980 catalogue fit)"),
+        "{out}"
+    );
+    assert!(line("N-BK7 ").ends_with("64.17"), "{out}");
 
     let o = lensbake(&["glass", "list", "--catalog", "NOPE"]);
     assert_eq!(o.status.code(), Some(2));

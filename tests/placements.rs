@@ -146,37 +146,87 @@ fn two_folds_unfold_and_a_mirror_at_normal_incidence_stays() {
 /// Zemax writes a fold as a coordinate break, the mirror, a second break with the same tilt
 /// (often a pickup, PPAR), then negative thicknesses and radii. Order flags and decentres that
 /// a later break undoes (order 1, values negated) leave the lens as it was.
+/// A Zemax file of `surfaces` (the text after each `SURF n`), behind an object at infinity and
+/// before a plane image: ENPD 10, fields 0, 3 and 5 degrees, the d line.
+fn zemax_lens(surfaces: &[&str]) -> Result<Loaded, PrescriptionError> {
+    let mut text = String::from(
+        "MODE SEQ\nUNIT MM X W X CM MR CPMM\nENPD 10\nGCAT SCHOTT\nFTYP 0 0 3 1 0 0 0\n\
+         XFLN 0 0 0\nYFLN 0 3 5\nWAVM 1 0.5875618 1\nPWAV 1\n\
+         SURF 0\n  TYPE STANDARD\n  CURV 0\n  DISZ INFINITY\n",
+    );
+    for (i, body) in surfaces
+        .iter()
+        .chain(&["TYPE STANDARD\n  CURV 0\n  DISZ 0"])
+        .enumerate()
+    {
+        text.push_str(&format!("SURF {}\n  {body}\n", i + 1));
+    }
+    read(&text, Format::Zemax)
+}
+
+fn zemax_surface(curvature: &str, thickness: &str, glass: &str) -> String {
+    format!("TYPE STANDARD\n  CURV {curvature}\n  DISZ {thickness}{glass}")
+}
+
+const BK7: &str = "\n  GLAS N-BK7 0 0 1.5168 64.17 0 0 0 0 0 0";
+const F2: &str = "\n  GLAS N-F2 0 0 1.62 36.4 0 0 0 0 0 0";
+const ZEMAX_MIRROR: &str =
+    "TYPE STANDARD\n  CURV 0\n  DISZ 0\n  GLAS MIRROR 0 0 1.5 40 0 0 0 0 0 0";
+
+/// A Zemax coordinate break: PARM 1..6 (decentre x, y, tilt about x, y, z, order) and DISZ.
+fn coordinate_break(parms: [f64; 6], thickness: f64) -> String {
+    let mut b = String::from("TYPE COORDBRK");
+    for (k, v) in parms.iter().enumerate() {
+        b.push_str(&format!("\n  PARM {} {v}", k + 1));
+    }
+    b + &format!("\n  DISZ {thickness}")
+}
+
+/// OpticStudio's DIAM records the beam's extent and clips no ray, so a fold mirror moved within
+/// its own plane (along x, which a tilt about x leaves in the plane), whose DIAM circle then lies
+/// off the beam's axis, is still the fold: its
+/// aperture is derived as for a surface without one. A clear aperture (CLAP) there would clip,
+/// off the axis, and is refused.
+#[test]
+fn a_fold_mirrors_envelope_off_the_axis_is_derived_again() {
+    let first = zemax_surface("0.02", "5", BK7) + "\n  STOP";
+    let second = zemax_surface("-0.02", "20", "");
+    let folded = |shift: f64, mirror_aperture: &str| {
+        zemax_lens(&[
+            &first,
+            &second,
+            &coordinate_break([0.0, 0.0, 45.0, 0.0, 0.0, 0.0], 0.0),
+            &coordinate_break([shift, 0.0, 0.0, 0.0, 0.0, 0.0], 0.0),
+            &format!("{ZEMAX_MIRROR}{mirror_aperture}"),
+            &coordinate_break([-shift, 0.0, 0.0, 0.0, 0.0, 0.0], 0.0),
+            &coordinate_break([0.0, 0.0, 45.0, 0.0, 0.0, 0.0], -15.0),
+            &zemax_surface("-0.0125", "-4", F2),
+            &zemax_surface("-0.005", "-30", ""),
+        ])
+    };
+    let centred = folded(0.0, "").unwrap();
+    let shifted = folded(2.0, "\n  DIAM 12 1 0 0 1 \"\"").unwrap();
+    assert_eq!(folds(&shifted), [5]);
+    assert_same_lens(&shifted, &centred);
+    let mirror = |l: &Loaded| l.prescription.surfaces[4].semi_aperture;
+    assert!((mirror(&shifted) - mirror(&centred)).abs() < 1e-12);
+    let e = folded(2.0, "\n  CLAP 0 12").unwrap_err();
+    assert!(
+        e.to_string()
+            .contains("fold mirror whose stated clear aperture is centred 2.000000 mm"),
+        "{e}"
+    );
+}
+
 #[test]
 fn zemax_coordinate_breaks_fold_and_undo() {
-    let zemax = |surfaces: &[&str]| {
-        let mut text = String::from(
-            "MODE SEQ\nUNIT MM X W X CM MR CPMM\nENPD 10\nGCAT SCHOTT\nFTYP 0 0 3 1 0 0 0\n\
-             XFLN 0 0 0\nYFLN 0 3 5\nWAVM 1 0.5875618 1\nPWAV 1\n\
-             SURF 0\n  TYPE STANDARD\n  CURV 0\n  DISZ INFINITY\n",
-        );
-        for (i, body) in surfaces
-            .iter()
-            .chain(&["TYPE STANDARD\n  CURV 0\n  DISZ 0"])
-            .enumerate()
-        {
-            text.push_str(&format!("SURF {}\n  {body}\n", i + 1));
-        }
-        read(&text, Format::Zemax).unwrap_or_else(|e| panic!("{e}"))
-    };
-    let lens =
-        |c: &str, t: &str, glass: &str| format!("TYPE STANDARD\n  CURV {c}\n  DISZ {t}{glass}");
-    let bk7 = "\n  GLAS N-BK7 0 0 1.5168 64.17 0 0 0 0 0 0";
-    let f2 = "\n  GLAS N-F2 0 0 1.62 36.4 0 0 0 0 0 0";
-    let first = lens("0.02", "5", bk7) + "\n  STOP";
-    let second = lens("-0.02", "20", "");
-    let breaker = |parms: [f64; 6], thickness: f64| {
-        let mut b = String::from("TYPE COORDBRK");
-        for (k, v) in parms.iter().enumerate() {
-            b.push_str(&format!("\n  PARM {} {v}", k + 1));
-        }
-        b + &format!("\n  DISZ {thickness}")
-    };
-    let mirror = "TYPE STANDARD\n  CURV 0\n  DISZ 0\n  GLAS MIRROR 0 0 1.5 40 0 0 0 0 0 0";
+    let zemax = |surfaces: &[&str]| zemax_lens(surfaces).unwrap_or_else(|e| panic!("{e}"));
+    let (bk7, f2) = (BK7, F2);
+    let first = zemax_surface("0.02", "5", bk7) + "\n  STOP";
+    let second = zemax_surface("-0.02", "20", "");
+    let lens = zemax_surface;
+    let breaker = coordinate_break;
+    let mirror = ZEMAX_MIRROR;
 
     let straight = zemax(&[
         &first,

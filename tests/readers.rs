@@ -11,6 +11,7 @@ use lensbake::prescription::{
     ApertureSpec, FieldKind, Medium, PrescriptionError, Problem, StopShape,
 };
 use lensbake::system::LensSystem;
+use lensbake::trace::{Ray, Tracer, Travel};
 use std::path::Path;
 
 const FILE: &str = "test.zmx";
@@ -310,6 +311,12 @@ fn tiny_negative_gaps_pass_and_real_overlaps_do_not() {
             "SURF 3\n  TYPE STANDARD\n  CURV 0\n  DISZ 0\n",
             "SURF 4\n  CURV 0\n  DISZ 0\n",
         )
+        // Surface 3 is a window's face, so both planes bend rays (a plane between equal media
+        // is a reference plane, exempt: below).
+        .replace(
+            "SURF 3\n  CURV 0\n  DISZ 47",
+            "SURF 3\n  CURV 0\n  DISZ 47\n  GLAS N-F2",
+        )
     };
     let load = |gap: &str| {
         let loaded = read(&text(gap)).unwrap();
@@ -322,6 +329,49 @@ fn tiny_negative_gaps_pass_and_real_overlaps_do_not() {
         "{e}"
     );
     assert_eq!(e.location.surface, Some(2));
+}
+
+/// A dummy plane inside the singlet (glass on both sides), left by an optimiser 1e-10 mm in
+/// front of the rear surface, which curves back through it within the aperture: OpticStudio
+/// traces rays to such a plane wherever it lies along them, and so does lensbake, so the file
+/// loads and every ray leaves as it does from the singlet without the plane.
+#[test]
+fn a_reference_plane_crossed_by_its_neighbour_changes_no_ray() {
+    let plain = singlet("", "  DIAM 6 0 0 0 1 \"\"\n", "");
+    let with_dummy = plain
+        .replace(
+            "SURF 2\n  TYPE STANDARD\n  CURV -0.02",
+            "SURF 2\n  TYPE STANDARD\n  CURV 0\n  DISZ 1e-10\n  GLAS N-BK7 0 0 1.5168 64.17 0 0 0 0 0 0\n  \
+             DIAM 6 0 0 0 1 \"\"\n\
+             SURF 3\n  TYPE STANDARD\n  CURV -0.02",
+        )
+        .replace("  DISZ 5\n", "  DISZ 4.9999999999\n")
+        .replace("SURF 3\n  TYPE STANDARD\n  CURV 0\n  DISZ 0\n", "SURF 4\n  CURV 0\n  DISZ 0\n");
+    let system = |text: &str| {
+        let loaded = read(text).unwrap();
+        LensSystem::new(loaded.prescription, &loaded.map).unwrap()
+    };
+    // Without a DIAM its aperture is derived from the file's beams, not cut where the rear
+    // surface passes through it (1e-4 mm from the axis).
+    let no_diam = with_dummy.replace("  DIAM 6 0 0 0 1 \"\"\nSURF 3", "SURF 3");
+    assert_ne!(no_diam, with_dummy);
+    let derived = read(&no_diam).unwrap().prescription.surfaces[1].semi_aperture;
+    assert!(derived > 4.0, "{derived}");
+    let (plain, dummy) = (system(&plain), system(&with_dummy));
+    assert_eq!(dummy.prescription.surfaces.len(), 3);
+    let tracers = [&plain, &dummy].map(|s| Tracer::new(&s.at(D_LINE_NM)));
+    for k in 0..=20 {
+        let y = -4.2 + 0.37 * k as f64;
+        let ray = Ray::new([0.0, y, -10.0], [0.0, 0.05, 1.0]).unwrap();
+        let [a, b] = tracers.each_ref().map(|t| t.trace(ray, Travel::Forward));
+        assert!(a.outcome.is_ok() && b.outcome.is_ok(), "{y}: {a:?} {b:?}");
+        for (u, v) in a.ray.position().iter().zip(b.ray.position()) {
+            assert!((u - v).abs() < 1e-9, "{y}: {:?} vs {:?}", a.ray, b.ray);
+        }
+        for (u, v) in a.ray.direction().iter().zip(b.ray.direction()) {
+            assert!((u - v).abs() < 1e-12, "{y}: {:?} vs {:?}", a.ray, b.ray);
+        }
+    }
 }
 
 fn codev(text: &str) -> Result<Loaded, PrescriptionError> {

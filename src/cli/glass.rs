@@ -49,11 +49,16 @@ pub fn run(command: GlassCommand) -> anyhow::Result<()> {
             {
                 let _ = writeln!(
                     out,
-                    "{:<16} {:<7} nd {:.6}  vd {:>6.2}",
+                    "{:<16} {:<7} nd {:.6}  vd {:>6.2}{}",
                     glass.unambiguous_name(),
                     glass.maker,
                     glass.nd,
-                    glass.vd
+                    glass.vd,
+                    if glass.withdrawn {
+                        "  withdrawn (1980 catalogue fit)"
+                    } else {
+                        ""
+                    }
                 );
             }
             print!("{out}");

@@ -359,6 +359,23 @@ impl Prescription {
         }
     }
 
+    /// Whether 0-based surface `i` is a reference plane: a plane between equal media that is not
+    /// a mirror, the stop or obscured. It bends and blocks no ray beyond its clear aperture, and
+    /// the tracer meets it as a line meets a plane, wherever it lies along the ray, as
+    /// OpticStudio traces a dummy surface; so it may sit inside a curved neighbour.
+    pub fn is_reference_plane(&self, i: usize) -> bool {
+        let s = &self.surfaces[i];
+        let before = match i {
+            0 => &self.object_medium,
+            _ => &self.surfaces[i - 1].medium,
+        };
+        s.shape == Shape::Plane
+            && s.medium != Medium::Mirror
+            && s.medium == *before
+            && s.stop.is_none()
+            && s.obscuration.is_none()
+    }
+
     /// Vertex z of every surface in the lens frame (surface 1 at z = 0).
     pub fn vertex_z(&self) -> Vec<f64> {
         let mut z = 0.0;

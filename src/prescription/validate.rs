@@ -301,10 +301,16 @@ pub(crate) fn check_stop(p: &Prescription, map: &SourceMap) -> Result<(), Prescr
 /// Neighbouring surfaces must not cross within the smaller of their clear apertures: the gap
 /// z_next(r) - z_this(r), measured in the sense light travels between them (-z after an odd
 /// number of mirrors), stays non-negative for every sampled r.
+///
+/// A reference plane ([`Prescription::is_reference_plane`]) is exempt: it is a place where rays
+/// are measured, not a piece of glass, and optimisers leave one a hair inside a curved neighbour.
 fn check_crossings(p: &Prescription, map: &SourceMap) -> Result<(), PrescriptionError> {
     let z = p.vertex_z();
     let travel = p.travel_after();
     for i in 0..p.surfaces.len().saturating_sub(1) {
+        if p.is_reference_plane(i) || p.is_reference_plane(i + 1) {
+            continue;
+        }
         let (a, b) = (&p.surfaces[i], &p.surfaces[i + 1]);
         let sense = travel[i];
         let r_max = a.semi_aperture.min(b.semi_aperture);

@@ -337,9 +337,10 @@ fn derive(
     // Nor does a surface go on past the height where it meets its neighbour (an element's
     // knife edge, or two elements touching): no glass, or no room, lies beyond it. Lowering an
     // aperture never makes another pair cross, since pairs are checked within the smaller one.
+    // A reference plane meets no neighbour: rays reach it wherever it lies along them.
     for i in 0..p.surfaces.len().saturating_sub(1) {
         let derived = [missing.contains(&i), missing.contains(&(i + 1))];
-        if derived == [false, false] {
+        if derived == [false, false] || p.is_reference_plane(i) || p.is_reference_plane(i + 1) {
             continue;
         }
         if let Some(meet) = meeting_height(p, i) {

@@ -742,7 +742,7 @@ impl Reader {
                 }
             })
             .collect();
-        let missing: Vec<usize> = (0..surfaces.len())
+        let mut missing: Vec<usize> = (0..surfaces.len())
             .filter(|&i| self.surfaces[i].clear_radius.is_none())
             .collect();
         let mm = self.mm_per_unit;
@@ -772,7 +772,8 @@ impl Reader {
             &mut prescription,
             &placements,
             self.image_placement.as_ref(),
-            &missing,
+            &mut missing,
+            &[],
             mm,
             &lines,
             self.image_line.unwrap_or(lines[lines.len() - 1]),

@@ -182,13 +182,16 @@ const OFFSET_TOLERANCE: f64 = 1e-10;
 /// surface) and `image_placement` describe, and the note saying what was done; or the lens
 /// refused where no centred lens describes it exactly. `derived` lists the 0-based surfaces
 /// whose clear aperture the file does not state (they are sized later, on the centred lens, so
-/// they cannot clip where the file's would not).
+/// they cannot clip where the file's would not). `envelopes` lists those whose stated aperture
+/// only records the beam's extent and clips no ray (Zemax `DIAM`): an unfolded fold mirror whose
+/// envelope lies off the axis joins `derived` instead of being refused.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn centre_if_placed(
     prescription: &mut Prescription,
     placements: &[Option<Placement>],
     image_placement: Option<&Placement>,
-    derived: &[usize],
+    derived: &mut Vec<usize>,
+    envelopes: &[usize],
     mm_per_unit: f64,
     lines: &[usize],
     image_line: usize,
@@ -323,7 +326,10 @@ pub(super) fn centre_if_placed(
         };
         let tilted = axis[0].hypot(axis[1]) > AXIS_TOLERANCE;
         if plane && is_mirror && tilted && axis[2].abs() > AXIS_TOLERANCE {
-            if stated_aperture[i] && x.hypot(y) > OFFSET_TOLERANCE * scale {
+            let off_axis = stated_aperture[i] && x.hypot(y) > OFFSET_TOLERANCE * scale;
+            if off_axis && envelopes.contains(&i) {
+                derived.push(i);
+            } else if off_axis {
                 return Err(refuse(
                     i,
                     format!(
@@ -355,7 +361,7 @@ pub(super) fn centre_if_placed(
             }
             .then(&unfolding);
             surface.medium = medium_before.clone();
-            if stated_aperture[i] {
+            if stated_aperture[i] && !derived.contains(&i) {
                 surface.semi_aperture *= axis[2].abs();
             }
             folds.push(i + 1);
@@ -374,6 +380,7 @@ pub(super) fn centre_if_placed(
             return Err(refuse(i, offence));
         }
     }
+    derived.sort_unstable();
     let image = unfolding.then(&image_frame);
     if let Some(offence) = leaves_axis(surface_count, &image) {
         return Err(refuse(surface_count, offence));

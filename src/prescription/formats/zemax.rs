@@ -622,12 +622,11 @@ impl Reader {
                 })
             })
             .collect();
-        // A DIAM of 0 (a dummy surface OpticStudio never sized) is no aperture at all.
-        let missing: Vec<usize> = (0..lens.len())
-            .filter(|&i| {
-                lens[i].clear_radius.is_none() && lens[i].semi_diameter.is_none_or(|d| d <= 0.0)
-            })
-            .collect();
+        // A DIAM of 0 (a dummy surface OpticStudio never sized) is no aperture at all; any other
+        // DIAM is the envelope of the file's beams, which clips no ray in OpticStudio.
+        let (mut missing, envelopes): (Vec<usize>, Vec<usize>) = (0..lens.len())
+            .filter(|&i| lens[i].clear_radius.is_none())
+            .partition(|&i| lens[i].semi_diameter.is_none_or(|d| d <= 0.0));
         let mm = self.mm_per_unit;
         let conditions = self.conditions(object, wavelength_nm);
 
@@ -636,10 +635,6 @@ impl Reader {
                 title: self.title.clone().unwrap_or_else(|| source.default_title()),
                 source: source.file_name(),
                 design_wavelength_nm: wavelength_nm,
-                notes: (!missing.is_empty()).then(|| {
-                    "clear apertures not in the file were derived by lensbake from paraxial rays"
-                        .to_string()
-                }),
                 conditions: Some(conditions.clone()),
                 ..Provenance::default()
             },
@@ -651,12 +646,19 @@ impl Reader {
             &mut prescription,
             &placements,
             None,
-            &missing,
+            &mut missing,
+            &envelopes,
             mm,
             &lens.iter().map(|b| b.line).collect::<Vec<_>>(),
             image.line,
             source,
         )?;
+        if !missing.is_empty() {
+            prescription.provenance.notes = Some(
+                "clear apertures not in the file were derived by lensbake from paraxial rays"
+                    .to_string(),
+            );
+        }
         let map = SourceMap {
             file: source.file.map(|f| f.to_path_buf()),
             surface_lines: lens.iter().map(|b| Some(b.line)).collect(),
