@@ -11,7 +11,7 @@ use super::chromatic::{CHANNELS, ChannelLenses, Chromatic};
 use super::gpu_types::{ChannelParams, FrameParams, LayerData, LensData, SeidelParams};
 use crate::lrtf::{self, Lookup, LrtfTable};
 use crate::model::{LensModel, SEIDEL_CONVERGED_MM, SEIDEL_INVERSE_STEPS, SEIDEL_SETTLED_MM};
-use crate::trace::{LANES, Tracer, Travel};
+use crate::trace::{GROUP_RAYS, Tracer, Travel};
 use rayon::prelude::*;
 
 const PI: f32 = std::f32::consts::PI;
@@ -517,9 +517,9 @@ fn lens_ray(frame: &FrameParams, rays: LensRays, film: Vec3, pupil: Vec3) -> Obj
 }
 
 /// Samples of one pixel that go through the lens together: the traced model runs them through
-/// the lane kernels ([`Tracer::trace_group`], the same bits as one ray at a time) instead of one
+/// the block kernels ([`Tracer::trace_group`], the same bits as one ray at a time) instead of one
 /// scalar trace per sample.
-const SAMPLE_GROUP: usize = LANES;
+const SAMPLE_GROUP: usize = GROUP_RAYS;
 
 /// [`lens_ray`] for up to [`SAMPLE_GROUP`] film-side rays (`film[k]` through `pupil[k]`) into
 /// `out[k]`.

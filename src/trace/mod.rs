@@ -22,6 +22,7 @@ mod lanes;
 mod refract;
 
 pub use aim::{AimError, RaySource, aim_at_stop, traceable_field_deg};
+pub(crate) use batch::GROUP_RAYS;
 pub use batch::{BatchTrace, RayBatch};
 pub use bundle::FieldBundle;
 #[cfg(feature = "render")]
