@@ -150,6 +150,26 @@ fn unknown_or_unsupported_surface_keywords_are_refused_where_they_stand() {
     assert_eq!(e.location.surface, Some(2));
 }
 
+/// OpticStudio writes merit-function operands unindented straight after the last surface
+/// (`GLCB 3 1 ...` before any `TOL`); they open the trailer. In a file that indents no surface
+/// line, an unknown keyword is still refused where it stands.
+#[test]
+fn unindented_operands_after_indented_surfaces_open_the_trailer() {
+    let plain = read(&singlet("", "", "")).unwrap();
+    let text = singlet("", "", "").replace("  DISZ 0\nTOL", "  DISZ 0\nGLCB 3 1 0 0 0\nTOL");
+    let loaded = read(&text).unwrap();
+    assert_eq!(loaded.prescription, plain.prescription);
+    assert!(skipped(&loaded).iter().any(|k| k == "GLCB"));
+
+    let unindented = singlet("", "ZQXW 1\n", "").replace("\n  ", "\n");
+    let e = read(&unindented).unwrap_err();
+    assert!(
+        matches!(&e.problem, Problem::Unsupported(what) if what.contains("ZQXW")),
+        "{e}"
+    );
+    assert_eq!(e.location.surface, Some(2));
+}
+
 /// UTF-16 (either byte order, with the mark OpticStudio writes) and Latin-1 read as UTF-8 does.
 #[test]
 fn encodings_opticstudio_writes_read_alike() {
