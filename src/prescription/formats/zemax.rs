@@ -24,8 +24,9 @@
 //! Apertures as OpticStudio defines them: `DIAM` is a semi-diameter, the envelope OpticStudio
 //! computed for the file's beams, and never clips a ray; `CLAP` (a circular aperture) does. The
 //! model has one clear semi-aperture per surface, so `CLAP` gives it where present, else a
-//! non-zero `DIAM` (rays of the file's beams pass it, as in OpticStudio), else it is derived from
-//! paraxial rays of the file's beams (a dummy surface's `DIAM 0`).
+//! non-zero `DIAM` (rays of the file's beams pass it, as in OpticStudio; ended where the
+//! surface meets its neighbour, should the envelope reach past a lens's edge), else it is
+//! derived from paraxial rays of the file's beams (a dummy surface's `DIAM 0`).
 //!
 //! Keywords that change nothing lensbake models (display, coating, tolerancing, merit function,
 //! solver, environment and bookkeeping data: `HARMLESS_TOP`, `HARMLESS_SURFACE`) are skipped and
@@ -697,7 +698,14 @@ impl Reader {
             }),
             wavelength_nm.unwrap_or(DEFAULT_WAVELENGTH_NM),
         );
-        let mut loaded = apertures::complete(prescription, &missing, &beams, map, Format::Zemax)?;
+        let mut loaded = apertures::complete(
+            prescription,
+            &missing,
+            &envelopes,
+            &beams,
+            map,
+            Format::Zemax,
+        )?;
         loaded.notes.extend(centred);
         if !self.skipped.is_empty() {
             loaded.notes.push(LoadNote::SkippedKeywords {
