@@ -33,6 +33,7 @@ const LOADS: &[&str] = &[
     "rayoptics__HoO-V2C18Ex27.zmx",
     "rayoptics__US00583336-2-scaled.zmx",
     "rayoptics__US05331467-1.zmx",
+    "rayoptics__US05831776-1.zmx",
     "rayoptics__achroMangin_ok.seq",
     "rayoptics__asp46.seq",
     "rayoptics__dar_test.seq",
@@ -62,6 +63,10 @@ const LOADS: &[&str] = &[
 ///   and the file's reference wavelength is 587.6 nm, off the d line: there each program's model
 ///   of such a glass gives its own index (rayoptics 1.5169980739, lensbake's Cauchy fit
 ///   1.5169980392, 3.5e-8 apart), which moves the EFL by 3e-9 relative. Neither is the glass.
+/// - rayoptics__US05831776-1.zmx (a 248 nm lithography lens whose DIAM envelopes lensbake cuts
+///   where three pairs of faces meet): rayoptics 0.9.8 knows no `SILICA` and takes a constant
+///   n = 1.5 (EFL 432.86 mm). optiland 0.6.3 reads fused silica as lensbake does (n = 1.508551 at
+///   248 nm) and gives EFL 494.020329 mm and EPD 144.281776 mm, lensbake's numbers to 1e-9.
 /// - rayoptics__landscape_lens.seq, rayoptics__singlet.seq: written without `RDM`; rayoptics
 ///   reads their surface values as curvatures, lensbake as radii (CODE V's radius mode, the
 ///   default lensbake documents in docs/formats.md), so the two analyse different lenses.

@@ -11,7 +11,7 @@ use lensbake::prescription::{
     ApertureSpec, FieldKind, Medium, PrescriptionError, Problem, StopShape,
 };
 use lensbake::system::LensSystem;
-use lensbake::trace::{Ray, Tracer, Travel};
+use lensbake::trace::{Outcome, Ray, Tracer, Travel};
 use std::path::Path;
 
 const FILE: &str = "test.zmx";
@@ -150,6 +150,26 @@ fn unknown_or_unsupported_surface_keywords_are_refused_where_they_stand() {
     assert_eq!(e.location.surface, Some(2));
 }
 
+/// OpticStudio writes merit-function operands unindented straight after the last surface
+/// (`GLCB 3 1 ...` before any `TOL`); they open the trailer. In a file that indents no surface
+/// line, an unknown keyword is still refused where it stands.
+#[test]
+fn unindented_operands_after_indented_surfaces_open_the_trailer() {
+    let plain = read(&singlet("", "", "")).unwrap();
+    let text = singlet("", "", "").replace("  DISZ 0\nTOL", "  DISZ 0\nGLCB 3 1 0 0 0\nTOL");
+    let loaded = read(&text).unwrap();
+    assert_eq!(loaded.prescription, plain.prescription);
+    assert!(skipped(&loaded).iter().any(|k| k == "GLCB"));
+
+    let unindented = singlet("", "ZQXW 1\n", "").replace("\n  ", "\n");
+    let e = read(&unindented).unwrap_err();
+    assert!(
+        matches!(&e.problem, Problem::Unsupported(what) if what.contains("ZQXW")),
+        "{e}"
+    );
+    assert_eq!(e.location.surface, Some(2));
+}
+
 /// UTF-16 (either byte order, with the mark OpticStudio writes) and Latin-1 read as UTF-8 does.
 #[test]
 fn encodings_opticstudio_writes_read_alike() {
@@ -219,6 +239,45 @@ fn diam_clap_and_unsized_surfaces() {
     assert!(p.surfaces[1].semi_aperture > 5.0 && p.surfaces[1].semi_aperture < 6.0);
     let loaded = read(&singlet("", "  DIAM 6 0 0 0 1 \"\"\n  CLAP 0 5.5\n", "")).unwrap();
     assert_eq!(loaded.prescription.surfaces[1].semi_aperture, 5.5);
+}
+
+/// A DIAM envelope past where the singlet's faces meet (R = +-50 mm, 5 mm thick: at r^2 = 243.75
+/// mm^2, where each sag is 2.5 mm) is cut there, with a note; the same circle as a CLAP, a real
+/// aperture, is a lens that cannot be made and is refused.
+#[test]
+fn diam_envelopes_past_the_lens_edge_are_cut_where_its_faces_meet() {
+    let edge = 243.75f64.sqrt();
+    let text = singlet("", "  DIAM 20 0 0 0 1 \"\"\n", "").replace("DIAM 6 1", "DIAM 20 1");
+    let loaded = read(&text).unwrap();
+    let cut: Vec<(usize, f64)> = loaded
+        .notes
+        .iter()
+        .find_map(|n| match n {
+            LoadNote::EnvelopesCut { surfaces } => Some(surfaces.clone()),
+            _ => None,
+        })
+        .expect("a note names the cut surfaces");
+    assert_eq!(cut.iter().map(|c| c.0).collect::<Vec<_>>(), [1, 2]);
+    for (surface, radius) in cut {
+        assert!((radius - edge).abs() < 1e-9, "{radius} vs {edge}");
+        assert_eq!(
+            loaded.prescription.surfaces[surface - 1].semi_aperture,
+            radius
+        );
+    }
+    let system = LensSystem::new(loaded.prescription, &loaded.map).unwrap();
+    let tracer = Tracer::new(&system.at(D_LINE_NM));
+    let parallel = |height: f64| {
+        let ray = Ray::new([0.0, height, -1.0], [0.0, 0.0, 1.0]).unwrap();
+        tracer.trace(ray, Travel::Forward).outcome
+    };
+    assert!(parallel(0.99 * edge).is_ok());
+    assert_eq!(parallel(1.01 * edge), Outcome::Vignetted { surface: 1 });
+
+    let clear = singlet("", "  CLAP 0 20\n", "").replace("DIAM 6 1 0 0 1 \"\"", "CLAP 0 20");
+    let loaded = read(&clear).unwrap();
+    let e = LensSystem::new(loaded.prescription, &loaded.map).unwrap_err();
+    assert!(matches!(e.problem, Problem::SurfacesCross { .. }), "{e}");
 }
 
 #[test]

@@ -137,25 +137,42 @@ impl BeamSpec {
 /// Object distances at least this large (mm) are infinite, as CODE V and rayoptics treat them.
 pub(super) const INFINITE_OBJECT_MM: f64 = 1e10;
 
-/// Sets the semi-aperture of each surface in `missing` (0-based) from paraxial boundary rays.
-/// Fills the apertures the file left out and wraps the result, noting which surfaces were
-/// derived so `lens check` can say so.
+/// Sets the semi-aperture of each surface in `missing` (0-based) from paraxial boundary rays,
+/// and lowers those and the `envelopes` (apertures the file gives as the extent of its beams,
+/// not as a stop to rays) to where their surface meets a neighbour. Wraps the result, noting
+/// which surfaces were derived or cut so `lens check` can say so.
 pub(super) fn complete(
     mut prescription: Prescription,
     missing: &[usize],
+    envelopes: &[usize],
     beams: &BeamSpec,
     map: SourceMap,
     format: Format,
 ) -> Result<Loaded, PrescriptionError> {
-    let at_edge = derive(&mut prescription, missing, beams, &map)?;
-    let notes = if missing.is_empty() {
-        Vec::new()
-    } else {
-        vec![LoadNote::AperturesDerived {
+    let mut at_edge = derive(&mut prescription, missing, beams, &map)?;
+    let cuttable: Vec<usize> = missing.iter().chain(envelopes).copied().collect();
+    let (derived_cut, envelopes_cut): (Vec<usize>, Vec<usize>) =
+        cut_where_neighbours_meet(&mut prescription, &cuttable)
+            .into_iter()
+            .partition(|i| missing.contains(i));
+    at_edge.extend(derived_cut);
+    at_edge.sort_unstable();
+    at_edge.dedup();
+    let mut notes = Vec::new();
+    if !missing.is_empty() {
+        notes.push(LoadNote::AperturesDerived {
             surfaces: missing.iter().map(|i| i + 1).collect(),
             limited_at_edge: at_edge.iter().map(|i| i + 1).collect(),
-        }]
-    };
+        });
+    }
+    if !envelopes_cut.is_empty() {
+        notes.push(LoadNote::EnvelopesCut {
+            surfaces: envelopes_cut
+                .iter()
+                .map(|&i| (i + 1, prescription.surfaces[i].semi_aperture))
+                .collect(),
+        });
+    }
     Ok(Loaded {
         prescription,
         map,
@@ -334,27 +351,33 @@ fn derive(
         }
         p.surfaces[i].semi_aperture = radius;
     }
-    // Nor does a surface go on past the height where it meets its neighbour (an element's
-    // knife edge, or two elements touching): no glass, or no room, lies beyond it. Lowering an
-    // aperture never makes another pair cross, since pairs are checked within the smaller one.
-    // A reference plane meets no neighbour: rays reach it wherever it lies along them.
+    Ok(at_edge)
+}
+
+/// Lowers each aperture in `cuttable` (0-based) that goes on past the height where its surface
+/// meets a neighbour (an element's knife edge, or two elements touching): no glass, or no room,
+/// lies beyond it. Returns the surfaces cut. Lowering an aperture never makes another pair
+/// cross, since pairs are checked within the smaller one. A reference plane meets no
+/// neighbour: rays reach it wherever it lies along them.
+fn cut_where_neighbours_meet(p: &mut Prescription, cuttable: &[usize]) -> Vec<usize> {
+    let mut cut = Vec::new();
     for i in 0..p.surfaces.len().saturating_sub(1) {
-        let derived = [missing.contains(&i), missing.contains(&(i + 1))];
-        if derived == [false, false] || p.is_reference_plane(i) || p.is_reference_plane(i + 1) {
+        let may_cut = [cuttable.contains(&i), cuttable.contains(&(i + 1))];
+        if may_cut == [false, false] || p.is_reference_plane(i) || p.is_reference_plane(i + 1) {
             continue;
         }
         if let Some(meet) = meeting_height(p, i) {
-            for (k, was_derived) in [i, i + 1].into_iter().zip(derived) {
-                if was_derived && p.surfaces[k].semi_aperture > meet {
+            for (k, may) in [i, i + 1].into_iter().zip(may_cut) {
+                if may && p.surfaces[k].semi_aperture > meet {
                     p.surfaces[k].semi_aperture = meet;
-                    at_edge.push(k);
+                    cut.push(k);
                 }
             }
         }
     }
-    at_edge.sort_unstable();
-    at_edge.dedup();
-    Ok(at_edge)
+    cut.sort_unstable();
+    cut.dedup();
+    cut
 }
 
 /// Samples of the gap between two surfaces in the search for where they meet.

@@ -798,7 +798,8 @@ impl Reader {
                 .unwrap_or_else(|| "the file has neither CIR nor EPD, FNO or NAO".into()),
             wavelength.unwrap_or(DEFAULT_WAVELENGTH_NM),
         );
-        let mut loaded = apertures::complete(prescription, &missing, &beams, map, Format::CodeV)?;
+        let mut loaded =
+            apertures::complete(prescription, &missing, &[], &beams, map, Format::CodeV)?;
         loaded.notes.extend(centred);
         if !self.skipped.is_empty() {
             loaded.notes.push(LoadNote::SkippedKeywords {

@@ -162,6 +162,11 @@ pub enum LoadNote {
         surfaces: Vec<usize>,
         limited_at_edge: Vec<usize>,
     },
+    /// Surfaces (1-based) whose Zemax `DIAM`, the envelope OpticStudio computed for the file's
+    /// beams, reaches past the height where the surface meets its neighbour (a lens whose edge
+    /// thickness the envelope makes negative), with the semi-aperture (mm) they were cut to
+    /// there: no glass lies beyond it, so rays beyond it are vignetted.
+    EnvelopesCut { surfaces: Vec<(usize, f64)> },
     /// Keywords the file uses that change nothing lensbake models (display, merit function,
     /// tolerancing, coatings, ...), skipped; listed once, sorted.
     SkippedKeywords { keywords: Vec<String> },
@@ -228,6 +233,18 @@ impl fmt::Display for LoadNote {
                     )?;
                 }
                 Ok(())
+            }
+            LoadNote::EnvelopesCut { surfaces } => {
+                let cuts: Vec<String> = surfaces
+                    .iter()
+                    .map(|(surface, radius)| format!("surface {surface} at {radius:.3} mm"))
+                    .collect();
+                write!(
+                    f,
+                    "DIAM envelopes reach past where the surface meets its neighbour, so the \
+                     aperture ends there and rays beyond it are vignetted: {}",
+                    cuts.join(", ")
+                )
             }
             LoadNote::SkippedKeywords { keywords } => write!(
                 f,

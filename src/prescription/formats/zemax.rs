@@ -24,14 +24,17 @@
 //! Apertures as OpticStudio defines them: `DIAM` is a semi-diameter, the envelope OpticStudio
 //! computed for the file's beams, and never clips a ray; `CLAP` (a circular aperture) does. The
 //! model has one clear semi-aperture per surface, so `CLAP` gives it where present, else a
-//! non-zero `DIAM` (rays of the file's beams pass it, as in OpticStudio), else it is derived from
-//! paraxial rays of the file's beams (a dummy surface's `DIAM 0`).
+//! non-zero `DIAM` (rays of the file's beams pass it, as in OpticStudio; ended where the
+//! surface meets its neighbour, should the envelope reach past a lens's edge), else it is
+//! derived from paraxial rays of the file's beams (a dummy surface's `DIAM 0`).
 //!
 //! Keywords that change nothing lensbake models (display, coating, tolerancing, merit function,
 //! solver, environment and bookkeeping data: `HARMLESS_TOP`, `HARMLESS_SURFACE`) are skipped and
 //! listed in one [`LoadNote::SkippedKeywords`]; so is any unknown keyword of the trailer, the
 //! unindented lines after the surface table, where OpticStudio writes merit-function and
-//! tolerance operands. An unknown keyword of the header (before `SURF 0`) is skipped too, but
+//! tolerance operands (`TRAC`, `REAX`, `GLCB`, ...). The trailer opens at an unindented keyword
+//! OpticStudio writes at the top level, or at any unindented keyword after a surface whose lines
+//! are indented (files written by other programs may indent nothing). An unknown keyword of the header (before `SURF 0`) is skipped too, but
 //! named in its own [`LoadNote::UnknownHeaderKeywords`]: OpticStudio adds header settings with
 //! its releases (`STUD`, `FSVY`), and every header keyword that defines the lens, its aperture,
 //! fields, wavelengths or units is one this reader applies or refuses by name. Coordinate breaks (`TYPE COORDBRK`, with `PPAR` pickups of their
@@ -172,6 +175,10 @@ struct Reader {
     blocks: Vec<Block>,
     /// Whether an unindented keyword other than SURF followed a surface: the trailer.
     in_trailer: bool,
+    /// Whether a keyword line of the current surface was indented, as OpticStudio writes them;
+    /// then an unindented keyword no surface has opens the trailer.
+    surface_lines_indented: bool,
+    unindented_line: bool,
     skipped: BTreeSet<String>,
     /// Header keywords this reader does not know, skipped (see [`LoadNote::UnknownHeaderKeywords`]).
     unknown_header: BTreeSet<String>,
@@ -191,13 +198,18 @@ pub(super) fn read(text: &str, source: &Source) -> Result<Loaded, PrescriptionEr
         let keyword = keyword.to_ascii_uppercase();
         let args: Vec<&str> = words.collect();
         let rest = raw.trim_start()[keyword.len().min(raw.trim_start().len())..].trim();
-        if !reader.blocks.is_empty()
-            && !raw.starts_with([' ', '\t'])
+        let indented = raw.starts_with([' ', '\t']);
+        if keyword == "SURF" {
+            reader.surface_lines_indented = false;
+        } else if !reader.blocks.is_empty()
+            && !indented
             && (HARMLESS_TOP.contains(&keyword.as_str()) || TOP_APPLIED.contains(&keyword.as_str()))
         {
             reader.in_trailer = true;
         }
+        reader.unindented_line = !indented;
         reader.apply(line, &keyword, &args, rest, source)?;
+        reader.surface_lines_indented |= indented && !reader.blocks.is_empty();
     }
     reader.finish(source)
 }
@@ -394,6 +406,10 @@ impl Reader {
                     true
                 }
                 k if TOP_APPLIED.contains(&k) || HARMLESS_TOP.contains(&k) => false,
+                _ if self.unindented_line && self.surface_lines_indented => {
+                    self.in_trailer = true;
+                    false
+                }
                 _ => {
                     return Err(unsupported(format!(
                         "Zemax surface keyword `{keyword}` (not one lensbake knows to be harmless)"
@@ -682,7 +698,14 @@ impl Reader {
             }),
             wavelength_nm.unwrap_or(DEFAULT_WAVELENGTH_NM),
         );
-        let mut loaded = apertures::complete(prescription, &missing, &beams, map, Format::Zemax)?;
+        let mut loaded = apertures::complete(
+            prescription,
+            &missing,
+            &envelopes,
+            &beams,
+            map,
+            Format::Zemax,
+        )?;
         loaded.notes.extend(centred);
         if !self.skipped.is_empty() {
             loaded.notes.push(LoadNote::SkippedKeywords {
