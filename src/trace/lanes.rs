@@ -1,13 +1,13 @@
 //! Rays in blocks, surface by surface, for throughput.
 //!
 //! One ray's trace is a chain of dependent square roots and divisions, so a single ray keeps
-//! the floating-point units mostly waiting. A [`Block`] holds up to a few hundred rays as
-//! columns (structure of arrays) and crosses one surface with all of them before the next, so
-//! the processor overlaps independent chains and the straight-line kernels below pack
-//! [`STRIDE`] rays into vector instructions. After each surface the rays that stopped are
-//! reported, and once enough have stopped to free a whole stride the survivors are packed to
-//! the front of the block (in order), so rays vignetted at surface 3 cost little at surfaces
-//! 4..N: the kernels only run over the strides in use.
+//! the floating-point units mostly waiting. A [`Block`] holds up to 128 rays as columns
+//! (structure of arrays) and crosses one surface with all of them before the next, so the
+//! processor overlaps independent chains and the straight-line kernels below pack [`STRIDE`]
+//! rays into vector instructions. After each surface the rays that stopped are reported, and
+//! once enough have stopped to free a whole stride the survivors are packed to the front of
+//! the block, so rays vignetted at surface 3 cost little at surfaces 4..N: the kernels only
+//! run over the strides in use. Which rays travel is a bit per slot ([`Slots`]).
 //!
 //! Spheres and planes (almost every surface of a real lens) have kernels; conics, aspheres,
 //! mirrors, obscured surfaces and the bladed stop use the one-ray code ([`Tracer::cross`]) for
@@ -420,7 +420,7 @@ impl Tracer {
                             Err((event, at)) => {
                                 let outcome = event.outcome(i + 1);
                                 finish(ids[slot] as usize, Traced { outcome, ray: at });
-                                stopped = Slots(stopped.0 | 1 << slot);
+                                stopped = Slots(stopped.0 | 1u128 << slot);
                             }
                         }
                     }
