@@ -495,10 +495,13 @@ impl Reader {
                         )),
                     ));
                 }
-                if self.wavelengths.len() < number {
-                    self.wavelengths.resize(number, f64::NAN);
-                    self.wavelength_weights.resize(number, 1.0);
-                }
+                // Older files also carry WAVL/WAVN and WWGT lists, which may be shorter or
+                // longer than the WAVM table: size both to hold this entry.
+                let len = number
+                    .max(self.wavelengths.len())
+                    .max(self.wavelength_weights.len());
+                self.wavelengths.resize(len, f64::NAN);
+                self.wavelength_weights.resize(len, 1.0);
                 self.wavelengths[number - 1] = um;
                 if args.len() > 2 {
                     self.wavelength_weights[number - 1] = value(2)?;
