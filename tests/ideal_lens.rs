@@ -239,3 +239,42 @@ fn wave_optics_refuses_an_ideal_lens_by_its_surface() {
     let e = PupilTrace::trace(&wave_lens, 0.0, WAVELENGTH_NM, WAVELENGTH_NM, sampling).unwrap_err();
     assert!(matches!(e, WaveError::IdealLensPath { surface: 2 }), "{e}");
 }
+
+/// As a user runs it: `lens check` names the ideal lenses, and `report` draws every figure but
+/// the wave-optics ones, which it skips with the reason.
+#[test]
+fn the_cli_lists_ideal_lenses_and_the_report_says_why_wave_figures_are_skipped() {
+    let dir = std::env::temp_dir().join(format!("lensbake-ideal-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("paraxial.zmx");
+    std::fs::write(&file, ZEMAX).unwrap();
+    let run = |args: &[&str]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_lensbake"))
+            .args(args)
+            .output()
+            .unwrap()
+    };
+    let check = run(&["lens", "check", file.to_str().unwrap()]);
+    assert_eq!(check.status.code(), Some(0));
+    let listing = String::from_utf8_lossy(&check.stdout);
+    assert!(
+        listing.contains("ideal lens:  surface 1, focal length 100.0000 mm"),
+        "{listing}"
+    );
+    let out = dir.join("report");
+    let report = run(&[
+        "report",
+        file.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let stderr = String::from_utf8_lossy(&report.stderr);
+    assert_eq!(report.status.code(), Some(0), "{stderr}");
+    assert!(out.join("spot.png").is_file());
+    assert!(!out.join("mtf-field.png").exists());
+    assert!(
+        stderr.contains("mtf-field skipped: surface 1 is an ideal lens"),
+        "{stderr}"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
