@@ -276,15 +276,20 @@ impl Seidel {
                 let delta_inv_n2 = 1.0 / (n_after * n_after) - 1.0 / (n * n);
                 let (a, abar, y, ybar) = (m.incidence, c.incidence, m.y, c.y);
                 let aspheric = aspheric_terms(&surface.shape, n_after - n, y, ybar);
-                let terms = SeidelTerms {
-                    spherical: -a * a * y * delta_u_n,
-                    coma: -a * abar * y * delta_u_n,
-                    astigmatism: -abar * abar * y * delta_u_n,
-                    petzval: -h * h * curvature * delta_inv_n,
-                    distortion: -abar
-                        * (abar * abar * delta_inv_n2 * y
-                            - (h + abar * y) * ybar * curvature * delta_inv_n),
-                } + aspheric;
+                // An ideal lens images every plane perfectly (Shape::IdealLens): no aberration.
+                let terms = if matches!(surface.shape, Shape::IdealLens { .. }) {
+                    SeidelTerms::default()
+                } else {
+                    SeidelTerms {
+                        spherical: -a * a * y * delta_u_n,
+                        coma: -a * abar * y * delta_u_n,
+                        astigmatism: -abar * abar * y * delta_u_n,
+                        petzval: -h * h * curvature * delta_inv_n,
+                        distortion: -abar
+                            * (abar * abar * delta_inv_n2 * y
+                                - (h + abar * y) * ybar * curvature * delta_inv_n),
+                    } + aspheric
+                };
                 let colour = colour.map(|dn| {
                     let delta_dn_n = dn.after[i] / n_after - dn.before(i) / n;
                     ColourTerms {
@@ -324,7 +329,7 @@ impl Seidel {
 /// asphere its r^4 term, while an r^2 term changes the vertex sphere itself (c + 2 a1).
 pub fn aspheric_r4_departure(shape: &Shape) -> f64 {
     match shape {
-        Shape::Plane | Shape::Sphere { .. } => 0.0,
+        Shape::Plane | Shape::Sphere { .. } | Shape::IdealLens { .. } => 0.0,
         Shape::Conic { .. } | Shape::EvenAsphere { .. } => {
             let c = shape.curvature();
             let vertex = paraxial_curvature(shape);

@@ -150,6 +150,22 @@ fn unknown_or_unsupported_surface_keywords_are_refused_where_they_stand() {
     assert_eq!(e.location.surface, Some(2));
 }
 
+/// Older OpticStudio files carry WAVL/WAVN and WWGT lists beside the WAVM table, of other
+/// lengths (a Thorlabs file: 12 wavelengths, 3 weights, 24 WAVM rows); the WAVM table wins and
+/// the mismatch is no crash.
+#[test]
+fn wavelength_lists_of_other_lengths_than_the_wavm_table() {
+    let plain = read(&singlet("", "", "")).unwrap();
+    let text = singlet(
+        "WAVN 0.4861 0.5876 0.6563 0.55 0.55 0.55\nWWGT 1 1 1\n",
+        "",
+        "",
+    );
+    let loaded = read(&text).unwrap();
+    let conditions = |l: &Loaded| l.prescription.provenance.conditions.clone().unwrap();
+    assert_eq!(conditions(&loaded), conditions(&plain));
+}
+
 /// OpticStudio writes merit-function operands unindented straight after the last surface
 /// (`GLCB 3 1 ...` before any `TOL`); they open the trailer. In a file that indents no surface
 /// line, an unknown keyword is still refused where it stands.

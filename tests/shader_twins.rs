@@ -89,6 +89,7 @@ fn lens_trace_structs_match_wgsl() {
             bladed,
             reflects,
             obscuration_sq,
+            ideal_power,
             coefficients
         }
     );
@@ -229,6 +230,22 @@ fn cassegrain() -> SystemAt {
                 Medium::Mirror,
                 11.0,
             ),
+        ],
+    )
+}
+
+/// Two ideal lenses (f = 45 and -70 mm) around a plane stop, then a singlet: the ideal-lens
+/// rule on rays at every height and slope, vignetted on each lens's rim.
+fn ideal_lenses() -> SystemAt {
+    let ideal = |focal_length: f64| Shape::IdealLens { focal_length };
+    system(
+        "ideal lenses",
+        vec![
+            surface(ideal(45.0), 5.0, Medium::Air, 7.0),
+            stop(6.0, 4.0, StopShape::Circle),
+            surface(ideal(-70.0), 4.0, Medium::Air, 9.0),
+            surface(sphere(35.0), 6.0, Medium::Index(1.7), 10.0),
+            surface(sphere(-50.0), 40.0, Medium::Air, 10.0),
         ],
     )
 }
@@ -488,7 +505,7 @@ fn check_within(
 /// twice that in direction, and the folded path crosses its 60 mm gap three times where the
 /// refracting lenses cross theirs once (measured 1.16e-4 mm at the film-side start, 14.5 times
 /// the f32 rounding of a start 10 m away).
-fn surface_kinds() -> [(&'static str, SystemAt, Vec<(u32, usize, usize)>, f64); 4] {
+fn surface_kinds() -> [(&'static str, SystemAt, Vec<(u32, usize, usize)>, f64); 5] {
     let (ok, vignetted, tir, missed) = (TRACE_OK, TRACE_VIGNETTED, TRACE_TIR, TRACE_MISSED);
     [
         // Stop plane, sphere, sphere.
@@ -542,6 +559,18 @@ fn surface_kinds() -> [(&'static str, SystemAt, Vec<(u32, usize, usize)>, f64); 
                 (missed, 4, 1000),
             ],
             2.0,
+        ),
+        // Ideal lenses at surfaces 1 and 3, the stop between them.
+        (
+            "ideal lenses",
+            ideal_lenses(),
+            vec![
+                (ok, 0, 300),
+                (vignetted, 1, 40),
+                (vignetted, 2, 400),
+                (vignetted, 3, 150),
+            ],
+            1.0,
         ),
     ]
 }

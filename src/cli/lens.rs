@@ -241,7 +241,7 @@ fn summary(lens: &LoadedLens) -> String {
     ));
     for (i, (s, s_at)) in p.surfaces.iter().zip(&at.surfaces).enumerate() {
         let radius = match s.shape {
-            Shape::Plane => "flat".to_string(),
+            Shape::Plane | Shape::IdealLens { .. } => "flat".to_string(),
             _ => format!("{:.4}", s.shape.radius()),
         };
         let kind = match s.shape {
@@ -249,6 +249,7 @@ fn summary(lens: &LoadedLens) -> String {
             Shape::Sphere { .. } => "sphere",
             Shape::Conic { .. } => "conic",
             Shape::EvenAsphere { .. } => "asphere",
+            Shape::IdealLens { .. } => "ideal",
         };
         line(format!(
             "  {:>3} {:4} {:>12} {:>11.4} {:7} {:16} {:>9.6} {:>9.4}",
@@ -263,6 +264,14 @@ fn summary(lens: &LoadedLens) -> String {
         ));
     }
     line(String::new());
+    for (i, s) in p.surfaces.iter().enumerate() {
+        if let Shape::IdealLens { focal_length } = s.shape {
+            line(format!(
+                "  ideal lens:  surface {}, focal length {focal_length:.4} mm",
+                i + 1
+            ));
+        }
+    }
     let stop = &p.surfaces[system.stop];
     line(format!(
         "  stop:        surface {} ({}), semi-aperture {:.4} mm",

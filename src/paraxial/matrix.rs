@@ -43,10 +43,11 @@ pub fn transfer(thickness: f64, index: f64) -> Matrix2<f64> {
     Matrix2::new(1.0, thickness / index, 0.0, 1.0)
 }
 
-/// Power c (n' - n) of surface `i` (0-based), in 1/mm.
+/// Power c (n' - n) of surface `i` (0-based), in 1/mm; an ideal lens's is 1/f
+/// ([`Shape::IdealLens`]), which in reduced slopes holds whichever way light crosses it.
 pub fn surface_power(system: &SystemAt, i: usize) -> f64 {
     let s = &system.surfaces[i];
-    paraxial_curvature(&s.shape) * (s.index_after - system.index_before(i))
+    paraxial_curvature(&s.shape) * (s.index_after - system.index_before(i)) + s.shape.ideal_power()
 }
 
 /// Matrix from the vertex plane of surface 1 (object side) to the vertex plane of surface

@@ -159,6 +159,14 @@ pub enum Shape {
         conic: f64,
         coefficients: Vec<f64>,
     },
+    /// A plane that images perfectly, an ideal thin lens of focal length `focal_length` (mm) in
+    /// air (Zemax's paraxial surface): a ray meeting it at height (x, y) with direction
+    /// tangents t = (dx/dz, dy/dz) along its travel leaves with t - (x, y) / f. The map is linear
+    /// in height, so every object plane images onto a plane without aberration: its Seidel
+    /// contributions are zero. It lies in air with air after it.
+    IdealLens {
+        focal_length: f64,
+    },
 }
 
 /// Most even-asphere terms accepted (r^2 through r^20).
@@ -181,7 +189,7 @@ impl Shape {
 
     pub fn curvature(&self) -> f64 {
         match self {
-            Shape::Plane => 0.0,
+            Shape::Plane | Shape::IdealLens { .. } => 0.0,
             Shape::Sphere { curvature }
             | Shape::Conic { curvature, .. }
             | Shape::EvenAsphere { curvature, .. } => *curvature,
@@ -190,7 +198,7 @@ impl Shape {
 
     pub fn conic(&self) -> f64 {
         match self {
-            Shape::Plane | Shape::Sphere { .. } => 0.0,
+            Shape::Plane | Shape::Sphere { .. } | Shape::IdealLens { .. } => 0.0,
             Shape::Conic { conic, .. } | Shape::EvenAsphere { conic, .. } => *conic,
         }
     }
@@ -204,7 +212,8 @@ impl Shape {
     }
 
     /// The same kind of profile with its curvature and aspheric coefficients (by index i, the
-    /// coefficient of r^(2i+2)) mapped; the conic constant, a ratio, is kept.
+    /// coefficient of r^(2i+2)) mapped; the conic constant, a ratio, is kept. An ideal lens's
+    /// power 1/f, a reciprocal length like a curvature, is mapped as one.
     pub fn map_terms(
         &self,
         curvature: impl Fn(f64) -> f64,
@@ -235,13 +244,29 @@ impl Shape {
                     .map(|(i, a)| coefficient(i, *a))
                     .collect(),
             },
+            Shape::IdealLens { focal_length } => Shape::IdealLens {
+                focal_length: 1.0 / curvature(1.0 / focal_length),
+            },
         }
     }
 
     /// The same profile seen from its other side (reflected through its vertex plane): every
-    /// sag negated, so the curvature and every aspheric coefficient change sign.
+    /// sag negated, so the curvature and every aspheric coefficient change sign. An ideal lens
+    /// converges (or diverges) from either side, so it stays as it is.
     pub fn mirrored(&self) -> Shape {
-        self.map_terms(|c| -c, |_, a| -a)
+        match self {
+            Shape::IdealLens { .. } => self.clone(),
+            _ => self.map_terms(|c| -c, |_, a| -a),
+        }
+    }
+
+    /// Power 1/f of an ideal lens (1/mm); 0 for every surface whose power comes from its
+    /// curvature and the indices around it.
+    pub fn ideal_power(&self) -> f64 {
+        match self {
+            Shape::IdealLens { focal_length } => 1.0 / focal_length,
+            _ => 0.0,
+        }
     }
 
     /// Radius of curvature; infinite for a plane.

@@ -75,6 +75,14 @@ pub fn validate(p: &Prescription, map: &SourceMap) -> Result<(), PrescriptionErr
     check_provenance(p, map)?;
     for (i, s) in p.surfaces.iter().enumerate() {
         check_surface(i, s, map)?;
+        // After a mirror, light is back in the medium it met the mirror in.
+        let before = p.surfaces[..i]
+            .iter()
+            .rev()
+            .map(|s| &s.medium)
+            .find(|m| **m != Medium::Mirror)
+            .unwrap_or(&p.object_medium);
+        check_ideal_lens(i, s, before, map)?;
     }
     check_stop(p, map)?;
     check_crossings(p, map)
@@ -188,6 +196,38 @@ fn check_medium(medium: &Medium, location: Location) -> Result<(), PrescriptionE
             Ok(())
         }
     }
+}
+
+/// An ideal lens's focal length is a finite length, not zero, and it lies in air with air after
+/// it: its power 1/f is defined for air (a Zemax paraxial surface in glass has no published
+/// meaning lensbake could follow), and it cannot reflect.
+fn check_ideal_lens(
+    i: usize,
+    s: &Surface,
+    before: &Medium,
+    map: &SourceMap,
+) -> Result<(), PrescriptionError> {
+    let Shape::IdealLens { focal_length } = s.shape else {
+        return Ok(());
+    };
+    finite(focal_length, map.surface(i, "focal_length"))?;
+    if focal_length == 0.0 {
+        return Err(PrescriptionError::new(
+            map.surface(i, "focal_length"),
+            Problem::Unsupported("an ideal lens of focal length 0".into()),
+        ));
+    }
+    if !(before.is_air() && s.medium.is_air()) {
+        return Err(PrescriptionError::new(
+            map.surface(i, "medium"),
+            Problem::Unsupported(format!(
+                "an ideal lens between {} and {}: lensbake models ideal lenses in air",
+                before.describe(),
+                s.medium.describe()
+            )),
+        ));
+    }
+    Ok(())
 }
 
 fn check_surface(i: usize, s: &Surface, map: &SourceMap) -> Result<(), PrescriptionError> {

@@ -23,6 +23,7 @@ pub const SURFACE_PLANE: u32 = 0;
 pub const SURFACE_SPHERE: u32 = 1;
 pub const SURFACE_CONIC: u32 = 2;
 pub const SURFACE_ASPHERE: u32 = 3;
+pub const SURFACE_IDEAL_LENS: u32 = 4;
 /// Outcome codes of the shader's `trace_lens` (`TracedRay::status`), in the order of
 /// [`crate::trace::Outcome`].
 pub const TRACE_OK: u32 = 0;
@@ -247,7 +248,7 @@ pub fn frame_params(
     }
 }
 
-/// One lens surface as `trace_lens` in the shader reads it (storage buffer, 88 bytes).
+/// One lens surface as `trace_lens` in the shader reads it (storage buffer, 92 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct LensSurface {
@@ -271,6 +272,8 @@ pub struct LensSurface {
     pub reflects: u32,
     /// Squared radius of the central obscuration (0 for none).
     pub obscuration_sq: f32,
+    /// Power 1/f of an ideal lens (`SURFACE_IDEAL_LENS`), 1/mm.
+    pub ideal_power: f32,
     /// Even-asphere coefficients of r^2, r^4, ...
     pub coefficients: [f32; crate::prescription::MAX_ASPHERE_TERMS],
 }
@@ -460,6 +463,10 @@ pub fn lens_surfaces(system: &crate::system::SystemAt) -> (LensParams, Vec<LensS
             };
             match &s.shape {
                 Shape::Plane => out.kind = SURFACE_PLANE,
+                Shape::IdealLens { .. } => {
+                    out.kind = SURFACE_IDEAL_LENS;
+                    out.ideal_power = s.shape.ideal_power() as f32;
+                }
                 Shape::Sphere { curvature } if *curvature == 0.0 => out.kind = SURFACE_PLANE,
                 Shape::Sphere { curvature } => {
                     out.kind = SURFACE_SPHERE;

@@ -174,13 +174,18 @@ fn prescription_table(system: &LensSystem) -> Table {
         .enumerate()
         .map(|(i, (s, source))| {
             let radius = match s.shape {
-                Shape::Plane => "flat".to_string(),
+                Shape::Plane | Shape::IdealLens { .. } => "flat".to_string(),
                 _ => format!("{:.4}", s.shape.radius()),
+            };
+            let ideal = match s.shape {
+                Shape::IdealLens { focal_length } => format!("ideal lens f = {focal_length:.4}"),
+                _ => String::new(),
             };
             let kind = match &s.shape {
                 Shape::Plane | Shape::Sphere { .. } => "",
                 Shape::Conic { .. } => "conic",
                 Shape::EvenAsphere { .. } => "asphere",
+                Shape::IdealLens { .. } => &ideal,
             };
             vec![
                 (i + 1).to_string(),

@@ -77,17 +77,19 @@ impl<'a> WaveSet<'a> {
         // Every drawn field and wavelength must trace, or a whole plot would be lost: the
         // design fields shrink together until they all do (the plots' titles give the fields
         // drawn).
-        let traces_at = |scale: f64| {
-            conditions.fields_deg.iter().all(|f| {
+        let traces_at = |scale: f64| -> Result<(), WaveError> {
+            conditions.fields_deg.iter().try_for_each(|f| {
                 FieldTrace::new(&lens, f * scale, &spectrum, probe)
                     .and_then(|t| t.wavefronts(0.0).map(|_| ()))
-                    .is_ok()
             })
         };
+        // When no scale traces, the reason is the one at the smallest (on axis): a lens wave
+        // optics cannot take says so there, as a lens that passes no light does.
+        let mut failure = WaveError::NoLight { field_deg: 0.0 };
         let scale = (0..=FIELD_SEARCH_STEPS)
             .map(|i| 1.0 - i as f64 / FIELD_SEARCH_STEPS as f64)
-            .find(|&scale| traces_at(scale))
-            .ok_or(FigureError::Wave(WaveError::NoLight { field_deg: 0.0 }))?;
+            .find(|&scale| traces_at(scale).map_err(|e| failure = e).is_ok())
+            .ok_or(FigureError::Wave(failure))?;
         Ok(WaveSet {
             lens,
             label,

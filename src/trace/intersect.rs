@@ -45,6 +45,11 @@ pub(crate) enum Profile {
         /// Index into the tracer's table of aspheric coefficient sets.
         terms: usize,
     },
+    /// A plane that deflects rays as an ideal thin lens of this power (1/mm) does
+    /// ([`crate::prescription::Shape::IdealLens`]).
+    IdealLens {
+        power: f64,
+    },
 }
 
 /// Even-asphere polynomial in r^2: `coefficients[i] * (r^2)^(i + 1)`, padded with zeros.

@@ -336,6 +336,9 @@ impl Tracer {
                 let (index_before, index_after) = (index_before.abs(), index_after.abs());
                 let profile = match &s.shape {
                     Shape::Plane => Profile::Plane,
+                    Shape::IdealLens { .. } => Profile::IdealLens {
+                        power: s.shape.ideal_power(),
+                    },
                     Shape::Sphere { curvature } if *curvature == 0.0 => Profile::Plane,
                     Shape::Sphere { curvature } => Profile::Sphere {
                         curvature: *curvature,
@@ -637,7 +640,7 @@ impl Tracer {
             ray.position[2] - s.vertex_z,
         ];
         let (q, normal) = match s.profile {
-            Profile::Plane => match intersect::plane(p, d, sense) {
+            Profile::Plane | Profile::IdealLens { .. } => match intersect::plane(p, d, sense) {
                 Some(q) => (q, None),
                 None => return Err((Event::Missed, *ray)),
             },
@@ -696,6 +699,12 @@ impl Tracer {
                     (-twice_cos).mul_add(normal[1], d[1]),
                     (-twice_cos).mul_add(normal[2], d[2]),
                 ],
+            });
+        }
+        if let Profile::IdealLens { power } = s.profile {
+            return Ok(Ray {
+                position: at.position,
+                direction: refract::ideal_lens(d, [q[0], q[1]], power),
             });
         }
         let (n_in, n_out, mu) = if FORWARD {

@@ -46,6 +46,19 @@ pub(crate) fn refract_plane_candidate(d: Vec3, mu: f64) -> (Vec3, f64) {
     ([x, y, radicand.max(0.0).sqrt().copysign(d[2])], radicand)
 }
 
+/// Deflection by an ideal thin lens of `power` (1/mm) met at transverse point `at`: the
+/// direction tangents along the travel, t = (dx, dy) / |dz|, become t - power * at, and the ray
+/// keeps its sense along z. The map is its own inverse under reversal (a reversed ray has
+/// tangents -t' and leaves with -t' - power * at = -t), so forward and backward traces agree.
+#[inline(always)]
+pub(crate) fn ideal_lens(d: Vec3, at: [f64; 2], power: f64) -> Vec3 {
+    let along = d[2].abs();
+    let tx = (-power).mul_add(at[0], d[0] / along);
+    let ty = (-power).mul_add(at[1], d[1] / along);
+    let length = tx.mul_add(tx, ty.mul_add(ty, 1.0)).sqrt();
+    [tx / length, ty / length, (1.0 / length).copysign(d[2])]
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -90,6 +103,27 @@ mod tests {
         let flat = refract_plane(d, 1.0 / 1.5).unwrap();
         for k in 0..3 {
             assert!((flat[k] - out[k]).abs() < 1e-15);
+        }
+    }
+
+    /// Rays from one point 150 mm before a lens of f = 100 mm, at any height and direction,
+    /// meet again 300 mm behind it (1/150 + 1/300 = 1/100) at magnification -2; reversed, each
+    /// ray returns along its own path.
+    #[test]
+    fn ideal_lens_images_a_point_perfectly_and_reverses() {
+        let (object, power) = ([1.5, -2.0, -150.0], 0.01);
+        for (x, y) in [(0.0, 0.0), (9.0, -3.0), (-20.0, 14.0), (35.0, 30.0)] {
+            let d = unit([x - object[0], y - object[1], -object[2]]);
+            let out = ideal_lens(d, [x, y], power);
+            let len = out.iter().map(|v| v * v).sum::<f64>();
+            assert!((len - 1.0).abs() < 1e-15);
+            let reach = 300.0 / out[2];
+            let image = [x + reach * out[0], y + reach * out[1]];
+            assert!((image[0] + 3.0).abs() < 1e-12 && (image[1] - 4.0).abs() < 1e-12);
+            let back = ideal_lens([-out[0], -out[1], -out[2]], [x, y], power);
+            for k in 0..3 {
+                assert!((back[k] + d[k]).abs() < 1e-15, "{back:?} vs {d:?}");
+            }
         }
     }
 

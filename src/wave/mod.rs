@@ -123,6 +123,12 @@ pub enum WaveError {
     TooFewSamples { terms: usize, valid: usize },
     #[error("Zernike term count {terms} is outside 1..={max}")]
     ZernikeTerms { terms: usize, max: usize },
+    #[error(
+        "surface {surface} is an ideal lens (Zemax paraxial surface), whose optical path is not \
+         defined by its rays: no path length makes its imaging perfect at every conjugate, and \
+         lensbake does not pick one of OpticStudio's approximations; wave optics needs a real lens"
+    )]
+    IdealLensPath { surface: usize },
 }
 
 /// `value` when it is finite and above zero.

@@ -139,6 +139,13 @@ impl PupilTrace {
         crate::limits::check_wavelength(wavelength_nm)?;
         crate::limits::check_wavelength(reference_nm)?;
         match *lens {
+            WaveLens::Real { system, .. }
+                if let Some(i) = system.prescription.surfaces.iter().position(|s| {
+                    matches!(s.shape, crate::prescription::Shape::IdealLens { .. })
+                }) =>
+            {
+                Err(WaveError::IdealLensPath { surface: i + 1 })
+            }
             WaveLens::Real { system, epd_mm } => trace_real(
                 system,
                 epd_mm,

@@ -453,7 +453,8 @@ fn trace(p: &Prescription, n: &[f64], mut y: f64, mut u: f64) -> Trace {
     for (i, s) in p.surfaces.iter().enumerate() {
         heights.push(y);
         let (before, after) = (n[i], n[i + 1]);
-        u = (before * u - y * s.shape.curvature() * (after - before)) / after;
+        let power = s.shape.curvature() * (after - before) + s.shape.ideal_power();
+        u = (before * u - y * power) / after;
         y += s.thickness * u;
     }
     Trace {

@@ -207,12 +207,15 @@ pub fn write_zemax(p: &Prescription) -> Result<String, Problem> {
             line("  STOP".into());
         }
         let terms = s.shape.aspheric_coefficients();
-        line(if terms.is_empty() {
-            "  TYPE STANDARD".into()
-        } else {
-            "  TYPE EVENASPH".into()
+        line(match s.shape {
+            Shape::IdealLens { .. } => "  TYPE PARAXIAL".into(),
+            _ if terms.is_empty() => "  TYPE STANDARD".into(),
+            _ => "  TYPE EVENASPH".into(),
         });
         line(format!("  CURV {}", num(s.shape.curvature())));
+        if let Shape::IdealLens { focal_length } = s.shape {
+            line(format!("  PARM 1 {}", num(focal_length)));
+        }
         if s.shape.conic() != 0.0 {
             line(format!("  CONI {}", num(s.shape.conic())));
         }
@@ -261,6 +264,12 @@ pub fn write_pbrt(p: &Prescription, wavelength_nm: f64) -> Result<String, Proble
             Shape::Conic { .. } | Shape::EvenAsphere { .. } => {
                 return refuse(format!(
                     "surface {surface}: a conic or aspheric surface; pbrt holds spheres"
+                ));
+            }
+            Shape::IdealLens { .. } => {
+                return refuse(format!(
+                    "surface {surface}: an ideal lens (Zemax paraxial surface); pbrt traces \
+                     spheres only"
                 ));
             }
         };

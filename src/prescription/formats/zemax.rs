@@ -41,7 +41,7 @@
 //! parameters) are read as planes in the medium before them that move the later surfaces; the
 //! lens they describe is centred by `placement` (fold mirrors unfolded) or refused there. Any
 //! other keyword is refused, naming keyword, line and surface: other surface types (toroids,
-//! gratings, paraxial, ...), surface tilts written as `SCBD`, multi-configuration files,
+//! gratings, ...), surface tilts written as `SCBD`, multi-configuration files,
 //! annular obscurations, non-circular apertures, ignored surfaces, a curved image surface,
 //! non-sequential mode, and every unknown keyword inside the surface table.
 
@@ -99,6 +99,9 @@ enum SurfaceType {
     EvenAsphere,
     /// A coordinate break: PARM 1..6 are decentre x, y, tilts about x, y, z, order flag.
     CoordinateBreak,
+    /// An ideal thin lens: PARM 1 is its focal length, PARM 2 how OpticStudio computes its
+    /// optical path (which moves no ray).
+    Paraxial,
 }
 
 struct Block {
@@ -284,6 +287,7 @@ impl Reader {
                         "STANDARD" => SurfaceType::Standard,
                         "EVENASPH" => SurfaceType::EvenAsphere,
                         "COORDBRK" => SurfaceType::CoordinateBreak,
+                        "PARAXIAL" => SurfaceType::Paraxial,
                         other => return Err(unsupported(format!("Zemax surface type {other}"))),
                     };
                     true
@@ -341,7 +345,13 @@ impl Reader {
                     if !(1..=PARM_TERMS).contains(&term) {
                         return Err(unsupported(format!("a pickup of parameter {term} (PPAR)")));
                     }
-                    block.pickups.push((term, from, value(2)?, value(3)?, line));
+                    // A fifth field names the column picked from (0: the same parameter). From
+                    // another column (a thickness, say) the file already holds the value the
+                    // pickup gave, as it does for every solve, so it is read as written.
+                    let same_column = args.get(4).is_none_or(|_| value(4).is_ok_and(|c| c == 0.0));
+                    if same_column {
+                        block.pickups.push((term, from, value(2)?, value(3)?, line));
+                    }
                     true
                 }
                 // OpticStudio's aperture decentre; zero changes nothing.
@@ -485,10 +495,13 @@ impl Reader {
                         )),
                     ));
                 }
-                if self.wavelengths.len() < number {
-                    self.wavelengths.resize(number, f64::NAN);
-                    self.wavelength_weights.resize(number, 1.0);
-                }
+                // Older files also carry WAVL/WAVN and WWGT lists, which may be shorter or
+                // longer than the WAVM table: size both to hold this entry.
+                let len = number
+                    .max(self.wavelengths.len())
+                    .max(self.wavelength_weights.len());
+                self.wavelengths.resize(len, f64::NAN);
+                self.wavelength_weights.resize(len, 1.0);
                 self.wavelengths[number - 1] = um;
                 if args.len() > 2 {
                     self.wavelength_weights[number - 1] = value(2)?;
@@ -592,6 +605,19 @@ impl Reader {
                 Problem::Unsupported("a coordinate break as the image surface".into()),
             ));
         }
+        if let Some(b) = lens.iter().find(|b| {
+            b.kind == SurfaceType::Paraxial
+                && (b.curvature != 0.0 || b.conic != 0.0 || b.parms[2..].iter().any(|&p| p != 0.0))
+        }) {
+            return Err(PrescriptionError::new(
+                source.location(Some(b.line)).with_field("TYPE PARAXIAL"),
+                Problem::Unsupported(
+                    "a paraxial surface with a curvature, conic or parameter beyond PARM 1 \
+                     (focal length) and PARM 2 (OPD mode)"
+                        .into(),
+                ),
+            ));
+        }
         // A coordinate break bends no ray: light stays in the medium it was in (the one before
         // the last mirror when it follows one).
         let mut medium_before = self.medium(object);
@@ -602,10 +628,15 @@ impl Reader {
                 if b.kind == SurfaceType::EvenAsphere {
                     terms[..PARM_TERMS].copy_from_slice(&b.parms);
                 }
-                let (profile, medium) = if b.kind == SurfaceType::CoordinateBreak {
-                    (Shape::Plane, medium_before.clone())
-                } else {
-                    (shape(b.curvature, b.conic, &terms), self.medium(b))
+                let (profile, medium) = match b.kind {
+                    SurfaceType::CoordinateBreak => (Shape::Plane, medium_before.clone()),
+                    SurfaceType::Paraxial => (
+                        Shape::IdealLens {
+                            focal_length: b.parms[0],
+                        },
+                        self.medium(b),
+                    ),
+                    _ => (shape(b.curvature, b.conic, &terms), self.medium(b)),
                 };
                 if medium != Medium::Mirror {
                     medium_before = medium.clone();

@@ -21,6 +21,7 @@ struct LensSurface {
     bladed: u32,
     reflects: u32,
     obscuration_sq: f32,
+    ideal_power: f32,
     coefficients: array<f32, 10>,
 }
 
@@ -299,6 +300,13 @@ fn refract_ray(d: vec3<f32>, n: vec3<f32>, mu: f32) -> vec4<f32> {
     return vec4<f32>(mu * d + along * n, 1.0);
 }
 
+// An ideal thin lens met at q: the direction tangents along the travel lose power * q
+// (refract.rs `ideal_lens`), and the ray keeps its sense along z.
+fn ideal_lens(d: vec3<f32>, q: vec2<f32>, power: f32) -> vec3<f32> {
+    let t = d.xy / abs(d.z) - power * q;
+    return normalize(vec3<f32>(t, select(-1.0, 1.0, d.z >= 0.0)));
+}
+
 fn refract_plane(d: vec3<f32>, mu: f32) -> vec4<f32> {
     let xy = mu * d.xy;
     let radicand = 1.0 - dot(xy, xy);
@@ -335,6 +343,8 @@ fn trace_lens(origin: vec3<f32>, direction: vec3<f32>) -> TracedRay {
         if s.reflects != 0u {
             d = d - 2.0 * dot(d, hit.normal) * hit.normal;
             sense = -sense;
+        } else if s.kind == SURFACE_IDEAL_LENS {
+            d = ideal_lens(d, q.xy, s.ideal_power);
         } else if s.same_medium == 0u {
             var refracted: vec4<f32>;
             if s.kind == SURFACE_PLANE {
