@@ -563,3 +563,21 @@ pub fn surface(
         obscuration: None,
     }
 }
+
+/// Traces `batch` forward both as a batch and ray by ray, asserts the two agree bit for bit
+/// (outcome and ray), and returns how many rays passed.
+pub fn batch_matches_one_ray(
+    tracer: &lensbake::trace::Tracer,
+    batch: &lensbake::trace::RayBatch,
+) -> usize {
+    use lensbake::trace::{Apertures, Travel};
+    let traced = tracer.trace_batch(batch, Travel::Forward, Apertures::Checked);
+    let mut passed = 0;
+    for (i, ray) in batch.iter().enumerate() {
+        let one = tracer.trace(ray, Travel::Forward);
+        assert_eq!(traced.outcomes[i], one.outcome, "ray {i}");
+        assert_eq!(traced.rays.get(i).unwrap(), one.ray, "ray {i}");
+        passed += usize::from(one.outcome.is_ok());
+    }
+    passed
+}

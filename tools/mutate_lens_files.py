@@ -1,0 +1,93 @@
+#!/usr/bin/env python3
+"""Hostile-input sweep of the readers: mutated copies of real lens files through `lens check` and
+`analyze`, which must exit 0 or 2 (a located `error:` line), never crash or hang, and print no NaN
+when they succeed.
+
+Each case takes a random file of the corpus (tests/data/corpus/, lenses/) and applies one to four
+mutations: delete a line, duplicate a line elsewhere, or replace one number of a line by an
+extreme (0, -1, +-1e308, 1e-320, nan, inf, 2^31, 2^64, ...). A failing case is kept as
+bad-N.<ext> in the output directory.
+
+Run from the repo root after `cargo build --release`:
+    python3 tools/mutate_lens_files.py --cases 1000 --seed 1 --out /tmp/mutations
+"""
+import argparse
+import glob
+import os
+import random
+import subprocess
+
+EXTREMES = ["0", "-0", "-1", "-5", "1e5", "1e308", "-1e308", "1e-320", "nan", "inf",
+            "999999999", "2147483648", "18446744073709551616"]
+BINARY = os.path.join("target", "release", "lensbake")
+
+
+def mutate(text, rng):
+    lines = text.split("\n")
+    for _ in range(rng.randint(1, 4)):
+        i = rng.randrange(len(lines))
+        choice = rng.random()
+        if choice < 0.25:
+            del lines[i]
+        elif choice < 0.4:
+            lines.insert(i, lines[rng.randrange(len(lines))])
+        else:
+            words = lines[i].split(" ")
+            filled = [k for k, w in enumerate(words) if w.strip()]
+            if len(filled) > 1:
+                words[rng.choice(filled[1:])] = rng.choice(EXTREMES)
+                lines[i] = " ".join(words)
+        if not lines:
+            lines = [""]
+    return "\n".join(lines)
+
+
+def prints_nan(output):
+    # Titles and glass names may hold the letters; a number printed as NaN stands alone.
+    return any(word.strip(",;:()[]") in ("NaN", "nan", "-NaN") for word in output.split())
+
+
+def main():
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--cases", type=int, default=500)
+    parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--out", default="/tmp/lensbake-mutations")
+    args = parser.parse_args()
+    rng = random.Random(args.seed)
+    os.makedirs(args.out, exist_ok=True)
+    files = sorted(glob.glob("tests/data/corpus/*.[zZsS][mMeE][xXqQ]") + glob.glob("lenses/*.ron"))
+    texts = {}
+    for path in files:
+        raw = open(path, "rb").read()
+        if raw[:2] not in (b"\xff\xfe", b"\xfe\xff"):  # UTF-16 files mutate into garbage bytes
+            texts[path] = raw.decode("latin-1")
+    bad = 0
+    for case in range(args.cases):
+        source = rng.choice(sorted(texts))
+        extension = os.path.splitext(source)[1]
+        path = os.path.join(args.out, f"case{extension}")
+        with open(path, "w", encoding="latin-1") as f:
+            f.write(mutate(texts[source], rng))
+        for command in (["lens", "check", path], ["analyze", path]):
+            try:
+                run = subprocess.run([BINARY] + command, capture_output=True, text=True,
+                                     timeout=60)
+                failed = run.returncode not in (0, 2) or (
+                    run.returncode == 0 and prints_nan(run.stdout + run.stderr))
+                what = f"exit {run.returncode}: {(run.stderr.strip() or run.stdout.strip())[-200:]}"
+            except subprocess.TimeoutExpired:
+                failed, what = True, "no answer in 60 s"
+            if failed:
+                bad += 1
+                kept = os.path.join(args.out, f"bad-{bad}{extension}")
+                os.replace(path, kept)
+                print(f"{kept} (from {source}, {command[0]}): {what}")
+                break
+            if run.returncode != 0:
+                break
+    print(f"{args.cases} cases, {bad} failed")
+    return 1 if bad else 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
