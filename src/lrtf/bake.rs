@@ -22,7 +22,7 @@ use crate::pupil::{
     self, FocusNodeSettings, FocusPupilTable, PupilCircle, PupilFitSettings, PupilTable, RearTest,
 };
 use crate::system::{LensSystem, SystemAt};
-use crate::trace::{Apertures, LANES, LaneVisitor, Tracer, Travel};
+use crate::trace::{Apertures, LANES, LaneVisitor, Slots, Tracer, Travel};
 
 /// What to bake. `None` fields take the defaults of issue 6: film at the paraxial image plane
 /// for an object at infinity, film radius up to the real chief ray's image height at the largest
@@ -564,14 +564,11 @@ impl<'a> ApertureMargins<'a> {
 
 impl LaneVisitor for ApertureMargins<'_> {
     #[inline(always)]
-    fn crossed(&mut self, surface: usize, ids: &[u32], alive: &[u64], x: &[f64], y: &[f64]) {
+    fn crossed(&mut self, surface: usize, ids: &[u32], travelling: Slots, x: &[f64], y: &[f64]) {
         let inverse = self.inverse_semi_aperture[surface];
         let obscuration = self.obscuration[surface];
-        for (((&id, &alive), &x), &y) in ids.iter().zip(alive).zip(x).zip(y) {
-            if alive == 0 {
-                continue;
-            }
-            let l = id as usize;
+        for slot in (0..ids.len()).filter(|&slot| travelling.contains(slot)) {
+            let (l, x, y) = (ids[slot] as usize, x[slot], y[slot]);
             let radius = (x * x + y * y).sqrt();
             let mut margin = self.margin[l];
             if obscuration > 0.0 {

@@ -1,13 +1,13 @@
 //! Rays in blocks, surface by surface, for throughput.
 //!
 //! One ray's trace is a chain of dependent square roots and divisions, so a single ray keeps
-//! the floating-point units mostly waiting. A [`Block`] holds up to a few hundred rays as
-//! columns (structure of arrays) and crosses one surface with all of them before the next, so
-//! the processor overlaps independent chains and the straight-line kernels below pack
-//! [`STRIDE`] rays into vector instructions. After each surface the rays that stopped are
-//! reported, and once enough have stopped to free a whole stride the survivors are packed to
-//! the front of the block (in order), so rays vignetted at surface 3 cost little at surfaces
-//! 4..N: the kernels only run over the strides in use.
+//! the floating-point units mostly waiting. A [`Block`] holds up to 128 rays as columns
+//! (structure of arrays) and crosses one surface with all of them before the next, so the
+//! processor overlaps independent chains and the straight-line kernels below pack [`STRIDE`]
+//! rays into vector instructions. After each surface the rays that stopped are reported, and
+//! once enough have stopped to free a whole stride the survivors are packed to the front of
+//! the block, so rays vignetted at surface 3 cost little at surfaces 4..N: the kernels only
+//! run over the strides in use. Which rays travel is a bit per slot ([`Slots`]).
 //!
 //! Spheres and planes (almost every surface of a real lens) have kernels; conics, aspheres,
 //! mirrors, obscured surfaces and the bladed stop use the one-ray code ([`Tracer::cross`]) for
@@ -40,10 +40,52 @@ const CROSSED: u64 = 0;
 const MISSED: u64 = 1;
 const VIGNETTED: u64 = 2;
 const TIR: u64 = 3;
-/// Stopped on the one-ray path, which has reported it already.
-const REPORTED: u64 = 4;
-/// A travelling ray's mask: every event code survives `code & ALIVE`.
-const ALIVE: u64 = u64::MAX;
+
+/// A set of a block's slots, one bit per slot (blocks hold at most 128 rays). The block's
+/// bookkeeping (which rays stopped at a surface, which holes packing fills) works on these
+/// bits a stride or a whole block at a time instead of slot by slot.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub(crate) struct Slots(u128);
+
+impl Slots {
+    /// Slots `0..n`.
+    fn first(n: usize) -> Slots {
+        debug_assert!(n <= 128);
+        Slots(u128::MAX.checked_shr(128 - n as u32).unwrap_or(0))
+    }
+
+    pub fn contains(self, slot: usize) -> bool {
+        (self.0 >> slot) & 1 != 0
+    }
+
+    fn len(self) -> usize {
+        self.0.count_ones() as usize
+    }
+
+    fn is_empty(self) -> bool {
+        self.0 == 0
+    }
+
+    fn and(self, other: Slots) -> Slots {
+        Slots(self.0 & other.0)
+    }
+
+    fn without(self, other: Slots) -> Slots {
+        Slots(self.0 & !other.0)
+    }
+
+    /// The slots in increasing order.
+    fn iter(self) -> impl Iterator<Item = usize> {
+        let mut bits = self.0;
+        std::iter::from_fn(move || {
+            (bits != 0).then(|| {
+                let slot = bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                slot
+            })
+        })
+    }
+}
 
 /// Positions and directions of a block's slots: six columns (x, y, z, then dx, dy, dz), each
 /// in strides of [`STRIDE`].
@@ -102,8 +144,6 @@ pub(crate) struct Block<const STRIDES: usize> {
     ids: [[u32; STRIDE]; STRIDES],
     /// Code per slot from the last kernel.
     events: [[u64; STRIDE]; STRIDES],
-    /// [`ALIVE`] for a slot whose ray is travelling, 0 once it stopped.
-    alive: [[u64; STRIDE]; STRIDES],
     /// Rays loaded (they fill the first slots of `columns[0]`).
     loaded: usize,
 }
@@ -112,11 +152,11 @@ impl<const STRIDES: usize> Block<STRIDES> {
     pub const CAPACITY: usize = STRIDES * STRIDE;
 
     pub fn new() -> Block<STRIDES> {
+        const { assert!(Self::CAPACITY <= 128, "a block's slots fit one Slots") };
         Block {
             columns: [Columns::ZERO; 2],
             ids: [[0; STRIDE]; STRIDES],
             events: [[CROSSED; STRIDE]; STRIDES],
-            alive: [[0; STRIDE]; STRIDES],
             loaded: 0,
         }
     }
@@ -199,11 +239,11 @@ impl Isa {
 }
 
 /// What a visitor sees after each surface: the surface's 0-based index and, for every slot in
-/// use, the number of the ray in it, whether that ray is still travelling (non-zero) and its
-/// hit point on the surface (x and y, lens frame). Slots of rays that have stopped hold
+/// use, the number of the ray in it, whether that ray is still travelling (in `travelling`)
+/// and its hit point on the surface (x and y, lens frame). Slots of rays that have stopped hold
 /// meaningless numbers.
 pub(crate) trait LaneVisitor {
-    fn crossed(&mut self, surface: usize, ids: &[u32], alive: &[u64], x: &[f64], y: &[f64]);
+    fn crossed(&mut self, surface: usize, ids: &[u32], travelling: Slots, x: &[f64], y: &[f64]);
 }
 
 /// The visitor of a plain trace.
@@ -211,7 +251,7 @@ pub(crate) struct NoVisit;
 
 impl LaneVisitor for NoVisit {
     #[inline(always)]
-    fn crossed(&mut self, _: usize, _: &[u32], _: &[u64], _: &[f64], _: &[f64]) {}
+    fn crossed(&mut self, _: usize, _: &[u32], _: Slots, _: &[f64], _: &[f64]) {}
 }
 
 impl Tracer {
@@ -321,82 +361,86 @@ impl Tracer {
             columns: [first, second],
             ids,
             events,
-            alive,
             loaded,
         } = block;
-        let (ids, alive) = (ids.as_flattened_mut(), alive.as_flattened_mut());
+        let ids = ids.as_flattened_mut();
         let (mut current, mut next) = (first, second);
         // Slots in use (a prefix), and the rays among them still travelling.
         let mut occupied = *loaded;
-        let mut travelling = occupied;
-        alive[..occupied].fill(ALIVE);
+        let mut travelling = Slots::first(occupied);
         let mut ray_surfaces = 0u64;
         let n = self.surfaces.len();
         for step in 0..n {
-            if travelling == 0 {
+            if travelling.is_empty() {
                 break;
             }
-            ray_surfaces += travelling as u64;
+            ray_surfaces += travelling.len() as u64;
             let i = if FORWARD { step } else { n - 1 - step };
             let s = &self.surfaces[i];
             let strides = occupied.div_ceil(STRIDE);
             let refracts = s.index_before != s.index_after;
-            let check = check_apertures;
-            let (from, to) = (&*current, &mut *next);
-            // SAFETY (each kernel): the block trace runs on machine `M` only where its caller
-            // found the processor runs `M`'s instructions.
-            match (s.profile, s.bladed || !s.plain(), refracts) {
-                (Profile::Sphere { .. }, false, true) => unsafe {
-                    M::kernel::<SphereCrossing<FORWARD, true>, STRIDES>(
-                        s, from, to, events, strides, check,
-                    )
-                },
-                (Profile::Sphere { .. }, false, false) => unsafe {
-                    M::kernel::<SphereCrossing<FORWARD, false>, STRIDES>(
-                        s, from, to, events, strides, check,
-                    )
-                },
-                (Profile::Plane, false, true) => unsafe {
-                    M::kernel::<PlaneCrossing<FORWARD, true>, STRIDES>(
-                        s, from, to, events, strides, check,
-                    )
-                },
-                (Profile::Plane, false, false) => unsafe {
-                    M::kernel::<PlaneCrossing<FORWARD, false>, STRIDES>(
-                        s, from, to, events, strides, check,
-                    )
-                },
-                _ => {
-                    let events = events.as_flattened_mut();
-                    for slot in (0..occupied).filter(|&slot| alive[slot] == ALIVE) {
-                        events[slot] = match self.cross::<FORWARD>(s, &current.ray(slot), check) {
-                            Ok(ray) => {
-                                next.set(slot, ray);
-                                CROSSED
-                            }
+            let kernel: Option<Kernel<STRIDES>> =
+                match (s.profile, s.bladed || !s.plain(), refracts) {
+                    (Profile::Sphere { .. }, false, true) => {
+                        Some(M::kernel::<SphereCrossing<FORWARD, true>, STRIDES>)
+                    }
+                    (Profile::Sphere { .. }, false, false) => {
+                        Some(M::kernel::<SphereCrossing<FORWARD, false>, STRIDES>)
+                    }
+                    (Profile::Plane, false, true) => {
+                        Some(M::kernel::<PlaneCrossing<FORWARD, true>, STRIDES>)
+                    }
+                    (Profile::Plane, false, false) => {
+                        Some(M::kernel::<PlaneCrossing<FORWARD, false>, STRIDES>)
+                    }
+                    _ => None,
+                };
+            let stopped = match kernel {
+                Some(kernel) => {
+                    // SAFETY: the block trace runs on machine `M` only where its caller found
+                    // the processor runs `M`'s instructions.
+                    unsafe { kernel(s, current, next, events, strides, check_apertures) };
+                    let stopped = stopped_slots(events, strides).and(travelling);
+                    report(
+                        i,
+                        current,
+                        next,
+                        events.as_flattened(),
+                        ids,
+                        stopped,
+                        finish,
+                    );
+                    stopped
+                }
+                None => {
+                    let mut stopped = Slots::default();
+                    for slot in travelling.iter() {
+                        match self.cross::<FORWARD>(s, &current.ray(slot), check_apertures) {
+                            Ok(ray) => next.set(slot, ray),
                             Err((event, at)) => {
                                 let outcome = event.outcome(i + 1);
                                 finish(ids[slot] as usize, Traced { outcome, ray: at });
-                                REPORTED
+                                stopped = Slots(stopped.0 | 1u128 << slot);
                             }
-                        };
+                        }
                     }
+                    stopped
                 }
-            }
-            let events = events.as_flattened();
-            let stopped = report(i, current, next, events, alive, ids, occupied, finish);
-            travelling -= stopped;
+            };
+            travelling = travelling.without(stopped);
             // Packing costs a copy per hole filled, worth it only when the kernels then run over
             // fewer strides.
-            if stopped > 0 && travelling.div_ceil(STRIDE) < strides {
-                pack(next, alive, ids, occupied, travelling);
-                occupied = travelling;
+            let count = travelling.len();
+            if !stopped.is_empty() && count.div_ceil(STRIDE) < strides {
+                pack(next, ids, travelling, count);
+                travelling = Slots::first(count);
+                occupied = count;
             }
             std::mem::swap(&mut current, &mut next);
             let [x, y] = [0, 1].map(|k| &current.column(k)[..occupied]);
-            visit.crossed(i, &ids[..occupied], &alive[..occupied], x, y);
+            visit.crossed(i, &ids[..occupied], travelling, x, y);
         }
-        for slot in (0..occupied).filter(|&slot| alive[slot] == ALIVE) {
+        for slot in travelling.iter() {
             let traced = Traced {
                 outcome: Outcome::Ok,
                 ray: current.ray(slot),
@@ -407,80 +451,79 @@ impl Tracer {
     }
 }
 
-/// Reports the travelling rays the last kernel stopped at surface `i` (0-based), with the ray
-/// the one-ray path reports (the ray before the surface for a miss; the hit point and arriving
-/// direction otherwise), and marks them stopped. Returns how many stopped.
-#[allow(clippy::too_many_arguments)]
+/// A kernel compiled for one machine ([`Machine::kernel`]).
+type Kernel<const STRIDES: usize> = unsafe fn(
+    &FlatSurface,
+    &Columns<STRIDES>,
+    &mut Columns<STRIDES>,
+    &mut [[u64; STRIDE]; STRIDES],
+    usize,
+    bool,
+);
+
+/// The slots of the first `strides` strides whose code is not [`CROSSED`], found a stride at a
+/// time (a vector compare and its mask).
+#[inline(always)]
+fn stopped_slots<const STRIDES: usize>(events: &[[u64; STRIDE]; STRIDES], strides: usize) -> Slots {
+    let mut slots = 0u128;
+    for (k, stride) in events[..strides].iter().enumerate() {
+        let bits = stride.iter().enumerate().fold(0u32, |bits, (lane, &code)| {
+            bits | (u32::from(code != CROSSED) << lane)
+        });
+        slots |= u128::from(bits) << (k * STRIDE);
+    }
+    Slots(slots)
+}
+
+/// Reports the rays in `stopped`, which the last kernel stopped at surface `i` (0-based), with
+/// the ray the one-ray path reports (the ray before the surface for a miss; the hit point and
+/// arriving direction otherwise).
 #[inline(always)]
 fn report<const STRIDES: usize>(
     i: usize,
     current: &Columns<STRIDES>,
     next: &Columns<STRIDES>,
     events: &[u64],
-    alive: &mut [u64],
     ids: &[u32],
-    occupied: usize,
+    stopped: Slots,
     finish: &mut impl FnMut(usize, Traced),
-) -> usize {
-    let mut stopped = 0;
-    for first in (0..occupied).step_by(STRIDE) {
-        let slots = first..occupied.min(first + STRIDE);
-        let codes = events[slots.clone()].iter().zip(&alive[slots.clone()]);
-        if codes.fold(0, |any, (&e, &a)| any | (e & a)) == CROSSED {
-            continue;
-        }
-        for slot in slots {
-            let code = events[slot] & alive[slot];
-            if code == CROSSED {
-                continue;
+) {
+    for slot in stopped.iter() {
+        let arriving = current.ray(slot);
+        let (outcome, ray) = match events[slot] {
+            MISSED => (Outcome::Missed { surface: i + 1 }, arriving),
+            code => {
+                let outcome = if code == VIGNETTED {
+                    Outcome::Vignetted { surface: i + 1 }
+                } else {
+                    debug_assert_eq!(code, TIR);
+                    Outcome::Tir { surface: i + 1 }
+                };
+                let ray = Ray::from_parts(next.position(slot), arriving.direction);
+                (outcome, ray)
             }
-            alive[slot] = 0;
-            stopped += 1;
-            let arriving = current.ray(slot);
-            let (outcome, ray) = match code {
-                MISSED => (Outcome::Missed { surface: i + 1 }, arriving),
-                VIGNETTED | TIR => {
-                    let outcome = if code == VIGNETTED {
-                        Outcome::Vignetted { surface: i + 1 }
-                    } else {
-                        Outcome::Tir { surface: i + 1 }
-                    };
-                    (
-                        outcome,
-                        Ray::from_parts(next.position(slot), arriving.direction),
-                    )
-                }
-                _ => continue,
-            };
-            finish(ids[slot] as usize, Traced { outcome, ray });
-        }
+        };
+        finish(ids[slot] as usize, Traced { outcome, ray });
     }
-    stopped
 }
 
-/// Fills the slots of stopped rays below `travelling` with the travelling rays above it, so
-/// that the travelling rays occupy the first `travelling` slots (in no particular order: each
-/// carries its number). Moves only as many rays as there are such holes.
+/// Moves the travelling rays in slots `count..` into the holes (slots of stopped rays) below
+/// `count`, so that the `count` travelling rays occupy the first `count` slots (in no
+/// particular order: each carries its number). Moves only as many rays as there are holes.
 #[inline(always)]
 fn pack<const STRIDES: usize>(
     columns: &mut Columns<STRIDES>,
-    alive: &mut [u64],
     ids: &mut [u32],
-    occupied: usize,
-    travelling: usize,
+    travelling: Slots,
+    count: usize,
 ) {
-    let mut source = occupied;
-    for hole in 0..travelling {
-        if alive[hole] == ALIVE {
-            continue;
-        }
-        source -= 1;
-        while alive[source] != ALIVE {
-            source -= 1;
-        }
+    let below = Slots::first(count);
+    let holes = below.without(travelling);
+    let movers = travelling.without(below);
+    debug_assert_eq!(holes.len(), movers.len());
+    for (hole, source) in holes.iter().zip(movers.iter()) {
         columns.move_slot(source, hole);
         ids[hole] = ids[source];
-        alive[hole] = ALIVE;
     }
 }
 
@@ -749,12 +792,32 @@ fn kernel<K: Crossing, const STRIDES: usize>(
     // One flat loop over whole strides: the compiler vectorises it across rays (a loop over
     // strides around a loop over one stride's rays was unrolled and vectorised across strides,
     // with gathers).
+    // Every slice is cut to `n` here, in straight code: sliced inside an array `map` (a call
+    // the compiler kept), their lengths were unknown in the loop, whose last stride then ran
+    // as scalar code behind the bounds checks (a third of the sphere kernel's time).
     let n = strides * STRIDE;
-    let [px, py, pz, dx, dy, dz] = [0, 1, 2, 3, 4, 5].map(|k| &current.column(k)[..n]);
-    let [qx, qy, qz, ex, ey, ez] = next
-        .values
-        .each_mut()
-        .map(|column| &mut column.as_flattened_mut()[..n]);
+    let [px, py, pz, dx, dy, dz] = &current.values;
+    let (px, py, pz) = (
+        &px.as_flattened()[..n],
+        &py.as_flattened()[..n],
+        &pz.as_flattened()[..n],
+    );
+    let (dx, dy, dz) = (
+        &dx.as_flattened()[..n],
+        &dy.as_flattened()[..n],
+        &dz.as_flattened()[..n],
+    );
+    let [qx, qy, qz, ex, ey, ez] = &mut next.values;
+    let (qx, qy, qz) = (
+        &mut qx.as_flattened_mut()[..n],
+        &mut qy.as_flattened_mut()[..n],
+        &mut qz.as_flattened_mut()[..n],
+    );
+    let (ex, ey, ez) = (
+        &mut ex.as_flattened_mut()[..n],
+        &mut ey.as_flattened_mut()[..n],
+        &mut ez.as_flattened_mut()[..n],
+    );
     let codes = &mut events.as_flattened_mut()[..n];
     for l in 0..n {
         let p = [px[l], py[l], pz[l] - vertex_z];
@@ -904,11 +967,11 @@ mod tests {
                 &mut self,
                 surface: usize,
                 ids: &[u32],
-                alive: &[u64],
+                travelling: Slots,
                 x: &[f64],
                 y: &[f64],
             ) {
-                for k in (0..ids.len()).filter(|&k| alive[k] != 0) {
+                for k in (0..ids.len()).filter(|&k| travelling.contains(k)) {
                     self.0.push((surface, ids[k], x[k], y[k]));
                 }
             }
