@@ -670,6 +670,9 @@ struct Beam {
 /// Fractions of the field at which `lensbake analyze` reports distortion.
 pub const REPORT_FIELD_FRACTIONS: [f64; 4] = [0.25, 0.5, 0.75, 1.0];
 /// Relative pupil heights at which `lensbake analyze` reports longitudinal spherical aberration.
+/// 0.7071 is the zone as design programs print and tabulate it (CODE V's listings), so it is
+/// written as they write it, not as 1/sqrt(2).
+#[allow(clippy::approx_constant)]
 pub const REPORT_PUPIL_HEIGHTS: [f64; 5] = [0.25, 0.5, 0.7071, 0.85, 1.0];
 
 /// The real-ray block of `lensbake analyze`: distortion as [field_deg, percent] and LSA as
