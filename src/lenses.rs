@@ -7,7 +7,7 @@ pub struct BundledLens {
     pub ron: &'static str,
 }
 
-/// Every bundled lens, sorted by name. The files live in lenses/<name>.ron.
+/// Every bundled lens, sorted by name. The files live in `lenses/<name>.ron`.
 pub const BUNDLED: &[BundledLens] = &[
     BundledLens {
         name: "asph-50mm-f1.8",

@@ -174,7 +174,7 @@ pub fn passes_from_film(
 }
 
 /// The rays from the film point (film_radius, 0, film_z) through rear-plane points, tested with
-/// apertures on, [`LANES`] side by side: the probe the effective-pupil fit runs thousands of
+/// apertures on, `LANES` side by side: the probe the effective-pupil fit runs thousands of
 /// times per film radius.
 pub struct FilmPointRays<'a> {
     pub tracer: &'a Tracer,

@@ -24,7 +24,7 @@ pub trait Node: Copy + Default + PartialEq + std::fmt::Debug + Send + Sync + 'st
     fn from_values(values: &[f32; CHANNELS]) -> Self;
     fn values(&self) -> [f32; CHANNELS];
     /// Every channel interpolated over all eight corners of `cell` with AVX2 and F16C (see
-    /// [`vector`]); to be called only where `vector::available()`.
+    /// `vector`); to be called only where `vector::available()`.
     #[cfg(target_arch = "x86_64")]
     const VECTOR: unsafe fn(&[Self], &Cell) -> [f64; CHANNELS];
 }
@@ -127,7 +127,7 @@ impl Cell {
     }
 }
 
-/// Trilinear addressing of a coordinate in [0,1] on `n` nodes: base index and fraction.
+/// Trilinear addressing of a coordinate in \[0, 1\] on `n` nodes: base index and fraction.
 /// Nodes sit at k / (n - 1), so both ends of the domain are sampled exactly.
 pub fn address(coord: f64, n: usize) -> (usize, f64) {
     let t = coord.clamp(0.0, 1.0) * (n - 1) as f64;
@@ -384,7 +384,7 @@ impl Entries {
         Entries::from_row_major(self.dims(), precision, &values)
     }
 
-    /// The cell holding table coordinates `coords` (clamped to [0,1]^3).
+    /// The cell holding table coordinates `coords` (clamped to \[0, 1\]^3).
     pub fn cell(&self, coords: [f64; 3]) -> Cell {
         match self {
             Entries::F32(g) => g.cell(coords),

@@ -1,4 +1,4 @@
-//! The two ray parameterisations: how a film-side ray becomes three table coordinates in [0,1]^3
+//! The two ray parameterisations: how a film-side ray becomes three table coordinates in \[0, 1\]^3
 //! (after factoring out the rotation about the axis and the mirror about the meridional plane),
 //! and how the four stored values become the outgoing ray.
 //!
@@ -75,7 +75,7 @@ pub struct Frame {
 /// Where a film-side ray lands in a table.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Located {
-    /// Table coordinates; inside [0,1]^3 when `in_domain`.
+    /// Table coordinates; inside \[0, 1\]^3 when `in_domain`.
     pub coords: [f64; 3],
     /// cos and sin of the rotation from the canonical frame back to the lens frame.
     pub rotation: [f64; 2],

@@ -2,7 +2,7 @@
 //!
 //! plotters' ab_glyph backend looks fonts up by family name in a process-wide table; registering
 //! our bytes there once means no plot ever asks the operating system for a font. SVG output
-//! carries the same bytes in an `@font-face` rule ([`svg_font_face`]), so it renders alike on
+//! carries the same bytes in an `@font-face` rule (`svg_font_face`), so it renders alike on
 //! machines without the font, at the cost of about 1 MB per file.
 
 use super::PlotError;

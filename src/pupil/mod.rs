@@ -99,7 +99,7 @@ fn density_in(circle: PupilCircle, point: [f64; 2]) -> f64 {
     }
 }
 
-/// Concentric map from [0,1]^2 onto the unit disk; area-preserving up to a constant, so a
+/// Concentric map from \[0, 1\]^2 onto the unit disk; area-preserving up to a constant, so a
 /// uniform square sample gives a uniform disk sample.
 pub fn concentric_disk(unit: [f64; 2]) -> [f64; 2] {
     let a = 2.0 * unit[0] - 1.0;

@@ -115,7 +115,7 @@ const REACH_RIM_SAMPLES: usize = 16;
 
 /// The largest |x| / depth and |y| / depth, seen from the eye, that the model's object rays reach
 /// at depths from `nearest_depth_mm` to infinity, over rays from the film's corners and edge
-/// midpoints through the centre and the rim of their pupil circle (f64, [`object_ray`]). The
+/// midpoints through the centre and the rim of their pupil circle (f64, `object_ray`). The
 /// extremes of a ray's x / depth lie at the nearest depth or at infinity (it is linear in
 /// 1 / depth), and a radially monotonic lens sends its outermost rays from the film's rim.
 pub fn ray_reach_tangents(camera: &Camera, nearest_depth_mm: f64) -> [f64; 2] {

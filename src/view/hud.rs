@@ -85,7 +85,7 @@ const RAMP: [[f32; 3]; 5] = [
     [1.0, 1.0, 1.0],
 ];
 
-/// A value in [0, 1] on [`RAMP`], as 8-bit sRGB.
+/// A value in \[0, 1\] on `RAMP`, as 8-bit sRGB.
 pub fn ramp(t: f32) -> [u8; 3] {
     let x = t.clamp(0.0, 1.0) * (RAMP.len() - 1) as f32;
     let i = (x.floor() as usize).min(RAMP.len() - 2);
@@ -96,7 +96,7 @@ pub fn ramp(t: f32) -> [u8; 3] {
     })
 }
 
-/// Per pixel the channel mean of |baked - traced| on [`RAMP`], as 8-bit sRGB, with a colour bar
+/// Per pixel the channel mean of |baked - traced| on `RAMP`, as 8-bit sRGB, with a colour bar
 /// along the bottom 8 rows; and the scale: the error at the top of the ramp, the 99.5th
 /// percentile of the pixels' errors (so a few edge pixels do not wash the map out).
 pub fn error_map(baked: &RgbImage, traced: &RgbImage) -> (Vec<u8>, f32) {
