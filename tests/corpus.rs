@@ -65,8 +65,8 @@ const LOADS: &[&str] = &[
 ///   1.5169980392, 3.5e-8 apart), which moves the EFL by 3e-9 relative. Neither is the glass.
 /// - rayoptics__US05831776-1.zmx (a 248 nm lithography lens whose DIAM envelopes lensbake cuts
 ///   where three pairs of faces meet): rayoptics 0.9.8 knows no `SILICA` and takes a constant
-///   n = 1.5 (EFL 432.86 mm). optiland 0.6.3 reads fused silica as lensbake does (n = 1.508551 at
-///   248 nm) and gives EFL 494.020329 mm and EPD 144.281776 mm, lensbake's numbers to 1e-9.
+///   n = 1.5 (EFL 432.86 mm); compared with optiland instead
+///   (`the_248_nm_lithography_lens_matches_optiland`).
 /// - rayoptics__landscape_lens.seq, rayoptics__singlet.seq: written without `RDM`; rayoptics
 ///   reads their surface values as curvatures, lensbake as radii (CODE V's radius mode, the
 ///   default lensbake documents in docs/formats.md), so the two analyse different lenses.
@@ -262,5 +262,39 @@ fn first_order_data_and_seidel_sums_match_rayoptics() {
                 k + 1
             );
         }
+    }
+}
+
+/// The lithography lens rayoptics cannot read (it knows no `SILICA`) against optiland 0.6.3, which
+/// reads fused silica as lensbake does: EFL 494.02032877703374 mm and EPD 144.2817760378819 mm
+/// at 248 nm (`optiland.fileio.load_zemax_file`, then `paraxial.f2()` and `paraxial.EPD()`).
+/// Its DIAM envelopes, cut where three lenses' faces meet, change no paraxial number.
+#[test]
+fn the_248_nm_lithography_lens_matches_optiland() {
+    let name = "rayoptics__US05831776-1.zmx";
+    let loaded = read_file(&corpus().join(name), &LoadOptions::default()).unwrap();
+    let cut: Vec<usize> = loaded
+        .notes
+        .iter()
+        .find_map(|n| match n {
+            LoadNote::EnvelopesCut { surfaces } => Some(surfaces.iter().map(|s| s.0).collect()),
+            _ => None,
+        })
+        .unwrap();
+    assert_eq!(cut, [15, 16, 24, 25, 28, 29]);
+    let system = LensSystem::new(loaded.prescription, &loaded.map).unwrap();
+    let options = AnalyzeOptions {
+        wavelength_nm: Some(248.0),
+        ..AnalyzeOptions::default()
+    };
+    let f = analyze(name, &system, &options).unwrap().first_order;
+    for (what, ours, theirs) in [
+        ("efl", f.efl, 494.02032877703374),
+        ("epd", f.entrance_pupil.diameter, 144.2817760378819),
+    ] {
+        assert!(
+            ((ours - theirs) / theirs).abs() < 1e-9,
+            "{what}: {ours} vs optiland {theirs}"
+        );
     }
 }
