@@ -271,3 +271,20 @@ fn the_cli_lists_ideal_lenses_and_the_report_says_why_wave_figures_are_skipped()
     );
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// A focal length too short for the trace to hold its bends is refused where it is written, and
+/// a ray grazing an ideal lens ends as a miss there, never with a NaN direction.
+#[test]
+fn extreme_focal_lengths_and_grazing_rays() {
+    for focal_length in ["0", "1e-320", "5e-7"] {
+        let text = ZEMAX.replacen("  PARM 1 100\n", &format!("  PARM 1 {focal_length}\n"), 1);
+        let e = zemax(&text).unwrap_err();
+        assert_eq!(e.location.field.as_deref(), Some("focal_length"), "{e}");
+        assert_eq!(e.location.surface, Some(1), "{e}");
+    }
+    let tracer = Tracer::new(&system(ideal(100.0, 100.0)).at(WAVELENGTH_NM));
+    let grazing = Ray::new([0.0, 0.0, -10.0], [1.0, 0.0, 1e-300]).unwrap();
+    let out = tracer.trace_with(grazing, Travel::Forward, Apertures::Ignored);
+    assert_eq!(out.outcome, lensbake::trace::Outcome::Missed { surface: 2 });
+    assert!(out.ray.direction().iter().all(|v| v.is_finite()));
+}

@@ -198,7 +198,8 @@ fn check_medium(medium: &Medium, location: Location) -> Result<(), PrescriptionE
     }
 }
 
-/// An ideal lens's focal length is a finite length, not zero, and it lies in air with air after
+/// An ideal lens's focal length is a finite length of at least [`crate::limits::MIN_LENGTH_MM`]
+/// (its power 1/f times a height must stay a number), and it lies in air with air after
 /// it: its power 1/f is defined for air (a Zemax paraxial surface in glass has no published
 /// meaning lensbake could follow), and it cannot reflect.
 fn check_ideal_lens(
@@ -211,10 +212,14 @@ fn check_ideal_lens(
         return Ok(());
     };
     finite(focal_length, map.surface(i, "focal_length"))?;
-    if focal_length == 0.0 {
+    if focal_length.abs() < crate::limits::MIN_LENGTH_MM {
         return Err(PrescriptionError::new(
             map.surface(i, "focal_length"),
-            Problem::Unsupported("an ideal lens of focal length 0".into()),
+            Problem::Unsupported(format!(
+                "an ideal lens of focal length {focal_length:e} mm (shorter than {:e} mm bends \
+                 rays past what the trace can hold)",
+                crate::limits::MIN_LENGTH_MM
+            )),
         ));
     }
     if !(before.is_air() && s.medium.is_air()) {

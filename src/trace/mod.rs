@@ -702,10 +702,15 @@ impl Tracer {
             });
         }
         if let Profile::IdealLens { power } = s.profile {
-            return Ok(Ray {
-                position: at.position,
-                direction: refract::ideal_lens(d, [q[0], q[1]], power),
-            });
+            // A ray grazing the plane leaves with tangents past what f64 holds: no direction,
+            // so no later surface is met.
+            return match refract::ideal_lens(d, [q[0], q[1]], power) {
+                Some(direction) => Ok(Ray {
+                    position: at.position,
+                    direction,
+                }),
+                None => Err((Event::Missed, at)),
+            };
         }
         let (n_in, n_out, mu) = if FORWARD {
             (s.index_before, s.index_after, s.mu_forward)

@@ -50,13 +50,16 @@ pub(crate) fn refract_plane_candidate(d: Vec3, mu: f64) -> (Vec3, f64) {
 /// direction tangents along the travel, t = (dx, dy) / |dz|, become t - power * at, and the ray
 /// keeps its sense along z. The map is its own inverse under reversal (a reversed ray has
 /// tangents -t' and leaves with -t' - power * at = -t), so forward and backward traces agree.
+/// None when the tangents overflow (a ray grazing the plane): it leaves in no direction f64 holds.
 #[inline(always)]
-pub(crate) fn ideal_lens(d: Vec3, at: [f64; 2], power: f64) -> Vec3 {
+pub(crate) fn ideal_lens(d: Vec3, at: [f64; 2], power: f64) -> Option<Vec3> {
     let along = d[2].abs();
     let tx = (-power).mul_add(at[0], d[0] / along);
     let ty = (-power).mul_add(at[1], d[1] / along);
     let length = tx.mul_add(tx, ty.mul_add(ty, 1.0)).sqrt();
-    [tx / length, ty / length, (1.0 / length).copysign(d[2])]
+    length
+        .is_finite()
+        .then(|| [tx / length, ty / length, (1.0 / length).copysign(d[2])])
 }
 
 #[cfg(test)]
@@ -114,17 +117,19 @@ mod tests {
         let (object, power) = ([1.5, -2.0, -150.0], 0.01);
         for (x, y) in [(0.0, 0.0), (9.0, -3.0), (-20.0, 14.0), (35.0, 30.0)] {
             let d = unit([x - object[0], y - object[1], -object[2]]);
-            let out = ideal_lens(d, [x, y], power);
+            let out = ideal_lens(d, [x, y], power).unwrap();
             let len = out.iter().map(|v| v * v).sum::<f64>();
             assert!((len - 1.0).abs() < 1e-15);
             let reach = 300.0 / out[2];
             let image = [x + reach * out[0], y + reach * out[1]];
             assert!((image[0] + 3.0).abs() < 1e-12 && (image[1] - 4.0).abs() < 1e-12);
-            let back = ideal_lens([-out[0], -out[1], -out[2]], [x, y], power);
+            let back = ideal_lens([-out[0], -out[1], -out[2]], [x, y], power).unwrap();
             for k in 0..3 {
                 assert!((back[k] + d[k]).abs() < 1e-15, "{back:?} vs {d:?}");
             }
         }
+        // Grazing the plane: tangents of 1e300 square past f64.
+        assert_eq!(ideal_lens([1.0, 0.0, 1e-300], [5.0, 0.0], power), None);
     }
 
     #[test]

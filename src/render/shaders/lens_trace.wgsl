@@ -344,7 +344,13 @@ fn trace_lens(origin: vec3<f32>, direction: vec3<f32>) -> TracedRay {
             d = d - 2.0 * dot(d, hit.normal) * hit.normal;
             sense = -sense;
         } else if s.kind == SURFACE_IDEAL_LENS {
-            d = ideal_lens(d, q.xy, s.ideal_power);
+            // A ray grazing the plane leaves with tangents past what f32 holds (NaN here): no
+            // direction, so no later surface is met, as in Tracer::cross.
+            let turned = ideal_lens(d, q.xy, s.ideal_power);
+            if !all(abs(turned) <= vec3<f32>(1.0)) {
+                return TracedRay(at, d, TRACE_MISSED, i + 1u);
+            }
+            d = turned;
         } else if s.same_medium == 0u {
             var refracted: vec4<f32>;
             if s.kind == SURFACE_PLANE {
