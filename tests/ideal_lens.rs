@@ -282,9 +282,43 @@ fn extreme_focal_lengths_and_grazing_rays() {
         assert_eq!(e.location.field.as_deref(), Some("focal_length"), "{e}");
         assert_eq!(e.location.surface, Some(1), "{e}");
     }
+    // A fifth PPAR field that is no number is refused where it stands, not read as a column.
+    let garbled = ZEMAX.replacen("PPAR 1 0 1.0 0.0 2", "PPAR 1 0 1.0 0.0 two", 1);
+    let e = zemax(&garbled).unwrap_err();
+    assert_eq!(e.location.field.as_deref(), Some("PPAR"), "{e}");
     let tracer = Tracer::new(&system(ideal(100.0, 100.0)).at(WAVELENGTH_NM));
     let grazing = Ray::new([0.0, 0.0, -10.0], [1.0, 0.0, 1e-300]).unwrap();
     let out = tracer.trace_with(grazing, Travel::Forward, Apertures::Ignored);
     assert_eq!(out.outcome, lensbake::trace::Outcome::Missed { surface: 2 });
     assert!(out.ray.direction().iter().all(|v| v.is_finite()));
+}
+
+/// After a mirror light is back in the medium it met the mirror in: an ideal lens there lies in
+/// air when the mirror does, and in glass behind a Mangin mirror's glass.
+#[test]
+fn an_ideal_lens_after_a_mirror_takes_the_medium_before_it() {
+    let lens_after = |first: Medium| Prescription {
+        provenance: Provenance::default(),
+        object_medium: Medium::Air,
+        surfaces: vec![
+            surface(Shape::Plane, 5.0, first, 20.0),
+            Surface {
+                stop: Some(StopShape::Circle),
+                ..surface(Shape::from_radius(-200.0), -50.0, Medium::Mirror, 20.0)
+            },
+            surface(
+                Shape::IdealLens { focal_length: 80.0 },
+                -40.0,
+                Medium::Air,
+                20.0,
+            ),
+        ],
+    };
+    assert_eq!(lens_after(Medium::Air).medium_before(2), &Medium::Air);
+    LensSystem::from_prescription(lens_after(Medium::Air)).unwrap();
+    let e = LensSystem::from_prescription(lens_after(Medium::Index(1.5))).unwrap_err();
+    assert!(
+        matches!(&e.problem, Problem::Unsupported(what) if what.contains("ideal lens between n = 1.5")),
+        "{e}"
+    );
 }

@@ -401,6 +401,17 @@ impl Prescription {
             && s.obscuration.is_none()
     }
 
+    /// The medium light travels in as it meets 0-based surface `i`: the one after the surface
+    /// before, or, after a mirror, the one light met the mirror in.
+    pub fn medium_before(&self, i: usize) -> &Medium {
+        self.surfaces[..i]
+            .iter()
+            .rev()
+            .map(|s| &s.medium)
+            .find(|m| **m != Medium::Mirror)
+            .unwrap_or(&self.object_medium)
+    }
+
     /// Vertex z of every surface in the lens frame (surface 1 at z = 0).
     pub fn vertex_z(&self) -> Vec<f64> {
         let mut z = 0.0;

@@ -75,14 +75,7 @@ pub fn validate(p: &Prescription, map: &SourceMap) -> Result<(), PrescriptionErr
     check_provenance(p, map)?;
     for (i, s) in p.surfaces.iter().enumerate() {
         check_surface(i, s, map)?;
-        // After a mirror, light is back in the medium it met the mirror in.
-        let before = p.surfaces[..i]
-            .iter()
-            .rev()
-            .map(|s| &s.medium)
-            .find(|m| **m != Medium::Mirror)
-            .unwrap_or(&p.object_medium);
-        check_ideal_lens(i, s, before, map)?;
+        check_ideal_lens(p, i, map)?;
     }
     check_stop(p, map)?;
     check_crossings(p, map)
@@ -202,12 +195,8 @@ fn check_medium(medium: &Medium, location: Location) -> Result<(), PrescriptionE
 /// (its power 1/f times a height must stay a number), and it lies in air with air after
 /// it: its power 1/f is defined for air (a Zemax paraxial surface in glass has no published
 /// meaning lensbake could follow), and it cannot reflect.
-fn check_ideal_lens(
-    i: usize,
-    s: &Surface,
-    before: &Medium,
-    map: &SourceMap,
-) -> Result<(), PrescriptionError> {
+fn check_ideal_lens(p: &Prescription, i: usize, map: &SourceMap) -> Result<(), PrescriptionError> {
+    let s = &p.surfaces[i];
     let Shape::IdealLens { focal_length } = s.shape else {
         return Ok(());
     };
@@ -222,6 +211,7 @@ fn check_ideal_lens(
             )),
         ));
     }
+    let before = p.medium_before(i);
     if !(before.is_air() && s.medium.is_air()) {
         return Err(PrescriptionError::new(
             map.surface(i, "medium"),

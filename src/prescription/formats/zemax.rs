@@ -348,8 +348,8 @@ impl Reader {
                     // A fifth field names the column picked from (0: the same parameter). From
                     // another column (a thickness, say) the file already holds the value the
                     // pickup gave, as it does for every solve, so it is read as written.
-                    let same_column = args.get(4).is_none_or(|_| value(4).is_ok_and(|c| c == 0.0));
-                    if same_column {
+                    let from_column = if args.len() > 4 { value(4)? } else { 0.0 };
+                    if from_column == 0.0 {
                         block.pickups.push((term, from, value(2)?, value(3)?, line));
                     }
                     true
