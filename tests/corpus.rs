@@ -136,6 +136,7 @@ fn the_expected_files_load_and_every_other_is_refused_with_a_located_error() {
 const TRACED_IN_3D: &[&str] = &[
     "optiland__complicated_fold_mirrors_setup_v2.zmx",
     "rayoptics__CODV_35571.seq",
+    "rayoptics__HoO-V2C18Ex46.zmx",
     "rayoptics__HoO-V2C18Ex66.zmx",
     "rayoptics__HoO-V2C18Ex66NEW.zmx",
     "rayoptics__US08011793-1.zmx",

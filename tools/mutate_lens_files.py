@@ -10,6 +10,7 @@ bad-N.<ext> in the output directory.
 
 Run from the repo root after `cargo build --release`:
     python3 tools/mutate_lens_files.py --cases 1000 --seed 1 --out /tmp/mutations
+(`--only Ex66,threemir` mutates only the files whose names hold one of those parts.)
 """
 import argparse
 import glob
@@ -52,10 +53,14 @@ def main():
     parser.add_argument("--cases", type=int, default=500)
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--out", default="/tmp/lensbake-mutations")
+    parser.add_argument("--only", default="",
+                        help="comma-separated parts of file names: mutate only those files")
     args = parser.parse_args()
     rng = random.Random(args.seed)
     os.makedirs(args.out, exist_ok=True)
     files = sorted(glob.glob("tests/data/corpus/*.[zZsS][mMeE][xXqQ]") + glob.glob("lenses/*.ron"))
+    if args.only:
+        files = [f for f in files if any(part in f for part in args.only.split(","))]
     texts = {}
     for path in files:
         raw = open(path, "rb").read()

@@ -6,8 +6,8 @@ axis is z) along (tan_x, tan_y, 1) normalised; the object gap is set to 0 so tha
 object plane is that z = 0 plane. The result is where the ray meets the image plane, in the
 image plane's own frame (mm).
 
-rayoptics 0.9.8 cannot build its model of the optiland file (its part tree's parser fails), and
-for the two four-mirror telescopes its rays off the meridian land up to 8e-4 mm from where
+rayoptics 0.9.8 cannot build its model of the optiland file (its part tree's parser fails),
+does not read toroids, and for the two four-mirror telescopes its rays off the meridian land up to 8e-4 mm from where
 optiland and lensbake put them (they agree to 1e-12), so optiland 0.6.3 traces those three; its result is the global point on the image plane ("global"),
 and "glass_indices" gives the index optiland uses after each of its surfaces that is glass (its
 surface numbers, which count a coordinate break with the surface it moves).
@@ -37,6 +37,10 @@ RAYS = {
     ],
 }
 OPTILAND_RAYS = {
+    # A toroidal mirror (radius of rotation 1035 mm) between tilted mirrors.
+    "rayoptics__HoO-V2C18Ex46.zmx": [
+        [0, 0, 0, 0], [3, 4, 0, 0], [-5, 2, 0.01, 0.02], [6, -6, -0.0175, 0.0],
+    ],
     "rayoptics__HoO-V2C18Ex66.zmx": [
         [0, 0, 0, 0], [3, 4, 0, 0], [-5, 2, 0.01, 0.02], [6, -6, -0.1, 0.05], [0, 8, 0.15, 0],
     ],
@@ -68,11 +72,33 @@ def readable_copy(path):
     return copy
 
 
+def rotation_radii(path):
+    """PARM 1 of each TOROIDAL surface of a .zmx file, in order."""
+    text = open(path, "rb").read()
+    text = text.decode("utf-16") if text.startswith((b"\xff\xfe", b"\xfe\xff")) else text.decode("latin-1")
+    radii, toroidal = [], False
+    for line in text.splitlines():
+        words = line.split()
+        if words[:1] == ["SURF"]:
+            toroidal = False
+        elif words[:2] == ["TYPE", "TOROIDAL"]:
+            toroidal = True
+        elif toroidal and words[:2] == ["PARM", "1"]:
+            radii.append(float(words[2]))
+    return radii
+
+
 def optiland_points(name, rays):
     from optiland.fileio import load_zemax_file
     from optiland.rays import RealRays
 
     optic = load_zemax_file(CORPUS + name)
+    # optiland 0.6.3's reader drops a toroid's radius of rotation (PARM 1; it reads every
+    # toroid as a cylinder): set it from the file.
+    toroids = [g for g in (s.geometry for s in optic.surface_group.surfaces)
+               if type(g).__name__ == "ToroidalGeometry"]
+    for geometry, radius in zip(toroids, rotation_radii(CORPUS + name)):
+        geometry.set_radius_x(radius if radius != 0.0 else float("inf"))
     wavelength_um = optic.primary_wavelength
     # optiland reads BK7 from another data set than lensbake (its n(550 nm) differs by 7e-4);
     # the test gives lensbake the peer's indices, so the rays compare the geometry alone.

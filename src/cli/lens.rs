@@ -426,7 +426,11 @@ fn placed_summary(
             i + 1,
             if s.stop.is_some() { "STO" } else { "" },
             radius,
-            shape_name(&s.shape),
+            match lens.rotation_radii[i] {
+                Some(r) if r.is_infinite() => "cylinder",
+                Some(_) => "toroid",
+                None => shape_name(&s.shape),
+            },
             s.medium.describe(),
             frame.origin[0],
             frame.origin[1],
@@ -434,6 +438,14 @@ fn placed_summary(
             tilt,
             clear
         ));
+    }
+    for (i, radius) in lens.rotation_radii.iter().enumerate() {
+        if let Some(radius) = radius.filter(|r| r.is_finite()) {
+            line(format!(
+                "  toroid:      surface {}, y-z curve turned on a radius of {radius:.4} mm",
+                i + 1
+            ));
+        }
     }
     for (i, outline) in lens.outlines.iter().enumerate() {
         let Some(outline) = outline else { continue };

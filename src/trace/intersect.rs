@@ -242,22 +242,90 @@ pub(crate) fn even_asphere(
     let start = conic(p, d, curvature, conic_factor, sense)
         .map(|hit| hit.point)
         .or_else(|| plane(p, d, sense))?;
+    let max_rho = terms.search_radius * terms.search_radius;
+    newton_crossing(p, d, start, terms.search_radius, sense, |q| {
+        let rho = q[0] * q[0] + q[1] * q[1];
+        let (sag, slope) = (rho <= max_rho)
+            .then(|| asphere_sag(rho, curvature, conic_factor, terms))
+            .flatten()?;
+        // g(t) = sag(r(t)) - z(t): positive while the point is on the object side.
+        let g = sag - q[2];
+        let gradient = [2.0 * slope * q[0], 2.0 * slope * q[1], -1.0];
+        let dg = 2.0 * slope * (q[0] * d[0] + q[1] * d[1]) - d[2];
+        Some((g, gradient, dg))
+    })
+}
+
+/// Meets a toroid: the y-z curve z(y) of `curvature`, `conic_factor` and `terms` (coefficients
+/// on y^2, y^4, ...) turned about the line parallel to y through (0, 0, `rotation_radius`); an
+/// infinite radius gives a cylinder, z(x, y) = z(y). With w = R - z(y) the surface is
+/// z = R - sign(w) sqrt(w^2 - x^2), whose slopes are sign(w) x / s and |w| z'(y) / s for
+/// s = sqrt(w^2 - x^2). Newton's method as for [`even_asphere`], from the vertex plane's
+/// crossing; outside the search region or where the surface does not exist is a miss.
+pub(crate) fn toroid(
+    p: Vec3,
+    d: Vec3,
+    curvature: f64,
+    conic_factor: f64,
+    terms: &AsphereTerms,
+    rotation_radius: f64,
+    sense: f64,
+) -> Option<Hit> {
+    let p = nearest_to_vertex(p, d);
+    let start = plane(p, d, sense)?;
+    let reach = terms.search_radius;
+    newton_crossing(p, d, start, reach, sense, |q| {
+        if !(q[0].abs() <= reach && q[1].abs() <= reach) {
+            return None;
+        }
+        let (profile, slope) = asphere_sag(q[1] * q[1], curvature, conic_factor, terms)?;
+        let profile_slope = 2.0 * slope * q[1];
+        let (z, dz_dx, dz_dy) = if rotation_radius.is_infinite() {
+            (profile, 0.0, profile_slope)
+        } else {
+            let w = rotation_radius - profile;
+            let under = w * w - q[0] * q[0];
+            if !(under > 0.0) {
+                return None;
+            }
+            let s = under.sqrt();
+            (
+                rotation_radius - s.copysign(w),
+                q[0] / s * w.signum(),
+                w.abs() * profile_slope / s,
+            )
+        };
+        let g = z - q[2];
+        let dg = dz_dx * d[0] + dz_dy * d[1] - d[2];
+        Some((g, [dz_dx, dz_dy, -1.0], dg))
+    })
+}
+
+/// Newton's method on the ray parameter for the crossing of `p + t d` with a surface, started at
+/// `start`. `surface(q)` gives, at a point q of the line, g (the surface's z there minus q's z:
+/// positive on the object side), the gradient of the surface's implicit form (z component -1)
+/// and dg/dt; None outside the region where the surface exists. Steps are limited to
+/// `search_radius`; once two iterates straddle the surface every step stays inside that bracket
+/// (a step that would leave it bisects instead).
+fn newton_crossing(
+    p: Vec3,
+    d: Vec3,
+    start: Vec3,
+    search_radius: f64,
+    sense: f64,
+    surface: impl Fn(Vec3) -> Option<(f64, Vec3, f64)>,
+) -> Option<Hit> {
     let along = |q: Vec3| (q[0] - p[0]) * d[0] + (q[1] - p[1]) * d[1] + (q[2] - p[2]) * d[2];
     let mut t = along(start);
-    let max_step = terms.search_radius;
-    let max_rho = terms.search_radius * terms.search_radius;
-    let scale = 1.0 + terms.search_radius;
+    let max_step = search_radius;
+    let scale = 1.0 + search_radius;
     // Ray parameters known to lie on the object side (g > 0) and on the image side (g < 0) of
     // the surface; NaN until found. Once both are known they bracket the crossing.
     let (mut t_object, mut t_image) = (f64::NAN, f64::NAN);
     let mut last_inside = f64::NAN;
     for _ in 0..ASPHERE_MAX_STEPS {
         let q = [p[0] + t * d[0], p[1] + t * d[1], p[2] + t * d[2]];
-        let rho = q[0] * q[0] + q[1] * q[1];
-        let Some((sag, slope)) = (rho <= max_rho)
-            .then(|| asphere_sag(rho, curvature, conic_factor, terms))
-            .flatten()
-        else {
+        let Some((g, gradient, dg)) = surface(q) else {
             // Outside the region where the surface exists: fall back towards known ground.
             t = if t_object.is_finite() && t_image.is_finite() {
                 0.5 * (t_object + t_image)
@@ -269,9 +337,6 @@ pub(crate) fn even_asphere(
             continue;
         };
         last_inside = t;
-        // g(t) = sag(r(t)) - z(t): positive while the point is on the object side.
-        let g = sag - q[2];
-        let gradient = [2.0 * slope * q[0], 2.0 * slope * q[1], -1.0];
         if g.abs() <= ASPHERE_SAG_TOLERANCE * scale {
             return finish_asphere(q, gradient, d, sense);
         }
@@ -280,7 +345,6 @@ pub(crate) fn even_asphere(
         } else {
             t_image = t;
         }
-        let dg = 2.0 * slope * (q[0] * d[0] + q[1] * d[1]) - d[2];
         let step = -g / dg;
         if step.is_nan() {
             return None;

@@ -7,6 +7,9 @@
 //! in which a ray meets a surface is the sign of its direction along the surface's own axis, so
 //! mirrors and negative thicknesses need no bookkeeping.
 //!
+//! Toroids (a y-z curve turned about a line parallel to y; cylinders) exist only here: they are
+//! met by Newton's method on their implicit form ([`intersect::toroid`]).
+//!
 //! A plane that bends and clips nothing (a Zemax coordinate break, a CODE V dummy) only places
 //! the surfaces after it: no ray is tested against it, as in OpticStudio, so a ray parallel to
 //! it is not lost there.
@@ -14,11 +17,11 @@
 //! Nothing here is paraxial: a field's chief ray is aimed at the stop's centre by Newton steps on
 //! real rays, and its beam fills the file's entrance-pupil diameter in object space.
 
-use super::intersect::{AsphereTerms, Profile};
+use super::intersect::{self, AsphereTerms, Profile};
 use super::{Event, Outcome, Vec3, bend, meet, profile_of};
 use crate::glass::Dispersion;
 use crate::prescription::formats::{ApertureOutline, Frame, OutlineShape, PlacedLens};
-use crate::prescription::{Location, Medium, PrescriptionError, Problem};
+use crate::prescription::{Location, Medium, PrescriptionError, Problem, Shape};
 
 /// One surface as the 3-D trace reads it.
 #[derive(Clone, Debug, PartialEq)]
@@ -36,6 +39,45 @@ struct PlacedSurface {
     mu: f64,
     /// False for a plane that bends and clips nothing: rays pass it untested.
     met: bool,
+    /// A toroid's y-z curve and radius of rotation, met instead of `profile`.
+    toroid: Option<Toroid>,
+}
+
+/// A toroid as [`intersect::toroid`] reads it.
+#[derive(Clone, Debug, PartialEq)]
+struct Toroid {
+    curvature: f64,
+    conic_factor: f64,
+    terms: AsphereTerms,
+    rotation_radius: f64,
+}
+
+impl Toroid {
+    /// The toroid whose y-z curve is `shape` read in y.
+    fn new(shape: &Shape, rotation_radius: f64, search_radius: f64) -> Toroid {
+        let (curvature, conic, coefficients): (f64, f64, &[f64]) = match shape {
+            Shape::Plane | Shape::IdealLens { .. } => (0.0, 0.0, &[]),
+            Shape::Sphere { curvature } => (*curvature, 0.0, &[]),
+            Shape::Conic { curvature, conic } => (*curvature, *conic, &[]),
+            Shape::EvenAsphere {
+                curvature,
+                conic,
+                coefficients,
+            } => (*curvature, *conic, coefficients),
+        };
+        let mut terms = AsphereTerms {
+            coefficients: [0.0; crate::prescription::MAX_ASPHERE_TERMS],
+            len: coefficients.len(),
+            search_radius,
+        };
+        terms.coefficients[..coefficients.len()].copy_from_slice(coefficients);
+        Toroid {
+            curvature,
+            conic_factor: 1.0 + conic,
+            terms,
+            rotation_radius,
+        }
+    }
 }
 
 impl PlacedSurface {
@@ -170,7 +212,14 @@ impl PlacedTracer {
                 reflects,
                 equal_indices,
                 mu: index_before / index_after,
+                toroid: lens
+                    .rotation_radii
+                    .get(i)
+                    .copied()
+                    .flatten()
+                    .map(|r| Toroid::new(&s.shape, r, search_radius)),
                 met: i == stop
+                    || lens.rotation_radii.get(i).is_some_and(Option::is_some)
                     || reflects
                     || clips
                     || lens.outlines.get(i).is_some_and(Option::is_some)
@@ -215,8 +264,20 @@ impl PlacedTracer {
                 ..ray
             };
             let sense = if d[2] < 0.0 { -1.0 } else { 1.0 };
-            let Some((q, normal)) = meet(&s.profile, &self.asphere_terms, p, d, sense)
-                .filter(|(q, _)| q.iter().all(|v| v.is_finite()))
+            let crossing = match &s.toroid {
+                Some(t) => intersect::toroid(
+                    p,
+                    d,
+                    t.curvature,
+                    t.conic_factor,
+                    &t.terms,
+                    t.rotation_radius,
+                    sense,
+                )
+                .map(|hit| (hit.point, Some(hit.normal))),
+                None => meet(&s.profile, &self.asphere_terms, p, d, sense),
+            };
+            let Some((q, normal)) = crossing.filter(|(q, _)| q.iter().all(|v| v.is_finite()))
             else {
                 return stopped(Event::Missed, ray);
             };

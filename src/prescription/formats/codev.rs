@@ -48,7 +48,7 @@
 
 use super::apertures::{self, BeamSpec, INFINITE_OBJECT_MM};
 use super::placement::{
-    self, ApertureOutline, OutlineShape, Placement, PlacementKind, StatedOutline,
+    self, ApertureOutline, Asymmetry, OutlineShape, Placement, PlacementKind, StatedOutline,
 };
 use super::{
     AsphereTerms, Format, LoadNote, Loaded, Source, finite, named_medium, number, scale_to_mm,
@@ -877,16 +877,21 @@ impl Reader {
         let placements: Vec<Option<Placement>> =
             self.surfaces.iter().map(|s| s.placement.clone()).collect();
         let lines: Vec<usize> = self.surfaces.iter().map(|s| s.line).collect();
-        let outlines = self
+        let asymmetries = self
             .surfaces
             .iter()
-            .map(|s| s.outline(source))
+            .map(|s| {
+                s.outline(source).map(|outline| Asymmetry {
+                    outline,
+                    toroid: None,
+                })
+            })
             .collect::<Result<Vec<_>, _>>()?;
         let centred = placement::centre_if_placed(
             &mut prescription,
             &placements,
             self.image_placement.as_ref(),
-            &outlines,
+            &asymmetries,
             &mut missing,
             &[],
             mm,

@@ -252,6 +252,21 @@ impl StatedOutline {
     }
 }
 
+/// A toroid as a reader found it: the y-z curve is the surface's shape, turned about a line
+/// parallel to y at `rotation_radius` from the vertex (file units; infinite for a cylinder).
+#[derive(Clone, Debug, PartialEq)]
+pub(super) struct StatedToroid {
+    pub rotation_radius: f64,
+    pub line: usize,
+}
+
+/// What a reader found on a surface that no rotationally symmetric lens holds.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub(super) struct Asymmetry {
+    pub outline: Option<StatedOutline>,
+    pub toroid: Option<StatedToroid>,
+}
+
 /// A lens whose file places surfaces off one common axis where no centred lens describes it
 /// exactly (a tilted lens or curved mirror, a decentred stop, a tilted image plane), as the file
 /// writes it: what [`crate::trace::placed::PlacedTracer`] traces in three dimensions. Carried by
@@ -274,6 +289,9 @@ pub struct PlacedLens {
     /// Each surface's clear aperture where it is rectangular or decentred (it replaces the
     /// semi-aperture there).
     pub outlines: Vec<Option<ApertureOutline>>,
+    /// For a toroid, the radius (mm) of the circle its y-z curve (the surface's shape, read in
+    /// y) turns on about a line parallel to y; infinite for a cylinder.
+    pub rotation_radii: Vec<Option<f64>>,
 }
 
 /// Largest sine of the angle between a centred surface's axis and the lens axis, and largest
@@ -296,7 +314,7 @@ pub(super) fn centre_if_placed(
     prescription: &mut Prescription,
     placements: &[Option<Placement>],
     image_placement: Option<&Placement>,
-    outlines: &[Option<StatedOutline>],
+    asymmetries: &[Asymmetry],
     derived: &mut Vec<usize>,
     envelopes: &[usize],
     mm_per_unit: f64,
@@ -306,7 +324,7 @@ pub(super) fn centre_if_placed(
 ) -> Result<Option<LoadNote>, PrescriptionError> {
     if placements.iter().all(Option::is_none)
         && image_placement.is_none()
-        && outlines.iter().all(Option::is_none)
+        && asymmetries.iter().all(|a| *a == Asymmetry::default())
     {
         return Ok(None);
     }
@@ -350,24 +368,35 @@ pub(super) fn centre_if_placed(
     };
     let scaled_outlines: Vec<Option<ApertureOutline>> = (0..surfaces.len())
         .map(|i| {
-            outlines.get(i).and_then(Option::as_ref).map(|o| {
-                let mm = |v: f64| v * mm_per_unit;
-                ApertureOutline {
-                    shape: match o.outline.shape {
-                        OutlineShape::Circle { radius } => {
-                            OutlineShape::Circle { radius: mm(radius) }
-                        }
-                        OutlineShape::Rectangle {
-                            half_width,
-                            half_height,
-                        } => OutlineShape::Rectangle {
-                            half_width: mm(half_width),
-                            half_height: mm(half_height),
+            asymmetries
+                .get(i)
+                .and_then(|a| a.outline.as_ref())
+                .map(|o| {
+                    let mm = |v: f64| v * mm_per_unit;
+                    ApertureOutline {
+                        shape: match o.outline.shape {
+                            OutlineShape::Circle { radius } => {
+                                OutlineShape::Circle { radius: mm(radius) }
+                            }
+                            OutlineShape::Rectangle {
+                                half_width,
+                                half_height,
+                            } => OutlineShape::Rectangle {
+                                half_width: mm(half_width),
+                                half_height: mm(half_height),
+                            },
                         },
-                    },
-                    centre: o.outline.centre.map(mm),
-                }
-            })
+                        centre: o.outline.centre.map(mm),
+                    }
+                })
+        })
+        .collect();
+    let rotation_radii: Vec<Option<f64>> = (0..surfaces.len())
+        .map(|i| {
+            asymmetries
+                .get(i)
+                .and_then(|a| a.toroid.as_ref())
+                .map(|t| t.rotation_radius * mm_per_unit)
         })
         .collect();
     let off_axis = |location: Location, offence: String| {
@@ -381,6 +410,7 @@ pub(super) fn centre_if_placed(
                     image: image_frame,
                     clips: clips.clone(),
                     outlines: scaled_outlines.clone(),
+                    rotation_radii: rotation_radii.clone(),
                 }),
             },
         )
@@ -529,17 +559,28 @@ pub(super) fn centre_if_placed(
     if let Some(offence) = leaves_axis(surface_count, &image) {
         return Err(refuse(surface_count, offence));
     }
-    // The geometry is centred; an aperture that is not still makes the lens asymmetric.
-    if let Some((i, stated)) = outlines
-        .iter()
-        .enumerate()
-        .find_map(|(i, o)| o.as_ref().map(|o| (i, o)))
-    {
-        let location = source
-            .location(Some(stated.line))
-            .with_surface(i + 1)
-            .with_field(stated.keyword.clone());
-        return Err(off_axis(location, stated.offence(i + 1)));
+    // The geometry is centred; a toroid or an aperture that is not still makes the lens
+    // asymmetric.
+    for (i, asymmetry) in asymmetries.iter().enumerate() {
+        if let Some(toroid) = &asymmetry.toroid {
+            let location = source
+                .location(Some(toroid.line))
+                .with_surface(i + 1)
+                .with_field("TYPE TOROIDAL");
+            let what = if toroid.rotation_radius.is_infinite() {
+                "a cylinder"
+            } else {
+                "a toroid"
+            };
+            return Err(off_axis(location, format!("surface {} is {what}", i + 1)));
+        }
+        if let Some(stated) = &asymmetry.outline {
+            let location = source
+                .location(Some(stated.line))
+                .with_surface(i + 1)
+                .with_field(stated.keyword.clone());
+            return Err(off_axis(location, stated.offence(i + 1)));
+        }
     }
     vertex_z.push(image.origin[2]);
     for (i, surface) in surfaces.iter_mut().enumerate() {

@@ -41,15 +41,16 @@
 //! parameters) are read as planes in the medium before them that move the later surfaces; the
 //! lens they describe is centred by `placement` (fold mirrors unfolded) or refused there, as is
 //! one with a rectangular (`SQAP`) or decentred (`OBDC`) clear aperture. Any
-//! other keyword is refused, naming keyword, line and surface: other surface types (toroids,
-//! gratings, ...), surface tilts written as `SCBD`, multi-configuration files,
+//! other keyword is refused, naming keyword, line and surface: other surface types (gratings,
+//! ...), surface tilts written as `SCBD`, multi-configuration files,
 //! annular obscurations, elliptical and user-defined apertures, ignored surfaces, a curved image
 //! surface,
 //! non-sequential mode, and every unknown keyword inside the surface table.
 
 use super::apertures::{self, BeamSpec, INFINITE_OBJECT_MM};
 use super::placement::{
-    self, ApertureOutline, OutlineShape, Placement, PlacementKind, StatedOutline,
+    self, ApertureOutline, Asymmetry, OutlineShape, Placement, PlacementKind, StatedOutline,
+    StatedToroid,
 };
 use super::{Format, LoadNote, Loaded, Source, finite, named_medium, number, scale_to_mm, shape};
 use crate::prescription::DEFAULT_WAVELENGTH_NM;
@@ -84,10 +85,10 @@ const TOP_APPLIED: &[&str] = &[
 /// substrate drawing of a mirror), coating and physical-optics data (COAT, POPS), comments,
 /// solve and variable flags (VCRV, VPAR, VDSZ, VCON, PZUP, and TOLE, a thickness solve for the
 /// length to a later surface: the solved values are in CURV, DISZ, ...), and data the surface
-/// types lensbake reads do not use (XDAT, FIMP, MEMA, MAZH, TCE).
+/// types lensbake reads do not use (FIMP, MEMA, MAZH, TCE; XDAT, but for a toroid's item 1).
 const HARMLESS_SURFACE: &[&str] = &[
     "FIMP", "HIDE", "MIRR", "SLAB", "MEMA", "POPS", "COMM", "FLAP", "COAT", "MAZH", "PZUP", "VCRV",
-    "VPAR", "VDSZ", "VCON", "XDAT", "TCE", "OEMA", "BLNK", "TOLE",
+    "VPAR", "VDSZ", "VCON", "TCE", "OEMA", "BLNK", "TOLE",
 ];
 
 /// OpticStudio holds at most 24 wavelengths; the bound also keeps a corrupt number from
@@ -106,6 +107,10 @@ enum SurfaceType {
     /// An ideal thin lens: PARM 1 is its focal length, PARM 2 how OpticStudio computes its
     /// optical path (which moves no ray).
     Paraxial,
+    /// A toroid: CURV, CONI and PARM 2..9 (coefficients on y^2 .. y^16) give the y-z curve, PARM
+    /// 1 the radius it turns on about a line parallel to y (0: none, a cylinder); XDAT 1 counts
+    /// Zernike terms added to it.
+    Toroidal,
 }
 
 struct Block {
@@ -115,6 +120,10 @@ struct Block {
     thickness: f64,
     conic: f64,
     parms: [f64; PARM_TERMS],
+    /// PARM 9, which only a toroid uses (its y^16 coefficient).
+    parm9: f64,
+    /// XDAT 1: the Zernike terms a toroid adds to its y-z curve.
+    zernike_terms: f64,
     semi_diameter: Option<f64>,
     clear_radius: Option<f64>,
     /// Radius of a central obscuration (`OBSC 0 r`, or the inner radius of `CLAP r R`).
@@ -176,6 +185,8 @@ impl Block {
             thickness: 0.0,
             conic: 0.0,
             parms: [0.0; PARM_TERMS],
+            parm9: 0.0,
+            zernike_terms: 0.0,
             semi_diameter: None,
             clear_radius: None,
             obscuration: None,
@@ -323,6 +334,7 @@ impl Reader {
                         "EVENASPH" => SurfaceType::EvenAsphere,
                         "COORDBRK" => SurfaceType::CoordinateBreak,
                         "PARAXIAL" => SurfaceType::Paraxial,
+                        "TOROIDAL" => SurfaceType::Toroidal,
                         other => return Err(unsupported(format!("Zemax surface type {other}"))),
                     };
                     true
@@ -372,6 +384,8 @@ impl Reader {
                     let v = value(1)?;
                     if (1..=PARM_TERMS).contains(&term) {
                         block.parms[term - 1] = v;
+                    } else if term == PARM_TERMS + 1 {
+                        block.parm9 = v;
                     }
                     true
                 }
@@ -428,6 +442,14 @@ impl Reader {
                 }
                 "DIAM" => {
                     block.semi_diameter = Some(value(0)?);
+                    true
+                }
+                // Extra data; only item 1 of a toroid (its count of Zernike terms) is read.
+                "XDAT" => {
+                    if index(0)? == 1 {
+                        block.zernike_terms = value(1)?;
+                    }
+                    self.skipped.insert("XDAT".into());
                     true
                 }
                 // An annular aperture passes inner <= r <= outer: the clear aperture with a
@@ -686,8 +708,14 @@ impl Reader {
             .iter()
             .map(|b| {
                 let mut terms = [0.0; MAX_ASPHERE_TERMS];
-                if b.kind == SurfaceType::EvenAsphere {
-                    terms[..PARM_TERMS].copy_from_slice(&b.parms);
+                match b.kind {
+                    SurfaceType::EvenAsphere => terms[..PARM_TERMS].copy_from_slice(&b.parms),
+                    // The y-z curve's terms (the 3-D trace reads the shape in y).
+                    SurfaceType::Toroidal => {
+                        terms[..PARM_TERMS - 1].copy_from_slice(&b.parms[1..]);
+                        terms[PARM_TERMS - 1] = b.parm9;
+                    }
+                    _ => {}
                 }
                 let (profile, medium) = match b.kind {
                     SurfaceType::CoordinateBreak => (Shape::Plane, medium_before.clone()),
@@ -750,12 +778,38 @@ impl Reader {
             surfaces,
         };
         scale_to_mm(&mut prescription, mm);
-        let outlines: Vec<Option<StatedOutline>> = lens.iter().map(Block::outline).collect();
+        if let Some(b) = lens
+            .iter()
+            .find(|b| b.kind == SurfaceType::Toroidal && b.zernike_terms != 0.0)
+        {
+            return Err(PrescriptionError::new(
+                source.location(Some(b.line)).with_field("XDAT"),
+                Problem::Unsupported(format!(
+                    "a toroid with {} Zernike terms (XDAT 1)",
+                    b.zernike_terms
+                )),
+            ));
+        }
+        let asymmetries: Vec<Asymmetry> = lens
+            .iter()
+            .map(|b| Asymmetry {
+                outline: b.outline(),
+                toroid: (b.kind == SurfaceType::Toroidal).then(|| StatedToroid {
+                    // PARM 1 = 0 is OpticStudio's infinite radius: a cylinder.
+                    rotation_radius: if b.parms[0] == 0.0 {
+                        f64::INFINITY
+                    } else {
+                        b.parms[0]
+                    },
+                    line: b.line,
+                }),
+            })
+            .collect();
         let centred = placement::centre_if_placed(
             &mut prescription,
             &placements,
             None,
-            &outlines,
+            &asymmetries,
             &mut missing,
             &envelopes,
             mm,
