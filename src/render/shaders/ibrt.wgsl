@@ -2,8 +2,9 @@
 //
 // One invocation per output pixel. For each lens sample it builds the film-side ray (film point to
 // exit-pupil point), maps it to an object-space ray with the lens model, clamps that ray to the
-// depth range the min/max pyramid allows and walks its footprint over the layers, testing every
-// layer of every visited pixel as a square at constant depth. The Rust twin is
+// depth range the min/max pyramid allows under its footprint and marches the pyramid's cells
+// along it, skipping every cell whose depth bounds the ray's depths there cannot meet, testing
+// every layer of every pixel it reaches as a square at constant depth. The Rust twin is
 // src/render/kernel.rs; keep the two in step statement by statement.
 //
 // This file is compiled after src/lrtf/lrtf_sample.wgsl (bind group 0: the baked table and the
