@@ -3,9 +3,10 @@
 //! Seidel sums against rayoptics 0.9.8 (tools/corpus_peers.py wrote peers.json).
 
 use lensbake::analysis::{AnalyzeOptions, analyze};
-use lensbake::prescription::ApertureSpec;
 use lensbake::prescription::formats::{LoadNote, LoadOptions, read_file};
+use lensbake::prescription::{ApertureSpec, FieldKind, FieldSpec, Problem};
 use lensbake::system::LensSystem;
+use lensbake::trace::placed::PlacedTracer;
 use std::path::PathBuf;
 
 fn corpus() -> PathBuf {
@@ -108,6 +109,8 @@ fn the_expected_files_load_and_every_other_is_refused_with_a_located_error() {
             Ok(_) => loaded.push(name),
             Err(e) => {
                 assert!(!LOADS.contains(&name.as_str()), "{name}: {e}");
+                let placed = matches!(e.problem, Problem::NotRotationallySymmetric { .. });
+                assert_eq!(placed, TRACED_IN_3D.contains(&name.as_str()), "{name}: {e}");
                 // Refusals cite the file and a line (or the whole file for a missing stop).
                 assert_eq!(e.location.file.as_deref(), Some(path.as_path()), "{e}");
                 assert!(e.location.line.is_some(), "{name}: no line in {e}");
@@ -121,7 +124,48 @@ fn the_expected_files_load_and_every_other_is_refused_with_a_located_error() {
         loaded.len(),
         files.len()
     );
-    assert_eq!(files.len(), 52);
+    assert_eq!(files.len(), 53);
+}
+
+/// The files placed off one axis that the 3-D trace reads (what `lensbake lens check` prints for
+/// them): every other refused file stops at something no lensbake code reads.
+const TRACED_IN_3D: &[&str] = &[
+    "optiland__complicated_fold_mirrors_setup_v2.zmx",
+    "rayoptics__HoO-V2C18Ex66.zmx",
+    "rayoptics__HoO-V2C18Ex66NEW.zmx",
+    "rayoptics__tilt_test.seq",
+];
+
+/// Every field of each file placed off the axis is traced in three dimensions: the chief ray is
+/// aimed at the stop's centre and every ray of the pupil grid reaches the image plane (these
+/// files state no clear aperture that clips).
+#[test]
+fn the_files_placed_off_the_axis_trace_every_field_in_three_dimensions() {
+    for name in TRACED_IN_3D {
+        let error = read_file(&corpus().join(name), &LoadOptions::default()).unwrap_err();
+        let Problem::NotRotationallySymmetric { lens, .. } = error.problem else {
+            panic!("{name}: {}", error.problem);
+        };
+        let p = &lens.prescription;
+        let conditions = p.provenance.conditions.clone().unwrap();
+        let Some(ApertureSpec::EntrancePupilDiameter(pupil)) = conditions.aperture else {
+            panic!("{name}: {:?}", conditions.aperture);
+        };
+        let wavelength = p.provenance.design_wavelength_nm.unwrap();
+        let tracer = PlacedTracer::new(&lens, wavelength).unwrap();
+        let fields = conditions.fields.unwrap_or(FieldSpec {
+            kind: FieldKind::AngleDeg,
+            x: vec![0.0],
+            y: vec![0.0],
+            weights: vec![],
+        });
+        assert_eq!(fields.kind, FieldKind::AngleDeg, "{name}");
+        for (&x, &y) in fields.x.iter().zip(&fields.y) {
+            let spot = tracer.collimated_spot([x, y], pupil, 16).unwrap();
+            assert_eq!(spot.arrived, spot.launched, "{name} ({x}, {y})");
+            assert!(spot.rms_radius.unwrap().is_finite(), "{name} ({x}, {y})");
+        }
+    }
 }
 
 /// Where rayoptics' number is wrong by physics, the value physics gives instead, as (file,

@@ -134,7 +134,7 @@ fn unknown_or_unsupported_surface_keywords_are_refused_where_they_stand() {
     );
     let e = read(&text).unwrap_err();
     assert!(
-        matches!(&e.problem, Problem::Unsupported(what) if what.contains("image plane is tilted 5.000000 deg")),
+        matches!(&e.problem, Problem::NotRotationallySymmetric { offence, .. } if offence.contains("image plane is tilted 5.000000 deg")),
         "{e}"
     );
     assert_eq!(e.location.line, Some(line_of(&text, "SURF 3")));

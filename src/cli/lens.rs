@@ -4,13 +4,17 @@ use anyhow::{Context, bail};
 use clap::builder::{PossibleValuesParser, TypedValueParser};
 use clap::{Args, Subcommand};
 use lensbake::job::RenderLens;
-use lensbake::lenses::{self, BUNDLED, LensError, LoadedLens};
+use lensbake::lenses::{self, BUNDLED, LensError, LensSource, LoadedLens};
 use lensbake::model::ModelKind;
-use lensbake::prescription::Shape;
+use lensbake::prescription::formats::PlacedLens;
 use lensbake::prescription::formats::{
     Format, LoadOptions, PbrtThickness, read_str, write_pbrt, write_ron_file, write_zemax,
 };
+use lensbake::prescription::{
+    ApertureSpec, DEFAULT_WAVELENGTH_NM, FieldKind, Location, PrescriptionError, Problem, Shape,
+};
 use lensbake::system::LensSystem;
+use lensbake::trace::placed::PlacedTracer;
 use std::path::{Path, PathBuf};
 
 #[derive(Subcommand, Debug)]
@@ -75,16 +79,20 @@ impl LensArgs {
     /// thickness hint) after the error itself.
     pub fn load(&self) -> anyhow::Result<LoadedLens> {
         let options = self.read.options();
-        let source = lenses::read(&self.lens, &options).map_err(with_hint)?;
-        match LensSystem::new(source.loaded.prescription.clone(), &source.loaded.map) {
-            Ok(system) => Ok(LoadedLens { source, system }),
-            Err(error) => {
-                let mut message = error.to_string();
-                for note in &source.loaded.notes {
-                    message.push_str(&format!("\nnote: {note}"));
-                }
-                bail!(message)
+        validated(lenses::read(&self.lens, &options).map_err(with_hint)?)
+    }
+}
+
+/// The lens `source` holds, validated; a failure carries the reading notes after the error.
+fn validated(source: LensSource) -> anyhow::Result<LoadedLens> {
+    match LensSystem::new(source.loaded.prescription.clone(), &source.loaded.map) {
+        Ok(system) => Ok(LoadedLens { source, system }),
+        Err(error) => {
+            let mut message = error.to_string();
+            for note in &source.loaded.notes {
+                message.push_str(&format!("\nnote: {note}"));
             }
+            bail!(message)
         }
     }
 }
@@ -123,7 +131,20 @@ fn with_hint(error: LensError) -> anyhow::Error {
 pub fn run(command: LensCommand) -> anyhow::Result<()> {
     match command {
         LensCommand::Check(args) => {
-            let lens = args.load()?;
+            let source = match lenses::read(&args.lens, &args.read.options()) {
+                Err(LensError::Prescription(PrescriptionError {
+                    location,
+                    problem: Problem::NotRotationallySymmetric { offence, lens },
+                })) => {
+                    say_raw!(
+                        "{}",
+                        placed_summary(&args.lens, &location, &offence, &lens)?
+                    );
+                    return Ok(());
+                }
+                read => read.map_err(with_hint)?,
+            };
+            let lens = validated(source)?;
             say_raw!("{}", summary(&lens));
             Ok(())
         }
@@ -244,13 +265,7 @@ fn summary(lens: &LoadedLens) -> String {
             Shape::Plane | Shape::IdealLens { .. } => "flat".to_string(),
             _ => format!("{:.4}", s.shape.radius()),
         };
-        let kind = match s.shape {
-            Shape::Plane => "plane",
-            Shape::Sphere { .. } => "sphere",
-            Shape::Conic { .. } => "conic",
-            Shape::EvenAsphere { .. } => "asphere",
-            Shape::IdealLens { .. } => "ideal",
-        };
+        let kind = shape_name(&s.shape);
         line(format!(
             "  {:>3} {:4} {:>12} {:>11.4} {:7} {:16} {:>9.6} {:>9.4}",
             i + 1,
@@ -294,4 +309,148 @@ fn summary(lens: &LoadedLens) -> String {
         line(format!("note: {note}"));
     }
     out
+}
+
+/// Rays across the entrance pupil's diameter in the 3-D trace's square grid.
+const PLACED_GRID: usize = 32;
+
+/// `lens check` for a lens its file places off one common axis: where each surface sits, and
+/// the exact 3-D trace of the file's fields (chief ray and spot on the image plane).
+fn placed_summary(
+    spec: &str,
+    location: &Location,
+    offence: &str,
+    lens: &PlacedLens,
+) -> anyhow::Result<String> {
+    let p = &lens.prescription;
+    let refuse = |what: String| {
+        anyhow::anyhow!(
+            "{spec}: {offence}, so it is traced in three dimensions, which takes {what}"
+        )
+    };
+    let conditions = p.provenance.conditions.clone().unwrap_or_default();
+    if conditions.object_distance_mm.is_some() {
+        return Err(refuse(
+            "an object at infinity; this file's is at a finite distance".into(),
+        ));
+    }
+    let Some(ApertureSpec::EntrancePupilDiameter(pupil_diameter)) = conditions.aperture else {
+        return Err(refuse(format!(
+            "an entrance-pupil diameter; this file sizes the beam by {:?}",
+            conditions.aperture
+        )));
+    };
+    let fields: Vec<[f64; 2]> = match &conditions.fields {
+        None => vec![[0.0, 0.0]],
+        Some(f) if f.kind == FieldKind::AngleDeg => {
+            f.x.iter().zip(&f.y).map(|(&x, &y)| [x, y]).collect()
+        }
+        Some(f) => {
+            return Err(refuse(format!(
+                "fields as angles; this file gives {:?}",
+                f.kind
+            )));
+        }
+    };
+    let wavelength = p
+        .provenance
+        .design_wavelength_nm
+        .unwrap_or(DEFAULT_WAVELENGTH_NM);
+    let tracer = PlacedTracer::new(lens, wavelength).map_err(|e| anyhow::anyhow!("{spec}: {e}"))?;
+
+    let mut out = String::new();
+    let mut line = |text: String| {
+        out.push_str(&text);
+        out.push('\n');
+    };
+    line(if p.provenance.title.is_empty() {
+        "(untitled lens)".to_string()
+    } else {
+        p.provenance.title.clone()
+    });
+    line(format!("  read from:   {spec}"));
+    line(format!("  off the axis: {offence} at {location}"));
+    line(
+        "                first-order data, Seidel sums, pupils, wave optics, bake and render need \
+         a rotationally symmetric lens; below is the exact 3-D trace"
+            .to_string(),
+    );
+    line(format!("  wavelength:  {wavelength} nm"));
+    line(String::new());
+    line(format!(
+        "  {:>3} {:4} {:>12} {:7} {:16} {:>12} {:>12} {:>12} {:>9} {:>9}",
+        "#",
+        "",
+        "radius",
+        "shape",
+        "medium after",
+        "vertex x",
+        "vertex y",
+        "vertex z",
+        "tilt deg",
+        "clear"
+    ));
+    for (i, (s, frame)) in p.surfaces.iter().zip(&lens.frames).enumerate() {
+        let radius = match s.shape {
+            Shape::Plane | Shape::IdealLens { .. } => "flat".to_string(),
+            _ => format!("{:.4}", s.shape.radius()),
+        };
+        let axis = frame.axis();
+        let tilt = axis[0].hypot(axis[1]).atan2(axis[2]).to_degrees();
+        let clear = if lens.clips[i] {
+            format!("{:.4}", s.semi_aperture)
+        } else {
+            "-".to_string()
+        };
+        line(format!(
+            "  {:>3} {:4} {:>12} {:7} {:16} {:>12.4} {:>12.4} {:>12.4} {:>9.4} {:>9}",
+            i + 1,
+            if s.stop.is_some() { "STO" } else { "" },
+            radius,
+            shape_name(&s.shape),
+            s.medium.describe(),
+            frame.origin[0],
+            frame.origin[1],
+            frame.origin[2],
+            tilt,
+            clear
+        ));
+    }
+    line(String::new());
+    line(format!(
+        "  object at infinity, entrance pupil {pupil_diameter} mm ({PLACED_GRID}x{PLACED_GRID} \
+         grid); image-plane coordinates (mm):"
+    ));
+    line(format!(
+        "  {:>10} {:>10}  {:>14} {:>14}  {:>11}  {:>10}",
+        "field x", "y (deg)", "chief ray x", "chief ray y", "rays in", "RMS um"
+    ));
+    for field in fields {
+        let spot = tracer
+            .collimated_spot(field, pupil_diameter, PLACED_GRID)
+            .map_err(|e| anyhow::anyhow!("{spec}: {e}"))?;
+        line(format!(
+            "  {:>10.4} {:>10.4}  {:>14.6} {:>14.6}  {:>5}/{:<5}  {:>10}",
+            field[0],
+            field[1],
+            // + 0.0: a chief ray on the axis prints 0, not -0.
+            spot.chief[0] + 0.0,
+            spot.chief[1] + 0.0,
+            spot.arrived,
+            spot.launched,
+            spot.rms_radius
+                .map_or("-".to_string(), |r| format!("{:.3}", r * 1000.0))
+        ));
+    }
+    Ok(out)
+}
+
+fn shape_name(shape: &Shape) -> &'static str {
+    match shape {
+        Shape::Plane => "plane",
+        Shape::Sphere { .. } => "sphere",
+        Shape::Conic { .. } => "conic",
+        Shape::EvenAsphere { .. } => "asphere",
+        Shape::IdealLens { .. } => "ideal",
+    }
 }

@@ -80,6 +80,20 @@ pub enum Problem {
     Syntax(String),
     #[error("unsupported: {0}")]
     Unsupported(String),
+    /// A lens placed off one common axis where no centred lens describes it: refused by every
+    /// reader (everything but the 3-D trace needs a rotationally symmetric lens), with the lens
+    /// as the file places it for [`crate::trace::placed::PlacedTracer`].
+    #[error(
+        "unsupported: {offence}: lensbake models rotationally symmetric systems (fold mirrors are \
+         unfolded where that is exact); its paraxial, Seidel, pupil, bake and render code need \
+         one (`lensbake lens check` traces this lens in three dimensions)"
+    )]
+    NotRotationallySymmetric {
+        /// What leaves the axis, e.g. "surface 3 is tilted 16.440000 deg to the axis (moved by
+        /// `TYPE COORDBRK`)".
+        offence: String,
+        lens: Box<super::formats::PlacedLens>,
+    },
     #[error("refractive index {} is below 1", crate::limits::short(*.index))]
     IndexBelowOne { index: f64 },
     #[error("semi-aperture must be positive, got {}", crate::limits::short(*.value))]

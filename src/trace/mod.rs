@@ -19,6 +19,7 @@ mod batch;
 mod bundle;
 mod intersect;
 mod lanes;
+pub mod placed;
 mod refract;
 
 pub use aim::{AimError, RaySource, aim_at_stop, traceable_field_deg};
@@ -334,38 +335,11 @@ impl Tracer {
                 let (sense_forward, sense_backward) =
                     (index_before.signum(), -index_after.signum());
                 let (index_before, index_after) = (index_before.abs(), index_after.abs());
-                let profile = match &s.shape {
-                    Shape::Plane => Profile::Plane,
-                    Shape::IdealLens { .. } => Profile::IdealLens {
-                        power: s.shape.ideal_power(),
-                    },
-                    Shape::Sphere { curvature } if *curvature == 0.0 => Profile::Plane,
-                    Shape::Sphere { curvature } => Profile::Sphere {
-                        curvature: *curvature,
-                    },
-                    Shape::Conic { curvature, conic } => Profile::Conic {
-                        curvature: *curvature,
-                        conic_factor: 1.0 + conic,
-                    },
-                    Shape::EvenAsphere {
-                        curvature,
-                        conic,
-                        coefficients,
-                    } => {
-                        let mut terms = AsphereTerms {
-                            coefficients: [0.0; crate::prescription::MAX_ASPHERE_TERMS],
-                            len: coefficients.len(),
-                            search_radius: 2.0 * s.geometric_semi_aperture,
-                        };
-                        terms.coefficients[..coefficients.len()].copy_from_slice(coefficients);
-                        asphere_terms.push(terms);
-                        Profile::EvenAsphere {
-                            curvature: *curvature,
-                            conic_factor: 1.0 + conic,
-                            terms: asphere_terms.len() - 1,
-                        }
-                    }
-                };
+                let profile = profile_of(
+                    &s.shape,
+                    2.0 * s.geometric_semi_aperture,
+                    &mut asphere_terms,
+                );
                 let blades = s
                     .stop
                     .as_ref()
@@ -639,33 +613,8 @@ impl Tracer {
             ray.position[1],
             ray.position[2] - s.vertex_z,
         ];
-        let (q, normal) = match s.profile {
-            Profile::Plane | Profile::IdealLens { .. } => match intersect::plane(p, d, sense) {
-                Some(q) => (q, None),
-                None => return Err((Event::Missed, *ray)),
-            },
-            Profile::Sphere { curvature } => match intersect::sphere(p, d, curvature, sense) {
-                Some(hit) => (hit.point, Some(hit.normal)),
-                None => return Err((Event::Missed, *ray)),
-            },
-            Profile::Conic {
-                curvature,
-                conic_factor,
-            } => match intersect::conic(p, d, curvature, conic_factor, sense) {
-                Some(hit) => (hit.point, Some(hit.normal)),
-                None => return Err((Event::Missed, *ray)),
-            },
-            Profile::EvenAsphere {
-                curvature,
-                conic_factor,
-                terms,
-            } => {
-                let terms = &self.asphere_terms[terms];
-                match intersect::even_asphere(p, d, curvature, conic_factor, terms, sense) {
-                    Some(hit) => (hit.point, Some(hit.normal)),
-                    None => return Err((Event::Missed, *ray)),
-                }
-            }
+        let Some((q, normal)) = meet(&s.profile, &self.asphere_terms, p, d, sense) else {
+            return Err((Event::Missed, *ray));
         };
         // A hit far enough out to overflow is no hit.
         if !(q[0].is_finite() && q[1].is_finite() && q[2].is_finite()) {
@@ -689,49 +638,129 @@ impl Tracer {
                 return Err((Event::Vignetted, at));
             }
         }
-        if s.reflects {
-            let normal = normal.unwrap_or([0.0, 0.0, -1.0]);
-            let twice_cos = 2.0 * dot(d, normal);
-            return Ok(Ray {
-                position: at.position,
-                direction: [
-                    (-twice_cos).mul_add(normal[0], d[0]),
-                    (-twice_cos).mul_add(normal[1], d[1]),
-                    (-twice_cos).mul_add(normal[2], d[2]),
-                ],
-            });
-        }
-        if let Profile::IdealLens { power } = s.profile {
-            // A ray grazing the plane leaves with tangents past what f64 holds: no direction,
-            // so no later surface is met.
-            return match refract::ideal_lens(d, [q[0], q[1]], power) {
-                Some(direction) => Ok(Ray {
-                    position: at.position,
-                    direction,
-                }),
-                None => Err((Event::Missed, at)),
-            };
-        }
-        let (n_in, n_out, mu) = if FORWARD {
-            (s.index_before, s.index_after, s.mu_forward)
+        let (n_in, mu) = if FORWARD {
+            (s.index_before, s.mu_forward)
         } else {
-            (s.index_after, s.index_before, s.mu_backward)
+            (s.index_after, s.mu_backward)
         };
-        if n_in == n_out {
-            return Ok(at);
-        }
-        let refracted = match normal {
-            None => refract::refract_plane(d, mu),
-            Some(normal) => refract::refract(d, normal, mu),
+        let n_out = if FORWARD {
+            s.index_after
+        } else {
+            s.index_before
         };
-        match refracted {
-            Some(direction) => Ok(Ray {
+        match bend(&s.profile, s.reflects, q, normal, d, n_in == n_out, mu) {
+            Ok(direction) => Ok(Ray {
                 position: at.position,
                 direction,
             }),
-            None => Err((Event::Tir, at)),
+            Err(event) => Err((event, at)),
         }
     }
+}
+
+/// A prescription shape as the tracers read it; an asphere's coefficients go to `asphere_terms`,
+/// its Newton search bounded by `search_radius` (mm from the axis).
+fn profile_of(shape: &Shape, search_radius: f64, asphere_terms: &mut Vec<AsphereTerms>) -> Profile {
+    match shape {
+        Shape::Plane => Profile::Plane,
+        Shape::IdealLens { .. } => Profile::IdealLens {
+            power: shape.ideal_power(),
+        },
+        Shape::Sphere { curvature } if *curvature == 0.0 => Profile::Plane,
+        Shape::Sphere { curvature } => Profile::Sphere {
+            curvature: *curvature,
+        },
+        Shape::Conic { curvature, conic } => Profile::Conic {
+            curvature: *curvature,
+            conic_factor: 1.0 + conic,
+        },
+        Shape::EvenAsphere {
+            curvature,
+            conic,
+            coefficients,
+        } => {
+            let mut terms = AsphereTerms {
+                coefficients: [0.0; crate::prescription::MAX_ASPHERE_TERMS],
+                len: coefficients.len(),
+                search_radius,
+            };
+            terms.coefficients[..coefficients.len()].copy_from_slice(coefficients);
+            asphere_terms.push(terms);
+            Profile::EvenAsphere {
+                curvature: *curvature,
+                conic_factor: 1.0 + conic,
+                terms: asphere_terms.len() - 1,
+            }
+        }
+    }
+}
+
+/// Where a ray (`p`, `d` in the surface's vertex frame, travelling along z in `sense`) meets the
+/// profile, and the unit normal there (None on a plane, whose normal is the axis).
+#[inline(always)]
+fn meet(
+    profile: &Profile,
+    asphere_terms: &[AsphereTerms],
+    p: Vec3,
+    d: Vec3,
+    sense: f64,
+) -> Option<(Vec3, Option<Vec3>)> {
+    match *profile {
+        Profile::Plane | Profile::IdealLens { .. } => {
+            intersect::plane(p, d, sense).map(|q| (q, None))
+        }
+        Profile::Sphere { curvature } => {
+            intersect::sphere(p, d, curvature, sense).map(|hit| (hit.point, Some(hit.normal)))
+        }
+        Profile::Conic {
+            curvature,
+            conic_factor,
+        } => intersect::conic(p, d, curvature, conic_factor, sense)
+            .map(|hit| (hit.point, Some(hit.normal))),
+        Profile::EvenAsphere {
+            curvature,
+            conic_factor,
+            terms,
+        } => intersect::even_asphere(p, d, curvature, conic_factor, &asphere_terms[terms], sense)
+            .map(|hit| (hit.point, Some(hit.normal))),
+    }
+}
+
+/// The direction a ray travelling along `d` leaves a surface in, met at `q` (vertex frame) with
+/// `normal` there: reflected, deflected by an ideal lens, or refracted with Snell ratio `mu`
+/// (unchanged between equal indices).
+#[inline(always)]
+fn bend(
+    profile: &Profile,
+    reflects: bool,
+    q: Vec3,
+    normal: Option<Vec3>,
+    d: Vec3,
+    equal_indices: bool,
+    mu: f64,
+) -> Result<Vec3, Event> {
+    if reflects {
+        let normal = normal.unwrap_or([0.0, 0.0, -1.0]);
+        let twice_cos = 2.0 * dot(d, normal);
+        return Ok([
+            (-twice_cos).mul_add(normal[0], d[0]),
+            (-twice_cos).mul_add(normal[1], d[1]),
+            (-twice_cos).mul_add(normal[2], d[2]),
+        ]);
+    }
+    if let Profile::IdealLens { power } = *profile {
+        // A ray grazing the plane leaves with tangents past what f64 holds: no direction, so no
+        // later surface is met.
+        return refract::ideal_lens(d, [q[0], q[1]], power).ok_or(Event::Missed);
+    }
+    if equal_indices {
+        return Ok(d);
+    }
+    match normal {
+        None => refract::refract_plane(d, mu),
+        Some(normal) => refract::refract(d, normal, mu),
+    }
+    .ok_or(Event::Tir)
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -104,6 +104,16 @@ pub fn nums(value: &Value) -> Vec<f64> {
         .collect()
 }
 
+/// An array of arrays of numbers, row by row.
+pub fn nums_rows(value: &Value) -> Vec<Vec<f64>> {
+    value
+        .as_array()
+        .unwrap_or_else(|| panic!("expected an array, found {value}"))
+        .iter()
+        .map(nums)
+        .collect()
+}
+
 /// Reads `oracle/<name>.json`.
 pub fn load_oracle(name: &str) -> OracleLens {
     let path = oracle_dir().join(format!("{name}.json"));

@@ -28,6 +28,7 @@ mod placement;
 mod zemax;
 
 pub use export::{write_pbrt, write_zemax};
+pub use placement::{Frame, PlacedLens};
 
 use super::error::{Location, PrescriptionError, Problem};
 use super::model::{MAX_ASPHERE_TERMS, Medium, Prescription, Shape};

@@ -121,13 +121,13 @@ fn transpose(m: &Matrix) -> Matrix {
 /// A coordinate frame: x_parent = linear x_local + origin. `linear` is a rotation, or after an
 /// unfolding a rotation times a reflection.
 #[derive(Clone, Copy, Debug, PartialEq)]
-struct Frame {
-    linear: Matrix,
-    origin: [f64; 3],
+pub struct Frame {
+    pub linear: [[f64; 3]; 3],
+    pub origin: [f64; 3],
 }
 
 impl Frame {
-    const IDENTITY: Frame = Frame {
+    pub const IDENTITY: Frame = Frame {
         linear: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
         origin: [0.0; 3],
     };
@@ -165,9 +165,53 @@ impl Frame {
         }
     }
 
-    fn axis(&self) -> [f64; 3] {
+    /// A point given in the parent's coordinates, in this frame's.
+    pub fn point_to_local(&self, point: [f64; 3]) -> [f64; 3] {
+        let offset: [f64; 3] = std::array::from_fn(|k| point[k] - self.origin[k]);
+        apply(&transpose(&self.linear), offset)
+    }
+
+    /// A direction given in the parent's coordinates, in this frame's.
+    pub fn direction_to_local(&self, direction: [f64; 3]) -> [f64; 3] {
+        apply(&transpose(&self.linear), direction)
+    }
+
+    /// A point given in this frame's coordinates, in the parent's.
+    pub fn point_to_parent(&self, point: [f64; 3]) -> [f64; 3] {
+        let turned = apply(&self.linear, point);
+        std::array::from_fn(|k| turned[k] + self.origin[k])
+    }
+
+    /// A direction given in this frame's coordinates, in the parent's.
+    pub fn direction_to_parent(&self, direction: [f64; 3]) -> [f64; 3] {
+        apply(&self.linear, direction)
+    }
+
+    /// The frame's z axis in the parent's coordinates.
+    pub fn axis(&self) -> [f64; 3] {
         [self.linear[0][2], self.linear[1][2], self.linear[2][2]]
     }
+}
+
+/// A lens whose file places surfaces off one common axis where no centred lens describes it
+/// exactly (a tilted lens or curved mirror, a decentred stop, a tilted image plane), as the file
+/// writes it: what [`crate::trace::placed::PlacedTracer`] traces in three dimensions. Carried by
+/// [`Problem::NotRotationallySymmetric`], the error every reader returns for such a file, since
+/// everything else in lensbake needs a rotationally symmetric lens.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PlacedLens {
+    /// The file's surfaces in mm, each shape in its own frame. Thicknesses are as written; they
+    /// place nothing here (`frames` does). A coordinate break is a plane in the medium it sits in.
+    pub prescription: Prescription,
+    /// Each surface's frame in the frame of surface 1 before any decentre (the object side's
+    /// axis is its z axis): the vertex at `origin`, the surface's own axis along `axis()`.
+    pub frames: Vec<Frame>,
+    /// The image plane's frame.
+    pub image: Frame,
+    /// Whether each surface's semi-aperture is a clear aperture the file states (Zemax `CLAP`,
+    /// CODE V `CIR`), which clips rays; a Zemax `DIAM` only records the beam's extent, and a
+    /// surface without either clips nothing.
+    pub clips: Vec<bool>,
 }
 
 /// Largest sine of the angle between a centred surface's axis and the lens axis, and largest
@@ -200,9 +244,13 @@ pub(super) fn centre_if_placed(
     if placements.iter().all(Option::is_none) && image_placement.is_none() {
         return Ok(None);
     }
+    let as_written = prescription.clone();
     let object_medium = &prescription.object_medium;
     let surfaces = &mut prescription.surfaces;
     let stated_aperture: Vec<bool> = (0..surfaces.len()).map(|i| !derived.contains(&i)).collect();
+    let clips: Vec<bool> = (0..surfaces.len())
+        .map(|i| stated_aperture[i] && !envelopes.contains(&i))
+        .collect();
     // Each surface's frame in the frame of surface 1, as the file places it.
     let mut frames = Vec::with_capacity(surfaces.len() + 1);
     let mut incoming = Frame::IDENTITY;
@@ -246,11 +294,15 @@ pub(super) fn centre_if_placed(
             .map_or("thickness".to_string(), |p| p.keyword.clone());
         PrescriptionError::new(
             locate(i, &keyword),
-            Problem::Unsupported(format!(
-                "{why} (moved by `{keyword}`): lensbake models rotationally symmetric systems \
-                 (fold mirrors are unfolded where that is exact); its paraxial, Seidel, pupil, \
-                 bake and render code need one"
-            )),
+            Problem::NotRotationallySymmetric {
+                offence: format!("{why} (moved by `{keyword}`)"),
+                lens: Box::new(PlacedLens {
+                    prescription: as_written.clone(),
+                    frames: frames.clone(),
+                    image: image_frame,
+                    clips: clips.clone(),
+                }),
+            },
         )
     };
     let name = |i: usize| {

@@ -1,0 +1,358 @@
+//! The exact trace of a lens its file places off one common axis ([`PlacedLens`]): tilted or
+//! decentred lenses and curved mirrors, off-axis segments, tilted image planes.
+//!
+//! Rays live in the lens's global frame (the object side's axis is z). At each surface the ray
+//! is carried into the surface's own frame, met, clipped and bent there by the same intersection,
+//! refraction and reflection code as the centred [`super::Tracer`], and carried back. The sense
+//! in which a ray meets a surface is the sign of its direction along the surface's own axis, so
+//! mirrors and negative thicknesses need no bookkeeping.
+//!
+//! A plane that bends and clips nothing (a Zemax coordinate break, a CODE V dummy) only places
+//! the surfaces after it: no ray is tested against it, as in OpticStudio, so a ray parallel to
+//! it is not lost there.
+//!
+//! Nothing here is paraxial: a field's chief ray is aimed at the stop's centre by Newton steps on
+//! real rays, and its beam fills the file's entrance-pupil diameter in object space.
+
+use super::intersect::{AsphereTerms, Profile};
+use super::{Event, Outcome, Vec3, bend, meet, profile_of};
+use crate::glass::Dispersion;
+use crate::prescription::formats::{Frame, PlacedLens};
+use crate::prescription::{Location, Medium, PrescriptionError, Problem};
+
+/// One surface as the 3-D trace reads it.
+#[derive(Clone, Debug, PartialEq)]
+struct PlacedSurface {
+    frame: Frame,
+    profile: Profile,
+    /// Squared clear semi-aperture; infinite where the file states none.
+    clear_sq: f64,
+    obscuration_sq: f64,
+    reflects: bool,
+    equal_indices: bool,
+    /// n before / n after.
+    mu: f64,
+    /// False for a plane that bends and clips nothing: rays pass it untested.
+    met: bool,
+}
+
+/// A placed lens at one wavelength, ready to trace.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PlacedTracer {
+    surfaces: Vec<PlacedSurface>,
+    asphere_terms: Vec<AsphereTerms>,
+    image: Frame,
+    /// 0-based stop index.
+    stop: usize,
+    /// Largest distance of a vertex from the global origin plus the largest stated aperture
+    /// (mm): the length rounding errors in global coordinates scale with.
+    extent: f64,
+}
+
+/// Where a ray ended, in the global frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PlacedRay {
+    pub outcome: Outcome,
+    pub position: Vec3,
+    pub direction: Vec3,
+}
+
+/// Why a field's beam could not be traced.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum PlacedBeamError {
+    #[error(
+        "no ray of field ({:.6}, {:.6}) deg could be aimed at the stop's centre: {why}",
+        .field_deg[0],
+        .field_deg[1]
+    )]
+    ChiefRay { field_deg: [f64; 2], why: String },
+    #[error("the field angle ({:.6}, {:.6}) deg does not point into the lens", .0[0], .0[1])]
+    FieldAngle([f64; 2]),
+}
+
+/// One field's beam at the image plane, in the image plane's own frame (mm).
+#[derive(Clone, Debug, PartialEq)]
+pub struct PlacedSpot {
+    /// Where the chief ray (through the stop's centre) meets the image plane.
+    pub chief: [f64; 2],
+    /// Rays launched over the entrance pupil, and those that reach the image plane.
+    pub launched: usize,
+    pub arrived: usize,
+    /// Centroid and RMS radius about it of the rays that arrive (mm); None when none does.
+    pub centroid: Option<[f64; 2]>,
+    pub rms_radius: Option<f64>,
+}
+
+/// Newton steps allowed to aim a chief ray, and the stop-plane miss (relative to the lens's
+/// extent and the pupil radius) that counts as the centre: a few ulps of the coordinates.
+const AIM_STEPS: usize = 40;
+const AIM_TOLERANCE: f64 = 1e-12;
+
+impl PlacedTracer {
+    /// The lens at `wavelength_nm`, refused where it has no single stop or a medium has no index
+    /// there.
+    pub fn new(lens: &PlacedLens, wavelength_nm: f64) -> Result<PlacedTracer, PrescriptionError> {
+        let p = &lens.prescription;
+        let at_surface =
+            |i: usize, field: &str| Location::default().with_surface(i + 1).with_field(field);
+        let stop = p
+            .stop_index()
+            .ok_or_else(|| PrescriptionError::new(Location::default(), Problem::NoStop))?;
+        crate::limits::check_wavelength(wavelength_nm)
+            .map_err(|e| PrescriptionError::new(Location::default(), e.into()))?;
+        let index_of = |medium: &Medium, location: Location| {
+            Dispersion::of(medium)
+                .and_then(|d| d.checked_index(wavelength_nm))
+                .map_err(|problem| PrescriptionError::new(location, problem))
+        };
+        let mut index_before = index_of(
+            &p.object_medium,
+            Location::default().with_field("object_medium"),
+        )?;
+        // The Newton search of an asphere stays within twice the largest stated aperture.
+        let search_radius = 2.0
+            * p.surfaces
+                .iter()
+                .map(|s| s.semi_aperture)
+                .filter(|r| r.is_finite())
+                .fold(1.0, f64::max);
+        let mut asphere_terms = Vec::new();
+        let mut surfaces = Vec::with_capacity(p.surfaces.len());
+        for (i, s) in p.surfaces.iter().enumerate() {
+            let reflects = s.medium == Medium::Mirror;
+            let index_after = if reflects {
+                index_before
+            } else {
+                index_of(&s.medium, at_surface(i, "medium"))?
+            };
+            let clips = lens.clips.get(i).copied().unwrap_or(false);
+            let profile = profile_of(&s.shape, search_radius, &mut asphere_terms);
+            let equal_indices = index_before == index_after;
+            surfaces.push(PlacedSurface {
+                frame: lens.frames[i],
+                profile,
+                clear_sq: if clips {
+                    s.semi_aperture * s.semi_aperture
+                } else {
+                    f64::INFINITY
+                },
+                obscuration_sq: s.obscuration.map_or(0.0, |r| r * r),
+                reflects,
+                equal_indices,
+                mu: index_before / index_after,
+                met: i == stop
+                    || reflects
+                    || clips
+                    || s.obscuration.is_some()
+                    || !equal_indices
+                    || profile != Profile::Plane,
+            });
+            index_before = index_after;
+        }
+        let extent = lens
+            .frames
+            .iter()
+            .chain([&lens.image])
+            .map(|f| f.origin.iter().fold(0.0_f64, |m, v| m.max(v.abs())))
+            .fold(0.0, f64::max)
+            + search_radius / 2.0;
+        Ok(PlacedTracer {
+            surfaces,
+            asphere_terms,
+            image: lens.image,
+            stop,
+            extent,
+        })
+    }
+
+    /// Traces a ray from `position` along unit `direction` (global frame) through surfaces
+    /// `0..end`; `clip` says whether clear apertures and obscurations stop it.
+    fn trace_through(&self, position: Vec3, direction: Vec3, end: usize, clip: bool) -> PlacedRay {
+        let mut ray = PlacedRay {
+            outcome: Outcome::Ok,
+            position,
+            direction,
+        };
+        for (i, s) in self.surfaces[..end].iter().enumerate() {
+            if !s.met {
+                continue;
+            }
+            let p = s.frame.point_to_local(ray.position);
+            let d = s.frame.direction_to_local(ray.direction);
+            let stopped = |event: Event, ray: PlacedRay| PlacedRay {
+                outcome: event.outcome(i + 1),
+                ..ray
+            };
+            let sense = if d[2] < 0.0 { -1.0 } else { 1.0 };
+            let Some((q, normal)) = meet(&s.profile, &self.asphere_terms, p, d, sense)
+                .filter(|(q, _)| q.iter().all(|v| v.is_finite()))
+            else {
+                return stopped(Event::Missed, ray);
+            };
+            ray.position = s.frame.point_to_parent(q);
+            let r_sq = q[0].mul_add(q[0], q[1] * q[1]);
+            if clip && (r_sq > s.clear_sq || r_sq < s.obscuration_sq) {
+                return stopped(Event::Vignetted, ray);
+            }
+            match bend(&s.profile, s.reflects, q, normal, d, s.equal_indices, s.mu) {
+                Ok(bent) => ray.direction = s.frame.direction_to_parent(bent),
+                Err(event) => return stopped(event, ray),
+            }
+        }
+        ray
+    }
+
+    /// Traces a ray (global frame, unit direction) through every surface, clear apertures
+    /// clipping, onto the image plane. On [`Outcome::Ok`] the position is on the image plane; a
+    /// ray that does not cross it ends [`Outcome::Missed`] at surface N + 1.
+    pub fn trace(&self, position: Vec3, direction: Vec3) -> PlacedRay {
+        let mut ray = self.trace_through(position, direction, self.surfaces.len(), true);
+        if ray.outcome.is_ok() {
+            match self.meet_image(&ray) {
+                Some(q) => ray.position = self.image.point_to_parent(q),
+                None => {
+                    ray.outcome = Outcome::Missed {
+                        surface: self.surfaces.len() + 1,
+                    };
+                }
+            }
+        }
+        ray
+    }
+
+    /// Where a ray that left the last surface meets the image plane, in the plane's frame.
+    fn meet_image(&self, ray: &PlacedRay) -> Option<Vec3> {
+        let p = self.image.point_to_local(ray.position);
+        let d = self.image.direction_to_local(ray.direction);
+        let sense = if d[2] < 0.0 { -1.0 } else { 1.0 };
+        meet(&Profile::Plane, &[], p, d, sense)
+            .map(|(q, _)| q)
+            .filter(|q| q.iter().all(|v| v.is_finite()))
+    }
+
+    /// A global point in the image plane's own frame (x, y).
+    pub fn image_coordinates(&self, point: Vec3) -> [f64; 2] {
+        let q = self.image.point_to_local(point);
+        [q[0], q[1]]
+    }
+
+    /// Where a ray crosses the stop, in the stop's frame, apertures not clipping; None when it
+    /// does not get there.
+    fn at_stop(&self, position: Vec3, direction: Vec3) -> Option<[f64; 2]> {
+        let ray = self.trace_through(position, direction, self.stop + 1, false);
+        ray.outcome.is_ok().then(|| {
+            let q = self.surfaces[self.stop].frame.point_to_local(ray.position);
+            [q[0], q[1]]
+        })
+    }
+
+    /// The beam of an object point at infinity seen at field angles `field_deg` (x, y; the
+    /// direction is (tan x, tan y, 1) normalised), filling an entrance pupil of diameter
+    /// `pupil_diameter` mm perpendicular to the object side's axis, centred on the chief ray, on
+    /// a square grid of `grid` x `grid` points (those inside the circle are launched).
+    pub fn collimated_spot(
+        &self,
+        field_deg: [f64; 2],
+        pupil_diameter: f64,
+        grid: usize,
+    ) -> Result<PlacedSpot, PlacedBeamError> {
+        let [tx, ty] = field_deg.map(|a| a.to_radians().tan());
+        let length = tx.mul_add(tx, ty.mul_add(ty, 1.0)).sqrt();
+        if !length.is_finite() {
+            return Err(PlacedBeamError::FieldAngle(field_deg));
+        }
+        let direction = [tx / length, ty / length, 1.0 / length];
+        let chief_start = self.aim_chief(direction, pupil_diameter / 2.0, field_deg)?;
+        let chief = self.trace(chief_start, direction);
+        if !chief.outcome.is_ok() {
+            return Err(PlacedBeamError::ChiefRay {
+                field_deg,
+                why: format!("the chief ray ends {:?}", chief.outcome),
+            });
+        }
+        let radius = pupil_diameter / 2.0;
+        let mut launched = 0;
+        let mut points = Vec::new();
+        for row in 0..grid {
+            for column in 0..grid {
+                let along = |k: usize| (2.0 * k as f64 + 1.0) / grid as f64 - 1.0;
+                let (u, v) = (along(column), along(row));
+                if u.mul_add(u, v * v) > 1.0 {
+                    continue;
+                }
+                launched += 1;
+                let start = [
+                    u.mul_add(radius, chief_start[0]),
+                    v.mul_add(radius, chief_start[1]),
+                    chief_start[2],
+                ];
+                let ray = self.trace(start, direction);
+                if ray.outcome.is_ok() {
+                    points.push(self.image_coordinates(ray.position));
+                }
+            }
+        }
+        let arrived = points.len();
+        let centroid = (arrived > 0).then(|| {
+            let sum = points
+                .iter()
+                .fold([0.0, 0.0], |s, p| [s[0] + p[0], s[1] + p[1]]);
+            [sum[0] / arrived as f64, sum[1] / arrived as f64]
+        });
+        let rms_radius = centroid.map(|c| {
+            let sum: f64 = points
+                .iter()
+                .map(|p| (p[0] - c[0]).powi(2) + (p[1] - c[1]).powi(2))
+                .sum();
+            (sum / arrived as f64).sqrt()
+        });
+        Ok(PlacedSpot {
+            chief: self.image_coordinates(chief.position),
+            launched,
+            arrived,
+            centroid,
+            rms_radius,
+        })
+    }
+
+    /// The start, on the plane z = 0 of the global frame, of the ray along `direction` through
+    /// the stop's centre: Newton steps on the launch point with a finite-difference Jacobian
+    /// (step a millionth of the pupil radius), from the axis.
+    fn aim_chief(
+        &self,
+        direction: Vec3,
+        pupil_radius: f64,
+        field_deg: [f64; 2],
+    ) -> Result<Vec3, PlacedBeamError> {
+        let fail = |why: &str| PlacedBeamError::ChiefRay {
+            field_deg,
+            why: why.to_string(),
+        };
+        let step = 1e-6 * pupil_radius.max(f64::MIN_POSITIVE);
+        let scale = pupil_radius + self.extent;
+        let at = |x: f64, y: f64| self.at_stop([x, y, 0.0], direction);
+        let (mut x, mut y) = (0.0, 0.0);
+        for _ in 0..AIM_STEPS {
+            let miss = at(x, y).ok_or_else(|| fail("a ray on the way misses the stop"))?;
+            if miss[0].hypot(miss[1]) <= AIM_TOLERANCE * scale {
+                return Ok([x, y, 0.0]);
+            }
+            let (Some(dx), Some(dy)) = (at(x + step, y), at(x, y + step)) else {
+                return Err(fail("a ray beside the chief ray misses the stop"));
+            };
+            let j = [
+                [(dx[0] - miss[0]) / step, (dy[0] - miss[0]) / step],
+                [(dx[1] - miss[1]) / step, (dy[1] - miss[1]) / step],
+            ];
+            let det = j[0][0] * j[1][1] - j[0][1] * j[1][0];
+            if det == 0.0 || !det.is_finite() {
+                return Err(fail(
+                    "the stop does not see the launch plane (singular aim)",
+                ));
+            }
+            x -= (j[1][1] * miss[0] - j[0][1] * miss[1]) / det;
+            y -= (j[0][0] * miss[1] - j[1][0] * miss[0]) / det;
+        }
+        Err(fail("Newton steps did not settle"))
+    }
+}
