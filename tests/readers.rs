@@ -140,14 +140,25 @@ fn unknown_or_unsupported_surface_keywords_are_refused_where_they_stand() {
     assert_eq!(e.location.line, Some(line_of(&text, "SURF 3")));
     assert_eq!(e.location.field.as_deref(), Some("TYPE COORDBRK"));
 
-    // A central obscuration is read (tests/mirrors.rs); a square aperture is not.
+    // A central obscuration is read (tests/mirrors.rs); a square aperture makes the lens one
+    // that only the 3-D trace reads (tests/off_axis.rs), at its line; an elliptical one is not
+    // read at all.
     let text = singlet("", "  SQAP 2 2\n", "");
     let e = read(&text).unwrap_err();
     assert!(
-        matches!(&e.problem, Problem::Unsupported(what) if what.contains("SQAP")),
+        matches!(&e.problem, Problem::NotRotationallySymmetric { offence, lens }
+            if offence == "surface 2 has a rectangular clear aperture"
+                && lens.outlines[1].is_some()),
         "{e}"
     );
     assert_eq!(e.location.surface, Some(2));
+    assert_eq!(e.location.line, Some(line_of(&text, "SQAP")));
+    let text = singlet("", "  ELAP 2 1\n", "");
+    let e = read(&text).unwrap_err();
+    assert!(
+        matches!(&e.problem, Problem::Unsupported(what) if what.contains("ELAP")),
+        "{e}"
+    );
 }
 
 /// Older OpticStudio files carry WAVL/WAVN and WWGT lists beside the WAVM table, of other

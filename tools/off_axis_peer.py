@@ -31,6 +31,10 @@ RAYS = {
     "rayoptics__tilt_test.seq": [
         [0, 0, 0, 0], [30, -20, 0, 0.001], [-40, 10, 0.01, -0.02],
     ],
+    # Near the chief rays, which enter 113-178 mm above the axis to pass the off-axis segments.
+    "rayoptics__threemir.seq": [
+        [0, 145, 0, 0], [10, 140, 0, 0.001], [-10, 150, 0.002, -0.003], [-31, 113, 0.0349, 0.0349],
+    ],
 }
 OPTILAND_RAYS = {
     "rayoptics__HoO-V2C18Ex66.zmx": [

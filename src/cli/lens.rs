@@ -6,10 +6,10 @@ use clap::{Args, Subcommand};
 use lensbake::job::RenderLens;
 use lensbake::lenses::{self, BUNDLED, LensError, LensSource, LoadedLens};
 use lensbake::model::ModelKind;
-use lensbake::prescription::formats::PlacedLens;
 use lensbake::prescription::formats::{
     Format, LoadOptions, PbrtThickness, read_str, write_pbrt, write_ron_file, write_zemax,
 };
+use lensbake::prescription::formats::{OutlineShape, PlacedLens};
 use lensbake::prescription::{
     ApertureSpec, DEFAULT_WAVELENGTH_NM, FieldKind, Location, PrescriptionError, Problem, Shape,
 };
@@ -334,12 +334,7 @@ fn placed_summary(
             "an object at infinity; this file's is at a finite distance".into(),
         ));
     }
-    let Some(ApertureSpec::EntrancePupilDiameter(pupil_diameter)) = conditions.aperture else {
-        return Err(refuse(format!(
-            "an entrance-pupil diameter; this file sizes the beam by {:?}",
-            conditions.aperture
-        )));
-    };
+
     let fields: Vec<[f64; 2]> = match &conditions.fields {
         None => vec![[0.0, 0.0]],
         Some(f) if f.kind == FieldKind::AngleDeg => {
@@ -357,6 +352,28 @@ fn placed_summary(
         .design_wavelength_nm
         .unwrap_or(DEFAULT_WAVELENGTH_NM);
     let tracer = PlacedTracer::new(lens, wavelength).map_err(|e| anyhow::anyhow!("{spec}: {e}"))?;
+    // An F-number sizes the pupil from the focal length, which a centred lens has.
+    let (pupil_diameter, sized_by) = match conditions.aperture {
+        Some(ApertureSpec::EntrancePupilDiameter(d)) => (d, String::new()),
+        Some(ApertureSpec::FNumber(n)) => match tracer.centred_focal_length() {
+            Some(f) => (
+                f.abs() / n,
+                format!(" = EFL {:.6} mm / F-number {n}", f.abs()),
+            ),
+            None => {
+                return Err(refuse(
+                    "an entrance-pupil diameter (an F-number needs the focal length of a \
+                     centred lens)"
+                        .into(),
+                ));
+            }
+        },
+        other => {
+            return Err(refuse(format!(
+                "an entrance-pupil diameter or F-number; this file sizes the beam by {other:?}"
+            )));
+        }
+    };
 
     let mut out = String::new();
     let mut line = |text: String| {
@@ -397,7 +414,9 @@ fn placed_summary(
         };
         let axis = frame.axis();
         let tilt = axis[0].hypot(axis[1]).atan2(axis[2]).to_degrees();
-        let clear = if lens.clips[i] {
+        let clear = if lens.outlines[i].is_some() {
+            "below".to_string()
+        } else if lens.clips[i] {
             format!("{:.4}", s.semi_aperture)
         } else {
             "-".to_string()
@@ -416,10 +435,26 @@ fn placed_summary(
             clear
         ));
     }
+    for (i, outline) in lens.outlines.iter().enumerate() {
+        let Some(outline) = outline else { continue };
+        let shape = match outline.shape {
+            OutlineShape::Circle { radius } => format!("circle of radius {radius:.4} mm"),
+            OutlineShape::Rectangle {
+                half_width,
+                half_height,
+            } => format!("rectangle {half_width:.4} x {half_height:.4} mm (half widths)"),
+        };
+        line(format!(
+            "  aperture:    surface {}, {shape} centred at ({:.4}, {:.4}) mm",
+            i + 1,
+            outline.centre[0] + 0.0,
+            outline.centre[1] + 0.0
+        ));
+    }
     line(String::new());
     line(format!(
-        "  object at infinity, entrance pupil {pupil_diameter} mm ({PLACED_GRID}x{PLACED_GRID} \
-         grid); image-plane coordinates (mm):"
+        "  object at infinity, entrance pupil {pupil_diameter} mm{sized_by} \
+         ({PLACED_GRID}x{PLACED_GRID} grid); image-plane coordinates (mm):"
     ));
     line(format!(
         "  {:>10} {:>10}  {:>14} {:>14}  {:>11}  {:>10}",

@@ -17,7 +17,7 @@
 use super::intersect::{AsphereTerms, Profile};
 use super::{Event, Outcome, Vec3, bend, meet, profile_of};
 use crate::glass::Dispersion;
-use crate::prescription::formats::{Frame, PlacedLens};
+use crate::prescription::formats::{ApertureOutline, Frame, OutlineShape, PlacedLens};
 use crate::prescription::{Location, Medium, PrescriptionError, Problem};
 
 /// One surface as the 3-D trace reads it.
@@ -27,6 +27,8 @@ struct PlacedSurface {
     profile: Profile,
     /// Squared clear semi-aperture; infinite where the file states none.
     clear_sq: f64,
+    /// The clear aperture where it is rectangular or decentred (then `clear_sq` is unused).
+    outline: Option<ApertureOutline>,
     obscuration_sq: f64,
     reflects: bool,
     equal_indices: bool,
@@ -34,6 +36,20 @@ struct PlacedSurface {
     mu: f64,
     /// False for a plane that bends and clips nothing: rays pass it untested.
     met: bool,
+}
+
+impl PlacedSurface {
+    /// Whether a hit at `q` (the surface's frame) passes its clear aperture and obscuration.
+    fn passes(&self, q: Vec3) -> bool {
+        let centre = self.outline.map_or([0.0, 0.0], |o| o.centre);
+        let (u, v) = (q[0] - centre[0], q[1] - centre[1]);
+        let r_sq = u.mul_add(u, v * v);
+        let clear = match &self.outline {
+            Some(outline) => outline.passes(q[0], q[1]),
+            None => r_sq <= self.clear_sq,
+        };
+        clear && r_sq >= self.obscuration_sq
+    }
 }
 
 /// A placed lens at one wavelength, ready to trace.
@@ -73,7 +89,9 @@ pub enum PlacedBeamError {
 /// One field's beam at the image plane, in the image plane's own frame (mm).
 #[derive(Clone, Debug, PartialEq)]
 pub struct PlacedSpot {
-    /// Where the chief ray (through the stop's centre) meets the image plane.
+    /// Where the chief ray (through the stop's centre) crosses the plane z = 0 of the global
+    /// frame, and where it meets the image plane.
+    pub chief_launch: [f64; 2],
     pub chief: [f64; 2],
     /// Rays launched over the entrance pupil, and those that reach the image plane.
     pub launched: usize,
@@ -110,10 +128,21 @@ impl PlacedTracer {
             Location::default().with_field("object_medium"),
         )?;
         // The Newton search of an asphere stays within twice the largest stated aperture.
+        let outline_reach = lens.outlines.iter().flatten().map(|o| {
+            let reach = match o.shape {
+                OutlineShape::Circle { radius } => radius,
+                OutlineShape::Rectangle {
+                    half_width,
+                    half_height,
+                } => half_width.hypot(half_height),
+            };
+            o.centre[0].hypot(o.centre[1]) + reach
+        });
         let search_radius = 2.0
             * p.surfaces
                 .iter()
                 .map(|s| s.semi_aperture)
+                .chain(outline_reach)
                 .filter(|r| r.is_finite())
                 .fold(1.0, f64::max);
         let mut asphere_terms = Vec::new();
@@ -136,6 +165,7 @@ impl PlacedTracer {
                 } else {
                     f64::INFINITY
                 },
+                outline: lens.outlines.get(i).copied().flatten(),
                 obscuration_sq: s.obscuration.map_or(0.0, |r| r * r),
                 reflects,
                 equal_indices,
@@ -143,6 +173,7 @@ impl PlacedTracer {
                 met: i == stop
                     || reflects
                     || clips
+                    || lens.outlines.get(i).is_some_and(Option::is_some)
                     || s.obscuration.is_some()
                     || !equal_indices
                     || profile != Profile::Plane,
@@ -190,8 +221,7 @@ impl PlacedTracer {
                 return stopped(Event::Missed, ray);
             };
             ray.position = s.frame.point_to_parent(q);
-            let r_sq = q[0].mul_add(q[0], q[1] * q[1]);
-            if clip && (r_sq > s.clear_sq || r_sq < s.obscuration_sq) {
+            if clip && !s.passes(q) {
                 return stopped(Event::Vignetted, ray);
             }
             match bend(&s.profile, s.reflects, q, normal, d, s.equal_indices, s.mu) {
@@ -234,6 +264,35 @@ impl PlacedTracer {
     pub fn image_coordinates(&self, point: Vec3) -> [f64; 2] {
         let q = self.image.point_to_local(point);
         [q[0], q[1]]
+    }
+
+    /// The effective focal length (mm) where every surface that is met sits on the global axis
+    /// facing along it (a centred lens with rectangular or decentred apertures, or a decentred
+    /// image plane): from a real ray parallel to the axis at a height of 1e-6 of the lens's
+    /// extent, f = -h / tan(u') (the paraxial limit to about 1e-12, rounding to about 1e-10).
+    /// None for a lens that is tilted or decentred, or when that ray does not leave the lens.
+    pub fn centred_focal_length(&self) -> Option<f64> {
+        let on_axis = |f: &Frame| {
+            let axis = f.axis();
+            axis[0].hypot(axis[1]) <= 1e-12 && f.origin[0].hypot(f.origin[1]) <= 1e-10 * self.extent
+        };
+        if !self
+            .surfaces
+            .iter()
+            .filter(|s| s.met)
+            .all(|s| on_axis(&s.frame))
+        {
+            return None;
+        }
+        let height = 1e-6 * self.extent;
+        let ray = self.trace_through(
+            [0.0, height, 0.0],
+            [0.0, 0.0, 1.0],
+            self.surfaces.len(),
+            false,
+        );
+        let slope = ray.direction[1] / ray.direction[2];
+        (ray.outcome.is_ok() && slope != 0.0 && slope.is_finite()).then(|| -height / slope)
     }
 
     /// Where a ray crosses the stop, in the stop's frame, apertures not clipping; None when it
@@ -307,6 +366,7 @@ impl PlacedTracer {
             (sum / arrived as f64).sqrt()
         });
         Ok(PlacedSpot {
+            chief_launch: [chief_start[0], chief_start[1]],
             chief: self.image_coordinates(chief.position),
             launched,
             arrived,

@@ -28,8 +28,11 @@
 //! Paraxial solves (`PIM`, `CUM`, `CUC`, `THM`, `THC`) keep the values the file writes: see
 //! `SOLVES`.
 //!
-//! Refused with a message naming the command and line: every other command (other pickups, a `CUF` other than 0, other solves, zoom positions, non-circular apertures (`REX`,
-//! `REY`, ...), private glasses given by a formula other than `LAU` Laurent coefficients), a curved object or image surface, and
+//! Rectangular apertures (`REX`, `REY`) and aperture decentres (`ADX`, `ADY`) are read and, like
+//! a tilted surface, leave the lens to the 3-D trace (`placement`).
+//!
+//! Refused with a message naming the command and line: every other command (other pickups, a `CUF` other than 0, other solves, zoom positions, other aperture forms (`ELX`,
+//! `ELY`, `ARO`), private glasses given by a formula other than `LAU` Laurent coefficients), a curved object or image surface, and
 //! other `CIR` forms (several values). Image-height fields and
 //! numerical apertures are refused only when a clear aperture must be derived from them (see
 //! `apertures`).
@@ -44,7 +47,9 @@
 //! glass is reported by the reader, with the line of its surface.
 
 use super::apertures::{self, BeamSpec, INFINITE_OBJECT_MM};
-use super::placement::{self, Placement, PlacementKind};
+use super::placement::{
+    self, ApertureOutline, OutlineShape, Placement, PlacementKind, StatedOutline,
+};
 use super::{
     AsphereTerms, Format, LoadNote, Loaded, Source, finite, named_medium, number, scale_to_mm,
     shape,
@@ -153,8 +158,52 @@ struct SeqSurface {
     clear_radius: Option<f64>,
     /// Radius inside which the surface blocks rays (`CIR OBS`, `CIR HOL`).
     obscuration: Option<f64>,
+    /// `REX`, `REY`: half width and half height of a rectangular clear aperture.
+    rectangle: [Option<f64>; 2],
+    /// `ADX`, `ADY`: where the surface's apertures are centred.
+    aperture_decentre: [f64; 2],
+    /// The line and command that made the aperture other than a centred circle.
+    outline_line: Option<(usize, &'static str)>,
     stop: bool,
     placement: Option<Placement>,
+}
+
+impl SeqSurface {
+    /// The clear aperture where it is rectangular or decentred; a decentre of no stated
+    /// aperture is none. Refused: half a rectangle, or a rectangle and a `CIR` on one surface.
+    fn outline(&self, source: &Source) -> Result<Option<StatedOutline>, PrescriptionError> {
+        let Some((line, command)) = self.outline_line else {
+            return Ok(None);
+        };
+        let refuse = |what: &str| {
+            Err(PrescriptionError::new(
+                source.location(Some(line)).with_field(command),
+                Problem::Unsupported(what.to_string()),
+            ))
+        };
+        let shape = match (self.rectangle, self.clear_radius) {
+            ([Some(_), None] | [None, Some(_)], _) => {
+                return refuse("a rectangular aperture needs both REX and REY");
+            }
+            ([Some(_), Some(_)], Some(_)) => {
+                return refuse("a surface with both a CIR and a rectangular (REX, REY) aperture");
+            }
+            ([Some(half_width), Some(half_height)], None) => OutlineShape::Rectangle {
+                half_width,
+                half_height,
+            },
+            ([None, None], Some(radius)) => OutlineShape::Circle { radius },
+            ([None, None], None) => return Ok(None),
+        };
+        Ok(Some(StatedOutline {
+            outline: ApertureOutline {
+                shape,
+                centre: self.aperture_decentre,
+            },
+            line,
+            keyword: command.to_string(),
+        }))
+    }
 }
 
 #[derive(Clone, Copy, PartialEq)]
@@ -184,6 +233,9 @@ const HARMLESS: &[&str] = &[
 /// ray slope 0.223 and height 0.354 in at the secondary, and that written lens is the Questar
 /// 3.5" (EFL 1282.7 mm, f/14.4), so what CODE V solves for is not what those names suggest.
 const SOLVES: &[&str] = &["PIM", "CUM", "CUC", "THM", "THC"];
+
+/// Thickness solves written after `THI`: the marginal or chief ray's height in y or x.
+const THICKNESS_SOLVES: &[&str] = &["HMY", "HCY", "HMX", "HCX"];
 
 const ASPHERE_LETTERS: [&str; MAX_ASPHERE_TERMS - 1] =
     ["A", "B", "C", "D", "E", "F", "G", "H", "J"];
@@ -371,10 +423,11 @@ impl Reader {
             }
             "TITLE" | "TIT" => self.title = Some(c.args.join(" ")),
             "DIM" => {
+                // CODE V reads the unit by its first letter (files write `MM` too).
                 self.mm_per_unit = match c.args.first().map(|a| a.to_ascii_uppercase()).as_deref() {
-                    Some("M") => 1.0,
-                    Some("C") => 10.0,
-                    Some("I") => 25.4,
+                    Some("M" | "MM") => 1.0,
+                    Some("C" | "CM") => 10.0,
+                    Some("I" | "IN") => 25.4,
                     Some(other) => return Err(unsupported(format!("DIM {other}"))),
                     None => return Err(count("1 unit letter", 0)),
                 }
@@ -450,6 +503,9 @@ impl Reader {
                     terms: [0.0; MAX_ASPHERE_TERMS],
                     clear_radius: None,
                     obscuration: None,
+                    rectangle: [None; 2],
+                    aperture_decentre: [0.0; 2],
+                    outline_line: None,
                     stop: false,
                     placement: None,
                 });
@@ -507,6 +563,42 @@ impl Reader {
                     }
                 }
             }
+            // A rectangular aperture's half widths and an aperture decentre (x, y).
+            "REX" | "REY" | "ADX" | "ADY" => {
+                let value = one(name)?;
+                let command: &'static str = match name {
+                    "REX" => "REX",
+                    "REY" => "REY",
+                    "ADX" => "ADX",
+                    _ => "ADY",
+                };
+                if command.starts_with("RE") && !(value > 0.0) {
+                    return Err(PrescriptionError::new(
+                        at(name),
+                        Problem::Syntax(format!(
+                            "{name} {value} passes no ray: a half width must be positive"
+                        )),
+                    ));
+                }
+                let line = c.line;
+                self.on_surface(
+                    c,
+                    source,
+                    "an aperture outline on the object or image surface",
+                    true,
+                    |s| {
+                        match command {
+                            "REX" => s.rectangle[0] = Some(value),
+                            "REY" => s.rectangle[1] = Some(value),
+                            "ADX" => s.aperture_decentre[0] = value,
+                            _ => s.aperture_decentre[1] = value,
+                        }
+                        if command.starts_with("RE") || value != 0.0 {
+                            s.outline_line.get_or_insert((line, command));
+                        }
+                    },
+                )?;
+            }
             "K" => {
                 let value = one("K")?;
                 self.on_surface(
@@ -544,6 +636,17 @@ impl Reader {
                         s.radius_mode = radius_mode;
                     },
                 )?;
+            }
+            // `THI HMY 0` is a thickness solve (marginal or chief ray height on the next surface);
+            // CODE V wrote the solved thickness on the surface line, which is kept as for the
+            // other solves.
+            "THI"
+                if c.args.len() == 2
+                    && THICKNESS_SOLVES.contains(&c.args[0].to_ascii_uppercase().as_str()) =>
+            {
+                finite(&c.args[1], &at("THI"))?;
+                self.solves
+                    .insert(format!("THI {}", c.args[0].to_ascii_uppercase()));
             }
             "THI" => {
                 let value = match c.args.as_slice() {
@@ -618,6 +721,12 @@ impl Reader {
                     "CDE" => placement.tilt_deg[2] = value,
                     _ => placement.decentre[usize::from(name.as_bytes()[0] - b'X')] = value,
                 }
+            }
+            // `CA` alone, in the system data (rayoptics' table of CODE V commands files it
+            // there), chooses how CODE V's own analyses use the clear apertures; lensbake
+            // clips at every stated one.
+            "CA" if c.args.is_empty() => {
+                self.skipped.insert("CA".to_string());
             }
             harmless if HARMLESS.contains(&harmless) => {
                 self.skipped.insert(harmless.to_string());
@@ -768,10 +877,16 @@ impl Reader {
         let placements: Vec<Option<Placement>> =
             self.surfaces.iter().map(|s| s.placement.clone()).collect();
         let lines: Vec<usize> = self.surfaces.iter().map(|s| s.line).collect();
+        let outlines = self
+            .surfaces
+            .iter()
+            .map(|s| s.outline(source))
+            .collect::<Result<Vec<_>, _>>()?;
         let centred = placement::centre_if_placed(
             &mut prescription,
             &placements,
             self.image_placement.as_ref(),
+            &outlines,
             &mut missing,
             &[],
             mm,

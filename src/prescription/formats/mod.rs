@@ -28,7 +28,7 @@ mod placement;
 mod zemax;
 
 pub use export::{write_pbrt, write_zemax};
-pub use placement::{Frame, PlacedLens};
+pub use placement::{ApertureOutline, Frame, OutlineShape, PlacedLens};
 
 use super::error::{Location, PrescriptionError, Problem};
 use super::model::{MAX_ASPHERE_TERMS, Medium, Prescription, Shape};

@@ -22,7 +22,7 @@
 //! rotations (degrees) about x, then the new y, then the new z (Zemax's "tilt about x, y, z";
 //! CODE V's alpha and beta are left-handed, so the CODE V reader negates them).
 
-use super::super::error::{PrescriptionError, Problem};
+use super::super::error::{Location, PrescriptionError, Problem};
 use super::super::model::{Medium, Prescription, Shape};
 use super::{LoadNote, Source};
 
@@ -193,6 +193,65 @@ impl Frame {
     }
 }
 
+/// A clear aperture that is not a circle centred on its surface's axis: a rectangle, or a
+/// decentred circle or rectangle (off-axis segments of a mirror). Lengths in mm, in the
+/// surface's own frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ApertureOutline {
+    pub shape: OutlineShape,
+    /// Where the aperture's centre sits (x, y); a central obscuration on the surface is centred
+    /// there too (OpticStudio and CODE V decentre a surface's apertures together).
+    pub centre: [f64; 2],
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum OutlineShape {
+    Circle { radius: f64 },
+    Rectangle { half_width: f64, half_height: f64 },
+}
+
+impl ApertureOutline {
+    /// Whether a point (x, y) of the surface's frame passes the aperture.
+    pub fn passes(&self, x: f64, y: f64) -> bool {
+        let (u, v) = (x - self.centre[0], y - self.centre[1]);
+        match self.shape {
+            OutlineShape::Circle { radius } => u.mul_add(u, v * v) <= radius * radius,
+            OutlineShape::Rectangle {
+                half_width,
+                half_height,
+            } => u.abs() <= half_width && v.abs() <= half_height,
+        }
+    }
+}
+
+/// An outline as a reader found it: in the file's length unit, with the line and keyword that
+/// made it other than a centred circle.
+#[derive(Clone, Debug, PartialEq)]
+pub(super) struct StatedOutline {
+    pub outline: ApertureOutline,
+    pub line: usize,
+    pub keyword: String,
+}
+
+impl StatedOutline {
+    /// What makes the aperture break the lens's symmetry, for the refusal.
+    fn offence(&self, surface: usize) -> String {
+        let [x, y] = self.outline.centre;
+        let shape = match self.outline.shape {
+            OutlineShape::Circle { .. } => "circular",
+            OutlineShape::Rectangle { .. } => "rectangular",
+        };
+        if x == 0.0 && y == 0.0 {
+            format!("surface {surface} has a {shape} clear aperture")
+        } else {
+            format!(
+                "surface {surface} has a {shape} clear aperture decentred {:.6} mm from its axis",
+                x.hypot(y)
+            )
+        }
+    }
+}
+
 /// A lens whose file places surfaces off one common axis where no centred lens describes it
 /// exactly (a tilted lens or curved mirror, a decentred stop, a tilted image plane), as the file
 /// writes it: what [`crate::trace::placed::PlacedTracer`] traces in three dimensions. Carried by
@@ -212,6 +271,9 @@ pub struct PlacedLens {
     /// CODE V `CIR`), which clips rays; a Zemax `DIAM` only records the beam's extent, and a
     /// surface without either clips nothing.
     pub clips: Vec<bool>,
+    /// Each surface's clear aperture where it is rectangular or decentred (it replaces the
+    /// semi-aperture there).
+    pub outlines: Vec<Option<ApertureOutline>>,
 }
 
 /// Largest sine of the angle between a centred surface's axis and the lens axis, and largest
@@ -234,6 +296,7 @@ pub(super) fn centre_if_placed(
     prescription: &mut Prescription,
     placements: &[Option<Placement>],
     image_placement: Option<&Placement>,
+    outlines: &[Option<StatedOutline>],
     derived: &mut Vec<usize>,
     envelopes: &[usize],
     mm_per_unit: f64,
@@ -241,7 +304,10 @@ pub(super) fn centre_if_placed(
     image_line: usize,
     source: &Source,
 ) -> Result<Option<LoadNote>, PrescriptionError> {
-    if placements.iter().all(Option::is_none) && image_placement.is_none() {
+    if placements.iter().all(Option::is_none)
+        && image_placement.is_none()
+        && outlines.iter().all(Option::is_none)
+    {
         return Ok(None);
     }
     let as_written = prescription.clone();
@@ -282,6 +348,43 @@ pub(super) fn centre_if_placed(
             location
         }
     };
+    let scaled_outlines: Vec<Option<ApertureOutline>> = (0..surfaces.len())
+        .map(|i| {
+            outlines.get(i).and_then(Option::as_ref).map(|o| {
+                let mm = |v: f64| v * mm_per_unit;
+                ApertureOutline {
+                    shape: match o.outline.shape {
+                        OutlineShape::Circle { radius } => {
+                            OutlineShape::Circle { radius: mm(radius) }
+                        }
+                        OutlineShape::Rectangle {
+                            half_width,
+                            half_height,
+                        } => OutlineShape::Rectangle {
+                            half_width: mm(half_width),
+                            half_height: mm(half_height),
+                        },
+                    },
+                    centre: o.outline.centre.map(mm),
+                }
+            })
+        })
+        .collect();
+    let off_axis = |location: Location, offence: String| {
+        PrescriptionError::new(
+            location,
+            Problem::NotRotationallySymmetric {
+                offence,
+                lens: Box::new(PlacedLens {
+                    prescription: as_written.clone(),
+                    frames: frames.clone(),
+                    image: image_frame,
+                    clips: clips.clone(),
+                    outlines: scaled_outlines.clone(),
+                }),
+            },
+        )
+    };
     let refuse = |i: usize, why: String| {
         let keyword = own(i)
             .or_else(|| {
@@ -292,18 +395,7 @@ pub(super) fn centre_if_placed(
                     .next()
             })
             .map_or("thickness".to_string(), |p| p.keyword.clone());
-        PrescriptionError::new(
-            locate(i, &keyword),
-            Problem::NotRotationallySymmetric {
-                offence: format!("{why} (moved by `{keyword}`)"),
-                lens: Box::new(PlacedLens {
-                    prescription: as_written.clone(),
-                    frames: frames.clone(),
-                    image: image_frame,
-                    clips: clips.clone(),
-                }),
-            },
-        )
+        off_axis(locate(i, &keyword), format!("{why} (moved by `{keyword}`)"))
     };
     let name = |i: usize| {
         if i < surface_count {
@@ -436,6 +528,18 @@ pub(super) fn centre_if_placed(
     let image = unfolding.then(&image_frame);
     if let Some(offence) = leaves_axis(surface_count, &image) {
         return Err(refuse(surface_count, offence));
+    }
+    // The geometry is centred; an aperture that is not still makes the lens asymmetric.
+    if let Some((i, stated)) = outlines
+        .iter()
+        .enumerate()
+        .find_map(|(i, o)| o.as_ref().map(|o| (i, o)))
+    {
+        let location = source
+            .location(Some(stated.line))
+            .with_surface(i + 1)
+            .with_field(stated.keyword.clone());
+        return Err(off_axis(location, stated.offence(i + 1)));
     }
     vertex_z.push(image.origin[2]);
     for (i, surface) in surfaces.iter_mut().enumerate() {

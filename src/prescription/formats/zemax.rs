@@ -39,14 +39,18 @@
 //! its releases (`STUD`, `FSVY`), and every header keyword that defines the lens, its aperture,
 //! fields, wavelengths or units is one this reader applies or refuses by name. Coordinate breaks (`TYPE COORDBRK`, with `PPAR` pickups of their
 //! parameters) are read as planes in the medium before them that move the later surfaces; the
-//! lens they describe is centred by `placement` (fold mirrors unfolded) or refused there. Any
+//! lens they describe is centred by `placement` (fold mirrors unfolded) or refused there, as is
+//! one with a rectangular (`SQAP`) or decentred (`OBDC`) clear aperture. Any
 //! other keyword is refused, naming keyword, line and surface: other surface types (toroids,
 //! gratings, ...), surface tilts written as `SCBD`, multi-configuration files,
-//! annular obscurations, non-circular apertures, ignored surfaces, a curved image surface,
+//! annular obscurations, elliptical and user-defined apertures, ignored surfaces, a curved image
+//! surface,
 //! non-sequential mode, and every unknown keyword inside the surface table.
 
 use super::apertures::{self, BeamSpec, INFINITE_OBJECT_MM};
-use super::placement::{self, Placement, PlacementKind};
+use super::placement::{
+    self, ApertureOutline, OutlineShape, Placement, PlacementKind, StatedOutline,
+};
 use super::{Format, LoadNote, Loaded, Source, finite, named_medium, number, scale_to_mm, shape};
 use crate::prescription::DEFAULT_WAVELENGTH_NM;
 use crate::prescription::error::{PrescriptionError, Problem};
@@ -115,6 +119,12 @@ struct Block {
     clear_radius: Option<f64>,
     /// Radius of a central obscuration (`OBSC 0 r`, or the inner radius of `CLAP r R`).
     obscuration: Option<f64>,
+    /// `SQAP`: half width and half height of a rectangular clear aperture.
+    rectangle: Option<[f64; 2]>,
+    /// `OBDC`: where the surface's apertures are centred.
+    aperture_decentre: [f64; 2],
+    /// The line and keyword that made the aperture other than a centred circle.
+    outline_line: Option<(usize, &'static str)>,
     stop: Option<usize>,
     /// Glass as written: a name (resolved once the file's catalogues are known) or a medium.
     glass: Option<Glass>,
@@ -129,6 +139,28 @@ enum Glass {
 }
 
 impl Block {
+    /// The clear aperture where it is rectangular or decentred; a decentred `DIAM` (the beam's
+    /// extent, which clips nothing) is none.
+    fn outline(&self) -> Option<StatedOutline> {
+        let (line, keyword) = self.outline_line?;
+        let shape = match (self.rectangle, self.clear_radius) {
+            (Some([half_width, half_height]), _) => OutlineShape::Rectangle {
+                half_width,
+                half_height,
+            },
+            (None, Some(radius)) => OutlineShape::Circle { radius },
+            (None, None) => return None,
+        };
+        Some(StatedOutline {
+            outline: ApertureOutline {
+                shape,
+                centre: self.aperture_decentre,
+            },
+            line,
+            keyword: keyword.to_string(),
+        })
+    }
+
     /// Blocks rays nearer the axis than `radius` (0: none), with any obscuration already read.
     fn obscure(&mut self, radius: f64) {
         if radius > 0.0 {
@@ -147,6 +179,9 @@ impl Block {
             semi_diameter: None,
             clear_radius: None,
             obscuration: None,
+            rectangle: None,
+            aperture_decentre: [0.0; 2],
+            outline_line: None,
             stop: None,
             glass: None,
             pickups: Vec::new(),
@@ -356,13 +391,39 @@ impl Reader {
                 }
                 // OpticStudio's aperture decentre; zero changes nothing.
                 "OBDC" => {
-                    if value(0)? != 0.0 || value(1)? != 0.0 {
-                        return Err(unsupported(format!(
-                            "a decentred clear aperture (OBDC {} {})",
-                            args[0], args[1]
-                        )));
+                    let centre = [value(0)?, value(1)?];
+                    if centre == [0.0, 0.0] {
+                        self.skipped.insert("OBDC 0 0".into());
+                    } else {
+                        block.aperture_decentre = centre;
+                        block.outline_line.get_or_insert((line, "OBDC"));
                     }
-                    self.skipped.insert("OBDC 0 0".into());
+                    true
+                }
+                // A rectangular clear aperture: half width, half height, then flags that are 0
+                // for a plain aperture.
+                "SQAP" => {
+                    let (half_width, half_height) = (value(0)?, value(1)?);
+                    if !(half_width > 0.0 && half_height > 0.0) {
+                        return Err(PrescriptionError::new(
+                            at("SQAP"),
+                            Problem::Syntax(format!(
+                                "the rectangular aperture SQAP {half_width} {half_height} passes \
+                                 no ray: both half widths must be positive"
+                            )),
+                        ));
+                    }
+                    for k in 2..args.len() {
+                        if value(k)? != 0.0 {
+                            return Err(unsupported(format!(
+                                "SQAP with a non-zero field {} ({})",
+                                k + 1,
+                                args[k]
+                            )));
+                        }
+                    }
+                    block.rectangle = Some([half_width, half_height]);
+                    block.outline_line = Some((line, "SQAP"));
                     true
                 }
                 "DIAM" => {
@@ -400,7 +461,7 @@ impl Reader {
                     block.obscure(outer);
                     true
                 }
-                "SQAP" | "ELAP" | "SQOB" | "ELOB" | "UDAP" | "UDAD" => {
+                "ELAP" | "SQOB" | "ELOB" | "UDAP" | "UDAD" => {
                     return Err(unsupported(format!(
                         "Zemax aperture type {keyword} (obscurations and non-circular apertures \
                          are not modelled)"
@@ -689,10 +750,12 @@ impl Reader {
             surfaces,
         };
         scale_to_mm(&mut prescription, mm);
+        let outlines: Vec<Option<StatedOutline>> = lens.iter().map(Block::outline).collect();
         let centred = placement::centre_if_placed(
             &mut prescription,
             &placements,
             None,
+            &outlines,
             &mut missing,
             &envelopes,
             mm,
