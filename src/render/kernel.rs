@@ -15,7 +15,11 @@ use crate::trace::{GROUP_RAYS, Tracer, Travel};
 use rayon::prelude::*;
 
 const PI: f32 = std::f32::consts::PI;
-pub(crate) const FOOTPRINT_CLAMP_ITERATIONS: u32 = 3;
+/// How often the segment is shrunk to the depths the pyramid holds under its footprint before
+/// the march. Once is a cheap global cut; each further one is a chain of dependent loads and a
+/// division, and the march skips the same space cell by cell: with three the march took 1.6x
+/// the time it takes with one, with none 1.9x (perf, demo scene; README, Performance).
+pub(crate) const FOOTPRINT_CLAMP_ITERATIONS: u32 = 1;
 pub(crate) const DEPTH_TOLERANCE: f32 = 1e-5;
 /// Rounding of an inverse depth interpolated along the march, in units of the march's end
 /// values (four f32 ulps): a far layer's w is a small difference of the near end's large w, so a
@@ -226,16 +230,22 @@ fn project(frame: &FrameParams, ray: &ObjectRay, depth: f32) -> Vec3 {
     [column, row, inverse_depth]
 }
 
+/// Width and height in texels of level `level` of the depth pyramid.
+fn level_size(frame: &FrameParams, level: u32) -> [u32; 2] {
+    [
+        (frame.layer_width + (1 << level) - 1) >> level,
+        (frame.layer_height + (1 << level) - 1) >> level,
+    ]
+}
+
 /// Where level `level` of the depth pyramid starts in `depth_bounds`, and its width in texels.
 fn pyramid_level(frame: &FrameParams, level: u32) -> [u32; 2] {
     let mut offset = 0;
     for l in 0..level {
-        let w = (frame.layer_width + (1 << l) - 1) >> l;
-        let h = (frame.layer_height + (1 << l) - 1) >> l;
+        let [w, h] = level_size(frame, l);
         offset += w * h;
     }
-    let w = (frame.layer_width + (1 << level) - 1) >> level;
-    [offset, w]
+    [offset, level_size(frame, level)[0]]
 }
 
 /// The pyramid texel over layer pixel (column, row) at `level`, which starts where
@@ -263,27 +273,19 @@ fn footprint_bounds(frame: &FrameParams, layers: &LayerData, c: [u32; 2], r: [u3
     ]
 }
 
-fn hit_in_pixel(
-    frame: &FrameParams,
-    layers: &LayerData,
-    pixel: u32,
-    w_in: f32,
-    w_out: f32,
-    slack: f32,
-) -> Option<Vec3> {
+/// The nearest layer at `pixel` whose inverse depth lies in `window` ([lower, upper], see
+/// [`Segment::depth_window`]), as its index into `layers.colours`.
+fn hit_in_pixel(frame: &FrameParams, layers: &LayerData, pixel: u32, window: Vec2) -> Option<u32> {
     let pixels = frame.layer_width * frame.layer_height;
-    let upper = w_in * (1.0 + DEPTH_TOLERANCE) + slack;
-    let lower = w_out * (1.0 - DEPTH_TOLERANCE) - slack;
     for group in 0..frame.layer_groups {
         let depths = layers.depths[(group * pixels + pixel) as usize];
         for (k, &w) in depths.iter().enumerate() {
             let layer = group * 4 + k as u32;
-            if layer >= frame.layer_count || w < 0.0 || w < lower {
+            if layer >= frame.layer_count || w < 0.0 || w < window[0] {
                 return None;
             }
-            if w <= upper {
-                let c = layers.colours[(layer * pixels + pixel) as usize];
-                return Some([c[0], c[1], c[2]]);
+            if w <= window[1] {
+                return Some(layer * pixels + pixel);
             }
         }
     }
@@ -303,16 +305,6 @@ fn clip_axis(a: f32, b: f32, extent: f32, range: Vec2) -> Vec2 {
     [range[0].max(t0.min(t1)), range[1].min(t0.max(t1))]
 }
 
-fn axis_crossing(position: f32, direction: f32, cell: i32) -> f32 {
-    if direction > 0.0 {
-        return ((cell + 1) as f32 - position) / direction;
-    }
-    if direction < 0.0 {
-        return (cell as f32 - position) / direction;
-    }
-    NO_CROSSING
-}
-
 /// The shader's `clamp(floor(v), 0, last)` taken as a whole number (its `u32(...)` and
 /// `i32(...)` of it): above 0 floor is truncation (saturating, then clamped to `last` either
 /// way), and everything else (NaN too) ends at 0, so no floor is computed (baseline x86-64 has
@@ -321,7 +313,46 @@ fn floor_clamped(v: f32, last: u32) -> u32 {
     if v > 0.0 { (v as u32).min(last) } else { 0 }
 }
 
-fn trace_layers(frame: &FrameParams, layers: &LayerData, ray: &ObjectRay) -> Option<Vec3> {
+/// The stretch of an object ray the march walks: its points `a` at the near depth and `b` at
+/// the far depth in layer-image coordinates (column, row, inverse depth), between which the
+/// image and the depth pyramid leave the parameters `range` (0 at a, 1 at b), and the depth
+/// tests' absolute slack.
+#[derive(Clone, Copy, Debug)]
+struct Segment {
+    a: Vec3,
+    b: Vec3,
+    range: Vec2,
+    slack: f32,
+}
+
+impl Segment {
+    /// The inverse depths [lower, upper] a layer must lie within to be hit while the march
+    /// passes the parameters s_in to s_out. Monotone in both, so a window over a longer stretch
+    /// holds the window of every part of it.
+    fn depth_window(&self, s_in: f32, s_out: f32) -> Vec2 {
+        let dw = self.b[2] - self.a[2];
+        let w_in = self.a[2] + s_in * dw;
+        let w_out = self.a[2] + s_out * dw;
+        [
+            w_out * (1.0 - DEPTH_TOLERANCE) - self.slack,
+            w_in * (1.0 + DEPTH_TOLERANCE) + self.slack,
+        ]
+    }
+
+    /// The layer pixel the march starts in.
+    fn first_pixel(&self, frame: &FrameParams) -> [i32; 2] {
+        let start = mix3(self.a, self.b, self.range[0]);
+        [
+            floor_clamped(start[0], frame.layer_width - 1) as i32,
+            floor_clamped(start[1], frame.layer_height - 1) as i32,
+        ]
+    }
+}
+
+/// The ray's stretch between the near and far depth, clipped to the layer image and shrunk
+/// `FOOTPRINT_CLAMP_ITERATIONS` times to the depths the pyramid finds under its footprint; None
+/// where nothing is left.
+fn layer_segment(frame: &FrameParams, layers: &LayerData, ray: &ObjectRay) -> Option<Segment> {
     if !ray.valid || ray.direction[2] <= 0.0 {
         return None;
     }
@@ -360,60 +391,168 @@ fn trace_layers(frame: &FrameParams, layers: &LayerData, ray: &ObjectRay) -> Opt
             return None;
         }
     }
-    let start = mix3(a, b, range[0]);
-    let end = mix3(a, b, range[1]);
-    let mut cell = [
-        floor_clamped(start[0], last_column) as i32,
-        floor_clamped(start[1], last_row) as i32,
-    ];
-    let end_cell = [
-        floor_clamped(end[0], last_column) as i32,
-        floor_clamped(end[1], last_row) as i32,
-    ];
-    let [last_column, last_row] = [last_column as i32, last_row as i32];
-    let step_x = if b[0] > a[0] { 1 } else { -1 };
-    let step_y = if b[1] > a[1] { 1 } else { -1 };
-    let mut next_x = axis_crossing(a[0], b[0] - a[0], cell[0]);
-    let mut next_y = axis_crossing(a[1], b[1] - a[1], cell[1]);
-    let delta_x = if b[0] != a[0] {
-        1.0 / (b[0] - a[0]).abs()
-    } else {
-        NO_CROSSING
-    };
-    let delta_y = if b[1] != a[1] {
-        1.0 / (b[1] - a[1]).abs()
-    } else {
-        NO_CROSSING
-    };
-    let steps = ((end_cell[0] - cell[0]).abs() + (end_cell[1] - cell[1]).abs()) as u32 + 1;
-    let mut s_in = range[0];
-    for _ in 0..steps {
-        let s_out = next_x.min(next_y).min(range[1]);
-        let pixel = cell[1] as u32 * frame.layer_width + cell[0] as u32;
-        let found = hit_in_pixel(
-            frame,
-            layers,
-            pixel,
-            a[2] + s_in * dw,
-            a[2] + s_out * dw,
-            slack,
-        );
-        if found.is_some() {
-            return found;
+    Some(Segment { a, b, range, slack })
+}
+
+/// One image axis of a march: the segment's coordinate at its near end, the inverse of its run
+/// from near to far end (0 where the run is too short to cross a grid line before
+/// `NO_CROSSING`), and the way it steps, +1 or -1. Grid line k is the edge between pixels k - 1
+/// and k; every crossing is computed from its line alone, so the crossing of a line is the same
+/// number at every pyramid level.
+#[derive(Clone, Copy, Debug)]
+struct Axis {
+    start: f32,
+    inverse_run: f32,
+    step: i32,
+}
+
+impl Axis {
+    fn new(a: f32, b: f32) -> Axis {
+        let run = b - a;
+        Axis {
+            start: a,
+            inverse_run: if run.abs() * NO_CROSSING > 1.0 {
+                1.0 / run
+            } else {
+                0.0
+            },
+            step: if b > a { 1 } else { -1 },
         }
-        if next_x < next_y {
-            cell[0] += step_x;
-            next_x += delta_x;
+    }
+
+    /// The parameter where the segment crosses grid line `line`.
+    fn crossing(self, line: i32) -> f32 {
+        if self.inverse_run == 0.0 {
+            return NO_CROSSING;
+        }
+        (line as f32 - self.start) * self.inverse_run
+    }
+
+    /// The grid line the march leaves the cell of `level` holding `pixel` through.
+    fn line_ahead(self, pixel: i32, level: u32) -> i32 {
+        let cell = pixel >> level;
+        if self.step > 0 {
+            (cell + 1) << level
         } else {
-            cell[1] += step_y;
-            next_y += delta_y;
+            cell << level
         }
-        if cell[0] < 0 || cell[0] > last_column || cell[1] < 0 || cell[1] > last_row {
+    }
+
+    /// The pixel the march enters by crossing `line`.
+    fn pixel_past(self, line: i32) -> i32 {
+        if self.step > 0 { line } else { line - 1 }
+    }
+
+    /// The pixel the march is in along this axis once it has crossed every grid line in the
+    /// cell of `level` holding `pixel` that it crosses before parameter `until` (at `until`
+    /// too where `inclusive`): a binary search (crossings grow along the step), at most `level`
+    /// crossings.
+    fn advance(self, pixel: i32, level: u32, until: f32, inclusive: bool) -> i32 {
+        let first = (pixel >> level) << level;
+        let last = first + (1 << level) - 1;
+        let mut reached = pixel;
+        for k in (0..level).rev() {
+            let candidate = reached + (self.step << k);
+            let line = if self.step > 0 {
+                candidate
+            } else {
+                candidate + 1
+            };
+            let s = self.crossing(line);
+            if candidate >= first && candidate <= last && (s < until || (inclusive && s == until)) {
+                reached = candidate;
+            }
+        }
+        reached
+    }
+}
+
+/// The first layer the segment hits, as its index into `layers.colours`.
+///
+/// A DDA over the cells of the depth pyramid. It starts at the segment's first pixel; in each
+/// cell it forms the depth window of the stretch from where it is to where it leaves the cell,
+/// and descends into the cell where the cell's depth bounds meet that window, else leaves it
+/// in one step, climbing a level when that takes it into another parent cell. At the bottom it
+/// tests the pixel's layers. A pixel-by-pixel DDA (`pixel_march` in the tests) takes the
+/// smaller of the next column and next row crossing, a row on a tie; leaving a cell, this
+/// march takes the crossing through its edge the same way, and puts itself on the other axis
+/// where that DDA would be (`Axis::advance`), so it tests the same pixels in the same order
+/// with the same windows, less those whose cell ruled a hit out, and returns the same layer.
+fn march(frame: &FrameParams, layers: &LayerData, segment: &Segment) -> Option<u32> {
+    let x = Axis::new(segment.a[0], segment.b[0]);
+    let y = Axis::new(segment.a[1], segment.b[1]);
+    let last_column = frame.layer_width as i32 - 1;
+    let last_row = frame.layer_height as i32 - 1;
+    let mut pixel = segment.first_pixel(frame);
+    let mut s_in = segment.range[0];
+    let mut level = 0;
+    let mut level_offset = 0;
+    let mut level_width = frame.layer_width;
+    loop {
+        let line = [x.line_ahead(pixel[0], level), y.line_ahead(pixel[1], level)];
+        let next = [x.crossing(line[0]), y.crossing(line[1])];
+        let s_out = next[0].min(next[1]).min(segment.range[1]);
+        let window = segment.depth_window(s_in, s_out);
+        if level == 0 {
+            let found = hit_in_pixel(
+                frame,
+                layers,
+                pixel[1] as u32 * frame.layer_width + pixel[0] as u32,
+                window,
+            );
+            if found.is_some() {
+                return found;
+            }
+        } else {
+            let texel = level_offset
+                + (pixel[1] >> level) as u32 * level_width
+                + (pixel[0] >> level) as u32;
+            let bounds = layers.depth_bounds[texel as usize];
+            if bounds[0] <= window[1] && bounds[1] >= window[0] {
+                level -= 1;
+                let [w, h] = level_size(frame, level);
+                level_offset -= w * h;
+                level_width = w;
+                continue;
+            }
+        }
+        if s_out >= segment.range[1] {
             return None;
         }
-        s_in = s_out;
+        let before = pixel;
+        if next[0] < next[1] {
+            pixel = [
+                x.pixel_past(line[0]),
+                y.advance(pixel[1], level, next[0], true),
+            ];
+            s_in = next[0];
+        } else {
+            pixel = [
+                x.advance(pixel[0], level, next[1], false),
+                y.pixel_past(line[1]),
+            ];
+            s_in = next[1];
+        }
+        if pixel[0] < 0 || pixel[0] > last_column || pixel[1] < 0 || pixel[1] > last_row {
+            return None;
+        }
+        let parent = level + 1;
+        if parent < frame.pyramid_levels
+            && (pixel[0] >> parent != before[0] >> parent
+                || pixel[1] >> parent != before[1] >> parent)
+        {
+            let [w, h] = level_size(frame, level);
+            level_offset += w * h;
+            level = parent;
+            level_width = level_size(frame, level)[0];
+        }
     }
-    None
+}
+
+fn trace_layers(frame: &FrameParams, layers: &LayerData, ray: &ObjectRay) -> Option<Vec3> {
+    let segment = layer_segment(frame, layers, ray)?;
+    let c = layers.colours[march(frame, layers, &segment)? as usize];
+    Some([c[0], c[1], c[2]])
 }
 
 /// The per-pixel sample decorrelation: lens and pixel-jitter scrambles from the seed and the
@@ -897,6 +1036,205 @@ pub fn accumulate_chromatic(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::model::ParaxialLens;
+    use crate::render::camera::{Camera, Film, Focus};
+    use crate::render::gpu_types::frame_params;
+    use crate::render::layers::{LayeredDepthImage, Surfel, View};
+    use crate::render::scene::Scene;
+    use crate::render::{RenderSettings, layer_view};
+
+    /// The march the hierarchical one must agree with: every pixel the segment crosses, one
+    /// after the other, the smaller crossing first (a row on a tie), until the segment ends or
+    /// leaves the image.
+    fn pixel_march(frame: &FrameParams, layers: &LayerData, segment: &Segment) -> Option<u32> {
+        let x = Axis::new(segment.a[0], segment.b[0]);
+        let y = Axis::new(segment.a[1], segment.b[1]);
+        let mut pixel = segment.first_pixel(frame);
+        let mut s_in = segment.range[0];
+        loop {
+            let ahead = |axis: Axis, p: i32| axis.crossing(if axis.step > 0 { p + 1 } else { p });
+            let next = [ahead(x, pixel[0]), ahead(y, pixel[1])];
+            let s_out = next[0].min(next[1]).min(segment.range[1]);
+            let index = pixel[1] as u32 * frame.layer_width + pixel[0] as u32;
+            let found = hit_in_pixel(frame, layers, index, segment.depth_window(s_in, s_out));
+            if found.is_some() || s_out >= segment.range[1] {
+                return found;
+            }
+            if next[0] < next[1] {
+                pixel[0] += x.step;
+                s_in = next[0];
+            } else {
+                pixel[1] += y.step;
+                s_in = next[1];
+            }
+            if pixel[0] < 0
+                || pixel[0] >= frame.layer_width as i32
+                || pixel[1] < 0
+                || pixel[1] >= frame.layer_height as i32
+            {
+                return None;
+            }
+        }
+    }
+
+    fn random_unit(key: u32) -> f32 {
+        unit_from_bits(mix_bits(key))
+    }
+
+    fn thin_camera() -> Camera {
+        let lens = ParaxialLens::thin(50.0, 2.0).unwrap();
+        Camera::new(
+            LensModel::Thin(lens),
+            Film::full_frame_for(96, 64),
+            Focus::ObjectDistance(2000.0),
+        )
+        .unwrap()
+    }
+
+    /// Object rays from a 50 mm wide pupil: half converge on random points at random depths
+    /// inside and beyond the view (the defocused cones a lens sends out), half leave in random
+    /// directions up to 80 degrees off axis.
+    fn random_rays(eye_z: f32, tan_half: [f32; 2], count: u32) -> Vec<ObjectRay> {
+        (0..count)
+            .map(|i| {
+                let u = |k: u32| random_unit(i.wrapping_mul(8).wrapping_add(k));
+                let origin = [50.0 * u(0) - 25.0, 50.0 * u(1) - 25.0, eye_z];
+                let direction = if i % 2 == 0 {
+                    let depth = 100.0 * 1e4f32.powf(u(2));
+                    let target = [
+                        (2.6 * u(3) - 1.3) * tan_half[0] * depth,
+                        (2.6 * u(4) - 1.3) * tan_half[1] * depth,
+                    ];
+                    [
+                        (origin[0] - target[0]) / depth,
+                        (origin[1] - target[1]) / depth,
+                        1.0,
+                    ]
+                } else {
+                    [11.4 * u(5) - 5.7, 11.4 * u(6) - 5.7, 1.0]
+                };
+                ObjectRay {
+                    origin,
+                    direction,
+                    valid: true,
+                }
+            })
+            .collect()
+    }
+
+    /// Runs both marches over `rays`; returns the hits per layer (index = layer) and the misses.
+    fn compare_marches(layers: &LayerData, frame: &FrameParams, rays: &[ObjectRay]) -> Vec<u32> {
+        let pixels = frame.layer_width * frame.layer_height;
+        let mut per_layer = vec![0; frame.layer_count as usize + 1];
+        for (i, ray) in rays.iter().enumerate() {
+            let Some(segment) = layer_segment(frame, layers, ray) else {
+                per_layer[frame.layer_count as usize] += 1;
+                continue;
+            };
+            let found = march(frame, layers, &segment);
+            assert_eq!(
+                found,
+                pixel_march(frame, layers, &segment),
+                "ray {i}: {ray:?}"
+            );
+            match found {
+                Some(index) => per_layer[(index / pixels) as usize] += 1,
+                None => per_layer[frame.layer_count as usize] += 1,
+            }
+        }
+        per_layer
+    }
+
+    #[test]
+    fn hierarchical_march_finds_the_pixel_marchs_layer_on_the_demo_scene() {
+        let camera = thin_camera();
+        let settings = RenderSettings {
+            width: 93,
+            height: 61,
+            samples_per_pixel: 1,
+            seed: 1,
+            max_layers: 8,
+        };
+        let scene = Scene::demo();
+        let view = layer_view(&camera, &settings, scene.nearest_distance_mm().unwrap());
+        let layers = LayerData::pack(&scene.peel(view, settings.max_layers)).unwrap();
+        let frame = frame_params(&camera, &layers, view.tan_half, 93, 61, 1, 1);
+        assert!(layers.pyramid_levels >= 7 && frame.layer_count >= 3);
+        let tan_half = [frame.tan_half_x, frame.tan_half_y];
+        let per_layer =
+            compare_marches(&layers, &frame, &random_rays(frame.eye_z, tan_half, 40_000));
+        // Hits on the nearest layer, on layers behind it and misses, so the comparison covers
+        // both answers and occluded layers.
+        let count = frame.layer_count as usize;
+        let behind: u32 = per_layer[1..count].iter().sum();
+        assert!(
+            per_layer[0] > 5000 && behind > 200 && per_layer[count] > 5000,
+            "{per_layer:?}"
+        );
+    }
+
+    #[test]
+    fn hierarchical_march_finds_the_pixel_marchs_layer_on_random_layers() {
+        // Odd sizes (partial pyramid cells at the edges), up to six layers a pixel (two depth
+        // groups), holes, and depths from 150 mm to 1 km in clumps, so windows and bounds
+        // nearly touch.
+        let camera = thin_camera();
+        let (width, height) = (61, 37);
+        let view = View {
+            eye_z: camera.eye_z(),
+            tan_half: [0.35, 0.21],
+            width,
+            height,
+        };
+        let lists = (0..width * height)
+            .map(|p| {
+                let u = |k: u32| random_unit(0x5eed_0000 ^ (p * 16 + k));
+                let count = (u(0) * 7.0) as u32;
+                (0..count)
+                    .map(|k| Surfel {
+                        depth_mm: 150.0
+                            * 2f32.powi((u(1 + k) * 4.0) as i32 * 3)
+                            * (1.0 + 0.01 * u(8 + k)),
+                        radiance: [u(14), k as f32, 1.0],
+                    })
+                    .collect()
+            })
+            .collect();
+        let ldi = LayeredDepthImage::from_pixel_lists(view, lists, 6);
+        let layers = LayerData::pack(&ldi).unwrap();
+        let frame = frame_params(&camera, &layers, view.tan_half, 96, 64, 1, 1);
+        assert!(frame.layer_groups == 2);
+        let tan_half = [frame.tan_half_x, frame.tan_half_y];
+        let per_layer =
+            compare_marches(&layers, &frame, &random_rays(frame.eye_z, tan_half, 40_000));
+        assert!(per_layer[..4].iter().all(|&n| n > 100), "{per_layer:?}");
+        // Segments through grid corners (whole-pixel ends, runs in ratios 1:1, 1:2, 2:1, 0:1), where
+        // column and row crossings tie and the tie rule decides which pixel comes next.
+        let mut hits = 0;
+        for i in 0..20_000u32 {
+            let u = |k: u32| random_unit(0xc0de_0000 ^ (i * 8 + k));
+            let a = [(u(0) * 61.0).floor(), (u(1) * 37.0).floor(), 1.0 / 140.0];
+            let [rx, ry] = [[1.0, 1.0], [1.0, 2.0], [2.0, 1.0], [0.0, 1.0]][(u(2) * 4.0) as usize];
+            let length = 1.0 + (u(3) * 40.0).floor();
+            let sign = |k: u32| if u(k) < 0.5 { -1.0 } else { 1.0 };
+            let b = [
+                a[0] + sign(4) * rx * length,
+                a[1] + sign(5) * ry * length,
+                1.0 / 1.3e6,
+            ];
+            let mut range = clip_axis(a[0], b[0], 61.0, [0.0, 1.0]);
+            range = clip_axis(a[1], b[1], 37.0, range);
+            if range[0] >= range[1] {
+                continue;
+            }
+            let slack = DEPTH_SLACK * (a[2] + b[2]);
+            let segment = Segment { a, b, range, slack };
+            let found = march(&frame, &layers, &segment);
+            assert_eq!(found, pixel_march(&frame, &layers, &segment), "{segment:?}");
+            hits += found.is_some() as u32;
+        }
+        assert!(hits > 5000, "{hits}");
+    }
 
     #[test]
     fn lattice_points_are_one_per_shifted_stratum() {

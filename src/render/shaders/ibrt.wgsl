@@ -2,8 +2,9 @@
 //
 // One invocation per output pixel. For each lens sample it builds the film-side ray (film point to
 // exit-pupil point), maps it to an object-space ray with the lens model, clamps that ray to the
-// depth range the min/max pyramid allows and walks its footprint over the layers, testing every
-// layer of every visited pixel as a square at constant depth. The Rust twin is
+// depth range the min/max pyramid allows under its footprint and marches the pyramid's cells
+// along it, skipping every cell whose depth bounds the ray's depths there cannot meet, testing
+// every layer of every pixel it reaches as a square at constant depth. The Rust twin is
 // src/render/kernel.rs; keep the two in step statement by statement.
 //
 // This file is compiled after src/lrtf/lrtf_sample.wgsl (bind group 0: the baked table and the
@@ -271,16 +272,22 @@ fn project(ray: ObjectRay, depth: f32) -> vec3<f32> {
     return vec3<f32>(column, row, inverse_depth);
 }
 
+// Width and height in texels of level `level` of the depth pyramid.
+fn level_size(level: u32) -> vec2<u32> {
+    return vec2<u32>(
+        (frame.layer_width + (1u << level) - 1u) >> level,
+        (frame.layer_height + (1u << level) - 1u) >> level,
+    );
+}
+
 // Where level `level` of the depth pyramid starts in `depth_bounds`, and its width in texels.
 fn pyramid_level(level: u32) -> vec2<u32> {
     var offset = 0u;
     for (var l = 0u; l < level; l += 1u) {
-        let w = (frame.layer_width + (1u << l) - 1u) >> l;
-        let h = (frame.layer_height + (1u << l) - 1u) >> l;
-        offset += w * h;
+        let size = level_size(l);
+        offset += size.x * size.y;
     }
-    let w = (frame.layer_width + (1u << level) - 1u) >> level;
-    return vec2<u32>(offset, w);
+    return vec2<u32>(offset, level_size(level).x);
 }
 
 // The pyramid texel over layer pixel (column, row) at `level`, which starts where `pyramid_level`
@@ -310,21 +317,19 @@ struct LayerHit {
     hit: bool,
 }
 
-// The nearest layer at `pixel` whose square lies between the inverse depths where the ray enters
-// (w_in) and leaves (w_out) the pixel.
-fn hit_in_pixel(pixel: u32, w_in: f32, w_out: f32, slack: f32) -> LayerHit {
+// The nearest layer at `pixel` whose inverse depth lies in `window` (lower, upper; see
+// depth_window).
+fn hit_in_pixel(pixel: u32, window: vec2<f32>) -> LayerHit {
     let pixels = frame.layer_width * frame.layer_height;
-    let upper = w_in * (1.0 + DEPTH_TOLERANCE) + slack;
-    let lower = w_out * (1.0 - DEPTH_TOLERANCE) - slack;
     for (var group = 0u; group < frame.layer_groups; group += 1u) {
         let depths = layer_depths[group * pixels + pixel];
         for (var k = 0u; k < 4u; k += 1u) {
             let layer = group * 4u + k;
             let w = depths[k];
-            if (layer >= frame.layer_count || w < 0.0 || w < lower) {
+            if (layer >= frame.layer_count || w < 0.0 || w < window.x) {
                 return LayerHit(vec3<f32>(0.0), false);
             }
-            if (w <= upper) {
+            if (w <= window.y) {
                 return LayerHit(layer_colours[layer * pixels + pixel].xyz, true);
             }
         }
@@ -346,20 +351,46 @@ fn clip_axis(a: f32, b: f32, extent: f32, range: vec2<f32>) -> vec2<f32> {
     return vec2<f32>(max(range.x, min(t0, t1)), min(range.y, max(t0, t1)));
 }
 
-fn axis_crossing(position: f32, direction: f32, cell: i32) -> f32 {
-    if (direction > 0.0) {
-        return (f32(cell + 1) - position) / direction;
-    }
-    if (direction < 0.0) {
-        return (f32(cell) - position) / direction;
-    }
-    return NO_CROSSING;
+// The stretch of an object ray the march walks: its points a (near depth) and b (far depth) in
+// layer-image coordinates (column, row, inverse depth), the parameters (0 at a, 1 at b) the image
+// and the depth pyramid leave, and the depth tests' absolute slack.
+struct Segment {
+    a: vec3<f32>,
+    b: vec3<f32>,
+    range: vec2<f32>,
+    slack: f32,
+    valid: bool,
 }
 
-fn trace_layers(ray: ObjectRay) -> LayerHit {
-    let miss = LayerHit(vec3<f32>(0.0), false);
+// The inverse depths (lower, upper) a layer must lie within to be hit while the march passes the
+// parameters s_in to s_out; monotone in both, so a window over a longer stretch holds the window
+// of every part of it.
+fn depth_window(segment: Segment, s_in: f32, s_out: f32) -> vec2<f32> {
+    let dw = segment.b.z - segment.a.z;
+    let w_in = segment.a.z + s_in * dw;
+    let w_out = segment.a.z + s_out * dw;
+    return vec2<f32>(
+        w_out * (1.0 - DEPTH_TOLERANCE) - segment.slack,
+        w_in * (1.0 + DEPTH_TOLERANCE) + segment.slack,
+    );
+}
+
+// The layer pixel the march starts in.
+fn first_pixel(segment: Segment) -> vec2<i32> {
+    let start = mix(segment.a, segment.b, segment.range.x);
+    return vec2<i32>(
+        clamp(i32(floor(start.x)), 0, i32(frame.layer_width) - 1),
+        clamp(i32(floor(start.y)), 0, i32(frame.layer_height) - 1),
+    );
+}
+
+// The ray's stretch between the near and far depth, clipped to the layer image and shrunk
+// FOOTPRINT_CLAMP_ITERATIONS times to the depths the pyramid finds under its footprint; invalid
+// where nothing is left.
+fn layer_segment(ray: ObjectRay) -> Segment {
+    let none = Segment(vec3<f32>(0.0), vec3<f32>(0.0), vec2<f32>(1.0, 0.0), 0.0, false);
     if (!ray.valid || ray.direction.z <= 0.0) {
-        return miss;
+        return none;
     }
     let a = project(ray, frame.near_depth);
     let b = project(ray, frame.far_depth);
@@ -368,7 +399,7 @@ fn trace_layers(ray: ObjectRay) -> LayerHit {
     var range = clip_axis(a.x, b.x, lw, vec2<f32>(0.0, 1.0));
     range = clip_axis(a.y, b.y, lh, range);
     if (range.x >= range.y) {
-        return miss;
+        return none;
     }
     let dw = b.z - a.z;
     let slack = DEPTH_SLACK * (abs(a.z) + abs(b.z));
@@ -381,55 +412,149 @@ fn trace_layers(ray: ObjectRay) -> LayerHit {
         let r1 = u32(clamp(floor(max(p.y, q.y)), 0.0, lh - 1.0));
         let bounds = footprint_bounds(c0, c1, r0, r1);
         if (bounds.x > bounds.y) {
-            return miss;
+            return none;
         }
         let enter = (bounds.y * (1.0 + DEPTH_TOLERANCE) + slack - a.z) / dw;
         let leave = (bounds.x * (1.0 - DEPTH_TOLERANCE) - slack - a.z) / dw;
         range = vec2<f32>(max(range.x, enter), min(range.y, leave));
         if (range.x > range.y) {
-            return miss;
+            return none;
         }
     }
-    let start = mix(a, b, range.x);
-    let end = mix(a, b, range.y);
+    return Segment(a, b, range, slack, true);
+}
+
+// One image axis of a march: the segment's coordinate at its near end, the inverse of its run
+// (0 where the run is too short to cross a grid line before NO_CROSSING), and its step, +1 or
+// -1. Grid line k is the edge between pixels k - 1 and k; every crossing is computed from its line
+// alone, so a line's crossing is the same number at every pyramid level.
+struct Axis {
+    start: f32,
+    inverse_run: f32,
+    step: i32,
+}
+
+fn axis_between(a: f32, b: f32) -> Axis {
+    let run = b - a;
+    var inverse_run = 0.0;
+    if (abs(run) * NO_CROSSING > 1.0) {
+        inverse_run = 1.0 / run;
+    }
+    return Axis(a, inverse_run, select(-1, 1, b > a));
+}
+
+// The parameter where the segment crosses grid line `line`.
+fn axis_crossing(axis: Axis, line: i32) -> f32 {
+    if (axis.inverse_run == 0.0) {
+        return NO_CROSSING;
+    }
+    return (f32(line) - axis.start) * axis.inverse_run;
+}
+
+// The grid line the march leaves the cell of `level` holding `pixel` through.
+fn line_ahead(axis: Axis, pixel: i32, level: u32) -> i32 {
+    let cell = pixel >> level;
+    if (axis.step > 0) {
+        return (cell + 1) << level;
+    }
+    return cell << level;
+}
+
+// The pixel the march enters by crossing `line`.
+fn pixel_past(axis: Axis, line: i32) -> i32 {
+    return select(line - 1, line, axis.step > 0);
+}
+
+// The pixel the march is in along this axis once it has crossed every grid line in the cell of
+// `level` holding `pixel` that it crosses before parameter `until` (at `until` too where
+// `inclusive`): a binary search, at most `level` crossings.
+fn axis_advance(axis: Axis, pixel: i32, level: u32, until: f32, inclusive: bool) -> i32 {
+    let first = (pixel >> level) << level;
+    let last = first + (1 << level) - 1;
+    var reached = pixel;
+    for (var k = i32(level) - 1; k >= 0; k -= 1) {
+        let candidate = reached + (axis.step << u32(k));
+        let line = select(candidate + 1, candidate, axis.step > 0);
+        let s = axis_crossing(axis, line);
+        if (candidate >= first && candidate <= last && (s < until || (inclusive && s == until))) {
+            reached = candidate;
+        }
+    }
+    return reached;
+}
+
+// The first layer the segment hits: a DDA over the cells of the depth pyramid, from the
+// segment's first pixel. In each cell it forms the depth window from where it is to where it
+// leaves the cell, descends into the cell where the cell's bounds meet that window, else leaves
+// it in one step, climbing a level when that takes it into another parent cell; at the bottom it
+// tests the pixel's layers. Leaving a cell it takes the smaller crossing (a row on a tie) and
+// puts itself on the other axis where a pixel-by-pixel DDA would be (axis_advance), so it tests
+// the pixels that DDA tests, in its order with its windows, less those whose cell ruled a hit out
+// (kernel.rs `march`).
+fn march(segment: Segment) -> LayerHit {
+    let miss = LayerHit(vec3<f32>(0.0), false);
+    let x = axis_between(segment.a.x, segment.b.x);
+    let y = axis_between(segment.a.y, segment.b.y);
     let last_column = i32(frame.layer_width) - 1;
     let last_row = i32(frame.layer_height) - 1;
-    var cell = vec2<i32>(
-        clamp(i32(floor(start.x)), 0, last_column),
-        clamp(i32(floor(start.y)), 0, last_row),
-    );
-    let end_cell = vec2<i32>(
-        clamp(i32(floor(end.x)), 0, last_column),
-        clamp(i32(floor(end.y)), 0, last_row),
-    );
-    let step_x = select(-1, 1, b.x > a.x);
-    let step_y = select(-1, 1, b.y > a.y);
-    var next_x = axis_crossing(a.x, b.x - a.x, cell.x);
-    var next_y = axis_crossing(a.y, b.y - a.y, cell.y);
-    let delta_x = select(NO_CROSSING, 1.0 / abs(b.x - a.x), b.x != a.x);
-    let delta_y = select(NO_CROSSING, 1.0 / abs(b.y - a.y), b.y != a.y);
-    let steps = u32(abs(end_cell.x - cell.x) + abs(end_cell.y - cell.y)) + 1u;
-    var s_in = range.x;
-    for (var i = 0u; i < steps; i += 1u) {
-        let s_out = min(min(next_x, next_y), range.y);
-        let pixel = u32(cell.y) * frame.layer_width + u32(cell.x);
-        let found = hit_in_pixel(pixel, a.z + s_in * dw, a.z + s_out * dw, slack);
-        if (found.hit) {
-            return found;
-        }
-        if (next_x < next_y) {
-            cell.x += step_x;
-            next_x += delta_x;
+    var pixel = first_pixel(segment);
+    var s_in = segment.range.x;
+    var level = 0u;
+    var level_offset = 0u;
+    var level_width = frame.layer_width;
+    loop {
+        let line = vec2<i32>(line_ahead(x, pixel.x, level), line_ahead(y, pixel.y, level));
+        let next = vec2<f32>(axis_crossing(x, line.x), axis_crossing(y, line.y));
+        let s_out = min(min(next.x, next.y), segment.range.y);
+        let window = depth_window(segment, s_in, s_out);
+        if (level == 0u) {
+            let found = hit_in_pixel(u32(pixel.y) * frame.layer_width + u32(pixel.x), window);
+            if (found.hit) {
+                return found;
+            }
         } else {
-            cell.y += step_y;
-            next_y += delta_y;
+            let texel = level_offset + u32(pixel.y >> level) * level_width + u32(pixel.x >> level);
+            let bounds = depth_bounds[texel];
+            if (bounds.x <= window.y && bounds.y >= window.x) {
+                level -= 1u;
+                let size = level_size(level);
+                level_offset -= size.x * size.y;
+                level_width = size.x;
+                continue;
+            }
         }
-        if (cell.x < 0 || cell.x > last_column || cell.y < 0 || cell.y > last_row) {
+        if (s_out >= segment.range.y) {
             return miss;
         }
-        s_in = s_out;
+        let before = pixel;
+        if (next.x < next.y) {
+            pixel = vec2<i32>(pixel_past(x, line.x), axis_advance(y, pixel.y, level, next.x, true));
+            s_in = next.x;
+        } else {
+            pixel = vec2<i32>(axis_advance(x, pixel.x, level, next.y, false), pixel_past(y, line.y));
+            s_in = next.y;
+        }
+        if (pixel.x < 0 || pixel.x > last_column || pixel.y < 0 || pixel.y > last_row) {
+            return miss;
+        }
+        let parent = level + 1u;
+        if (parent < frame.pyramid_levels
+            && ((pixel.x >> parent) != (before.x >> parent) || (pixel.y >> parent) != (before.y >> parent))) {
+            let size = level_size(level);
+            level_offset += size.x * size.y;
+            level = parent;
+            level_width = level_size(level).x;
+        }
     }
     return miss;
+}
+
+fn trace_layers(ray: ObjectRay) -> LayerHit {
+    let segment = layer_segment(ray);
+    if (!segment.valid) {
+        return LayerHit(vec3<f32>(0.0), false);
+    }
+    return march(segment);
 }
 
 struct PixelSample {
