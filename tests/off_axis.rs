@@ -201,6 +201,24 @@ fn lens_check_refuses_conditions_the_3d_trace_does_not_take() {
         "{stderr}"
     );
     assert!(stderr.contains("an object at infinity"), "{stderr}");
+
+    // A field whose chief ray misses a mirror (a sphere of radius 10 mm, 60 mm below the
+    // decentred stop) is reported in its row; the command still succeeds.
+    let file = dir.join("miss.seq");
+    std::fs::write(
+        &file,
+        "RDM\nEPD 2\nYAN 0\nWL 550\nSO 0 1e20\nS 0 100\nSTO\nYDE 60\nDAR\nS -10 -5 REFL\nSI 0 0\n",
+    )
+    .unwrap();
+    let check = lensbake(&["lens", "check", file.to_str().unwrap()]);
+    let listing = String::from_utf8_lossy(&check.stdout);
+    assert_eq!(check.status.code(), Some(0), "{listing}");
+    assert!(
+        listing.contains(
+            "not traced: the chief ray of field (0.000000, 0.000000) deg misses surface 2"
+        ),
+        "{listing}"
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

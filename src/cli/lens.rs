@@ -473,9 +473,17 @@ fn placed_summary(
         "field x", "y (deg)", "chief ray x", "chief ray y", "rays in", "RMS um"
     ));
     for field in fields {
-        let spot = tracer
-            .collimated_spot(field, pupil_diameter, PLACED_GRID)
-            .map_err(|e| anyhow::anyhow!("{spec}: {e}"))?;
+        // A field whose chief ray cannot be traced is reported in its row; the others still are.
+        let spot = match tracer.collimated_spot(field, pupil_diameter, PLACED_GRID) {
+            Ok(spot) => spot,
+            Err(e) => {
+                line(format!(
+                    "  {:>10.4} {:>10.4}  not traced: {e}",
+                    field[0], field[1]
+                ));
+                continue;
+            }
+        };
         line(format!(
             "  {:>10.4} {:>10.4}  {:>14.6} {:>14.6}  {:>5}/{:<5}  {:>10}",
             field[0],

@@ -124,8 +124,28 @@ pub enum PlacedBeamError {
         .field_deg[1]
     )]
     ChiefRay { field_deg: [f64; 2], why: String },
+    #[error(
+        "the chief ray of field ({:.6}, {:.6}) deg {}",
+        .field_deg[0],
+        .field_deg[1],
+        stopped(*.outcome)
+    )]
+    ChiefRayStopped {
+        field_deg: [f64; 2],
+        outcome: Outcome,
+    },
     #[error("the field angle ({:.6}, {:.6}) deg does not point into the lens", .0[0], .0[1])]
     FieldAngle([f64; 2]),
+}
+
+/// How a ray stopped, in words.
+fn stopped(outcome: Outcome) -> String {
+    match outcome {
+        Outcome::Ok => "reaches the image plane".to_string(),
+        Outcome::Missed { surface } => format!("misses surface {surface}"),
+        Outcome::Vignetted { surface } => format!("is clipped at surface {surface}"),
+        Outcome::Tir { surface } => format!("is totally reflected at surface {surface}"),
+    }
 }
 
 /// One field's beam at the image plane, in the image plane's own frame (mm).
@@ -385,9 +405,9 @@ impl PlacedTracer {
         let chief_start = self.aim_chief(direction, pupil_diameter / 2.0, field_deg)?;
         let chief = self.trace(chief_start, direction);
         if !chief.outcome.is_ok() {
-            return Err(PlacedBeamError::ChiefRay {
+            return Err(PlacedBeamError::ChiefRayStopped {
                 field_deg,
-                why: format!("the chief ray ends {:?}", chief.outcome),
+                outcome: chief.outcome,
             });
         }
         let radius = pupil_diameter / 2.0;
