@@ -296,28 +296,9 @@ fn a_cylindrical_lens_bends_rays_in_y_as_the_spherical_lens_of_its_section() {
              CURV 0\n  DISZ 1.03\n  DIAM 2\nSURF 3\n"
         )
     };
-    let error = read_str(
-        &zemax("TOROIDAL"),
-        None,
-        Format::Zemax,
-        &LoadOptions::default(),
-    )
-    .unwrap_err();
-    let Problem::NotRotationallySymmetric { offence, lens } = error.problem else {
-        panic!("{}", error.problem);
-    };
+    let (offence, line, cylinder, tracer) = toroidal_and_standard(zemax, 587.6);
     assert_eq!(offence, "surface 1 is a cylinder");
-    assert_eq!(error.location.line, Some(7));
-    let cylinder = PlacedTracer::new(&lens, 587.6).unwrap();
-    let sphere = read_str(
-        &zemax("STANDARD"),
-        None,
-        Format::Zemax,
-        &LoadOptions::default(),
-    )
-    .unwrap();
-    let system = lensbake::system::LensSystem::new(sphere.prescription, &sphere.map).unwrap();
-    let tracer = lensbake::trace::Tracer::new(&system.at(587.6));
+    assert_eq!(line, Some(7));
     for (x, y) in [(0.0, 0.3), (1.7, -0.9), (-2.5, 1.5), (3.0, 1.9)] {
         let through_cylinder = cylinder.trace([x, y, 0.0], [0.0, 0.0, 1.0]);
         assert_eq!(through_cylinder.outcome, Outcome::Ok);
@@ -357,27 +338,8 @@ fn a_toroid_turned_on_its_own_radius_is_the_sphere() {
              GLAS MIRROR\n  DIAM 15\nSURF 3\n"
         )
     };
-    let error = read_str(
-        &zemax("TOROIDAL"),
-        None,
-        Format::Zemax,
-        &LoadOptions::default(),
-    )
-    .unwrap_err();
-    let Problem::NotRotationallySymmetric { offence, lens } = error.problem else {
-        panic!("{}", error.problem);
-    };
+    let (offence, _, toroid, tracer) = toroidal_and_standard(zemax, 550.0);
     assert_eq!(offence, "surface 2 is a toroid");
-    let toroid = PlacedTracer::new(&lens, 550.0).unwrap();
-    let sphere = read_str(
-        &zemax("STANDARD"),
-        None,
-        Format::Zemax,
-        &LoadOptions::default(),
-    )
-    .unwrap();
-    let system = lensbake::system::LensSystem::new(sphere.prescription, &sphere.map).unwrap();
-    let tracer = lensbake::trace::Tracer::new(&system.at(550.0));
     for (x, y, tx, ty) in [
         (-5.0, 2.0, 0.01, 0.02),
         (-5.0, 2.0, 0.1, 0.0),
@@ -401,4 +363,22 @@ fn a_toroid_turned_on_its_own_radius_is_the_sphere() {
             );
         }
     }
+}
+
+/// A Zemax file with a TOROIDAL surface read for the 3-D trace (the refusal's offence and line,
+/// the tracer), and the same file with that surface STANDARD read by the centred tracer.
+fn toroidal_and_standard(
+    zemax: impl Fn(&str) -> String,
+    wavelength_nm: f64,
+) -> (String, Option<usize>, PlacedTracer, lensbake::trace::Tracer) {
+    let options = LoadOptions::default();
+    let error = read_str(&zemax("TOROIDAL"), None, Format::Zemax, &options).unwrap_err();
+    let Problem::NotRotationallySymmetric { offence, lens } = error.problem else {
+        panic!("{}", error.problem);
+    };
+    let placed = PlacedTracer::new(&lens, wavelength_nm).unwrap();
+    let sphere = read_str(&zemax("STANDARD"), None, Format::Zemax, &options).unwrap();
+    let system = lensbake::system::LensSystem::new(sphere.prescription, &sphere.map).unwrap();
+    let centred = lensbake::trace::Tracer::new(&system.at(wavelength_nm));
+    (offence, error.location.line, placed, centred)
 }

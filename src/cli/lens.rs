@@ -218,11 +218,7 @@ fn summary(lens: &LoadedLens) -> String {
         out.push_str(&text);
         out.push('\n');
     };
-    line(if p.provenance.title.is_empty() {
-        "(untitled lens)".to_string()
-    } else {
-        p.provenance.title.clone()
-    });
+    line(title(p));
     line(format!(
         "  read from:   {} ({})",
         lens.source.origin,
@@ -380,11 +376,7 @@ fn placed_summary(
         out.push_str(&text);
         out.push('\n');
     };
-    line(if p.provenance.title.is_empty() {
-        "(untitled lens)".to_string()
-    } else {
-        p.provenance.title.clone()
-    });
+    line(title(p));
     line(format!("  read from:   {spec}"));
     line(format!("  off the axis: {offence} at {location}"));
     line(
@@ -507,5 +499,14 @@ fn shape_name(shape: &Shape) -> &'static str {
         Shape::Conic { .. } => "conic",
         Shape::EvenAsphere { .. } => "asphere",
         Shape::IdealLens { .. } => "ideal",
+    }
+}
+
+/// A summary's first line: the lens's title.
+fn title(p: &lensbake::prescription::Prescription) -> String {
+    if p.provenance.title.is_empty() {
+        "(untitled lens)".to_string()
+    } else {
+        p.provenance.title.clone()
     }
 }
