@@ -81,6 +81,32 @@ impl LensArgs {
         let options = self.read.options();
         validated(lenses::read(&self.lens, &options).map_err(with_hint)?)
     }
+
+    /// Reads the lens for a command that also traces lenses placed off one axis in 3-D.
+    pub fn load_or_placed(&self) -> anyhow::Result<Readable> {
+        match lenses::read(&self.lens, &self.read.options()) {
+            Err(LensError::Prescription(PrescriptionError {
+                location,
+                problem: Problem::NotRotationallySymmetric { offence, lens },
+            })) => Ok(Readable::Placed {
+                offence,
+                location,
+                lens,
+            }),
+            read => validated(read.map_err(with_hint)?).map(Readable::Centred),
+        }
+    }
+}
+
+/// A lens as `lens check` and `trace` read it: centred and validated, or placed off one axis
+/// (what no centred lens describes; only the 3-D trace reads it).
+pub enum Readable {
+    Centred(LoadedLens),
+    Placed {
+        offence: String,
+        location: Location,
+        lens: Box<PlacedLens>,
+    },
 }
 
 /// The lens `source` holds, validated; a failure carries the reading notes after the error.
@@ -131,21 +157,17 @@ fn with_hint(error: LensError) -> anyhow::Error {
 pub fn run(command: LensCommand) -> anyhow::Result<()> {
     match command {
         LensCommand::Check(args) => {
-            let source = match lenses::read(&args.lens, &args.read.options()) {
-                Err(LensError::Prescription(PrescriptionError {
+            match args.load_or_placed()? {
+                Readable::Centred(lens) => say_raw!("{}", summary(&lens)),
+                Readable::Placed {
+                    offence,
                     location,
-                    problem: Problem::NotRotationallySymmetric { offence, lens },
-                })) => {
-                    say_raw!(
-                        "{}",
-                        placed_summary(&args.lens, &location, &offence, &lens)?
-                    );
-                    return Ok(());
-                }
-                read => read.map_err(with_hint)?,
-            };
-            let lens = validated(source)?;
-            say_raw!("{}", summary(&lens));
+                    lens,
+                } => say_raw!(
+                    "{}",
+                    placed_summary(&args.lens, &location, &offence, &lens)?
+                ),
+            }
             Ok(())
         }
         LensCommand::Convert { input, output } => convert(&input, &output),

@@ -1,8 +1,11 @@
 //! `lensbake trace`: exact rays through a lens, JSON in and out.
 
-use super::lens::LensArgs;
+use super::lens::{LensArgs, Readable};
 use anyhow::Context;
 use clap::Args;
+use lensbake::prescription::DEFAULT_WAVELENGTH_NM;
+use lensbake::prescription::formats::PlacedLens;
+use lensbake::trace::placed::PlacedTracer;
 use lensbake::trace::{Ray, Tracer, Travel, check_start};
 use serde::{Deserialize, Serialize};
 use std::io::Read;
@@ -39,10 +42,16 @@ struct RayOutput {
     surface: Option<usize>,
     position: [f64; 3],
     direction: [f64; 3],
+    /// A lens off the axis: where the ray meets the image plane, in the plane's own frame.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    image: Option<[f64; 2]>,
 }
 
 pub fn run(args: TraceArgs) -> anyhow::Result<()> {
-    let system = args.lens.load()?.system;
+    let system = match args.lens.load_or_placed()? {
+        Readable::Centred(lens) => lens.system,
+        Readable::Placed { lens, .. } => return run_placed(&args, &lens),
+    };
     let wavelength_nm = args
         .wavelength_nm
         .unwrap_or_else(|| system.design_wavelength_nm());
@@ -66,9 +75,49 @@ pub fn run(args: TraceArgs) -> anyhow::Result<()> {
                 surface: traced.outcome.surface(),
                 position: traced.ray.position(),
                 direction: traced.ray.direction(),
+                image: None,
             }
         })
         .collect();
+    print(&args, &traced)
+}
+
+/// A lens placed off one axis: rays forward through every surface onto the image plane, in the
+/// lens's global frame (the object side's axis is z, surface 1's frame before any decentre).
+fn run_placed(args: &TraceArgs, lens: &PlacedLens) -> anyhow::Result<()> {
+    if args.backward {
+        anyhow::bail!(
+            "{}: the lens is not rotationally symmetric; its 3-D trace runs forward only",
+            args.lens.lens
+        );
+    }
+    let wavelength_nm = args.wavelength_nm.unwrap_or_else(|| {
+        lens.prescription
+            .provenance
+            .design_wavelength_nm
+            .unwrap_or(DEFAULT_WAVELENGTH_NM)
+    });
+    let tracer = PlacedTracer::new(lens, wavelength_nm)?;
+    let traced: Vec<RayOutput> = read_rays(&args.rays)?
+        .into_iter()
+        .map(|ray| {
+            let traced = tracer.trace(ray.position(), ray.direction());
+            RayOutput {
+                status: traced.outcome.status(),
+                surface: traced.outcome.surface(),
+                position: traced.position,
+                direction: traced.direction,
+                image: traced
+                    .outcome
+                    .is_ok()
+                    .then(|| tracer.image_coordinates(traced.position)),
+            }
+        })
+        .collect();
+    print(args, &traced)
+}
+
+fn print(args: &TraceArgs, traced: &[RayOutput]) -> anyhow::Result<()> {
     if args.json {
         say!("{}", serde_json::to_string_pretty(&traced)?);
     } else {
