@@ -8,7 +8,7 @@
 //! mirrors and negative thicknesses need no bookkeeping.
 //!
 //! Toroids (a y-z curve turned about a line parallel to y; cylinders) exist only here: they are
-//! met by Newton's method on their implicit form ([`intersect::toroid`]).
+//! met by Newton's method on their implicit form (`intersect::toroid`).
 //!
 //! A plane that bends and clips nothing (a Zemax coordinate break, a CODE V dummy) only places
 //! the surfaces after it: no ray is tested against it, as in OpticStudio, so a ray parallel to
