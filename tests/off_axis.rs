@@ -277,6 +277,12 @@ fn rectangular_and_decentred_apertures_clip_at_their_edges() {
         let want = if passes { Outcome::Ok } else { clipped };
         assert_eq!(outcome(&circle, x, y), want, "circle at ({x}, {y})");
     }
+    // A central obscuration moves with the aperture's decentre.
+    let ring = lens("CIR 4; CIR OBS 1; ADY 60");
+    for (x, y, passes) in [(0.0, 60.99, false), (0.0, 61.01, true), (0.0, 0.5, false)] {
+        let want = if passes { Outcome::Ok } else { clipped };
+        assert_eq!(outcome(&ring, x, y), want, "ring at ({x}, {y})");
+    }
     // Half a rectangle is refused where it stands.
     let text = "RDM\nEPD 20\nSO 0 1e20\nS 0 100\nSTO\nS -400 -200 REFL\nREX 5\nSI 0 0\nGO\n";
     let e = read_str(text, None, Format::CodeV, &LoadOptions::default()).unwrap_err();

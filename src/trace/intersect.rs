@@ -61,6 +61,30 @@ pub(crate) struct AsphereTerms {
     pub search_radius: f64,
 }
 
+impl Profile {
+    /// The power (1/mm) of an ideal lens; None for every other profile.
+    #[inline(always)]
+    pub(crate) fn ideal_power(&self) -> Option<f64> {
+        match *self {
+            Profile::IdealLens { power } => Some(power),
+            _ => None,
+        }
+    }
+}
+
+impl AsphereTerms {
+    /// `coefficients` (at most [`crate::prescription::MAX_ASPHERE_TERMS`]), padded with zeros.
+    pub(crate) fn new(coefficients: &[f64], search_radius: f64) -> AsphereTerms {
+        let mut terms = AsphereTerms {
+            coefficients: [0.0; crate::prescription::MAX_ASPHERE_TERMS],
+            len: coefficients.len(),
+            search_radius,
+        };
+        terms.coefficients[..coefficients.len()].copy_from_slice(coefficients);
+        terms
+    }
+}
+
 /// A surface crossing: the point in the vertex frame and the unit surface normal pointing to the
 /// object side (negative z component).
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -638,17 +638,13 @@ impl Tracer {
                 return Err((Event::Vignetted, at));
             }
         }
-        let (n_in, mu) = if FORWARD {
-            (s.index_before, s.mu_forward)
+        let (n_in, n_out, mu) = if FORWARD {
+            (s.index_before, s.index_after, s.mu_forward)
         } else {
-            (s.index_after, s.mu_backward)
+            (s.index_after, s.index_before, s.mu_backward)
         };
-        let n_out = if FORWARD {
-            s.index_after
-        } else {
-            s.index_before
-        };
-        match bend(&s.profile, s.reflects, q, normal, d, n_in == n_out, mu) {
+        let ideal_power = s.profile.ideal_power();
+        match bend(ideal_power, s.reflects, q, normal, d, n_in == n_out, mu) {
             Ok(direction) => Ok(Ray {
                 position: at.position,
                 direction,
@@ -679,13 +675,7 @@ fn profile_of(shape: &Shape, search_radius: f64, asphere_terms: &mut Vec<Asphere
             conic,
             coefficients,
         } => {
-            let mut terms = AsphereTerms {
-                coefficients: [0.0; crate::prescription::MAX_ASPHERE_TERMS],
-                len: coefficients.len(),
-                search_radius,
-            };
-            terms.coefficients[..coefficients.len()].copy_from_slice(coefficients);
-            asphere_terms.push(terms);
+            asphere_terms.push(AsphereTerms::new(coefficients, search_radius));
             Profile::EvenAsphere {
                 curvature: *curvature,
                 conic_factor: 1.0 + conic,
@@ -727,11 +717,11 @@ fn meet(
 }
 
 /// The direction a ray travelling along `d` leaves a surface in, met at `q` (vertex frame) with
-/// `normal` there: reflected, deflected by an ideal lens, or refracted with Snell ratio `mu`
-/// (unchanged between equal indices).
+/// `normal` there: reflected, deflected by an ideal lens of `ideal_power`, or refracted with
+/// Snell ratio `mu` (unchanged between equal indices).
 #[inline(always)]
 fn bend(
-    profile: &Profile,
+    ideal_power: Option<f64>,
     reflects: bool,
     q: Vec3,
     normal: Option<Vec3>,
@@ -748,7 +738,7 @@ fn bend(
             (-twice_cos).mul_add(normal[2], d[2]),
         ]);
     }
-    if let Profile::IdealLens { power } = *profile {
+    if let Some(power) = ideal_power {
         // A ray grazing the plane leaves with tangents past what f64 holds: no direction, so no
         // later surface is met.
         return refract::ideal_lens(d, [q[0], q[1]], power).ok_or(Event::Missed);

@@ -27,11 +27,10 @@ use crate::prescription::{Location, Medium, PrescriptionError, Problem, Shape};
 #[derive(Clone, Debug, PartialEq)]
 struct PlacedSurface {
     frame: Frame,
-    profile: Profile,
-    /// Squared clear semi-aperture; infinite where the file states none.
-    clear_sq: f64,
-    /// The clear aperture where it is rectangular or decentred (then `clear_sq` is unused).
-    outline: Option<ApertureOutline>,
+    form: Form,
+    /// The clear aperture that clips (a stated circle, or a rectangular or decentred outline);
+    /// None where the file states none.
+    aperture: Option<ApertureOutline>,
     obscuration_sq: f64,
     reflects: bool,
     equal_indices: bool,
@@ -39,8 +38,14 @@ struct PlacedSurface {
     mu: f64,
     /// False for a plane that bends and clips nothing: rays pass it untested.
     met: bool,
-    /// A toroid's y-z curve and radius of rotation, met instead of `profile`.
-    toroid: Option<Toroid>,
+}
+
+/// What a surface is, as the crossing code reads it.
+#[derive(Clone, Debug, PartialEq)]
+enum Form {
+    /// A surface of revolution, met by the centred tracer's code.
+    Revolved(Profile),
+    Toroid(Toroid),
 }
 
 /// A toroid as [`intersect::toroid`] reads it.
@@ -65,32 +70,24 @@ impl Toroid {
                 coefficients,
             } => (*curvature, *conic, coefficients),
         };
-        let mut terms = AsphereTerms {
-            coefficients: [0.0; crate::prescription::MAX_ASPHERE_TERMS],
-            len: coefficients.len(),
-            search_radius,
-        };
-        terms.coefficients[..coefficients.len()].copy_from_slice(coefficients);
         Toroid {
             curvature,
             conic_factor: 1.0 + conic,
-            terms,
+            terms: AsphereTerms::new(coefficients, search_radius),
             rotation_radius,
         }
     }
 }
 
 impl PlacedSurface {
-    /// Whether a hit at `q` (the surface's frame) passes its clear aperture and obscuration.
+    /// Whether a hit at `q` (the surface's frame) passes its clear aperture and obscuration
+    /// (centred with the aperture).
     fn passes(&self, q: Vec3) -> bool {
-        let centre = self.outline.map_or([0.0, 0.0], |o| o.centre);
-        let (u, v) = (q[0] - centre[0], q[1] - centre[1]);
-        let r_sq = u.mul_add(u, v * v);
-        let clear = match &self.outline {
-            Some(outline) => outline.passes(q[0], q[1]),
-            None => r_sq <= self.clear_sq,
+        let Some(aperture) = &self.aperture else {
+            return q[0].mul_add(q[0], q[1] * q[1]) >= self.obscuration_sq;
         };
-        clear && r_sq >= self.obscuration_sq
+        let (u, v) = (q[0] - aperture.centre[0], q[1] - aperture.centre[1]);
+        aperture.passes(q[0], q[1]) && u.mul_add(u, v * v) >= self.obscuration_sq
     }
 }
 
@@ -134,7 +131,7 @@ pub enum PlacedBeamError {
         field_deg: [f64; 2],
         outcome: Outcome,
     },
-    #[error("the field angle ({:.6}, {:.6}) deg does not point into the lens", .0[0], .0[1])]
+    #[error("the field angle ({}, {}) deg is not a finite number", .0[0], .0[1])]
     FieldAngle([f64; 2]),
 }
 
@@ -190,16 +187,7 @@ impl PlacedTracer {
             Location::default().with_field("object_medium"),
         )?;
         // The Newton search of an asphere stays within twice the largest stated aperture.
-        let outline_reach = lens.outlines.iter().flatten().map(|o| {
-            let reach = match o.shape {
-                OutlineShape::Circle { radius } => radius,
-                OutlineShape::Rectangle {
-                    half_width,
-                    half_height,
-                } => half_width.hypot(half_height),
-            };
-            o.centre[0].hypot(o.centre[1]) + reach
-        });
+        let outline_reach = lens.outlines.iter().flatten().map(ApertureOutline::reach);
         let search_radius = 2.0
             * p.surfaces
                 .iter()
@@ -216,36 +204,37 @@ impl PlacedTracer {
             } else {
                 index_of(&s.medium, at_surface(i, "medium"))?
             };
-            let clips = lens.clips.get(i).copied().unwrap_or(false);
-            let profile = profile_of(&s.shape, search_radius, &mut asphere_terms);
+            let aperture = lens.outlines.get(i).copied().flatten().or_else(|| {
+                lens.clips
+                    .get(i)
+                    .copied()
+                    .unwrap_or(false)
+                    .then_some(ApertureOutline {
+                        shape: OutlineShape::Circle {
+                            radius: s.semi_aperture,
+                        },
+                        centre: [0.0; 2],
+                    })
+            });
+            let form = match lens.rotation_radii.get(i).copied().flatten() {
+                Some(r) => Form::Toroid(Toroid::new(&s.shape, r, search_radius)),
+                None => Form::Revolved(profile_of(&s.shape, search_radius, &mut asphere_terms)),
+            };
             let equal_indices = index_before == index_after;
             surfaces.push(PlacedSurface {
                 frame: lens.frames[i],
-                profile,
-                clear_sq: if clips {
-                    s.semi_aperture * s.semi_aperture
-                } else {
-                    f64::INFINITY
-                },
-                outline: lens.outlines.get(i).copied().flatten(),
+                met: i == stop
+                    || reflects
+                    || aperture.is_some()
+                    || s.obscuration.is_some()
+                    || !equal_indices
+                    || form != Form::Revolved(Profile::Plane),
+                form,
+                aperture,
                 obscuration_sq: s.obscuration.map_or(0.0, |r| r * r),
                 reflects,
                 equal_indices,
                 mu: index_before / index_after,
-                toroid: lens
-                    .rotation_radii
-                    .get(i)
-                    .copied()
-                    .flatten()
-                    .map(|r| Toroid::new(&s.shape, r, search_radius)),
-                met: i == stop
-                    || lens.rotation_radii.get(i).is_some_and(Option::is_some)
-                    || reflects
-                    || clips
-                    || lens.outlines.get(i).is_some_and(Option::is_some)
-                    || s.obscuration.is_some()
-                    || !equal_indices
-                    || profile != Profile::Plane,
             });
             index_before = index_after;
         }
@@ -284,18 +273,24 @@ impl PlacedTracer {
                 ..ray
             };
             let sense = if d[2] < 0.0 { -1.0 } else { 1.0 };
-            let crossing = match &s.toroid {
-                Some(t) => intersect::toroid(
-                    p,
-                    d,
-                    t.curvature,
-                    t.conic_factor,
-                    &t.terms,
-                    t.rotation_radius,
-                    sense,
-                )
-                .map(|hit| (hit.point, Some(hit.normal))),
-                None => meet(&s.profile, &self.asphere_terms, p, d, sense),
+            let (crossing, ideal_power) = match &s.form {
+                Form::Toroid(t) => (
+                    intersect::toroid(
+                        p,
+                        d,
+                        t.curvature,
+                        t.conic_factor,
+                        &t.terms,
+                        t.rotation_radius,
+                        sense,
+                    )
+                    .map(|hit| (hit.point, Some(hit.normal))),
+                    None,
+                ),
+                Form::Revolved(profile) => (
+                    meet(profile, &self.asphere_terms, p, d, sense),
+                    profile.ideal_power(),
+                ),
             };
             let Some((q, normal)) = crossing.filter(|(q, _)| q.iter().all(|v| v.is_finite()))
             else {
@@ -305,7 +300,7 @@ impl PlacedTracer {
             if clip && !s.passes(q) {
                 return stopped(Event::Vignetted, ray);
             }
-            match bend(&s.profile, s.reflects, q, normal, d, s.equal_indices, s.mu) {
+            match bend(ideal_power, s.reflects, q, normal, d, s.equal_indices, s.mu) {
                 Ok(bent) => ray.direction = s.frame.direction_to_parent(bent),
                 Err(event) => return stopped(event, ray),
             }
@@ -396,11 +391,12 @@ impl PlacedTracer {
         pupil_diameter: f64,
         grid: usize,
     ) -> Result<PlacedSpot, PlacedBeamError> {
-        let [tx, ty] = field_deg.map(|a| a.to_radians().tan());
-        let length = tx.mul_add(tx, ty.mul_add(ty, 1.0)).sqrt();
-        if !length.is_finite() {
+        // Every finite angle has a finite tangent (no f64 is exactly a right angle).
+        if !field_deg.iter().all(|a| a.is_finite()) {
             return Err(PlacedBeamError::FieldAngle(field_deg));
         }
+        let [tx, ty] = field_deg.map(|a| a.to_radians().tan());
+        let length = tx.mul_add(tx, ty.mul_add(ty, 1.0)).sqrt();
         let direction = [tx / length, ty / length, 1.0 / length];
         let chief_start = self.aim_chief(direction, pupil_diameter / 2.0, field_deg)?;
         let chief = self.trace(chief_start, direction);

@@ -211,6 +211,37 @@ pub enum OutlineShape {
 }
 
 impl ApertureOutline {
+    /// The outline with every length multiplied by `factor` (a file's unit to mm).
+    fn scaled(&self, factor: f64) -> ApertureOutline {
+        ApertureOutline {
+            shape: match self.shape {
+                OutlineShape::Circle { radius } => OutlineShape::Circle {
+                    radius: radius * factor,
+                },
+                OutlineShape::Rectangle {
+                    half_width,
+                    half_height,
+                } => OutlineShape::Rectangle {
+                    half_width: half_width * factor,
+                    half_height: half_height * factor,
+                },
+            },
+            centre: self.centre.map(|v| v * factor),
+        }
+    }
+
+    /// The largest distance (mm) from the surface's axis of a point inside the aperture.
+    pub fn reach(&self) -> f64 {
+        let half_diagonal = match self.shape {
+            OutlineShape::Circle { radius } => radius,
+            OutlineShape::Rectangle {
+                half_width,
+                half_height,
+            } => half_width.hypot(half_height),
+        };
+        self.centre[0].hypot(self.centre[1]) + half_diagonal
+    }
+
     /// Whether a point (x, y) of the surface's frame passes the aperture.
     pub fn passes(&self, x: f64, y: f64) -> bool {
         let (u, v) = (x - self.centre[0], y - self.centre[1]);
@@ -308,7 +339,9 @@ const OFFSET_TOLERANCE: f64 = 1e-10;
 /// whose clear aperture the file does not state (they are sized later, on the centred lens, so
 /// they cannot clip where the file's would not). `envelopes` lists those whose stated aperture
 /// only records the beam's extent and clips no ray (Zemax `DIAM`): an unfolded fold mirror whose
-/// envelope lies off the axis joins `derived` instead of being refused.
+/// envelope lies off the axis joins `derived` instead of being refused. `asymmetries` (one per
+/// surface) lists the toroids and non-circular or decentred apertures the file states; any of
+/// them leaves the lens to the 3-D trace even when its geometry is centred.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn centre_if_placed(
     prescription: &mut Prescription,
@@ -366,38 +399,14 @@ pub(super) fn centre_if_placed(
             location
         }
     };
-    let scaled_outlines: Vec<Option<ApertureOutline>> = (0..surfaces.len())
-        .map(|i| {
-            asymmetries
-                .get(i)
-                .and_then(|a| a.outline.as_ref())
-                .map(|o| {
-                    let mm = |v: f64| v * mm_per_unit;
-                    ApertureOutline {
-                        shape: match o.outline.shape {
-                            OutlineShape::Circle { radius } => {
-                                OutlineShape::Circle { radius: mm(radius) }
-                            }
-                            OutlineShape::Rectangle {
-                                half_width,
-                                half_height,
-                            } => OutlineShape::Rectangle {
-                                half_width: mm(half_width),
-                                half_height: mm(half_height),
-                            },
-                        },
-                        centre: o.outline.centre.map(mm),
-                    }
-                })
-        })
+    // Readers give one entry per surface, in the file's length unit.
+    let scaled_outlines: Vec<Option<ApertureOutline>> = asymmetries
+        .iter()
+        .map(|a| a.outline.as_ref().map(|o| o.outline.scaled(mm_per_unit)))
         .collect();
-    let rotation_radii: Vec<Option<f64>> = (0..surfaces.len())
-        .map(|i| {
-            asymmetries
-                .get(i)
-                .and_then(|a| a.toroid.as_ref())
-                .map(|t| t.rotation_radius * mm_per_unit)
-        })
+    let rotation_radii: Vec<Option<f64>> = asymmetries
+        .iter()
+        .map(|a| a.toroid.as_ref().map(|t| t.rotation_radius * mm_per_unit))
         .collect();
     let off_axis = |location: Location, offence: String| {
         PrescriptionError::new(
