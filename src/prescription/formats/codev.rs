@@ -234,6 +234,10 @@ const HARMLESS: &[&str] = &[
 /// 3.5" (EFL 1282.7 mm, f/14.4), so what CODE V solves for is not what those names suggest.
 const SOLVES: &[&str] = &["PIM", "CUM", "CUC", "THM", "THC"];
 
+/// Aperture outline commands: a rectangle's half widths in x and y, an aperture decentre in x
+/// and y.
+const APERTURE_COMMANDS: [&str; 4] = ["REX", "REY", "ADX", "ADY"];
+
 /// Thickness solves written after `THI`: the marginal or chief ray's height in y or x.
 const THICKNESS_SOLVES: &[&str] = &["HMY", "HCY", "HMX", "HCX"];
 
@@ -566,13 +570,12 @@ impl Reader {
             // A rectangular aperture's half widths and an aperture decentre (x, y).
             "REX" | "REY" | "ADX" | "ADY" => {
                 let value = one(name)?;
-                let command: &'static str = match name {
-                    "REX" => "REX",
-                    "REY" => "REY",
-                    "ADX" => "ADX",
-                    _ => "ADY",
-                };
-                if command.starts_with("RE") && !(value > 0.0) {
+                let k = APERTURE_COMMANDS
+                    .iter()
+                    .position(|command| *command == name)
+                    .expect("matched above");
+                let (rectangle, axis) = (k < 2, k % 2);
+                if rectangle && !(value > 0.0) {
                     return Err(PrescriptionError::new(
                         at(name),
                         Problem::Syntax(format!(
@@ -587,14 +590,13 @@ impl Reader {
                     "an aperture outline on the object or image surface",
                     true,
                     |s| {
-                        match command {
-                            "REX" => s.rectangle[0] = Some(value),
-                            "REY" => s.rectangle[1] = Some(value),
-                            "ADX" => s.aperture_decentre[0] = value,
-                            _ => s.aperture_decentre[1] = value,
+                        if rectangle {
+                            s.rectangle[axis] = Some(value);
+                        } else {
+                            s.aperture_decentre[axis] = value;
                         }
-                        if command.starts_with("RE") || value != 0.0 {
-                            s.outline_line.get_or_insert((line, command));
+                        if rectangle || value != 0.0 {
+                            s.outline_line.get_or_insert((line, APERTURE_COMMANDS[k]));
                         }
                     },
                 )?;
