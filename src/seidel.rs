@@ -325,16 +325,17 @@ impl Seidel {
     }
 }
 
-/// r^4 sag coefficient beyond the vertex sphere's: the conic adds k c^3 / 8 and the even
-/// asphere its r^4 term, while an r^2 term changes the vertex sphere itself (c + 2 a1).
+/// r^4 sag coefficient beyond the vertex sphere's: the conic adds k c^3 / 8 and an asphere its
+/// r^4 term, while an r^2 term changes the vertex sphere itself (c + 2 a1). An odd asphere's r
+/// and r^3 terms make the wavefront odd in the aperture, which no third-order term describes:
+/// they are left out here and only the exact trace sees them.
 pub fn aspheric_r4_departure(shape: &Shape) -> f64 {
     match shape {
         Shape::Plane | Shape::Sphere { .. } | Shape::IdealLens { .. } => 0.0,
-        Shape::Conic { .. } | Shape::EvenAsphere { .. } => {
+        Shape::Conic { .. } | Shape::EvenAsphere { .. } | Shape::OddAsphere { .. } => {
             let c = shape.curvature();
             let vertex = paraxial_curvature(shape);
-            let r4 = shape.aspheric_coefficients().get(1).copied().unwrap_or(0.0);
-            (1.0 + shape.conic()) * c.powi(3) / 8.0 + r4 - vertex.powi(3) / 8.0
+            (1.0 + shape.conic()) * c.powi(3) / 8.0 + shape.aspheric_term(4) - vertex.powi(3) / 8.0
         }
     }
 }

@@ -35,7 +35,7 @@ fn check_prints_a_summary() {
     let out = stdout(&o);
     assert!(out.starts_with("D-GAUSS F/2 22deg HFOV\n"), "{out}");
     assert!(
-        out.contains("    6 STO          flat      4.5000 plane   air"),
+        out.contains("    6 STO          flat      4.5000 plane       air"),
         "{out}"
     );
     assert!(

@@ -105,6 +105,11 @@ fn zemax_round_trip_keeps_surfaces_glasses_conditions_and_first_order() {
         // An even asphere on a model-glass layer, glasses named with a maker suffix.
         corpus("rayoptics__CODV_49664.seq"),
         corpus("optiland__lens1.zmx"),
+        // Odd aspheres, one with a cone term.
+        PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+            .join("tests/data/odd_asphere_cone.zmx")
+            .to_string_lossy()
+            .into_owned(),
     ] {
         let original = system(&spec);
         let text = write_zemax(&original.prescription).unwrap();

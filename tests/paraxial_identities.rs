@@ -169,18 +169,27 @@ fn a_plane_parallel_plate_is_afocal() {
     );
 }
 
-/// The r^2 term of an even asphere curves the vertex: paraxially it is the sphere c + 2 a1.
+/// The r^2 term of an asphere curves the vertex: paraxially it is the sphere c + 2 a1, whether
+/// the terms are in r^2 (even) or in r (odd, where the r and r^3 terms have no paraxial part).
 #[test]
-fn even_asphere_r2_term_is_vertex_curvature() {
+fn asphere_r2_term_is_vertex_curvature() {
     let (c, a1) = (1.0 / 40.0, 0.004);
-    let asphere = Shape::EvenAsphere {
-        curvature: c - 2.0 * a1,
-        conic: 0.0,
-        coefficients: vec![a1],
-    };
-    let with = FirstOrder::of(&system(vec![surface(asphere, 30.0, 1.5, 5.0, true)])).unwrap();
     let plain = FirstOrder::of(&system(vec![surface(sphere(c), 30.0, 1.5, 5.0, true)])).unwrap();
-    assert_close(with.efl, plain.efl, 1e-14, 0.0, "EFL");
+    for asphere in [
+        Shape::EvenAsphere {
+            curvature: c - 2.0 * a1,
+            conic: 0.0,
+            coefficients: vec![a1],
+        },
+        Shape::OddAsphere {
+            curvature: c - 2.0 * a1,
+            conic: 0.0,
+            coefficients: vec![3e-3, a1, -2e-5],
+        },
+    ] {
+        let with = FirstOrder::of(&system(vec![surface(asphere, 30.0, 1.5, 5.0, true)])).unwrap();
+        assert_close(with.efl, plain.efl, 1e-14, 0.0, "EFL");
+    }
 }
 
 #[test]
@@ -481,6 +490,11 @@ fn cartesian_ellipsoid_has_no_spherical_aberration() {
             curvature: c,
             conic: 0.0,
             coefficients: vec![0.0, conic * c.powi(3) / 8.0],
+        },
+        Shape::OddAsphere {
+            curvature: c,
+            conic: 0.0,
+            coefficients: vec![0.0, 0.0, 0.0, conic * c.powi(3) / 8.0],
         },
     ];
     let sphere_sums = {

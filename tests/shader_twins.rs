@@ -203,6 +203,41 @@ fn aspheres() -> SystemAt {
     )
 }
 
+/// Odd aspheres (terms in r): a cone term and an r^3 term in front of the stop, r^3 and r^5
+/// behind it.
+fn odd_aspheres() -> SystemAt {
+    let asphere = |radius: f64, conic: f64, coefficients: Vec<f64>| Shape::OddAsphere {
+        curvature: 1.0 / radius,
+        conic,
+        coefficients,
+    };
+    system(
+        "odd aspheres",
+        vec![
+            surface(
+                asphere(20.0, -0.8, vec![1e-3, 0.0, 3e-5]),
+                8.0,
+                Medium::Index(1.9),
+                11.0,
+            ),
+            surface(
+                asphere(-22.0, 1.5, vec![0.0, 1e-3, -4e-5, 5e-6]),
+                3.0,
+                Medium::Air,
+                12.0,
+            ),
+            stop(8.0, 3.0, StopShape::Circle),
+            surface(
+                asphere(-60.0, 0.0, vec![0.0, 0.0, 2e-5, 0.0, -1e-8]),
+                5.0,
+                Medium::Index(1.6),
+                10.0,
+            ),
+            surface(sphere(-30.0), 30.0, Medium::Air, 10.0),
+        ],
+    )
+}
+
 /// A Cassegrain behind a flat corrector: a spherical primary with a central hole (the stop), a
 /// hyperbolic secondary, and the secondary's shadow as a central obscuration on the corrector.
 /// Film-side rays meet the secondary first, turn round at both mirrors and leave through the
@@ -505,7 +540,7 @@ fn check_within(
 /// twice that in direction, and the folded path crosses its 60 mm gap three times where the
 /// refracting lenses cross theirs once (measured 1.16e-4 mm at the film-side start, 14.5 times
 /// the f32 rounding of a start 10 m away).
-fn surface_kinds() -> [(&'static str, SystemAt, Vec<(u32, usize, usize)>, f64); 5] {
+fn surface_kinds() -> [(&'static str, SystemAt, Vec<(u32, usize, usize)>, f64); 6] {
     let (ok, vignetted, tir, missed) = (TRACE_OK, TRACE_VIGNETTED, TRACE_TIR, TRACE_MISSED);
     [
         // Stop plane, sphere, sphere.
@@ -545,6 +580,13 @@ fn surface_kinds() -> [(&'static str, SystemAt, Vec<(u32, usize, usize)>, f64); 
                 (tir, 1, 5),
                 (missed, 2, 70),
             ],
+            1.0,
+        ),
+        // Odd aspheres at surfaces 1, 2 and 4.
+        (
+            "odd aspheres",
+            odd_aspheres(),
+            vec![(ok, 0, 500), (vignetted, 4, 20), (missed, 2, 70)],
             1.0,
         ),
         // Mirrors (surfaces 3 and 4) and central obscurations (2 and 3).

@@ -233,8 +233,9 @@ fn list() -> anyhow::Result<()> {
 fn summary(lens: &LoadedLens) -> String {
     let system = &lens.system;
     let p = &system.prescription;
-    let wavelength = system.design_wavelength_nm();
-    let at = system.at(wavelength);
+    let wavelength_nm = system.design_wavelength_nm();
+    let at = system.at(wavelength_nm);
+    let wavelength = printed_nm(wavelength_nm);
     let mut out = String::new();
     let mut line = |text: String| {
         out.push_str(&text);
@@ -268,7 +269,7 @@ fn summary(lens: &LoadedLens) -> String {
     }
     line(String::new());
     line(format!(
-        "  {:>3} {:4} {:>12} {:>11} {:7} {:16} {:>9} {:>9}",
+        "  {:>3} {:4} {:>12} {:>11} {:11} {:16} {:>9} {:>9}",
         "#",
         "",
         "radius",
@@ -285,7 +286,7 @@ fn summary(lens: &LoadedLens) -> String {
         };
         let kind = shape_name(&s.shape);
         line(format!(
-            "  {:>3} {:4} {:>12} {:>11.4} {:7} {:16} {:>9.6} {:>9.4}",
+            "  {:>3} {:4} {:>12} {:>11.4} {:11} {:16} {:>9.6} {:>9.4}",
             i + 1,
             if s.stop.is_some() { "STO" } else { "" },
             radius,
@@ -406,10 +407,10 @@ fn placed_summary(
          a rotationally symmetric lens; below is the exact 3-D trace"
             .to_string(),
     );
-    line(format!("  wavelength:  {wavelength} nm"));
+    line(format!("  wavelength:  {} nm", printed_nm(wavelength)));
     line(String::new());
     line(format!(
-        "  {:>3} {:4} {:>12} {:7} {:16} {:>12} {:>12} {:>12} {:>9} {:>9}",
+        "  {:>3} {:4} {:>12} {:11} {:16} {:>12} {:>12} {:>12} {:>9} {:>9}",
         "#",
         "",
         "radius",
@@ -436,7 +437,7 @@ fn placed_summary(
             "-".to_string()
         };
         line(format!(
-            "  {:>3} {:4} {:>12} {:7} {:16} {:>12.4} {:>12.4} {:>12.4} {:>9.4} {:>9}",
+            "  {:>3} {:4} {:>12} {:11} {:16} {:>12.4} {:>12.4} {:>12.4} {:>9.4} {:>9}",
             i + 1,
             if s.stop.is_some() { "STO" } else { "" },
             radius,
@@ -514,12 +515,23 @@ fn placed_summary(
     Ok(out)
 }
 
+/// A wavelength as a reader would write it: at most six decimals, trailing zeros dropped (a
+/// Zemax file's 0.5875618 µm is 587.5618000000001 nm in f64).
+fn printed_nm(nm: f64) -> String {
+    let fixed = format!("{nm:.6}");
+    fixed
+        .trim_end_matches('0')
+        .trim_end_matches('.')
+        .to_string()
+}
+
 fn shape_name(shape: &Shape) -> &'static str {
     match shape {
         Shape::Plane => "plane",
         Shape::Sphere { .. } => "sphere",
         Shape::Conic { .. } => "conic",
         Shape::EvenAsphere { .. } => "asphere",
+        Shape::OddAsphere { .. } => "odd asphere",
         Shape::IdealLens { .. } => "ideal",
     }
 }

@@ -20,17 +20,13 @@ use nalgebra::Matrix2;
 
 /// Curvature the paraxial region of a surface sees (1/mm).
 ///
-/// An even asphere's r^2 coefficient a1 bends the vertex like a sphere would: its sag starts
-/// c r^2 / 2 + a1 r^2, so the vertex curvature is c + 2 a1. The exact tracer follows the full
-/// sag, so paraxial optics must use this sum to be its small-aperture limit.
+/// An asphere's r^2 coefficient a bends the vertex like a sphere would: its sag starts
+/// c r^2 / 2 + a r^2, so the vertex curvature is c + 2 a. The exact tracer follows the full
+/// sag, so paraxial optics must use this sum to be its small-aperture limit. (An odd asphere's
+/// r term, a cone at the vertex, has no paraxial limit and is left out, as it is by the
+/// third-order sums.)
 pub fn paraxial_curvature(shape: &Shape) -> f64 {
-    shape.curvature()
-        + 2.0
-            * shape
-                .aspheric_coefficients()
-                .first()
-                .copied()
-                .unwrap_or(0.0)
+    shape.curvature() + 2.0 * shape.aspheric_term(2)
 }
 
 /// Refraction by a surface of power `power` (1/mm).

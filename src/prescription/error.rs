@@ -110,7 +110,7 @@ pub enum Problem {
         "the conic surface is undefined beyond r = {limit} mm, inside its semi-aperture {semi_aperture} mm"
     )]
     ApertureExceedsConic { semi_aperture: f64, limit: f64 },
-    #[error("more than {max} even-asphere terms ({found})", max = super::model::MAX_ASPHERE_TERMS)]
+    #[error("more than {max} aspheric terms ({found})", max = super::model::MAX_ASPHERE_TERMS)]
     TooManyAsphereTerms { found: usize },
     #[error(
         "surface crosses the next surface {next} within the clear aperture (gap {gap:.6} mm at r = {radius:.3} mm)"

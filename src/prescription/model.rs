@@ -159,6 +159,16 @@ pub enum Shape {
         conic: f64,
         coefficients: Vec<f64>,
     },
+    /// Odd asphere (Zemax `ODDASPHE`): conic base plus `coefficients[i] * r^(i + 1)`, i.e.
+    /// terms r, r^2, r^3, .. r^10. Terms of odd power make the sag a function of r that is not
+    /// one of r^2: an r term puts a cone point on the vertex, and neither it nor the r^3 term has
+    /// a counterpart in paraxial or third-order (Seidel) optics, which see only the r^2 and r^4
+    /// terms; the exact trace follows the whole sag.
+    OddAsphere {
+        curvature: f64,
+        conic: f64,
+        coefficients: Vec<f64>,
+    },
     /// A plane that images perfectly, an ideal thin lens of focal length `focal_length` (mm) in
     /// air (Zemax's paraxial surface): a ray meeting it at height (x, y) with direction
     /// tangents t = (dx/dz, dy/dz) along its travel leaves with t - (x, y) / f. The map is linear
@@ -169,7 +179,8 @@ pub enum Shape {
     },
 }
 
-/// Most even-asphere terms accepted (r^2 through r^20).
+/// Most aspheric terms accepted: r^2 through r^20 on an even asphere, r through r^10 on an odd
+/// one.
 pub const MAX_ASPHERE_TERMS: usize = 10;
 
 /// Wavelength used when a lens states no design wavelength (helium d line, nm).
@@ -192,33 +203,64 @@ impl Shape {
             Shape::Plane | Shape::IdealLens { .. } => 0.0,
             Shape::Sphere { curvature }
             | Shape::Conic { curvature, .. }
-            | Shape::EvenAsphere { curvature, .. } => *curvature,
+            | Shape::EvenAsphere { curvature, .. }
+            | Shape::OddAsphere { curvature, .. } => *curvature,
         }
     }
 
     pub fn conic(&self) -> f64 {
         match self {
             Shape::Plane | Shape::Sphere { .. } | Shape::IdealLens { .. } => 0.0,
-            Shape::Conic { conic, .. } | Shape::EvenAsphere { conic, .. } => *conic,
+            Shape::Conic { conic, .. }
+            | Shape::EvenAsphere { conic, .. }
+            | Shape::OddAsphere { conic, .. } => *conic,
         }
     }
 
-    /// Even-asphere coefficients (r^2, r^4, ...); empty for all other shapes.
+    /// The aspheric coefficients as stored, for an even asphere on r^2, r^4, ... and for an odd
+    /// one on r, r^2, r^3, ... ([`Shape::power_of_term`] names each one's power); empty for all
+    /// other shapes.
     pub fn aspheric_coefficients(&self) -> &[f64] {
         match self {
-            Shape::EvenAsphere { coefficients, .. } => coefficients,
+            Shape::EvenAsphere { coefficients, .. } | Shape::OddAsphere { coefficients, .. } => {
+                coefficients
+            }
             _ => &[],
         }
     }
 
-    /// The same kind of profile with its curvature and aspheric coefficients (by index i, the
-    /// coefficient of r^(2i+2)) mapped; the conic constant, a ratio, is kept. An ideal lens's
-    /// power 1/f, a reciprocal length like a curvature, is mapped as one.
+    /// The power of r that aspheric coefficient `i` multiplies: 2i + 2 on an even asphere, i + 1
+    /// on an odd one.
+    pub fn power_of_term(&self, i: usize) -> i32 {
+        match self {
+            Shape::OddAsphere { .. } => i as i32 + 1,
+            _ => 2 * i as i32 + 2,
+        }
+    }
+
+    /// The coefficient of r^`power` in the aspheric polynomial (0 where it has none).
+    pub fn aspheric_term(&self, power: i32) -> f64 {
+        let terms = self.aspheric_coefficients();
+        (0..terms.len())
+            .find(|&i| self.power_of_term(i) == power)
+            .map_or(0.0, |i| terms[i])
+    }
+
+    /// The same kind of profile with its curvature and aspheric coefficients (each given with
+    /// the power of r it multiplies) mapped; the conic constant, a ratio, is kept. An ideal
+    /// lens's power 1/f, a reciprocal length like a curvature, is mapped as one.
     pub fn map_terms(
         &self,
         curvature: impl Fn(f64) -> f64,
-        coefficient: impl Fn(usize, f64) -> f64,
+        coefficient: impl Fn(i32, f64) -> f64,
     ) -> Shape {
+        let terms = |coefficients: &[f64]| -> Vec<f64> {
+            coefficients
+                .iter()
+                .enumerate()
+                .map(|(i, a)| coefficient(self.power_of_term(i), *a))
+                .collect()
+        };
         match self {
             Shape::Plane => Shape::Plane,
             Shape::Sphere { curvature: c } => Shape::Sphere {
@@ -238,11 +280,16 @@ impl Shape {
             } => Shape::EvenAsphere {
                 curvature: curvature(*c),
                 conic: *conic,
-                coefficients: coefficients
-                    .iter()
-                    .enumerate()
-                    .map(|(i, a)| coefficient(i, *a))
-                    .collect(),
+                coefficients: terms(coefficients),
+            },
+            Shape::OddAsphere {
+                curvature: c,
+                conic,
+                coefficients,
+            } => Shape::OddAsphere {
+                curvature: curvature(*c),
+                conic: *conic,
+                coefficients: terms(coefficients),
             },
             Shape::IdealLens { focal_length } => Shape::IdealLens {
                 focal_length: 1.0 / curvature(1.0 / focal_length),
@@ -286,12 +333,9 @@ impl Shape {
         }
         // c r^2 / (1 + sqrt(...)) avoids the cancellation of (1 - sqrt(...)) / c near the axis.
         let base = c * r2 / (1.0 + disc.sqrt());
-        let mut power = r2;
-        let mut poly = 0.0;
-        for a in self.aspheric_coefficients() {
-            poly += a * power;
-            power *= r2;
-        }
+        let poly: f64 = (self.aspheric_coefficients().iter().enumerate())
+            .map(|(i, a)| a * r.abs().powi(self.power_of_term(i)))
+            .sum();
         Some(base + poly)
     }
 }

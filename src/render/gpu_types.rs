@@ -24,6 +24,8 @@ pub const SURFACE_SPHERE: u32 = 1;
 pub const SURFACE_CONIC: u32 = 2;
 pub const SURFACE_ASPHERE: u32 = 3;
 pub const SURFACE_IDEAL_LENS: u32 = 4;
+/// An asphere whose terms are in powers of r (`asphere_terms` of them from r on), not r^2.
+pub const SURFACE_ODD_ASPHERE: u32 = 5;
 /// Outcome codes of the shader's `trace_lens` (`TracedRay::status`), in the order of
 /// [`crate::trace::Outcome`].
 pub const TRACE_OK: u32 = 0;
@@ -477,14 +479,15 @@ pub fn lens_surfaces(system: &crate::system::SystemAt) -> (LensParams, Vec<LensS
                     out.curvature = *curvature as f32;
                     out.conic_factor = (1.0 + conic) as f32;
                 }
-                Shape::EvenAsphere {
-                    curvature,
-                    conic,
-                    coefficients,
-                } => {
-                    out.kind = SURFACE_ASPHERE;
-                    out.curvature = *curvature as f32;
-                    out.conic_factor = (1.0 + conic) as f32;
+                Shape::EvenAsphere { .. } | Shape::OddAsphere { .. } => {
+                    out.kind = if matches!(s.shape, Shape::OddAsphere { .. }) {
+                        SURFACE_ODD_ASPHERE
+                    } else {
+                        SURFACE_ASPHERE
+                    };
+                    out.curvature = s.shape.curvature() as f32;
+                    out.conic_factor = (1.0 + s.shape.conic()) as f32;
+                    let coefficients = s.shape.aspheric_coefficients();
                     out.asphere_terms = coefficients.len() as u32;
                     for (o, c) in out.coefficients.iter_mut().zip(coefficients) {
                         *o = *c as f32;

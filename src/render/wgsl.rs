@@ -68,6 +68,7 @@ pub const SHARED_CONSTANTS: &[(&str, WgslValue)] = {
         ("SURFACE_CONIC", U32(gpu::SURFACE_CONIC)),
         ("SURFACE_ASPHERE", U32(gpu::SURFACE_ASPHERE)),
         ("SURFACE_IDEAL_LENS", U32(gpu::SURFACE_IDEAL_LENS)),
+        ("SURFACE_ODD_ASPHERE", U32(gpu::SURFACE_ODD_ASPHERE)),
         ("TRACE_OK", U32(gpu::TRACE_OK)),
         ("TRACE_VIGNETTED", U32(gpu::TRACE_VIGNETTED)),
         ("TRACE_TIR", U32(gpu::TRACE_TIR)),

@@ -185,6 +185,7 @@ fn prescription_table(system: &LensSystem) -> Table {
                 Shape::Plane | Shape::Sphere { .. } => "",
                 Shape::Conic { .. } => "conic",
                 Shape::EvenAsphere { .. } => "asphere",
+                Shape::OddAsphere { .. } => "odd asphere",
                 Shape::IdealLens { .. } => &ideal,
             };
             vec![

@@ -39,7 +39,7 @@ pub(crate) enum Profile {
         /// 1 + k.
         conic_factor: f64,
     },
-    EvenAsphere {
+    Asphere {
         curvature: f64,
         conic_factor: f64,
         /// Index into the tracer's table of aspheric coefficient sets.
@@ -52,11 +52,14 @@ pub(crate) enum Profile {
     },
 }
 
-/// Even-asphere polynomial in r^2: `coefficients[i] * (r^2)^(i + 1)`, padded with zeros.
+/// An asphere's polynomial: `coefficients[i] * (r^2)^(i + 1)` (even) or `coefficients[i] *
+/// r^(i + 1)` (odd), padded with zeros.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct AsphereTerms {
     pub coefficients: [f64; crate::prescription::MAX_ASPHERE_TERMS],
     pub len: usize,
+    /// Whether the terms are in powers of r rather than r^2 (an odd asphere).
+    pub odd: bool,
     /// Largest radial height the Newton search may wander to (the clear aperture, doubled).
     pub search_radius: f64,
 }
@@ -73,11 +76,14 @@ impl Profile {
 }
 
 impl AsphereTerms {
-    /// `coefficients` (at most [`crate::prescription::MAX_ASPHERE_TERMS`]), padded with zeros.
-    pub(crate) fn new(coefficients: &[f64], search_radius: f64) -> AsphereTerms {
+    /// The terms of `shape` (none for a shape without them), each at most
+    /// [`crate::prescription::MAX_ASPHERE_TERMS`].
+    pub(crate) fn of(shape: &crate::prescription::Shape, search_radius: f64) -> AsphereTerms {
+        let coefficients = shape.aspheric_coefficients();
         let mut terms = AsphereTerms {
             coefficients: [0.0; crate::prescription::MAX_ASPHERE_TERMS],
             len: coefficients.len(),
+            odd: matches!(shape, crate::prescription::Shape::OddAsphere { .. }),
             search_radius,
         };
         terms.coefficients[..coefficients.len()].copy_from_slice(coefficients);
@@ -236,25 +242,54 @@ pub(crate) fn asphere_sag(
     let root = under.sqrt();
     let mut sag = c * rho / (1.0 + root);
     let mut slope = 0.5 * c / root;
-    // Horner in rho for both the polynomial and its derivative.
-    let mut poly = 0.0;
-    let mut dpoly = 0.0;
-    for i in (0..terms.len).rev() {
-        let a = terms.coefficients[i];
-        poly = poly * rho + a;
-        dpoly = dpoly * rho + (i + 1) as f64 * a;
-    }
-    sag += poly * rho;
+    let (poly, dpoly) = if terms.odd {
+        // Horner in r; d/d(r^2) = d/dr / (2 r), whose limit on the axis is the r^2 coefficient
+        // (an r term's cone has a slope there, but no direction: the gradient takes slope
+        // times (x, y), which vanishes).
+        let r = rho.sqrt();
+        let (poly, dpoly_dr) = horner(terms, r);
+        let at_vertex = if terms.len > 1 {
+            terms.coefficients[1]
+        } else {
+            0.0
+        };
+        (
+            poly * r,
+            if r > 0.0 {
+                dpoly_dr / (2.0 * r)
+            } else {
+                at_vertex
+            },
+        )
+    } else {
+        let (poly, dpoly) = horner(terms, rho);
+        (poly * rho, dpoly)
+    };
+    sag += poly;
     slope += dpoly;
     Some((sag, slope))
 }
 
-/// Meets an even asphere by Newton's method on the ray parameter, started at the crossing of
+/// `sum a_i x^i` and `sum (i + 1) a_i x^i` over the coefficients a_i of `terms`, by Horner's
+/// rule: the polynomial over x (to be multiplied by x) and its derivative.
+#[inline(always)]
+fn horner(terms: &AsphereTerms, x: f64) -> (f64, f64) {
+    let mut poly = 0.0;
+    let mut dpoly = 0.0;
+    for i in (0..terms.len).rev() {
+        let a = terms.coefficients[i];
+        poly = poly * x + a;
+        dpoly = dpoly * x + (i + 1) as f64 * a;
+    }
+    (poly, dpoly)
+}
+
+/// Meets an asphere by Newton's method on the ray parameter, started at the crossing of
 /// its conic base (or of the vertex plane when the base is missed). Newton steps are limited to
 /// the size of the search region, and once two iterates straddle the surface every step stays
 /// inside that bracket (a step that would leave it bisects instead). No convergence within
 /// [`ASPHERE_MAX_STEPS`], or a crossing in the wrong sense, is a miss.
-pub(crate) fn even_asphere(
+pub(crate) fn asphere(
     p: Vec3,
     d: Vec3,
     curvature: f64,
@@ -284,7 +319,7 @@ pub(crate) fn even_asphere(
 /// on y^2, y^4, ...) turned about the line parallel to y through (0, 0, `rotation_radius`); an
 /// infinite radius gives a cylinder, z(x, y) = z(y). With w = R - z(y) the surface is
 /// z = R - sign(w) sqrt(w^2 - x^2), whose slopes are sign(w) x / s and |w| z'(y) / s for
-/// s = sqrt(w^2 - x^2). Newton's method as for [`even_asphere`], from the vertex plane's
+/// s = sqrt(w^2 - x^2). Newton's method as for [`asphere`], from the vertex plane's
 /// crossing; outside the search region or where the surface does not exist is a miss.
 pub(crate) fn toroid(
     p: Vec3,
@@ -504,12 +539,13 @@ mod tests {
         let terms = AsphereTerms {
             coefficients,
             len: 3,
+            odd: false,
             search_radius: 30.0,
         };
         let (c, e) = (0.03, 0.4);
         for (y, dy) in [(0.0, 0.0), (5.0, 0.05), (-9.0, 0.2), (12.0, -0.3)] {
             let d = unit([0.01, dy, 1.0]);
-            let hit = even_asphere([0.2, y, -6.0], d, c, e, &terms, 1.0).unwrap();
+            let hit = asphere([0.2, y, -6.0], d, c, e, &terms, 1.0).unwrap();
             let q = hit.point;
             let (sag, _) = asphere_sag(q[0] * q[0] + q[1] * q[1], c, e, &terms).unwrap();
             assert!((sag - q[2]).abs() < 1e-13, "residual {}", sag - q[2]);
@@ -517,15 +553,101 @@ mod tests {
     }
 
     #[test]
+    fn odd_asphere_of_even_powers_is_the_even_asphere() {
+        // 1e-3 r^2 - 2e-5 r^4 + 3e-8 r^6, written once in r^2 and once in r.
+        let mut even = [0.0; crate::prescription::MAX_ASPHERE_TERMS];
+        even[..3].copy_from_slice(&[1e-3, -2e-5, 3e-8]);
+        let mut odd = [0.0; crate::prescription::MAX_ASPHERE_TERMS];
+        odd[..6].copy_from_slice(&[0.0, 1e-3, 0.0, -2e-5, 0.0, 3e-8]);
+        let terms = |coefficients, len, odd| AsphereTerms {
+            coefficients,
+            len,
+            odd,
+            search_radius: 30.0,
+        };
+        let (even, odd) = (terms(even, 3, false), terms(odd, 6, true));
+        let (c, e) = (0.03, 0.4);
+        for rho in [0.0, 1e-6, 2.0, 40.0, 140.0] {
+            let (a, b) = (
+                asphere_sag(rho, c, e, &even).unwrap(),
+                asphere_sag(rho, c, e, &odd).unwrap(),
+            );
+            assert!(
+                (a.0 - b.0).abs() < 1e-15 * (1.0 + a.0.abs()),
+                "{rho}: {a:?} {b:?}"
+            );
+            assert!(
+                (a.1 - b.1).abs() < 1e-13 * (1.0 + a.1.abs()),
+                "{rho}: {a:?} {b:?}"
+            );
+        }
+        for (y, dy) in [(0.0, 0.0), (5.0, 0.05), (-9.0, 0.2), (12.0, -0.3)] {
+            let d = unit([0.01, dy, 1.0]);
+            let a = asphere([0.2, y, -6.0], d, c, e, &even, 1.0).unwrap();
+            let b = asphere([0.2, y, -6.0], d, c, e, &odd, 1.0).unwrap();
+            for i in 0..3 {
+                assert!((a.point[i] - b.point[i]).abs() < 1e-12);
+                assert!((a.normal[i] - b.normal[i]).abs() < 1e-12);
+            }
+        }
+    }
+
+    #[test]
+    fn odd_asphere_hit_is_on_the_sag_with_its_normal() {
+        // A cone term, an r^3 and an r^5 term on a conic base: the crossing satisfies the sag
+        // written out term by term, and the normal is the sag's gradient by central differences.
+        let mut coefficients = [0.0; crate::prescription::MAX_ASPHERE_TERMS];
+        coefficients[..5].copy_from_slice(&[2e-3, 0.0, 4e-5, 0.0, -3e-8]);
+        let terms = AsphereTerms {
+            coefficients,
+            len: 5,
+            odd: true,
+            search_radius: 30.0,
+        };
+        let (c, k) = (-0.02, -0.6);
+        let sag = |x: f64, y: f64| {
+            let r = x.hypot(y);
+            c * r * r / (1.0 + (1.0 - (1.0 + k) * c * c * r * r).sqrt())
+                + 2e-3 * r
+                + 4e-5 * r.powi(3)
+                - 3e-8 * r.powi(5)
+        };
+        for (y, dy) in [(3.0, 0.0), (-7.0, 0.1), (11.0, -0.25)] {
+            let d = unit([0.02, dy, 1.0]);
+            let hit = asphere([0.4, y, -5.0], d, c, 1.0 + k, &terms, 1.0).unwrap();
+            let q = hit.point;
+            assert!((sag(q[0], q[1]) - q[2]).abs() < 1e-13, "{q:?}");
+            let h = 1e-6;
+            let gradient = unit([
+                (sag(q[0] + h, q[1]) - sag(q[0] - h, q[1])) / (2.0 * h),
+                (sag(q[0], q[1] + h) - sag(q[0], q[1] - h)) / (2.0 * h),
+                -1.0,
+            ]);
+            for i in 0..3 {
+                assert!(
+                    (hit.normal[i] - gradient[i]).abs() < 1e-8,
+                    "{:?} {gradient:?}",
+                    hit.normal
+                );
+            }
+        }
+        // Through the cone's point: it is met, with the axis as normal.
+        let hit = asphere([0.0, 0.0, -5.0], [0.0, 0.0, 1.0], c, 1.0 + k, &terms, 1.0).unwrap();
+        assert_eq!(hit.point, [0.0, 0.0, 0.0]);
+        assert_eq!(hit.normal, [0.0, 0.0, -1.0]);
+    }
+
+    #[test]
     fn asphere_without_terms_is_the_conic() {
         let terms = AsphereTerms {
             coefficients: [0.0; crate::prescription::MAX_ASPHERE_TERMS],
             len: 0,
+            odd: false,
             search_radius: 20.0,
         };
         let p = [0.5, 3.0, -2.0];
         let d = unit([0.0, -0.15, 1.0]);
-        let a = even_asphere(p, d, -0.05, 0.3, &terms, 1.0).unwrap();
+        let a = asphere(p, d, -0.05, 0.3, &terms, 1.0).unwrap();
         let k = conic(p, d, -0.05, 0.3, 1.0).unwrap();
         for i in 0..3 {
             assert!((a.point[i] - k.point[i]).abs() < 1e-13);

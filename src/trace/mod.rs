@@ -670,15 +670,11 @@ fn profile_of(shape: &Shape, search_radius: f64, asphere_terms: &mut Vec<Asphere
             curvature: *curvature,
             conic_factor: 1.0 + conic,
         },
-        Shape::EvenAsphere {
-            curvature,
-            conic,
-            coefficients,
-        } => {
-            asphere_terms.push(AsphereTerms::new(coefficients, search_radius));
-            Profile::EvenAsphere {
-                curvature: *curvature,
-                conic_factor: 1.0 + conic,
+        Shape::EvenAsphere { .. } | Shape::OddAsphere { .. } => {
+            asphere_terms.push(AsphereTerms::of(shape, search_radius));
+            Profile::Asphere {
+                curvature: shape.curvature(),
+                conic_factor: 1.0 + shape.conic(),
                 terms: asphere_terms.len() - 1,
             }
         }
@@ -707,11 +703,11 @@ fn meet(
             conic_factor,
         } => intersect::conic(p, d, curvature, conic_factor, sense)
             .map(|hit| (hit.point, Some(hit.normal))),
-        Profile::EvenAsphere {
+        Profile::Asphere {
             curvature,
             conic_factor,
             terms,
-        } => intersect::even_asphere(p, d, curvature, conic_factor, &asphere_terms[terms], sense)
+        } => intersect::asphere(p, d, curvature, conic_factor, &asphere_terms[terms], sense)
             .map(|hit| (hit.point, Some(hit.normal))),
     }
 }

@@ -60,20 +60,10 @@ struct Toroid {
 impl Toroid {
     /// The toroid whose y-z curve is `shape` read in y.
     fn new(shape: &Shape, rotation_radius: f64, search_radius: f64) -> Toroid {
-        let (curvature, conic, coefficients): (f64, f64, &[f64]) = match shape {
-            Shape::Plane | Shape::IdealLens { .. } => (0.0, 0.0, &[]),
-            Shape::Sphere { curvature } => (*curvature, 0.0, &[]),
-            Shape::Conic { curvature, conic } => (*curvature, *conic, &[]),
-            Shape::EvenAsphere {
-                curvature,
-                conic,
-                coefficients,
-            } => (*curvature, *conic, coefficients),
-        };
         Toroid {
-            curvature,
-            conic_factor: 1.0 + conic,
-            terms: AsphereTerms::new(coefficients, search_radius),
+            curvature: shape.curvature(),
+            conic_factor: 1.0 + shape.conic(),
+            terms: AsphereTerms::of(shape, search_radius),
             rotation_radius,
         }
     }

@@ -8,12 +8,13 @@
 //! Zemax: `MODE SEQ`, `UNIT MM`, `GCAT` (the catalogues of the glasses used), the aperture
 //! (`ENPD`, `FNUM`, `OBNA`, `FLOA`; `FLOA`, wide open, where the lens states none), fields
 //! (`FTYP`, `XFLN`, `YFLN`, `FWGN`; the axis where none are stated), wavelengths (`WAVM`,
-//! `PWAV`; the design wavelength where none are stated), the object surface (`DISZ` its distance), then per surface `TYPE STANDARD` or
-//! `EVENASPH`, `CURV`, `CONI`, `PARM 1..8`, `DISZ`, `GLAS` (a catalogue name, or `___BLANK` with
-//! nd and Vd for a model glass or a constant index), `DIAM` and `CLAP 0 r` (the clear
-//! semi-aperture: CLAP is the Zemax aperture that clips, as lensbake's does), `OBSC 0 r` (a
-//! central obscuration), `GLAS MIRROR` (a mirror; thicknesses keep their signs), `STOP`. Refused:
-//! even-asphere terms beyond r^16 (EVENASPH has PARM 1..8), a medium given by coefficients or a
+//! `PWAV`; the design wavelength where none are stated), the object surface (`DISZ` its
+//! distance), then per surface `TYPE STANDARD`, `EVENASPH` or `ODDASPHE`, `CURV`, `CONI`,
+//! `PARM 1..8`, `DISZ`, `GLAS` (a catalogue name, or `___BLANK` with nd and Vd for a model glass
+//! or a constant index), `DIAM` and `CLAP 0 r` (the clear semi-aperture: CLAP is the Zemax
+//! aperture that clips, as lensbake's does), `OBSC 0 r` (a central obscuration), `GLAS MIRROR`
+//! (a mirror; thicknesses keep their signs), `STOP`. Refused: even-asphere terms beyond r^16 and
+//! odd-asphere terms beyond r^8 (both types have PARM 1..8), a medium given by coefficients or a
 //! table (a Zemax file names catalogue glasses), a non-air object space, two glasses of one name
 //! from different catalogues. A working F-number (CODE V `FNO` of a finite object) has no Zemax
 //! keyword and is left out, with the rest of the conditions kept.
@@ -112,9 +113,13 @@ pub fn write_zemax(p: &Prescription) -> Result<String, Problem> {
             }
         });
         if s.shape.aspheric_coefficients().len() > ZEMAX_ASPHERE_TERMS {
+            let (kind, type_name, last) = match s.shape {
+                Shape::OddAsphere { .. } => ("odd", "ODDASPHE", 8),
+                _ => ("even", "EVENASPH", 16),
+            };
             return refuse(format!(
-                "surface {surface}: even-asphere terms beyond r^16 (Zemax EVENASPH holds PARM \
-                 1..8)"
+                "surface {surface}: {kind}-asphere terms beyond r^{last} (Zemax {type_name} \
+                 holds PARM 1..8)"
             ));
         }
     }
@@ -210,6 +215,7 @@ pub fn write_zemax(p: &Prescription) -> Result<String, Problem> {
         line(match s.shape {
             Shape::IdealLens { .. } => "  TYPE PARAXIAL".into(),
             _ if terms.is_empty() => "  TYPE STANDARD".into(),
+            Shape::OddAsphere { .. } => "  TYPE ODDASPHE".into(),
             _ => "  TYPE EVENASPH".into(),
         });
         line(format!("  CURV {}", num(s.shape.curvature())));
@@ -261,7 +267,7 @@ pub fn write_pbrt(p: &Prescription, wavelength_nm: f64) -> Result<String, Proble
                      aperture stop"
                 ));
             }
-            Shape::Conic { .. } | Shape::EvenAsphere { .. } => {
+            Shape::Conic { .. } | Shape::EvenAsphere { .. } | Shape::OddAsphere { .. } => {
                 return refuse(format!(
                     "surface {surface}: a conic or aspheric surface; pbrt holds spheres"
                 ));

@@ -477,19 +477,42 @@ fn finite(text: &str, at: &Location) -> Result<f64, PrescriptionError> {
     }
 }
 
-/// The simplest shape that describes a surface: a plane when flat without aspheric terms, a
-/// sphere without conic or terms, and so on. Trailing zero aspheric terms are dropped.
+/// The simplest shape that describes a surface with even-asphere terms (on r^2, r^4, ...): a
+/// plane when flat without them, a sphere without conic or terms, and so on. Trailing zero
+/// terms are dropped.
 fn shape(curvature: f64, conic: f64, coefficients: &[f64]) -> Shape {
+    asphere_or_simpler(curvature, conic, coefficients, |coefficients| {
+        Shape::EvenAsphere {
+            curvature,
+            conic,
+            coefficients,
+        }
+    })
+}
+
+/// [`shape`] for odd-asphere terms (on r, r^2, r^3, ...).
+fn odd_shape(curvature: f64, conic: f64, coefficients: &[f64]) -> Shape {
+    asphere_or_simpler(curvature, conic, coefficients, |coefficients| {
+        Shape::OddAsphere {
+            curvature,
+            conic,
+            coefficients,
+        }
+    })
+}
+
+fn asphere_or_simpler(
+    curvature: f64,
+    conic: f64,
+    coefficients: &[f64],
+    asphere: impl FnOnce(Vec<f64>) -> Shape,
+) -> Shape {
     let used = coefficients
         .iter()
         .rposition(|&a| a != 0.0)
         .map_or(0, |last| last + 1);
     if used > 0 {
-        Shape::EvenAsphere {
-            curvature,
-            conic,
-            coefficients: coefficients[..used].to_vec(),
-        }
+        asphere(coefficients[..used].to_vec())
     } else if curvature == 0.0 {
         // A conic constant changes nothing on a flat surface.
         Shape::Plane
@@ -501,7 +524,7 @@ fn shape(curvature: f64, conic: f64, coefficients: &[f64]) -> Shape {
 }
 
 /// Converts a prescription given in some length unit to mm; `mm_per_unit` is 1 for mm.
-/// An even-asphere term a r^(2j) is a length, so its coefficient scales as unit^(1-2j).
+/// An aspheric term a r^j is a length, so its coefficient scales as unit^(1-j).
 fn scale_to_mm(p: &mut Prescription, mm_per_unit: f64) {
     if mm_per_unit == 1.0 {
         return;
@@ -510,11 +533,11 @@ fn scale_to_mm(p: &mut Prescription, mm_per_unit: f64) {
         s.thickness *= mm_per_unit;
         s.semi_aperture *= mm_per_unit;
         s.obscuration = s.obscuration.map(|r| r * mm_per_unit);
-        // Every length scales by mm_per_unit: c by its inverse, the coefficient of r^(2i+2) by
-        // mm_per_unit^-(2i+1).
+        // Every length scales by mm_per_unit: c by its inverse, the coefficient of r^j by
+        // mm_per_unit^(1-j).
         s.shape = s.shape.map_terms(
             |c| c / mm_per_unit,
-            |i, a| a * mm_per_unit.powi(-(2 * i as i32 + 1)),
+            |power, a| a * mm_per_unit.powi(1 - power),
         );
     }
 }

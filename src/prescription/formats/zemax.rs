@@ -11,8 +11,8 @@
 //! fields and wavelengths), `XFLN`/`YFLN` and `FWGN`/`FWGT` (fields and weights),
 //! `VDXN`/`VDYN`/`VCXN`/`VCYN` and the older `ZVDX`/`ZVDY`/`ZVCX`/`ZVCY` (vignetting decentre and
 //! compression), `WAVM` (number, µm, weight) or `WAVN`/`WAVL` with `WWGT`, `PWAV` (primary),
-//! `MNUM 1`; per surface: `TYPE STANDARD` or `TYPE EVENASPH`, `CURV`, `CONI`, `PARM 1..8`
-//! (even-asphere r^2 .. r^16), `DISZ` (`SURF 0 DISZ` is the object distance), `GLAS` (a name, or
+//! `MNUM 1`; per surface: `TYPE STANDARD`, `TYPE EVENASPH` or `TYPE ODDASPHE`, `CURV`, `CONI`,
+//! `PARM 1..8` (even-asphere r^2 .. r^16; odd-asphere r .. r^8), `DISZ` (`SURF 0 DISZ` is the object distance), `GLAS` (a name, or
 //! `___BLANK` with nd and Vd: a model glass; `MIRROR`: the surface reflects), `DIAM`, `CLAP 0 r`,
 //! `OBSC 0 r` (a central obscuration), `CLAP r R` with r > 0 (an annular aperture: clear
 //! aperture R with a central obscuration r), `STOP`. After a mirror OpticStudio writes thicknesses
@@ -52,7 +52,9 @@ use super::placement::{
     self, ApertureOutline, Asymmetry, OutlineShape, Placement, PlacementKind, StatedOutline,
     StatedToroid,
 };
-use super::{Format, LoadNote, Loaded, Source, finite, named_medium, number, scale_to_mm, shape};
+use super::{
+    Format, LoadNote, Loaded, Source, finite, named_medium, number, odd_shape, scale_to_mm, shape,
+};
 use crate::prescription::DEFAULT_WAVELENGTH_NM;
 use crate::prescription::error::{PrescriptionError, Problem};
 use crate::prescription::model::{
@@ -102,6 +104,8 @@ const PARM_TERMS: usize = 8;
 enum SurfaceType {
     Standard,
     EvenAsphere,
+    /// PARM 1..8 are the coefficients on r .. r^8.
+    OddAsphere,
     /// A coordinate break: PARM 1..6 are decentre x, y, tilts about x, y, z, order flag.
     CoordinateBreak,
     /// An ideal thin lens: PARM 1 is its focal length, PARM 2 how OpticStudio computes its
@@ -332,6 +336,7 @@ impl Reader {
                     block.kind = match arg(0, "a surface type")?.to_ascii_uppercase().as_str() {
                         "STANDARD" => SurfaceType::Standard,
                         "EVENASPH" => SurfaceType::EvenAsphere,
+                        "ODDASPHE" => SurfaceType::OddAsphere,
                         "COORDBRK" => SurfaceType::CoordinateBreak,
                         "PARAXIAL" => SurfaceType::Paraxial,
                         "TOROIDAL" => SurfaceType::Toroidal,
@@ -709,7 +714,9 @@ impl Reader {
             .map(|b| {
                 let mut terms = [0.0; MAX_ASPHERE_TERMS];
                 match b.kind {
-                    SurfaceType::EvenAsphere => terms[..PARM_TERMS].copy_from_slice(&b.parms),
+                    SurfaceType::EvenAsphere | SurfaceType::OddAsphere => {
+                        terms[..PARM_TERMS].copy_from_slice(&b.parms)
+                    }
                     // The y-z curve's terms (the 3-D trace reads the shape in y).
                     SurfaceType::Toroidal => {
                         terms[..PARM_TERMS - 1].copy_from_slice(&b.parms[1..]);
@@ -725,6 +732,9 @@ impl Reader {
                         },
                         self.medium(b),
                     ),
+                    SurfaceType::OddAsphere => {
+                        (odd_shape(b.curvature, b.conic, &terms), self.medium(b))
+                    }
                     _ => (shape(b.curvature, b.conic, &terms), self.medium(b)),
                 };
                 if medium != Medium::Mirror {

@@ -147,16 +147,29 @@ fn asphere_sag(rho: f32, s: LensSurface) -> vec3<f32> {
     let root = sqrt(under);
     var sag = c * rho / (1.0 + root);
     var slope = 0.5 * c / root;
+    // Horner in r^2, or in r for an odd asphere (d/d(r^2) = d/dr / (2 r); on the axis the
+    // r^2 coefficient).
+    let odd = s.kind == SURFACE_ODD_ASPHERE;
+    var x = rho;
+    if odd {
+        x = sqrt(rho);
+    }
     var poly = 0.0;
     var dpoly = 0.0;
     for (var k = 0u; k < s.asphere_terms; k += 1u) {
         let i = s.asphere_terms - 1u - k;
         let a = s.coefficients[i];
-        poly = poly * rho + a;
-        dpoly = dpoly * rho + f32(i + 1u) * a;
+        poly = poly * x + a;
+        dpoly = dpoly * x + f32(i + 1u) * a;
     }
-    sag += poly * rho;
-    slope += dpoly;
+    sag += poly * x;
+    if !odd {
+        slope += dpoly;
+    } else if x > 0.0 {
+        slope += dpoly / (2.0 * x);
+    } else if s.asphere_terms > 1u {
+        slope += s.coefficients[1];
+    }
     return vec3<f32>(sag, slope, 1.0);
 }
 
@@ -254,7 +267,7 @@ fn intersect_surface(p: vec3<f32>, d: vec3<f32>, s: LensSurface, sense: f32) -> 
         case SURFACE_CONIC: {
             return intersect_conic(p, d, s.curvature, s.conic_factor, sense);
         }
-        case SURFACE_ASPHERE: {
+        case SURFACE_ASPHERE, SURFACE_ODD_ASPHERE: {
             return intersect_asphere(p, d, s, sense);
         }
         default: {
