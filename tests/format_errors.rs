@@ -230,6 +230,13 @@ fn syntax_errors() {
     let e = error("MODE SEQ\nWAVM 99999999999 0.55 1\n", Format::Zemax);
     assert!(matches!(e.problem, Problem::Syntax(_)), "{e}");
     assert_at(&e, Some(2), None, Some("WAVM"));
+    let e = error("MODE SEQ\nMNUM 3 4\n", Format::Zemax);
+    assert!(
+        e.to_string()
+            .contains("the active configuration 4 is not one of the file's 3"),
+        "{e}"
+    );
+    assert_at(&e, Some(2), None, Some("MNUM"));
     let e = error("STO\nS 1 1\n", Format::CodeV);
     assert!(matches!(e.problem, Problem::Syntax(_)), "{e}");
     assert_at(&e, Some(1), None, Some("STO"));
@@ -263,12 +270,6 @@ fn unsupported_input_is_refused_by_name() {
             "annular obscuration",
         ),
         ("MODE NSC\n", Format::Zemax, 1, "NSC"),
-        (
-            "MODE SEQ\nMNUM 3 1\n",
-            Format::Zemax,
-            2,
-            "multi-configuration",
-        ),
         // An unknown keyword in a surface (one in the header is skipped with a note).
         (
             "MODE SEQ\nSURF 0\nSURF 1\n  FOOB 1\n",

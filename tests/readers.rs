@@ -87,6 +87,40 @@ fn harmless_keywords_are_skipped_and_listed_in_one_note() {
     );
 }
 
+/// A multi-configuration file (here a zoom of the back focus: three thicknesses of surface 2)
+/// is read as its active configuration, whose values OpticStudio keeps in the surface table, and
+/// says so; the configuration records after the table are not applied.
+#[test]
+fn a_multi_configuration_file_is_read_as_its_active_configuration() {
+    let records = "MNUM 3 2\n\
+                   THIC 2 1 40 0 0 0 1 1 1 0 0 \"\" 0\n\
+                   THIC 2 2 47 0 0 0 1 1 1 0 0 \"\" 0\n\
+                   THIC 2 3 60 0 0 0 1 1 1 0 0 \"\" 0\n";
+    let text = singlet("", "  DIAM 6 0 0 0 1 \"\"\n", "").replace("MNUM 1 1\n", records);
+    let loaded = read(&text).unwrap();
+    let single = read(&singlet("", "  DIAM 6 0 0 0 1 \"\"\n", "")).unwrap();
+    assert_eq!(loaded.prescription.surfaces, single.prescription.surfaces);
+    let note = loaded
+        .notes
+        .iter()
+        .find(|n| matches!(n, LoadNote::ActiveConfiguration { .. }))
+        .expect("a note names the configuration read");
+    assert_eq!(
+        *note,
+        LoadNote::ActiveConfiguration {
+            active: 2,
+            count: 3
+        }
+    );
+    assert!(note.to_string().contains("configuration 2 of 3"), "{note}");
+    assert!(
+        !single
+            .notes
+            .iter()
+            .any(|n| matches!(n, LoadNote::ActiveConfiguration { .. }))
+    );
+}
+
 /// Header settings of a newer OpticStudio (before the surface table) are skipped and named in
 /// their own note; the lens is the one the surfaces give. The same keyword inside a surface is
 /// refused (below).

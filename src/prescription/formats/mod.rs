@@ -183,6 +183,10 @@ pub enum LoadNote {
     /// exactly: `folds` (1-based) are tilted plane mirrors unfolded into planes; every other
     /// decentre or tilt cancels or moves only a plane that bends no ray.
     Centred { folds: Vec<usize> },
+    /// A Zemax multi-configuration file (`MNUM count active`), read as configuration `active`:
+    /// OpticStudio saves the active configuration's values in the surface table, and the other
+    /// configurations' values (the configuration records after it) are not applied.
+    ActiveConfiguration { active: usize, count: usize },
 }
 
 impl fmt::Display for LoadNote {
@@ -251,6 +255,12 @@ impl fmt::Display for LoadNote {
                 f,
                 "skipped keywords that change nothing lensbake models: {}",
                 keywords.join(", ")
+            ),
+            LoadNote::ActiveConfiguration { active, count } => write!(
+                f,
+                "multi-configuration file: read as configuration {active} of {count}, the active \
+                 one, whose values the surface table holds; the other configurations are not \
+                 applied"
             ),
             LoadNote::SolvesAsWritten { solves } => write!(
                 f,

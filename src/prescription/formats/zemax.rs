@@ -11,7 +11,9 @@
 //! fields and wavelengths), `XFLN`/`YFLN` and `FWGN`/`FWGT` (fields and weights),
 //! `VDXN`/`VDYN`/`VCXN`/`VCYN` and the older `ZVDX`/`ZVDY`/`ZVCX`/`ZVCY` (vignetting decentre and
 //! compression), `WAVM` (number, µm, weight) or `WAVN`/`WAVL` with `WWGT`, `PWAV` (primary),
-//! `MNUM 1`; per surface: `TYPE STANDARD`, `TYPE EVENASPH` or `TYPE ODDASPHE`, `CURV`, `CONI`,
+//! `MNUM` (a multi-configuration file, `MNUM n k` with n > 1, is read as its active
+//! configuration k, whose values OpticStudio saves in the surface table: see
+//! [`LoadNote::ActiveConfiguration`]); per surface: `TYPE STANDARD`, `TYPE EVENASPH` or `TYPE ODDASPHE`, `CURV`, `CONI`,
 //! `PARM 1..8` (even-asphere r^2 .. r^16; odd-asphere r .. r^8), `DISZ` (`SURF 0 DISZ` is the object distance), `GLAS` (a name, or
 //! `___BLANK` with nd and Vd: a model glass; `MIRROR`: the surface reflects), `DIAM`, `CLAP 0 r`,
 //! `OBSC 0 r` (a central obscuration), `CLAP r R` with r > 0 (an annular aperture: clear
@@ -42,7 +44,7 @@
 //! lens they describe is centred by `placement` (fold mirrors unfolded) or refused there, as is
 //! one with a rectangular (`SQAP`) or decentred (`OBDC`) clear aperture. Any
 //! other keyword is refused, naming keyword, line and surface: other surface types (gratings,
-//! ...), surface tilts written as `SCBD`, multi-configuration files,
+//! ...), surface tilts written as `SCBD`,
 //! annular obscurations, elliptical and user-defined apertures, ignored surfaces, a curved image
 //! surface,
 //! non-sequential mode, and every unknown keyword inside the surface table.
@@ -235,6 +237,9 @@ struct Reader {
     skipped: BTreeSet<String>,
     /// Header keywords this reader does not know, skipped (see [`LoadNote::UnknownHeaderKeywords`]).
     unknown_header: BTreeSet<String>,
+    /// `MNUM n k` with n > 1: the active configuration k of n, whose values the surface table
+    /// holds.
+    configuration: Option<(usize, usize)>,
 }
 
 pub(super) fn read(text: &str, source: &Source) -> Result<Loaded, PrescriptionError> {
@@ -602,11 +607,19 @@ impl Reader {
             "WWGT" => self.wavelength_weights = list()?,
             "PWAV" => self.primary = Some((index(0)?, line)),
             "MNUM" => {
-                let configurations = index(0)?;
-                if configurations > 1 {
-                    return Err(unsupported(format!(
-                        "multi-configuration files (MNUM {configurations})"
-                    )));
+                let count = index(0)?;
+                let active = if args.len() > 1 { index(1)? } else { 1 };
+                if count > 1 {
+                    if !(1..=count).contains(&active) {
+                        return Err(PrescriptionError::new(
+                            at(keyword),
+                            Problem::Syntax(format!(
+                                "the active configuration {active} is not one of the file's \
+                                 {count}"
+                            )),
+                        ));
+                    }
+                    self.configuration = Some((active, count));
                 }
             }
             k if HARMLESS_TOP.contains(&k) || self.in_trailer => {
@@ -865,6 +878,11 @@ impl Reader {
             Format::Zemax,
         )?;
         loaded.notes.extend(centred);
+        if let Some((active, count)) = self.configuration {
+            loaded
+                .notes
+                .push(LoadNote::ActiveConfiguration { active, count });
+        }
         if !self.skipped.is_empty() {
             loaded.notes.push(LoadNote::SkippedKeywords {
                 keywords: self.skipped.into_iter().collect(),
