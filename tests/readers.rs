@@ -619,7 +619,7 @@ fn codev_pickups_copy_radius_thickness_and_conic() {
     assert_eq!(s[1].shape.conic(), -0.5);
 
     for (pickup, why) in [
-        ("PIK RDY S3 Z2 RDY S2 Z2", "zoom position Z2"),
+        ("PIK RDY S3 Z2 RDY S2 Z1", "between zoom positions"),
         ("PIK RDY S9 RDY S2", "surface S9"),
         ("PIK GLA S3 GLA S2", "item GLA"),
         ("PIK RDY S3 THI S2", "different items"),
@@ -631,6 +631,47 @@ fn codev_pickups_copy_radius_thickness_and_conic() {
         );
         assert_eq!(e.location.line, Some(line_of(text, "PIK K S2")), "{e}");
     }
+}
+
+/// A zoom file is read at position 1: zoomed thicknesses, radii, conics, the object distance,
+/// EPD and FNO take their first ZOO value (here differing from what the lens data write, so the
+/// test sees which one is used); other zoomed items are read as written and named in the note,
+/// and a pickup at position 2 changes nothing.
+#[test]
+fn codev_zoom_files_are_read_at_position_one() {
+    let text = "RDM Y\nEPD 10\nSO 0 1e11\nS 50 5 N-BK7\nS -50 30\nS 0 20\nSI 0 0\nYAN 0 5\n\
+                ZOO 3\nZOO TIT\nTIT Z1 'wide'\nTIT Z2 'tele'\nZOO THI S2 40 50 60\n\
+                ZOO RDY S1 45 55 65\nZOO K S1 -0.2 0 0\nZOO THI S0 5000 8000 INFINITY\n\
+                ZOO EPD 8 9 10\nZOO YAN F2 5 4 3\nPIK THI S3 Z2 THI S2 Z2 2\nGO\n";
+    let loaded = codev(text).unwrap();
+    let p = &loaded.prescription;
+    assert_eq!(p.surfaces[0].shape.curvature(), 1.0 / 45.0);
+    assert_eq!(p.surfaces[0].shape.conic(), -0.2);
+    assert_eq!(p.surfaces[1].thickness, 40.0);
+    assert_eq!(p.surfaces[2].thickness, 20.0);
+    let conditions = p.provenance.conditions.as_ref().unwrap();
+    assert_eq!(conditions.object_distance_mm, Some(5000.0));
+    assert_eq!(
+        conditions.aperture,
+        Some(ApertureSpec::EntrancePupilDiameter(8.0))
+    );
+    let note = loaded
+        .notes
+        .iter()
+        .find(|n| matches!(n, LoadNote::ZoomPosition { .. }))
+        .expect("a note says which position was read");
+    assert_eq!(
+        *note,
+        LoadNote::ZoomPosition {
+            count: 3,
+            as_written: vec!["PIK".into(), "TIT".into(), "YAN".into()],
+        }
+    );
+    assert!(note.to_string().contains("position 1 of 3"), "{note}");
+    // A zoomed surface the file does not have is an error at its line.
+    let e = codev(&text.replace("ZOO K S1", "ZOO K S7")).unwrap_err();
+    assert!(e.to_string().contains("ZOO names surface 7"), "{e}");
+    assert_eq!(e.location.line, Some(line_of(text, "ZOO K S1")), "{e}");
 }
 
 /// A derived clear aperture never reaches past the end of its surface: a sphere of R = 4 mm in a

@@ -31,7 +31,9 @@
 //! Rectangular apertures (`REX`, `REY`) and aperture decentres (`ADX`, `ADY`) are read and, like
 //! a tilted surface, leave the lens to the 3-D trace (`placement`).
 //!
-//! Refused with a message naming the command and line: every other command (other pickups, a `CUF` other than 0, other solves, zoom positions, other aperture forms (`ELX`,
+//! Zoom files (`ZOO n`) are read at position 1: see `Reader::zoom`.
+//!
+//! Refused with a message naming the command and line: every other command (other pickups, a `CUF` other than 0, other solves, other aperture forms (`ELX`,
 //! `ELY`, `ARO`), private glasses given by a formula other than `LAU` Laurent coefficients), a curved object or image surface, and
 //! other `CIR` forms (several values). Image-height fields and
 //! numerical apertures are refused only when a clear aperture must be derived from them (see
@@ -218,8 +220,8 @@ enum Current {
 /// `CCY`, `GLC`, `KC`, `AC` .. `JC` (optimisation variable codes of curvature, thickness,
 /// glass, conic and aspheric terms), `CLS` (plot colours of the wavelengths), `DER`, `SLB` (labels), `SPH`, `CON`, `ASP` (surface-type
 /// words whose data arrive through `K` and `A`..`J`), `TEM`, `PRE` (temperature and pressure:
-/// the catalogue indices are the makers' at their reference conditions), `COM`, `NOR`, `ZOO 1`
-/// is not among them: zoom files are refused.
+/// the catalogue indices are the makers' at their reference conditions), `COM`. (`ZOO`, which
+/// a zoom file uses, is read: see `Reader::zoom`.)
 const HARMLESS: &[&str] = &[
     "LEN", "INI", "POL", "CCY", "GLC", "KC", "AC", "BC", "CC", "DC", "EC", "FC", "GC", "HC", "JC",
     "CLS", "DER", "SLB", "SPH", "CON", "ASP", "TEM", "PRE", "COM",
@@ -279,6 +281,21 @@ struct Reader {
     current: Option<Current>,
     /// Pickups (`PIK`), applied in file order once every surface is read.
     pickups: Vec<Pickup>,
+    /// `ZOO n`: the number of zoom positions, of which lensbake reads the first.
+    zoom_positions: Option<usize>,
+    /// Position 1's values of zoomed surface items (`ZOO THI S3 v1 v2 ..`), applied once every
+    /// surface is read.
+    zoomed: Vec<ZoomedItem>,
+    /// Zoomed items read as the lens and system data write them (`ZOO YAN F2 ..`).
+    zoomed_as_written: BTreeSet<String>,
+}
+
+/// Position 1's value of a zoomed surface item: `ZOO item Sk v1 v2 ..`.
+struct ZoomedItem {
+    line: usize,
+    item: PickupItem,
+    surface: usize,
+    value: f64,
 }
 
 /// Lens data a pickup copies between surfaces.
@@ -424,6 +441,10 @@ impl Reader {
                     Some("N" | "NO") => false,
                     Some(other) => return Err(unsupported(format!("RDM {other}"))),
                 }
+            }
+            // `TIT Zk 'name'` names zoom position k.
+            "TIT" if c.args.first().is_some_and(|a| is_zoom_position(a)) => {
+                self.zoomed_as_written.insert("TIT".into());
             }
             "TITLE" | "TIT" => self.title = Some(c.args.join(" ")),
             "DIM" => {
@@ -686,11 +707,18 @@ impl Reader {
                 }
                 self.skipped.insert("CUF 0".into());
             }
+            "ZOO" => self.zoom(c, source)?,
             "PIK" => {
                 let pickup = pickup(c).map_err(|why| {
                     unsupported(format!("pickup `PIK {}`: {why}", c.args.join(" ")))
                 })?;
-                self.pickups.push(pickup);
+                // A pickup at a later zoom position changes nothing at position 1.
+                match pickup {
+                    Some(pickup) => self.pickups.push(pickup),
+                    None => {
+                        self.zoomed_as_written.insert("PIK".into());
+                    }
+                }
             }
             "XDE" | "YDE" | "ZDE" | "ADE" | "BDE" | "CDE" | "DAR" | "BEN" | "REV" => {
                 let value = if matches!(name, "DAR" | "BEN" | "REV") {
@@ -815,6 +843,7 @@ impl Reader {
         if self.surfaces.is_empty() {
             return Err(source.error(None, Problem::Empty));
         }
+        self.apply_zoomed(source)?;
         self.apply_pickups(source)?;
         let wavelength = match self.reference {
             Some((reference, line)) => match self.wavelengths.get(reference - 1) {
@@ -933,7 +962,111 @@ impl Reader {
                 solves: self.solves.into_iter().collect(),
             });
         }
+        if let Some(count) = self.zoom_positions.filter(|&n| n > 1) {
+            loaded.notes.push(LoadNote::ZoomPosition {
+                count,
+                as_written: self.zoomed_as_written.into_iter().collect(),
+            });
+        }
         Ok(loaded)
+    }
+
+    /// `ZOO n` (the number of zoom positions) or `ZOO item [Sk | Fk] v1 v2 .. vn` (an item's
+    /// value at each position). lensbake reads position 1: a surface's thickness, radius,
+    /// curvature and conic, the object distance (`THI S0`), EPD and FNO take their first value;
+    /// any other zoomed item (fields, vignetting, apertures, labels, variable codes) is read as
+    /// the lens and system data write it, which is position 1's, and named in the note.
+    fn zoom(&mut self, c: &Command, source: &Source) -> Result<(), PrescriptionError> {
+        let at = |field: &str| source.location(Some(c.line)).with_field(field);
+        let words: Vec<String> = c.args.iter().map(|w| w.to_ascii_uppercase()).collect();
+        let Some(item) = words.first() else {
+            return Err(PrescriptionError::new(
+                at("ZOO"),
+                Problem::WrongColumnCount {
+                    expected: "a position count or an item after ZOO".into(),
+                    found: 0,
+                },
+            ));
+        };
+        if let Ok(count) = item.parse::<usize>() {
+            if count == 0 || words.len() > 1 {
+                return Err(PrescriptionError::new(
+                    at("ZOO"),
+                    Problem::Syntax(format!(
+                        "`ZOO {}` is not a count of positions",
+                        c.args.join(" ")
+                    )),
+                ));
+            }
+            self.zoom_positions = Some(count);
+            return Ok(());
+        }
+        let target = words.get(1).filter(|w| {
+            w.len() > 1 && w[1..].bytes().all(|b| b.is_ascii_digit()) && w.starts_with(['S', 'F'])
+        });
+        let first = words.get(if target.is_some() { 2 } else { 1 });
+        let pickup_item = match item.as_str() {
+            "THI" => Some(PickupItem::Thickness),
+            "RDY" => Some(PickupItem::Radius),
+            "CUY" => Some(PickupItem::Curvature),
+            "K" => Some(PickupItem::Conic),
+            _ => None,
+        };
+        let field = format!("ZOO {item}");
+        match (item.as_str(), pickup_item, target, first) {
+            ("THI", _, Some(t), Some(value)) if t == "S0" => {
+                self.object_distance = Some(object_distance(value, &at(&field))?);
+            }
+            (_, Some(item), Some(t), Some(value)) if t.starts_with('S') => {
+                let surface = t[1..].parse::<usize>().map_err(|_| {
+                    PrescriptionError::new(
+                        at(&field),
+                        Problem::Syntax(format!("`{t}` is not a surface")),
+                    )
+                })?;
+                self.zoomed.push(ZoomedItem {
+                    line: c.line,
+                    item,
+                    surface,
+                    value: finite(value, &at(&field))?,
+                });
+            }
+            ("EPD", _, None, Some(value)) => self.epd = Some(finite(value, &at(&field))?),
+            ("FNO", _, None, Some(value)) => self.f_number = Some(finite(value, &at(&field))?),
+            _ => {
+                self.zoomed_as_written.insert(item.clone());
+            }
+        }
+        Ok(())
+    }
+
+    /// Sets each zoomed surface item to its position-1 value.
+    fn apply_zoomed(&mut self, source: &Source) -> Result<(), PrescriptionError> {
+        for zoomed in std::mem::take(&mut self.zoomed) {
+            let Some(s) = zoomed
+                .surface
+                .checked_sub(1)
+                .and_then(|i| self.surfaces.get_mut(i))
+            else {
+                return Err(PrescriptionError::new(
+                    source.location(Some(zoomed.line)).with_field("ZOO"),
+                    Problem::Syntax(format!(
+                        "ZOO names surface {}; the file has surfaces 1..{}",
+                        zoomed.surface,
+                        self.surfaces.len()
+                    )),
+                ));
+            };
+            match zoomed.item {
+                PickupItem::Thickness => s.thickness = zoomed.value,
+                PickupItem::Conic => s.conic = zoomed.value,
+                PickupItem::Radius | PickupItem::Curvature => {
+                    s.value = zoomed.value;
+                    s.radius_mode = zoomed.item == PickupItem::Radius;
+                }
+            }
+        }
+        Ok(())
     }
 
     /// Evaluates the pickups in file order, so a pickup may read what an earlier one wrote.
@@ -1022,15 +1155,18 @@ impl Reader {
     }
 }
 
-/// Parses `PIK item Sk [Z1] item Sj [Z1] [scale [offset]]`; the error says which part is not
-/// read. Zoom positions other than the first are refused with the rest of zoom.
-fn pickup(c: &Command) -> Result<Pickup, String> {
+/// Parses `PIK item Sk [Zm] item Sj [Zm] [scale [offset]]`; None for a pickup at a zoom position
+/// other than the first (lensbake reads position 1); the error says which part is not read.
+fn pickup(c: &Command) -> Result<Option<Pickup>, String> {
     let upper: Vec<String> = c.args.iter().map(|w| w.to_ascii_uppercase()).collect();
     let mut words = upper.into_iter().peekable();
-    let (item, target) = item_and_surface(&mut words)?;
-    let (source_item, source) = item_and_surface(&mut words)?;
+    let (item, target, position) = item_and_surface(&mut words)?;
+    let (source_item, source, source_position) = item_and_surface(&mut words)?;
     if source_item != item {
         return Err("a pickup between different items".into());
+    }
+    if source_position != position {
+        return Err("a pickup between zoom positions".into());
     }
     let mut number = |name: &str, default: f64| match words.next() {
         None => Ok(default),
@@ -1045,20 +1181,35 @@ fn pickup(c: &Command) -> Result<Pickup, String> {
     if words.next().is_some() {
         return Err("more words than item, surface, item, surface, scale and offset".into());
     }
-    Ok(Pickup {
+    Ok((position == 1).then_some(Pickup {
         line: c.line,
         item,
         target,
         source,
         scale,
         offset,
-    })
+    }))
 }
 
 type Words = std::iter::Peekable<std::vec::IntoIter<String>>;
 
-/// One `item Sk [Z1]` of a pickup.
-fn item_and_surface(words: &mut Words) -> Result<(PickupItem, usize), String> {
+/// Whether `word` names a zoom position: `Zk`.
+fn is_zoom_position(word: &str) -> bool {
+    zoom_position(word).is_some()
+}
+
+/// The k of a zoom position `Zk`.
+fn zoom_position(word: &str) -> Option<usize> {
+    let upper = word.to_ascii_uppercase();
+    upper
+        .strip_prefix('Z')?
+        .parse::<usize>()
+        .ok()
+        .filter(|&k| k > 0)
+}
+
+/// One `item Sk [Zm]` of a pickup, with its zoom position (1 where none is written).
+fn item_and_surface(words: &mut Words) -> Result<(PickupItem, usize, usize), String> {
     let item = match words.next().as_deref() {
         Some("RDY") => PickupItem::Radius,
         Some("CUY") => PickupItem::Curvature,
@@ -1072,12 +1223,13 @@ fn item_and_surface(words: &mut Words) -> Result<(PickupItem, usize), String> {
         .strip_prefix('S')
         .and_then(|k| k.parse::<usize>().ok())
         .ok_or_else(|| format!("`{surface}` is not a surface Sk"))?;
-    if let Some(zoom) = words.next_if(|w| w.starts_with('Z'))
-        && zoom != "Z1"
-    {
-        return Err(format!("zoom position {zoom} (zoom files are not read)"));
-    }
-    Ok((item, k))
+    let position = match words.next_if(|w| w.starts_with('Z')) {
+        Some(zoom) => {
+            zoom_position(&zoom).ok_or_else(|| format!("`{zoom}` is not a zoom position Zk"))?
+        }
+        None => 1,
+    };
+    Ok((item, k, position))
 }
 
 /// An object distance: a number, possibly infinite, never NaN.

@@ -187,6 +187,14 @@ pub enum LoadNote {
     /// OpticStudio saves the active configuration's values in the surface table, and the other
     /// configurations' values (the configuration records after it) are not applied.
     ActiveConfiguration { active: usize, count: usize },
+    /// A CODE V zoom file (`ZOO n`), read at position 1: zoomed thicknesses, radii, curvatures,
+    /// conics, the object distance, EPD and FNO take their first `ZOO` value; the zoomed items in
+    /// `as_written` (fields, vignetting, ...) are read as the lens data write them, and the other
+    /// positions are not applied.
+    ZoomPosition {
+        count: usize,
+        as_written: Vec<String>,
+    },
 }
 
 impl fmt::Display for LoadNote {
@@ -262,6 +270,21 @@ impl fmt::Display for LoadNote {
                  one, whose values the surface table holds; the other configurations are not \
                  applied"
             ),
+            LoadNote::ZoomPosition { count, as_written } => {
+                write!(
+                    f,
+                    "zoom file: read at position 1 of {count} (each zoomed thickness, radius, \
+                     conic, object distance, EPD and FNO takes its first ZOO value)"
+                )?;
+                if !as_written.is_empty() {
+                    write!(
+                        f,
+                        "; zoomed {} read as the lens data write them",
+                        as_written.join(", ")
+                    )?;
+                }
+                write!(f, "; the other positions are not applied")
+            }
             LoadNote::SolvesAsWritten { solves } => write!(
                 f,
                 "solves {} read as the file writes their results (CODE V writes each solved \
