@@ -283,11 +283,73 @@ fn rectangular_and_decentred_apertures_clip_at_their_edges() {
         let want = if passes { Outcome::Ok } else { clipped };
         assert_eq!(outcome(&ring, x, y), want, "ring at ({x}, {y})");
     }
-    // Half a rectangle is refused where it stands.
-    let text = "RDM\nEPD 20\nSO 0 1e20\nS 0 100\nSTO\nS -400 -200 REFL\nREX 5\nSI 0 0\nGO\n";
-    let e = read_str(text, None, Format::CodeV, &LoadOptions::default()).unwrap_err();
-    assert!(e.to_string().contains("needs both REX and REY"), "{e}");
-    assert_eq!(e.location.line, Some(7));
+    // An ellipse of semi-axes 5 (x) and 3 (y): (4, 1.7) is inside (0.64 + 0.32), (4, 1.9) is
+    // not (0.64 + 0.40), though both are inside the rectangle around it.
+    let ellipse = lens("ELX 5; ELY 3; ADY 60");
+    for (x, y, passes) in [
+        (4.99, 60.0, true),
+        (0.0, 57.01, true),
+        (4.0, 61.7, true),
+        (4.0, 61.9, false),
+        (-4.0, 58.1, false),
+        (5.01, 60.0, false),
+    ] {
+        let want = if passes { Outcome::Ok } else { clipped };
+        assert_eq!(outcome(&ellipse, x, y), want, "ellipse at ({x}, {y})");
+    }
+    // Half a rectangle or an ellipse is refused where it stands, and so is an ellipse on a
+    // rectangle.
+    for (aperture, why) in [
+        ("REX 5", "needs both REX and REY"),
+        ("ELY 5", "needs both ELX and ELY"),
+        (
+            "REX 5\nREY 3\nELX 4\nELY 2",
+            "both a rectangular and an elliptical",
+        ),
+    ] {
+        let text = format!(
+            "RDM\nEPD 20\nSO 0 1e20\nS 0 100\nSTO\nS -400 -200 REFL\n{aperture}\nSI 0 0\nGO\n"
+        );
+        let e = read_str(&text, None, Format::CodeV, &LoadOptions::default()).unwrap_err();
+        assert!(e.to_string().contains(why), "{e}");
+        assert_eq!(e.location.line, Some(7));
+    }
+}
+
+/// Zemax `ELAP a b` is an elliptical clear aperture (semi-axes a in x, b in y), which leaves
+/// the lens to the 3-D trace; with equal axes it is the circle `CLAP 0 a` and the lens stays
+/// centred. CODE V's `ELX`, `ELY` with equal axes are its `CIR`.
+#[test]
+fn elliptical_apertures_are_outlines_and_round_ones_circles() {
+    let zemax = |aperture: &str| {
+        format!(
+            "MODE SEQ\nENPD 10\nWAVM 1 0.55 1\nSURF 0\n  DISZ INFINITY\nSURF 1\n  STOP\n  \
+             CURV 0.02\n  DISZ 5\n  GLAS N-BK7\n  {aperture}\nSURF 2\n  CURV -0.02\n  \
+             DISZ 47\n  CLAP 0 8 0\nSURF 3\n  DISZ 0\n"
+        )
+    };
+    let read = |text: &str, format| read_str(text, None, format, &LoadOptions::default());
+    let e = read(&zemax("ELAP 6 4 0"), Format::Zemax).unwrap_err();
+    let Problem::NotRotationallySymmetric { offence, lens } = e.problem else {
+        panic!("{e}");
+    };
+    assert!(offence.contains("elliptical clear aperture"), "{offence}");
+    let tracer = PlacedTracer::new(&lens, 550.0).unwrap();
+    let outcome = |x: f64, y: f64| tracer.trace([x, y, -1.0], [0.0, 0.0, 1.0]).outcome;
+    assert_eq!(outcome(5.9, 0.0), Outcome::Ok);
+    assert_eq!(outcome(0.0, 3.9), Outcome::Ok);
+    assert_eq!(outcome(0.0, 4.1), Outcome::Vignetted { surface: 1 });
+    assert_eq!(outcome(4.5, 3.0), Outcome::Vignetted { surface: 1 });
+    let round = read(&zemax("ELAP 6 6 0"), Format::Zemax).unwrap();
+    assert_eq!(round.prescription.surfaces[0].semi_aperture, 6.0);
+    let round = read(
+        "EPD 10\nSO 0 1e20\nS 50 5 N-BK7\nELX 6\nELY 6\nS -50 47\nCIR 8\nSI 0 0\nGO\n",
+        Format::CodeV,
+    )
+    .unwrap();
+    assert_eq!(round.prescription.surfaces[0].semi_aperture, 6.0);
+    let e = read(&zemax("ELAP 6 0 0"), Format::Zemax).unwrap_err();
+    assert!(e.to_string().contains("passes no ray"), "{e}");
 }
 
 /// A cylinder is the circle z(y) at every x: a ray in a plane x = const stays in it (the normal

@@ -187,10 +187,10 @@ fn unknown_or_unsupported_surface_keywords_are_refused_where_they_stand() {
     );
     assert_eq!(e.location.surface, Some(2));
     assert_eq!(e.location.line, Some(line_of(&text, "SQAP")));
-    let text = singlet("", "  ELAP 2 1\n", "");
+    let text = singlet("", "  ELOB 2 1\n", "");
     let e = read(&text).unwrap_err();
     assert!(
-        matches!(&e.problem, Problem::Unsupported(what) if what.contains("ELAP")),
+        matches!(&e.problem, Problem::Unsupported(what) if what.contains("ELOB")),
         "{e}"
     );
 }

@@ -470,6 +470,10 @@ fn placed_summary(
                 half_width,
                 half_height,
             } => format!("rectangle {half_width:.4} x {half_height:.4} mm (half widths)"),
+            OutlineShape::Ellipse {
+                half_width,
+                half_height,
+            } => format!("ellipse {half_width:.4} x {half_height:.4} mm (semi-axes)"),
         };
         line(format!(
             "  aperture:    surface {}, {shape} centred at ({:.4}, {:.4}) mm",

@@ -28,13 +28,13 @@
 //! Paraxial solves (`PIM`, `CUM`, `CUC`, `THM`, `THC`) keep the values the file writes: see
 //! `SOLVES`.
 //!
-//! Rectangular apertures (`REX`, `REY`) and aperture decentres (`ADX`, `ADY`) are read and, like
-//! a tilted surface, leave the lens to the 3-D trace (`placement`).
+//! Rectangular apertures (`REX`, `REY`), elliptical ones (`ELX`, `ELY`; with equal semi-axes
+//! the circle `CIR` states) and aperture decentres (`ADX`, `ADY`) are read and, like a tilted
+//! surface, leave the lens to the 3-D trace (`placement`).
 //!
 //! Zoom files (`ZOO n`) are read at position 1: see `Reader::zoom`.
 //!
-//! Refused with a message naming the command and line: every other command (other pickups, a `CUF` other than 0, other solves, other aperture forms (`ELX`,
-//! `ELY`, `ARO`), private glasses given by a formula other than `LAU` Laurent coefficients), a curved object or image surface, and
+//! Refused with a message naming the command and line: every other command (other pickups, a `CUF` other than 0, other solves, other aperture forms (`ARO`), private glasses given by a formula other than `LAU` Laurent coefficients), a curved object or image surface, and
 //! other `CIR` forms (several values). Image-height fields and
 //! numerical apertures are refused only when a clear aperture must be derived from them (see
 //! `apertures`).
@@ -162,6 +162,8 @@ struct SeqSurface {
     obscuration: Option<f64>,
     /// `REX`, `REY`: half width and half height of a rectangular clear aperture.
     rectangle: [Option<f64>; 2],
+    /// `ELX`, `ELY`: the semi-axes of an elliptical clear aperture.
+    ellipse: [Option<f64>; 2],
     /// `ADX`, `ADY`: where the surface's apertures are centred.
     aperture_decentre: [f64; 2],
     /// The line and command that made the aperture other than a centred circle.
@@ -171,6 +173,22 @@ struct SeqSurface {
 }
 
 impl SeqSurface {
+    /// An ellipse with equal semi-axes and no other stated aperture is the circle `CIR` states;
+    /// centred, it leaves the surface symmetric.
+    fn settle_round_ellipse(&mut self) {
+        if let [Some(a), Some(b)] = self.ellipse
+            && a == b
+            && self.clear_radius.is_none()
+            && self.rectangle == [None, None]
+        {
+            self.clear_radius = Some(a);
+            self.ellipse = [None, None];
+            if self.aperture_decentre == [0.0, 0.0] {
+                self.outline_line = None;
+            }
+        }
+    }
+
     /// The clear aperture where it is rectangular or decentred; a decentre of no stated
     /// aperture is none. Refused: half a rectangle, or a rectangle and a `CIR` on one surface.
     fn outline(&self, source: &Source) -> Result<Option<StatedOutline>, PrescriptionError> {
@@ -183,19 +201,31 @@ impl SeqSurface {
                 Problem::Unsupported(what.to_string()),
             ))
         };
-        let shape = match (self.rectangle, self.clear_radius) {
-            ([Some(_), None] | [None, Some(_)], _) => {
+        let shape = match (self.rectangle, self.ellipse, self.clear_radius) {
+            ([Some(_), None] | [None, Some(_)], _, _) => {
                 return refuse("a rectangular aperture needs both REX and REY");
             }
-            ([Some(_), Some(_)], Some(_)) => {
-                return refuse("a surface with both a CIR and a rectangular (REX, REY) aperture");
+            (_, [Some(_), None] | [None, Some(_)], _) => {
+                return refuse("an elliptical aperture needs both ELX and ELY");
             }
-            ([Some(half_width), Some(half_height)], None) => OutlineShape::Rectangle {
+            ([Some(_), Some(_)], [Some(_), Some(_)], _) => {
+                return refuse("a surface with both a rectangular and an elliptical aperture");
+            }
+            ([Some(_), Some(_)], _, Some(_)) | (_, [Some(_), Some(_)], Some(_)) => {
+                return refuse(
+                    "a surface with both a CIR and a rectangular or elliptical aperture",
+                );
+            }
+            ([Some(half_width), Some(half_height)], _, None) => OutlineShape::Rectangle {
                 half_width,
                 half_height,
             },
-            ([None, None], Some(radius)) => OutlineShape::Circle { radius },
-            ([None, None], None) => return Ok(None),
+            (_, [Some(half_width), Some(half_height)], None) => OutlineShape::Ellipse {
+                half_width,
+                half_height,
+            },
+            ([None, None], [None, None], Some(radius)) => OutlineShape::Circle { radius },
+            ([None, None], [None, None], None) => return Ok(None),
         };
         Ok(Some(StatedOutline {
             outline: ApertureOutline {
@@ -236,9 +266,9 @@ const HARMLESS: &[&str] = &[
 /// 3.5" (EFL 1282.7 mm, f/14.4), so what CODE V solves for is not what those names suggest.
 const SOLVES: &[&str] = &["PIM", "CUM", "CUC", "THM", "THC"];
 
-/// Aperture outline commands: a rectangle's half widths in x and y, an aperture decentre in x
-/// and y.
-const APERTURE_COMMANDS: [&str; 4] = ["REX", "REY", "ADX", "ADY"];
+/// Aperture outline commands: a rectangle's half widths in x and y, an ellipse's semi-axes in x
+/// and y, an aperture decentre in x and y.
+const APERTURE_COMMANDS: [&str; 6] = ["REX", "REY", "ELX", "ELY", "ADX", "ADY"];
 
 /// Thickness solves written after `THI`: the marginal or chief ray's height in y or x.
 const THICKNESS_SOLVES: &[&str] = &["HMY", "HCY", "HMX", "HCX"];
@@ -529,6 +559,7 @@ impl Reader {
                     clear_radius: None,
                     obscuration: None,
                     rectangle: [None; 2],
+                    ellipse: [None; 2],
                     aperture_decentre: [0.0; 2],
                     outline_line: None,
                     stop: false,
@@ -588,15 +619,16 @@ impl Reader {
                     }
                 }
             }
-            // A rectangular aperture's half widths and an aperture decentre (x, y).
-            "REX" | "REY" | "ADX" | "ADY" => {
+            // A rectangular aperture's half widths, an elliptical one's semi-axes and an aperture
+            // decentre (x, y).
+            "REX" | "REY" | "ELX" | "ELY" | "ADX" | "ADY" => {
                 let value = one(name)?;
                 let k = APERTURE_COMMANDS
                     .iter()
                     .position(|command| *command == name)
                     .expect("matched above");
-                let (rectangle, axis) = (k < 2, k % 2);
-                if rectangle && !(value > 0.0) {
+                let (rectangle, ellipse, axis) = (k < 2, (2..4).contains(&k), k % 2);
+                if (rectangle || ellipse) && !(value > 0.0) {
                     return Err(PrescriptionError::new(
                         at(name),
                         Problem::Syntax(format!(
@@ -613,10 +645,12 @@ impl Reader {
                     |s| {
                         if rectangle {
                             s.rectangle[axis] = Some(value);
+                        } else if ellipse {
+                            s.ellipse[axis] = Some(value);
                         } else {
                             s.aperture_decentre[axis] = value;
                         }
-                        if rectangle || value != 0.0 {
+                        if rectangle || ellipse || value != 0.0 {
                             s.outline_line.get_or_insert((line, APERTURE_COMMANDS[k]));
                         }
                     },
@@ -845,6 +879,9 @@ impl Reader {
         }
         self.apply_zoomed(source)?;
         self.apply_pickups(source)?;
+        for s in &mut self.surfaces {
+            s.settle_round_ellipse();
+        }
         let wavelength = match self.reference {
             Some((reference, line)) => match self.wavelengths.get(reference - 1) {
                 Some(&nm) => Some(nm),

@@ -206,8 +206,18 @@ pub struct ApertureOutline {
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum OutlineShape {
-    Circle { radius: f64 },
-    Rectangle { half_width: f64, half_height: f64 },
+    Circle {
+        radius: f64,
+    },
+    Rectangle {
+        half_width: f64,
+        half_height: f64,
+    },
+    /// Semi-axes along x (`half_width`) and y (`half_height`).
+    Ellipse {
+        half_width: f64,
+        half_height: f64,
+    },
 }
 
 impl ApertureOutline {
@@ -225,6 +235,13 @@ impl ApertureOutline {
                     half_width: half_width * factor,
                     half_height: half_height * factor,
                 },
+                OutlineShape::Ellipse {
+                    half_width,
+                    half_height,
+                } => OutlineShape::Ellipse {
+                    half_width: half_width * factor,
+                    half_height: half_height * factor,
+                },
             },
             centre: self.centre.map(|v| v * factor),
         }
@@ -238,6 +255,10 @@ impl ApertureOutline {
                 half_width,
                 half_height,
             } => half_width.hypot(half_height),
+            OutlineShape::Ellipse {
+                half_width,
+                half_height,
+            } => half_width.max(half_height),
         };
         self.centre[0].hypot(self.centre[1]) + half_diagonal
     }
@@ -251,6 +272,13 @@ impl ApertureOutline {
                 half_width,
                 half_height,
             } => u.abs() <= half_width && v.abs() <= half_height,
+            OutlineShape::Ellipse {
+                half_width,
+                half_height,
+            } => {
+                let (p, q) = (u / half_width, v / half_height);
+                p.mul_add(p, q * q) <= 1.0
+            }
         }
     }
 }
@@ -271,6 +299,7 @@ impl StatedOutline {
         let shape = match self.outline.shape {
             OutlineShape::Circle { .. } => "circular",
             OutlineShape::Rectangle { .. } => "rectangular",
+            OutlineShape::Ellipse { .. } => "elliptical",
         };
         if x == 0.0 && y == 0.0 {
             format!("surface {surface} has a {shape} clear aperture")

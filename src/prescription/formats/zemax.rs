@@ -42,10 +42,12 @@
 //! fields, wavelengths or units is one this reader applies or refuses by name. Coordinate breaks (`TYPE COORDBRK`, with `PPAR` pickups of their
 //! parameters) are read as planes in the medium before them that move the later surfaces; the
 //! lens they describe is centred by `placement` (fold mirrors unfolded) or refused there, as is
-//! one with a rectangular (`SQAP`) or decentred (`OBDC`) clear aperture. Any
+//! one with a rectangular (`SQAP`), elliptical (`ELAP`; with equal semi-axes it is the circle
+//! `CLAP` states) or decentred (`OBDC`) clear aperture. Any
 //! other keyword is refused, naming keyword, line and surface: other surface types (gratings,
 //! ...), surface tilts written as `SCBD`,
-//! annular obscurations, elliptical and user-defined apertures, ignored surfaces, a curved image
+//! annular obscurations, rectangular and elliptical obscurations, user-defined apertures,
+//! ignored surfaces, a curved image
 //! surface,
 //! non-sequential mode, and every unknown keyword inside the surface table.
 
@@ -134,8 +136,8 @@ struct Block {
     clear_radius: Option<f64>,
     /// Radius of a central obscuration (`OBSC 0 r`, or the inner radius of `CLAP r R`).
     obscuration: Option<f64>,
-    /// `SQAP`: half width and half height of a rectangular clear aperture.
-    rectangle: Option<[f64; 2]>,
+    /// `SQAP` or `ELAP`: a rectangular or elliptical clear aperture.
+    shaped: Option<OutlineShape>,
     /// `OBDC`: where the surface's apertures are centred.
     aperture_decentre: [f64; 2],
     /// The line and keyword that made the aperture other than a centred circle.
@@ -158,11 +160,8 @@ impl Block {
     /// extent, which clips nothing) is none.
     fn outline(&self) -> Option<StatedOutline> {
         let (line, keyword) = self.outline_line?;
-        let shape = match (self.rectangle, self.clear_radius) {
-            (Some([half_width, half_height]), _) => OutlineShape::Rectangle {
-                half_width,
-                half_height,
-            },
+        let shape = match (self.shaped, self.clear_radius) {
+            (Some(shape), _) => shape,
             (None, Some(radius)) => OutlineShape::Circle { radius },
             (None, None) => return None,
         };
@@ -196,7 +195,7 @@ impl Block {
             semi_diameter: None,
             clear_radius: None,
             obscuration: None,
-            rectangle: None,
+            shaped: None,
             aperture_decentre: [0.0; 2],
             outline_line: None,
             stop: None,
@@ -424,30 +423,50 @@ impl Reader {
                     }
                     true
                 }
-                // A rectangular clear aperture: half width, half height, then flags that are 0
-                // for a plain aperture.
-                "SQAP" => {
+                // A rectangular or elliptical clear aperture: half widths (semi-axes) in x and
+                // y, then flags that are 0 for a plain aperture. An ellipse with equal axes is
+                // the circle CLAP states.
+                "SQAP" | "ELAP" => {
                     let (half_width, half_height) = (value(0)?, value(1)?);
+                    let rectangle = keyword == "SQAP";
                     if !(half_width > 0.0 && half_height > 0.0) {
                         return Err(PrescriptionError::new(
-                            at("SQAP"),
+                            at(keyword),
                             Problem::Syntax(format!(
-                                "the rectangular aperture SQAP {half_width} {half_height} passes \
-                                 no ray: both half widths must be positive"
+                                "the {} aperture {keyword} {half_width} {half_height} passes no \
+                                 ray: both half widths must be positive",
+                                if rectangle {
+                                    "rectangular"
+                                } else {
+                                    "elliptical"
+                                }
                             )),
                         ));
                     }
                     for k in 2..args.len() {
                         if value(k)? != 0.0 {
                             return Err(unsupported(format!(
-                                "SQAP with a non-zero field {} ({})",
+                                "{keyword} with a non-zero field {} ({})",
                                 k + 1,
                                 args[k]
                             )));
                         }
                     }
-                    block.rectangle = Some([half_width, half_height]);
-                    block.outline_line = Some((line, "SQAP"));
+                    if rectangle {
+                        block.shaped = Some(OutlineShape::Rectangle {
+                            half_width,
+                            half_height,
+                        });
+                        block.outline_line = Some((line, "SQAP"));
+                    } else if half_width == half_height {
+                        block.clear_radius = Some(half_width);
+                    } else {
+                        block.shaped = Some(OutlineShape::Ellipse {
+                            half_width,
+                            half_height,
+                        });
+                        block.outline_line = Some((line, "ELAP"));
+                    }
                     true
                 }
                 "DIAM" => {
@@ -493,10 +512,10 @@ impl Reader {
                     block.obscure(outer);
                     true
                 }
-                "ELAP" | "SQOB" | "ELOB" | "UDAP" | "UDAD" => {
+                "SQOB" | "ELOB" | "UDAP" | "UDAD" => {
                     return Err(unsupported(format!(
-                        "Zemax aperture type {keyword} (obscurations and non-circular apertures \
-                         are not modelled)"
+                        "Zemax aperture type {keyword} (rectangular, elliptical and \
+                         user-defined obscurations and user-defined apertures are not modelled)"
                     )));
                 }
                 "IGNR" => {
