@@ -105,12 +105,42 @@ fn an_off_axis_paraboloid_focuses_a_collimated_beam_to_a_point() {
         spot.chief
     );
     assert!(spot.rms_radius.unwrap() < 1e-11, "{:?}", spot.rms_radius);
+    // The beam's numerical aperture about its chief ray is geometry alone: each ray of the 16x16
+    // grid (10 mm pupil radius) leaves the mirror at (x, 60 + y, r^2 / 4f) for the focus
+    // (0, 0, f), and the chief ray leaves (0, 60, 60^2 / 4f).
+    let f = 200.0;
+    let from_focus = |x: f64, y: f64| [x, y, (x * x + y * y) / (4.0 * f) - f];
+    let chief = from_focus(0.0, 60.0);
+    let mut widest: f64 = 0.0;
+    for row in 0..16 {
+        for column in 0..16 {
+            let (u, v) = (
+                (2 * column + 1) as f64 / 16.0 - 1.0,
+                (2 * row + 1) as f64 / 16.0 - 1.0,
+            );
+            if u * u + v * v <= 1.0 {
+                let q = from_focus(10.0 * u, 60.0 + 10.0 * v);
+                let cross = [
+                    q[1] * chief[2] - q[2] * chief[1],
+                    q[2] * chief[0] - q[0] * chief[2],
+                    q[0] * chief[1] - q[1] * chief[0],
+                ];
+                let norm = |a: [f64; 3]| (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
+                widest = widest.max(norm(cross) / (norm(q) * norm(chief)));
+            }
+        }
+    }
+    assert!(
+        (spot.image_numerical_aperture - widest).abs() < 1e-12,
+        "{} against {widest}",
+        spot.image_numerical_aperture
+    );
     // Tilting the beam by a small angle turns the reflected chief ray by as much about the mirror
     // point at height h = 60 mm, which lies L = f + h^2 / 4f from the focus (f = 200 mm); the
     // ray meets the focal plane at cos(theta) = (f - h^2 / 4f) / L to the axis, so the image
     // moves L angle / cos(theta) = 1.8668 mm along it. Coma of the off-axis segment blurs it.
     let tilted = tracer.collimated_spot([0.0, 0.5], 20.0, 16).unwrap();
-    let (f, h) = (200.0, 60.0);
+    let h = 60.0;
     let length = f + h * h / (4.0 * f);
     let cos_theta = (f - h * h / (4.0 * f)) / length;
     let shift = length * 0.5_f64.to_radians() / cos_theta;
@@ -174,7 +204,7 @@ fn lens_check_traces_a_lens_off_the_axis_and_other_commands_refuse_it() {
         "{stderr}"
     );
     assert!(
-        stderr.contains("`lensbake lens check` traces this lens"),
+        stderr.contains("(`lensbake lens check`, `trace` and `plot spot` trace this lens"),
         "{stderr}"
     );
 }
@@ -235,6 +265,84 @@ fn a_centred_lens_with_off_axis_segments_has_the_peers_focal_length() {
     assert!(common::relative(f, 499.9996204043674) < 1e-9, "{f}");
     let tilted = PlacedTracer::new(&placed("rayoptics__HoO-V2C18Ex66.zmx"), 550.0).unwrap();
     assert_eq!(tilted.centred_focal_length(), None);
+}
+
+/// `plot spot` on a lens off the axis draws the 3-D trace's spots: the library's spot diagrams of
+/// a tilted four-mirror telescope (HoO-V2C18Ex66, symmetric about its y-z plane) hold, per field
+/// of the file, every ray `lens check` counts with its RMS radius; the fields (9, 0) and (-9, 0)
+/// deg give mirror-image spots; the Airy disk is 0.61 lambda / NA; and the command writes the
+/// picture where other plots of the lens are refused.
+#[test]
+fn spot_diagrams_of_a_lens_off_the_axis_come_from_the_3d_trace() {
+    use lensbake::report::{FigureOptions, placed_spot_plot};
+    use lensbake::trace::placed::{PlacedBeam, SPOT_GRID};
+    let lens = placed("rayoptics__HoO-V2C18Ex66.zmx");
+    let plot = placed_spot_plot("Ex66", &lens, &FigureOptions::default()).unwrap();
+    let tracer = PlacedTracer::new(&lens, 550.0).unwrap();
+    let beam = PlacedBeam::of(&lens, &tracer).unwrap();
+    assert_eq!(plot.fields.len(), beam.fields_deg.len());
+    for (panel, field) in plot.fields.iter().zip(&beam.fields_deg) {
+        assert_eq!([panel.field_x_deg, panel.field_deg], *field);
+        let spot = tracer
+            .collimated_spot(*field, beam.pupil_diameter, SPOT_GRID)
+            .unwrap();
+        let [drawn] = panel.spots.as_slice() else {
+            panic!("one wavelength: {:?}", panel.spots.len());
+        };
+        assert_eq!(drawn.points.len(), spot.arrived);
+        assert_eq!(drawn.rms_radius_mm, spot.rms_radius.unwrap());
+        let airy = 0.5 * 1.219_67 * 550e-6 / spot.image_numerical_aperture;
+        assert!(
+            (drawn.airy_radius_mm - airy).abs() < 1e-15,
+            "{}",
+            drawn.airy_radius_mm
+        );
+    }
+    let side = |x: f64| {
+        let panel = plot.fields.iter().find(|f| f.field_x_deg == x).unwrap();
+        let mut points = panel.spots[0].points.clone();
+        points.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
+        points
+    };
+    let (right, left) = (side(9.0), side(-9.0));
+    let mut mirrored: Vec<(f64, f64)> = left.iter().map(|&(x, y)| (-x, y)).collect();
+    mirrored.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
+    assert_eq!(right.len(), mirrored.len());
+    for (a, b) in right.iter().zip(&mirrored) {
+        assert!(
+            (a.0 - b.0).abs() < 1e-9 && (a.1 - b.1).abs() < 1e-9,
+            "{a:?} {b:?}"
+        );
+    }
+
+    let path = common::test_data("corpus/rayoptics__HoO-V2C18Ex66.zmx");
+    let out = std::env::temp_dir().join(format!("lensbake-placed-spot-{}.svg", std::process::id()));
+    let o = lensbake(&[
+        "plot",
+        "spot",
+        path.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let svg = std::fs::read_to_string(&out).unwrap();
+    assert!(svg.contains("spot diagrams"), "the title");
+    std::fs::remove_file(&out).unwrap();
+    let o = lensbake(&[
+        "plot",
+        "ray-fan",
+        path.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("`plot spot`"));
+    assert!(!out.exists());
 }
 
 /// Rectangular and decentred clear apertures (CODE V `REX`, `REY`, `ADX`, `ADY`) clip where the

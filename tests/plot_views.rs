@@ -333,6 +333,7 @@ fn curve_views_draw_their_data_with_labelled_series() {
         fields: vec![
             SpotField {
                 field_deg: 20.0,
+                field_x_deg: 0.0,
                 spots: vec![Spot {
                     wavelength_nm: 587.56,
                     points: vec![],
@@ -343,6 +344,7 @@ fn curve_views_draw_their_data_with_labelled_series() {
             },
             SpotField {
                 field_deg: 0.0,
+                field_x_deg: 0.0,
                 spots: vec![Spot {
                     wavelength_nm: 587.56,
                     points: ring(0.01),

@@ -10,11 +10,9 @@ use lensbake::prescription::formats::{
     Format, LoadOptions, PbrtThickness, read_str, write_pbrt, write_ron_file, write_zemax,
 };
 use lensbake::prescription::formats::{OutlineShape, PlacedLens};
-use lensbake::prescription::{
-    ApertureSpec, DEFAULT_WAVELENGTH_NM, FieldKind, Location, PrescriptionError, Problem, Shape,
-};
+use lensbake::prescription::{DEFAULT_WAVELENGTH_NM, Location, PrescriptionError, Problem, Shape};
 use lensbake::system::LensSystem;
-use lensbake::trace::placed::PlacedTracer;
+use lensbake::trace::placed::{PlacedBeam, PlacedBeamError, PlacedTracer, SPOT_GRID};
 use std::path::{Path, PathBuf};
 
 #[derive(Subcommand, Debug)]
@@ -330,8 +328,20 @@ fn summary(lens: &LoadedLens) -> String {
     out
 }
 
-/// Rays across the entrance pupil's diameter in the 3-D trace's square grid.
-const PLACED_GRID: usize = 32;
+/// The beam `lens`'s file describes, or the one line that says what the 3-D trace takes instead.
+pub(super) fn placed_beam(
+    spec: &str,
+    offence: &str,
+    lens: &PlacedLens,
+    tracer: &PlacedTracer,
+) -> anyhow::Result<PlacedBeam> {
+    PlacedBeam::of(lens, tracer).map_err(|e| match e {
+        PlacedBeamError::NotTaken { takes } => anyhow::anyhow!(
+            "{spec}: {offence}, so it is traced in three dimensions, which takes {takes}"
+        ),
+        other => anyhow::anyhow!("{spec}: {other}"),
+    })
+}
 
 /// `lens check` for a lens its file places off one common axis: where each surface sits, and
 /// the exact 3-D trace of the file's fields (chief ray and spot on the image plane).
@@ -342,57 +352,16 @@ fn placed_summary(
     lens: &PlacedLens,
 ) -> anyhow::Result<String> {
     let p = &lens.prescription;
-    let refuse = |what: String| {
-        anyhow::anyhow!(
-            "{spec}: {offence}, so it is traced in three dimensions, which takes {what}"
-        )
-    };
-    let conditions = p.provenance.conditions.clone().unwrap_or_default();
-    if conditions.object_distance_mm.is_some() {
-        return Err(refuse(
-            "an object at infinity; this file's is at a finite distance".into(),
-        ));
-    }
-
-    let fields: Vec<[f64; 2]> = match &conditions.fields {
-        None => vec![[0.0, 0.0]],
-        Some(f) if f.kind == FieldKind::AngleDeg => {
-            f.x.iter().zip(&f.y).map(|(&x, &y)| [x, y]).collect()
-        }
-        Some(f) => {
-            return Err(refuse(format!(
-                "fields as angles; this file gives {:?}",
-                f.kind
-            )));
-        }
-    };
     let wavelength = p
         .provenance
         .design_wavelength_nm
         .unwrap_or(DEFAULT_WAVELENGTH_NM);
     let tracer = PlacedTracer::new(lens, wavelength).map_err(|e| anyhow::anyhow!("{spec}: {e}"))?;
-    // An F-number sizes the pupil from the focal length, which a centred lens has.
-    let (pupil_diameter, sized_by) = match conditions.aperture {
-        Some(ApertureSpec::EntrancePupilDiameter(d)) => (d, String::new()),
-        Some(ApertureSpec::FNumber(n)) => match tracer.centred_focal_length() {
-            Some(f) => (
-                f.abs() / n,
-                format!(" = EFL {:.6} mm / F-number {n}", f.abs()),
-            ),
-            None => {
-                return Err(refuse(
-                    "an entrance-pupil diameter (an F-number needs the focal length of a \
-                     centred lens)"
-                        .into(),
-                ));
-            }
-        },
-        other => {
-            return Err(refuse(format!(
-                "an entrance-pupil diameter or F-number; this file sizes the beam by {other:?}"
-            )));
-        }
-    };
+    let beam = placed_beam(spec, offence, lens, &tracer)?;
+    let (fields, pupil_diameter) = (beam.fields_deg, beam.pupil_diameter);
+    let sized_by = beam.from_f_number.map_or(String::new(), |(f, n)| {
+        format!(" = EFL {f:.6} mm / F-number {n}")
+    });
 
     let mut out = String::new();
     let mut line = |text: String| {
@@ -485,7 +454,7 @@ fn placed_summary(
     line(String::new());
     line(format!(
         "  object at infinity, entrance pupil {pupil_diameter} mm{sized_by} \
-         ({PLACED_GRID}x{PLACED_GRID} grid); image-plane coordinates (mm):"
+         ({SPOT_GRID}x{SPOT_GRID} grid); image-plane coordinates (mm):"
     ));
     line(format!(
         "  {:>10} {:>10}  {:>14} {:>14}  {:>11}  {:>10}",
@@ -493,7 +462,7 @@ fn placed_summary(
     ));
     for field in fields {
         // A field whose chief ray cannot be traced is reported in its row; the others still are.
-        let spot = match tracer.collimated_spot(field, pupil_diameter, PLACED_GRID) {
+        let spot = match tracer.collimated_spot(field, pupil_diameter, SPOT_GRID) {
             Ok(spot) => spot,
             Err(e) => {
                 line(format!(

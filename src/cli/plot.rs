@@ -2,10 +2,11 @@
 
 use anyhow::bail;
 use clap::Args;
-use lensbake::lenses::{self, BUNDLED, LensOrigin};
+use lensbake::lenses::{self, BUNDLED, LensError, LensOrigin};
 use lensbake::plot::write_plot;
 use lensbake::prescription::formats::LoadOptions;
-use lensbake::report::{FigureOptions, PlotKind, figure, write_report};
+use lensbake::prescription::{PrescriptionError, Problem};
+use lensbake::report::{FigureOptions, PlotKind, figure, placed_spot_plot, write_report};
 use lensbake::system::LensSystem;
 use std::path::{Path, PathBuf};
 
@@ -74,8 +75,24 @@ pub fn run_plot(args: PlotArgs) -> anyhow::Result<()> {
         return super::lrtf::plot_error(Path::new(&args.lens), &args.out);
     }
     let kind: PlotKind = args.kind.parse()?;
-    let (name, system) = load_lens(&args.lens)?;
     let options = args.conditions.options()?;
+    // A lens placed off one axis has spot diagrams from the 3-D trace; every other plot needs a
+    // rotationally symmetric lens, and loading says so.
+    if kind == PlotKind::Spot
+        && let Err(LensError::Prescription(PrescriptionError {
+            problem: Problem::NotRotationallySymmetric { lens, .. },
+            ..
+        })) = lenses::read(&args.lens, &LoadOptions::default())
+    {
+        let view = placed_spot_plot(&plot_name(&args.lens), &lens, &options)?;
+        let drawn = write_plot(&view, &args.out)?;
+        for message in drawn.messages() {
+            eprintln!("note: {message}");
+        }
+        say!("{}", args.out.display());
+        return Ok(());
+    }
+    let (name, system) = load_lens(&args.lens)?;
     let view = figure(kind, &name, &system, &options)?;
     let drawn = write_plot(&view, &args.out)?;
     for message in drawn.messages() {
@@ -132,9 +149,14 @@ fn load_lens(spec: &str) -> anyhow::Result<(String, LensSystem)> {
     }
     let name = match &lens.source.origin {
         LensOrigin::Bundled(name) => name.to_string(),
-        LensOrigin::File(path) => path
-            .file_stem()
-            .map_or_else(|| spec.to_string(), |s| s.to_string_lossy().into_owned()),
+        LensOrigin::File(_) => plot_name(spec),
     };
     Ok((name, lens.system))
+}
+
+/// The name a lens file's plots carry: its file name without the extension.
+fn plot_name(spec: &str) -> String {
+    Path::new(spec)
+        .file_stem()
+        .map_or_else(|| spec.to_string(), |s| s.to_string_lossy().into_owned())
 }

@@ -21,8 +21,22 @@ pub struct Spot {
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct SpotField {
+    /// The field angle in y (deg), and in x: 0 for a rotationally symmetric lens, whose fields
+    /// are drawn in the meridional plane; a lens placed off one axis has its file's (x, y).
     pub field_deg: f64,
+    pub field_x_deg: f64,
     pub spots: Vec<Spot>,
+}
+
+impl SpotField {
+    /// The field as panel titles print it.
+    fn label(&self) -> String {
+        if self.field_x_deg == 0.0 {
+            format!("{:.2}°", self.field_deg)
+        } else {
+            format!("({:.2}°, {:.2}°)", self.field_x_deg, self.field_deg)
+        }
+    }
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -77,10 +91,11 @@ impl View for SpotPlot {
         let mut drawn = Drawn::default();
         for (field, row) in self.fields.iter().zip(cells.chunks(columns)) {
             for (spot, cell) in field.spots.iter().zip(row) {
-                let title = format!("{:.2}°, {:.1} nm", field.field_deg, spot.wavelength_nm);
+                let label = field.label();
+                let title = format!("{label}, {:.1} nm", spot.wavelength_nm);
                 drawn
                     .panels
-                    .push(draw_spot(cell, title, field.field_deg, spot, half)?);
+                    .push(draw_spot(cell, title, &label, spot, half)?);
             }
         }
         Ok(drawn)
@@ -90,7 +105,7 @@ impl View for SpotPlot {
 fn draw_spot<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     title: String,
-    field_deg: f64,
+    field: &str,
     spot: &Spot,
     half: f64,
 ) -> Result<PanelDrawn, PlotError> {
@@ -146,7 +161,7 @@ fn draw_spot<DB: DrawingBackend>(
         ))
         .map_err(draw_error)?;
     if spot.points.is_empty() {
-        let message = format!("All rays vignetted at {field_deg:.2}°");
+        let message = format!("All rays vignetted at {field}");
         draw_notice(area, &message)?;
         drawn.messages.push(message);
         return Ok(drawn);

@@ -5,7 +5,7 @@ mod figures;
 mod page;
 mod wave_figures;
 
-pub use figures::{Figure, FigureError, FigureOptions, PlotKind, figure};
+pub use figures::{Figure, FigureError, FigureOptions, PlotKind, figure, placed_spot_plot};
 pub use page::{Page, PlotEntry, Table, analysis_tables, conditions_table};
 
 use crate::output::{OutputError, publish_dir, write_bytes};

@@ -21,7 +21,9 @@ use super::intersect::{self, AsphereTerms, Profile};
 use super::{Event, Outcome, Vec3, bend, meet, profile_of};
 use crate::glass::Dispersion;
 use crate::prescription::formats::{ApertureOutline, Frame, OutlineShape, PlacedLens};
-use crate::prescription::{Location, Medium, PrescriptionError, Problem, Shape};
+use crate::prescription::{
+    ApertureSpec, FieldKind, Location, Medium, PrescriptionError, Problem, Shape,
+};
 
 /// One surface as the 3-D trace reads it.
 #[derive(Clone, Debug, PartialEq)]
@@ -92,6 +94,8 @@ pub struct PlacedTracer {
     /// Largest distance of a vertex from the global origin plus the largest stated aperture
     /// (mm): the length rounding errors in global coordinates scale with.
     extent: f64,
+    /// Refractive index of the image space.
+    image_index: f64,
 }
 
 /// Where a ray ended, in the global frame.
@@ -123,6 +127,91 @@ pub enum PlacedBeamError {
     },
     #[error("the field angle ({}, {}) deg is not a finite number", .0[0], .0[1])]
     FieldAngle([f64; 2]),
+    /// The file's conditions ask for a beam the 3-D trace does not take; `takes` says what it
+    /// takes instead.
+    #[error("the 3-D trace takes {takes}")]
+    NotTaken { takes: String },
+}
+
+/// Rays across the entrance pupil's diameter in the square grid `lens check` and the spot
+/// diagrams launch ([`PlacedTracer::collimated_spot`]; the points inside the pupil's circle).
+pub const SPOT_GRID: usize = 32;
+
+/// The beam a file describes for a lens placed off one axis, as the 3-D trace takes it: an
+/// object at infinity, fields as angles (x, y; the axis when the file gives none) and the
+/// entrance pupil the file states or, for a lens whose surfaces all sit on the axis, the one its
+/// F-number gives.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PlacedBeam {
+    pub fields_deg: Vec<[f64; 2]>,
+    /// Entrance-pupil diameter (mm).
+    pub pupil_diameter: f64,
+    /// The focal length (mm) and F-number the pupil came from, when the file gives an F-number.
+    pub from_f_number: Option<(f64, f64)>,
+}
+
+impl PlacedBeam {
+    /// The beam of `lens`'s file; `tracer` traces it at the design wavelength (an F-number
+    /// needs its focal length).
+    pub fn of(lens: &PlacedLens, tracer: &PlacedTracer) -> Result<PlacedBeam, PlacedBeamError> {
+        let not_taken = |takes: String| PlacedBeamError::NotTaken { takes };
+        let conditions = lens
+            .prescription
+            .provenance
+            .conditions
+            .clone()
+            .unwrap_or_default();
+        if conditions.object_distance_mm.is_some() {
+            return Err(not_taken(
+                "an object at infinity; this file's is at a finite distance".into(),
+            ));
+        }
+        let fields_deg = match &conditions.fields {
+            None => vec![[0.0, 0.0]],
+            Some(f) if f.kind == FieldKind::AngleDeg => {
+                f.x.iter().zip(&f.y).map(|(&x, &y)| [x, y]).collect()
+            }
+            Some(f) => {
+                return Err(not_taken(format!(
+                    "fields as angles; this file gives {:?}",
+                    f.kind
+                )));
+            }
+        };
+        let (pupil_diameter, from_f_number) = match conditions.aperture {
+            Some(ApertureSpec::EntrancePupilDiameter(d)) => (d, None),
+            Some(ApertureSpec::FNumber(n)) => match tracer.centred_focal_length() {
+                Some(f) => (f.abs() / n, Some((f.abs(), n))),
+                None => {
+                    return Err(not_taken(
+                        "an entrance-pupil diameter (an F-number needs the focal length of a \
+                         centred lens)"
+                            .into(),
+                    ));
+                }
+            },
+            other => {
+                return Err(not_taken(format!(
+                    "an entrance-pupil diameter or F-number; this file sizes the beam by {other:?}"
+                )));
+            }
+        };
+        Ok(PlacedBeam {
+            fields_deg,
+            pupil_diameter,
+            from_f_number,
+        })
+    }
+}
+
+/// |a x b|: the sine of the angle between unit vectors a and b.
+fn cross_length(a: Vec3, b: Vec3) -> f64 {
+    let c = [
+        a[1].mul_add(b[2], -(a[2] * b[1])),
+        a[2].mul_add(b[0], -(a[0] * b[2])),
+        a[0].mul_add(b[1], -(a[1] * b[0])),
+    ];
+    c[0].mul_add(c[0], c[1].mul_add(c[1], c[2] * c[2])).sqrt()
 }
 
 /// How a ray stopped, in words.
@@ -148,6 +237,12 @@ pub struct PlacedSpot {
     /// Centroid and RMS radius about it of the rays that arrive (mm); None when none does.
     pub centroid: Option<[f64; 2]>,
     pub rms_radius: Option<f64>,
+    /// Where each ray that arrives meets the image plane.
+    pub points: Vec<[f64; 2]>,
+    /// n' sin θ for the largest angle θ between an arriving ray and the chief ray in image
+    /// space (n' its index): the beam's numerical aperture about the chief ray, from which the
+    /// Airy disk's radius is 0.61 λ / NA.
+    pub image_numerical_aperture: f64,
 }
 
 /// Newton steps allowed to aim a chief ray, and the stop-plane miss (relative to the lens's
@@ -241,6 +336,7 @@ impl PlacedTracer {
             image: lens.image,
             stop,
             extent,
+            image_index: index_before,
         })
     }
 
@@ -399,6 +495,8 @@ impl PlacedTracer {
         let radius = pupil_diameter / 2.0;
         let mut launched = 0;
         let mut points = Vec::new();
+        // sin of the largest angle to the chief ray (both directions are unit vectors).
+        let mut widest: f64 = 0.0;
         for row in 0..grid {
             for column in 0..grid {
                 let along = |k: usize| (2.0 * k as f64 + 1.0) / grid as f64 - 1.0;
@@ -415,6 +513,7 @@ impl PlacedTracer {
                 let ray = self.trace(start, direction);
                 if ray.outcome.is_ok() {
                     points.push(self.image_coordinates(ray.position));
+                    widest = widest.max(cross_length(ray.direction, chief.direction));
                 }
             }
         }
@@ -439,6 +538,8 @@ impl PlacedTracer {
             arrived,
             centroid,
             rms_radius,
+            points,
+            image_numerical_aperture: self.image_index.abs() * widest.min(1.0),
         })
     }
 
