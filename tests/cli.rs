@@ -122,7 +122,7 @@ fn format_flag_overrides_the_extension() {
     let o = lensbake(&["lens", "check", path.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(2));
     assert!(
-        stderr(&o).contains("refractive index 0 is below 1"),
+        stderr(&o).contains("refractive index 0 is below vacuum's"),
         "{}",
         stderr(&o)
     );

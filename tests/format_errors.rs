@@ -132,7 +132,7 @@ fn non_finite_number() {
 #[test]
 fn index_below_one() {
     let e = error("50 5 0.9 20\n0 2 0 10\n-50 40 1 20\n", Format::Pbrt);
-    assert_eq!(e.problem, Problem::IndexBelowOne { index: 0.9 });
+    assert_eq!(e.problem, Problem::IndexBelowVacuum { index: 0.9 });
     assert_at(&e, Some(1), Some(1), Some("medium"));
 }
 

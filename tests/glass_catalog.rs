@@ -388,6 +388,20 @@ fn infrared_crystals_give_their_published_indices() {
     }
 }
 
+/// OpticStudio's MISC catalogue names fused silica F_SILICA: the same Malitson formula as
+/// SILICA, index for index.
+#[test]
+fn f_silica_is_fused_silica() {
+    let (f, silica) = (lookup("F_SILICA").unwrap(), lookup("SILICA").unwrap());
+    assert_eq!(f.maker, "MISC");
+    for nm in [F_LINE_NM, D_LINE_NM, C_LINE_NM, 1064.0] {
+        assert_eq!(
+            f.formula.checked_index(nm).unwrap(),
+            silica.formula.checked_index(nm).unwrap()
+        );
+    }
+}
+
 /// Optical plastics under the names Zemax's catalogues give them (MISC: PMMA, POLYCARB,
 /// POLYSTYR; ZEON: E48R), from Sultanova, Kasarova and Nikolov's one-term Sellmeier fits (Acta
 /// Phys. Pol. A 116, 585, 2009), the data optiland 0.6.3 reads for the same names: lensbake's

@@ -345,6 +345,49 @@ fn spot_diagrams_of_a_lens_off_the_axis_come_from_the_3d_trace() {
     assert!(!out.exists());
 }
 
+/// A file whose aperture floats by the stop's size (Zemax `FLOA`) gets, in the 3-D trace, the
+/// on-axis beam that fills the stop: for a lens centred but for a rectangular aperture behind
+/// the stop, the paraxial entrance pupil of the same lens with a round aperture there (the stop
+/// sits between two singlets, so the pupil is not the stop itself).
+#[test]
+fn a_floating_aperture_fills_the_stop_in_the_3d_trace() {
+    use lensbake::system::LensSystem;
+    use lensbake::trace::Tracer;
+    use lensbake::trace::placed::{PlacedBeam, PupilFrom};
+    let zemax = |aperture: &str| {
+        format!(
+            "MODE SEQ\nFLOA\nWAVM 1 0.55 1\nSURF 0\n  DISZ INFINITY\nSURF 1\n  CURV 0.02\n  \
+             DISZ 5\n  GLAS N-BK7\n  CLAP 0 12 0\nSURF 2\n  CURV -0.01\n  DISZ 10\n  \
+             CLAP 0 12 0\nSURF 3\n  STOP\n  DISZ 8\n  CLAP 0 4 0\nSURF 4\n  CURV -0.03\n  \
+             DISZ 4\n  GLAS N-BK7\n  {aperture}\nSURF 5\n  CURV -0.01\n  DISZ 60\n  \
+             CLAP 0 12 0\nSURF 6\n  DISZ 0\n"
+        )
+    };
+    let read = |text: &str| read_str(text, None, Format::Zemax, &LoadOptions::default());
+    let round = read(&zemax("CLAP 0 12 0")).unwrap();
+    let system = LensSystem::from_prescription(round.prescription).unwrap();
+    let paraxial = Tracer::new(&system.at(550.0))
+        .paraxial_entrance_pupil()
+        .unwrap()
+        .diameter;
+    assert!(
+        (paraxial - 8.0).abs() > 0.1,
+        "the pupil is not the stop: {paraxial}"
+    );
+    let e = read(&zemax("SQAP 12 9 0")).unwrap_err();
+    let Problem::NotRotationallySymmetric { lens, .. } = e.problem else {
+        panic!("{e}");
+    };
+    let tracer = PlacedTracer::new(&lens, 550.0).unwrap();
+    let beam = PlacedBeam::of(&lens, &tracer).unwrap();
+    assert_eq!(beam.pupil_from, PupilFrom::StopSize { semi_aperture: 4.0 });
+    assert!(
+        (beam.pupil_diameter - paraxial).abs() < 1e-9 * paraxial,
+        "{} against {paraxial}",
+        beam.pupil_diameter
+    );
+}
+
 /// Rectangular and decentred clear apertures (CODE V `REX`, `REY`, `ADX`, `ADY`) clip where the
 /// surface's own frame puts them: a beam parallel to a paraboloid's axis meets it at the height
 /// it was launched at, so the aperture's edges are the launch plane's.

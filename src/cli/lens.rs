@@ -12,7 +12,7 @@ use lensbake::prescription::formats::{
 use lensbake::prescription::formats::{OutlineShape, PlacedLens};
 use lensbake::prescription::{DEFAULT_WAVELENGTH_NM, Location, PrescriptionError, Problem, Shape};
 use lensbake::system::LensSystem;
-use lensbake::trace::placed::{PlacedBeam, PlacedBeamError, PlacedTracer, SPOT_GRID};
+use lensbake::trace::placed::{PlacedBeam, PlacedBeamError, PlacedTracer, PupilFrom, SPOT_GRID};
 use std::path::{Path, PathBuf};
 
 #[derive(Subcommand, Debug)]
@@ -359,9 +359,16 @@ fn placed_summary(
     let tracer = PlacedTracer::new(lens, wavelength).map_err(|e| anyhow::anyhow!("{spec}: {e}"))?;
     let beam = placed_beam(spec, offence, lens, &tracer)?;
     let (fields, pupil_diameter) = (beam.fields_deg, beam.pupil_diameter);
-    let sized_by = beam.from_f_number.map_or(String::new(), |(f, n)| {
-        format!(" = EFL {f:.6} mm / F-number {n}")
-    });
+    let sized_by = match beam.pupil_from {
+        PupilFrom::File => String::new(),
+        PupilFrom::FNumber {
+            focal_length,
+            f_number,
+        } => format!(" = EFL {focal_length:.6} mm / F-number {f_number}"),
+        PupilFrom::StopSize { semi_aperture } => {
+            format!(", filling the stop's semi-aperture {semi_aperture} mm")
+        }
+    };
 
     let mut out = String::new();
     let mut line = |text: String| {

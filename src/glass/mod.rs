@@ -207,7 +207,8 @@ impl Dispersion {
 
     /// Refractive index at `wavelength_nm`, or [`Problem::WavelengthOutOfRange`] where the
     /// formula does not describe a transparent medium there: outside
-    /// [`Dispersion::resonance_window_nm`], or an index that is not finite or is below 1.
+    /// [`Dispersion::resonance_window_nm`], or an index that is not finite or is below vacuum's
+    /// ([`crate::prescription::MIN_INDEX`]: indices are relative to air).
     ///
     /// The catalogue stores no datasheet validity range, so a wavelength inside the window may
     /// still lie beyond what the maker measured; every catalogue glass is tested to give a normal
@@ -220,7 +221,7 @@ impl Dispersion {
             Dispersion::Tabulated { .. } => wavelength_nm >= low && wavelength_nm <= high,
             _ => wavelength_nm > low && wavelength_nm < high,
         };
-        if inside && n.is_finite() && n >= 1.0 {
+        if inside && n.is_finite() && n >= crate::prescription::MIN_INDEX {
             Ok(n)
         } else {
             Err(Problem::WavelengthOutOfRange { nm: wavelength_nm })

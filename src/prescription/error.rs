@@ -95,8 +95,13 @@ pub enum Problem {
         offence: String,
         lens: Box<super::formats::PlacedLens>,
     },
-    #[error("refractive index {} is below 1", crate::limits::short(*.index))]
-    IndexBelowOne { index: f64 },
+    #[error(
+        "refractive index {} is below vacuum's ({} relative to air: indices are relative to air, \
+         whose refractivity stays below 1e-3)",
+        crate::limits::short(*.index),
+        super::model::MIN_INDEX
+    )]
+    IndexBelowVacuum { index: f64 },
     #[error("semi-aperture must be positive, got {}", crate::limits::short(*.value))]
     NonPositiveAperture { value: f64 },
     #[error(

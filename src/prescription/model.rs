@@ -183,6 +183,13 @@ pub enum Shape {
 /// one.
 pub const MAX_ASPHERE_TERMS: usize = 10;
 
+/// The lowest refractive index a medium may have. Indices are relative to air, as the glass
+/// catalogues and the design programs give them, so a vacuum or helium space in a lens has an
+/// index just below 1 (vacuum is 1/1.000293 = 0.999707 at the d line; a lithography patent
+/// writes 0.999712); air's refractivity stays below 1e-3 at every wavelength a lens transmits,
+/// so nothing real lies below 1 - 1e-3.
+pub const MIN_INDEX: f64 = 0.999;
+
 /// Wavelength used when a lens states no design wavelength (helium d line, nm).
 pub const DEFAULT_WAVELENGTH_NM: f64 = 587.56;
 

@@ -1,7 +1,7 @@
 //! Checks a prescription before anything computes with it.
 
 use super::error::{Location, PrescriptionError, Problem};
-use super::model::{MAX_ASPHERE_TERMS, Medium, Prescription, Shape, StopShape};
+use super::model::{MAX_ASPHERE_TERMS, MIN_INDEX, Medium, Prescription, Shape, StopShape};
 use crate::limits;
 use std::path::PathBuf;
 
@@ -136,10 +136,10 @@ fn check_medium(medium: &Medium, location: Location) -> Result<(), PrescriptionE
         Medium::Air | Medium::Glass(_) | Medium::Mirror => Ok(()),
         Medium::Index(n) => {
             finite(*n, location.clone())?;
-            if *n < 1.0 {
+            if *n < MIN_INDEX {
                 return Err(PrescriptionError::new(
                     location,
-                    Problem::IndexBelowOne { index: *n },
+                    Problem::IndexBelowVacuum { index: *n },
                 ));
             }
             Ok(())
@@ -180,10 +180,10 @@ fn check_medium(medium: &Medium, location: Location) -> Result<(), PrescriptionE
         Medium::Model { nd, vd } => {
             finite(*nd, location.clone())?;
             finite(*vd, location.clone())?;
-            if *nd < 1.0 {
+            if *nd < MIN_INDEX {
                 return Err(PrescriptionError::new(
                     location,
-                    Problem::IndexBelowOne { index: *nd },
+                    Problem::IndexBelowVacuum { index: *nd },
                 ));
             }
             Ok(())

@@ -146,8 +146,22 @@ pub struct PlacedBeam {
     pub fields_deg: Vec<[f64; 2]>,
     /// Entrance-pupil diameter (mm).
     pub pupil_diameter: f64,
-    /// The focal length (mm) and F-number the pupil came from, when the file gives an F-number.
-    pub from_f_number: Option<(f64, f64)>,
+    /// Where the diameter comes from.
+    pub pupil_from: PupilFrom,
+}
+
+/// What sizes a placed lens's entrance pupil.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PupilFrom {
+    /// The file states the diameter.
+    File,
+    /// The file's F-number, with the focal length (mm) of the lens, centred but for its
+    /// apertures or image plane.
+    FNumber { focal_length: f64, f_number: f64 },
+    /// The stop's semi-aperture (mm), filled by the on-axis beam (the file's aperture floats by
+    /// the stop's size): the diameter is 2 r / m for the stop's magnification m of the pupil
+    /// about the chief ray, the larger of its x and y values.
+    StopSize { semi_aperture: f64 },
 }
 
 impl PlacedBeam {
@@ -178,10 +192,16 @@ impl PlacedBeam {
                 )));
             }
         };
-        let (pupil_diameter, from_f_number) = match conditions.aperture {
-            Some(ApertureSpec::EntrancePupilDiameter(d)) => (d, None),
+        let (pupil_diameter, pupil_from) = match conditions.aperture {
+            Some(ApertureSpec::EntrancePupilDiameter(d)) => (d, PupilFrom::File),
             Some(ApertureSpec::FNumber(n)) => match tracer.centred_focal_length() {
-                Some(f) => (f.abs() / n, Some((f.abs(), n))),
+                Some(f) => (
+                    f.abs() / n,
+                    PupilFrom::FNumber {
+                        focal_length: f.abs(),
+                        f_number: n,
+                    },
+                ),
                 None => {
                     return Err(not_taken(
                         "an entrance-pupil diameter (an F-number needs the focal length of a \
@@ -190,16 +210,24 @@ impl PlacedBeam {
                     ));
                 }
             },
+            Some(ApertureSpec::FloatByStop) => {
+                let semi_aperture = lens.prescription.surfaces[tracer.stop].semi_aperture;
+                (
+                    tracer.stop_filling_pupil(semi_aperture)?,
+                    PupilFrom::StopSize { semi_aperture },
+                )
+            }
             other => {
                 return Err(not_taken(format!(
-                    "an entrance-pupil diameter or F-number; this file sizes the beam by {other:?}"
+                    "an entrance-pupil diameter, an F-number or the stop's size; this file sizes \
+                     the beam by {other:?}"
                 )));
             }
         };
         Ok(PlacedBeam {
             fields_deg,
             pupil_diameter,
-            from_f_number,
+            pupil_from,
         })
     }
 }
@@ -541,6 +569,34 @@ impl PlacedTracer {
             points,
             image_numerical_aperture: self.image_index.abs() * widest.min(1.0),
         })
+    }
+
+    /// The entrance-pupil diameter (mm) of the on-axis beam that fills a stop of semi-aperture
+    /// `stop_radius`: 2 r / m, where m is how far a ray beside the chief ray moves on the stop
+    /// per mm it moves in the pupil (finite differences of a millionth of r in x and in y; the
+    /// larger, which fills the stop first). For a centred lens this is the paraxial entrance
+    /// pupil.
+    pub fn stop_filling_pupil(&self, stop_radius: f64) -> Result<f64, PlacedBeamError> {
+        let direction = [0.0, 0.0, 1.0];
+        let field_deg = [0.0, 0.0];
+        let chief = self.aim_chief(direction, stop_radius, field_deg)?;
+        let fail = |why: &str| PlacedBeamError::ChiefRay {
+            field_deg,
+            why: why.to_string(),
+        };
+        let at = |dx: f64, dy: f64| {
+            self.at_stop([chief[0] + dx, chief[1] + dy, 0.0], direction)
+                .ok_or_else(|| fail("a ray beside the chief ray misses the stop"))
+        };
+        let step = 1e-6 * stop_radius;
+        let centre = at(0.0, 0.0)?;
+        let moved = |p: [f64; 2]| (p[0] - centre[0]).hypot(p[1] - centre[1]) / step;
+        let magnification = moved(at(step, 0.0)?).max(moved(at(0.0, step)?));
+        let diameter = 2.0 * stop_radius / magnification;
+        if !(diameter.is_finite() && diameter > 0.0) {
+            return Err(fail("the stop does not see the pupil (no magnification)"));
+        }
+        Ok(diameter)
     }
 
     /// The start, on the plane z = 0 of the global frame, of the ray along `direction` through
