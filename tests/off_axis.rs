@@ -317,13 +317,17 @@ fn spot_diagrams_of_a_lens_off_the_axis_come_from_the_3d_trace() {
 
     let path = common::test_data("corpus/rayoptics__HoO-V2C18Ex66.zmx");
     let out = std::env::temp_dir().join(format!("lensbake-placed-spot-{}.svg", std::process::id()));
-    let o = lensbake(&[
-        "plot",
-        "spot",
-        path.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let plot = |kind: &str| {
+        let args = [
+            "plot",
+            kind,
+            path.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        lensbake(&args)
+    };
+    let o = plot("spot");
     assert_eq!(
         o.status.code(),
         Some(0),
@@ -333,13 +337,7 @@ fn spot_diagrams_of_a_lens_off_the_axis_come_from_the_3d_trace() {
     let svg = std::fs::read_to_string(&out).unwrap();
     assert!(svg.contains("spot diagrams"), "the title");
     std::fs::remove_file(&out).unwrap();
-    let o = lensbake(&[
-        "plot",
-        "ray-fan",
-        path.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let o = plot("ray-fan");
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("`plot spot`"));
     assert!(!out.exists());

@@ -100,18 +100,11 @@ fn a_multi_configuration_file_is_read_as_its_active_configuration() {
     let loaded = read(&text).unwrap();
     let single = read(&singlet("", "  DIAM 6 0 0 0 1 \"\"\n", "")).unwrap();
     assert_eq!(loaded.prescription.surfaces, single.prescription.surfaces);
-    let note = loaded
-        .notes
-        .iter()
-        .find(|n| matches!(n, LoadNote::ActiveConfiguration { .. }))
-        .expect("a note names the configuration read");
-    assert_eq!(
-        *note,
-        LoadNote::ActiveConfiguration {
-            active: 2,
-            count: 3
-        }
-    );
+    let note = LoadNote::ActiveConfiguration {
+        active: 2,
+        count: 3,
+    };
+    assert!(loaded.notes.contains(&note), "{:?}", loaded.notes);
     assert!(note.to_string().contains("configuration 2 of 3"), "{note}");
     assert!(
         !single
@@ -655,18 +648,11 @@ fn codev_zoom_files_are_read_at_position_one() {
         conditions.aperture,
         Some(ApertureSpec::EntrancePupilDiameter(8.0))
     );
-    let note = loaded
-        .notes
-        .iter()
-        .find(|n| matches!(n, LoadNote::ZoomPosition { .. }))
-        .expect("a note says which position was read");
-    assert_eq!(
-        *note,
-        LoadNote::ZoomPosition {
-            count: 3,
-            as_written: vec!["PIK".into(), "TIT".into(), "YAN".into()],
-        }
-    );
+    let note = LoadNote::ZoomPosition {
+        count: 3,
+        as_written: vec!["PIK".into(), "TIT".into(), "YAN".into()],
+    };
+    assert!(loaded.notes.contains(&note), "{:?}", loaded.notes);
     assert!(note.to_string().contains("position 1 of 3"), "{note}");
     // A zoomed surface the file does not have is an error at its line.
     let e = codev(&text.replace("ZOO K S1", "ZOO K S7")).unwrap_err();

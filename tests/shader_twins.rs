@@ -169,36 +169,38 @@ fn conics() -> SystemAt {
     )
 }
 
+/// Three aspheres on conic bases, two in front of the stop and one behind, each `asphere(radius,
+/// conic, terms)` with its terms from `terms`.
+fn asphere_lens(
+    title: &str,
+    asphere: impl Fn(f64, f64, Vec<f64>) -> Shape,
+    [first, second, third]: [Vec<f64>; 3],
+) -> SystemAt {
+    system(
+        title,
+        vec![
+            surface(asphere(20.0, -0.8, first), 8.0, Medium::Index(1.9), 11.0),
+            surface(asphere(-22.0, 1.5, second), 3.0, Medium::Air, 12.0),
+            stop(8.0, 3.0, StopShape::Circle),
+            surface(asphere(-60.0, 0.0, third), 5.0, Medium::Index(1.6), 10.0),
+            surface(sphere(-30.0), 30.0, Medium::Air, 10.0),
+        ],
+    )
+}
+
 /// Even aspheres on conic bases, with terms from r^2 to r^8.
 fn aspheres() -> SystemAt {
-    let asphere = |radius: f64, conic: f64, coefficients: Vec<f64>| Shape::EvenAsphere {
-        curvature: 1.0 / radius,
-        conic,
-        coefficients,
-    };
-    system(
+    asphere_lens(
         "aspheres",
-        vec![
-            surface(
-                asphere(20.0, -0.8, vec![0.0, -2e-5, 3e-8]),
-                8.0,
-                Medium::Index(1.9),
-                11.0,
-            ),
-            surface(
-                asphere(-22.0, 1.5, vec![1e-3, 5e-6, -2e-9, 1e-11]),
-                3.0,
-                Medium::Air,
-                12.0,
-            ),
-            stop(8.0, 3.0, StopShape::Circle),
-            surface(
-                asphere(-60.0, 0.0, vec![0.0, 4e-5]),
-                5.0,
-                Medium::Index(1.6),
-                10.0,
-            ),
-            surface(sphere(-30.0), 30.0, Medium::Air, 10.0),
+        |radius, conic, coefficients| Shape::EvenAsphere {
+            curvature: 1.0 / radius,
+            conic,
+            coefficients,
+        },
+        [
+            vec![0.0, -2e-5, 3e-8],
+            vec![1e-3, 5e-6, -2e-9, 1e-11],
+            vec![0.0, 4e-5],
         ],
     )
 }
@@ -206,34 +208,17 @@ fn aspheres() -> SystemAt {
 /// Odd aspheres (terms in r): a cone term and an r^3 term in front of the stop, r^3 and r^5
 /// behind it.
 fn odd_aspheres() -> SystemAt {
-    let asphere = |radius: f64, conic: f64, coefficients: Vec<f64>| Shape::OddAsphere {
-        curvature: 1.0 / radius,
-        conic,
-        coefficients,
-    };
-    system(
+    asphere_lens(
         "odd aspheres",
-        vec![
-            surface(
-                asphere(20.0, -0.8, vec![1e-3, 0.0, 3e-5]),
-                8.0,
-                Medium::Index(1.9),
-                11.0,
-            ),
-            surface(
-                asphere(-22.0, 1.5, vec![0.0, 1e-3, -4e-5, 5e-6]),
-                3.0,
-                Medium::Air,
-                12.0,
-            ),
-            stop(8.0, 3.0, StopShape::Circle),
-            surface(
-                asphere(-60.0, 0.0, vec![0.0, 0.0, 2e-5, 0.0, -1e-8]),
-                5.0,
-                Medium::Index(1.6),
-                10.0,
-            ),
-            surface(sphere(-30.0), 30.0, Medium::Air, 10.0),
+        |radius, conic, coefficients| Shape::OddAsphere {
+            curvature: 1.0 / radius,
+            conic,
+            coefficients,
+        },
+        [
+            vec![1e-3, 0.0, 3e-5],
+            vec![0.0, 1e-3, -4e-5, 5e-6],
+            vec![0.0, 0.0, 2e-5, 0.0, -1e-8],
         ],
     )
 }

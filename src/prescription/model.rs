@@ -261,47 +261,32 @@ impl Shape {
         curvature: impl Fn(f64) -> f64,
         coefficient: impl Fn(i32, f64) -> f64,
     ) -> Shape {
-        let terms = |coefficients: &[f64]| -> Vec<f64> {
-            coefficients
-                .iter()
-                .enumerate()
-                .map(|(i, a)| coefficient(self.power_of_term(i), *a))
-                .collect()
-        };
-        match self {
-            Shape::Plane => Shape::Plane,
-            Shape::Sphere { curvature: c } => Shape::Sphere {
-                curvature: curvature(*c),
-            },
-            Shape::Conic {
-                curvature: c,
-                conic,
-            } => Shape::Conic {
-                curvature: curvature(*c),
-                conic: *conic,
-            },
+        let mut mapped = self.clone();
+        match &mut mapped {
+            Shape::Plane => {}
+            Shape::Sphere { curvature: c } | Shape::Conic { curvature: c, .. } => {
+                *c = curvature(*c);
+            }
             Shape::EvenAsphere {
                 curvature: c,
-                conic,
                 coefficients,
-            } => Shape::EvenAsphere {
-                curvature: curvature(*c),
-                conic: *conic,
-                coefficients: terms(coefficients),
-            },
-            Shape::OddAsphere {
+                ..
+            }
+            | Shape::OddAsphere {
                 curvature: c,
-                conic,
                 coefficients,
-            } => Shape::OddAsphere {
-                curvature: curvature(*c),
-                conic: *conic,
-                coefficients: terms(coefficients),
-            },
-            Shape::IdealLens { focal_length } => Shape::IdealLens {
-                focal_length: 1.0 / curvature(1.0 / focal_length),
-            },
+                ..
+            } => {
+                *c = curvature(*c);
+                for (i, a) in coefficients.iter_mut().enumerate() {
+                    *a = coefficient(self.power_of_term(i), *a);
+                }
+            }
+            Shape::IdealLens { focal_length } => {
+                *focal_length = 1.0 / curvature(1.0 / *focal_length);
+            }
         }
+        mapped
     }
 
     /// The same profile seen from its other side (reflected through its vertex plane): every

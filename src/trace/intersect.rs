@@ -244,23 +244,16 @@ pub(crate) fn asphere_sag(
     let mut slope = 0.5 * c / root;
     let (poly, dpoly) = if terms.odd {
         // Horner in r; d/d(r^2) = d/dr / (2 r), whose limit on the axis is the r^2 coefficient
-        // (an r term's cone has a slope there, but no direction: the gradient takes slope
-        // times (x, y), which vanishes).
+        // (zero-padded when there is none; an r term's cone has a slope there, but no
+        // direction: the gradient takes slope times (x, y), which vanishes).
         let r = rho.sqrt();
         let (poly, dpoly_dr) = horner(terms, r);
-        let at_vertex = if terms.len > 1 {
-            terms.coefficients[1]
+        let slope = if r > 0.0 {
+            dpoly_dr / (2.0 * r)
         } else {
-            0.0
+            terms.coefficients[1]
         };
-        (
-            poly * r,
-            if r > 0.0 {
-                dpoly_dr / (2.0 * r)
-            } else {
-                at_vertex
-            },
-        )
+        (poly * r, slope)
     } else {
         let (poly, dpoly) = horner(terms, rho);
         (poly * rho, dpoly)

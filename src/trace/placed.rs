@@ -567,7 +567,7 @@ impl PlacedTracer {
             centroid,
             rms_radius,
             points,
-            image_numerical_aperture: self.image_index.abs() * widest.min(1.0),
+            image_numerical_aperture: self.image_index * widest.min(1.0),
         })
     }
 

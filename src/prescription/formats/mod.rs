@@ -514,38 +514,16 @@ fn finite(text: &str, at: &Location) -> Result<f64, PrescriptionError> {
 /// plane when flat without them, a sphere without conic or terms, and so on. Trailing zero
 /// terms are dropped.
 fn shape(curvature: f64, conic: f64, coefficients: &[f64]) -> Shape {
-    asphere_or_simpler(curvature, conic, coefficients, |coefficients| {
-        Shape::EvenAsphere {
-            curvature,
-            conic,
-            coefficients,
-        }
-    })
-}
-
-/// [`shape`] for odd-asphere terms (on r, r^2, r^3, ...).
-fn odd_shape(curvature: f64, conic: f64, coefficients: &[f64]) -> Shape {
-    asphere_or_simpler(curvature, conic, coefficients, |coefficients| {
-        Shape::OddAsphere {
-            curvature,
-            conic,
-            coefficients,
-        }
-    })
-}
-
-fn asphere_or_simpler(
-    curvature: f64,
-    conic: f64,
-    coefficients: &[f64],
-    asphere: impl FnOnce(Vec<f64>) -> Shape,
-) -> Shape {
     let used = coefficients
         .iter()
         .rposition(|&a| a != 0.0)
         .map_or(0, |last| last + 1);
     if used > 0 {
-        asphere(coefficients[..used].to_vec())
+        Shape::EvenAsphere {
+            curvature,
+            conic,
+            coefficients: coefficients[..used].to_vec(),
+        }
     } else if curvature == 0.0 {
         // A conic constant changes nothing on a flat surface.
         Shape::Plane
@@ -553,6 +531,23 @@ fn asphere_or_simpler(
         Shape::Conic { curvature, conic }
     } else {
         Shape::Sphere { curvature }
+    }
+}
+
+/// [`shape`] for odd-asphere terms (on r, r^2, r^3, ...): the same simplest shape, its terms
+/// read in powers of r.
+fn odd_shape(curvature: f64, conic: f64, coefficients: &[f64]) -> Shape {
+    match shape(curvature, conic, coefficients) {
+        Shape::EvenAsphere {
+            curvature,
+            conic,
+            coefficients,
+        } => Shape::OddAsphere {
+            curvature,
+            conic,
+            coefficients,
+        },
+        simpler => simpler,
     }
 }
 

@@ -223,26 +223,23 @@ pub enum OutlineShape {
 impl ApertureOutline {
     /// The outline with every length multiplied by `factor` (a file's unit to mm).
     fn scaled(&self, factor: f64) -> ApertureOutline {
+        let mut shape = self.shape;
+        match &mut shape {
+            OutlineShape::Circle { radius } => *radius *= factor,
+            OutlineShape::Rectangle {
+                half_width,
+                half_height,
+            }
+            | OutlineShape::Ellipse {
+                half_width,
+                half_height,
+            } => {
+                *half_width *= factor;
+                *half_height *= factor;
+            }
+        }
         ApertureOutline {
-            shape: match self.shape {
-                OutlineShape::Circle { radius } => OutlineShape::Circle {
-                    radius: radius * factor,
-                },
-                OutlineShape::Rectangle {
-                    half_width,
-                    half_height,
-                } => OutlineShape::Rectangle {
-                    half_width: half_width * factor,
-                    half_height: half_height * factor,
-                },
-                OutlineShape::Ellipse {
-                    half_width,
-                    half_height,
-                } => OutlineShape::Ellipse {
-                    half_width: half_width * factor,
-                    half_height: half_height * factor,
-                },
-            },
+            shape,
             centre: self.centre.map(|v| v * factor),
         }
     }

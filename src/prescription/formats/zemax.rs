@@ -13,8 +13,9 @@
 //! compression), `WAVM` (number, µm, weight) or `WAVN`/`WAVL` with `WWGT`, `PWAV` (primary),
 //! `MNUM` (a multi-configuration file, `MNUM n k` with n > 1, is read as its active
 //! configuration k, whose values OpticStudio saves in the surface table: see
-//! [`LoadNote::ActiveConfiguration`]); per surface: `TYPE STANDARD`, `TYPE EVENASPH` or `TYPE ODDASPHE`, `CURV`, `CONI`,
-//! `PARM 1..8` (even-asphere r^2 .. r^16; odd-asphere r .. r^8), `DISZ` (`SURF 0 DISZ` is the object distance), `GLAS` (a name, or
+//! [`LoadNote::ActiveConfiguration`]); per surface: `TYPE STANDARD`, `TYPE EVENASPH` or
+//! `TYPE ODDASPHE`, `CURV`, `CONI`, `PARM 1..8` (even-asphere r^2 .. r^16; odd-asphere
+//! r .. r^8), `DISZ` (`SURF 0 DISZ` is the object distance), `GLAS` (a name, or
 //! `___BLANK` with nd and Vd: a model glass; `MIRROR`: the surface reflects), `DIAM`, `CLAP 0 r`,
 //! `OBSC 0 r` (a central obscuration), `CLAP r R` with r > 0 (an annular aperture: clear
 //! aperture R with a central obscuration r), `STOP`. After a mirror OpticStudio writes thicknesses
@@ -45,10 +46,8 @@
 //! one with a rectangular (`SQAP`), elliptical (`ELAP`; with equal semi-axes it is the circle
 //! `CLAP` states) or decentred (`OBDC`) clear aperture. Any
 //! other keyword is refused, naming keyword, line and surface: other surface types (gratings,
-//! ...), surface tilts written as `SCBD`,
-//! annular obscurations, rectangular and elliptical obscurations, user-defined apertures,
-//! ignored surfaces, a curved image
-//! surface,
+//! ...), surface tilts written as `SCBD`, annular obscurations, rectangular and elliptical
+//! obscurations, user-defined apertures, ignored surfaces, a curved image surface,
 //! non-sequential mode, and every unknown keyword inside the surface table.
 
 use super::apertures::{self, BeamSpec, INFINITE_OBJECT_MM};

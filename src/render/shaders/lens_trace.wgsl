@@ -167,7 +167,8 @@ fn asphere_sag(rho: f32, s: LensSurface) -> vec3<f32> {
         slope += dpoly;
     } else if x > 0.0 {
         slope += dpoly / (2.0 * x);
-    } else if s.asphere_terms > 1u {
+    } else {
+        // Zero-padded when the asphere has no r^2 term.
         slope += s.coefficients[1];
     }
     return vec3<f32>(sag, slope, 1.0);
