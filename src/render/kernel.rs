@@ -11,7 +11,7 @@ use super::chromatic::{CHANNELS, ChannelLenses, Chromatic};
 use super::gpu_types::{ChannelParams, FrameParams, LayerData, LensData, SeidelParams};
 use crate::lrtf::{self, Lookup, LrtfTable};
 use crate::model::{LensModel, SEIDEL_CONVERGED_MM, SEIDEL_INVERSE_STEPS, SEIDEL_SETTLED_MM};
-use crate::trace::{GROUP_RAYS, Tracer, Travel};
+use crate::trace::{GROUP_RAYS, Tracer, Travel, with_widest_isa};
 use rayon::prelude::*;
 
 const PI: f32 = std::f32::consts::PI;
@@ -39,6 +39,7 @@ type Vec2 = [f32; 2];
 type Vec3 = [f32; 3];
 
 /// WGSL's `mix`: a * (1 - t) + b * t.
+#[inline(always)]
 fn mix3(a: Vec3, b: Vec3, t: f32) -> Vec3 {
     let u = 1.0 - t;
     [
@@ -58,11 +59,15 @@ pub(crate) fn mix_bits(x: u32) -> u32 {
     h
 }
 
+#[inline(always)]
 fn unit_from_bits(bits: u32) -> f32 {
-    (bits >> 8) as f32 * (1.0 / 16_777_216.0)
+    // 24 bits fit an i32, whose conversion every vector instruction set has (the u32 one needs
+    // AVX-512); the value is the same.
+    ((bits >> 8) as i32) as f32 * (1.0 / 16_777_216.0)
 }
 
 /// Rank-1 lattice point `index` of `count`, shifted modulo 1 by the scrambles (see the shader).
+#[inline(always)]
 pub(crate) fn lattice_point(index: u32, count: u32, scramble_x: u32, scramble_y: u32) -> Vec2 {
     let stratum = 0xffff_ffff / count.max(1);
     let x_bits = index.wrapping_mul(stratum).wrapping_add(scramble_x);
@@ -70,17 +75,55 @@ pub(crate) fn lattice_point(index: u32, count: u32, scramble_x: u32, scramble_y:
     [unit_from_bits(x_bits), unit_from_bits(y_bits)]
 }
 
+/// Shirley and Chiu's concentric map from the unit square to the unit disc, without branches
+/// (the samples of a group go through it side by side in vector lanes): the angle within the
+/// octant is `QUARTER_PI` times the smaller coordinate over the larger, and the larger one's axis
+/// decides whether its cosine or its sine is the point's x.
+#[inline(always)]
 pub(crate) fn concentric_disc(u: Vec2) -> Vec2 {
     let a = [2.0 * u[0] - 1.0, 2.0 * u[1] - 1.0];
-    if a[0] == 0.0 && a[1] == 0.0 {
-        return [0.0, 0.0];
-    }
-    let (r, phi) = if a[0].abs() > a[1].abs() {
-        (a[0], (PI / 4.0) * (a[1] / a[0]))
+    let x_dominant = a[0].abs() > a[1].abs();
+    let (r, ratio) = if x_dominant {
+        (a[0], a[1] / a[0])
     } else {
-        (a[1], PI / 2.0 - (PI / 4.0) * (a[0] / a[1]))
+        (a[1], a[0] / a[1])
     };
-    [r * phi.cos(), r * phi.sin()]
+    let (sin, cos) = sin_cos_octant(QUARTER_PI * ratio);
+    let disc = if x_dominant {
+        [r * cos, r * sin]
+    } else {
+        [r * sin, r * cos]
+    };
+    // The centre of the square (0 / 0 above) is the centre of the disc.
+    if r == 0.0 { [0.0, 0.0] } else { disc }
+}
+
+pub(crate) const QUARTER_PI: f32 = PI / 4.0;
+
+/// Taylor coefficients of sin(x) / x and cos(x) in x^2 (1/3!, 1/5!, ... and 1/2!, 1/4!, ...,
+/// alternating in sign): through x^9 and x^10, whose remainders on |x| <= pi/4 (below 2e-9 and
+/// 2e-10) are far under half an f32 ulp of the results (0.7 there: 3e-8).
+pub(crate) const SIN_TAYLOR: [f32; 4] = [-1.0 / 6.0, 1.0 / 120.0, -1.0 / 5040.0, 1.0 / 362_880.0];
+pub(crate) const COS_TAYLOR: [f32; 5] = [
+    -1.0 / 2.0,
+    1.0 / 24.0,
+    -1.0 / 720.0,
+    1.0 / 40_320.0,
+    -1.0 / 3_628_800.0,
+];
+
+/// sin(x) and cos(x) for |x| <= pi/4 (the shader's `sin_cos_octant`): polynomials by Horner's
+/// rule, plain multiplies and adds, so the twin and the shader evaluate the same arithmetic and
+/// the compiler vectorises it (libm's `sincosf` is a call per sample; the shader's builtins
+/// differ from device to device).
+#[inline(always)]
+pub(crate) fn sin_cos_octant(x: f32) -> (f32, f32) {
+    let x2 = x * x;
+    let [s1, s2, s3, s4] = SIN_TAYLOR;
+    let [c1, c2, c3, c4, c5] = COS_TAYLOR;
+    let sin_tail = ((s4 * x2 + s3) * x2 + s2) * x2 + s1;
+    let cos_tail = (((c5 * x2 + c4) * x2 + c3) * x2 + c2) * x2 + c1;
+    (x + x * x2 * sin_tail, 1.0 + x2 * cos_tail)
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -217,6 +260,7 @@ fn seidel_lens_ray(frame: &FrameParams, s: &SeidelParams, film: Vec3, pupil: Vec
     blocked_ray()
 }
 
+#[inline(always)]
 fn project(frame: &FrameParams, ray: &ObjectRay, depth: f32) -> Vec3 {
     let z = frame.eye_z - depth;
     let t = (z - ray.origin[2]) / ray.direction[2];
@@ -231,6 +275,7 @@ fn project(frame: &FrameParams, ray: &ObjectRay, depth: f32) -> Vec3 {
 }
 
 /// Width and height in texels of level `level` of the depth pyramid.
+#[inline(always)]
 fn level_size(frame: &FrameParams, level: u32) -> [u32; 2] {
     [
         (frame.layer_width + (1 << level) - 1) >> level,
@@ -239,6 +284,7 @@ fn level_size(frame: &FrameParams, level: u32) -> [u32; 2] {
 }
 
 /// Where level `level` of the depth pyramid starts in `depth_bounds`, and its width in texels.
+#[inline(always)]
 fn pyramid_level(frame: &FrameParams, level: u32) -> [u32; 2] {
     let mut offset = 0;
     for l in 0..level {
@@ -250,11 +296,13 @@ fn pyramid_level(frame: &FrameParams, level: u32) -> [u32; 2] {
 
 /// The pyramid texel over layer pixel (column, row) at `level`, which starts where
 /// `pyramid_level` says (found once for the four texels a footprint reads).
+#[inline(always)]
 fn pyramid_texel(layers: &LayerData, start: [u32; 2], level: u32, column: u32, row: u32) -> Vec2 {
     let [offset, w] = start;
     layers.depth_bounds[(offset + (row >> level) * w + (column >> level)) as usize]
 }
 
+#[inline(always)]
 fn footprint_bounds(frame: &FrameParams, layers: &LayerData, c: [u32; 2], r: [u32; 2]) -> Vec2 {
     let mut level = 0;
     while level + 1 < frame.pyramid_levels
@@ -275,6 +323,7 @@ fn footprint_bounds(frame: &FrameParams, layers: &LayerData, c: [u32; 2], r: [u3
 
 /// The nearest layer at `pixel` whose inverse depth lies in `window` ([lower, upper], see
 /// [`Segment::depth_window`]), as its index into `layers.colours`.
+#[inline(always)]
 fn hit_in_pixel(frame: &FrameParams, layers: &LayerData, pixel: u32, window: Vec2) -> Option<u32> {
     let pixels = frame.layer_width * frame.layer_height;
     for group in 0..frame.layer_groups {
@@ -292,6 +341,7 @@ fn hit_in_pixel(frame: &FrameParams, layers: &LayerData, pixel: u32, window: Vec
     None
 }
 
+#[inline(always)]
 fn clip_axis(a: f32, b: f32, extent: f32, range: Vec2) -> Vec2 {
     let d = b - a;
     if d == 0.0 {
@@ -309,6 +359,7 @@ fn clip_axis(a: f32, b: f32, extent: f32, range: Vec2) -> Vec2 {
 /// `i32(...)` of it): above 0 floor is truncation (saturating, then clamped to `last` either
 /// way), and everything else (NaN too) ends at 0, so no floor is computed (baseline x86-64 has
 /// no floor instruction, and libm's costs a call per use).
+#[inline(always)]
 fn floor_clamped(v: f32, last: u32) -> u32 {
     if v > 0.0 { (v as u32).min(last) } else { 0 }
 }
@@ -329,6 +380,7 @@ impl Segment {
     /// The inverse depths [lower, upper] a layer must lie within to be hit while the march
     /// passes the parameters s_in to s_out. Monotone in both, so a window over a longer stretch
     /// holds the window of every part of it.
+    #[inline(always)]
     fn depth_window(&self, s_in: f32, s_out: f32) -> Vec2 {
         let dw = self.b[2] - self.a[2];
         let w_in = self.a[2] + s_in * dw;
@@ -340,6 +392,7 @@ impl Segment {
     }
 
     /// The layer pixel the march starts in.
+    #[inline(always)]
     fn first_pixel(&self, frame: &FrameParams) -> [i32; 2] {
         let start = mix3(self.a, self.b, self.range[0]);
         [
@@ -352,6 +405,7 @@ impl Segment {
 /// The ray's stretch between the near and far depth, clipped to the layer image and shrunk
 /// `FOOTPRINT_CLAMP_ITERATIONS` times to the depths the pyramid finds under its footprint; None
 /// where nothing is left.
+#[inline(always)]
 fn layer_segment(frame: &FrameParams, layers: &LayerData, ray: &ObjectRay) -> Option<Segment> {
     if !ray.valid || ray.direction[2] <= 0.0 {
         return None;
@@ -407,6 +461,7 @@ struct Axis {
 }
 
 impl Axis {
+    #[inline(always)]
     fn new(a: f32, b: f32) -> Axis {
         let run = b - a;
         Axis {
@@ -421,6 +476,7 @@ impl Axis {
     }
 
     /// The parameter where the segment crosses grid line `line`.
+    #[inline(always)]
     fn crossing(self, line: i32) -> f32 {
         if self.inverse_run == 0.0 {
             return NO_CROSSING;
@@ -429,6 +485,7 @@ impl Axis {
     }
 
     /// The grid line the march leaves the cell of `level` holding `pixel` through.
+    #[inline(always)]
     fn line_ahead(self, pixel: i32, level: u32) -> i32 {
         let cell = pixel >> level;
         if self.step > 0 {
@@ -439,6 +496,7 @@ impl Axis {
     }
 
     /// The pixel the march enters by crossing `line`.
+    #[inline(always)]
     fn pixel_past(self, line: i32) -> i32 {
         if self.step > 0 { line } else { line - 1 }
     }
@@ -447,6 +505,7 @@ impl Axis {
     /// cell of `level` holding `pixel` that it crosses before parameter `until` (at `until`
     /// too where `inclusive`): a binary search (crossings grow along the step), at most `level`
     /// crossings.
+    #[inline(always)]
     fn advance(self, pixel: i32, level: u32, until: f32, inclusive: bool) -> i32 {
         let first = (pixel >> level) << level;
         let last = first + (1 << level) - 1;
@@ -478,6 +537,7 @@ impl Axis {
 /// march takes the crossing through its edge the same way, and puts itself on the other axis
 /// where that DDA would be (`Axis::advance`), so it tests the same pixels in the same order
 /// with the same windows, less those whose cell ruled a hit out, and returns the same layer.
+#[inline(always)]
 fn march(frame: &FrameParams, layers: &LayerData, segment: &Segment) -> Option<u32> {
     let x = Axis::new(segment.a[0], segment.b[0]);
     let y = Axis::new(segment.a[1], segment.b[1]);
@@ -549,6 +609,7 @@ fn march(frame: &FrameParams, layers: &LayerData, segment: &Segment) -> Option<u
     }
 }
 
+#[inline(always)]
 fn trace_layers(frame: &FrameParams, layers: &LayerData, ray: &ObjectRay) -> Option<Vec3> {
     let segment = layer_segment(frame, layers, ray)?;
     let c = layers.colours[march(frame, layers, &segment)? as usize];
@@ -572,6 +633,7 @@ impl PixelScrambles {
     }
 
     /// Sample `index` of `count`: (unit-square lens sample, jitter within the pixel).
+    #[inline(always)]
     pub(crate) fn sample(&self, index: u32, count: u32) -> (Vec2, Vec2) {
         let lens_u = lattice_point(index, count, self.lens[0], self.lens[1]);
         let j = lattice_point(index, count, self.jitter[0], self.jitter[1]);
@@ -751,49 +813,88 @@ pub fn object_ray(
     ray.valid.then_some((ray.origin, ray.direction))
 }
 
-/// The shader's `lrtf_sampling_pupil_at`: the sampling pupil's circle (centre_x, radius) for a
-/// film radius on the render's film plane, bilinear in film radius and focus, its circles from
-/// block `block` of the pupil buffer on.
-fn sampling_pupil_at(lens: &LensData, block: u32, film_radius: f32) -> Vec2 {
-    let p = &lens.lrtf;
-    let n = p.sampling_count;
-    let (mut i, mut f) = (0, 0.0);
-    if n > 1 && p.sampling_max_film_radius > 0.0 {
-        let t = (film_radius / p.sampling_max_film_radius).clamp(0.0, 1.0) * (n - 1) as f32;
-        i = floor_clamped(t, n - 2);
-        f = t - i as f32;
-    }
-    let i1 = (i + 1).min(n - 1);
-    let (mut j, mut g) = (0, 0.0);
-    if p.focus_count > 1 {
-        let s = p.focus_coordinate.clamp(0.0, (p.focus_count - 1) as f32);
-        j = floor_clamped(s, p.focus_count - 2);
-        g = s - j as f32;
-    }
-    let j1 = (j + 1).min(p.focus_count - 1);
-    let first = block * p.pupil_count;
-    let circle = |node: u32, k: u32| lens.pupil[(first + node * n + k) as usize];
-    let mix2 =
-        |a: Vec2, b: Vec2, t: f32| [a[0] * (1.0 - t) + b[0] * t, a[1] * (1.0 - t) + b[1] * t];
-    let near = mix2(circle(j, i), circle(j, i1), f);
-    let far = mix2(circle(j1, i), circle(j1, i1), f);
-    mix2(near, far, g)
+/// The sampling pupil's circles of one dispatch (the shader's `lrtf_sampling_pupil_at` with
+/// what does not depend on the film point worked out once): the rows of circles at the two
+/// focus nodes around the render's focus, from block `block` of the pupil buffer on, and the
+/// weight of the farther one.
+struct SamplingCircles<'a> {
+    near: &'a [Vec2],
+    far: &'a [Vec2],
+    focus_fraction: f32,
+    /// The film radius of the last circle, and the intervals between circles: 1 and 0 with a
+    /// single circle (or no film radius to spread over), which put every film radius on the
+    /// first circle, as the shader's guard does.
+    max_film_radius: f32,
+    intervals: f32,
 }
 
-/// A lens sample: the point on the sampling plane for unit-square sample `lens_u` from `film`,
-/// uniform over the film radius's pupil circle in block `block` of `lens.pupil` (widened for a
-/// film point off the plane the circles were fitted on, see `model::OffPlaneBound`), and its
-/// weight: the disc's area times cos(at the pupil) cos(at the sensor) / distance^2, relative to
-/// the paraxial exit pupil seen from the film centre (cos^4 times the circle's projected solid
-/// angle on an untilted film).
+impl SamplingCircles<'_> {
+    /// # Panics
+    /// When `lens` holds no sampling circle (every model's [`LensData`] holds one at least).
+    fn new(lens: &LensData, block: u32) -> SamplingCircles<'_> {
+        let p = &lens.lrtf;
+        let n = p.sampling_count;
+        assert!(n > 0, "a sampling pupil has a circle");
+        let (mut j, mut g) = (0, 0.0);
+        if p.focus_count > 1 {
+            let s = p.focus_coordinate.clamp(0.0, (p.focus_count - 1) as f32);
+            j = floor_clamped(s, p.focus_count - 2);
+            g = s - j as f32;
+        }
+        let j1 = (j + 1).min(p.focus_count - 1);
+        let first = (block * p.pupil_count) as usize;
+        let row = |node: u32| {
+            let start = first + (node * n) as usize;
+            &lens.pupil[start..start + n as usize]
+        };
+        let spread = n > 1 && p.sampling_max_film_radius > 0.0;
+        SamplingCircles {
+            near: row(j),
+            far: row(j1),
+            focus_fraction: g,
+            max_film_radius: if spread {
+                p.sampling_max_film_radius
+            } else {
+                1.0
+            },
+            intervals: if spread { (n - 1) as f32 } else { 0.0 },
+        }
+    }
+
+    /// The circle (centre_x, radius) at `film_radius`: bilinear in film radius and focus.
+    #[inline(always)]
+    fn at(&self, film_radius: f32) -> Vec2 {
+        let last = self.near.len() - 1;
+        let t = (film_radius / self.max_film_radius).clamp(0.0, 1.0) * self.intervals;
+        let i = floor_clamped(t, (last as u32).saturating_sub(1)) as usize;
+        let f = t - i as f32;
+        let (i0, i1) = (i.min(last), (i + 1).min(last));
+        // SAFETY: both rows hold last + 1 circles (`new` cut them to the same length), and
+        // i0, i1 <= last. Unchecked, so a group's lanes load them without a branch each.
+        let corner = |row: &[Vec2], k: usize| unsafe { *row.get_unchecked(k) };
+        let mix2 =
+            |a: Vec2, b: Vec2, t: f32| [a[0] * (1.0 - t) + b[0] * t, a[1] * (1.0 - t) + b[1] * t];
+        let near = mix2(corner(self.near, i0), corner(self.near, i1), f);
+        let far = mix2(corner(self.far, i0), corner(self.far, i1), f);
+        mix2(near, far, self.focus_fraction)
+    }
+}
+
+/// A lens sample (the shader's `pupil_sample`): the point on the sampling plane for unit-square
+/// sample `lens_u` from `film`, uniform over the film radius's circle of `circles` (widened
+/// for a film point off the plane the circles were fitted on, see `model::OffPlaneBound`), and
+/// its weight: the disc's area times cos(at the pupil) cos(at the sensor) / distance^2,
+/// relative to the paraxial exit pupil seen from the film centre (cos^4 times the circle's
+/// projected solid angle on an untilted film). Without branches, for the vector lanes of
+/// [`sample_lanes`].
 ///
 /// Only the circle's centre turns with the film point's azimuth; the disc sample itself does
 /// not (the circle is symmetric), so neighbouring pixels on either side of the axis keep the
 /// same stratification.
-pub(crate) fn pupil_sample(
+#[inline(always)]
+fn pupil_sample(
     frame: &FrameParams,
-    lens: &LensData,
-    block: u32,
+    circles: &SamplingCircles,
     film: Vec3,
     lens_u: Vec2,
 ) -> (Vec3, f32) {
@@ -803,17 +904,18 @@ pub(crate) fn pupil_sample(
     } else {
         [1.0, 0.0]
     };
-    let circle = sampling_pupil_at(lens, block, film_radius);
+    let circle = circles.at(film_radius);
     let centre = [azimuth[0] * circle[0], azimuth[1] * circle[0]];
-    let mut radius = circle[1];
-    if film[2] != frame.film_z {
-        let growth =
-            frame.pupil_lipschitz * (film[2] - frame.film_z).abs() / (film[2] - frame.pupil_z);
-        let drift = ((centre[0] - film[0]) * (centre[0] - film[0])
-            + (centre[1] - film[1]) * (centre[1] - film[1]))
-            .sqrt();
-        radius = (radius + growth * drift + frame.pupil_centre_slack) / (1.0 - growth);
-    }
+    let growth = frame.pupil_lipschitz * (film[2] - frame.film_z).abs() / (film[2] - frame.pupil_z);
+    let drift = ((centre[0] - film[0]) * (centre[0] - film[0])
+        + (centre[1] - film[1]) * (centre[1] - film[1]))
+        .sqrt();
+    let widened = (circle[1] + growth * drift + frame.pupil_centre_slack) / (1.0 - growth);
+    let radius = if film[2] != frame.film_z {
+        widened
+    } else {
+        circle[1]
+    };
     let disc = concentric_disc(lens_u);
     let pupil = [
         centre[0] + radius * disc[0],
@@ -838,6 +940,7 @@ pub(crate) fn pupil_sample(
 
 /// Sample `index` of output pixel (x, y): its film point and unit-square lens sample (the
 /// shader's `pixel_sample`).
+#[inline(always)]
 fn pixel_sample(
     frame: &FrameParams,
     scrambles: &PixelScrambles,
@@ -851,12 +954,55 @@ fn pixel_sample(
 }
 
 /// The shader's `film_point`: the film point at pixel coordinates `p` (pixel + jitter).
+#[inline(always)]
 fn film_point(frame: &FrameParams, p: Vec2) -> Vec3 {
     [
         frame.film_origin_x + p[0] * frame.film_step_x + p[1] * frame.film_step_y_x,
         frame.film_origin_y + p[0] * frame.film_step_x_y + p[1] * frame.film_step_y,
         frame.film_origin_z + p[0] * frame.film_step_x_z + p[1] * frame.film_step_y_z,
     ]
+}
+
+/// One group of a pixel's samples: film points, pupil points and weights, a column per
+/// coordinate (so the lanes' loop stores whole vectors).
+struct SampleLanes {
+    film: [[f32; SAMPLE_GROUP]; 3],
+    pupil: [[f32; SAMPLE_GROUP]; 3],
+    weight: [f32; SAMPLE_GROUP],
+}
+
+/// Samples `first..first + SAMPLE_GROUP` of pixel (x, y) in this dispatch's numbering, all of
+/// them side by side (the ones past the dispatch's last are computed and not used): the loop
+/// has no branches and writes only its own columns, so compiled for the widest instruction set
+/// it runs in vector lanes.
+#[inline(always)]
+fn sample_lanes(
+    frame: &FrameParams,
+    circles: &SamplingCircles,
+    scrambles: &PixelScrambles,
+    [x, y]: [u32; 2],
+    first: u32,
+) -> SampleLanes {
+    let mut lanes = SampleLanes {
+        film: [[0.0; SAMPLE_GROUP]; 3],
+        pupil: [[0.0; SAMPLE_GROUP]; 3],
+        weight: [0.0; SAMPLE_GROUP],
+    };
+    for k in 0..SAMPLE_GROUP {
+        let index = frame.sample_offset.wrapping_add(
+            first
+                .wrapping_add(k as u32)
+                .wrapping_mul(frame.sample_stride),
+        );
+        let (film, lens_u) = pixel_sample(frame, scrambles, x, y, index);
+        let (pupil, weight) = pupil_sample(frame, circles, film, lens_u);
+        for axis in 0..3 {
+            lanes.film[axis][k] = film[axis];
+            lanes.pupil[axis][k] = pupil[axis];
+        }
+        lanes.weight[k] = weight;
+    }
+    lanes
 }
 
 /// This dispatch's samples of output pixel (x, y), [`SAMPLE_GROUP`] at a time: film points,
@@ -869,22 +1015,47 @@ fn for_sample_groups(
     y: u32,
     mut group: impl FnMut(&[Vec3], &[Vec3], &[f32]),
 ) {
+    let circles = SamplingCircles::new(lens, sampling_block);
     let scrambles = PixelScrambles::new(frame.seed, y * frame.width + x);
     let mut film = [[0.0f32; 3]; SAMPLE_GROUP];
     let mut pupil = [[0.0f32; 3]; SAMPLE_GROUP];
-    let mut weight = [0.0f32; SAMPLE_GROUP];
     let mut first = 0;
     while first < frame.sample_count {
         let count = (frame.sample_count - first).min(SAMPLE_GROUP as u32) as usize;
+        let lanes = with_widest_isa(
+            #[inline(always)]
+            || sample_lanes(frame, &circles, &scrambles, [x, y], first),
+        );
         for k in 0..count {
-            let index = frame.sample_offset + (first + k as u32) * frame.sample_stride;
-            let (film_point, lens_u) = pixel_sample(frame, &scrambles, x, y, index);
-            (pupil[k], weight[k]) = pupil_sample(frame, lens, sampling_block, film_point, lens_u);
-            film[k] = film_point;
+            film[k] = [0, 1, 2].map(|axis| lanes.film[axis][k]);
+            pupil[k] = [0, 1, 2].map(|axis| lanes.pupil[axis][k]);
         }
-        group(&film[..count], &pupil[..count], &weight[..count]);
+        group(&film[..count], &pupil[..count], &lanes.weight[..count]);
         first += count as u32;
     }
+}
+
+/// Hands `add` each sample's weight and the colour its object ray meets in the layers, in
+/// sample order (samples whose ray meets nothing are skipped). The march is compiled for the
+/// widest instruction set, which its scalar code gains from too (three-operand forms, cheaper
+/// conversions).
+fn march_group(
+    frame: &FrameParams,
+    layers: &LayerData,
+    object: &[ObjectRay],
+    weight: &[f32],
+    mut add: impl FnMut(f32, Vec3),
+) {
+    with_widest_isa(
+        #[inline(always)]
+        || {
+            for (ray, &w) in object.iter().zip(weight) {
+                if let Some(colour) = trace_layers(frame, layers, ray) {
+                    add(w, colour);
+                }
+            }
+        },
+    );
 }
 
 /// Weighted radiance summed over this dispatch's samples for output pixel (x, y): the body of
@@ -908,13 +1079,11 @@ fn render_pixel(
         y,
         |film, pupil, weight| {
             lens_rays(frame, rays, film, pupil, &mut object);
-            for (ray, &w) in object.iter().zip(weight) {
-                if let Some(colour) = trace_layers(frame, layers, ray) {
-                    for (acc, c) in sum.iter_mut().zip(colour) {
-                        *acc += w * c;
-                    }
+            march_group(frame, layers, &object, weight, |w, colour| {
+                for (acc, c) in sum.iter_mut().zip(colour) {
+                    *acc += w * c;
                 }
-            }
+            });
         },
     );
     sum
@@ -972,11 +1141,9 @@ fn render_pixel_chromatic(
                     pupil,
                     &mut object,
                 );
-                for (ray, &w) in object.iter().zip(weight) {
-                    if let Some(colour) = trace_layers(frame, layers, ray) {
-                        sum[channel] += w * colour[channel];
-                    }
-                }
+                march_group(frame, layers, &object, weight, |w, colour| {
+                    sum[channel] += w * colour[channel];
+                });
             }
         },
     );
@@ -1285,6 +1452,61 @@ mod tests {
                 let as_i32 = (v.floor() as i32).clamp(0, last as i32);
                 assert_eq!(floor_clamped(v, last), as_u32, "{v} {last}");
                 assert_eq!(floor_clamped(v, last) as i32, as_i32, "{v} {last}");
+            }
+        }
+    }
+
+    #[test]
+    fn octant_sine_and_cosine_are_within_an_ulp_and_a_half() {
+        let ulp = |v: f64| {
+            let v = (v as f32).abs();
+            (f32::from_bits(v.to_bits() + 1) - v) as f64
+        };
+        let steps = 100_000;
+        for k in -steps..=steps {
+            let x = QUARTER_PI * k as f32 / steps as f32;
+            let (sin, cos) = sin_cos_octant(x);
+            let exact = (x as f64).sin_cos();
+            // Below the smallest normal the sine is x itself.
+            assert!(
+                (sin as f64 - exact.0).abs()
+                    <= 1.5 * ulp(exact.0).max(f64::from(f32::MIN_POSITIVE)),
+                "sin {x}: {sin} against {}",
+                exact.0
+            );
+            assert!(
+                (cos as f64 - exact.1).abs() <= 1.5 * ulp(exact.1),
+                "cos {x}: {cos} against {}",
+                exact.1
+            );
+        }
+    }
+
+    #[test]
+    fn concentric_disc_is_the_polar_map_of_the_octants() {
+        // Against the map written with libm's sine and cosine of the angle in each octant.
+        let steps = 200;
+        for i in 0..=steps {
+            for j in 0..=steps {
+                let u = [i as f32 / steps as f32, j as f32 / steps as f32];
+                let a = [2.0 * u[0] as f64 - 1.0, 2.0 * u[1] as f64 - 1.0];
+                let expected = if a == [0.0, 0.0] {
+                    [0.0, 0.0]
+                } else if a[0].abs() > a[1].abs() {
+                    let phi = std::f64::consts::FRAC_PI_4 * a[1] / a[0];
+                    [a[0] * phi.cos(), a[0] * phi.sin()]
+                } else {
+                    let phi =
+                        std::f64::consts::FRAC_PI_2 - std::f64::consts::FRAC_PI_4 * a[0] / a[1];
+                    [a[1] * phi.cos(), a[1] * phi.sin()]
+                };
+                let d = concentric_disc(u);
+                for (got, want) in d.iter().zip(expected) {
+                    assert!(
+                        (*got as f64 - want).abs() < 3e-7,
+                        "{u:?}: {d:?} against {expected:?}"
+                    );
+                }
             }
         }
     }

@@ -62,6 +62,17 @@ pub const SHARED_CONSTANTS: &[(&str, WgslValue)] = {
         ("HASH_MULTIPLIER_1", U32(kernel::HASH_MULTIPLIER_1)),
         ("HASH_MULTIPLIER_2", U32(kernel::HASH_MULTIPLIER_2)),
         ("LATTICE_GOLDEN", U32(kernel::LATTICE_GOLDEN)),
+        // The concentric disc's sine and cosine (kernel::sin_cos_octant).
+        ("QUARTER_PI", F32(kernel::QUARTER_PI)),
+        ("SIN_TAYLOR_3", F32(kernel::SIN_TAYLOR[0])),
+        ("SIN_TAYLOR_5", F32(kernel::SIN_TAYLOR[1])),
+        ("SIN_TAYLOR_7", F32(kernel::SIN_TAYLOR[2])),
+        ("SIN_TAYLOR_9", F32(kernel::SIN_TAYLOR[3])),
+        ("COS_TAYLOR_2", F32(kernel::COS_TAYLOR[0])),
+        ("COS_TAYLOR_4", F32(kernel::COS_TAYLOR[1])),
+        ("COS_TAYLOR_6", F32(kernel::COS_TAYLOR[2])),
+        ("COS_TAYLOR_8", F32(kernel::COS_TAYLOR[3])),
+        ("COS_TAYLOR_10", F32(kernel::COS_TAYLOR[4])),
         // The lens trace (LensSurface::kind, TracedRay::status, the asphere search).
         ("SURFACE_PLANE", U32(gpu::SURFACE_PLANE)),
         ("SURFACE_SPHERE", U32(gpu::SURFACE_SPHERE)),

@@ -238,6 +238,35 @@ impl Isa {
     }
 }
 
+/// Runs `body` compiled for the widest instruction set this processor has (see [`Isa`]):
+/// `body` and everything it calls that is `inline(always)` is compiled once per set, which lets
+/// branch-free loops over lanes use the widest vectors. The values are the same on every set:
+/// no multiply-add is fused unless written as one.
+#[inline(always)]
+pub(crate) fn with_widest_isa<R>(body: impl FnOnce() -> R) -> R {
+    match Isa::detect() {
+        Isa::Portable => body(),
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: `detect` names only sets the processor has.
+        Isa::Avx2Fma => unsafe { run_avx2_fma(body) },
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: as above.
+        Isa::Avx512 => unsafe { run_avx512(body) },
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+fn run_avx2_fma<R>(body: impl FnOnce() -> R) -> R {
+    body()
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512dq,avx512vl,avx2,fma")]
+fn run_avx512<R>(body: impl FnOnce() -> R) -> R {
+    body()
+}
+
 /// What a visitor sees after each surface: the surface's 0-based index and, for every slot in
 /// use, the number of the ray in it, whether that ray is still travelling (in `travelling`)
 /// and its hit point on the surface (x and y, lens frame). Slots of rays that have stopped hold

@@ -28,7 +28,7 @@ pub use batch::{BatchTrace, RayBatch};
 pub use bundle::FieldBundle;
 #[cfg(feature = "render")]
 pub(crate) use intersect::ASPHERE_MAX_STEPS;
-pub(crate) use lanes::{LANES, LaneVisitor, NoVisit, Slots};
+pub(crate) use lanes::{LANES, LaneVisitor, NoVisit, Slots, with_widest_isa};
 
 use crate::paraxial::Pupil;
 use crate::prescription::Shape;

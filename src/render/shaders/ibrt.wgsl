@@ -111,22 +111,37 @@ fn lattice_point(index: u32, count: u32, scramble_x: u32, scramble_y: u32) -> ve
     return vec2<f32>(unit_from_bits(x_bits), unit_from_bits(y_bits));
 }
 
-// Shirley-Chiu concentric map from the unit square to the unit disc.
+// sin(x) and cos(x) for |x| <= pi/4: the CPU twin's polynomials (kernel.rs, sin_cos_octant),
+// the same arithmetic on every device instead of each device's own builtins.
+fn sin_cos_octant(x: f32) -> vec2<f32> {
+    let x2 = x * x;
+    let sin_tail = ((SIN_TAYLOR_9 * x2 + SIN_TAYLOR_7) * x2 + SIN_TAYLOR_5) * x2 + SIN_TAYLOR_3;
+    let cos_tail = (((COS_TAYLOR_10 * x2 + COS_TAYLOR_8) * x2 + COS_TAYLOR_6) * x2 + COS_TAYLOR_4) * x2
+        + COS_TAYLOR_2;
+    return vec2<f32>(x + x * x2 * sin_tail, 1.0 + x2 * cos_tail);
+}
+
+// Shirley-Chiu concentric map from the unit square to the unit disc: the angle within the
+// octant is QUARTER_PI times the smaller coordinate over the larger, and the larger one's axis
+// decides whether its cosine or its sine is the point's x.
 fn concentric_disc(u: vec2<f32>) -> vec2<f32> {
     let a = 2.0 * u - vec2<f32>(1.0, 1.0);
-    if (a.x == 0.0 && a.y == 0.0) {
+    let x_dominant = abs(a.x) > abs(a.y);
+    var r = a.y;
+    var ratio = a.x / a.y;
+    if x_dominant {
+        r = a.x;
+        ratio = a.y / a.x;
+    }
+    // The centre of the square (0 / 0 above) is the centre of the disc.
+    if r == 0.0 {
         return vec2<f32>(0.0, 0.0);
     }
-    var r: f32;
-    var phi: f32;
-    if (abs(a.x) > abs(a.y)) {
-        r = a.x;
-        phi = (PI / 4.0) * (a.y / a.x);
-    } else {
-        r = a.y;
-        phi = PI / 2.0 - (PI / 4.0) * (a.x / a.y);
+    let sin_cos = sin_cos_octant(QUARTER_PI * ratio);
+    if x_dominant {
+        return r * vec2<f32>(sin_cos.y, sin_cos.x);
     }
-    return r * vec2<f32>(cos(phi), sin(phi));
+    return r * sin_cos;
 }
 
 struct ObjectRay {
