@@ -129,6 +129,7 @@ impl Cell {
 
 /// Trilinear addressing of a coordinate in \[0, 1\] on `n` nodes: base index and fraction.
 /// Nodes sit at k / (n - 1), so both ends of the domain are sampled exactly.
+#[inline(always)]
 pub fn address(coord: f64, n: usize) -> (usize, f64) {
     let t = coord.clamp(0.0, 1.0) * (n - 1) as f64;
     // t is in [0, n-1] (or NaN, which both roundings send to 0): truncation is the floor, without
@@ -152,12 +153,14 @@ impl<N: Node> Grid<N> {
         grid
     }
 
+    #[inline(always)]
     fn index(&self, [i0, i1, i2]: [usize; 3]) -> usize {
         let brick = i0 / BRICK + self.bricks[0] * (i1 / BRICK + self.bricks[1] * (i2 / BRICK));
         let within = i0 % BRICK + BRICK * (i1 % BRICK + BRICK * (i2 % BRICK));
         brick * BRICK_NODES + within
     }
 
+    #[inline(always)]
     fn cell(&self, coords: [f64; 3]) -> Cell {
         let (i0, f0) = address(coords[0], self.dims[0]);
         let (i1, f1) = address(coords[1], self.dims[1]);
@@ -184,6 +187,7 @@ impl<N: Node> Grid<N> {
         cell
     }
 
+    #[inline(always)]
     fn interpolate(&self, cell: &Cell, corners: Corners) -> [f64; CHANNELS] {
         #[cfg(target_arch = "x86_64")]
         if corners == Corners::All && vector::available() {
@@ -385,6 +389,7 @@ impl Entries {
     }
 
     /// The cell holding table coordinates `coords` (clamped to \[0, 1\]^3).
+    #[inline(always)]
     pub fn cell(&self, coords: [f64; 3]) -> Cell {
         match self {
             Entries::F32(g) => g.cell(coords),
@@ -393,6 +398,7 @@ impl Entries {
     }
 
     /// Every channel interpolated in `cell`, the values taken from `corners`.
+    #[inline(always)]
     pub fn interpolate(&self, cell: &Cell, corners: Corners) -> [f64; CHANNELS] {
         match self {
             Entries::F32(g) => g.interpolate(cell, corners),

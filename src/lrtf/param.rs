@@ -7,7 +7,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::pupil::PupilTable;
+use crate::pupil::{CircleInterpolation, PupilTable};
 
 /// How rays are turned into table coordinates and values.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -84,6 +84,16 @@ pub struct Located {
     pub in_domain: bool,
 }
 
+impl Located {
+    /// A placeholder for a ray that lands nowhere in the table.
+    pub(crate) const NOWHERE: Located = Located {
+        coords: [2.0; 3],
+        rotation: [1.0, 0.0],
+        mirror: 1.0,
+        in_domain: false,
+    };
+}
+
 /// A ray in the lens frame (mm), direction unit length.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Ray {
@@ -115,38 +125,46 @@ pub const CHANNEL_NAMES: [&str; CHANNELS] = [
 /// does not cover where it is >= 0.
 pub const MARGIN: usize = 4;
 
+#[inline(always)]
 fn rotate(v: [f64; 2], c: f64, s: f64) -> [f64; 2] {
     [c * v[0] - s * v[1], s * v[0] + c * v[1]]
 }
 
 /// Stereographic projection from the +z pole: any direction except exactly +z maps into the
 /// plane, directions with dz <= 0 into the unit disk; smooth through the axis (-z -> origin).
+#[inline(always)]
 pub fn stereographic(d: [f64; 3]) -> [f64; 2] {
     let k = 1.0 / (1.0 - d[2]);
     [d[0] * k, d[1] * k]
 }
 
+#[inline(always)]
 pub fn inverse_stereographic(s: [f64; 2]) -> [f64; 3] {
     let m = s[0] * s[0] + s[1] * s[1];
     let k = 1.0 / (1.0 + m);
     [2.0 * s[0] * k, 2.0 * s[1] * k, -(1.0 - m) * k]
 }
 
+#[inline(always)]
 fn normalise(v: [f64; 3]) -> [f64; 3] {
     let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
     [v[0] / n, v[1] / n, v[2] / n]
 }
 
 /// Point where `ray` crosses the plane z = `z`, if it travels towards it (rays here travel -z).
+#[inline(always)]
 fn crossing(ray: &Ray, z: f64) -> Option<[f64; 2]> {
-    if ray.direction[2] >= 0.0 {
-        return None;
-    }
+    (!(ray.direction[2] >= 0.0)).then(|| crossing_of_plane(ray, z))
+}
+
+/// Where the line of `ray` crosses the plane z = `z`, whichever way it travels.
+#[inline(always)]
+fn crossing_of_plane(ray: &Ray, z: f64) -> [f64; 2] {
     let t = (z - ray.origin[2]) / ray.direction[2];
-    Some([
+    [
         ray.origin[0] + t * ray.direction[0],
         ray.origin[1] + t * ray.direction[1],
-    ])
+    ]
 }
 
 /// Distance of `p` from the axis and the canonical rotation (cos, sin) putting it on +x; the x
@@ -154,6 +172,7 @@ fn crossing(ray: &Ray, z: f64) -> Option<[f64; 2]> {
 /// within an ulp of `hypot`, whose libm call cost 4 % of a baked frame on the CPU twin. It
 /// overflows only 1e154 mm off axis (outside the domain either way) and underflows only within
 /// 1e-154 mm of it (where any rotation serves).
+#[inline(always)]
 fn polar_of(p: [f64; 2]) -> (f64, [f64; 2]) {
     let r = (p[0] * p[0] + p[1] * p[1]).sqrt();
     let rotation = if r > 0.0 {
@@ -164,16 +183,56 @@ fn polar_of(p: [f64; 2]) -> (f64, [f64; 2]) {
     (r, rotation)
 }
 
+/// Whether all three coordinates lie in \[0, 1\] (NaN does not); every test is made, so a
+/// group's lanes make them side by side.
+#[inline(always)]
 fn in_unit(c: [f64; 3]) -> bool {
-    c.iter().all(|v| (0.0..=1.0).contains(v))
+    (0.0..=1.0).contains(&c[0]) & (0.0..=1.0).contains(&c[1]) & (0.0..=1.0).contains(&c[2])
+}
+
+/// Where a film-side ray lands in the pupil-planes coordinates of `frame` with the coordinate
+/// pupil `circles`, without branches (a lookup's lanes run it side by side), and whether the
+/// ray reaches the planes at all (it travels -z). Where it does not, the location is
+/// meaningless.
+#[inline(always)]
+pub(crate) fn locate_pupil_planes(
+    frame: &Frame,
+    circles: &CircleInterpolation,
+    ray: &Ray,
+) -> (Located, bool) {
+    let reaches = !(ray.direction[2] >= 0.0);
+    let rear = crossing_of_plane(ray, frame.rear_plane_z);
+    let film = crossing_of_plane(ray, frame.film_plane_z);
+    let (film_radius, [c, s]) = polar_of(film);
+    let q = rotate(rear, c, -s);
+    let mirror = if q[1] < 0.0 { -1.0 } else { 1.0 };
+    let circle = circles.at(film_radius);
+    let open = circle.radius > 0.0;
+    let radial = film_radius / frame.max_film_radius;
+    let across = 0.5 * ((q[0] - circle.centre_x) / circle.radius + 1.0);
+    let up = q[1] * mirror / circle.radius;
+    // A closed circle (no ray passes) gives coordinates outside the unit cube.
+    let coords = [
+        radial,
+        if open { across } else { 2.0 },
+        if open { up } else { 2.0 },
+    ];
+    let located = Located {
+        coords,
+        rotation: [c, s],
+        mirror,
+        in_domain: open & in_unit(coords),
+    };
+    (located, reaches)
 }
 
 impl Parameterisation {
     /// Table coordinates of a film-side ray travelling -z; None if it never reaches the planes.
+    #[inline(always)]
     pub fn locate(self, frame: &Frame, pupil: &PupilTable, ray: &Ray) -> Option<Located> {
-        let rear = crossing(ray, frame.rear_plane_z)?;
         match self {
             Parameterisation::Spherical => {
+                let rear = crossing(ray, frame.rear_plane_z)?;
                 let (rear_radius, [c, s]) = polar_of(rear);
                 let d = rotate([ray.direction[0], ray.direction[1]], c, -s);
                 let mirror = if d[1] < 0.0 { -1.0 } else { 1.0 };
@@ -192,30 +251,8 @@ impl Parameterisation {
                 })
             }
             Parameterisation::PupilPlanes => {
-                let film = crossing(ray, frame.film_plane_z)?;
-                let (film_radius, [c, s]) = polar_of(film);
-                let q = rotate(rear, c, -s);
-                let mirror = if q[1] < 0.0 { -1.0 } else { 1.0 };
-                let circle = pupil.circle_at(film_radius);
-                if circle.radius <= 0.0 {
-                    return Some(Located {
-                        coords: [film_radius / frame.max_film_radius, 2.0, 2.0],
-                        rotation: [c, s],
-                        mirror,
-                        in_domain: false,
-                    });
-                }
-                let coords = [
-                    film_radius / frame.max_film_radius,
-                    0.5 * ((q[0] - circle.centre_x) / circle.radius + 1.0),
-                    q[1] * mirror / circle.radius,
-                ];
-                Some(Located {
-                    coords,
-                    rotation: [c, s],
-                    mirror,
-                    in_domain: in_unit(coords),
-                })
+                let (located, reaches) = locate_pupil_planes(frame, &pupil.interpolation(), ray);
+                reaches.then_some(located)
             }
         }
     }
@@ -268,6 +305,7 @@ impl Parameterisation {
         }
     }
 
+    #[inline(always)]
     pub fn decode_direction(self, e: [f64; 2]) -> [f64; 3] {
         match self {
             Parameterisation::Spherical => [
@@ -296,6 +334,7 @@ impl Parameterisation {
 }
 
 /// Undoes the canonical frame: mirror, then rotate, for a transverse vector.
+#[inline(always)]
 pub fn to_lens_frame(v: [f64; 2], at: &Located) -> [f64; 2] {
     rotate([v[0], v[1] * at.mirror], at.rotation[0], at.rotation[1])
 }

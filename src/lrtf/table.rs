@@ -5,8 +5,11 @@ use serde::{Deserialize, Serialize};
 
 use super::entries::Entries;
 use super::focus::FocusRange;
-use super::param::{CHANNELS, Frame, Located, MARGIN, Parameterisation, Ray, to_lens_frame};
-use crate::pupil::{FocusPupilTable, PupilTable};
+use super::param::{
+    CHANNELS, Frame, Located, MARGIN, Parameterisation, Ray, locate_pupil_planes, to_lens_frame,
+};
+use crate::pupil::{CircleInterpolation, FocusPupilTable, PupilTable};
+use crate::trace::with_widest_isa;
 
 /// Sample format on disk and in memory (see [`Entries`]): sampling a table in memory gives
 /// exactly the error of its file.
@@ -149,9 +152,199 @@ impl Layer {
     }
 }
 
-/// Rays a lookup handles together: it locates all of them before it reads any table entry, so
-/// the reads of several rays are in flight at once (in a large table most of them miss cache).
-pub const LOOKUP_GROUP: usize = 16;
+/// Rays a lookup handles together: it locates all of them (side by side, in vector lanes) before
+/// it reads any table entry, so the reads of several rays are in flight at once (in a large
+/// table most of them miss cache). 64, a renderer's group of samples: at 16 the compiler
+/// unrolled the lanes' loops whole instead of vectorising them.
+pub const LOOKUP_GROUP: usize = 64;
+
+/// What a located ray's place says before the table is read: it falls inside (`LRTF_PASSES`,
+/// the lookup goes on), or outside the domain, or outside the conservative pupil bound
+/// (`LRTF_BLOCKED`). Beyond the film radius a pupil-planes table covers, nothing is known.
+#[inline(always)]
+fn verdict(reaches: bool, at: &Located, pupil_planes: bool) -> u32 {
+    // Every test made (no short circuits), so the lanes choose without branches.
+    let beyond_film = pupil_planes & (at.coords[0] > 1.0);
+    let inside = if at.in_domain {
+        LRTF_PASSES
+    } else {
+        LRTF_BLOCKED
+    };
+    if !reaches | (!at.in_domain & beyond_film) {
+        LRTF_OUTSIDE
+    } else {
+        inside
+    }
+}
+
+/// How a parameterisation places a ray in its table and decodes a stored direction, each
+/// inlined into the lookup's lanes.
+trait Place {
+    /// Where `ray` lands, and its [`verdict`].
+    fn locate(&self, ray: &Ray) -> (Located, u32);
+    fn decode(&self, e: [f64; 2]) -> [f64; 3];
+}
+
+/// The pupil-planes parameterisation: both without branches, so its lanes are vector code.
+struct PupilPlanesPlace<'a> {
+    frame: &'a Frame,
+    circles: CircleInterpolation<'a>,
+}
+
+impl Place for PupilPlanesPlace<'_> {
+    #[inline(always)]
+    fn locate(&self, ray: &Ray) -> (Located, u32) {
+        let (at, reaches) = locate_pupil_planes(self.frame, &self.circles, ray);
+        (at, verdict(reaches, &at, true))
+    }
+
+    #[inline(always)]
+    fn decode(&self, e: [f64; 2]) -> [f64; 3] {
+        Parameterisation::PupilPlanes.decode_direction(e)
+    }
+}
+
+/// The spherical parameterisation (its angles are libm calls, lane by lane).
+struct SphericalPlace<'a> {
+    layer: &'a Layer,
+}
+
+impl Place for SphericalPlace<'_> {
+    #[inline(always)]
+    fn locate(&self, ray: &Ray) -> (Located, u32) {
+        match Parameterisation::Spherical.locate(&self.layer.frame, &self.layer.pupil, ray) {
+            Some(at) => (at, verdict(true, &at, false)),
+            None => (Located::NOWHERE, LRTF_OUTSIDE),
+        }
+    }
+
+    #[inline(always)]
+    fn decode(&self, e: [f64; 2]) -> [f64; 3] {
+        Parameterisation::Spherical.decode_direction(e)
+    }
+}
+
+/// One lookup's settings: the layer, the stop, the corners interpolated, and its
+/// parameterisation's [`Place`].
+struct LaneLookup<'a, P> {
+    layer: &'a Layer,
+    stop_radius: f64,
+    corners: Corners,
+    place: P,
+}
+
+impl<P: Place> LaneLookup<'_, P> {
+    /// Looks `rays` up into `out`, [`LOOKUP_GROUP`] at a time in vector lanes: every ray
+    /// located, then each placed ray's cell addressed (its corners prefetched, so the misses of
+    /// the group overlap) and interpolated, then the stop and margin tests and the outgoing rays
+    /// for all of them. Compiled for the widest instruction set; the lanes compute the same
+    /// numbers one ray at a time would.
+    fn run(&self, rays: &[Ray], out: &mut [Lookup]) {
+        with_widest_isa(
+            #[inline(always)]
+            || {
+                for (rays, out) in rays.chunks(LOOKUP_GROUP).zip(out.chunks_mut(LOOKUP_GROUP)) {
+                    self.group(rays, out);
+                }
+            },
+        );
+    }
+
+    #[inline(always)]
+    fn group(&self, rays: &[Ray], out: &mut [Lookup]) {
+        const G: usize = LOOKUP_GROUP;
+        let n = rays.len();
+        // Columns of the rays; lanes past the last ray repeat the first.
+        let mut columns = [[0.0; G]; 6];
+        for k in 0..G {
+            let ray = rays[k.min(n - 1)];
+            for axis in 0..3 {
+                columns[axis][k] = ray.origin[axis];
+                columns[3 + axis][k] = ray.direction[axis];
+            }
+        }
+        // Where each lands, a column per value, so the lanes store whole vectors.
+        let mut coords = [[0.0; G]; 3];
+        let mut rotation = [[0.0; G]; 2];
+        let mut mirror = [0.0; G];
+        let mut in_domain = [false; G];
+        let mut verdicts = [LRTF_OUTSIDE; G];
+        for k in 0..G {
+            let ray = Ray {
+                origin: [columns[0][k], columns[1][k], columns[2][k]],
+                direction: [columns[3][k], columns[4][k], columns[5][k]],
+            };
+            let (at, verdict) = self.place.locate(&ray);
+            for axis in 0..3 {
+                coords[axis][k] = at.coords[axis];
+            }
+            rotation[0][k] = at.rotation[0];
+            rotation[1][k] = at.rotation[1];
+            mirror[k] = at.mirror;
+            in_domain[k] = at.in_domain;
+            verdicts[k] = verdict;
+        }
+        let located = |k: usize| Located {
+            coords: [coords[0][k], coords[1][k], coords[2][k]],
+            rotation: [rotation[0][k], rotation[1][k]],
+            mirror: mirror[k],
+            in_domain: in_domain[k],
+        };
+        let entries = &self.layer.entries;
+        let mut cells = [None; G];
+        for k in 0..n {
+            if verdicts[k] == LRTF_PASSES {
+                cells[k] = Some(entries.cell(located(k).coords));
+            }
+        }
+        let mut values = [[0.0; G]; CHANNELS];
+        for k in 0..n {
+            if let Some(cell) = &cells[k] {
+                let v = entries.interpolate(cell, self.corners);
+                for channel in 0..CHANNELS {
+                    values[channel][k] = v[channel];
+                }
+            }
+        }
+        let mut leaving = [[0.0; G]; 6];
+        let mut passes = [false; G];
+        for k in 0..G {
+            let v = std::array::from_fn(|channel| values[channel][k]);
+            let (ray, through) = self.leaving(&located(k), &v);
+            for axis in 0..3 {
+                leaving[axis][k] = ray.origin[axis];
+                leaving[3 + axis][k] = ray.direction[axis];
+            }
+            passes[k] = through;
+        }
+        for k in 0..n {
+            out[k] = match verdicts[k] {
+                LRTF_PASSES if passes[k] => Lookup::Passes(Ray {
+                    origin: [leaving[0][k], leaving[1][k], leaving[2][k]],
+                    direction: [leaving[3][k], leaving[4][k], leaving[5][k]],
+                }),
+                LRTF_PASSES | LRTF_BLOCKED => Lookup::Blocked,
+                _ => Lookup::OutsideDomain,
+            };
+        }
+    }
+
+    /// The outgoing ray in the lens frame for the interpolated channels `v` at `at`, and
+    /// whether the ray passes the stop and aperture-margin tests.
+    #[inline(always)]
+    fn leaving(&self, at: &Located, v: &[f64; CHANNELS]) -> (Ray, bool) {
+        let stop_ok = v[5] * v[5] + v[6] * v[6] <= self.stop_radius * self.stop_radius;
+        let passes = !(v[MARGIN] < 0.0) & stop_ok;
+        let exit = to_lens_frame([v[0], v[1]], at);
+        let d = self.place.decode([v[2], v[3]]);
+        let d_xy = to_lens_frame([d[0], d[1]], at);
+        let ray = Ray {
+            origin: [exit[0], exit[1], v[7]],
+            direction: [d_xy[0], d_xy[1], d[2]],
+        };
+        (ray, passes)
+    }
+}
 
 impl LrtfTable {
     pub fn dims(&self) -> [usize; 3] {
@@ -166,6 +359,7 @@ impl LrtfTable {
     }
 
     /// Where `ray` lands in layer `layer`'s coordinates.
+    #[inline(always)]
     pub fn locate(&self, layer: usize, ray: &Ray) -> Option<Located> {
         let l = &self.layers[layer];
         self.info.parameterisation.locate(&l.frame, &l.pupil, ray)
@@ -232,57 +426,28 @@ impl LrtfTable {
         out: &mut [Lookup],
     ) {
         assert_eq!(rays.len(), out.len(), "one lookup per ray");
-        let entries = &self.layers[layer].entries;
-        for (rays, out) in rays.chunks(LOOKUP_GROUP).zip(out.chunks_mut(LOOKUP_GROUP)) {
-            let mut located = [None; LOOKUP_GROUP];
-            for ((ray, o), at) in rays.iter().zip(out.iter_mut()).zip(&mut located) {
-                match self.place(layer, ray) {
-                    Ok(place) => *at = Some((place, entries.cell(place.coords))),
-                    Err(settled) => *o = settled,
-                }
+        let l = &self.layers[layer];
+        // Each parameterisation's lanes compiled on their own, so the pupil-planes ones have
+        // no call (acos, atan2) in the way of the vector instructions.
+        match self.info.parameterisation {
+            Parameterisation::PupilPlanes => LaneLookup {
+                layer: l,
+                stop_radius,
+                corners,
+                place: PupilPlanesPlace {
+                    frame: &l.frame,
+                    circles: l.pupil.interpolation(),
+                },
             }
-            for (at, o) in located.iter().zip(out) {
-                if let Some((place, cell)) = at {
-                    let v = entries.interpolate(cell, corners);
-                    *o = self.leaving(place, &v, stop_radius);
-                }
+            .run(rays, out),
+            Parameterisation::Spherical => LaneLookup {
+                layer: l,
+                stop_radius,
+                corners,
+                place: SphericalPlace { layer: l },
             }
+            .run(rays, out),
         }
-    }
-
-    /// Where `ray` falls in the table, or what it means when it falls outside the domain.
-    fn place(&self, layer: usize, ray: &Ray) -> Result<Located, Lookup> {
-        let Some(at) = self.locate(layer, ray) else {
-            return Err(Lookup::OutsideDomain);
-        };
-        if !at.in_domain {
-            // Beyond the film radius the table covers (pupil-planes), nothing is known; elsewhere
-            // out of range means outside the conservative pupil bound, hence blocked.
-            let beyond_film =
-                self.info.parameterisation == Parameterisation::PupilPlanes && at.coords[0] > 1.0;
-            return Err(if beyond_film {
-                Lookup::OutsideDomain
-            } else {
-                Lookup::Blocked
-            });
-        }
-        Ok(at)
-    }
-
-    /// The outcome of the interpolated channels `v` at `at`: the stop and aperture-margin tests,
-    /// then the outgoing ray in the lens frame.
-    fn leaving(&self, at: &Located, v: &[f64; CHANNELS], stop_radius: f64) -> Lookup {
-        let stop_ok = v[5] * v[5] + v[6] * v[6] <= stop_radius * stop_radius;
-        if v[MARGIN] < 0.0 || !stop_ok {
-            return Lookup::Blocked;
-        }
-        let exit = to_lens_frame([v[0], v[1]], at);
-        let d = self.info.parameterisation.decode_direction([v[2], v[3]]);
-        let d_xy = to_lens_frame([d[0], d[1]], at);
-        Lookup::Passes(Ray {
-            origin: [exit[0], exit[1], v[7]],
-            direction: [d_xy[0], d_xy[1], d[2]],
-        })
     }
 
     /// The uniform block `LrtfParams` of `lrtf_sample.wgsl` for one layer, stop radius and the

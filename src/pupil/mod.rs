@@ -39,27 +39,19 @@ impl PupilTable {
     /// The interpolated circle at film radius `r` (clamped to the table's range). A table with
     /// no circles (only a hostile file makes one) has the empty circle, where nothing passes.
     pub fn circle_at(&self, film_radius: f64) -> PupilCircle {
-        let n = self.circles.len();
-        if n == 0 {
-            return PupilCircle {
-                centre_x: 0.0,
-                radius: 0.0,
-            };
-        }
-        if n == 1 || self.max_film_radius <= 0.0 {
-            return self.circles[0];
-        }
-        let t = (film_radius / self.max_film_radius).clamp(0.0, 1.0) * (n - 1) as f64;
-        // t >= 0 (or NaN, 0 either way): truncation is the floor, without a libm call.
-        let i = (t as usize).min(n - 2);
-        let f = t - i as f64;
-        let (a, b) = (self.circles[i], self.circles[i + 1]);
-        PupilCircle {
-            centre_x: a.centre_x + (b.centre_x - a.centre_x) * f,
-            radius: a.radius + (b.radius - a.radius) * f,
-        }
+        self.interpolation().at(film_radius)
     }
 
+    /// The circles as [`CircleInterpolation::at`] reads them, for many film radii in a row.
+    pub(crate) fn interpolation(&self) -> CircleInterpolation<'_> {
+        let n = self.circles.len();
+        let spread = n > 1 && self.max_film_radius > 0.0;
+        CircleInterpolation {
+            circles: if n == 0 { &NO_CIRCLE } else { &self.circles },
+            max_film_radius: self.max_film_radius,
+            intervals: if spread { (n - 1) as f64 } else { 0.0 },
+        }
+    }
     /// Maps a unit-square sample to a point uniform over the circle for `film_radius`.
     /// Uses the concentric (Shirley-Chiu) map, which keeps strata compact.
     pub fn sample(&self, film_radius: f64, unit: [f64; 2]) -> PupilSample {
@@ -77,6 +69,54 @@ impl PupilTable {
             .iter()
             .map(|c| c.centre_x.abs() + c.radius)
             .fold(0.0, f64::max)
+    }
+}
+
+/// What a table without circles holds: the empty circle.
+const NO_CIRCLE: [PupilCircle; 1] = [PupilCircle {
+    centre_x: 0.0,
+    radius: 0.0,
+}];
+
+/// A [`PupilTable`]'s circles (never none: the empty circle stands in) and the intervals between
+/// them, 0 where there is a single circle or no film radius to spread them over.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct CircleInterpolation<'a> {
+    circles: &'a [PupilCircle],
+    max_film_radius: f64,
+    intervals: f64,
+}
+
+impl CircleInterpolation<'_> {
+    /// [`PupilTable::circle_at`] without branches, so that a group of rays gets its circles in
+    /// vector lanes.
+    #[inline(always)]
+    pub(crate) fn at(&self, film_radius: f64) -> PupilCircle {
+        let last = self.circles.len() - 1;
+        let t = (film_radius / self.max_film_radius).clamp(0.0, 1.0) * self.intervals;
+        // t >= 0 (or NaN, 0 either way): truncation is the floor, without a libm call; in u32,
+        // which vector instructions convert to directly (t is at most the number of circles
+        // less one, which `PupilTable`'s readers keep far below 2^32).
+        let i = if t > 0.0 {
+            (t as u32).min(last.saturating_sub(1) as u32)
+        } else {
+            0
+        };
+        let f = t - f64::from(i);
+        let i = i as usize;
+        // SAFETY: both indices are at most `last`, and `circles` is never empty. Unchecked, so a
+        // group's lanes load them without a branch each.
+        let (a, b) = unsafe {
+            (
+                *self.circles.get_unchecked(i.min(last)),
+                *self.circles.get_unchecked((i + 1).min(last)),
+            )
+        };
+        let between = PupilCircle {
+            centre_x: a.centre_x + (b.centre_x - a.centre_x) * f,
+            radius: a.radius + (b.radius - a.radius) * f,
+        };
+        if self.intervals > 0.0 { between } else { a }
     }
 }
 
