@@ -695,10 +695,6 @@ impl LensRays<'_> {
     }
 }
 
-fn to_f64(v: Vec3) -> [f64; 3] {
-    v.map(f64::from)
-}
-
 /// The object-space ray that leaves the lens from `origin` along the film-to-object
 /// `direction` (f64, from the tracer or the table): light travels towards +z, against it.
 fn leaving(origin: [f64; 3], direction: [f64; 3]) -> ObjectRay {
@@ -745,24 +741,31 @@ fn lens_rays(
         }
         LensRays::Traced(tracer) => {
             // Rays that cannot be built (a zero direction) stay blocked and are not traced.
+            let count = film.len();
+            let (columns, built) = with_widest_isa(
+                #[inline(always)]
+                || film_side_rays(film, pupil),
+            );
             let mut group = [crate::trace::Ray::ALONG_AXIS; SAMPLE_GROUP];
             let mut slot = [0usize; SAMPLE_GROUP];
-            let mut count = 0;
-            for (k, ((&f, &p), o)) in pairs.enumerate() {
-                *o = blocked_ray();
-                let towards = [p[0] - f[0], p[1] - f[1], p[2] - f[2]];
-                if let Ok(ray) = crate::trace::Ray::new(to_f64(f), to_f64(towards)) {
-                    group[count] = ray;
-                    slot[count] = k;
-                    count += 1;
+            let mut traced_count = 0;
+            for k in 0..count {
+                out[k] = blocked_ray();
+                if built[k] {
+                    group[traced_count] = crate::trace::Ray::from_parts(
+                        [columns[0][k], columns[1][k], columns[2][k]],
+                        [columns[3][k], columns[4][k], columns[5][k]],
+                    );
+                    slot[traced_count] = k;
+                    traced_count += 1;
                 }
             }
             let mut traced = [crate::trace::Traced {
                 outcome: crate::trace::Outcome::Ok,
                 ray: crate::trace::Ray::ALONG_AXIS,
             }; SAMPLE_GROUP];
-            tracer.trace_group(&group[..count], Travel::Backward, &mut traced);
-            for (t, &k) in traced[..count].iter().zip(&slot) {
+            tracer.trace_group(&group[..traced_count], Travel::Backward, &mut traced);
+            for (t, &k) in traced[..traced_count].iter().zip(&slot) {
                 if t.outcome.is_ok() {
                     out[k] = leaving(t.ray.position(), t.ray.direction());
                 }
@@ -773,20 +776,17 @@ fn lens_rays(
             stop_radius,
             layer,
         } => {
-            // Looked up together, so the table reads of the whole group overlap.
+            // Looked up together, so the table reads of the whole group overlap. A ray that
+            // cannot be built has no direction, which no table holds (it falls outside).
             let count = film.len();
-            let mut group = [lrtf::Ray {
-                origin: [0.0; 3],
-                direction: [0.0, 0.0, -1.0],
-            }; SAMPLE_GROUP];
-            for ((&f, &p), ray) in film.iter().zip(pupil).zip(&mut group) {
-                let d = to_f64([p[0] - f[0], p[1] - f[1], p[2] - f[2]]);
-                let length = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-                *ray = lrtf::Ray {
-                    origin: to_f64(f),
-                    direction: d.map(|v| v / length),
-                };
-            }
+            let (columns, _) = with_widest_isa(
+                #[inline(always)]
+                || film_side_rays(film, pupil),
+            );
+            let group: [lrtf::Ray; SAMPLE_GROUP] = std::array::from_fn(|k| lrtf::Ray {
+                origin: [columns[0][k], columns[1][k], columns[2][k]],
+                direction: [columns[3][k], columns[4][k], columns[5][k]],
+            });
             let mut looked = [Lookup::OutsideDomain; SAMPLE_GROUP];
             table.lookup_group(layer, &group[..count], stop_radius, &mut looked[..count]);
             for (o, looked) in out.iter_mut().zip(&looked[..count]) {
@@ -797,6 +797,44 @@ fn lens_rays(
             }
         }
     }
+}
+
+/// The f64 film-side rays of a group (from `film[k]` towards `pupil[k]`, the direction made
+/// unit), a column per coordinate (x, y, z, dx, dy, dz), and whether each could be built: what
+/// [`crate::trace::Ray::new`] makes of them, bit for bit, side by side in vector lanes. From f32
+/// points a direction's squared length can neither overflow nor underflow f64, so `Ray::new`
+/// divides by the length, as here; it refuses only non-finite values and a zero direction.
+/// Lanes past the group's last ray are zero (and not built).
+#[inline(always)]
+fn film_side_rays(
+    film: &[Vec3],
+    pupil: &[Vec3],
+) -> ([[f64; SAMPLE_GROUP]; 6], [bool; SAMPLE_GROUP]) {
+    let mut from = [[0.0f32; SAMPLE_GROUP]; 3];
+    let mut towards = [[0.0f32; SAMPLE_GROUP]; 3];
+    for (k, (f, p)) in film.iter().zip(pupil).enumerate().take(SAMPLE_GROUP) {
+        for axis in 0..3 {
+            from[axis][k] = f[axis];
+            towards[axis][k] = p[axis] - f[axis];
+        }
+    }
+    let mut columns = [[0.0; SAMPLE_GROUP]; 6];
+    let mut built = [false; SAMPLE_GROUP];
+    for k in 0..SAMPLE_GROUP {
+        let position = [0, 1, 2].map(|axis| f64::from(from[axis][k]));
+        let d = [0, 1, 2].map(|axis| f64::from(towards[axis][k]));
+        let length = crate::trace::dot(d, d).sqrt();
+        let finite = position
+            .iter()
+            .chain(&d)
+            .fold(true, |all, v| all & v.is_finite());
+        built[k] = finite & (length > 0.0);
+        for axis in 0..3 {
+            columns[axis][k] = position[axis];
+            columns[3 + axis][k] = d[axis] / length;
+        }
+    }
+    (columns, built)
 }
 
 /// The kernel's lens function alone: the object-space ray (a point on it, and the direction the

@@ -27,14 +27,14 @@ pub(crate) use batch::GROUP_RAYS;
 pub use batch::{BatchTrace, RayBatch};
 pub use bundle::FieldBundle;
 #[cfg(feature = "render")]
-pub(crate) use intersect::ASPHERE_MAX_STEPS;
+pub(crate) use intersect::{ASPHERE_MAX_STEPS, dot};
 pub(crate) use lanes::{LANES, LaneVisitor, NoVisit, Slots, with_widest_isa};
 
 use crate::paraxial::Pupil;
 use crate::prescription::Shape;
 use crate::system::{LensSystem, SystemAt};
 use aperture::Diaphragm;
-use intersect::{AsphereTerms, Profile, dot};
+use intersect::{AsphereTerms, Profile};
 
 /// A point or direction in the lens frame (mm; z along the axis, origin at surface 1's vertex).
 pub type Vec3 = [f64; 3];
