@@ -341,18 +341,18 @@ fn hit_in_pixel(frame: &FrameParams, layers: &LayerData, pixel: u32, window: Vec
     None
 }
 
+/// The part of `range` (parameters from 0 at `a` to 1 at `b`) inside [0, extent] along one
+/// axis; empty ([1, 0]) or all of `range` when the run is parallel to the axis. Both cases are
+/// computed and one chosen, so the group's segments are set up in vector lanes.
 #[inline(always)]
 fn clip_axis(a: f32, b: f32, extent: f32, range: Vec2) -> Vec2 {
     let d = b - a;
-    if d == 0.0 {
-        if a < 0.0 || a > extent {
-            return [1.0, 0.0];
-        }
-        return range;
-    }
     let t0 = (0.0 - a) / d;
     let t1 = (extent - a) / d;
-    [range[0].max(t0.min(t1)), range[1].min(t0.max(t1))]
+    let clipped = [range[0].max(t0.min(t1)), range[1].min(t0.max(t1))];
+    let outside = (a < 0.0) | (a > extent);
+    let parallel = if outside { [1.0, 0.0] } else { range };
+    if d == 0.0 { parallel } else { clipped }
 }
 
 /// The shader's `clamp(floor(v), 0, last)` taken as a whole number (its `u32(...)` and
@@ -402,27 +402,36 @@ impl Segment {
     }
 }
 
-/// The ray's stretch between the near and far depth, clipped to the layer image and shrunk
-/// `FOOTPRINT_CLAMP_ITERATIONS` times to the depths the pyramid finds under its footprint; None
-/// where nothing is left.
+/// The ray's stretch between the near and far depth clipped to the layer image, and whether
+/// anything is left of it (the ray is valid, travels towards the scene and crosses the image):
+/// the first part of the segment a ray marches, without branches, so a group's rays get theirs side by
+/// side in vector lanes.
 #[inline(always)]
-fn layer_segment(frame: &FrameParams, layers: &LayerData, ray: &ObjectRay) -> Option<Segment> {
-    if !ray.valid || ray.direction[2] <= 0.0 {
-        return None;
-    }
+fn image_span(frame: &FrameParams, ray: &ObjectRay) -> (Segment, bool) {
     let a = project(frame, ray, frame.near_depth);
     let b = project(frame, ray, frame.far_depth);
     let lw = frame.layer_width as f32;
     let lh = frame.layer_height as f32;
     let mut range = clip_axis(a[0], b[0], lw, [0.0, 1.0]);
     range = clip_axis(a[1], b[1], lh, range);
-    if range[0] >= range[1] {
-        return None;
-    }
+    let slack = DEPTH_SLACK * (a[2].abs() + b[2].abs());
+    let open = ray.valid & (ray.direction[2] > 0.0) & (range[0] < range[1]);
+    (Segment { a, b, range, slack }, open)
+}
+
+/// The rest of the segment a ray marches: `span` shrunk to the depths the pyramid holds under its
+/// footprint, `FOOTPRINT_CLAMP_ITERATIONS` times; None where nothing is left.
+#[inline(always)]
+fn cut_to_footprint(frame: &FrameParams, layers: &LayerData, span: Segment) -> Option<Segment> {
+    let Segment {
+        a,
+        b,
+        mut range,
+        slack,
+    } = span;
     let last_column = frame.layer_width - 1;
     let last_row = frame.layer_height - 1;
     let dw = b[2] - a[2];
-    let slack = DEPTH_SLACK * (a[2].abs() + b[2].abs());
     for _ in 0..FOOTPRINT_CLAMP_ITERATIONS {
         let p = mix3(a, b, range[0]);
         let q = mix3(a, b, range[1]);
@@ -609,9 +618,10 @@ fn march(frame: &FrameParams, layers: &LayerData, segment: &Segment) -> Option<u
     }
 }
 
+/// The colour the segment `span` (open, from [`image_span`]) meets in the layers.
 #[inline(always)]
-fn trace_layers(frame: &FrameParams, layers: &LayerData, ray: &ObjectRay) -> Option<Vec3> {
-    let segment = layer_segment(frame, layers, ray)?;
+fn colour_along(frame: &FrameParams, layers: &LayerData, span: Segment) -> Option<Vec3> {
+    let segment = cut_to_footprint(frame, layers, span)?;
     let c = layers.colours[march(frame, layers, &segment)? as usize];
     Some([c[0], c[1], c[2]])
 }
@@ -1074,9 +1084,10 @@ fn for_sample_groups(
 }
 
 /// Hands `add` each sample's weight and the colour its object ray meets in the layers, in
-/// sample order (samples whose ray meets nothing are skipped). The march is compiled for the
-/// widest instruction set, which its scalar code gains from too (three-operand forms, cheaper
-/// conversions).
+/// sample order (samples whose ray meets nothing are skipped). The rays' spans over the layer
+/// image are set up side by side in vector lanes, then each is marched; all of it compiled for
+/// the widest instruction set, which the march's scalar code gains from too (three-operand
+/// forms, cheaper conversions).
 fn march_group(
     frame: &FrameParams,
     layers: &LayerData,
@@ -1087,13 +1098,62 @@ fn march_group(
     with_widest_isa(
         #[inline(always)]
         || {
-            for (ray, &w) in object.iter().zip(weight) {
-                if let Some(colour) = trace_layers(frame, layers, ray) {
+            let spans = ImageSpans::of(frame, object);
+            for (k, &w) in weight.iter().enumerate().take(object.len()) {
+                if spans.open[k]
+                    && let Some(colour) = colour_along(frame, layers, spans.get(k))
+                {
                     add(w, colour);
                 }
             }
         },
     );
+}
+
+/// A group's [`image_span`]s, a column per value.
+struct ImageSpans {
+    ends: [[f32; SAMPLE_GROUP]; 6],
+    range: [[f32; SAMPLE_GROUP]; 2],
+    slack: [f32; SAMPLE_GROUP],
+    open: [bool; SAMPLE_GROUP],
+}
+
+impl ImageSpans {
+    /// The spans of `object` (at most [`SAMPLE_GROUP`] rays; the lanes past them are closed).
+    #[inline(always)]
+    fn of(frame: &FrameParams, object: &[ObjectRay]) -> ImageSpans {
+        let mut rays = [blocked_ray(); SAMPLE_GROUP];
+        let n = object.len().min(SAMPLE_GROUP);
+        rays[..n].copy_from_slice(&object[..n]);
+        let mut spans = ImageSpans {
+            ends: [[0.0; SAMPLE_GROUP]; 6],
+            range: [[0.0; SAMPLE_GROUP]; 2],
+            slack: [0.0; SAMPLE_GROUP],
+            open: [false; SAMPLE_GROUP],
+        };
+        for (k, ray) in rays.iter().enumerate() {
+            let (span, open) = image_span(frame, ray);
+            for axis in 0..3 {
+                spans.ends[axis][k] = span.a[axis];
+                spans.ends[3 + axis][k] = span.b[axis];
+            }
+            spans.range[0][k] = span.range[0];
+            spans.range[1][k] = span.range[1];
+            spans.slack[k] = span.slack;
+            spans.open[k] = open;
+        }
+        spans
+    }
+
+    #[inline(always)]
+    fn get(&self, k: usize) -> Segment {
+        Segment {
+            a: [self.ends[0][k], self.ends[1][k], self.ends[2][k]],
+            b: [self.ends[3][k], self.ends[4][k], self.ends[5][k]],
+            range: [self.range[0][k], self.range[1][k]],
+            slack: self.slack[k],
+        }
+    }
 }
 
 /// Weighted radiance summed over this dispatch's samples for output pixel (x, y): the body of
@@ -1241,6 +1301,16 @@ pub fn accumulate_chromatic(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The segment a ray marches (None where nothing is left of it), as the renderer finds it.
+    fn layer_segment(frame: &FrameParams, layers: &LayerData, ray: &ObjectRay) -> Option<Segment> {
+        let (span, open) = image_span(frame, ray);
+        if open {
+            cut_to_footprint(frame, layers, span)
+        } else {
+            None
+        }
+    }
     use crate::model::ParaxialLens;
     use crate::render::camera::{Camera, Film, Focus};
     use crate::render::gpu_types::frame_params;
