@@ -154,7 +154,8 @@ fn normalise(v: [f64; 3]) -> [f64; 3] {
 /// Point where `ray` crosses the plane z = `z`, if it travels towards it (rays here travel -z).
 #[inline(always)]
 fn crossing(ray: &Ray, z: f64) -> Option<[f64; 2]> {
-    (!(ray.direction[2] >= 0.0)).then(|| crossing_of_plane(ray, z))
+    let away = ray.direction[2] >= 0.0;
+    (!away).then(|| crossing_of_plane(ray, z))
 }
 
 /// Where the line of `ray` crosses the plane z = `z`, whichever way it travels.
@@ -200,7 +201,9 @@ pub(crate) fn locate_pupil_planes(
     circles: &CircleInterpolation,
     ray: &Ray,
 ) -> (Located, bool) {
-    let reaches = !(ray.direction[2] >= 0.0);
+    // Along the plane or away from it, never there (a NaN direction goes on, as one at a time).
+    let away = ray.direction[2] >= 0.0;
+    let reaches = !away;
     let rear = crossing_of_plane(ray, frame.rear_plane_z);
     let film = crossing_of_plane(ray, frame.film_plane_z);
     let (film_radius, [c, s]) = polar_of(film);

@@ -275,8 +275,8 @@ impl<P: Place> LaneLookup<'_, P> {
                 direction: [columns[3][k], columns[4][k], columns[5][k]],
             };
             let (at, verdict) = self.place.locate(&ray);
-            for axis in 0..3 {
-                coords[axis][k] = at.coords[axis];
+            for (column, value) in coords.iter_mut().zip(at.coords) {
+                column[k] = value;
             }
             rotation[0][k] = at.rotation[0];
             rotation[1][k] = at.rotation[1];
@@ -334,7 +334,8 @@ impl<P: Place> LaneLookup<'_, P> {
     #[inline(always)]
     fn leaving(&self, at: &Located, v: &[f64; CHANNELS]) -> (Ray, bool) {
         let stop_ok = v[5] * v[5] + v[6] * v[6] <= self.stop_radius * self.stop_radius;
-        let passes = !(v[MARGIN] < 0.0) & stop_ok;
+        let outside_an_aperture = v[MARGIN] < 0.0;
+        let passes = !outside_an_aperture & stop_ok;
         let exit = to_lens_frame([v[0], v[1]], at);
         let d = self.place.decode([v[2], v[3]]);
         let d_xy = to_lens_frame([d[0], d[1]], at);
