@@ -96,7 +96,8 @@ impl CircleInterpolation<'_> {
         let t = (film_radius / self.max_film_radius).clamp(0.0, 1.0) * self.intervals;
         // t >= 0 (or NaN, 0 either way): truncation is the floor, without a libm call; in u32,
         // which vector instructions convert to directly (t is at most the number of circles
-        // less one, which `PupilTable`'s readers keep far below 2^32).
+        // less one, and a table's sidecar, at most `limits::MAX_INPUT_BYTES` = 1 GiB of text,
+        // holds far fewer than 2^32).
         let i = if t > 0.0 {
             (t as u32).min(last.saturating_sub(1) as u32)
         } else {

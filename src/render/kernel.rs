@@ -1,7 +1,11 @@
-//! The CPU twin of `shaders/ibrt.wgsl`: the same algorithm, statement by statement, in f32.
+//! The CPU twin of `shaders/ibrt.wgsl`: the same algorithm and the same f32 arithmetic.
 //!
 //! It is the test oracle for the GPU path and the fallback where no adapter exists. Each
-//! function here has a namesake in the shader; change both together. The one deliberate
+//! function here has a namesake in the shader; change both together. Where the shader works one
+//! sample at a time without a loop of its own (drawing the samples, building the film-side rays,
+//! a ray's span over the layer image), the twin works on a pixel's samples side by side in vector
+//! lanes: the same operations on each, choices made by selecting instead of branching, so the
+//! values are the shader's. The one deliberate
 //! difference: the traced and baked lens functions are not f32 ports here but the library's own
 //! f64 tracer ([`crate::trace`]) and table sampler ([`LrtfTable::lookup`]), so the CPU twin *is*
 //! the oracle the shader's ports are measured against.
