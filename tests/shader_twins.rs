@@ -169,13 +169,25 @@ fn conics() -> SystemAt {
     )
 }
 
-/// Three aspheres on conic bases, two in front of the stop and one behind, each `asphere(radius,
-/// conic, terms)` with its terms from `terms`.
-fn asphere_lens(
-    title: &str,
-    asphere: impl Fn(f64, f64, Vec<f64>) -> Shape,
-    [first, second, third]: [Vec<f64>; 3],
-) -> SystemAt {
+/// Three aspheres on conic bases, two in front of the stop and one behind, with their terms
+/// from `terms`: even aspheres (terms in r^2), or odd ones (terms in r) where `odd`.
+fn asphere_lens(title: &str, odd: bool, [first, second, third]: [Vec<f64>; 3]) -> SystemAt {
+    let asphere = |radius: f64, conic: f64, coefficients: Vec<f64>| {
+        let curvature = 1.0 / radius;
+        if odd {
+            Shape::OddAsphere {
+                curvature,
+                conic,
+                coefficients,
+            }
+        } else {
+            Shape::EvenAsphere {
+                curvature,
+                conic,
+                coefficients,
+            }
+        }
+    };
     system(
         title,
         vec![
@@ -192,11 +204,7 @@ fn asphere_lens(
 fn aspheres() -> SystemAt {
     asphere_lens(
         "aspheres",
-        |radius, conic, coefficients| Shape::EvenAsphere {
-            curvature: 1.0 / radius,
-            conic,
-            coefficients,
-        },
+        false,
         [
             vec![0.0, -2e-5, 3e-8],
             vec![1e-3, 5e-6, -2e-9, 1e-11],
@@ -210,11 +218,7 @@ fn aspheres() -> SystemAt {
 fn odd_aspheres() -> SystemAt {
     asphere_lens(
         "odd aspheres",
-        |radius, conic, coefficients| Shape::OddAsphere {
-            curvature: 1.0 / radius,
-            conic,
-            coefficients,
-        },
+        true,
         [
             vec![1e-3, 0.0, 3e-5],
             vec![0.0, 1e-3, -4e-5, 5e-6],
