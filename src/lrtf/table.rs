@@ -224,6 +224,14 @@ impl Place for SphericalPlace<'_> {
     }
 }
 
+/// The rays a lookup is given: one after the other, or a group already in columns (x, y, z,
+/// dx, dy, dz; as many as the lookup has results) as the renderer builds them.
+#[derive(Clone, Copy)]
+enum LookupRays<'a> {
+    Rays(&'a [Ray]),
+    Columns(&'a [[f64; LOOKUP_GROUP]; 6]),
+}
+
 /// One lookup's settings: the layer, the stop, the corners interpolated, and its
 /// parameterisation's [`Place`].
 struct LaneLookup<'a, P> {
@@ -239,30 +247,35 @@ impl<P: Place> LaneLookup<'_, P> {
     /// the group overlap) and interpolated, then the stop and margin tests and the outgoing rays
     /// for all of them. Compiled for the widest instruction set; the lanes compute the same
     /// numbers one ray at a time would.
-    fn run(&self, rays: &[Ray], out: &mut [Lookup]) {
+    fn run(&self, rays: LookupRays, out: &mut [Lookup]) {
         with_widest_isa(
             #[inline(always)]
-            || {
-                for (rays, out) in rays.chunks(LOOKUP_GROUP).zip(out.chunks_mut(LOOKUP_GROUP)) {
-                    self.group(rays, out);
+            || match rays {
+                LookupRays::Rays(rays) => {
+                    for (rays, out) in rays.chunks(LOOKUP_GROUP).zip(out.chunks_mut(LOOKUP_GROUP)) {
+                        // Columns of the rays; lanes past the last ray repeat the first.
+                        let mut columns = [[0.0; LOOKUP_GROUP]; 6];
+                        for k in 0..LOOKUP_GROUP {
+                            let ray = rays[k.min(rays.len() - 1)];
+                            for axis in 0..3 {
+                                columns[axis][k] = ray.origin[axis];
+                                columns[3 + axis][k] = ray.direction[axis];
+                            }
+                        }
+                        self.group(&columns, out);
+                    }
                 }
+                LookupRays::Columns(columns) => self.group(columns, out),
             },
         );
     }
 
+    /// The first `out.len()` rays of `columns` (x, y, z, dx, dy, dz) looked up into `out`; the
+    /// lanes past them are computed and not used.
     #[inline(always)]
-    fn group(&self, rays: &[Ray], out: &mut [Lookup]) {
+    fn group(&self, columns: &[[f64; LOOKUP_GROUP]; 6], out: &mut [Lookup]) {
         const G: usize = LOOKUP_GROUP;
-        let n = rays.len();
-        // Columns of the rays; lanes past the last ray repeat the first.
-        let mut columns = [[0.0; G]; 6];
-        for k in 0..G {
-            let ray = rays[k.min(n - 1)];
-            for axis in 0..3 {
-                columns[axis][k] = ray.origin[axis];
-                columns[3 + axis][k] = ray.direction[axis];
-            }
-        }
+        let n = out.len();
         // Where each lands, a column per value, so the lanes store whole vectors.
         let mut coords = [[0.0; G]; 3];
         let mut rotation = [[0.0; G]; 2];
@@ -375,7 +388,36 @@ impl LrtfTable {
     /// [`LrtfTable::lookup`] of every ray in `rays` into `out` (same length), the same values
     /// as one at a time.
     pub fn lookup_group(&self, layer: usize, rays: &[Ray], stop_radius: f64, out: &mut [Lookup]) {
-        self.lookup_each(layer, rays, stop_radius, Corners::All, out);
+        assert_eq!(rays.len(), out.len(), "one lookup per ray");
+        self.lookup_each(
+            layer,
+            LookupRays::Rays(rays),
+            stop_radius,
+            Corners::All,
+            out,
+        );
+    }
+
+    /// [`LrtfTable::lookup_group`] of the first `out.len()` rays of a group held in columns
+    /// (x, y, z, dx, dy, dz), as the renderer's CPU twin builds them.
+    ///
+    /// # Panics
+    /// When `out` holds more than [`LOOKUP_GROUP`] results.
+    pub(crate) fn lookup_columns(
+        &self,
+        layer: usize,
+        columns: &[[f64; LOOKUP_GROUP]; 6],
+        stop_radius: f64,
+        out: &mut [Lookup],
+    ) {
+        assert!(out.len() <= LOOKUP_GROUP, "at most a group");
+        self.lookup_each(
+            layer,
+            LookupRays::Columns(columns),
+            stop_radius,
+            Corners::All,
+            out,
+        );
     }
 
     /// [`LrtfTable::lookup`] for a render focused on the film plane `film_z`: the table's domain
@@ -406,13 +448,8 @@ impl LrtfTable {
         corners: Corners,
     ) -> Lookup {
         let mut out = [Lookup::OutsideDomain];
-        self.lookup_each(
-            layer,
-            std::slice::from_ref(ray),
-            stop_radius,
-            corners,
-            &mut out,
-        );
+        let rays = LookupRays::Rays(std::slice::from_ref(ray));
+        self.lookup_each(layer, rays, stop_radius, corners, &mut out);
         out[0]
     }
 
@@ -421,12 +458,11 @@ impl LrtfTable {
     fn lookup_each(
         &self,
         layer: usize,
-        rays: &[Ray],
+        rays: LookupRays,
         stop_radius: f64,
         corners: Corners,
         out: &mut [Lookup],
     ) {
-        assert_eq!(rays.len(), out.len(), "one lookup per ray");
         let l = &self.layers[layer];
         // Each parameterisation's lanes compiled on their own, so the pupil-planes ones have
         // no call (acos, atan2) in the way of the vector instructions.

@@ -13,7 +13,7 @@
 use super::RenderError;
 use super::chromatic::{CHANNELS, ChannelLenses, Chromatic};
 use super::gpu_types::{ChannelParams, FrameParams, LayerData, LensData, SeidelParams};
-use crate::lrtf::{self, Lookup, LrtfTable};
+use crate::lrtf::{Lookup, LrtfTable};
 use crate::model::{LensModel, SEIDEL_CONVERGED_MM, SEIDEL_INVERSE_STEPS, SEIDEL_SETTLED_MM};
 use crate::trace::{GROUP_RAYS, Tracer, Travel, with_widest_isa};
 use rayon::prelude::*;
@@ -723,7 +723,7 @@ fn leaving(origin: [f64; 3], direction: [f64; 3]) -> ObjectRay {
 /// blocks it (vignetted, TIR, missed; or outside the table).
 fn lens_ray(frame: &FrameParams, rays: LensRays, film: Vec3, pupil: Vec3) -> ObjectRay {
     let mut one = [blocked_ray()];
-    lens_rays(frame, rays, &[film], &[pupil], &mut one);
+    lens_rays(frame, rays, &SampleLanes::one(film, pupil), &mut one);
     one[0]
 }
 
@@ -732,33 +732,26 @@ fn lens_ray(frame: &FrameParams, rays: LensRays, film: Vec3, pupil: Vec3) -> Obj
 /// scalar trace per sample.
 const SAMPLE_GROUP: usize = GROUP_RAYS;
 
-/// [`lens_ray`] for up to [`SAMPLE_GROUP`] film-side rays (`film[k]` through `pupil[k]`) into
-/// `out[k]`.
-fn lens_rays(
-    frame: &FrameParams,
-    rays: LensRays,
-    film: &[Vec3],
-    pupil: &[Vec3],
-    out: &mut [ObjectRay],
-) {
-    let pairs = film.iter().zip(pupil).zip(out.iter_mut());
+/// [`lens_ray`] for the first `out.len()` samples of `samples` (film point k through pupil
+/// point k) into `out[k]`.
+fn lens_rays(frame: &FrameParams, rays: LensRays, samples: &SampleLanes, out: &mut [ObjectRay]) {
+    let count = out.len();
     match rays {
         LensRays::Paraxial => {
-            for ((&f, &p), o) in pairs {
-                *o = paraxial_lens_ray(frame, f, p);
+            for (k, o) in out.iter_mut().enumerate() {
+                *o = paraxial_lens_ray(frame, samples.film(k), samples.pupil(k));
             }
         }
         LensRays::Seidel(seidel) => {
-            for ((&f, &p), o) in pairs {
-                *o = seidel_lens_ray(frame, &seidel, f, p);
+            for (k, o) in out.iter_mut().enumerate() {
+                *o = seidel_lens_ray(frame, &seidel, samples.film(k), samples.pupil(k));
             }
         }
         LensRays::Traced(tracer) => {
             // Rays that cannot be built (a zero direction) stay blocked and are not traced.
-            let count = film.len();
             let (columns, built) = with_widest_isa(
                 #[inline(always)]
-                || film_side_rays(film, pupil),
+                || film_side_rays(samples),
             );
             let mut group = [crate::trace::Ray::ALONG_AXIS; SAMPLE_GROUP];
             let mut slot = [0usize; SAMPLE_GROUP];
@@ -792,17 +785,12 @@ fn lens_rays(
         } => {
             // Looked up together, so the table reads of the whole group overlap. A ray that
             // cannot be built has no direction, which no table holds (it falls outside).
-            let count = film.len();
             let (columns, _) = with_widest_isa(
                 #[inline(always)]
-                || film_side_rays(film, pupil),
+                || film_side_rays(samples),
             );
-            let group: [lrtf::Ray; SAMPLE_GROUP] = std::array::from_fn(|k| lrtf::Ray {
-                origin: [columns[0][k], columns[1][k], columns[2][k]],
-                direction: [columns[3][k], columns[4][k], columns[5][k]],
-            });
             let mut looked = [Lookup::OutsideDomain; SAMPLE_GROUP];
-            table.lookup_group(layer, &group[..count], stop_radius, &mut looked[..count]);
+            table.lookup_columns(layer, &columns, stop_radius, &mut looked[..count]);
             for (o, looked) in out.iter_mut().zip(&looked[..count]) {
                 *o = match looked {
                     Lookup::Passes(out) => leaving(out.origin, out.direction),
@@ -813,30 +801,22 @@ fn lens_rays(
     }
 }
 
-/// The f64 film-side rays of a group (from `film[k]` towards `pupil[k]`, the direction made
-/// unit), a column per coordinate (x, y, z, dx, dy, dz), and whether each could be built: what
-/// [`crate::trace::Ray::new`] makes of them, bit for bit, side by side in vector lanes. From f32
-/// points a direction's squared length can neither overflow nor underflow f64, so `Ray::new`
-/// divides by the length, as here; it refuses only non-finite values and a zero direction.
-/// Lanes past the group's last ray are zero (and not built).
+/// The f64 film-side rays of all lanes of `samples` (from the film point towards the pupil
+/// point, the direction made unit), a column per coordinate (x, y, z, dx, dy, dz), and whether
+/// each could be built: what [`crate::trace::Ray::new`] makes of them, bit for bit, side by side
+/// in vector lanes. From f32 points a direction's squared length can neither overflow nor
+/// underflow f64, so `Ray::new` divides by the length, as here; it refuses only non-finite values
+/// and a zero direction.
 #[inline(always)]
-fn film_side_rays(
-    film: &[Vec3],
-    pupil: &[Vec3],
-) -> ([[f64; SAMPLE_GROUP]; 6], [bool; SAMPLE_GROUP]) {
-    let mut from = [[0.0f32; SAMPLE_GROUP]; 3];
-    let mut towards = [[0.0f32; SAMPLE_GROUP]; 3];
-    for (k, (f, p)) in film.iter().zip(pupil).enumerate().take(SAMPLE_GROUP) {
-        for axis in 0..3 {
-            from[axis][k] = f[axis];
-            towards[axis][k] = p[axis] - f[axis];
-        }
-    }
+fn film_side_rays(samples: &SampleLanes) -> ([[f64; SAMPLE_GROUP]; 6], [bool; SAMPLE_GROUP]) {
     let mut columns = [[0.0; SAMPLE_GROUP]; 6];
     let mut built = [false; SAMPLE_GROUP];
     for k in 0..SAMPLE_GROUP {
-        let position = [0, 1, 2].map(|axis| f64::from(from[axis][k]));
-        let d = [0, 1, 2].map(|axis| f64::from(towards[axis][k]));
+        // Written out: through `array::map` over the axes the compiler kept a call in the loop.
+        let [fx, fy, fz] = &samples.film;
+        let [px, py, pz] = &samples.pupil;
+        let position = [fx[k], fy[k], fz[k]].map(f64::from);
+        let d = [px[k] - fx[k], py[k] - fy[k], pz[k] - fz[k]].map(f64::from);
         let length = crate::trace::dot(d, d).sqrt();
         let finite = position
             .iter()
@@ -1023,6 +1003,32 @@ struct SampleLanes {
     weight: [f32; SAMPLE_GROUP],
 }
 
+impl SampleLanes {
+    const EMPTY: SampleLanes = SampleLanes {
+        film: [[0.0; SAMPLE_GROUP]; 3],
+        pupil: [[0.0; SAMPLE_GROUP]; 3],
+        weight: [0.0; SAMPLE_GROUP],
+    };
+
+    /// A group of one sample, in lane 0 (the other lanes hold zeros, never used).
+    fn one(film: Vec3, pupil: Vec3) -> SampleLanes {
+        let mut lanes = SampleLanes::EMPTY;
+        for axis in 0..3 {
+            lanes.film[axis][0] = film[axis];
+            lanes.pupil[axis][0] = pupil[axis];
+        }
+        lanes
+    }
+
+    fn film(&self, k: usize) -> Vec3 {
+        [0, 1, 2].map(|axis| self.film[axis][k])
+    }
+
+    fn pupil(&self, k: usize) -> Vec3 {
+        [0, 1, 2].map(|axis| self.pupil[axis][k])
+    }
+}
+
 /// Samples `first..first + SAMPLE_GROUP` of pixel (x, y) in this dispatch's numbering, all of
 /// them side by side (the ones past the dispatch's last are computed and not used): the loop
 /// has no branches and writes only its own columns, so compiled for the widest instruction set
@@ -1035,11 +1041,7 @@ fn sample_lanes(
     [x, y]: [u32; 2],
     first: u32,
 ) -> SampleLanes {
-    let mut lanes = SampleLanes {
-        film: [[0.0; SAMPLE_GROUP]; 3],
-        pupil: [[0.0; SAMPLE_GROUP]; 3],
-        weight: [0.0; SAMPLE_GROUP],
-    };
+    let mut lanes = SampleLanes::EMPTY;
     for k in 0..SAMPLE_GROUP {
         let index = frame.sample_offset.wrapping_add(
             first
@@ -1057,20 +1059,18 @@ fn sample_lanes(
     lanes
 }
 
-/// This dispatch's samples of output pixel (x, y), [`SAMPLE_GROUP`] at a time: film points,
-/// pupil points and weights, handed to `group` in sample order.
+/// This dispatch's samples of output pixel (x, y), [`SAMPLE_GROUP`] at a time, handed to
+/// `group` in sample order with the number of lanes that hold this dispatch's samples.
 fn for_sample_groups(
     frame: &FrameParams,
     lens: &LensData,
     sampling_block: u32,
     x: u32,
     y: u32,
-    mut group: impl FnMut(&[Vec3], &[Vec3], &[f32]),
+    mut group: impl FnMut(&SampleLanes, usize),
 ) {
     let circles = SamplingCircles::new(lens, sampling_block);
     let scrambles = PixelScrambles::new(frame.seed, y * frame.width + x);
-    let mut film = [[0.0f32; 3]; SAMPLE_GROUP];
-    let mut pupil = [[0.0f32; 3]; SAMPLE_GROUP];
     let mut first = 0;
     while first < frame.sample_count {
         let count = (frame.sample_count - first).min(SAMPLE_GROUP as u32) as usize;
@@ -1078,11 +1078,7 @@ fn for_sample_groups(
             #[inline(always)]
             || sample_lanes(frame, &circles, &scrambles, [x, y], first),
         );
-        for k in 0..count {
-            film[k] = [0, 1, 2].map(|axis| lanes.film[axis][k]);
-            pupil[k] = [0, 1, 2].map(|axis| lanes.pupil[axis][k]);
-        }
-        group(&film[..count], &pupil[..count], &lanes.weight[..count]);
+        group(&lanes, count);
         first += count as u32;
     }
 }
@@ -1179,13 +1175,19 @@ fn render_pixel(
         MONOCHROME_SAMPLING_BLOCK,
         x,
         y,
-        |film, pupil, weight| {
-            lens_rays(frame, rays, film, pupil, &mut object);
-            march_group(frame, layers, &object, weight, |w, colour| {
-                for (acc, c) in sum.iter_mut().zip(colour) {
-                    *acc += w * c;
-                }
-            });
+        |samples, count| {
+            lens_rays(frame, rays, samples, &mut object[..count]);
+            march_group(
+                frame,
+                layers,
+                &object[..count],
+                &samples.weight[..count],
+                |w, colour| {
+                    for (acc, c) in sum.iter_mut().zip(colour) {
+                        *acc += w * c;
+                    }
+                },
+            );
         },
     );
     sum
@@ -1198,17 +1200,16 @@ fn channel_lens_rays(
     channels: &ChannelParams,
     channel: usize,
     rays: LensRays,
-    film: &[Vec3],
-    pupil: &[Vec3],
+    samples: &SampleLanes,
     out: &mut [ObjectRay],
 ) {
     match rays {
         LensRays::Paraxial => {
-            for ((&f, &p), o) in film.iter().zip(pupil).zip(out.iter_mut()) {
-                *o = channel_paraxial_ray(channels, channel, f, p);
+            for (k, o) in out.iter_mut().enumerate() {
+                *o = channel_paraxial_ray(channels, channel, samples.film(k), samples.pupil(k));
             }
         }
-        _ => lens_rays(frame, rays, film, pupil, out),
+        _ => lens_rays(frame, rays, samples, out),
     }
 }
 
@@ -1232,20 +1233,19 @@ fn render_pixel_chromatic(
         channels.sampling_block,
         x,
         y,
-        |film, pupil, weight| {
+        |samples, count| {
             for (channel, channel_rays) in rays.iter().enumerate() {
-                channel_lens_rays(
+                let object = &mut object[..count];
+                channel_lens_rays(frame, channels, channel, *channel_rays, samples, object);
+                march_group(
                     frame,
-                    channels,
-                    channel,
-                    *channel_rays,
-                    film,
-                    pupil,
-                    &mut object,
+                    layers,
+                    object,
+                    &samples.weight[..count],
+                    |w, colour| {
+                        sum[channel] += w * colour[channel];
+                    },
                 );
-                march_group(frame, layers, &object, weight, |w, colour| {
-                    sum[channel] += w * colour[channel];
-                });
             }
         },
     );
