@@ -287,42 +287,37 @@ fn level_size(frame: &FrameParams, level: u32) -> [u32; 2] {
     ]
 }
 
-/// Where level `level` of the depth pyramid starts in `depth_bounds`, and its width in texels.
-#[inline(always)]
-fn pyramid_level(frame: &FrameParams, level: u32) -> [u32; 2] {
-    let mut offset = 0;
-    for l in 0..level {
-        let [w, h] = level_size(frame, l);
-        offset += w * h;
-    }
-    [offset, level_size(frame, level)[0]]
+/// Where each level of the depth pyramid starts in `depth_bounds`, and its width in texels.
+/// A side of under 2^31 pixels halves to one in at most 31 steps, so 32 levels hold every
+/// pyramid (a layer image 2^31 pixels wide would need 32 GiB of depths).
+struct PyramidLevels {
+    offsets: [u32; 32],
+    widths: [u32; 32],
 }
 
-/// The pyramid texel over layer pixel (column, row) at `level`, which starts where
-/// `pyramid_level` says (found once for the four texels a footprint reads).
-#[inline(always)]
-fn pyramid_texel(layers: &LayerData, start: [u32; 2], level: u32, column: u32, row: u32) -> Vec2 {
-    let [offset, w] = start;
-    layers.depth_bounds[(offset + (row >> level) * w + (column >> level)) as usize]
-}
-
-#[inline(always)]
-fn footprint_bounds(frame: &FrameParams, layers: &LayerData, c: [u32; 2], r: [u32; 2]) -> Vec2 {
-    let mut level = 0;
-    while level + 1 < frame.pyramid_levels
-        && (((c[1] >> level) - (c[0] >> level)) > 1 || ((r[1] >> level) - (r[0] >> level)) > 1)
-    {
-        level += 1;
+impl PyramidLevels {
+    #[inline(always)]
+    fn of(frame: &FrameParams) -> PyramidLevels {
+        let mut levels = PyramidLevels {
+            offsets: [0; 32],
+            widths: [0; 32],
+        };
+        let mut offset = 0;
+        for level in 0..frame.pyramid_levels.min(32) {
+            let [w, h] = level_size(frame, level);
+            levels.offsets[level as usize] = offset;
+            levels.widths[level as usize] = w;
+            offset += w * h;
+        }
+        levels
     }
-    let start = pyramid_level(frame, level);
-    let a = pyramid_texel(layers, start, level, c[0], r[0]);
-    let b = pyramid_texel(layers, start, level, c[1], r[0]);
-    let cc = pyramid_texel(layers, start, level, c[0], r[1]);
-    let d = pyramid_texel(layers, start, level, c[1], r[1]);
-    [
-        a[0].min(b[0]).min(cc[0].min(d[0])),
-        a[1].max(b[1]).max(cc[1].max(d[1])),
-    ]
+
+    /// The start and width of `level` (below 32).
+    #[inline(always)]
+    fn level(&self, level: u32) -> (u32, u32) {
+        let at = (level % 32) as usize;
+        (self.offsets[at], self.widths[at])
+    }
 }
 
 /// The nearest layer at `pixel` whose inverse depth lies in `window` ([lower, upper], see
@@ -360,12 +355,15 @@ fn clip_axis(a: f32, b: f32, extent: f32, range: Vec2) -> Vec2 {
 }
 
 /// The shader's `clamp(floor(v), 0, last)` taken as a whole number (its `u32(...)` and
-/// `i32(...)` of it): above 0 floor is truncation (saturating, then clamped to `last` either
-/// way), and everything else (NaN too) ends at 0, so no floor is computed (baseline x86-64 has
-/// no floor instruction, and libm's costs a call per use).
+/// `i32(...)` of it): above 0 floor is truncation, and everything else (NaN too) ends at 0, so
+/// no floor is computed (baseline x86-64 has no floor instruction, and libm's costs a call per
+/// use). The value is clamped in f32 first, to the largest f32 below 2^31 (beyond every layer
+/// image: one that wide would need 32 GiB of depths), so the truncation is one signed
+/// conversion, in vector lanes too, with no saturation to handle.
 #[inline(always)]
 fn floor_clamped(v: f32, last: u32) -> u32 {
-    if v > 0.0 { (v as u32).min(last) } else { 0 }
+    const BELOW_2_POW_31: f32 = 2_147_483_520.0;
+    (v.max(0.0).min(BELOW_2_POW_31) as i32 as u32).min(last)
 }
 
 /// The stretch of an object ray the march walks: its points `a` at the near depth and `b` at
@@ -421,44 +419,6 @@ fn image_span(frame: &FrameParams, ray: &ObjectRay) -> (Segment, bool) {
     let slack = DEPTH_SLACK * (a[2].abs() + b[2].abs());
     let open = ray.valid & (ray.direction[2] > 0.0) & (range[0] < range[1]);
     (Segment { a, b, range, slack }, open)
-}
-
-/// The rest of the segment a ray marches: `span` shrunk to the depths the pyramid holds under its
-/// footprint, `FOOTPRINT_CLAMP_ITERATIONS` times; None where nothing is left.
-#[inline(always)]
-fn cut_to_footprint(frame: &FrameParams, layers: &LayerData, span: Segment) -> Option<Segment> {
-    let Segment {
-        a,
-        b,
-        mut range,
-        slack,
-    } = span;
-    let last_column = frame.layer_width - 1;
-    let last_row = frame.layer_height - 1;
-    let dw = b[2] - a[2];
-    for _ in 0..FOOTPRINT_CLAMP_ITERATIONS {
-        let p = mix3(a, b, range[0]);
-        let q = mix3(a, b, range[1]);
-        let c = [
-            floor_clamped(p[0].min(q[0]), last_column),
-            floor_clamped(p[0].max(q[0]), last_column),
-        ];
-        let r = [
-            floor_clamped(p[1].min(q[1]), last_row),
-            floor_clamped(p[1].max(q[1]), last_row),
-        ];
-        let bounds = footprint_bounds(frame, layers, c, r);
-        if bounds[0] > bounds[1] {
-            return None;
-        }
-        let enter = (bounds[1] * (1.0 + DEPTH_TOLERANCE) + slack - a[2]) / dw;
-        let leave = (bounds[0] * (1.0 - DEPTH_TOLERANCE) - slack - a[2]) / dw;
-        range = [range[0].max(enter), range[1].min(leave)];
-        if range[0] > range[1] {
-            return None;
-        }
-    }
-    Some(Segment { a, b, range, slack })
 }
 
 /// One image axis of a march: the segment's coordinate at its near end, the inverse of its run
@@ -620,14 +580,6 @@ fn march(frame: &FrameParams, layers: &LayerData, segment: &Segment) -> Option<u
             level_width = level_size(frame, level)[0];
         }
     }
-}
-
-/// The colour the segment `span` (open, from [`image_span`]) meets in the layers.
-#[inline(always)]
-fn colour_along(frame: &FrameParams, layers: &LayerData, span: Segment) -> Option<Vec3> {
-    let segment = cut_to_footprint(frame, layers, span)?;
-    let c = layers.colours[march(frame, layers, &segment)? as usize];
-    Some([c[0], c[1], c[2]])
 }
 
 /// The per-pixel sample decorrelation: lens and pixel-jitter scrambles from the seed and the
@@ -1098,12 +1050,14 @@ fn march_group(
     with_widest_isa(
         #[inline(always)]
         || {
-            let spans = ImageSpans::of(frame, object);
+            let mut spans = ImageSpans::of(frame, object);
+            spans.cut_to_footprints(frame, layers);
             for (k, &w) in weight.iter().enumerate().take(object.len()) {
                 if spans.open[k]
-                    && let Some(colour) = colour_along(frame, layers, spans.get(k))
+                    && let Some(layer) = march(frame, layers, &spans.get(k))
                 {
-                    add(w, colour);
+                    let c = layers.colours[layer as usize];
+                    add(w, [c[0], c[1], c[2]]);
                 }
             }
         },
@@ -1143,6 +1097,89 @@ impl ImageSpans {
             spans.open[k] = open;
         }
         spans
+    }
+
+    /// Every open span shrunk to the depths the pyramid holds under its footprint,
+    /// `FOOTPRINT_CLAMP_ITERATIONS` times, and closed where nothing is left. The footprints'
+    /// texels are found in vector lanes, read one ray at a time, and the cuts made in lanes
+    /// again; a closed lane's numbers are computed and not used.
+    #[inline(always)]
+    fn cut_to_footprints(&mut self, frame: &FrameParams, layers: &LayerData) {
+        let bounds = &layers.depth_bounds;
+        let Some(last_texel) = bounds.len().checked_sub(1) else {
+            self.open = [false; SAMPLE_GROUP];
+            return;
+        };
+        let pyramid = PyramidLevels::of(frame);
+        let mut texels = [[0; SAMPLE_GROUP]; 4];
+        for _ in 0..FOOTPRINT_CLAMP_ITERATIONS {
+            self.footprint_texels(frame, &pyramid, &mut texels);
+            let mut lower = [0.0; SAMPLE_GROUP];
+            let mut upper = [0.0; SAMPLE_GROUP];
+            for k in 0..SAMPLE_GROUP {
+                // Every texel is inside the pyramid; the bound keeps the reads free of checks.
+                let [a, b, c, d] =
+                    [0, 1, 2, 3].map(|t| bounds[(texels[t][k] as usize).min(last_texel)]);
+                lower[k] = a[0].min(b[0]).min(c[0].min(d[0]));
+                upper[k] = a[1].max(b[1]).max(c[1].max(d[1]));
+            }
+            for k in 0..SAMPLE_GROUP {
+                let (aw, dw) = (self.ends[2][k], self.ends[5][k] - self.ends[2][k]);
+                let slack = self.slack[k];
+                let enter = (upper[k] * (1.0 + DEPTH_TOLERANCE) + slack - aw) / dw;
+                let leave = (lower[k] * (1.0 - DEPTH_TOLERANCE) - slack - aw) / dw;
+                let range = [self.range[0][k].max(enter), self.range[1][k].min(leave)];
+                // No layer under the footprint, or none within the span's depths.
+                let empty = (lower[k] > upper[k]) | (range[0] > range[1]);
+                self.range[0][k] = range[0];
+                self.range[1][k] = range[1];
+                self.open[k] &= !empty;
+            }
+        }
+    }
+
+    /// The four pyramid texels (indices into `depth_bounds`) at the corners of each span's
+    /// footprint, the bounding box of its pixels from the range's start to its end, at the
+    /// finest level where the box is at most two texels wide and high (or the top level).
+    #[inline(always)]
+    fn footprint_texels(
+        &self,
+        frame: &FrameParams,
+        pyramid: &PyramidLevels,
+        texels: &mut [[u32; SAMPLE_GROUP]; 4],
+    ) {
+        let last_column = frame.layer_width - 1;
+        let last_row = frame.layer_height - 1;
+        for k in 0..SAMPLE_GROUP {
+            let Segment { a, b, range, .. } = self.get(k);
+            let (p, q) = (mix3(a, b, range[0]), mix3(a, b, range[1]));
+            let c = [
+                floor_clamped(p[0].min(q[0]), last_column),
+                floor_clamped(p[0].max(q[0]), last_column),
+            ];
+            let r = [
+                floor_clamped(p[1].min(q[1]), last_row),
+                floor_clamped(p[1].max(q[1]), last_row),
+            ];
+            // The box is more than two texels across at the finest levels and at most two from
+            // some level up (a span of at most one stays so at the next level), so the level is
+            // the number of levels below the top where it is wider: a binary search for where
+            // that ends, the same five steps in every lane.
+            let wide = |l: u32| ((c[1] >> l) - (c[0] >> l) > 1) | ((r[1] >> l) - (r[0] >> l) > 1);
+            let mut level = 0;
+            for step in [16, 8, 4, 2, 1] {
+                if level + step < frame.pyramid_levels && wide(level + step - 1) {
+                    level += step;
+                }
+            }
+            let (offset, width) = pyramid.level(level);
+            for (t, [column, row]) in [[c[0], r[0]], [c[1], r[0]], [c[0], r[1]], [c[1], r[1]]]
+                .into_iter()
+                .enumerate()
+            {
+                texels[t][k] = offset + (row >> level) * width + (column >> level);
+            }
+        }
     }
 
     #[inline(always)]
@@ -1308,12 +1345,9 @@ mod tests {
 
     /// The segment a ray marches (None where nothing is left of it), as the renderer finds it.
     fn layer_segment(frame: &FrameParams, layers: &LayerData, ray: &ObjectRay) -> Option<Segment> {
-        let (span, open) = image_span(frame, ray);
-        if open {
-            cut_to_footprint(frame, layers, span)
-        } else {
-            None
-        }
+        let mut spans = ImageSpans::of(frame, std::slice::from_ref(ray));
+        spans.cut_to_footprints(frame, layers);
+        spans.open[0].then(|| spans.get(0))
     }
     use crate::model::ParaxialLens;
     use crate::render::camera::{Camera, Film, Focus};
