@@ -94,15 +94,17 @@ impl CircleInterpolation<'_> {
     pub(crate) fn at(&self, film_radius: f64) -> PupilCircle {
         let last = self.circles.len() - 1;
         let t = (film_radius / self.max_film_radius).clamp(0.0, 1.0) * self.intervals;
-        // t >= 0 (or NaN, 0 either way): truncation is the floor, without a libm call; in u32,
-        // which vector instructions convert to directly (t is at most the number of circles
-        // less one, and a table's sidecar, at most `limits::MAX_INPUT_BYTES` = 1 GiB of text,
-        // holds far fewer than 2^32).
-        let i = if t > 0.0 {
-            (t as u32).min(last.saturating_sub(1) as u32)
-        } else {
-            0
-        };
+        // The index of the circle below t, clamped in f64 (`max` takes NaN to 0) to the last
+        // interval and to i32, so that the floor is a truncation and the truncation one plain
+        // conversion: a saturating `as` is taken apart into scalar conversions and fix-ups, lane
+        // by lane. (A table's sidecar, at most `limits::MAX_INPUT_BYTES` = 1 GiB of text, holds
+        // far fewer than 2^31 circles.)
+        let below = t
+            .max(0.0)
+            .min(last.saturating_sub(1) as f64)
+            .min(f64::from(i32::MAX));
+        // SAFETY: `below` is finite and in [0, i32::MAX].
+        let i: i32 = unsafe { below.to_int_unchecked() };
         let f = t - f64::from(i);
         let i = i as usize;
         // SAFETY: both indices are at most `last`, and `circles` is never empty. Unchecked, so a

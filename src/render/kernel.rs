@@ -359,11 +359,16 @@ fn clip_axis(a: f32, b: f32, extent: f32, range: Vec2) -> Vec2 {
 /// no floor is computed (baseline x86-64 has no floor instruction, and libm's costs a call per
 /// use). The value is clamped in f32 first, to the largest f32 below 2^31 (beyond every layer
 /// image: one that wide would need 32 GiB of depths), so the truncation is one signed
-/// conversion, in vector lanes too, with no saturation to handle.
+/// conversion with no saturation to handle: a saturating `as` is taken apart into scalar
+/// conversions and fix-ups, lane by lane.
 #[inline(always)]
 fn floor_clamped(v: f32, last: u32) -> u32 {
     const BELOW_2_POW_31: f32 = 2_147_483_520.0;
-    (v.max(0.0).min(BELOW_2_POW_31) as i32 as u32).min(last)
+    // `max` returns 0 for NaN, so the value is finite and in [0, 2^31).
+    let clamped = v.max(0.0).min(BELOW_2_POW_31);
+    // SAFETY: `clamped` is finite and its truncation fits an i32 (above).
+    let whole: i32 = unsafe { clamped.to_int_unchecked() };
+    (whole as u32).min(last)
 }
 
 /// The stretch of an object ray the march walks: its points `a` at the near depth and `b` at
