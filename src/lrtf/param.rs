@@ -7,7 +7,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::pupil::{CircleInterpolation, PupilTable};
+use crate::pupil::{PupilCircle, PupilTable};
 
 /// How rays are turned into table coordinates and values.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -191,14 +191,21 @@ fn in_unit(c: [f64; 3]) -> bool {
     (0.0..=1.0).contains(&c[0]) & (0.0..=1.0).contains(&c[1]) & (0.0..=1.0).contains(&c[2])
 }
 
-/// Where a film-side ray lands in the pupil-planes coordinates of `frame` with the coordinate
-/// pupil `circles`, without branches (a lookup's lanes run it side by side), and whether the
-/// ray reaches the planes at all (it travels -z). Where it does not, the location is
-/// meaningless.
+/// The distance from the axis at which a film-side ray crosses the film plane of `frame`: what
+/// picks its circle of the coordinate pupil.
+#[inline(always)]
+pub(crate) fn film_radius_of(frame: &Frame, ray: &Ray) -> f64 {
+    polar_of(crossing_of_plane(ray, frame.film_plane_z)).0
+}
+
+/// Where a film-side ray lands in the pupil-planes coordinates of `frame`, given the
+/// coordinate pupil's circle at its [`film_radius_of`] (`circle_at`), without branches (a
+/// lookup's lanes run it side by side), and whether the ray reaches the planes at all (it
+/// travels -z). Where it does not, the location is meaningless.
 #[inline(always)]
 pub(crate) fn locate_pupil_planes(
     frame: &Frame,
-    circles: &CircleInterpolation,
+    circle_at: impl FnOnce(f64) -> PupilCircle,
     ray: &Ray,
 ) -> (Located, bool) {
     // Along the plane or away from it, never there (a NaN direction goes on, as one at a time).
@@ -209,7 +216,7 @@ pub(crate) fn locate_pupil_planes(
     let (film_radius, [c, s]) = polar_of(film);
     let q = rotate(rear, c, -s);
     let mirror = if q[1] < 0.0 { -1.0 } else { 1.0 };
-    let circle = circles.at(film_radius);
+    let circle = circle_at(film_radius);
     let open = circle.radius > 0.0;
     let radial = film_radius / frame.max_film_radius;
     let across = 0.5 * ((q[0] - circle.centre_x) / circle.radius + 1.0);
@@ -254,7 +261,8 @@ impl Parameterisation {
                 })
             }
             Parameterisation::PupilPlanes => {
-                let (located, reaches) = locate_pupil_planes(frame, &pupil.interpolation(), ray);
+                let (located, reaches) =
+                    locate_pupil_planes(frame, |r| pupil.interpolation().at(r), ray);
                 reaches.then_some(located)
             }
         }

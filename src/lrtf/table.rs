@@ -6,9 +6,10 @@ use serde::{Deserialize, Serialize};
 use super::entries::Entries;
 use super::focus::FocusRange;
 use super::param::{
-    CHANNELS, Frame, Located, MARGIN, Parameterisation, Ray, locate_pupil_planes, to_lens_frame,
+    CHANNELS, Frame, Located, MARGIN, Parameterisation, Ray, film_radius_of, locate_pupil_planes,
+    to_lens_frame,
 };
-use crate::pupil::{CircleInterpolation, FocusPupilTable, PupilTable};
+use crate::pupil::{CircleInterpolation, FocusPupilTable, PupilCircle, PupilTable};
 use crate::trace::with_widest_isa;
 
 /// Sample format on disk and in memory (see [`Entries`]): sampling a table in memory gives
@@ -180,21 +181,54 @@ fn verdict(reaches: bool, at: &Located, pupil_planes: bool) -> u32 {
 /// How a parameterisation places a ray in its table and decodes a stored direction, each
 /// inlined into the lookup's lanes.
 trait Place {
-    /// Where `ray` lands, and its [`verdict`].
-    fn locate(&self, ray: &Ray) -> (Located, u32);
+    /// What is found for a whole group (columns x, y, z, dx, dy, dz) before any of its rays is
+    /// located.
+    type Prepared;
+    fn prepare(&self, columns: &[[f64; LOOKUP_GROUP]; 6]) -> Self::Prepared;
+    /// Where `ray`, ray `k` of the prepared group, lands, and its [`verdict`].
+    fn locate(&self, prepared: &Self::Prepared, k: usize, ray: &Ray) -> (Located, u32);
     fn decode(&self, e: [f64; 2]) -> [f64; 3];
 }
 
-/// The pupil-planes parameterisation: both without branches, so its lanes are vector code.
+/// The pupil-planes parameterisation: without branches, so its lanes are vector code.
 struct PupilPlanesPlace<'a> {
     frame: &'a Frame,
     circles: CircleInterpolation<'a>,
 }
 
 impl Place for PupilPlanesPlace<'_> {
+    /// Each ray's circle of the coordinate pupil (centres, radii): where the circles lie is
+    /// worked out in lanes, the circles read ray by ray. Read within the lanes that locate, the
+    /// reads kept the compiler from vectorising any of it.
+    type Prepared = [[f64; LOOKUP_GROUP]; 2];
+
     #[inline(always)]
-    fn locate(&self, ray: &Ray) -> (Located, u32) {
-        let (at, reaches) = locate_pupil_planes(self.frame, &self.circles, ray);
+    fn prepare(&self, columns: &[[f64; LOOKUP_GROUP]; 6]) -> Self::Prepared {
+        let mut below = [0; LOOKUP_GROUP];
+        let mut fraction = [0.0; LOOKUP_GROUP];
+        for k in 0..LOOKUP_GROUP {
+            let (i, f) = self
+                .circles
+                .position(film_radius_of(self.frame, &ray_of(columns, k)));
+            below[k] = i;
+            fraction[k] = f;
+        }
+        let mut circles = [[0.0; LOOKUP_GROUP]; 2];
+        for k in 0..LOOKUP_GROUP {
+            let circle = self.circles.between(below[k], fraction[k]);
+            circles[0][k] = circle.centre_x;
+            circles[1][k] = circle.radius;
+        }
+        circles
+    }
+
+    #[inline(always)]
+    fn locate(&self, circles: &Self::Prepared, k: usize, ray: &Ray) -> (Located, u32) {
+        let circle = PupilCircle {
+            centre_x: circles[0][k],
+            radius: circles[1][k],
+        };
+        let (at, reaches) = locate_pupil_planes(self.frame, |_| circle, ray);
         (at, verdict(reaches, &at, true))
     }
 
@@ -210,8 +244,13 @@ struct SphericalPlace<'a> {
 }
 
 impl Place for SphericalPlace<'_> {
+    type Prepared = ();
+
     #[inline(always)]
-    fn locate(&self, ray: &Ray) -> (Located, u32) {
+    fn prepare(&self, _: &[[f64; LOOKUP_GROUP]; 6]) {}
+
+    #[inline(always)]
+    fn locate(&self, _: &(), _: usize, ray: &Ray) -> (Located, u32) {
         match Parameterisation::Spherical.locate(&self.layer.frame, &self.layer.pupil, ray) {
             Some(at) => (at, verdict(true, &at, false)),
             None => (Located::NOWHERE, LRTF_OUTSIDE),
@@ -221,6 +260,15 @@ impl Place for SphericalPlace<'_> {
     #[inline(always)]
     fn decode(&self, e: [f64; 2]) -> [f64; 3] {
         Parameterisation::Spherical.decode_direction(e)
+    }
+}
+
+/// Ray `k` of a group in columns (x, y, z, dx, dy, dz).
+#[inline(always)]
+fn ray_of(columns: &[[f64; LOOKUP_GROUP]; 6], k: usize) -> Ray {
+    Ray {
+        origin: [columns[0][k], columns[1][k], columns[2][k]],
+        direction: [columns[3][k], columns[4][k], columns[5][k]],
     }
 }
 
@@ -282,12 +330,9 @@ impl<P: Place> LaneLookup<'_, P> {
         let mut mirror = [0.0; G];
         let mut in_domain = [false; G];
         let mut verdicts = [LRTF_OUTSIDE; G];
+        let prepared = self.place.prepare(columns);
         for k in 0..G {
-            let ray = Ray {
-                origin: [columns[0][k], columns[1][k], columns[2][k]],
-                direction: [columns[3][k], columns[4][k], columns[5][k]],
-            };
-            let (at, verdict) = self.place.locate(&ray);
+            let (at, verdict) = self.place.locate(&prepared, k, &ray_of(columns, k));
             for (column, value) in coords.iter_mut().zip(at.coords) {
                 column[k] = value;
             }

@@ -92,6 +92,15 @@ impl CircleInterpolation<'_> {
     /// vector lanes.
     #[inline(always)]
     pub(crate) fn at(&self, film_radius: f64) -> PupilCircle {
+        let (below, fraction) = self.position(film_radius);
+        self.between(below, fraction)
+    }
+
+    /// The circle at or below `film_radius` and the fraction of the way to the next: the
+    /// arithmetic of [`CircleInterpolation::at`], which a group's lanes do side by side before
+    /// they read any circle.
+    #[inline(always)]
+    pub(crate) fn position(&self, film_radius: f64) -> (u32, f64) {
         let last = self.circles.len() - 1;
         let t = (film_radius / self.max_film_radius).clamp(0.0, 1.0) * self.intervals;
         // The index of the circle below t, clamped in f64 (`max` takes NaN to 0) to the last
@@ -105,8 +114,15 @@ impl CircleInterpolation<'_> {
             .min(f64::from(i32::MAX));
         // SAFETY: `below` is finite and in [0, i32::MAX].
         let i: i32 = unsafe { below.to_int_unchecked() };
-        let f = t - f64::from(i);
-        let i = i as usize;
+        (i as u32, t - f64::from(i))
+    }
+
+    /// The circle `fraction` of the way from circle `below` to the next (the last circle
+    /// where there is no next).
+    #[inline(always)]
+    pub(crate) fn between(&self, below: u32, f: f64) -> PupilCircle {
+        let last = self.circles.len() - 1;
+        let i = below as usize;
         // SAFETY: both indices are at most `last`, and `circles` is never empty. Unchecked, so a
         // group's lanes load them without a branch each.
         let (a, b) = unsafe {
