@@ -364,7 +364,9 @@ fn clip_axis(a: f32, b: f32, extent: f32, range: Vec2) -> Vec2 {
 #[inline(always)]
 fn floor_clamped(v: f32, last: u32) -> u32 {
     const BELOW_2_POW_31: f32 = 2_147_483_520.0;
-    // `max` returns 0 for NaN, so the value is finite and in [0, 2^31).
+    // `max` returns 0 for NaN, so the value is finite and in [0, 2^31) (`clamp` would keep
+    // the NaN).
+    #[allow(clippy::manual_clamp)]
     let clamped = v.max(0.0).min(BELOW_2_POW_31);
     // SAFETY: `clamped` is finite and its truncation fits an i32 (above).
     let whole: i32 = unsafe { clamped.to_int_unchecked() };
@@ -1178,11 +1180,9 @@ impl ImageSpans {
                 }
             }
             let (offset, width) = pyramid.level(level);
-            for (t, [column, row]) in [[c[0], r[0]], [c[1], r[0]], [c[0], r[1]], [c[1], r[1]]]
-                .into_iter()
-                .enumerate()
-            {
-                texels[t][k] = offset + (row >> level) * width + (column >> level);
+            let corners = [[c[0], r[0]], [c[1], r[0]], [c[0], r[1]], [c[1], r[1]]];
+            for (texel, [column, row]) in texels.iter_mut().zip(corners) {
+                texel[k] = offset + (row >> level) * width + (column >> level);
             }
         }
     }
