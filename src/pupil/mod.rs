@@ -120,7 +120,7 @@ impl CircleInterpolation<'_> {
     /// The circle `fraction` of the way from circle `below` to the next (the last circle
     /// where there is no next).
     #[inline(always)]
-    pub(crate) fn between(&self, below: u32, f: f64) -> PupilCircle {
+    pub(crate) fn between(&self, below: u32, fraction: f64) -> PupilCircle {
         let last = self.circles.len() - 1;
         let i = below as usize;
         // SAFETY: both indices are at most `last`, and `circles` is never empty. Unchecked, so a
@@ -132,8 +132,8 @@ impl CircleInterpolation<'_> {
             )
         };
         let between = PupilCircle {
-            centre_x: a.centre_x + (b.centre_x - a.centre_x) * f,
-            radius: a.radius + (b.radius - a.radius) * f,
+            centre_x: a.centre_x + (b.centre_x - a.centre_x) * fraction,
+            radius: a.radius + (b.radius - a.radius) * fraction,
         };
         if self.intervals > 0.0 { between } else { a }
     }

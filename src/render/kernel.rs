@@ -320,6 +320,24 @@ impl PyramidLevels {
     }
 }
 
+/// The pyramid level at which the footprint of columns `c` and rows `r` (first and last of
+/// each) is at most two texels wide and high, or the top of `levels`: the shader's climb one
+/// level at a time. The box is wider at the finest levels and not from some level up (a span
+/// of at most one stays so at the next level), so the level is the number of levels below the
+/// top where it is wider: a binary search for where that ends, the same five steps in every
+/// lane (32 levels hold every pyramid, see [`PyramidLevels`]).
+#[inline(always)]
+fn footprint_level(c: [u32; 2], r: [u32; 2], levels: u32) -> u32 {
+    let wide = |l: u32| ((c[1] >> l) - (c[0] >> l) > 1) | ((r[1] >> l) - (r[0] >> l) > 1);
+    let mut level = 0;
+    for step in [16, 8, 4, 2, 1] {
+        if level + step < levels && wide(level + step - 1) {
+            level += step;
+        }
+    }
+    level
+}
+
 /// The nearest layer at `pixel` whose inverse depth lies in `window` ([lower, upper], see
 /// [`Segment::depth_window`]), as its index into `layers.colours`.
 #[inline(always)]
@@ -1168,17 +1186,7 @@ impl ImageSpans {
                 floor_clamped(p[1].min(q[1]), last_row),
                 floor_clamped(p[1].max(q[1]), last_row),
             ];
-            // The box is more than two texels across at the finest levels and at most two from
-            // some level up (a span of at most one stays so at the next level), so the level is
-            // the number of levels below the top where it is wider: a binary search for where
-            // that ends, the same five steps in every lane.
-            let wide = |l: u32| ((c[1] >> l) - (c[0] >> l) > 1) | ((r[1] >> l) - (r[0] >> l) > 1);
-            let mut level = 0;
-            for step in [16, 8, 4, 2, 1] {
-                if level + step < frame.pyramid_levels && wide(level + step - 1) {
-                    level += step;
-                }
-            }
+            let level = footprint_level(c, r, frame.pyramid_levels);
             let (offset, width) = pyramid.level(level);
             let corners = [[c[0], r[0]], [c[1], r[0]], [c[0], r[1]], [c[1], r[1]]];
             for (texel, [column, row]) in texels.iter_mut().zip(corners) {
@@ -1571,6 +1579,46 @@ mod tests {
             );
         }
         assert!((xs[0] + 1.0 - xs[n as usize - 1] - 1.0 / n as f32).abs() < 1e-6);
+    }
+
+    #[test]
+    fn footprint_level_is_the_shaders_climb() {
+        // The shader's `footprint_bounds` climbs while the box is wider than two texels.
+        let climb = |c: [u32; 2], r: [u32; 2], levels: u32| {
+            let mut level = 0;
+            while level + 1 < levels
+                && (((c[1] >> level) - (c[0] >> level)) > 1
+                    || ((r[1] >> level) - (r[0] >> level)) > 1)
+            {
+                level += 1;
+            }
+            level
+        };
+        // Every box within 70 x 70 pixels (levels 0 to 6 and the caps below them), then boxes
+        // anywhere in the largest image sides (up to 2^31 - 1, 32 levels).
+        for levels in 1..=8 {
+            for c0 in 0..70 {
+                for c1 in c0..70 {
+                    for (r0, r1) in [(0, 0), (3, 4), (5, 69), (31, 33), (c0, c1)] {
+                        let (c, r) = ([c0, c1], [r0, r1]);
+                        assert_eq!(footprint_level(c, r, levels), climb(c, r, levels));
+                    }
+                }
+            }
+        }
+        for i in 0..100_000u32 {
+            let bits =
+                |k: u32| mix_bits(i.wrapping_mul(4).wrapping_add(k)) >> (mix_bits(k ^ i) % 32);
+            let ([a, b], [d, e]) = ([bits(0), bits(1)], [bits(2), bits(3)]);
+            let (c, r) = ([a.min(b), a.max(b)], [d.min(e), d.max(e)]);
+            for levels in [1, 9, 15, 29, 32] {
+                assert_eq!(
+                    footprint_level(c, r, levels),
+                    climb(c, r, levels),
+                    "{c:?} {r:?}"
+                );
+            }
+        }
     }
 
     #[test]
