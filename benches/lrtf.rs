@@ -1,6 +1,6 @@
 //! LRTF cost: baking the bundled 50 mm double Gauss at 32^3, 64^3 and the 128^3 default, a
 //! 64^3 table for the focus range infinity..1 m, and sampler lookups per second over the
-//! renderer's ray distribution.
+//! renderer's ray distribution, one at a time and grouped as the renderer makes them.
 //!
 //! cargo bench --bench lrtf
 
@@ -78,5 +78,39 @@ fn bench_lookup(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, bench_bake, bench_lookup);
+/// The grouped lookup the renderer uses, over a million rays in random order, by table size:
+/// the larger tables outgrow the caches, and this measures what that costs per lookup.
+fn bench_lookup_group(c: &mut Criterion) {
+    let system = dgauss();
+    let mut group = c.benchmark_group("lrtf_lookup_group_dgauss");
+    group
+        .sample_size(10)
+        .measurement_time(Duration::from_secs(5));
+    for n in [32, 64, 128] {
+        let table = baked(&system, n);
+        let layer = &table.layers[0];
+        let rays = renderer_rays(
+            &layer.pupil,
+            layer.frame.max_film_radius,
+            layer.frame.film_plane_z,
+            layer.frame.rear_plane_z,
+            1_000_000,
+            1,
+        );
+        let stop = layer.stop_semi_aperture;
+        let mut out = vec![Lookup::OutsideDomain; rays.len()];
+        group.throughput(Throughput::Elements(rays.len() as u64));
+        group.bench_function(format!("{n}^3 one_thread"), |b| {
+            b.iter(|| {
+                table.lookup_group(0, black_box(&rays), stop, &mut out);
+                out.iter()
+                    .filter(|l| matches!(l, Lookup::Passes(_)))
+                    .count()
+            })
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, bench_bake, bench_lookup, bench_lookup_group);
 criterion_main!(benches);

@@ -98,22 +98,45 @@ pub struct Grid<N> {
 
 /// The cell a point falls in: where its first corner is stored, the step to the next node along
 /// each axis, and the point's fraction of the cell along each. Corner k is the node offset by
-/// (k & 1, k >> 1 & 1, k >> 2 & 1).
+/// (k & 1, k >> 1 & 1, k >> 2 & 1). Node numbers are u32 (a grid holds far fewer nodes than
+/// 2^32, [`crate::limits::MAX_TABLE_NODES`]): vector lanes multiply 32-bit integers, not 64-bit
+/// ones.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Cell {
-    base: usize,
-    steps: [usize; 3],
+    base: u32,
+    steps: [u32; 3],
     fractions: [f64; 3],
+}
+
+/// The cells of a group of points, a column per value, as [`Entries::cells`] finds them side by
+/// side in vector lanes.
+pub struct CellColumns<const G: usize> {
+    base: [u32; G],
+    steps: [[u32; G]; 3],
+    fractions: [[f64; G]; 3],
+}
+
+impl<const G: usize> CellColumns<G> {
+    /// Point `k`'s cell.
+    #[inline(always)]
+    pub fn get(&self, k: usize) -> Cell {
+        Cell {
+            base: self.base[k],
+            steps: [0, 1, 2].map(|axis| self.steps[axis][k]),
+            fractions: [0, 1, 2].map(|axis| self.fractions[axis][k]),
+        }
+    }
 }
 
 impl Cell {
     /// Where corner `k` is stored.
     #[inline(always)]
     fn node(&self, k: usize) -> usize {
-        self.base
+        let k = k as u32;
+        (self.base
             + (k & 1) * self.steps[0]
             + ((k >> 1) & 1) * self.steps[1]
-            + ((k >> 2) & 1) * self.steps[2]
+            + ((k >> 2) & 1) * self.steps[2]) as usize
     }
 
     /// Corner `k`'s trilinear weight.
@@ -127,64 +150,102 @@ impl Cell {
     }
 }
 
-/// Trilinear addressing of a coordinate in \[0, 1\] on `n` nodes: base index and fraction.
-/// Nodes sit at k / (n - 1), so both ends of the domain are sampled exactly.
+/// Trilinear addressing of a coordinate in \[0, 1\] on `n` nodes (2 to 2^31): base index and
+/// fraction. Nodes sit at k / (n - 1), so both ends of the domain are sampled exactly; a NaN
+/// coordinate is taken as 0.
 #[inline(always)]
-pub fn address(coord: f64, n: usize) -> (usize, f64) {
-    let t = coord.clamp(0.0, 1.0) * (n - 1) as f64;
-    // t is in [0, n-1] (or NaN, which both roundings send to 0): truncation is the floor, without
-    // the libm call `floor` costs on baseline x86-64.
-    let i = (t as usize).min(n - 2);
+pub fn address(coord: f64, n: u32) -> (u32, f64) {
+    // `max` takes NaN to 0 (`clamp` keeps it), so t is in [0, n - 1] and its truncation (the
+    // floor, without the libm call `floor` costs on baseline x86-64) fits an i32. A saturating
+    // `as` would be split into scalar conversions and fix-ups, lane by lane.
+    #[allow(clippy::manual_clamp)]
+    let t = coord.max(0.0).min(1.0) * (n - 1) as f64;
+    // SAFETY: t is finite and below 2^31 (above).
+    let whole: i32 = unsafe { t.to_int_unchecked() };
+    let i = (whole as u32).min(n - 2);
     (i, t - i as f64)
 }
 
 impl<N: Node> Grid<N> {
     fn from_row_major(dims: [usize; 3], values: &[[f32; CHANNELS]]) -> Grid<N> {
         let bricks = dims.map(|n| n.div_ceil(BRICK));
+        let nodes = bricks.iter().product::<usize>() * BRICK_NODES;
+        assert!(
+            u32::try_from(nodes).is_ok(),
+            "{dims:?} nodes are numbered in u32 (MAX_TABLE_NODES keeps tables far below)"
+        );
         let mut grid = Grid {
             dims,
             bricks,
-            nodes: vec![N::default(); bricks.iter().product::<usize>() * BRICK_NODES],
+            nodes: vec![N::default(); nodes],
         };
         for (k, v) in values.iter().enumerate() {
-            let at = grid.index(row_major_node(dims, k));
+            let at = grid.index(row_major_node(dims, k)) as usize;
             grid.nodes[at] = N::from_values(v);
         }
         grid
     }
 
+    /// Where node (i0, i1, i2) is stored.
     #[inline(always)]
-    fn index(&self, [i0, i1, i2]: [usize; 3]) -> usize {
-        let brick = i0 / BRICK + self.bricks[0] * (i1 / BRICK + self.bricks[1] * (i2 / BRICK));
-        let within = i0 % BRICK + BRICK * (i1 % BRICK + BRICK * (i2 % BRICK));
-        brick * BRICK_NODES + within
+    fn index(&self, [i0, i1, i2]: [u32; 3]) -> u32 {
+        const B: u32 = BRICK as u32;
+        let [b0, b1, _] = self.bricks.map(|b| b as u32);
+        let brick = i0 / B + b0 * (i1 / B + b1 * (i2 / B));
+        let within = i0 % B + B * (i1 % B + B * (i2 % B));
+        brick * BRICK_NODES as u32 + within
     }
 
+    /// Branch-free, so [`Grid::cells`] computes a group's cells side by side.
     #[inline(always)]
     fn cell(&self, coords: [f64; 3]) -> Cell {
-        let (i0, f0) = address(coords[0], self.dims[0]);
-        let (i1, f1) = address(coords[1], self.dims[1]);
-        let (i2, f2) = address(coords[2], self.dims[2]);
+        let [n0, n1, n2] = self.dims.map(|n| n as u32);
+        let (i0, f0) = address(coords[0], n0);
+        let (i1, f1) = address(coords[1], n1);
+        let (i2, f2) = address(coords[2], n2);
         // The step to the next node along each axis: within the brick, or from the brick's last
         // layer of nodes to the next brick's first.
-        let brick_strides = [1, self.bricks[0], self.bricks[0] * self.bricks[1]];
-        let step = |i: usize, axis: usize| {
-            let within = BRICK.pow(axis as u32);
-            if i % BRICK == BRICK - 1 {
-                brick_strides[axis] * BRICK_NODES - (BRICK - 1) * within
+        let [b0, b1, _] = self.bricks.map(|b| b as u32);
+        let brick_strides = [1, b0, b0 * b1];
+        let step = |i: u32, axis: usize| {
+            const B: u32 = BRICK as u32;
+            let within = B.pow(axis as u32);
+            if i % B == B - 1 {
+                brick_strides[axis] * BRICK_NODES as u32 - (B - 1) * within
             } else {
                 within
             }
         };
-        let cell = Cell {
+        Cell {
             base: self.index([i0, i1, i2]),
             steps: [step(i0, 0), step(i1, 1), step(i2, 2)],
             fractions: [f0, f1, f2],
+        }
+    }
+
+    #[inline(always)]
+    fn cells<const G: usize>(&self, coords: &[[f64; G]; 3]) -> CellColumns<G> {
+        let mut cells = CellColumns {
+            base: [0; G],
+            steps: [[0; G]; 3],
+            fractions: [[0.0; G]; 3],
         };
+        for k in 0..G {
+            let cell = self.cell([coords[0][k], coords[1][k], coords[2][k]]);
+            cells.base[k] = cell.base;
+            for axis in 0..3 {
+                cells.steps[axis][k] = cell.steps[axis];
+                cells.fractions[axis][k] = cell.fractions[axis];
+            }
+        }
+        cells
+    }
+
+    #[inline(always)]
+    fn prefetch(&self, cell: &Cell) {
         for k in 0..8 {
             prefetch(&self.nodes[cell.node(k)]);
         }
-        cell
     }
 
     #[inline(always)]
@@ -227,13 +288,11 @@ impl<N: Node> Grid<N> {
     fn row_major(&self) -> impl Iterator<Item = [f32; CHANNELS]> + '_ {
         let dims = self.dims;
         (0..dims.iter().product())
-            .map(move |k| self.nodes[self.index(row_major_node(dims, k))].values())
+            .map(move |k| self.nodes[self.index(row_major_node(dims, k)) as usize].values())
     }
 }
 
-/// Asks the cache for the line holding `node` ahead of its use: the lookup places a whole group
-/// of rays before it reads their cells, so their misses overlap instead of following each other.
-/// No effect on any value.
+/// Asks the cache for the line holding `node` ahead of its use. No effect on any value.
 #[inline(always)]
 fn prefetch<T>(node: &T) {
     #[cfg(target_arch = "x86_64")]
@@ -309,8 +368,8 @@ mod vector {
 }
 
 /// Grid indices of entry `k` in row-major order (`i0 + n0 * (i1 + n1 * i2)`, the file's order).
-fn row_major_node([n0, n1, _]: [usize; 3], k: usize) -> [usize; 3] {
-    [k % n0, (k / n0) % n1, k / (n0 * n1)]
+fn row_major_node([n0, n1, _]: [usize; 3], k: usize) -> [u32; 3] {
+    [k % n0, (k / n0) % n1, k / (n0 * n1)].map(|i| i as u32)
 }
 
 /// One wavelength's entries in the precision the table was baked with.
@@ -377,8 +436,8 @@ impl Entries {
     /// The entry at grid node `node`.
     pub fn get(&self, node: [usize; 3]) -> [f32; CHANNELS] {
         match self {
-            Entries::F32(g) => g.nodes[g.index(node)].values(),
-            Entries::F16(g) => g.nodes[g.index(node)].values(),
+            Entries::F32(g) => g.nodes[g.index(node.map(|i| i as u32)) as usize].values(),
+            Entries::F16(g) => g.nodes[g.index(node.map(|i| i as u32)) as usize].values(),
         }
     }
 
@@ -394,6 +453,26 @@ impl Entries {
         match self {
             Entries::F32(g) => g.cell(coords),
             Entries::F16(g) => g.cell(coords),
+        }
+    }
+
+    /// [`Entries::cell`] of every point of a group (a column per coordinate), side by side in
+    /// vector lanes where the caller is compiled for them.
+    #[inline(always)]
+    pub fn cells<const G: usize>(&self, coords: &[[f64; G]; 3]) -> CellColumns<G> {
+        match self {
+            Entries::F32(g) => g.cells(coords),
+            Entries::F16(g) => g.cells(coords),
+        }
+    }
+
+    /// Asks the cache for `cell`'s corners ahead of [`Entries::interpolate`], so that the
+    /// misses of several cells overlap; no effect on any value.
+    #[inline(always)]
+    pub fn prefetch(&self, cell: &Cell) {
+        match self {
+            Entries::F32(g) => g.prefetch(cell),
+            Entries::F16(g) => g.prefetch(cell),
         }
     }
 
@@ -430,7 +509,8 @@ mod tests {
                     .collect();
                 assert_eq!(entries.row_major().collect::<Vec<_>>(), rounded);
                 for (k, v) in rounded.iter().enumerate() {
-                    assert_eq!(entries.get(row_major_node(dims, k)), *v);
+                    let node = row_major_node(dims, k).map(|i| i as usize);
+                    assert_eq!(entries.get(node), *v);
                 }
                 assert_eq!(entries.precision(), precision);
                 assert_eq!(entries.len(), values.len());
@@ -455,9 +535,10 @@ mod tests {
                     let t = (a * step as f64).fract();
                     t * 1.2 - 0.1
                 });
-                let (i0, f0) = address(coords[0], dims[0]);
-                let (i1, f1) = address(coords[1], dims[1]);
-                let (i2, f2) = address(coords[2], dims[2]);
+                let [(i0, f0), (i1, f1), (i2, f2)] = [0, 1, 2].map(|axis| {
+                    let (i, f) = address(coords[axis], dims[axis] as u32);
+                    (i as usize, f)
+                });
                 let mut expected = [0.0f64; CHANNELS];
                 for corner in 0..8 {
                     let (d0, d1, d2) = (corner & 1, (corner >> 1) & 1, (corner >> 2) & 1);
@@ -554,10 +635,42 @@ mod tests {
                     let cell = grid.cell([0, 1, 2].map(|a| coords[a] / (dims[a] - 1) as f64));
                     for k in 0..8 {
                         let corner = [i0 + (k & 1), i1 + ((k >> 1) & 1), i2 + ((k >> 2) & 1)];
-                        assert_eq!(cell.node(k), grid.index(corner), "{corner:?}");
+                        let corner = corner.map(|i| i as u32);
+                        assert_eq!(cell.node(k), grid.index(corner) as usize, "{corner:?}");
                     }
                 }
             }
+        }
+    }
+
+    #[test]
+    fn cells_in_columns_are_the_cells_one_at_a_time() {
+        const G: usize = 64;
+        let dims = [9, 6, 13];
+        let entries = Entries::from_row_major(dims, Precision::F32, &ramp(dims));
+        let specials = [
+            f64::NAN,
+            -0.5,
+            -0.0,
+            0.0,
+            1.0,
+            1.5,
+            f64::INFINITY,
+            -f64::INFINITY,
+        ];
+        let mut coords = [[0.0; G]; 3];
+        for (axis, column) in coords.iter_mut().enumerate() {
+            for (k, c) in column.iter_mut().enumerate() {
+                *c = match k {
+                    0..8 => specials[(k + axis) % specials.len()],
+                    _ => ((k * (axis + 3)) as f64 * 0.618_034).fract() * 1.2 - 0.1,
+                };
+            }
+        }
+        let cells = entries.cells(&coords);
+        for k in 0..G {
+            let point = [coords[0][k], coords[1][k], coords[2][k]];
+            assert_eq!(cells.get(k), entries.cell(point), "{point:?}");
         }
     }
 

@@ -159,6 +159,11 @@ impl Layer {
 /// unrolled the lanes' loops whole instead of vectorising them.
 pub const LOOKUP_GROUP: usize = 64;
 
+/// How many rays ahead of its interpolation a cell's corners are asked for: enough that the
+/// misses of several cells overlap, few enough that the corners are still in the first-level
+/// cache when read (a group's 512 corners fill it).
+const PREFETCH_AHEAD: usize = 8;
+
 /// What a located ray's place says before the table is read: it falls inside (`LRTF_PASSES`,
 /// the lookup goes on), or outside the domain, or outside the conservative pupil bound
 /// (`LRTF_BLOCKED`). Beyond the film radius a pupil-planes table covers, nothing is known.
@@ -291,8 +296,8 @@ struct LaneLookup<'a, P> {
 
 impl<P: Place> LaneLookup<'_, P> {
     /// Looks `rays` up into `out`, [`LOOKUP_GROUP`] at a time in vector lanes: every ray
-    /// located, then each placed ray's cell addressed (its corners prefetched, so the misses of
-    /// the group overlap) and interpolated, then the stop and margin tests and the outgoing rays
+    /// located, then every lane's cell addressed, the placed rays' corners prefetched (so the
+    /// misses of the group overlap) and interpolated, then the stop and margin tests and the outgoing rays
     /// for all of them. Compiled for the widest instruction set; the lanes compute the same
     /// numbers one ray at a time would.
     fn run(&self, rays: LookupRays, out: &mut [Lookup]) {
@@ -349,16 +354,22 @@ impl<P: Place> LaneLookup<'_, P> {
             in_domain: in_domain[k],
         };
         let entries = &self.layer.entries;
-        let mut cells = [None; G];
-        for k in 0..n {
-            if verdicts[k] == LRTF_PASSES {
-                cells[k] = Some(entries.cell(located(k).coords));
-            }
+        // Every lane's cell, in lanes (the coordinates outside the table are clamped into it),
+        // then the corners of the placed rays' cells asked for, so the misses of the group
+        // overlap instead of following each other.
+        let cells = entries.cells(&coords);
+        let placed = |k: usize| verdicts[k] == LRTF_PASSES;
+        for k in (0..n.min(PREFETCH_AHEAD)).filter(|&k| placed(k)) {
+            entries.prefetch(&cells.get(k));
         }
         let mut values = [[0.0; G]; CHANNELS];
         for k in 0..n {
-            if let Some(cell) = &cells[k] {
-                let v = entries.interpolate(cell, self.corners);
+            let ahead = k + PREFETCH_AHEAD;
+            if ahead < n && placed(ahead) {
+                entries.prefetch(&cells.get(ahead));
+            }
+            if placed(k) {
+                let v = entries.interpolate(&cells.get(k), self.corners);
                 for channel in 0..CHANNELS {
                     values[channel][k] = v[channel];
                 }
