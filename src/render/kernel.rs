@@ -730,30 +730,12 @@ fn lens_rays(frame: &FrameParams, rays: LensRays, samples: &SampleLanes, out: &m
                 #[inline(always)]
                 || film_side_rays(samples),
             );
-            let mut group = [crate::trace::Ray::ALONG_AXIS; SAMPLE_GROUP];
-            let mut slot = [0usize; SAMPLE_GROUP];
-            let mut traced_count = 0;
-            for k in 0..count {
-                out[k] = blocked_ray();
-                if built[k] {
-                    group[traced_count] = crate::trace::Ray::from_parts(
-                        [columns[0][k], columns[1][k], columns[2][k]],
-                        [columns[3][k], columns[4][k], columns[5][k]],
-                    );
-                    slot[traced_count] = k;
-                    traced_count += 1;
+            out.fill(blocked_ray());
+            tracer.trace_group(&columns, &built[..count], Travel::Backward, |k, traced| {
+                if traced.outcome.is_ok() {
+                    out[k] = leaving(traced.ray.position(), traced.ray.direction());
                 }
-            }
-            let mut traced = [crate::trace::Traced {
-                outcome: crate::trace::Outcome::Ok,
-                ray: crate::trace::Ray::ALONG_AXIS,
-            }; SAMPLE_GROUP];
-            tracer.trace_group(&group[..traced_count], Travel::Backward, &mut traced);
-            for (t, &k) in traced[..traced_count].iter().zip(&slot) {
-                if t.outcome.is_ok() {
-                    out[k] = leaving(t.ray.position(), t.ray.direction());
-                }
-            }
+            });
         }
         LensRays::Baked {
             table,

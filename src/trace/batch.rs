@@ -122,16 +122,21 @@ pub struct BatchTrace {
 pub(crate) const GROUP_RAYS: usize = 64;
 
 impl Tracer {
-    /// Traces up to [`GROUP_RAYS`] rays together on this thread, apertures checked: `traced[i]`
-    /// gets ray `i`'s result, bit for bit what [`Tracer::trace`] gives. For callers that make
-    /// their rays a few dozen at a time (the renderer's samples of one pixel).
-    pub(crate) fn trace_group(&self, rays: &[Ray], travel: Travel, traced: &mut [Traced]) {
-        debug_assert!(rays.len() <= GROUP_RAYS && traced.len() >= rays.len());
+    /// Traces the rays of a group in columns (x, y, z, dx, dy, dz) whose lanes `chosen` marks
+    /// together on this thread, apertures checked: `finish` gets each one's lane and result, bit
+    /// for bit what [`Tracer::trace`] gives. For callers that make their rays a few dozen at a
+    /// time, side by side (the renderer's samples of one pixel); the rays go from their columns
+    /// into the block's without being assembled one by one in between.
+    pub(crate) fn trace_group(
+        &self,
+        columns: &[[f64; GROUP_RAYS]; 6],
+        chosen: &[bool],
+        travel: Travel,
+        mut finish: impl FnMut(usize, Traced),
+    ) {
         let mut block = Block::<{ GROUP_RAYS / STRIDE }>::new();
-        block.load(rays);
-        self.trace_block(&mut block, travel, true, &mut NoVisit, &mut |id, result| {
-            traced[id] = result
-        });
+        block.load_chosen(columns, chosen);
+        self.trace_block(&mut block, travel, true, &mut NoVisit, &mut finish);
     }
 
     /// Traces every ray of `rays` on the current rayon thread pool.

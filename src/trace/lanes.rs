@@ -180,6 +180,21 @@ impl<const STRIDES: usize> Block<STRIDES> {
         self.number(len);
     }
 
+    /// Loads the rays of a group in columns (x, y, z, dx, dy, dz) whose lanes `chosen` marks
+    /// (at most [`Block::CAPACITY`] of them), each numbered by its lane.
+    pub fn load_chosen<const G: usize>(&mut self, columns: &[[f64; G]; 6], chosen: &[bool]) {
+        let mut slot = 0;
+        for (lane, _) in chosen.iter().enumerate().filter(|(_, chosen)| **chosen) {
+            debug_assert!(slot < Self::CAPACITY);
+            for (k, column) in columns.iter().enumerate() {
+                self.columns[0].values[k][slot / STRIDE][slot % STRIDE] = column[lane];
+            }
+            self.ids[slot / STRIDE][slot % STRIDE] = lane as u32;
+            slot += 1;
+        }
+        self.loaded = slot;
+    }
+
     fn number(&mut self, len: usize) {
         for (slot, id) in self.ids.as_flattened_mut()[..len].iter_mut().enumerate() {
             *id = slot as u32;
