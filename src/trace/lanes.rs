@@ -1001,6 +1001,33 @@ mod tests {
         assert!(outcomes.len() >= 3, "a mix of outcomes: {outcomes:?}");
     }
 
+    /// A group traced from its columns reports exactly the chosen lanes, each by its lane and
+    /// with what the one-ray trace gives.
+    #[test]
+    fn a_group_from_columns_traces_the_chosen_lanes_as_one_ray() {
+        use crate::trace::GROUP_RAYS;
+        let tracer = tracer();
+        let rays = rays(GROUP_RAYS);
+        let mut columns = [[0.0; GROUP_RAYS]; 6];
+        for (lane, ray) in rays.iter().enumerate() {
+            for (axis, value) in ray.position.into_iter().chain(ray.direction).enumerate() {
+                columns[axis][lane] = value;
+            }
+        }
+        // Every third lane left out, and the lanes past `count` not offered at all.
+        let count = GROUP_RAYS - 5;
+        let chosen: Vec<bool> = (0..count).map(|lane| lane % 3 != 1).collect();
+        let mut seen = vec![false; GROUP_RAYS];
+        tracer.trace_group(&columns, &chosen, Travel::Forward, |lane, traced| {
+            assert!(chosen[lane] && !seen[lane], "lane {lane}");
+            seen[lane] = true;
+            let one = tracer.trace_with(rays[lane], Travel::Forward, Apertures::Checked);
+            assert_eq!(traced, one, "lane {lane}");
+        });
+        assert_eq!(seen[..count], chosen[..]);
+        assert!(seen[count..].iter().all(|&s| !s));
+    }
+
     /// The visitor sees each travelling ray's hit point on every surface, as the one-ray path
     /// records it, and no ray after it stopped.
     #[test]
