@@ -8,7 +8,7 @@ use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use lensbake::lenses;
 use lensbake::lrtf::bake::{BakeRequest, bake};
 use lensbake::lrtf::measure::renderer_rays;
-use lensbake::lrtf::{Lookup, LrtfTable};
+use lensbake::lrtf::{Lookup, LrtfTable, Ray};
 use lensbake::prescription::formats::LoadOptions;
 use lensbake::system::LensSystem;
 use std::hint::black_box;
@@ -37,13 +37,30 @@ fn baked_for_range(system: &LensSystem, n: usize) -> LrtfTable {
     bake(system, &request, &|_| {}).expect("the double Gauss bakes for a range")
 }
 
+/// `count` rays drawn as the renderer draws them for layer 0 of `table`, and its stop radius.
+fn renderer_rays_of(table: &LrtfTable, count: usize) -> (Vec<Ray>, f64) {
+    let layer = &table.layers[0];
+    let rays = renderer_rays(
+        &layer.pupil,
+        layer.frame.max_film_radius,
+        layer.frame.film_plane_z,
+        layer.frame.rear_plane_z,
+        count,
+        1,
+    );
+    (rays, layer.stop_semi_aperture)
+}
+
+/// The table sizes timed.
+const SIZES: [usize; 3] = [32, 64, 128];
+
 fn bench_bake(c: &mut Criterion) {
     let system = dgauss();
     let mut group = c.benchmark_group("lrtf_bake_dgauss");
     group
         .sample_size(10)
         .measurement_time(Duration::from_secs(8));
-    for n in [32, 64, 128] {
+    for n in SIZES {
         group.throughput(Throughput::Elements((n * n * n) as u64));
         group.bench_function(format!("{n}^3"), |b| b.iter(|| baked(&system, n)));
     }
@@ -56,16 +73,7 @@ fn bench_bake(c: &mut Criterion) {
 
 fn bench_lookup(c: &mut Criterion) {
     let table = baked(&dgauss(), 64);
-    let layer = &table.layers[0];
-    let rays = renderer_rays(
-        &layer.pupil,
-        layer.frame.max_film_radius,
-        layer.frame.film_plane_z,
-        layer.frame.rear_plane_z,
-        10_000,
-        1,
-    );
-    let stop = layer.stop_semi_aperture;
+    let (rays, stop) = renderer_rays_of(&table, 10_000);
     let mut group = c.benchmark_group("lrtf_lookup_dgauss_64");
     group.throughput(Throughput::Elements(rays.len() as u64));
     group.bench_function("one_thread", |b| {
@@ -86,18 +94,9 @@ fn bench_lookup_group(c: &mut Criterion) {
     group
         .sample_size(10)
         .measurement_time(Duration::from_secs(5));
-    for n in [32, 64, 128] {
+    for n in SIZES {
         let table = baked(&system, n);
-        let layer = &table.layers[0];
-        let rays = renderer_rays(
-            &layer.pupil,
-            layer.frame.max_film_radius,
-            layer.frame.film_plane_z,
-            layer.frame.rear_plane_z,
-            1_000_000,
-            1,
-        );
-        let stop = layer.stop_semi_aperture;
+        let (rays, stop) = renderer_rays_of(&table, 1_000_000);
         let mut out = vec![Lookup::OutsideDomain; rays.len()];
         group.throughput(Throughput::Elements(rays.len() as u64));
         group.bench_function(format!("{n}^3 one_thread"), |b| {

@@ -92,7 +92,7 @@ fn widen(value: f16) -> f32 {
 pub struct Grid<N> {
     dims: [usize; 3],
     /// Bricks along each axis (the last ones padded with nodes no cell reads).
-    bricks: [usize; 3],
+    bricks: [u32; 3],
     nodes: Vec<N>,
 }
 
@@ -176,7 +176,7 @@ impl<N: Node> Grid<N> {
         );
         let mut grid = Grid {
             dims,
-            bricks,
+            bricks: bricks.map(|b| b as u32),
             nodes: vec![N::default(); nodes],
         };
         for (k, v) in values.iter().enumerate() {
@@ -190,7 +190,7 @@ impl<N: Node> Grid<N> {
     #[inline(always)]
     fn index(&self, [i0, i1, i2]: [u32; 3]) -> u32 {
         const B: u32 = BRICK as u32;
-        let [b0, b1, _] = self.bricks.map(|b| b as u32);
+        let [b0, b1, _] = self.bricks;
         let brick = i0 / B + b0 * (i1 / B + b1 * (i2 / B));
         let within = i0 % B + B * (i1 % B + B * (i2 % B));
         brick * BRICK_NODES as u32 + within
@@ -205,7 +205,7 @@ impl<N: Node> Grid<N> {
         let (i2, f2) = address(coords[2], n2);
         // The step to the next node along each axis: within the brick, or from the brick's last
         // layer of nodes to the next brick's first.
-        let [b0, b1, _] = self.bricks.map(|b| b as u32);
+        let [b0, b1, _] = self.bricks;
         let brick_strides = [1, b0, b0 * b1];
         let step = |i: u32, axis: usize| {
             const B: u32 = BRICK as u32;
@@ -230,9 +230,9 @@ impl<N: Node> Grid<N> {
             steps: [[0; G]; 3],
             fractions: [[0.0; G]; 3],
         };
-        for k in 0..G {
+        for (k, base) in cells.base.iter_mut().enumerate() {
             let cell = self.cell([coords[0][k], coords[1][k], coords[2][k]]);
-            cells.base[k] = cell.base;
+            *base = cell.base;
             for axis in 0..3 {
                 cells.steps[axis][k] = cell.steps[axis];
                 cells.fractions[axis][k] = cell.fractions[axis];
@@ -435,9 +435,10 @@ impl Entries {
 
     /// The entry at grid node `node`.
     pub fn get(&self, node: [usize; 3]) -> [f32; CHANNELS] {
+        let node = node.map(|i| i as u32);
         match self {
-            Entries::F32(g) => g.nodes[g.index(node.map(|i| i as u32)) as usize].values(),
-            Entries::F16(g) => g.nodes[g.index(node.map(|i| i as u32)) as usize].values(),
+            Entries::F32(g) => g.nodes[g.index(node) as usize].values(),
+            Entries::F16(g) => g.nodes[g.index(node) as usize].values(),
         }
     }
 
@@ -669,7 +670,7 @@ mod tests {
         }
         let cells = entries.cells(&coords);
         for k in 0..G {
-            let point = [coords[0][k], coords[1][k], coords[2][k]];
+            let point = coords.map(|column| column[k]);
             assert_eq!(cells.get(k), entries.cell(point), "{point:?}");
         }
     }

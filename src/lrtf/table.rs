@@ -297,8 +297,8 @@ struct LaneLookup<'a, P> {
 impl<P: Place> LaneLookup<'_, P> {
     /// Looks `rays` up into `out`, [`LOOKUP_GROUP`] at a time in vector lanes: every ray
     /// located, then every lane's cell addressed, the placed rays' corners prefetched (so the
-    /// misses of the group overlap) and interpolated, then the stop and margin tests and the outgoing rays
-    /// for all of them. Compiled for the widest instruction set; the lanes compute the same
+    /// misses of the group overlap) and interpolated, then the stop and margin tests and the
+    /// outgoing rays for all of them. Compiled for the widest instruction set; the lanes compute the same
     /// numbers one ray at a time would.
     fn run(&self, rays: LookupRays, out: &mut [Lookup]) {
         with_widest_isa(
@@ -370,8 +370,8 @@ impl<P: Place> LaneLookup<'_, P> {
             }
             if placed(k) {
                 let v = entries.interpolate(&cells.get(k), self.corners);
-                for channel in 0..CHANNELS {
-                    values[channel][k] = v[channel];
+                for (column, value) in values.iter_mut().zip(v) {
+                    column[k] = value;
                 }
             }
         }
