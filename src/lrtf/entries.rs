@@ -90,10 +90,16 @@ fn widen(value: f16) -> f32 {
 /// The grid of one element type, brick by brick.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Grid<N> {
-    dims: [usize; 3],
-    /// Bricks along each axis (the last ones padded with nodes no cell reads).
-    bricks: [u32; 3],
+    layout: Bricks,
     nodes: Vec<N>,
+}
+
+/// Where a grid's nodes are stored, whatever their element type: its nodes along each axis and
+/// its bricks along each axis (the last ones padded with nodes no cell reads).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Bricks {
+    dims: [usize; 3],
+    bricks: [u32; 3],
 }
 
 /// The cell a point falls in: where its first corner is stored, the step to the next node along
@@ -117,6 +123,12 @@ pub struct CellColumns<const G: usize> {
 }
 
 impl<const G: usize> CellColumns<G> {
+    pub const ZERO: CellColumns<G> = CellColumns {
+        base: [0; G],
+        steps: [[0; G]; 3],
+        fractions: [[0.0; G]; 3],
+    };
+
     /// Point `k`'s cell.
     #[inline(always)]
     pub fn get(&self, k: usize) -> Cell {
@@ -166,26 +178,7 @@ pub fn address(coord: f64, n: u32) -> (u32, f64) {
     (i, t - i as f64)
 }
 
-impl<N: Node> Grid<N> {
-    fn from_row_major(dims: [usize; 3], values: &[[f32; CHANNELS]]) -> Grid<N> {
-        let bricks = dims.map(|n| n.div_ceil(BRICK));
-        let nodes = bricks.iter().product::<usize>() * BRICK_NODES;
-        assert!(
-            u32::try_from(nodes).is_ok(),
-            "{dims:?} nodes are numbered in u32 (MAX_TABLE_NODES keeps tables far below)"
-        );
-        let mut grid = Grid {
-            dims,
-            bricks: bricks.map(|b| b as u32),
-            nodes: vec![N::default(); nodes],
-        };
-        for (k, v) in values.iter().enumerate() {
-            let at = grid.index(row_major_node(dims, k)) as usize;
-            grid.nodes[at] = N::from_values(v);
-        }
-        grid
-    }
-
+impl Bricks {
     /// Where node (i0, i1, i2) is stored.
     #[inline(always)]
     fn index(&self, [i0, i1, i2]: [u32; 3]) -> u32 {
@@ -224,12 +217,7 @@ impl<N: Node> Grid<N> {
     }
 
     #[inline(always)]
-    fn cells<const G: usize>(&self, coords: &[[f64; G]; 3]) -> CellColumns<G> {
-        let mut cells = CellColumns {
-            base: [0; G],
-            steps: [[0; G]; 3],
-            fractions: [[0.0; G]; 3],
-        };
+    fn find_cells<const G: usize>(&self, coords: &[[f64; G]; 3], cells: &mut CellColumns<G>) {
         for (k, base) in cells.base.iter_mut().enumerate() {
             let cell = self.cell([coords[0][k], coords[1][k], coords[2][k]]);
             *base = cell.base;
@@ -238,7 +226,29 @@ impl<N: Node> Grid<N> {
                 cells.fractions[axis][k] = cell.fractions[axis];
             }
         }
-        cells
+    }
+}
+
+impl<N: Node> Grid<N> {
+    fn from_row_major(dims: [usize; 3], values: &[[f32; CHANNELS]]) -> Grid<N> {
+        let bricks = dims.map(|n| n.div_ceil(BRICK));
+        let nodes = bricks.iter().product::<usize>() * BRICK_NODES;
+        assert!(
+            u32::try_from(nodes).is_ok(),
+            "{dims:?} nodes are numbered in u32 (MAX_TABLE_NODES keeps tables far below)"
+        );
+        let mut grid = Grid {
+            layout: Bricks {
+                dims,
+                bricks: bricks.map(|b| b as u32),
+            },
+            nodes: vec![N::default(); nodes],
+        };
+        for (k, v) in values.iter().enumerate() {
+            let at = grid.layout.index(row_major_node(dims, k)) as usize;
+            grid.nodes[at] = N::from_values(v);
+        }
+        grid
     }
 
     #[inline(always)]
@@ -286,9 +296,10 @@ impl<N: Node> Grid<N> {
     }
 
     fn row_major(&self) -> impl Iterator<Item = [f32; CHANNELS]> + '_ {
-        let dims = self.dims;
-        (0..dims.iter().product())
-            .map(move |k| self.nodes[self.index(row_major_node(dims, k)) as usize].values())
+        let layout = self.layout;
+        (0..layout.dims.iter().product()).map(move |k| {
+            self.nodes[layout.index(row_major_node(layout.dims, k)) as usize].values()
+        })
     }
 }
 
@@ -410,9 +421,14 @@ impl Entries {
     }
 
     pub fn dims(&self) -> [usize; 3] {
+        self.layout().dims
+    }
+
+    #[inline(always)]
+    fn layout(&self) -> &Bricks {
         match self {
-            Entries::F32(g) => g.dims,
-            Entries::F16(g) => g.dims,
+            Entries::F32(g) => &g.layout,
+            Entries::F16(g) => &g.layout,
         }
     }
 
@@ -435,10 +451,10 @@ impl Entries {
 
     /// The entry at grid node `node`.
     pub fn get(&self, node: [usize; 3]) -> [f32; CHANNELS] {
-        let node = node.map(|i| i as u32);
+        let at = self.layout().index(node.map(|i| i as u32)) as usize;
         match self {
-            Entries::F32(g) => g.nodes[g.index(node) as usize].values(),
-            Entries::F16(g) => g.nodes[g.index(node) as usize].values(),
+            Entries::F32(g) => g.nodes[at].values(),
+            Entries::F16(g) => g.nodes[at].values(),
         }
     }
 
@@ -451,20 +467,16 @@ impl Entries {
     /// The cell holding table coordinates `coords` (clamped to \[0, 1\]^3).
     #[inline(always)]
     pub fn cell(&self, coords: [f64; 3]) -> Cell {
-        match self {
-            Entries::F32(g) => g.cell(coords),
-            Entries::F16(g) => g.cell(coords),
-        }
+        self.layout().cell(coords)
     }
 
-    /// [`Entries::cell`] of every point of a group (a column per coordinate), side by side in
-    /// vector lanes where the caller is compiled for them.
+    /// [`Entries::cell`] of every point of a group (a column per coordinate) into `cells`, side
+    /// by side in vector lanes where the caller is compiled for them. Written into the caller's
+    /// columns: returned by value, the columns were copied once more, which cost as much as
+    /// finding them.
     #[inline(always)]
-    pub fn cells<const G: usize>(&self, coords: &[[f64; G]; 3]) -> CellColumns<G> {
-        match self {
-            Entries::F32(g) => g.cells(coords),
-            Entries::F16(g) => g.cells(coords),
-        }
+    pub fn find_cells<const G: usize>(&self, coords: &[[f64; G]; 3], cells: &mut CellColumns<G>) {
+        self.layout().find_cells(coords, cells)
     }
 
     /// Asks the cache for `cell`'s corners ahead of [`Entries::interpolate`], so that the
@@ -633,11 +645,17 @@ mod tests {
             for i1 in 0..dims[1] - 1 {
                 for i0 in 0..dims[0] - 1 {
                     let coords = [i0, i1, i2].map(|i| i as f64 + 0.5);
-                    let cell = grid.cell([0, 1, 2].map(|a| coords[a] / (dims[a] - 1) as f64));
+                    let cell = grid
+                        .layout
+                        .cell([0, 1, 2].map(|a| coords[a] / (dims[a] - 1) as f64));
                     for k in 0..8 {
                         let corner = [i0 + (k & 1), i1 + ((k >> 1) & 1), i2 + ((k >> 2) & 1)];
                         let corner = corner.map(|i| i as u32);
-                        assert_eq!(cell.node(k), grid.index(corner) as usize, "{corner:?}");
+                        assert_eq!(
+                            cell.node(k),
+                            grid.layout.index(corner) as usize,
+                            "{corner:?}"
+                        );
                     }
                 }
             }
@@ -668,7 +686,8 @@ mod tests {
                 };
             }
         }
-        let cells = entries.cells(&coords);
+        let mut cells = CellColumns::ZERO;
+        entries.find_cells(&coords, &mut cells);
         for k in 0..G {
             let point = coords.map(|column| column[k]);
             assert_eq!(cells.get(k), entries.cell(point), "{point:?}");

@@ -3,7 +3,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::entries::Entries;
+use super::entries::{CellColumns, Entries};
 use super::focus::FocusRange;
 use super::param::{
     CHANNELS, Frame, Located, MARGIN, Parameterisation, Ray, film_radius_of, locate_pupil_planes,
@@ -357,7 +357,8 @@ impl<P: Place> LaneLookup<'_, P> {
         // Every lane's cell, in lanes (the coordinates outside the table are clamped into it),
         // then the corners of the placed rays' cells asked for, so the misses of the group
         // overlap instead of following each other.
-        let cells = entries.cells(&coords);
+        let mut cells = CellColumns::ZERO;
+        entries.find_cells(&coords, &mut cells);
         let placed = |k: usize| verdicts[k] == LRTF_PASSES;
         for k in (0..n.min(PREFETCH_AHEAD)).filter(|&k| placed(k)) {
             entries.prefetch(&cells.get(k));

@@ -726,9 +726,11 @@ fn lens_rays(frame: &FrameParams, rays: LensRays, samples: &SampleLanes, out: &m
         }
         LensRays::Traced(tracer) => {
             // Rays that cannot be built (a zero direction) stay blocked and are not traced.
-            let (columns, built) = with_widest_isa(
+            let mut columns = [[0.0; SAMPLE_GROUP]; 6];
+            let mut built = [false; SAMPLE_GROUP];
+            with_widest_isa(
                 #[inline(always)]
-                || film_side_rays(samples),
+                || film_side_rays(samples, &mut columns, &mut built),
             );
             out.fill(blocked_ray());
             tracer.trace_group(&columns, &built[..count], Travel::Backward, |k, traced| {
@@ -744,9 +746,10 @@ fn lens_rays(frame: &FrameParams, rays: LensRays, samples: &SampleLanes, out: &m
         } => {
             // Looked up together, so the table reads of the whole group overlap. A ray that
             // cannot be built has no direction, which no table holds (it falls outside).
-            let (columns, _) = with_widest_isa(
+            let mut columns = [[0.0; SAMPLE_GROUP]; 6];
+            with_widest_isa(
                 #[inline(always)]
-                || film_side_rays(samples),
+                || film_side_rays(samples, &mut columns, &mut [false; SAMPLE_GROUP]),
             );
             let mut looked = [Lookup::OutsideDomain; SAMPLE_GROUP];
             table.lookup_columns(layer, &columns, stop_radius, &mut looked[..count]);
@@ -761,15 +764,18 @@ fn lens_rays(frame: &FrameParams, rays: LensRays, samples: &SampleLanes, out: &m
 }
 
 /// The f64 film-side rays of all lanes of `samples` (from the film point towards the pupil
-/// point, the direction made unit), a column per coordinate (x, y, z, dx, dy, dz), and whether
-/// each could be built: what [`crate::trace::Ray::new`] makes of them, bit for bit, side by side
-/// in vector lanes. From f32 points a direction's squared length can neither overflow nor
-/// underflow f64, so `Ray::new` divides by the length, as here; it refuses only non-finite values
-/// and a zero direction.
+/// point, the direction made unit) into `columns`, a column per coordinate (x, y, z, dx, dy, dz),
+/// and whether each could be built into `built`: what [`crate::trace::Ray::new`] makes of them,
+/// bit for bit, side by side in vector lanes. From f32 points a direction's squared length can
+/// neither overflow nor underflow f64, so `Ray::new` divides by the length, as here; it refuses
+/// only non-finite values and a zero direction. Written into the caller's columns: returned by
+/// value, they were copied once more.
 #[inline(always)]
-fn film_side_rays(samples: &SampleLanes) -> ([[f64; SAMPLE_GROUP]; 6], [bool; SAMPLE_GROUP]) {
-    let mut columns = [[0.0; SAMPLE_GROUP]; 6];
-    let mut built = [false; SAMPLE_GROUP];
+fn film_side_rays(
+    samples: &SampleLanes,
+    columns: &mut [[f64; SAMPLE_GROUP]; 6],
+    built: &mut [bool; SAMPLE_GROUP],
+) {
     for k in 0..SAMPLE_GROUP {
         // Written out: through `array::map` over the axes the compiler kept a call in the loop.
         let [fx, fy, fz] = &samples.film;
@@ -787,7 +793,6 @@ fn film_side_rays(samples: &SampleLanes) -> ([[f64; SAMPLE_GROUP]; 6], [bool; SA
             columns[3 + axis][k] = d[axis] / length;
         }
     }
-    (columns, built)
 }
 
 /// The kernel's lens function alone: the object-space ray (a point on it, and the direction the
