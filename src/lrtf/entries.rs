@@ -338,6 +338,7 @@ mod vector {
     }
 
     #[target_feature(enable = "avx2,f16c")]
+    #[inline]
     pub(super) fn interpolate_f32(nodes: &[NodeF32], cell: &Cell) -> [f64; CHANNELS] {
         // SAFETY: the pointer is to a whole node's eight f32.
         accumulate(cell, |node| unsafe {
@@ -346,6 +347,7 @@ mod vector {
     }
 
     #[target_feature(enable = "avx2,f16c")]
+    #[inline]
     pub(super) fn interpolate_f16(nodes: &[NodeF16], cell: &Cell) -> [f64; CHANNELS] {
         // SAFETY: the pointer is to a whole node's eight f16 (16 bytes).
         accumulate(cell, |node| {

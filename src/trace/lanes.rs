@@ -236,7 +236,9 @@ impl Isa {
         #[cfg(target_arch = "x86_64")]
         {
             use std::arch::is_x86_feature_detected as has;
-            let fma = has!("avx2") && has!("fma");
+            // Every AVX2 processor has F16C too; asked for, so the table's f16 widening and its
+            // interpolation inline into code compiled for these sets.
+            let fma = has!("avx2") && has!("fma") && has!("f16c");
             if fma && has!("avx512f") && has!("avx512dq") && has!("avx512vl") {
                 return Isa::Avx512;
             }
@@ -271,13 +273,13 @@ pub(crate) fn with_widest_isa<R>(body: impl FnOnce() -> R) -> R {
 }
 
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
+#[target_feature(enable = "avx2,fma,f16c")]
 fn run_avx2_fma<R>(body: impl FnOnce() -> R) -> R {
     body()
 }
 
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512dq,avx512vl,avx2,fma")]
+#[target_feature(enable = "avx512f,avx512dq,avx512vl,avx2,fma,f16c")]
 fn run_avx512<R>(body: impl FnOnce() -> R) -> R {
     body()
 }
