@@ -1130,8 +1130,9 @@ impl ImageSpans {
             let mut upper = [0.0; SAMPLE_GROUP];
             for k in 0..SAMPLE_GROUP {
                 // Every texel is inside the pyramid; the bound keeps the reads free of checks.
-                let [a, b, c, d] =
-                    [0, 1, 2, 3].map(|t| bounds[(texels[t][k] as usize).min(last_texel)]);
+                // Written out: through `array::map` the compiler kept a call per lane.
+                let texel = |t: usize| bounds[(texels[t][k] as usize).min(last_texel)];
+                let (a, b, c, d) = (texel(0), texel(1), texel(2), texel(3));
                 lower[k] = a[0].min(b[0]).min(c[0].min(d[0]));
                 upper[k] = a[1].max(b[1]).max(c[1].max(d[1]));
             }
