@@ -277,12 +277,15 @@ fn ray_of(columns: &[[f64; LOOKUP_GROUP]; 6], k: usize) -> Ray {
     }
 }
 
-/// The rays a lookup is given: one after the other, or a group already in columns (x, y, z,
-/// dx, dy, dz; as many as the lookup has results) as the renderer builds them.
+/// The rays a lookup is given: one after the other, or the first `count` rays of a group
+/// already in columns (x, y, z, dx, dy, dz) as the renderer builds them.
 #[derive(Clone, Copy)]
 enum LookupRays<'a> {
     Rays(&'a [Ray]),
-    Columns(&'a [[f64; LOOKUP_GROUP]; 6]),
+    Columns {
+        columns: &'a [[f64; LOOKUP_GROUP]; 6],
+        count: usize,
+    },
 }
 
 /// One lookup's settings: the layer, the stop, the corners interpolated, and its
@@ -295,17 +298,18 @@ struct LaneLookup<'a, P> {
 }
 
 impl<P: Place> LaneLookup<'_, P> {
-    /// Looks `rays` up into `out`, [`LOOKUP_GROUP`] at a time in vector lanes: every ray
+    /// Looks `rays` up, handing ray k's result to `emit(k, ..)`, [`LOOKUP_GROUP`] at a time in
+    /// vector lanes: every ray
     /// located, then every lane's cell addressed, the placed rays' corners prefetched (so the
     /// misses of the group overlap) and interpolated, then the stop and margin tests and the
     /// outgoing rays for all of them. Compiled for the widest instruction set; the lanes compute the same
     /// numbers one ray at a time would.
-    fn run(&self, rays: LookupRays, out: &mut [Lookup]) {
+    fn run(&self, rays: LookupRays, emit: &mut impl FnMut(usize, Lookup)) {
         with_widest_isa(
             #[inline(always)]
             || match rays {
                 LookupRays::Rays(rays) => {
-                    for (rays, out) in rays.chunks(LOOKUP_GROUP).zip(out.chunks_mut(LOOKUP_GROUP)) {
+                    for (chunk, rays) in rays.chunks(LOOKUP_GROUP).enumerate() {
                         // Columns of the rays; lanes past the last ray repeat the first.
                         let mut columns = [[0.0; LOOKUP_GROUP]; 6];
                         for k in 0..LOOKUP_GROUP {
@@ -315,20 +319,26 @@ impl<P: Place> LaneLookup<'_, P> {
                                 columns[3 + axis][k] = ray.direction[axis];
                             }
                         }
-                        self.group(&columns, out);
+                        let first = chunk * LOOKUP_GROUP;
+                        self.group(&columns, rays.len(), &mut |k, found| emit(first + k, found));
                     }
                 }
-                LookupRays::Columns(columns) => self.group(columns, out),
+                LookupRays::Columns { columns, count } => self.group(columns, count, emit),
             },
         );
     }
 
-    /// The first `out.len()` rays of `columns` (x, y, z, dx, dy, dz) looked up into `out`; the
+    /// The first `n` rays of `columns` (x, y, z, dx, dy, dz) looked up, ray k's result handed to
+    /// `emit(k, ..)` (to the renderer's own rays, with no array of results in between); the
     /// lanes past them are computed and not used.
     #[inline(always)]
-    fn group(&self, columns: &[[f64; LOOKUP_GROUP]; 6], out: &mut [Lookup]) {
+    fn group(
+        &self,
+        columns: &[[f64; LOOKUP_GROUP]; 6],
+        n: usize,
+        emit: &mut impl FnMut(usize, Lookup),
+    ) {
         const G: usize = LOOKUP_GROUP;
-        let n = out.len();
         // Where each lands, a column per value, so the lanes store whole vectors.
         let mut coords = [[0.0; G]; 3];
         let mut rotation = [[0.0; G]; 2];
@@ -388,7 +398,7 @@ impl<P: Place> LaneLookup<'_, P> {
             passes[k] = through;
         }
         for k in 0..n {
-            out[k] = match verdicts[k] {
+            let found = match verdicts[k] {
                 LRTF_PASSES if passes[k] => Lookup::Passes(Ray {
                     origin: [leaving[0][k], leaving[1][k], leaving[2][k]],
                     direction: [leaving[3][k], leaving[4][k], leaving[5][k]],
@@ -396,6 +406,7 @@ impl<P: Place> LaneLookup<'_, P> {
                 LRTF_PASSES | LRTF_BLOCKED => Lookup::Blocked,
                 _ => Lookup::OutsideDomain,
             };
+            emit(k, found);
         }
     }
 
@@ -451,29 +462,31 @@ impl LrtfTable {
             LookupRays::Rays(rays),
             stop_radius,
             Corners::All,
-            out,
+            &mut |k, found| out[k] = found,
         );
     }
 
-    /// [`LrtfTable::lookup_group`] of the first `out.len()` rays of a group held in columns
-    /// (x, y, z, dx, dy, dz), as the renderer's CPU twin builds them.
+    /// [`LrtfTable::lookup_group`] of the first `count` rays of a group held in columns
+    /// (x, y, z, dx, dy, dz), as the renderer's CPU twin builds them: ray k's result is handed
+    /// to `emit(k, ..)`, once for each k below `count`, in order.
     ///
     /// # Panics
-    /// When `out` holds more than [`LOOKUP_GROUP`] results.
+    /// When `count` is above [`LOOKUP_GROUP`].
     pub(crate) fn lookup_columns(
         &self,
         layer: usize,
         columns: &[[f64; LOOKUP_GROUP]; 6],
+        count: usize,
         stop_radius: f64,
-        out: &mut [Lookup],
+        mut emit: impl FnMut(usize, Lookup),
     ) {
-        assert!(out.len() <= LOOKUP_GROUP, "at most a group");
+        assert!(count <= LOOKUP_GROUP, "at most a group");
         self.lookup_each(
             layer,
-            LookupRays::Columns(columns),
+            LookupRays::Columns { columns, count },
             stop_radius,
             Corners::All,
-            out,
+            &mut emit,
         );
     }
 
@@ -504,10 +517,10 @@ impl LrtfTable {
         stop_radius: f64,
         corners: Corners,
     ) -> Lookup {
-        let mut out = [Lookup::OutsideDomain];
+        let mut found = Lookup::OutsideDomain;
         let rays = LookupRays::Rays(std::slice::from_ref(ray));
-        self.lookup_each(layer, rays, stop_radius, corners, &mut out);
-        out[0]
+        self.lookup_each(layer, rays, stop_radius, corners, &mut |_, f| found = f);
+        found
     }
 
     /// The one lookup: [`LOOKUP_GROUP`] rays at a time, each located (or settled outside the
@@ -518,7 +531,7 @@ impl LrtfTable {
         rays: LookupRays,
         stop_radius: f64,
         corners: Corners,
-        out: &mut [Lookup],
+        emit: &mut impl FnMut(usize, Lookup),
     ) {
         let l = &self.layers[layer];
         // Each parameterisation's lanes compiled on their own, so the pupil-planes ones have
@@ -533,14 +546,14 @@ impl LrtfTable {
                     circles: l.pupil.interpolation(),
                 },
             }
-            .run(rays, out),
+            .run(rays, emit),
             Parameterisation::Spherical => LaneLookup {
                 layer: l,
                 stop_radius,
                 corners,
                 place: SphericalPlace { layer: l },
             }
-            .run(rays, out),
+            .run(rays, emit),
         }
     }
 

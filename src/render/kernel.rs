@@ -751,14 +751,12 @@ fn lens_rays(frame: &FrameParams, rays: LensRays, samples: &SampleLanes, out: &m
                 #[inline(always)]
                 || film_side_rays(samples, &mut columns, &mut [false; SAMPLE_GROUP]),
             );
-            let mut looked = [Lookup::OutsideDomain; SAMPLE_GROUP];
-            table.lookup_columns(layer, &columns, stop_radius, &mut looked[..count]);
-            for (o, looked) in out.iter_mut().zip(&looked[..count]) {
-                *o = match looked {
-                    Lookup::Passes(out) => leaving(out.origin, out.direction),
+            table.lookup_columns(layer, &columns, count, stop_radius, |k, looked| {
+                out[k] = match looked {
+                    Lookup::Passes(ray) => leaving(ray.origin, ray.direction),
                     Lookup::Blocked | Lookup::OutsideDomain => blocked_ray(),
                 };
-            }
+            });
         }
     }
 }
