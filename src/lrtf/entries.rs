@@ -123,6 +123,7 @@ pub struct CellColumns<const G: usize> {
 }
 
 impl<const G: usize> CellColumns<G> {
+    /// Columns for [`Entries::find_cells`] to fill.
     pub const ZERO: CellColumns<G> = CellColumns {
         base: [0; G],
         steps: [[0; G]; 3],

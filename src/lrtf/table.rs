@@ -299,11 +299,10 @@ struct LaneLookup<'a, P> {
 
 impl<P: Place> LaneLookup<'_, P> {
     /// Looks `rays` up, handing ray k's result to `emit(k, ..)`, [`LOOKUP_GROUP`] at a time in
-    /// vector lanes: every ray
-    /// located, then every lane's cell addressed, the placed rays' corners prefetched (so the
-    /// misses of the group overlap) and interpolated, then the stop and margin tests and the
-    /// outgoing rays for all of them. Compiled for the widest instruction set; the lanes compute the same
-    /// numbers one ray at a time would.
+    /// vector lanes: every ray located, then every lane's cell addressed, the placed rays'
+    /// corners prefetched (so the misses of the group overlap) and interpolated, then the stop
+    /// and margin tests and the outgoing rays for all of them. Compiled for the widest
+    /// instruction set; the lanes compute the same numbers one ray at a time would.
     fn run(&self, rays: LookupRays, emit: &mut impl FnMut(usize, Lookup)) {
         with_widest_isa(
             #[inline(always)]
