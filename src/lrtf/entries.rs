@@ -475,8 +475,8 @@ impl Entries {
 
     /// [`Entries::cell`] of every point of a group (a column per coordinate) into `cells`, side
     /// by side in vector lanes where the caller is compiled for them. Written into the caller's
-    /// columns: returned by value, the columns were copied once more, which cost as much as
-    /// finding them.
+    /// columns: returned by value, they were copied once more, which cost several times what
+    /// finding them does (a `rep movsb` of 2.5 KiB per group).
     #[inline(always)]
     pub fn find_cells<const G: usize>(&self, coords: &[[f64; G]; 3], cells: &mut CellColumns<G>) {
         self.layout().find_cells(coords, cells)

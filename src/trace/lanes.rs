@@ -238,11 +238,11 @@ impl Isa {
             use std::arch::is_x86_feature_detected as has;
             // Every AVX2 processor has F16C too; asked for, so the table's f16 widening and its
             // interpolation inline into code compiled for these sets.
-            let fma = has!("avx2") && has!("fma") && has!("f16c");
-            if fma && has!("avx512f") && has!("avx512dq") && has!("avx512vl") {
+            let avx2_set = has!("avx2") && has!("fma") && has!("f16c");
+            if avx2_set && has!("avx512f") && has!("avx512dq") && has!("avx512vl") {
                 return Isa::Avx512;
             }
-            if fma {
+            if avx2_set {
                 return Isa::Avx2Fma;
             }
         }
