@@ -14,6 +14,7 @@ use half::f16;
 
 use super::param::{CHANNELS, MARGIN};
 use super::table::{Corners, Precision};
+use crate::trace::{Isa, with_widest_isa};
 
 /// Nodes per brick edge (a power of two, so brick and offset are a shift and a mask).
 pub const BRICK: usize = 4;
@@ -24,9 +25,13 @@ pub trait Node: Copy + Default + PartialEq + std::fmt::Debug + Send + Sync + 'st
     fn from_values(values: &[f32; CHANNELS]) -> Self;
     fn values(&self) -> [f32; CHANNELS];
     /// Every channel interpolated over all eight corners of `cell` with AVX2 and F16C (see
-    /// `vector`); to be called only where `vector::available()`.
+    /// `vector`).
+    ///
+    /// # Safety
+    /// The processor must have AVX2 and F16C. Inlined into its caller, it is vector code only
+    /// where that caller is compiled for them (elsewhere each intrinsic is a call).
     #[cfg(target_arch = "x86_64")]
-    const VECTOR: unsafe fn(&[Self], &Cell) -> [f64; CHANNELS];
+    unsafe fn interpolate_vector(nodes: &[Self], cell: &Cell) -> [f64; CHANNELS];
 }
 
 /// An f32 node, aligned to its 32 bytes.
@@ -49,7 +54,11 @@ impl Node for NodeF32 {
     }
 
     #[cfg(target_arch = "x86_64")]
-    const VECTOR: unsafe fn(&[Self], &Cell) -> [f64; CHANNELS] = vector::interpolate_f32;
+    #[inline(always)]
+    unsafe fn interpolate_vector(nodes: &[Self], cell: &Cell) -> [f64; CHANNELS] {
+        // SAFETY: the caller's, passed on.
+        unsafe { vector::interpolate_f32(nodes, cell) }
+    }
 }
 
 impl Node for NodeF16 {
@@ -66,7 +75,11 @@ impl Node for NodeF16 {
     }
 
     #[cfg(target_arch = "x86_64")]
-    const VECTOR: unsafe fn(&[Self], &Cell) -> [f64; CHANNELS] = vector::interpolate_f16;
+    #[inline(always)]
+    unsafe fn interpolate_vector(nodes: &[Self], cell: &Cell) -> [f64; CHANNELS] {
+        // SAFETY: the caller's, passed on.
+        unsafe { vector::interpolate_f16(nodes, cell) }
+    }
 }
 
 /// `value` as f32, exactly (what `f16::to_f32` gives), in a form the compiler inlines and
@@ -260,12 +273,14 @@ impl<N: Node> Grid<N> {
     }
 
     #[inline(always)]
-    fn interpolate(&self, cell: &Cell, corners: Corners) -> [f64; CHANNELS] {
+    fn interpolate_on(&self, isa: Isa, cell: &Cell, corners: Corners) -> [f64; CHANNELS] {
         #[cfg(target_arch = "x86_64")]
-        if corners == Corners::All && vector::available() {
-            // SAFETY: the processor was just found to have AVX2 and F16C.
-            return unsafe { (N::VECTOR)(&self.nodes, cell) };
+        if corners == Corners::All && isa.has_avx2_f16c() {
+            // SAFETY: `isa` is the set the caller is compiled for, one the processor has.
+            return unsafe { N::interpolate_vector(&self.nodes, cell) };
         }
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = isa;
         self.interpolate_portable(cell, corners)
     }
 
@@ -318,12 +333,15 @@ fn prefetch<T>(node: &T) {
     let _ = node;
 }
 
-/// The interpolation on x86-64 processors with AVX2 and F16C, chosen at run time (the build
-/// assumes only SSE2, which holds two f64 lanes and has no f16 conversion). A node's eight
-/// channels are one 256-bit load (f32) or one 128-bit load widened by `vcvtph2ps` (f16, exact,
-/// as [`widen`] is), then two vectors of four f64 that each corner's weight multiplies and the
-/// sum adds: separately, in the portable path's order (no fused multiply-add), so every channel
-/// gets the same bits as there.
+/// The interpolation on x86-64 processors with AVX2 and F16C (the build assumes only SSE2,
+/// which holds two f64 lanes and has no f16 conversion). A node's eight channels are one 256-bit
+/// load (f32) or one 128-bit load widened by `vcvtph2ps` (f16, exact, as [`widen`] is), then two
+/// vectors of four f64 that each corner's weight multiplies and the sum adds: separately, in the
+/// portable path's order (no fused multiply-add), so every channel gets the same bits as there.
+///
+/// Nothing here carries a target feature of its own: all of it is inlined into a caller
+/// compiled for the set ([`Isa`], handed out by [`with_widest_isa`]) and gets its features
+/// there. The caller, not this code, knows which set it was compiled for.
 #[cfg(target_arch = "x86_64")]
 mod vector {
     use super::{CHANNELS, Cell, NodeF16, NodeF32};
@@ -333,35 +351,42 @@ mod vector {
         _mm256_setzero_pd, _mm256_storeu_pd,
     };
 
-    /// Whether this processor runs the functions below (the check is a cached flag).
-    pub(super) fn available() -> bool {
-        std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("f16c")
-    }
-
-    #[target_feature(enable = "avx2,f16c")]
-    #[inline]
-    pub(super) fn interpolate_f32(nodes: &[NodeF32], cell: &Cell) -> [f64; CHANNELS] {
-        // SAFETY: the pointer is to a whole node's eight f32.
-        accumulate(cell, |node| unsafe {
-            _mm256_loadu_ps(nodes[node].0.as_ptr())
-        })
-    }
-
-    #[target_feature(enable = "avx2,f16c")]
-    #[inline]
-    pub(super) fn interpolate_f16(nodes: &[NodeF16], cell: &Cell) -> [f64; CHANNELS] {
-        // SAFETY: the pointer is to a whole node's eight f16 (16 bytes).
-        accumulate(cell, |node| {
-            _mm256_cvtph_ps(unsafe { _mm_loadu_si128(nodes[node].0.as_ptr().cast()) })
-        })
-    }
-
-    /// The weighted sum over the corners; inlined into each caller above, so it is compiled
-    /// with their features.
+    /// # Safety
+    /// The processor must have AVX2.
     #[inline(always)]
-    fn accumulate(cell: &Cell, load: impl Fn(usize) -> __m256) -> [f64; CHANNELS] {
-        // SAFETY (all intrinsics here): only reached from the functions above, which run only
-        // where `available` found AVX2 and F16C.
+    pub(super) unsafe fn interpolate_f32(nodes: &[NodeF32], cell: &Cell) -> [f64; CHANNELS] {
+        // SAFETY: each load reads a whole node's eight f32; AVX2 is the caller's to ensure.
+        unsafe {
+            accumulate(
+                cell,
+                #[inline(always)]
+                |node| _mm256_loadu_ps(nodes[node].0.as_ptr()),
+            )
+        }
+    }
+
+    /// # Safety
+    /// The processor must have AVX2 and F16C.
+    #[inline(always)]
+    pub(super) unsafe fn interpolate_f16(nodes: &[NodeF16], cell: &Cell) -> [f64; CHANNELS] {
+        // SAFETY: each load reads a whole node's eight f16 (16 bytes); AVX2 and F16C are the
+        // caller's to ensure.
+        unsafe {
+            accumulate(
+                cell,
+                #[inline(always)]
+                |node| _mm256_cvtph_ps(_mm_loadu_si128(nodes[node].0.as_ptr().cast())),
+            )
+        }
+    }
+
+    /// The weighted sum over the corners.
+    ///
+    /// # Safety
+    /// The processor must have AVX2 (and whatever `load` needs).
+    #[inline(always)]
+    unsafe fn accumulate(cell: &Cell, load: impl Fn(usize) -> __m256) -> [f64; CHANNELS] {
+        // SAFETY: AVX2 is the caller's to ensure; `out` holds the two vectors' eight f64.
         unsafe {
             let mut low = _mm256_setzero_pd();
             let mut high = _mm256_setzero_pd();
@@ -492,12 +517,27 @@ impl Entries {
         }
     }
 
-    /// Every channel interpolated in `cell`, the values taken from `corners`.
-    #[inline(always)]
+    /// Every channel interpolated in `cell`, the values taken from `corners`, in the widest
+    /// instruction set this processor has.
     pub fn interpolate(&self, cell: &Cell, corners: Corners) -> [f64; CHANNELS] {
+        with_widest_isa(
+            #[inline(always)]
+            |isa| self.interpolate_on(isa, cell, corners),
+        )
+    }
+
+    /// [`Entries::interpolate`] from code compiled for `isa` (handed out by
+    /// [`with_widest_isa`]); inlined there, so the vector path is compiled with it.
+    #[inline(always)]
+    pub(crate) fn interpolate_on(
+        &self,
+        isa: Isa,
+        cell: &Cell,
+        corners: Corners,
+    ) -> [f64; CHANNELS] {
         match self {
-            Entries::F32(g) => g.interpolate(cell, corners),
-            Entries::F16(g) => g.interpolate(cell, corners),
+            Entries::F32(g) => g.interpolate_on(isa, cell, corners),
+            Entries::F16(g) => g.interpolate_on(isa, cell, corners),
         }
     }
 }
@@ -578,6 +618,16 @@ mod tests {
 
     #[test]
     fn vector_interpolation_is_the_portable_one_bit_for_bit() {
+        // `interpolate` takes the vector path wherever the processor has AVX2 and F16C (and no
+        // narrower set is asked for), so on such a machine this compares the two paths.
+        #[cfg(target_arch = "x86_64")]
+        if std::env::var_os("LENSBAKE_ISA").is_none()
+            && std::arch::is_x86_feature_detected!("avx2")
+            && std::arch::is_x86_feature_detected!("fma")
+            && std::arch::is_x86_feature_detected!("f16c")
+        {
+            assert!(with_widest_isa(|isa| isa.has_avx2_f16c()));
+        }
         // Channel values of every sign and magnitude each precision holds (random bit patterns,
         // infinities and NaN left out), at random points in and around the grid.
         let mut state = 0x2545_f491_4f6c_dd1d_u64;
@@ -615,21 +665,6 @@ mod tests {
                     Entries::F16(g) => g.interpolate_portable(&cell, Corners::All),
                 };
                 let expected = portable.map(f64::to_bits);
-                #[cfg(target_arch = "x86_64")]
-                if vector::available() {
-                    // SAFETY: the processor has AVX2 and F16C.
-                    let vector = unsafe {
-                        match &entries {
-                            Entries::F32(g) => (NodeF32::VECTOR)(&g.nodes, &cell),
-                            Entries::F16(g) => (NodeF16::VECTOR)(&g.nodes, &cell),
-                        }
-                    };
-                    assert_eq!(
-                        vector.map(f64::to_bits),
-                        expected,
-                        "{precision:?} {coords:?}"
-                    );
-                }
                 let dispatched = entries.interpolate(&cell, Corners::All);
                 assert_eq!(
                     dispatched.map(f64::to_bits),

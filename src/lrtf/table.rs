@@ -10,7 +10,7 @@ use super::param::{
     to_lens_frame,
 };
 use crate::pupil::{CircleInterpolation, FocusPupilTable, PupilCircle, PupilTable};
-use crate::trace::with_widest_isa;
+use crate::trace::{Isa, with_widest_isa};
 
 /// Sample format on disk and in memory (see [`Entries`]): sampling a table in memory gives
 /// exactly the error of its file.
@@ -306,7 +306,7 @@ impl<P: Place> LaneLookup<'_, P> {
     fn run(&self, rays: LookupRays, emit: &mut impl FnMut(usize, Lookup)) {
         with_widest_isa(
             #[inline(always)]
-            || match rays {
+            |isa| match rays {
                 LookupRays::Rays(rays) => {
                     for (chunk, rays) in rays.chunks(LOOKUP_GROUP).enumerate() {
                         // Columns of the rays; lanes past the last ray repeat the first.
@@ -319,20 +319,23 @@ impl<P: Place> LaneLookup<'_, P> {
                             }
                         }
                         let first = chunk * LOOKUP_GROUP;
-                        self.group(&columns, rays.len(), &mut |k, found| emit(first + k, found));
+                        self.group(isa, &columns, rays.len(), &mut |k, found| {
+                            emit(first + k, found)
+                        });
                     }
                 }
-                LookupRays::Columns { columns, count } => self.group(columns, count, emit),
+                LookupRays::Columns { columns, count } => self.group(isa, columns, count, emit),
             },
         );
     }
 
     /// The first `n` rays of `columns` (x, y, z, dx, dy, dz) looked up, ray k's result handed to
     /// `emit(k, ..)` (to the renderer's own rays, with no array of results in between); the
-    /// lanes past them are computed and not used.
+    /// lanes past them are computed and not used. `isa` is the set the group is compiled for.
     #[inline(always)]
     fn group(
         &self,
+        isa: Isa,
         columns: &[[f64; LOOKUP_GROUP]; 6],
         n: usize,
         emit: &mut impl FnMut(usize, Lookup),
@@ -379,7 +382,7 @@ impl<P: Place> LaneLookup<'_, P> {
                 entries.prefetch(&cells.get(ahead));
             }
             if placed(k) {
-                let v = entries.interpolate(&cells.get(k), self.corners);
+                let v = entries.interpolate_on(isa, &cells.get(k), self.corners);
                 for (column, value) in values.iter_mut().zip(v) {
                     column[k] = value;
                 }

@@ -730,7 +730,7 @@ fn lens_rays(frame: &FrameParams, rays: LensRays, samples: &SampleLanes, out: &m
             let mut built = [false; SAMPLE_GROUP];
             with_widest_isa(
                 #[inline(always)]
-                || film_side_rays(samples, &mut columns, &mut built),
+                |_| film_side_rays(samples, &mut columns, &mut built),
             );
             out.fill(blocked_ray());
             tracer.trace_group(&columns, &built[..count], Travel::Backward, |k, traced| {
@@ -749,7 +749,7 @@ fn lens_rays(frame: &FrameParams, rays: LensRays, samples: &SampleLanes, out: &m
             let mut columns = [[0.0; SAMPLE_GROUP]; 6];
             with_widest_isa(
                 #[inline(always)]
-                || film_side_rays(samples, &mut columns, &mut [false; SAMPLE_GROUP]),
+                |_| film_side_rays(samples, &mut columns, &mut [false; SAMPLE_GROUP]),
             );
             table.lookup_columns(layer, &columns, count, stop_radius, |k, looked| {
                 out[k] = match looked {
@@ -1038,7 +1038,7 @@ fn for_sample_groups(
         let count = (frame.sample_count - first).min(SAMPLE_GROUP as u32) as usize;
         let lanes = with_widest_isa(
             #[inline(always)]
-            || sample_lanes(frame, &circles, &scrambles, [x, y], first),
+            |_| sample_lanes(frame, &circles, &scrambles, [x, y], first),
         );
         group(&lanes, count);
         first += count as u32;
@@ -1059,7 +1059,7 @@ fn march_group(
 ) {
     with_widest_isa(
         #[inline(always)]
-        || {
+        |_| {
             let mut spans = ImageSpans::of(frame, object);
             spans.cut_to_footprints(frame, layers);
             for (k, &w) in weight.iter().enumerate().take(object.len()) {

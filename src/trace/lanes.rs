@@ -253,16 +253,24 @@ impl Isa {
     pub fn fused(self) -> bool {
         self != Isa::Portable
     }
+
+    /// Whether the set has AVX2 and F16C (every set but the portable one: [`Isa::widest`]
+    /// requires them), so code compiled for it may use their intrinsics.
+    pub fn has_avx2_f16c(self) -> bool {
+        self != Isa::Portable
+    }
 }
 
 /// Runs `body` compiled for the widest instruction set this processor has (see [`Isa`]):
 /// `body` and everything it calls that is `inline(always)` is compiled once per set, which lets
-/// branch-free loops over lanes use the widest vectors. The values are the same on every set:
-/// no multiply-add is fused unless written as one.
+/// branch-free loops over lanes use the widest vectors. `body` is handed the set, a constant in
+/// each copy, so code it inlines can pick intrinsics for that set (the table's interpolation)
+/// instead of asking the processor again. The values are the same on every set: no
+/// multiply-add is fused unless written as one.
 #[inline(always)]
-pub(crate) fn with_widest_isa<R>(body: impl FnOnce() -> R) -> R {
+pub(crate) fn with_widest_isa<R>(body: impl FnOnce(Isa) -> R) -> R {
     match Isa::detect() {
-        Isa::Portable => body(),
+        Isa::Portable => body(Isa::Portable),
         #[cfg(target_arch = "x86_64")]
         // SAFETY: `detect` names only sets the processor has.
         Isa::Avx2Fma => unsafe { run_avx2_fma(body) },
@@ -274,14 +282,14 @@ pub(crate) fn with_widest_isa<R>(body: impl FnOnce() -> R) -> R {
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma,f16c")]
-fn run_avx2_fma<R>(body: impl FnOnce() -> R) -> R {
-    body()
+fn run_avx2_fma<R>(body: impl FnOnce(Isa) -> R) -> R {
+    body(Isa::Avx2Fma)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx512dq,avx512vl,avx2,fma,f16c")]
-fn run_avx512<R>(body: impl FnOnce() -> R) -> R {
-    body()
+fn run_avx512<R>(body: impl FnOnce(Isa) -> R) -> R {
+    body(Isa::Avx512)
 }
 
 /// What a visitor sees after each surface: the surface's 0-based index and, for every slot in

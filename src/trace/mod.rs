@@ -28,7 +28,7 @@ pub use batch::{BatchTrace, RayBatch};
 pub use bundle::FieldBundle;
 #[cfg(feature = "render")]
 pub(crate) use intersect::{ASPHERE_MAX_STEPS, dot};
-pub(crate) use lanes::{LANES, LaneVisitor, NoVisit, Slots, with_widest_isa};
+pub(crate) use lanes::{Isa, LANES, LaneVisitor, NoVisit, Slots, with_widest_isa};
 
 use crate::paraxial::Pupil;
 use crate::prescription::Shape;
