@@ -1288,29 +1288,105 @@ fn render_pixel_chromatic(
     sum
 }
 
+/// The order the CPU twin draws pixels in. Each pixel's sum is its own, so no value depends on
+/// it; only which memory neighbouring pixels share does.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum PixelOrder {
+    /// Row by row: neighbouring pixels read neighbouring texels of the layer image.
+    Rows,
+    /// Ring by ring outwards from the lens axis ([`pixels_by_film_ring`]), for a baked lens.
+    FilmRings,
+}
+
+impl PixelOrder {
+    /// Rings where any lens is a table (whose first coordinate is the film radius), else rows.
+    fn for_lenses(rays: &[LensRays]) -> PixelOrder {
+        if rays.iter().any(|r| matches!(r, LensRays::Baked { .. })) {
+            PixelOrder::FilmRings
+        } else {
+            PixelOrder::Rows
+        }
+    }
+}
+
+/// Rings of the film, over its largest pixel radius, that [`pixels_by_film_ring`] visits one
+/// after the other: about a pixel wide on a small frame, about a node wide in a 128^3 table.
+const FILM_RINGS: usize = 128;
+
+/// The output pixels (row-major indices) ring by ring outwards from the lens axis, in rows
+/// within a ring (a counting sort, so the order costs a pass over the pixels, not a sort). A
+/// table's first coordinate is the film radius, so the pixels drawn one after the other read
+/// a few slabs of it, which stay in the last-level cache; in rows, every row sweeps the whole
+/// table, and one larger than that cache is read from memory row after row.
+fn pixels_by_film_ring(frame: &FrameParams) -> Vec<u32> {
+    let width = frame.width;
+    let radii: Vec<f32> = (0..width * frame.height)
+        .map(|i| {
+            let film = film_point(frame, [(i % width) as f32 + 0.5, (i / width) as f32 + 0.5]);
+            (film[0] * film[0] + film[1] * film[1]).sqrt()
+        })
+        .collect();
+    let largest = radii.iter().fold(0.0f32, |m, &r| m.max(r));
+    let rings_per_mm = if largest > 0.0 {
+        FILM_RINGS as f32 / largest
+    } else {
+        0.0
+    };
+    let ring = |radius: f32| floor_clamped(radius * rings_per_mm, FILM_RINGS as u32 - 1) as usize;
+    let mut next = [0usize; FILM_RINGS + 1];
+    for &r in &radii {
+        next[ring(r) + 1] += 1;
+    }
+    for k in 1..=FILM_RINGS {
+        next[k] += next[k - 1];
+    }
+    let mut order = vec![0u32; radii.len()];
+    for (i, &r) in radii.iter().enumerate() {
+        let slot = &mut next[ring(r)];
+        order[*slot] = i as u32;
+        *slot += 1;
+    }
+    order
+}
+
 /// Adds `pixel(x, y)` into `radiance_sum` (one RGBA entry per output pixel, row-major), in
-/// parallel over rows.
+/// parallel, the pixels in `order`.
 fn accumulate_pixels(
     frame: &FrameParams,
+    order: PixelOrder,
     radiance_sum: &mut [[f32; 4]],
     pixel: impl Fn(u32, u32) -> Vec3 + Sync,
 ) {
-    let width = frame.width as usize;
-    radiance_sum
-        .par_chunks_mut(width)
-        .enumerate()
-        .for_each(|(y, row)| {
-            for (x, out) in row.iter_mut().enumerate() {
-                let s = pixel(x as u32, y as u32);
-                out[0] += s[0];
-                out[1] += s[1];
-                out[2] += s[2];
+    let width = frame.width;
+    let add = |out: &mut [f32; 4], s: Vec3| {
+        out[0] += s[0];
+        out[1] += s[1];
+        out[2] += s[2];
+    };
+    match order {
+        PixelOrder::Rows => radiance_sum
+            .par_chunks_mut(width as usize)
+            .enumerate()
+            .for_each(|(y, row)| {
+                for (x, out) in row.iter_mut().enumerate() {
+                    add(out, pixel(x as u32, y as u32));
+                }
+            }),
+        PixelOrder::FilmRings => {
+            let order = pixels_by_film_ring(frame);
+            let sums: Vec<Vec3> = order
+                .par_iter()
+                .map(|&i| pixel(i % width, i / width))
+                .collect();
+            for (&i, s) in order.iter().zip(sums) {
+                add(&mut radiance_sum[i as usize], s);
             }
-        });
+        }
+    }
 }
 
 /// Adds this dispatch's weighted samples into `radiance_sum` (one RGBA entry per output pixel,
-/// row-major), in parallel over rows.
+/// row-major), in parallel.
 pub fn accumulate(
     frame: &FrameParams,
     layers: &LayerData,
@@ -1318,7 +1394,8 @@ pub fn accumulate(
     rays: LensRays,
     radiance_sum: &mut [[f32; 4]],
 ) {
-    accumulate_pixels(frame, radiance_sum, |x, y| {
+    let order = PixelOrder::for_lenses(&[rays]);
+    accumulate_pixels(frame, order, radiance_sum, |x, y| {
         render_pixel(frame, layers, lens, rays, x, y)
     });
 }
@@ -1333,7 +1410,8 @@ pub fn accumulate_chromatic(
     rays: [LensRays; CHANNELS],
     radiance_sum: &mut [[f32; 4]],
 ) {
-    accumulate_pixels(frame, radiance_sum, |x, y| {
+    let order = PixelOrder::for_lenses(&rays);
+    accumulate_pixels(frame, order, radiance_sum, |x, y| {
         render_pixel_chromatic(frame, layers, lens, channels, &rays, x, y)
     });
 }
@@ -1546,6 +1624,58 @@ mod tests {
             hits += found.is_some() as u32;
         }
         assert!(hits > 5000, "{hits}");
+    }
+
+    #[test]
+    fn film_rings_visit_every_pixel_once_outwards_in_rows() {
+        let camera = thin_camera();
+        let settings = RenderSettings {
+            width: 57,
+            height: 38,
+            samples_per_pixel: 1,
+            seed: 1,
+            max_layers: 2,
+        };
+        let scene = Scene::demo();
+        let view = layer_view(&camera, &settings, scene.nearest_distance_mm().unwrap());
+        let layers = LayerData::pack(&scene.peel(view, settings.max_layers)).unwrap();
+        let frame = frame_params(&camera, &layers, view.tan_half, 57, 38, 1, 1);
+        let order = pixels_by_film_ring(&frame);
+        let mut seen = vec![false; 57 * 38];
+        for &i in &order {
+            assert!(
+                !std::mem::replace(&mut seen[i as usize], true),
+                "pixel {i} twice"
+            );
+        }
+        assert!(seen.iter().all(|&s| s), "a pixel left out");
+        let radius = |i: u32| {
+            let film = film_point(&frame, [(i % 57) as f32 + 0.5, (i / 57) as f32 + 0.5]);
+            film[0].hypot(film[1])
+        };
+        let largest = (0..57 * 38).map(radius).fold(0.0f32, f32::max);
+        let ring =
+            |i: u32| ((radius(i) / largest * FILM_RINGS as f32) as usize).min(FILM_RINGS - 1);
+        // Rings never step inwards (a ring's width of slack for the rounding of the radius), and
+        // within a ring the pixels stay in row-major order.
+        let mut rings_seen = 0;
+        for pair in order.windows(2) {
+            let (a, b) = (ring(pair[0]), ring(pair[1]));
+            assert!(b + 1 >= a, "ring {a} then {b}");
+            if a == b {
+                assert!(
+                    pair[1] > pair[0],
+                    "pixels {pair:?} out of row order in ring {a}"
+                );
+            } else {
+                rings_seen += 1;
+            }
+        }
+        assert!(rings_seen > 20, "only {rings_seen} ring changes");
+        assert_eq!(
+            PixelOrder::for_lenses(&[LensRays::Paraxial]),
+            PixelOrder::Rows
+        );
     }
 
     #[test]
