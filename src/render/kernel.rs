@@ -1535,20 +1535,27 @@ mod tests {
         per_layer
     }
 
-    #[test]
-    fn hierarchical_march_finds_the_pixel_marchs_layer_on_the_demo_scene() {
+    /// The demo scene's layers (at most `max_layers`) and one-sample frame at `width` x
+    /// `height` through the thin camera.
+    fn demo_frame(width: u32, height: u32, max_layers: usize) -> (LayerData, FrameParams) {
         let camera = thin_camera();
         let settings = RenderSettings {
-            width: 93,
-            height: 61,
+            width,
+            height,
             samples_per_pixel: 1,
             seed: 1,
-            max_layers: 8,
+            max_layers,
         };
         let scene = Scene::demo();
         let view = layer_view(&camera, &settings, scene.nearest_distance_mm().unwrap());
-        let layers = LayerData::pack(&scene.peel(view, settings.max_layers)).unwrap();
-        let frame = frame_params(&camera, &layers, view.tan_half, 93, 61, 1, 1);
+        let layers = LayerData::pack(&scene.peel(view, max_layers)).unwrap();
+        let frame = frame_params(&camera, &layers, view.tan_half, width, height, 1, 1);
+        (layers, frame)
+    }
+
+    #[test]
+    fn hierarchical_march_finds_the_pixel_marchs_layer_on_the_demo_scene() {
+        let (layers, frame) = demo_frame(93, 61, 8);
         assert!(layers.pyramid_levels >= 7 && frame.layer_count >= 3);
         let tan_half = [frame.tan_half_x, frame.tan_half_y];
         let per_layer =
@@ -1628,18 +1635,7 @@ mod tests {
 
     #[test]
     fn film_rings_visit_every_pixel_once_outwards_in_rows() {
-        let camera = thin_camera();
-        let settings = RenderSettings {
-            width: 57,
-            height: 38,
-            samples_per_pixel: 1,
-            seed: 1,
-            max_layers: 2,
-        };
-        let scene = Scene::demo();
-        let view = layer_view(&camera, &settings, scene.nearest_distance_mm().unwrap());
-        let layers = LayerData::pack(&scene.peel(view, settings.max_layers)).unwrap();
-        let frame = frame_params(&camera, &layers, view.tan_half, 57, 38, 1, 1);
+        let (_, frame) = demo_frame(57, 38, 2);
         let order = pixels_by_film_ring(&frame);
         let mut seen = vec![false; 57 * 38];
         for &i in &order {
