@@ -1320,30 +1320,37 @@ const FILM_RINGS: usize = 128;
 /// table, and one larger than that cache is read from memory row after row.
 fn pixels_by_film_ring(frame: &FrameParams) -> Vec<u32> {
     let width = frame.width;
-    let radii: Vec<f32> = (0..width * frame.height)
-        .map(|i| {
-            let film = film_point(frame, [(i % width) as f32 + 0.5, (i / width) as f32 + 0.5]);
-            (film[0] * film[0] + film[1] * film[1]).sqrt()
-        })
-        .collect();
-    let largest = radii.iter().fold(0.0f32, |m, &r| m.max(r));
+    let radius = |x: f32, y: f32| {
+        let film = film_point(frame, [x, y]);
+        (film[0] * film[0] + film[1] * film[1]).sqrt()
+    };
+    // The film point is affine in the pixel and its radius convex, so the largest radius is at
+    // a corner pixel (a pixel a rounding beyond it falls in the last ring all the same).
+    let [right, bottom] = [width - 1, frame.height - 1].map(|last| last as f32 + 0.5);
+    let largest = [(0.5, 0.5), (right, 0.5), (0.5, bottom), (right, bottom)]
+        .into_iter()
+        .fold(0.0f32, |m, (x, y)| m.max(radius(x, y)));
     let rings_per_mm = if largest > 0.0 {
         FILM_RINGS as f32 / largest
     } else {
         0.0
     };
-    let ring = |radius: f32| floor_clamped(radius * rings_per_mm, FILM_RINGS as u32 - 1) as usize;
+    let ring = |i: u32| {
+        let r = radius((i % width) as f32 + 0.5, (i / width) as f32 + 0.5);
+        floor_clamped(r * rings_per_mm, FILM_RINGS as u32 - 1) as usize
+    };
+    let count = width * frame.height;
     let mut next = [0usize; FILM_RINGS + 1];
-    for &r in &radii {
-        next[ring(r) + 1] += 1;
+    for i in 0..count {
+        next[ring(i) + 1] += 1;
     }
     for k in 1..=FILM_RINGS {
         next[k] += next[k - 1];
     }
-    let mut order = vec![0u32; radii.len()];
-    for (i, &r) in radii.iter().enumerate() {
-        let slot = &mut next[ring(r)];
-        order[*slot] = i as u32;
+    let mut order = vec![0u32; count as usize];
+    for i in 0..count {
+        let slot = &mut next[ring(i)];
+        order[*slot] = i;
         *slot += 1;
     }
     order
