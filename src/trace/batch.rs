@@ -1,6 +1,6 @@
 //! Many rays at once: a structure-of-arrays batch traced in parallel with rayon.
 
-use super::lanes::{Block, NoVisit, STRIDE};
+use super::lanes::{Block, Finish, NoVisit, STRIDE};
 use super::{Apertures, Outcome, Ray, Traced, Tracer, Travel};
 use rayon::prelude::*;
 
@@ -121,6 +121,43 @@ pub struct BatchTrace {
 /// pixel's traced samples rendered about a quarter slower.
 pub(crate) const GROUP_RAYS: usize = 64;
 
+/// One parallel chunk's share of a batch's results, as a block trace fills them: the block's
+/// rays are the chunk's from `first` on.
+struct ChunkResults<'a> {
+    first: usize,
+    outcomes: &'a mut [Outcome],
+    /// x, y, z, dx, dy, dz.
+    columns: [&'a mut [f64]; 6],
+}
+
+impl Finish for ChunkResults<'_> {
+    #[inline(always)]
+    fn finish(&mut self, id: usize, traced: Traced) {
+        let j = self.first + id;
+        self.outcomes[j] = traced.outcome;
+        let (p, d) = (traced.ray.position, traced.ray.direction);
+        for (column, value) in self.columns.iter_mut().zip(p.into_iter().chain(d)) {
+            column[j] = value;
+        }
+    }
+
+    /// A column at a time: the survivors' numbers are read once per column, and each column's
+    /// loop is a load and a store per ray.
+    #[inline(always)]
+    fn finish_crossed(&mut self, ids: &[u32], columns: [&[f64]; 6]) {
+        let first = self.first;
+        for &id in ids {
+            self.outcomes[first + id as usize] = Outcome::Ok;
+        }
+        for (out, column) in self.columns.iter_mut().zip(columns) {
+            let out = &mut out[first..];
+            for (&id, &value) in ids.iter().zip(column) {
+                out[id as usize] = value;
+            }
+        }
+    }
+}
+
 impl Tracer {
     /// Traces the rays of a group in columns (x, y, z, dx, dy, dz) whose lanes `chosen` marks
     /// together on this thread, apertures checked: `finish` gets each one's lane and result, bit
@@ -171,25 +208,20 @@ impl Tracer {
             .zip(ended.dy.par_chunks_mut(CHUNK))
             .zip(ended.dz.par_chunks_mut(CHUNK))
             .enumerate()
-            .map(|(chunk, ((((((outcome, x), y), z), dx), dy), dz))| {
+            .map(|(chunk, ((((((outcomes, x), y), z), dx), dy), dz))| {
                 let mut block = BatchBlock::new();
+                let mut results = ChunkResults {
+                    first: 0,
+                    outcomes,
+                    columns: [x, y, z, dx, dy, dz],
+                };
                 let mut count = 0;
-                for first in (0..outcome.len()).step_by(BatchBlock::CAPACITY) {
-                    let width = BatchBlock::CAPACITY.min(outcome.len() - first);
+                for first in (0..results.outcomes.len()).step_by(BatchBlock::CAPACITY) {
+                    let width = BatchBlock::CAPACITY.min(results.outcomes.len() - first);
                     block.load_columns(columns, chunk * CHUNK + first, width);
-                    count += self.trace_block(
-                        &mut block,
-                        travel,
-                        check,
-                        &mut NoVisit,
-                        &mut |id, traced| {
-                            let j = first + id;
-                            outcome[j] = traced.outcome;
-                            let (p, d) = (traced.ray.position, traced.ray.direction);
-                            (x[j], y[j], z[j]) = (p[0], p[1], p[2]);
-                            (dx[j], dy[j], dz[j]) = (d[0], d[1], d[2]);
-                        },
-                    );
+                    results.first = first;
+                    count +=
+                        self.trace_block(&mut block, travel, check, &mut NoVisit, &mut results);
                 }
                 count
             })

@@ -137,12 +137,25 @@ fn quadratic_root(a: f64, b: f64, c: f64, sense: f64) -> Option<f64> {
 /// divides once.
 #[inline(always)]
 fn root_candidate(a: f64, b: f64, c: f64, sense: f64) -> (f64, bool) {
-    let disc = b.mul_add(b, -(a * c));
+    let disc = discriminant(a, b, c);
+    (root_from(a, b, c, disc, sense), disc >= 0.0)
+}
+
+/// The discriminant `B^2 - a C` of `a t^2 - 2 B t + C = 0`.
+#[inline(always)]
+pub(crate) fn discriminant(a: f64, b: f64, c: f64) -> f64 {
+    b.mul_add(b, -(a * c))
+}
+
+/// The wanted root given the [`discriminant`] (meaningless when it is negative): one square
+/// root and one division, the form that does not cancel.
+#[inline(always)]
+pub(crate) fn root_from(a: f64, b: f64, c: f64, disc: f64, sense: f64) -> f64 {
     let root = disc.max(0.0).sqrt();
     let near = sense * b >= 0.0;
     let numerator = if near { c } else { b - sense * root };
     let denominator = if near { b + sense * root } else { a };
-    (numerator / denominator, disc >= 0.0)
+    numerator / denominator
 }
 
 /// The point of the line `p + t d` (d unit) nearest the vertex.
@@ -189,14 +202,55 @@ pub(crate) fn sphere(p: Vec3, d: Vec3, curvature: f64, sense: f64) -> Option<Hit
 /// finite).
 #[inline(always)]
 pub(crate) fn sphere_candidate(p: Vec3, d: Vec3, curvature: f64, sense: f64) -> (Vec3, f64, bool) {
-    let p = nearest_to_vertex(p, d);
-    let c = curvature;
-    let b = (-c).mul_add(dot(p, d), d[2]);
-    let cc = c.mul_add(dot(p, p), -2.0 * p[2]);
-    let (t, real) = root_candidate(c, b, cc, sense);
-    let q = along(p, d, t);
-    let nz = c.mul_add(q[2], -1.0);
-    (q, nz, real & t.is_finite() & (nz < 0.0))
+    let quadratic = SphereQuadratic::new(p, d, curvature);
+    let t = root_from(curvature, quadratic.b, quadratic.c, quadratic.disc, sense);
+    sphere_meet(quadratic.start, quadratic.disc, d, curvature, t)
+}
+
+/// The three stages of [`sphere_candidate`], apart so that the lane kernels can run each over a
+/// whole block before the next (arithmetic, then the square root and division, then
+/// arithmetic): the rays' chains of dependent operations are then short and many overlap.
+#[derive(Clone, Copy)]
+pub(crate) struct SphereQuadratic {
+    /// The start point: the point of the ray nearest the vertex (relative to it).
+    pub start: Vec3,
+    /// `B` and `C` of the quadratic in the distance from `start`, and its discriminant.
+    pub b: f64,
+    pub c: f64,
+    pub disc: f64,
+}
+
+impl SphereQuadratic {
+    /// The quadratic of the ray from `p` (relative to the vertex) along `d`.
+    #[inline(always)]
+    pub fn new(p: Vec3, d: Vec3, curvature: f64) -> SphereQuadratic {
+        let p = nearest_to_vertex(p, d);
+        let c = curvature;
+        let b = (-c).mul_add(dot(p, d), d[2]);
+        let cc = c.mul_add(dot(p, p), -2.0 * p[2]);
+        SphereQuadratic {
+            start: p,
+            b,
+            c: cc,
+            disc: discriminant(c, b, cc),
+        }
+    }
+}
+
+/// The last stage of [`sphere_candidate`]: the point at distance `t` (from [`root_from`]) along
+/// `d` from the quadratic's start point, the normal's z there, and whether it is a crossing of
+/// the vertex sheet.
+#[inline(always)]
+pub(crate) fn sphere_meet(
+    start: Vec3,
+    disc: f64,
+    d: Vec3,
+    curvature: f64,
+    t: f64,
+) -> (Vec3, f64, bool) {
+    let q = along(start, d, t);
+    let nz = curvature.mul_add(q[2], -1.0);
+    (q, nz, (disc >= 0.0) & t.is_finite() & (nz < 0.0))
 }
 
 /// Meets the conic `c (x^2 + y^2 + e z^2) - 2 z = 0` (e = 1 + k) on its vertex sheet.

@@ -300,6 +300,33 @@ pub(crate) trait LaneVisitor {
     fn crossed(&mut self, surface: usize, ids: &[u32], travelling: Slots, x: &[f64], y: &[f64]);
 }
 
+/// Where a block trace's results go: each ray's number (its index among the rays loaded) and
+/// result.
+pub(crate) trait Finish {
+    /// A ray's result.
+    fn finish(&mut self, id: usize, traced: Traced);
+
+    /// The rays that crossed every surface: the `k`th one's number is `ids[k]`, its final
+    /// position and direction are the `k`th entries of `columns` (x, y, z, dx, dy, dz). A
+    /// caller that stores results in columns takes them a column at a time here.
+    #[inline(always)]
+    fn finish_crossed(&mut self, ids: &[u32], columns: [&[f64]; 6]) {
+        for (slot, &id) in ids.iter().enumerate() {
+            let [x, y, z, dx, dy, dz] = columns.map(|column| column[slot]);
+            let ray = Ray::from_parts([x, y, z], [dx, dy, dz]);
+            let outcome = Outcome::Ok;
+            self.finish(id as usize, Traced { outcome, ray });
+        }
+    }
+}
+
+impl<F: FnMut(usize, Traced)> Finish for F {
+    #[inline(always)]
+    fn finish(&mut self, id: usize, traced: Traced) {
+        self(id, traced)
+    }
+}
+
 /// The visitor of a plain trace.
 pub(crate) struct NoVisit;
 
@@ -334,7 +361,7 @@ impl Tracer {
         travel: Travel,
         check_apertures: bool,
         visit: &mut impl LaneVisitor,
-        finish: &mut impl FnMut(usize, Traced),
+        finish: &mut impl Finish,
     ) -> u64 {
         self.trace_block_on(Isa::detect(), block, travel, check_apertures, visit, finish)
     }
@@ -347,7 +374,7 @@ impl Tracer {
         travel: Travel,
         check_apertures: bool,
         visit: &mut impl LaneVisitor,
-        finish: &mut impl FnMut(usize, Traced),
+        finish: &mut impl Finish,
     ) -> u64 {
         // SAFETY (each machine): callers pass an `isa` no wider than `Isa::widest` found on
         // this processor (`Isa::detect` never is).
@@ -388,7 +415,7 @@ impl Tracer {
         travel: Travel,
         check_apertures: bool,
         visit: &mut impl LaneVisitor,
-        finish: &mut impl FnMut(usize, Traced),
+        finish: &mut impl Finish,
     ) -> u64 {
         // SAFETY: passed on from the caller.
         unsafe {
@@ -409,7 +436,7 @@ impl Tracer {
         block: &mut Block<STRIDES>,
         check_apertures: bool,
         visit: &mut impl LaneVisitor,
-        finish: &mut impl FnMut(usize, Traced),
+        finish: &mut impl Finish,
     ) -> u64 {
         let Block {
             columns: [first, second],
@@ -473,7 +500,7 @@ impl Tracer {
                             Ok(ray) => next.set(slot, ray),
                             Err((event, at)) => {
                                 let outcome = event.outcome(i + 1);
-                                finish(ids[slot] as usize, Traced { outcome, ray: at });
+                                finish.finish(ids[slot] as usize, Traced { outcome, ray: at });
                                 stopped = Slots(stopped.0 | 1u128 << slot);
                             }
                         }
@@ -494,13 +521,13 @@ impl Tracer {
             let [x, y] = [0, 1].map(|k| &current.column(k)[..occupied]);
             visit.crossed(i, &ids[..occupied], travelling, x, y);
         }
-        for slot in travelling.iter() {
-            let traced = Traced {
-                outcome: Outcome::Ok,
-                ray: current.ray(slot),
-            };
-            finish(ids[slot] as usize, traced);
+        // The survivors to the first slots, so that the caller reads them as plain columns.
+        let count = travelling.len();
+        if travelling != Slots::first(count) {
+            pack(current, ids, travelling, count);
         }
+        let [x, y, z, dx, dy, dz] = [0, 1, 2, 3, 4, 5].map(|k| &current.column(k)[..count]);
+        finish.finish_crossed(&ids[..count], [x, y, z, dx, dy, dz]);
         ray_surfaces
     }
 }
@@ -540,7 +567,7 @@ fn report<const STRIDES: usize>(
     events: &[u64],
     ids: &[u32],
     stopped: Slots,
-    finish: &mut impl FnMut(usize, Traced),
+    finish: &mut impl Finish,
 ) {
     for slot in stopped.iter() {
         let arriving = current.ray(slot);
@@ -557,7 +584,7 @@ fn report<const STRIDES: usize>(
                 (outcome, ray)
             }
         };
-        finish(ids[slot] as usize, Traced { outcome, ray });
+        finish.finish(ids[slot] as usize, Traced { outcome, ray });
     }
 }
 
@@ -581,23 +608,23 @@ fn pack<const STRIDES: usize>(
     }
 }
 
-/// One surface's arithmetic for one ray, written without branches on ray data so that a
-/// stride of them becomes vector instructions.
+/// One surface's arithmetic for a block's lanes, written without branches on ray data so that
+/// the loops over lanes become vector instructions.
 trait Crossing {
     fn new(s: &FlatSurface, check_apertures: bool) -> Self;
-    /// Whether the kernel runs the crossing in two loops, [`Crossing::meet`] over every lane and
-    /// then [`Crossing::leave`], instead of both in one. A sphere's lane is a chain of a
-    /// square root, a division and another square root; in one loop of 16 AVX2 registers the
-    /// processor waited on that chain, and in two shorter loops it overlaps more lanes (the
-    /// 1M-ray trace 16-17 % faster on the AVX2 machine, the same bits).
-    const TWO_PASSES: bool;
-    /// The hit point relative to the vertex, the normal's z (spheres; planes give 0) and
-    /// whether the ray hits, from the arriving ray's position relative to the vertex `p` and
-    /// direction `d`.
-    fn meet(&self, p: Vec3, d: Vec3) -> (Vec3, f64, bool);
-    /// The hit point (lens frame), the direction leaving the surface and the event code, from
-    /// [`Crossing::meet`]'s results and the arriving direction.
-    fn leave(&self, q: Vec3, nz: f64, hit: bool, d: Vec3) -> (Vec3, Vec3, u64);
+    /// Crosses every lane of `lanes`.
+    fn cross(&self, lanes: LaneColumns<'_>);
+}
+
+/// A kernel's columns, each cut to the lanes it crosses: the arriving positions `p` and
+/// directions `d`, the leaving positions `q` and directions `e`, and the event codes. `q` and
+/// `e` are the kernel's scratch space until its last loop writes them.
+struct LaneColumns<'a> {
+    p: [&'a [f64]; 3],
+    d: [&'a [f64]; 3],
+    q: [&'a mut [f64]; 3],
+    e: [&'a mut [f64]; 3],
+    codes: &'a mut [u64],
 }
 
 /// The numbers every kernel needs of a surface.
@@ -647,31 +674,62 @@ impl<const FORWARD: bool, const REFRACTS: bool> Crossing for SphereCrossing<FORW
         SphereCrossing { common, curvature }
     }
 
-    const TWO_PASSES: bool = true;
-
+    /// A sphere's lane is a chain of a square root, a division and another square root, each
+    /// behind a dozen multiply-adds. In one loop the processor's window held too few lanes to
+    /// keep the divider busy; split into loops that each hold one stage (multiply-adds, root and
+    /// division, multiply-adds, root) the window spans many lanes of one stage. The stages'
+    /// results wait in `q` and `e`, each lane's read before it is overwritten.
     #[inline(always)]
-    fn meet(&self, p: Vec3, d: Vec3) -> (Vec3, f64, bool) {
-        let (q, nz, crosses) = intersect::sphere_candidate(p, d, self.curvature, self.common.sense);
-        let hit = crosses & q[0].is_finite() & q[1].is_finite() & q[2].is_finite();
-        (q, nz, hit)
-    }
-
-    #[inline(always)]
-    fn leave(&self, q: Vec3, nz: f64, hit: bool, d: Vec3) -> (Vec3, Vec3, u64) {
+    fn cross(&self, lanes: LaneColumns<'_>) {
         let (c, common) = (self.curvature, &self.common);
-        let (direction, passes) = if REFRACTS {
-            let normal = [c * q[0], c * q[1], nz];
-            let (direction, radicand) = refract::refract_candidate(d, normal, common.mu);
-            (direction, radicand >= 0.0)
-        } else {
-            (d, true)
-        };
-        let position = [q[0], q[1], q[2] + common.vertex_z];
-        (
-            position,
-            direction,
-            event_code(hit, common.inside(q), passes),
-        )
+        let LaneColumns { p, d, q, e, codes } = lanes;
+        let [px, py, pz] = p;
+        let [dx, dy, dz] = d;
+        let [qx, qy, qz] = q;
+        let [ex, ey, ez] = e;
+        let n = codes.len();
+        // The start points go to `q`; B, C and the discriminant to `e`.
+        for l in 0..n {
+            let arriving = [px[l], py[l], pz[l] - common.vertex_z];
+            let quadratic = intersect::SphereQuadratic::new(arriving, [dx[l], dy[l], dz[l]], c);
+            [qx[l], qy[l], qz[l]] = quadratic.start;
+            [ex[l], ey[l], ez[l]] = [quadratic.b, quadratic.c, quadratic.disc];
+        }
+        // The distance along the ray replaces B.
+        for l in 0..n {
+            ex[l] = intersect::root_from(c, ex[l], ey[l], ez[l], common.sense);
+        }
+        // The hit points (relative to the vertex) to `q`, whether each ray hits to its code;
+        // refracting, the normal's z, the cosine and the radicand to `e`.
+        for l in 0..n {
+            let d = [dx[l], dy[l], dz[l]];
+            let start = [qx[l], qy[l], qz[l]];
+            let (point, nz, crosses) = intersect::sphere_meet(start, ez[l], d, c, ex[l]);
+            let hit = crosses & point[0].is_finite() & point[1].is_finite() & point[2].is_finite();
+            if REFRACTS {
+                [qx[l], qy[l], qz[l]] = point;
+                let (cos_signed, radicand) =
+                    refract::refraction_radicand(d, [c * point[0], c * point[1], nz], common.mu);
+                [ex[l], ey[l], ez[l]] = [nz, cos_signed, radicand];
+                codes[l] = u64::from(hit);
+            } else {
+                [qx[l], qy[l], qz[l]] = [point[0], point[1], point[2] + common.vertex_z];
+                [ex[l], ey[l], ez[l]] = d;
+                codes[l] = event_code(hit, common.inside(point), true);
+            }
+        }
+        if !REFRACTS {
+            return;
+        }
+        for l in 0..n {
+            let point = [qx[l], qy[l], qz[l]];
+            let normal = [c * point[0], c * point[1], ex[l]];
+            let radicand = ez[l];
+            let d = [dx[l], dy[l], dz[l]];
+            [ex[l], ey[l], ez[l]] = refract::refracted(d, normal, common.mu, ey[l], radicand);
+            qz[l] = point[2] + common.vertex_z;
+            codes[l] = event_code(codes[l] == 1, common.inside(point), radicand >= 0.0);
+        }
     }
 }
 
@@ -687,30 +745,30 @@ impl<const FORWARD: bool, const REFRACTS: bool> Crossing for PlaneCrossing<FORWA
         PlaneCrossing { common }
     }
 
-    /// A plane's lane has one division: nothing for two loops to overlap.
-    const TWO_PASSES: bool = false;
-
+    /// A plane's lane has one division and one square root: one loop.
     #[inline(always)]
-    fn meet(&self, p: Vec3, d: Vec3) -> (Vec3, f64, bool) {
-        let (q, crosses) = intersect::plane_candidate(p, d, self.common.sense);
-        (q, 0.0, crosses & q[0].is_finite() & q[1].is_finite())
-    }
-
-    #[inline(always)]
-    fn leave(&self, q: Vec3, _nz: f64, hit: bool, d: Vec3) -> (Vec3, Vec3, u64) {
+    fn cross(&self, lanes: LaneColumns<'_>) {
         let common = &self.common;
-        let (direction, passes) = if REFRACTS {
-            let (direction, radicand) = refract::refract_plane_candidate(d, common.mu);
-            (direction, radicand >= 0.0)
-        } else {
-            (d, true)
-        };
-        let position = [q[0], q[1], q[2] + common.vertex_z];
-        (
-            position,
-            direction,
-            event_code(hit, common.inside(q), passes),
-        )
+        let LaneColumns { p, d, q, e, codes } = lanes;
+        let [px, py, pz] = p;
+        let [dx, dy, dz] = d;
+        let [qx, qy, qz] = q;
+        let [ex, ey, ez] = e;
+        for l in 0..codes.len() {
+            let d = [dx[l], dy[l], dz[l]];
+            let arriving = [px[l], py[l], pz[l] - common.vertex_z];
+            let (point, crosses) = intersect::plane_candidate(arriving, d, common.sense);
+            let hit = crosses & point[0].is_finite() & point[1].is_finite();
+            let (direction, passes) = if REFRACTS {
+                let (direction, radicand) = refract::refract_plane_candidate(d, common.mu);
+                (direction, radicand >= 0.0)
+            } else {
+                (d, true)
+            };
+            [qx[l], qy[l], qz[l]] = [point[0], point[1], point[2] + common.vertex_z];
+            [ex[l], ey[l], ez[l]] = direction;
+            codes[l] = event_code(hit, common.inside(point), passes);
+        }
     }
 }
 
@@ -728,7 +786,7 @@ trait Machine {
         block: &mut Block<STRIDES>,
         check_apertures: bool,
         visit: &mut impl LaneVisitor,
-        finish: &mut impl FnMut(usize, Traced),
+        finish: &mut impl Finish,
     ) -> u64;
 
     /// [`kernel`] compiled for this machine.
@@ -754,7 +812,7 @@ impl Machine for Portable {
         block: &mut Block<STRIDES>,
         check_apertures: bool,
         visit: &mut impl LaneVisitor,
-        finish: &mut impl FnMut(usize, Traced),
+        finish: &mut impl Finish,
     ) -> u64 {
         tracer.block_body::<FORWARD, STRIDES, Portable>(block, check_apertures, visit, finish)
     }
@@ -789,7 +847,7 @@ macro_rules! x86_machine {
                 block: &mut Block<STRIDES>,
                 check_apertures: bool,
                 visit: &mut impl LaneVisitor,
-                finish: &mut impl FnMut(usize, Traced),
+                finish: &mut impl Finish,
             ) -> u64 {
                 tracer.block_body::<FORWARD, STRIDES, $machine>(block, check_apertures, visit, finish)
             }
@@ -816,7 +874,7 @@ macro_rules! x86_machine {
                 block: &mut Block<STRIDES>,
                 check_apertures: bool,
                 visit: &mut impl LaneVisitor,
-                finish: &mut impl FnMut(usize, Traced),
+                finish: &mut impl Finish,
             ) -> u64 {
                 // SAFETY: passed on from the caller.
                 unsafe {
@@ -865,69 +923,38 @@ fn kernel<K: Crossing, const STRIDES: usize>(
     strides: usize,
     check_apertures: bool,
 ) {
-    let crossing = K::new(s, check_apertures);
-    let vertex_z = s.vertex_z;
-    // One flat loop over whole strides: the compiler vectorises it across rays (a loop over
-    // strides around a loop over one stride's rays was unrolled and vectorised across strides,
-    // with gathers).
-    // Every slice is cut to `n` here, in straight code: sliced inside an array `map` (a call
-    // the compiler kept), their lengths were unknown in the loop, whose last stride then ran
-    // as scalar code behind the bounds checks (a third of the sphere kernel's time).
+    // Each loop runs flat over whole strides: the compiler vectorises it across rays (a loop
+    // over strides around a loop over one stride's rays was unrolled and vectorised across
+    // strides, with gathers). Every slice is cut to `n` here, in straight code: sliced inside
+    // an array `map` (a call the compiler kept), their lengths were unknown in the loop, whose
+    // last stride then ran as scalar code behind the bounds checks (a third of the sphere
+    // kernel's time).
     let n = strides * STRIDE;
     let [px, py, pz, dx, dy, dz] = &current.values;
-    let (px, py, pz) = (
-        &px.as_flattened()[..n],
-        &py.as_flattened()[..n],
-        &pz.as_flattened()[..n],
-    );
-    let (dx, dy, dz) = (
-        &dx.as_flattened()[..n],
-        &dy.as_flattened()[..n],
-        &dz.as_flattened()[..n],
-    );
     let [qx, qy, qz, ex, ey, ez] = &mut next.values;
-    let (qx, qy, qz) = (
-        &mut qx.as_flattened_mut()[..n],
-        &mut qy.as_flattened_mut()[..n],
-        &mut qz.as_flattened_mut()[..n],
-    );
-    let (ex, ey, ez) = (
-        &mut ex.as_flattened_mut()[..n],
-        &mut ey.as_flattened_mut()[..n],
-        &mut ez.as_flattened_mut()[..n],
-    );
-    let codes = &mut events.as_flattened_mut()[..n];
-    if K::TWO_PASSES {
-        // The first pass leaves the hit points in the output columns (relative to the vertex)
-        // and whether each ray hits in its event code; the second finishes them there.
-        let mut normal_z = [[0.0; STRIDE]; STRIDES];
-        let nz = &mut normal_z.as_flattened_mut()[..n];
-        for l in 0..n {
-            let p = [px[l], py[l], pz[l] - vertex_z];
-            let (q, normal, hit) = crossing.meet(p, [dx[l], dy[l], dz[l]]);
-            (qx[l], qy[l], qz[l]) = (q[0], q[1], q[2]);
-            nz[l] = normal;
-            codes[l] = u64::from(hit);
-        }
-        for l in 0..n {
-            let q = [qx[l], qy[l], qz[l]];
-            let hit = codes[l] == 1;
-            let (position, direction, code) = crossing.leave(q, nz[l], hit, [dx[l], dy[l], dz[l]]);
-            (qx[l], qy[l], qz[l]) = (position[0], position[1], position[2]);
-            (ex[l], ey[l], ez[l]) = (direction[0], direction[1], direction[2]);
-            codes[l] = code;
-        }
-        return;
-    }
-    for l in 0..n {
-        let p = [px[l], py[l], pz[l] - vertex_z];
-        let d = [dx[l], dy[l], dz[l]];
-        let (q, nz, hit) = crossing.meet(p, d);
-        let (position, direction, code) = crossing.leave(q, nz, hit, d);
-        (qx[l], qy[l], qz[l]) = (position[0], position[1], position[2]);
-        (ex[l], ey[l], ez[l]) = (direction[0], direction[1], direction[2]);
-        codes[l] = code;
-    }
+    K::new(s, check_apertures).cross(LaneColumns {
+        p: [
+            &px.as_flattened()[..n],
+            &py.as_flattened()[..n],
+            &pz.as_flattened()[..n],
+        ],
+        d: [
+            &dx.as_flattened()[..n],
+            &dy.as_flattened()[..n],
+            &dz.as_flattened()[..n],
+        ],
+        q: [
+            &mut qx.as_flattened_mut()[..n],
+            &mut qy.as_flattened_mut()[..n],
+            &mut qz.as_flattened_mut()[..n],
+        ],
+        e: [
+            &mut ex.as_flattened_mut()[..n],
+            &mut ey.as_flattened_mut()[..n],
+            &mut ez.as_flattened_mut()[..n],
+        ],
+        codes: &mut events.as_flattened_mut()[..n],
+    });
 }
 
 /// The first failing test in the one-ray path's order: intersection, aperture, refraction.
@@ -1040,7 +1067,7 @@ mod tests {
                         Travel::Forward,
                         check,
                         &mut NoVisit,
-                        &mut |id, traced| {
+                        &mut |id: usize, traced: Traced| {
                             assert!(!seen[id], "ray {id} reported twice");
                             seen[id] = true;
                             assert_eq!(traced, single[128 * b + id], "{isa:?}, ray {id}");

@@ -19,15 +19,28 @@ pub(crate) fn refract(d: Vec3, normal: Vec3, mu: f64) -> Option<Vec3> {
 /// radicand is negative, total internal reflection) and the radicand.
 #[inline(always)]
 pub(crate) fn refract_candidate(d: Vec3, normal: Vec3, mu: f64) -> (Vec3, f64) {
+    let (cos_signed, radicand) = refraction_radicand(d, normal, mu);
+    (refracted(d, normal, mu, cos_signed, radicand), radicand)
+}
+
+/// The first stage of [`refract_candidate`] (no square root): the cosine `n.d` and the
+/// radicand.
+#[inline(always)]
+pub(crate) fn refraction_radicand(d: Vec3, normal: Vec3, mu: f64) -> (f64, f64) {
     let cos_signed = dot(normal, d);
     let radicand = (-(mu * mu)).mul_add((-cos_signed).mul_add(cos_signed, 1.0), 1.0);
+    (cos_signed, radicand)
+}
+
+/// The second stage of [`refract_candidate`]: the direction from the first stage's results.
+#[inline(always)]
+pub(crate) fn refracted(d: Vec3, normal: Vec3, mu: f64, cos_signed: f64, radicand: f64) -> Vec3 {
     let along = (-mu).mul_add(cos_signed, radicand.max(0.0).sqrt().copysign(cos_signed));
-    let out = [
+    [
         along.mul_add(normal[0], mu * d[0]),
         along.mul_add(normal[1], mu * d[1]),
         along.mul_add(normal[2], mu * d[2]),
-    ];
-    (out, radicand)
+    ]
 }
 
 /// Refraction at a plane z = const, where the normal is the axis: the transverse components
