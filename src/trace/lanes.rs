@@ -75,15 +75,36 @@ impl Slots {
     }
 
     /// The slots in increasing order.
-    fn iter(self) -> impl Iterator<Item = usize> {
-        let mut bits = self.0;
-        std::iter::from_fn(move || {
-            (bits != 0).then(|| {
-                let slot = bits.trailing_zeros() as usize;
-                bits &= bits - 1;
-                slot
-            })
-        })
+    fn iter(self) -> SlotIter {
+        SlotIter {
+            low: self.0 as u64,
+            high: (self.0 >> 64) as u64,
+        }
+    }
+}
+
+/// The slots of a [`Slots`], lowest first, found 64 at a time (128-bit bit scans and borrows
+/// took twice the instructions).
+struct SlotIter {
+    low: u64,
+    high: u64,
+}
+
+impl Iterator for SlotIter {
+    type Item = usize;
+
+    #[inline(always)]
+    fn next(&mut self) -> Option<usize> {
+        let (bits, base) = if self.low != 0 {
+            (&mut self.low, 0)
+        } else if self.high != 0 {
+            (&mut self.high, 64)
+        } else {
+            return None;
+        };
+        let slot = base + bits.trailing_zeros() as usize;
+        *bits &= *bits - 1;
+        Some(slot)
     }
 }
 
@@ -481,7 +502,8 @@ impl Tracer {
                     // SAFETY: the block trace runs on machine `M` only where its caller found
                     // the processor runs `M`'s instructions.
                     unsafe { kernel(s, current, next, events, strides, check_apertures) };
-                    let stopped = stopped_slots(events, strides).and(travelling);
+                    // SAFETY: as above.
+                    let stopped = unsafe { M::stopped_slots(events, strides) }.and(travelling);
                     report(
                         i,
                         current,
@@ -554,6 +576,37 @@ fn stopped_slots<const STRIDES: usize>(events: &[[u64; STRIDE]; STRIDES], stride
         slots |= u128::from(bits) << (k * STRIDE);
     }
     Slots(slots)
+}
+
+/// [`stopped_slots`] with AVX2 instructions.
+///
+/// # Safety
+/// The processor has AVX2; inlined into code compiled for it.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn stopped_slots_avx2<const STRIDES: usize>(
+    events: &[[u64; STRIDE]; STRIDES],
+    strides: usize,
+) -> Slots {
+    use std::arch::x86_64::{
+        _mm256_castsi256_pd, _mm256_cmpeq_epi64, _mm256_loadu_si256, _mm256_movemask_pd,
+        _mm256_setzero_si256,
+    };
+    const { assert!(CROSSED == 0, "a crossed ray's code is all zero bits") };
+    let codes = &events.as_flattened()[..strides * STRIDE];
+    let mut words = [0u64; 2];
+    for (k, four) in codes.chunks_exact(4).enumerate() {
+        // SAFETY: `four` holds four u64 (32 bytes); AVX2 is the caller's to ensure.
+        let crossed = unsafe {
+            let four = _mm256_loadu_si256(four.as_ptr().cast());
+            _mm256_movemask_pd(_mm256_castsi256_pd(_mm256_cmpeq_epi64(
+                four,
+                _mm256_setzero_si256(),
+            )))
+        };
+        words[k / 16] |= u64::from(!crossed as u8 & 0xf) << (4 * (k % 16));
+    }
+    Slots(u128::from(words[0]) | u128::from(words[1]) << 64)
 }
 
 /// Reports the rays in `stopped`, which the last kernel stopped at surface `i` (0-based), with
@@ -789,6 +842,18 @@ trait Machine {
         finish: &mut impl Finish,
     ) -> u64;
 
+    /// The slots of the first `strides` strides whose code is not [`CROSSED`].
+    ///
+    /// # Safety
+    /// The processor runs this machine's instructions.
+    #[inline(always)]
+    unsafe fn stopped_slots<const STRIDES: usize>(
+        events: &[[u64; STRIDE]; STRIDES],
+        strides: usize,
+    ) -> Slots {
+        stopped_slots(events, strides)
+    }
+
     /// [`kernel`] compiled for this machine.
     ///
     /// # Safety
@@ -880,6 +945,17 @@ macro_rules! x86_machine {
                 unsafe {
                     Self::trace_compiled::<FORWARD, STRIDES>(tracer, block, check_apertures, visit, finish)
                 }
+            }
+
+            /// Four codes at a time, a vector compare and its sign mask (the portable loop
+            /// compiled to shuffles and 128-bit shifts, about 5 % of the trace).
+            #[inline(always)]
+            unsafe fn stopped_slots<const STRIDES: usize>(
+                events: &[[u64; STRIDE]; STRIDES],
+                strides: usize,
+            ) -> Slots {
+                // SAFETY: every x86-64 machine's set includes AVX2.
+                unsafe { stopped_slots_avx2(events, strides) }
             }
 
             #[inline(always)]
