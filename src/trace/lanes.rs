@@ -547,7 +547,10 @@ impl Tracer {
                 occupied = count;
             }
             std::mem::swap(&mut current, &mut next);
-            let [x, y] = [0, 1].map(|k| &current.column(k)[..occupied]);
+            let (x, y) = (
+                &current.column(0)[..occupied],
+                &current.column(1)[..occupied],
+            );
             visit.crossed(i, &ids[..occupied], travelling, x, y);
         }
         // The survivors to the first slots, so that the caller reads them as plain columns.
@@ -555,8 +558,11 @@ impl Tracer {
         if travelling != Slots::first(count) {
             pack(current, ids, travelling, count);
         }
-        let [x, y, z, dx, dy, dz] = [0, 1, 2, 3, 4, 5].map(|k| &current.column(k)[..count]);
-        finish.finish_crossed(&ids[..count], [x, y, z, dx, dy, dz]);
+        let columns = current
+            .values
+            .each_ref()
+            .map(|column| &column.as_flattened()[..count]);
+        finish.finish_crossed(&ids[..count], columns);
         ray_surfaces
     }
 }
