@@ -143,7 +143,7 @@ fn root_candidate(a: f64, b: f64, c: f64, sense: f64) -> (f64, bool) {
 
 /// The discriminant `B^2 - a C` of `a t^2 - 2 B t + C = 0`.
 #[inline(always)]
-pub(crate) fn discriminant(a: f64, b: f64, c: f64) -> f64 {
+fn discriminant(a: f64, b: f64, c: f64) -> f64 {
     b.mul_add(b, -(a * c))
 }
 
@@ -207,9 +207,10 @@ pub(crate) fn sphere_candidate(p: Vec3, d: Vec3, curvature: f64, sense: f64) -> 
     sphere_meet(quadratic.start, quadratic.disc, d, curvature, t)
 }
 
-/// The three stages of [`sphere_candidate`], apart so that the lane kernels can run each over a
-/// whole block before the next (arithmetic, then the square root and division, then
-/// arithmetic): the rays' chains of dependent operations are then short and many overlap.
+/// The first of [`sphere_candidate`]'s three stages ([`SphereQuadratic::new`], [`root_from`],
+/// [`sphere_meet`]: multiply-adds, then the square root and division, then multiply-adds), kept
+/// apart so that the lane kernels can run each over a whole block before the next: the rays'
+/// chains of dependent operations are then short and many overlap.
 #[derive(Clone, Copy)]
 pub(crate) struct SphereQuadratic {
     /// The start point: the point of the ray nearest the vertex (relative to it).

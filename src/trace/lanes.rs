@@ -84,8 +84,8 @@ impl Slots {
     }
 }
 
-/// The slots of a [`Slots`], lowest first, found 64 at a time (128-bit bit scans and borrows
-/// took twice the instructions).
+/// The slots of a [`Slots`], lowest first, found 64 bits at a time (with 128-bit scans and
+/// borrows the trace was about 3 % slower, criterion).
 struct SlotIter {
     low: u64,
     high: u64,
@@ -261,7 +261,7 @@ impl Isa {
             // Every AVX2 processor has F16C, POPCNT, BMI1 and BMI2 too; asked for, so the
             // table's f16 widening and its interpolation inline into code compiled for these
             // sets, and a block's slot sets are counted and scanned in one instruction each
-            // (the baseline set counts bits in about fifteen).
+            // (the baseline set counts bits in software).
             let avx2_set = has!("avx2")
                 && has!("fma")
                 && has!("f16c")
