@@ -333,7 +333,7 @@ fn unknown_format_and_io() {
     let missing = lens_file("no-such-file.dat");
     let e = read_file(&missing, &LoadOptions::default()).unwrap_err();
     assert!(matches!(e.problem, Problem::Io(_)), "{e}");
-    assert_eq!(e.location, Location::file(&missing));
+    assert_eq!(*e.location, Location::file(&missing));
 }
 
 #[test]

@@ -88,7 +88,7 @@ impl LensArgs {
                 problem: Problem::NotRotationallySymmetric { offence, lens },
             })) => Ok(Readable::Placed {
                 offence,
-                location,
+                location: *location,
                 lens,
             }),
             read => validated(read.map_err(with_hint)?).map(Readable::Centred),

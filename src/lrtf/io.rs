@@ -79,6 +79,21 @@ impl Sidecar {
     }
 }
 
+/// The command that rebakes a table a [`TableError`] refuses: the lens the sidecar names and the
+/// table's directory. Boxed in the errors: with both inline, every `Result` carrying a
+/// `TableError` was 128 bytes.
+#[derive(Debug)]
+pub struct Rebake {
+    pub lens: String,
+    pub dir: PathBuf,
+}
+
+impl std::fmt::Display for Rebake {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "`lensbake bake {} --out {}`", self.lens, self.dir.display())
+    }
+}
+
 #[derive(Debug, thiserror::Error)]
 pub enum TableError {
     #[error("{path}: {}", crate::output::describe_io(.cause))]
@@ -91,49 +106,45 @@ pub enum TableError {
     #[error("{path}: not a readable LRTF data file: {message}")]
     Data { path: PathBuf, message: String },
     #[error(
-        "{path}: table has {what} {found}, this lensbake expects {expected}; rebake it with `lensbake bake {lens} --out {dir}`"
+        "{path}: table has {what} {found}, this lensbake expects {expected}; rebake it with {rebake}"
     )]
     Version {
         path: PathBuf,
         what: &'static str,
         found: u32,
         expected: u32,
-        lens: String,
-        dir: PathBuf,
+        rebake: Box<Rebake>,
     },
     #[error(
-        "{path}: table was baked from a different prescription (hash {found}, lens now hashes to {expected}); rebake it with `lensbake bake {lens} --out {dir}`"
+        "{path}: table was baked from a different prescription (hash {found}, lens now hashes to {expected}); rebake it with {rebake}"
     )]
     StaleHash {
         path: PathBuf,
         found: String,
         expected: String,
-        lens: String,
-        dir: PathBuf,
+        rebake: Box<Rebake>,
     },
     #[error(
-        "{path}: the sidecar's fields were altered (CRC-32 {found}, the sidecar records {expected}); rebake it with `lensbake bake {lens} --out {dir}`"
+        "{path}: the sidecar's fields were altered (CRC-32 {found}, the sidecar records {expected}); rebake it with {rebake}"
     )]
     SidecarAltered {
         path: PathBuf,
         found: String,
         expected: String,
-        lens: String,
-        dir: PathBuf,
+        rebake: Box<Rebake>,
     },
     #[error(
         "{dir}: holds {DATA_FILE} but no {SIDECAR_FILE}: not a table lensbake wrote, or a damaged one; refusing to overwrite it (move it away first)"
     )]
     DataWithoutSidecar { dir: PathBuf },
     #[error(
-        "{path}: the data file does not belong to its sidecar (CRC-32 {found}, the sidecar records {expected}): the two come from different bakes or the data was altered; rebake it with `lensbake bake {lens} --out {dir}`"
+        "{path}: the data file does not belong to its sidecar (CRC-32 {found}, the sidecar records {expected}): the two come from different bakes or the data was altered; rebake it with {rebake}"
     )]
     DataMismatch {
         path: PathBuf,
         found: String,
         expected: String,
-        lens: String,
-        dir: PathBuf,
+        rebake: Box<Rebake>,
     },
 }
 
@@ -476,13 +487,18 @@ pub fn read_table(
 ) -> Result<LrtfTable, TableError> {
     let sidecar = read_sidecar(dir)?;
     let sidecar_path = dir.join(SIDECAR_FILE);
+    let rebake = || {
+        Box::new(Rebake {
+            lens: sidecar.lens.clone(),
+            dir: dir.to_path_buf(),
+        })
+    };
     let version_error = |what, found, expected| TableError::Version {
         path: sidecar_path.clone(),
         what,
         found,
         expected,
-        lens: sidecar.lens.clone(),
-        dir: dir.to_path_buf(),
+        rebake: rebake(),
     };
     if sidecar.format_version != FORMAT_VERSION {
         return Err(version_error(
@@ -506,8 +522,7 @@ pub fn read_table(
                 path: sidecar_path,
                 found: sidecar.prescription_hash,
                 expected,
-                lens: sidecar.lens,
-                dir: dir.to_path_buf(),
+                rebake: rebake(),
             });
         }
     }
@@ -523,8 +538,7 @@ pub fn read_table(
             path: sidecar_path,
             found: fields,
             expected: sidecar.sidecar_crc32.unwrap_or_else(|| "nothing".into()),
-            lens: sidecar.lens,
-            dir: dir.to_path_buf(),
+            rebake: rebake(),
         });
     }
     let mut data_path = dir.join(DATA_FILE);
@@ -575,8 +589,7 @@ pub fn read_table(
             path: data_path,
             found,
             expected: sidecar.data_crc32.unwrap_or_else(|| "nothing".into()),
-            lens: sidecar.lens,
-            dir: dir.to_path_buf(),
+            rebake: rebake(),
         });
     }
     let mut layers = Vec::with_capacity(sidecar.layers.len());

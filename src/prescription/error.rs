@@ -184,12 +184,17 @@ fn prefix(location: &Location) -> String {
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 #[error("{}{problem}", prefix(.location))]
 pub struct PrescriptionError {
-    pub location: Location,
+    /// Boxed: a location holds a path and a field name, and unboxed it made every `Result` that
+    /// can carry this error (nearly all of the library's) over 128 bytes.
+    pub location: Box<Location>,
     pub problem: Problem,
 }
 
 impl PrescriptionError {
     pub fn new(location: Location, problem: Problem) -> PrescriptionError {
-        PrescriptionError { location, problem }
+        PrescriptionError {
+            location: Box::new(location),
+            problem,
+        }
     }
 }
