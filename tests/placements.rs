@@ -243,7 +243,7 @@ fn zemax_coordinate_breaks_fold_and_undo() {
             &second,
             &breaker([0.0, 0.0, angle, 0.0, 0.0, 0.0], 0.0),
             mirror,
-            &(breaker([0.0; 6], -15.0).replace("PARM 3 0", &format!("PARM 3 0\n  PPAR 3 3 1 0 0"))),
+            &breaker([0.0; 6], -15.0).replace("PARM 3 0", "PARM 3 0\n  PPAR 3 3 1 0 0"),
             &lens("-0.0125", "-4", f2),
             &lens("-0.005", "-30", ""),
         ]);

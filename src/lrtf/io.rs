@@ -90,7 +90,12 @@ pub struct Rebake {
 
 impl std::fmt::Display for Rebake {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "`lensbake bake {} --out {}`", self.lens, self.dir.display())
+        write!(
+            f,
+            "`lensbake bake {} --out {}`",
+            self.lens,
+            self.dir.display()
+        )
     }
 }
 

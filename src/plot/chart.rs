@@ -278,15 +278,30 @@ pub(crate) fn tick_label(value: f64) -> String {
     if (1e-3..1e5).contains(&magnitude) {
         let decimals = (3 - magnitude.log10().floor() as i32).clamp(0, 6) as usize;
         let text = format!("{value:.decimals$}");
-        let text = if text.contains('.') {
+
+        if text.contains('.') {
             text.trim_end_matches('0').trim_end_matches('.').to_string()
         } else {
             text
-        };
-        text
+        }
     } else {
         format!("{value:.2e}")
     }
+}
+
+/// Writes a figure title across the top of `area` and splits the rest into a rows x cols grid,
+/// returned row by row.
+pub(crate) fn titled_grid<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    title: &str,
+    rows: usize,
+    cols: usize,
+) -> Result<Vec<DrawingArea<DB, Shift>>, PlotError> {
+    let body = area
+        .margin(8, 0, 0, 0)
+        .titled(title, (FONT_FAMILY, 28))
+        .map_err(draw_error)?;
+    Ok(body.split_evenly((rows.max(1), cols.max(1))))
 }
 
 #[cfg(test)]
@@ -311,19 +326,4 @@ mod tests {
         assert_eq!(tick_label(-25.0), "-25");
         assert_eq!(tick_label(1.5e-5), "1.50e-5");
     }
-}
-
-/// Writes a figure title across the top of `area` and splits the rest into a rows x cols grid,
-/// returned row by row.
-pub(crate) fn titled_grid<DB: DrawingBackend>(
-    area: &DrawingArea<DB, Shift>,
-    title: &str,
-    rows: usize,
-    cols: usize,
-) -> Result<Vec<DrawingArea<DB, Shift>>, PlotError> {
-    let body = area
-        .margin(8, 0, 0, 0)
-        .titled(title, (FONT_FAMILY, 28))
-        .map_err(draw_error)?;
-    Ok(body.split_evenly((rows.max(1), cols.max(1))))
 }

@@ -499,26 +499,25 @@ pub fn lens_surfaces(system: &crate::system::SystemAt) -> (LensParams, Vec<LensS
                 rotation_deg,
                 blade_curvature,
             }) = s.stop
+                && i == system.stop
             {
-                if i == system.stop {
-                    out.bladed = 1;
-                    let count = count.max(3);
-                    let half = std::f64::consts::PI / f64::from(count);
-                    let radius = s.semi_aperture;
-                    let apothem = radius * half.cos();
-                    params.blade_count = count;
-                    params.blade_rotation = rotation_deg.to_radians() as f32;
-                    params.blade_apothem = apothem as f32;
-                    let curvature = blade_curvature.clamp(0.0, 1.0) / radius;
-                    if curvature > 0.0 {
-                        let arc_radius = 1.0 / curvature;
-                        let half_chord = radius * half.sin();
-                        params.has_arc = 1;
-                        params.arc_centre = (apothem
-                            - (arc_radius * arc_radius - half_chord * half_chord).sqrt())
-                            as f32;
-                        params.arc_radius_sq = (arc_radius * arc_radius) as f32;
-                    }
+                out.bladed = 1;
+                let count = count.max(3);
+                let half = std::f64::consts::PI / f64::from(count);
+                let radius = s.semi_aperture;
+                let apothem = radius * half.cos();
+                params.blade_count = count;
+                params.blade_rotation = rotation_deg.to_radians() as f32;
+                params.blade_apothem = apothem as f32;
+                let curvature = blade_curvature.clamp(0.0, 1.0) / radius;
+                if curvature > 0.0 {
+                    let arc_radius = 1.0 / curvature;
+                    let half_chord = radius * half.sin();
+                    params.has_arc = 1;
+                    params.arc_centre = (apothem
+                        - (arc_radius * arc_radius - half_chord * half_chord).sqrt())
+                        as f32;
+                    params.arc_radius_sq = (arc_radius * arc_radius) as f32;
                 }
             }
             out

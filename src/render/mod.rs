@@ -173,7 +173,7 @@ impl SampleShare {
     /// Share `index` of `shares` interleaved shares of a lattice of `samples_per_pixel`, which
     /// `shares` must divide.
     pub fn interleaved(index: u32, shares: u32, samples_per_pixel: u32) -> SampleShare {
-        debug_assert!(shares > 0 && samples_per_pixel % shares == 0 && index < shares);
+        debug_assert!(shares > 0 && samples_per_pixel.is_multiple_of(shares) && index < shares);
         SampleShare {
             offset: index,
             count: samples_per_pixel / shares,

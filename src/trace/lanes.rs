@@ -1192,7 +1192,7 @@ mod tests {
         // Every third lane left out, and the lanes past `count` not offered at all.
         let count = GROUP_RAYS - 5;
         let chosen: Vec<bool> = (0..count).map(|lane| lane % 3 != 1).collect();
-        let mut seen = vec![false; GROUP_RAYS];
+        let mut seen = [false; GROUP_RAYS];
         tracer.trace_group(&columns, &chosen, Travel::Forward, |lane, traced| {
             assert!(chosen[lane] && !seen[lane], "lane {lane}");
             seen[lane] = true;
@@ -1236,8 +1236,8 @@ mod tests {
                 expected.push((crossing.surface - 1, id as u32, x, y));
             }
         }
-        record.0.sort_by(|a, b| (a.0, a.1).cmp(&(b.0, b.1)));
-        expected.sort_by(|a, b| (a.0, a.1).cmp(&(b.0, b.1)));
+        record.0.sort_by_key(|a| (a.0, a.1));
+        expected.sort_by_key(|a| (a.0, a.1));
         assert_eq!(record.0, expected);
         assert!(expected.len() > 2 * LANES && expected.len() < 5 * LANES);
     }

@@ -180,7 +180,7 @@ pub fn choose_model(
             predicted_px,
             measured_px: Some(measured_px),
         });
-        (measured_px <= budget_px).then(|| (built, label, predicted_px, measured_px, table))
+        (measured_px <= budget_px).then_some((built, label, predicted_px, measured_px, table))
     };
 
     let mut found = None;

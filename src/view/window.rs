@@ -160,7 +160,7 @@ impl App<'_> {
         let [x0, y0, w, h] = presenter.letterbox(settings.width, settings.height);
         let u = (at.x as f32 - x0) / w;
         let v = (at.y as f32 - y0) / h;
-        ((0.0..1.0).contains(&u) && (0.0..1.0).contains(&v)).then(|| {
+        ((0.0..1.0).contains(&u) && (0.0..1.0).contains(&v)).then_some({
             [
                 (u * settings.width as f32) as u32,
                 (v * settings.height as f32) as u32,

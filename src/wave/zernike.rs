@@ -79,7 +79,10 @@ fn fringe_indices(j: usize) -> (u32, i32) {
     let k = ((j - 1) as f64).sqrt().floor() as usize;
     let within = j - 1 - k * k;
     let abs_m = if within == 2 * k { 0 } else { k - within / 2 };
-    ((2 * k - abs_m) as u32, signed_m(abs_m, within % 2 == 0))
+    (
+        (2 * k - abs_m) as u32,
+        signed_m(abs_m, within.is_multiple_of(2)),
+    )
 }
 
 /// m with its sign: positive for the cosine term, negative for the sine.
@@ -97,12 +100,12 @@ fn noll_indices(j: usize) -> (u32, i32) {
         n += 1;
     }
     let k = j - n * (n + 1) / 2 - 1;
-    let abs_m = if n % 2 == 0 {
+    let abs_m = if n.is_multiple_of(2) {
         2 * k.div_ceil(2)
     } else {
         2 * (k / 2) + 1
     };
-    (n as u32, signed_m(abs_m, j % 2 == 0))
+    (n as u32, signed_m(abs_m, j.is_multiple_of(2)))
 }
 
 /// The radial polynomial R_n^m(rho).
