@@ -127,8 +127,8 @@ pub struct Cell {
     fractions: [f64; 3],
 }
 
-/// The cells of a group of points, a column per value, as [`Entries::cells`] finds them side by
-/// side in vector lanes.
+/// The cells of a group of points, a column per value, as [`Entries::find_cells`] finds them
+/// side by side in vector lanes.
 pub struct CellColumns<const G: usize> {
     base: [u32; G],
     steps: [[u32; G]; 3],
