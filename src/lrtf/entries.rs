@@ -621,14 +621,7 @@ mod tests {
         // `interpolate` takes the vector path wherever the processor has the AVX2 set (with
         // F16C; no narrower set asked for), so on such a machine this compares the two paths.
         #[cfg(target_arch = "x86_64")]
-        if std::env::var_os("LENSBAKE_ISA").is_none()
-            && std::arch::is_x86_feature_detected!("avx2")
-            && std::arch::is_x86_feature_detected!("fma")
-            && std::arch::is_x86_feature_detected!("f16c")
-            && std::arch::is_x86_feature_detected!("popcnt")
-            && std::arch::is_x86_feature_detected!("bmi1")
-            && std::arch::is_x86_feature_detected!("bmi2")
-        {
+        if std::env::var_os("LENSBAKE_ISA").is_none() && Isa::has_avx2_set() {
             assert!(with_widest_isa(|isa| isa.has_avx2_f16c()));
         }
         // Channel values of every sign and magnitude each precision holds (random bit patterns,

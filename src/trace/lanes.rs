@@ -258,16 +258,7 @@ impl Isa {
         #[cfg(target_arch = "x86_64")]
         {
             use std::arch::is_x86_feature_detected as has;
-            // Every AVX2 processor has F16C, POPCNT, BMI1 and BMI2 too; asked for, so the
-            // table's f16 widening and its interpolation inline into code compiled for these
-            // sets, and a block's slot sets are counted and scanned in one instruction each
-            // (the baseline set counts bits in software).
-            let avx2_set = has!("avx2")
-                && has!("fma")
-                && has!("f16c")
-                && has!("popcnt")
-                && has!("bmi1")
-                && has!("bmi2");
+            let avx2_set = Isa::has_avx2_set();
             if avx2_set && has!("avx512f") && has!("avx512dq") && has!("avx512vl") {
                 return Isa::Avx512;
             }
@@ -276,6 +267,21 @@ impl Isa {
             }
         }
         Isa::Portable
+    }
+
+    /// Whether this processor has the AVX2 set: AVX2, FMA, and F16C, POPCNT, BMI1 and BMI2,
+    /// which every AVX2 processor has too. They are asked for so that the table's f16 widening
+    /// and its interpolation inline into code compiled for the set, and a block's slot sets are
+    /// counted and scanned in one instruction each (the baseline set counts bits in software).
+    #[cfg(target_arch = "x86_64")]
+    pub(crate) fn has_avx2_set() -> bool {
+        use std::arch::is_x86_feature_detected as has;
+        has!("avx2")
+            && has!("fma")
+            && has!("f16c")
+            && has!("popcnt")
+            && has!("bmi1")
+            && has!("bmi2")
     }
 
     /// Whether multiply-adds are single instructions.
