@@ -388,3 +388,30 @@ fn focus_outside_a_range_is_a_typed_error() {
         "{virtual_near:?}"
     );
 }
+
+/// A table chosen by a budget goes where a plain bake at its focus would put it: a budget bake
+/// for the demo scene (focus 2000 mm) must not take the infinity table's place.
+#[test]
+fn budget_bake_defaults_to_the_focus_directory() {
+    let dir = scratch("budget");
+    let o = lensbake(
+        &dir,
+        &[
+            "bake",
+            "dgauss-50mm",
+            "--error-budget-px",
+            "0.5",
+            "--scene",
+            "demo",
+        ],
+    );
+    assert!(o.status.success(), "{}", text(&o));
+    let lens_dir = dir.join("tables").join("dgauss-50mm");
+    assert!(
+        lens_dir.join("focus-2000mm").join("lrtf.ron").exists(),
+        "{}",
+        text(&o)
+    );
+    assert!(!lens_dir.join("lrtf.ron").exists(), "{}", text(&o));
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -10,6 +10,7 @@ use clap::Args;
 use serde::Serialize;
 
 use super::lens::LensArgs;
+use lensbake::job::tables::{DEFAULT_TABLES_ROOT, default_table_dir};
 use lensbake::lenses::LoadedLens;
 use lensbake::limits;
 use lensbake::lrtf::io::write_table;
@@ -324,7 +325,15 @@ pub fn bake_within_budget(
     report(&choice);
     match &choice.table {
         Some(table) => {
-            let out = out.unwrap_or_else(|| PathBuf::from("tables").join(&name));
+            // Where a plain `bake` at this focus would put it, so a later bake at another
+            // focus does not overwrite it and the renderer finds it by its focus.
+            let out = out.unwrap_or_else(|| {
+                default_table_dir(
+                    Path::new(DEFAULT_TABLES_ROOT),
+                    &name,
+                    choice.domain.focus_mm,
+                )
+            });
             write_table(table, &name, &lens.system.prescription, &out)?;
             say!("wrote {}", out.display());
         }
