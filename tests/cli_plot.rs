@@ -138,3 +138,38 @@ fn report_lists_tables_and_every_plot_it_drew() {
     }
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// `plot` and `report` read lens files as every other command does: an unscaled pbrt file
+/// (thickness from the previous surface) is refused with the hint, and read with the flag.
+#[test]
+fn plot_and_report_take_the_reading_flags() {
+    let dir = scratch("read-flags");
+    let lens = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/lenses/dgauss.dat");
+    let lens = lens.to_str().unwrap();
+    let out = dir.join("layout.png");
+    let plot = |extra: &[&str]| {
+        let mut args = vec!["plot", "layout", lens, "--out", out.to_str().unwrap()];
+        args.extend(extra);
+        lensbake(&args)
+    };
+    let refused = plot(&[]);
+    assert_eq!(refused.status.code(), Some(2), "{}", stderr(&refused));
+    assert!(stderr(&refused).contains("--pbrt-from-previous"));
+    assert!(!out.exists());
+    let read = plot(&["--pbrt-from-previous"]);
+    assert!(read.status.success(), "{}", stderr(&read));
+    assert!(out.exists());
+    let as_pbrt = plot(&["--format", "pbrt", "--pbrt-from-previous"]);
+    assert!(as_pbrt.status.success(), "{}", stderr(&as_pbrt));
+    let report = dir.join("report");
+    let o = lensbake(&[
+        "report",
+        lens,
+        "--pbrt-from-previous",
+        "--out",
+        report.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(report.join("layout.png").exists());
+    std::fs::remove_dir_all(&dir).unwrap();
+}

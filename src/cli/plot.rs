@@ -2,9 +2,10 @@
 
 use anyhow::bail;
 use clap::Args;
+
+use super::lens::{LensArgs, ReadArgs};
 use lensbake::lenses::{self, BUNDLED, LensError, LensOrigin};
 use lensbake::plot::write_plot;
-use lensbake::prescription::formats::LoadOptions;
 use lensbake::prescription::{PrescriptionError, Problem};
 use lensbake::report::{FigureOptions, PlotKind, figure, placed_spot_plot, write_report};
 use lensbake::system::LensSystem;
@@ -12,8 +13,7 @@ use std::path::{Path, PathBuf};
 
 #[derive(Args, Debug)]
 pub struct PlotArgs {
-    /// layout, ray-fan, spot, lsa, field-curves, distortion, lateral-color, vignetting, seidel,
-    /// lrtf-error.
+    #[arg(help = kind_help())]
     kind: String,
     /// A lens file or the name of a bundled lens; for lrtf-error the measurement table
     /// (lrtf-error.json, written by the lrtf_sweep example).
@@ -22,7 +22,15 @@ pub struct PlotArgs {
     #[arg(long)]
     out: PathBuf,
     #[command(flatten)]
+    read: ReadArgs,
+    #[command(flatten)]
     conditions: ConditionArgs,
+}
+
+/// The kinds `plot` draws, listed from [`PlotKind::ALL`] so the help cannot fall behind it.
+fn kind_help() -> String {
+    let kinds: Vec<&str> = PlotKind::ALL.iter().map(|k| k.name()).collect();
+    format!("{}, lrtf-error", kinds.join(", "))
 }
 
 /// The design-condition flags `plot` and `report` share with `analyze`: each overrides the
@@ -67,6 +75,8 @@ pub struct ReportArgs {
     #[arg(long)]
     out: Option<PathBuf>,
     #[command(flatten)]
+    read: ReadArgs,
+    #[command(flatten)]
     conditions: ConditionArgs,
 }
 
@@ -82,7 +92,7 @@ pub fn run_plot(args: PlotArgs) -> anyhow::Result<()> {
         && let Err(LensError::Prescription(PrescriptionError {
             problem: Problem::NotRotationallySymmetric { lens, .. },
             ..
-        })) = lenses::read(&args.lens, &LoadOptions::default())
+        })) = lenses::read(&args.lens, &args.read.options())
     {
         let view = placed_spot_plot(&plot_name(&args.lens), &lens, &options)?;
         let drawn = write_plot(&view, &args.out)?;
@@ -92,7 +102,7 @@ pub fn run_plot(args: PlotArgs) -> anyhow::Result<()> {
         say!("{}", args.out.display());
         return Ok(());
     }
-    let (name, system) = load_lens(&args.lens)?;
+    let (name, system) = load_lens(&args.lens, &args.read)?;
     let view = figure(kind, &name, &system, &options)?;
     let drawn = write_plot(&view, &args.out)?;
     for message in drawn.messages() {
@@ -112,7 +122,7 @@ pub fn run_report(args: ReportArgs) -> anyhow::Result<()> {
     }
     let options = args.conditions.options()?;
     for lens in lenses {
-        let (name, system) = load_lens(&lens)?;
+        let (name, system) = load_lens(&lens, &args.read)?;
         let directory = match (&args.out, args.all) {
             (Some(out), false) => out.clone(),
             (Some(out), true) => out.join(&name),
@@ -142,8 +152,12 @@ fn check_options(options: &FigureOptions) -> anyhow::Result<()> {
 }
 
 /// The lens `spec` names (a file or a bundled lens) and the name its plots carry.
-fn load_lens(spec: &str) -> anyhow::Result<(String, LensSystem)> {
-    let lens = lenses::load(spec, &LoadOptions::default())?;
+fn load_lens(spec: &str, read: &ReadArgs) -> anyhow::Result<(String, LensSystem)> {
+    let lens = LensArgs {
+        lens: spec.to_string(),
+        read: read.clone(),
+    }
+    .load()?;
     for note in &lens.source.loaded.notes {
         eprintln!("note: {}: {note}", lens.source.origin);
     }

@@ -64,7 +64,7 @@ pub struct ViewArgs {
     tables_root: PathBuf,
     /// A script, one action a line: spp-per-frame N, click X Y, fnumber F, model NAME,
     /// split on|off, overlay on|off, chromatic on|off, shift X Y, tilt X Y, lens NAME|FILE,
-    /// scene demo|FILE, frames N, wait-bake, screenshot PATH, quit.
+    /// scene demo|FILE, frames N, wait-bake, screenshot PATH, window W H, minimise on|off, quit.
     #[arg(long)]
     script: Option<PathBuf>,
     /// Run the same loop without a window (tests, CI, machines without a display); with no
