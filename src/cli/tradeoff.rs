@@ -87,7 +87,7 @@ pub struct TradeoffArgs {
     /// Frames timed per model (the cost is their median).
     #[arg(long, default_value_t = 3)]
     pub render_frames: usize,
-    /// Print {"entries": [...]} instead of the table.
+    /// Print {"entries": [...]} instead of the table (the files in --out are written either way).
     #[arg(long)]
     pub json: bool,
     /// Output directory (default: notebooks-out/tradeoff/<lens>/).
