@@ -295,3 +295,32 @@ fn relative_illumination_of_a_front_stop_singlet() {
     // And it is not cos^4: barrel distortion brightens the edge (the check can tell them apart).
     assert!((expected - t.cos().powi(4)).abs() > 2e-3);
 }
+
+/// A stop at the first surface with the entrance pupil filling it: the spot diagram's outer ring
+/// is aimed at the stop's rim and must pass whole, whatever the rounding of its last digits, so
+/// the on-axis spot is symmetric about the axis and the rim ring's image radius is its edge.
+#[test]
+fn a_spot_rings_rays_aimed_at_the_stop_rim_all_pass() {
+    let lens = lensbake::lenses::load("biconvex-singlet", &Default::default()).unwrap();
+    let at = lens.system.at(587.56);
+    let options = ParaxialOptions {
+        aperture: Aperture::EntrancePupilDiameter(20.0),
+        field: Field::Angle { deg: 10.0 },
+        ..ParaxialOptions::default()
+    };
+    let rays = RealRays::new(&at, Paraxial::new(&at, &options).unwrap());
+    for rings in [6, 10, 12, 16, 24] {
+        let spot = rays.spot(0.0, rings).unwrap();
+        assert_eq!(spot.points.len(), spot.rays_traced, "{rings} rings");
+        let off_axis = spot.centroid[0].hypot(spot.centroid[1]);
+        assert!(
+            off_axis < 1e-12,
+            "{rings} rings: centroid {off_axis:e} mm off axis"
+        );
+        let rim = spot.points[spot.points.len() - 6 * rings..]
+            .iter()
+            .map(|p| p[0].hypot(p[1]))
+            .fold(0.0, f64::max);
+        assert!((spot.geometric_radius - rim).abs() < 1e-12, "{rings} rings");
+    }
+}

@@ -76,7 +76,7 @@ impl Tracer {
 /// The real ray from `source` that crosses the stop surface at `(x, y)` (lens frame, mm),
 /// found with apertures ignored. Returns the ray as it leaves the source.
 pub fn aim_at_stop(tracer: &Tracer, source: &RaySource, target: [f64; 2]) -> Result<Ray, AimError> {
-    let stop_radius = tracer.surfaces[tracer.stop].semi_aperture_sq.sqrt();
+    let stop_radius = tracer.surfaces[tracer.stop].semi_aperture;
     // First guess: the target imaged into the paraxial entrance pupil; where that pupil is at
     // infinity, the target itself on the stop's vertex plane.
     let guess = source.unknowns_through(match tracer.stop_image {
