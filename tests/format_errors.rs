@@ -230,6 +230,16 @@ fn syntax_errors() {
     let e = error("MODE SEQ\nWAVM 99999999999 0.55 1\n", Format::Zemax);
     assert!(matches!(e.problem, Problem::Syntax(_)), "{e}");
     assert_at(&e, Some(2), None, Some("WAVM"));
+    // Counts that would size the field and wavelength tables are bounded before anything is
+    // allocated (u64::MAX fields panicked on capacity overflow, u32::MAX aborted).
+    for ftyp in [
+        "FTYP 0 0 18446744073709551615 3 0 0 0",
+        "FTYP 0 0 3 4294967295 0 0 0",
+    ] {
+        let e = error(&format!("MODE SEQ\n{ftyp}\n"), Format::Zemax);
+        assert!(e.to_string().contains("OpticStudio holds at most"), "{e}");
+        assert_at(&e, Some(2), None, Some("FTYP"));
+    }
     let e = error("MODE SEQ\nMNUM 3 4\n", Format::Zemax);
     assert!(
         e.to_string()

@@ -99,6 +99,9 @@ const HARMLESS_SURFACE: &[&str] = &[
 /// OpticStudio holds at most 24 wavelengths; the bound also keeps a corrupt number from
 /// allocating without limit.
 const MAX_WAVELENGTHS: usize = 24;
+/// OpticStudio holds at most 200 fields (12 before version 18); the bound keeps a corrupt
+/// count from allocating the fields without limit.
+const MAX_FIELDS: usize = 200;
 
 /// Even-asphere terms a Zemax EVENASPH surface holds (PARM 1..8: r^2 .. r^16).
 const PARM_TERMS: usize = 8;
@@ -584,8 +587,22 @@ impl Reader {
                 });
                 // OpticStudio 14 and later: FTYP type normalisation fields wavelengths ...
                 if args.len() >= 4 {
-                    self.field_count = Some(index(2)?);
-                    self.wavelength_count = Some(index(3)?);
+                    let (fields, wavelengths) = (index(2)?, index(3)?);
+                    for (count, what, most) in [
+                        (fields, "field", MAX_FIELDS),
+                        (wavelengths, "wavelength", MAX_WAVELENGTHS),
+                    ] {
+                        if count > most {
+                            return Err(PrescriptionError::new(
+                                at("FTYP"),
+                                Problem::Syntax(format!(
+                                    "{count} {what}s (FTYP): OpticStudio holds at most {most}"
+                                )),
+                            ));
+                        }
+                    }
+                    self.field_count = Some(fields);
+                    self.wavelength_count = Some(wavelengths);
                 }
             }
             "XFLN" | "XFLD" => self.x_fields = list()?,
