@@ -138,6 +138,31 @@ fn bad_input_is_one_error_line_and_exit_code_2() {
             "--weight",
             "2",
         ],
+        // Beyond the documented limits (f/1e20 panicked in the MTF's lag interpolation).
+        &[
+            "mtf",
+            "dgauss-50mm",
+            "--field-deg",
+            "5",
+            "--f-number",
+            "1e20",
+        ],
+        &[
+            "mtf",
+            "dgauss-50mm",
+            "--field-deg",
+            "5",
+            "--f-number",
+            "0.3",
+        ],
+        &[
+            "psf",
+            "dgauss-50mm",
+            "--field-deg",
+            "0",
+            "--epd-mm",
+            "1e-320",
+        ],
     ] {
         let output = lensbake(args);
         let stderr = String::from_utf8_lossy(&output.stderr);

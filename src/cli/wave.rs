@@ -4,13 +4,13 @@ use super::lens::ReadArgs;
 use anyhow::{Context, bail};
 use clap::Args;
 use lensbake::glass::D_LINE_NM;
-use lensbake::lenses;
 use lensbake::paraxial::FirstOrder;
 use lensbake::system::LensSystem;
 use lensbake::wave::{
     FieldTrace, PupilTrace, Sampling, Spectrum, WaveLens, ZernikeOrdering, fft_assumptions,
     frequencies_to, huygens_psf, psf, zernike_fit,
 };
+use lensbake::{lenses, limits};
 use serde_json::json;
 use std::path::PathBuf;
 
@@ -115,12 +115,18 @@ impl Setup {
                 args.field_deg
             );
         }
-        for (flag, value) in [("--epd-mm", args.epd_mm), ("--f-number", args.f_number)] {
-            if let Some(v) = value
-                && !(v.is_finite() && v > 0.0)
-            {
-                bail!("{flag} must be positive, got {v}");
-            }
+        // The limits every other command applies (f/0.5 is the fastest cone a lens in air
+        // can form), so a tiny pupil cannot shrink the wave grids' lag step to nothing.
+        if let Some(epd) = args.epd_mm {
+            limits::check_range(
+                "--epd-mm",
+                epd,
+                limits::MIN_LENGTH_MM,
+                limits::MAX_LENGTH_MM,
+            )?;
+        }
+        if let Some(f_number) = args.f_number {
+            limits::check_range("--f-number", f_number, 0.5, limits::MAX_F_NUMBER)?;
         }
         let (name, subject) = match args.lens.strip_prefix("ideal:") {
             Some(efl) => {

@@ -286,14 +286,19 @@ fn diffraction_otf(map: &WavefrontMap, axis: usize, frequencies: &[f64]) -> Vec<
         .iter()
         .map(|f| {
             let position = f.abs() / step;
-            let below = position.floor() as usize;
-            if below + 1 >= lags.len() {
-                return if below + 1 == lags.len() && position == below as f64 {
-                    lags[below]
+            // Compared as floats: a frequency far beyond the cut-off (a tiny lag step at an
+            // extreme f-number) is past any whole number of lags, NaN too.
+            let Some(last) = lags.len().checked_sub(1) else {
+                return Complex::new(0.0, 0.0);
+            };
+            if !(position < last as f64) {
+                return if position == last as f64 {
+                    lags[last]
                 } else {
                     Complex::new(0.0, 0.0)
                 };
             }
+            let below = position as usize;
             let t = position - below as f64;
             lags[below] * (1.0 - t) + lags[below + 1] * t
         })
