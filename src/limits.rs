@@ -217,22 +217,36 @@ fn read_bounded(path: &Path) -> std::io::Result<Vec<u8>> {
             metadata.len()
         )));
     }
-    let file = std::fs::File::open(path)?;
-    let mut bytes = Vec::with_capacity(metadata.len() as usize);
     // A file that grows while it is read still stops at the limit.
-    file.take(MAX_INPUT_BYTES + 1).read_to_end(&mut bytes)?;
+    read_capped(std::fs::File::open(path)?, metadata.len() as usize)
+}
+
+/// Everything `source` gives up to [`MAX_INPUT_BYTES`], refusing more.
+fn read_capped(source: impl Read, expected_bytes: usize) -> std::io::Result<Vec<u8>> {
+    let mut bytes = Vec::with_capacity(expected_bytes);
+    source.take(MAX_INPUT_BYTES + 1).read_to_end(&mut bytes)?;
     if bytes.len() as u64 > MAX_INPUT_BYTES {
         return Err(std::io::Error::other(format!(
-            "grew past the input limit of {MAX_INPUT_BYTES} bytes while it was read"
+            "went past the input limit of {MAX_INPUT_BYTES} bytes (docs/limits.md)"
         )));
     }
     Ok(bytes)
 }
 
+/// Standard input as UTF-8 text, at most [`MAX_INPUT_BYTES`] of it (a pipe from /dev/zero
+/// would otherwise fill the memory).
+pub fn read_stdin_text() -> std::io::Result<String> {
+    utf8(read_capped(std::io::stdin().lock(), 0)?)
+}
+
+fn utf8(bytes: Vec<u8>) -> std::io::Result<String> {
+    String::from_utf8(bytes)
+        .map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidData, e.utf8_error()))
+}
+
 /// [`read_input`] as UTF-8 text.
 pub fn read_input_text(path: &Path) -> std::io::Result<String> {
-    String::from_utf8(read_input(path)?)
-        .map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidData, e.utf8_error()))
+    utf8(read_input(path)?)
 }
 
 #[cfg(test)]

@@ -149,3 +149,23 @@ fn bench_trace_reports_rays_and_intersections() {
     assert!(report["seconds"].as_f64().unwrap() > 0.0);
     assert!(report["seconds_new_output"].as_f64().unwrap() > 0.0);
 }
+
+/// Standard input is held to the input limit (1 GiB) like a file: an endless stream is refused
+/// with one error line instead of filling the memory.
+#[cfg(unix)]
+#[test]
+fn an_endless_standard_input_is_refused_at_the_input_limit() {
+    let zeros = std::fs::File::open("/dev/zero").unwrap();
+    let output = Command::new(env!("CARGO_BIN_EXE_lensbake"))
+        .args(["trace", "dgauss-50mm", "--rays", "-"])
+        .stdin(zeros)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.starts_with("error: cannot read rays from standard input")
+            && stderr.contains("input limit"),
+        "{stderr}"
+    );
+}

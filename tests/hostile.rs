@@ -260,6 +260,30 @@ fn missing_files_and_directories_are_typed_errors_naming_the_path() {
         true,
         &dir.path().join(DATA_FILE),
     );
+
+    // Devices and pipes: /dev/zero never ends (the loader read it until the memory ran out)
+    // and opening a FIFO blocks until a writer comes (the loader hung).
+    #[cfg(unix)]
+    for (file, expect_data) in [(SIDECAR_FILE, false), (DATA_FILE, true)] {
+        let dir = Scratch::with("device", &original.data, &original.sidecar);
+        let path = dir.path().join(file);
+        std::fs::remove_file(&path).unwrap();
+        std::os::unix::fs::symlink("/dev/zero", &path).unwrap();
+        check(
+            dir.path(),
+            &format!("/dev/zero as {file}"),
+            expect_data,
+            &path,
+        );
+        std::fs::remove_file(&path).unwrap();
+        let made_fifo = std::process::Command::new("mkfifo")
+            .arg(&path)
+            .status()
+            .is_ok_and(|s| s.success());
+        if made_fifo {
+            check(dir.path(), &format!("a FIFO as {file}"), expect_data, &path);
+        }
+    }
 }
 
 #[test]

@@ -245,7 +245,7 @@ pub fn run(args: RenderBenchArgs) -> anyhow::Result<()> {
 fn save(out: &Path, frame: &Frame, row: Row) -> anyhow::Result<()> {
     let _turn = lensbake::output::lock_folder(out)?;
     let json_path = out.join("timings.json");
-    let mut timings = std::fs::read_to_string(&json_path)
+    let mut timings = lensbake::limits::read_input_text(&json_path)
         .ok()
         .and_then(|text| serde_json::from_str::<Timings>(&text).ok())
         .filter(|t| t.frame == *frame)

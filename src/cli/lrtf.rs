@@ -1,6 +1,5 @@
 //! `lensbake bake` and `lensbake lrtf eval|info`.
 
-use std::io::Read;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
@@ -331,9 +330,8 @@ pub fn run(command: LrtfCommand) -> anyhow::Result<()> {
                 .transpose()?;
             let loaded = read_table(&table, lens.as_ref().map(|l| &l.system.prescription))?;
             let text = if rays == "-" {
-                let mut s = String::new();
-                std::io::stdin().read_to_string(&mut s)?;
-                s
+                lensbake::limits::read_stdin_text()
+                    .context("cannot read rays from standard input")?
             } else {
                 lensbake::limits::read_input_text(Path::new(&rays))
                     .with_context(|| format!("reading {rays}"))?
@@ -413,7 +411,7 @@ pub fn run(command: LrtfCommand) -> anyhow::Result<()> {
 /// `lensbake plot lrtf-error MEASUREMENTS.json --out FILE`: the error-against-size plot of a
 /// measurement sweep.
 pub fn plot_error(measurements: &Path, out: &Path) -> anyhow::Result<()> {
-    let text = std::fs::read_to_string(measurements)
+    let text = lensbake::limits::read_input_text(measurements)
         .with_context(|| format!("reading {}", measurements.display()))?;
     let rows: Vec<SweepRow> = serde_json::from_str(&text).with_context(|| {
         format!(

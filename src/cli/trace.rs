@@ -8,7 +8,6 @@ use lensbake::prescription::formats::PlacedLens;
 use lensbake::trace::placed::PlacedTracer;
 use lensbake::trace::{Ray, Tracer, Travel, check_start};
 use serde::{Deserialize, Serialize};
-use std::io::Read;
 
 #[derive(Args, Debug)]
 pub struct TraceArgs {
@@ -138,10 +137,8 @@ fn print(args: &TraceArgs, traced: &[RayOutput]) -> anyhow::Result<()> {
 
 fn read_rays(source: &str) -> anyhow::Result<Vec<Ray>> {
     let (name, text) = if source == "-" {
-        let mut text = String::new();
-        std::io::stdin()
-            .read_to_string(&mut text)
-            .context("cannot read rays from standard input")?;
+        let text =
+            lensbake::limits::read_stdin_text().context("cannot read rays from standard input")?;
         ("<stdin>".to_string(), text)
     } else {
         let text = lensbake::limits::read_input_text(std::path::Path::new(source))

@@ -313,7 +313,7 @@ fn layer_name(k: usize) -> String {
 /// Reads the sidecar alone (for `lrtf info`), checking nothing but its syntax.
 pub fn read_sidecar(dir: &Path) -> Result<Sidecar, TableError> {
     let path = dir.join(SIDECAR_FILE);
-    let text = std::fs::read_to_string(&path).map_err(io_error(&path))?;
+    let text = crate::limits::read_input_text(&path).map_err(io_error(&path))?;
     ron::from_str(&text).map_err(|e| TableError::Sidecar {
         path: path.clone(),
         message: e.to_string(),
@@ -547,7 +547,7 @@ pub fn read_table(
         });
     }
     let mut data_path = dir.join(DATA_FILE);
-    let mut bytes = std::fs::read(&data_path).map_err(|e| TableError::Data {
+    let mut bytes = crate::limits::read_input(&data_path).map_err(|e| TableError::Data {
         path: data_path.clone(),
         message: e.to_string(),
     })?;
@@ -557,7 +557,7 @@ pub fn read_table(
         && *expected != found
     {
         let previous = previous_data_path(dir, expected);
-        if let Ok(kept) = std::fs::read(&previous)
+        if let Ok(kept) = crate::limits::read_input(&previous)
             && data_checksum(&kept) == *expected
         {
             (data_path, bytes, found) = (previous, kept, expected.clone());
