@@ -137,10 +137,14 @@ fn index_below_one() {
 }
 
 #[test]
-fn non_positive_aperture() {
+fn aperture_out_of_range() {
     let e = error("50 5 1.5 20\n0 2 0 0\n-50 40 1 20\n", Format::Pbrt);
-    assert_eq!(e.problem, Problem::NonPositiveAperture { value: 0.0 });
+    assert_eq!(e.problem, Problem::ApertureOutOfRange { value: 0.0 });
     assert_at(&e, Some(2), Some(2), Some("semi_aperture"));
+    // Positive but below a nanometre (pbrt gives the diameter): a bake of it held NaN margins.
+    let e = error("50 5 1.5 1e-300\n0 2 0 10\n-50 40 1 20\n", Format::Pbrt);
+    assert_eq!(e.problem, Problem::ApertureOutOfRange { value: 5e-301 });
+    assert_at(&e, Some(1), Some(1), Some("semi_aperture"));
 }
 
 #[test]

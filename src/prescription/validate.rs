@@ -241,10 +241,12 @@ fn check_surface(i: usize, s: &Surface, map: &SourceMap) -> Result<(), Prescript
     }
     finite(s.thickness, map.surface(i, "thickness"))?;
     finite(s.semi_aperture, map.surface(i, "semi_aperture"))?;
-    if s.semi_aperture <= 0.0 {
+    // Below a nanometre the bake's pupil search divides by squares that underflow (a 1e-300 mm
+    // aperture baked a table of NaN margins).
+    if !(limits::MIN_LENGTH_MM..=limits::MAX_LENGTH_MM).contains(&s.semi_aperture) {
         return Err(PrescriptionError::new(
             map.surface(i, "semi_aperture"),
-            Problem::NonPositiveAperture {
+            Problem::ApertureOutOfRange {
                 value: s.semi_aperture,
             },
         ));
