@@ -146,3 +146,46 @@ fn concurrent_runs_into_one_directory_keep_every_row() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Settings are checked before anything is loaded, baked or written: a bad sample count, layer
+/// cap or backend leaves neither a table nor a timings file behind.
+#[test]
+fn bad_settings_are_refused_before_any_table_or_file() {
+    let dir = std::env::temp_dir().join(format!("lensbake-bench-bad-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let (table, out) = (dir.join("table"), dir.join("out"));
+    for (flag, value, expected) in [
+        ("--spp", "1,0", "must be positive"),
+        ("--spp", "65537", "over the limit"),
+        ("--max-layers", "0", "must be positive"),
+        ("--backends", "cpu,tpu", "`tpu` is not cpu or gpu"),
+    ] {
+        let output = lensbake(&[
+            "bench",
+            "render",
+            "--width",
+            "16",
+            "--height",
+            "12",
+            "--backends",
+            "cpu",
+            "--spp",
+            "1",
+            "--table",
+            table.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            flag,
+            value,
+        ]);
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert_eq!(output.status.code(), Some(2), "{flag} {value}: {stderr}");
+        assert!(
+            stderr.starts_with("error: ") && stderr.contains(expected),
+            "{flag} {value}: {stderr}"
+        );
+        assert!(!table.exists() && !out.exists(), "{flag} {value}");
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -11,6 +11,7 @@ use anyhow::Context;
 use clap::Args;
 use lensbake::job::tables::DEFAULT_TABLES_ROOT;
 use lensbake::job::{RenderLens, TracedAndBaked, default_table_dir};
+use lensbake::limits;
 use lensbake::model::ModelKind;
 use lensbake::render::camera::{Camera, Film};
 use lensbake::render::gpu::GpuRenderer;
@@ -46,7 +47,9 @@ pub struct RenderBenchArgs {
     /// Focus distance in front of the first vertex (mm): the demo scene's chart.
     #[arg(long, default_value_t = 2000.0)]
     focus_mm: f64,
-    /// Table directory for the baked model; default tables/<lens>/focus-<D>mm/.
+    /// Table directory (the baked model's table, whose effective pupil also gives the reference
+    /// and every model its lens samples), baked there when missing; default
+    /// tables/<lens>/focus-<D>mm/.
     #[arg(long)]
     table: Option<PathBuf>,
     /// Nodes per axis when the table has to be baked.
@@ -113,6 +116,36 @@ fn now_unix() -> u64 {
 }
 
 pub fn run(args: RenderBenchArgs) -> anyhow::Result<()> {
+    // Every setting is checked before a table is loaded or baked or a file written.
+    let base = RenderSettings {
+        width: args.width,
+        height: args.height,
+        samples_per_pixel: 1,
+        seed: args.seed,
+        max_layers: args.max_layers,
+    };
+    limits::check(
+        "the number of --spp values",
+        args.spp.len() as u64,
+        limits::MAX_RENDER_FRAMES,
+    )?;
+    for &spp in &args.spp {
+        RenderSettings {
+            samples_per_pixel: spp,
+            ..base
+        }
+        .check()?;
+    }
+    if let Some(other) = args
+        .backends
+        .iter()
+        .find(|b| !["cpu", "gpu"].contains(&b.as_str()))
+    {
+        anyhow::bail!("--backends: `{other}` is not cpu or gpu");
+    }
+    // Made before the table, so an unusable destination is refused before a bake.
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("creating {}", args.out.display()))?;
     let lens = super::lens::render_lens(&args.lens, &args.read)?;
     let RenderLens::Real(real) = &lens else {
         anyhow::bail!("bench render needs a real lens (a file or bundled name), not `ideal:`");
@@ -147,26 +180,18 @@ pub fn run(args: RenderBenchArgs) -> anyhow::Result<()> {
     } else {
         None
     };
-    let mut backends = Vec::new();
-    for name in &args.backends {
-        match (name.as_str(), &gpu) {
-            ("cpu", _) => backends.push((Backend::Cpu, "cpu".to_string())),
-            ("gpu", Some(g)) => {
-                backends.push((Backend::Gpu, format!("gpu ({})", g.adapter_description)))
-            }
-            (other, _) => anyhow::bail!("--backends: `{other}` is not cpu or gpu"),
-        }
-    }
+    // The names are cpu or gpu (checked above), and the GPU renderer exists where one is gpu.
+    let backends: Vec<(Backend, String)> = args
+        .backends
+        .iter()
+        .map(|name| match &gpu {
+            Some(g) if name == "gpu" => (Backend::Gpu, format!("gpu ({})", g.adapter_description)),
+            _ => (Backend::Cpu, "cpu".to_string()),
+        })
+        .collect();
 
     let scene = Scene::demo();
     let reference_camera = &matched.traced;
-    let base = RenderSettings {
-        width: args.width,
-        height: args.height,
-        samples_per_pixel: 1,
-        seed: args.seed,
-        max_layers: args.max_layers,
-    };
     // Every model's camera puts its eye at the entrance pupil of the same lens: one set of layers.
     let nearest = scene.nearest_distance_mm().unwrap_or(1000.0) + reference_camera.eye_z();
     let ldi = scene.peel(
@@ -183,8 +208,6 @@ pub fn run(args: RenderBenchArgs) -> anyhow::Result<()> {
         table_resolution: matched.table_resolution,
     };
 
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("creating {}", args.out.display()))?;
     let json_path = args.out.join("timings.json");
     for &spp in &args.spp {
         let settings = RenderSettings {
