@@ -16,7 +16,7 @@ use lensbake::model::ModelKind;
 use lensbake::render::camera::{Camera, Film};
 use lensbake::render::gpu::GpuRenderer;
 use lensbake::render::image::RgbImage;
-use lensbake::render::reference::{psnr, render_reference};
+use lensbake::render::reference::{psnr, psnr_text, render_reference};
 use lensbake::render::scene::Scene;
 use lensbake::render::{Backend, RenderSettings, layer_view, render_layers};
 use serde::{Deserialize, Serialize};
@@ -251,7 +251,8 @@ pub fn run(args: RenderBenchArgs) -> anyhow::Result<()> {
                     measured_at: now_unix(),
                 };
                 say!(
-                    "{model} on {backend_name}, {spp} spp: {seconds:.2} s, {db:.1} dB against the reference"
+                    "{model} on {backend_name}, {spp} spp: {seconds:.2} s, PSNR {} against the reference",
+                    psnr_text(db)
                 );
                 // Saved after every frame: a long run stopped part-way keeps what it measured.
                 save(&args.out, &frame, row)?;
@@ -317,7 +318,7 @@ fn markdown(timings: &Timings) -> String {
          exit pupil, so their error also holds sampling noise.\n\n\
          Reproduce: `lensbake bench render --models M --backends B --spp N` (rows accumulate in \
          timings.json).\n\n\
-         | backend | spp | model | seconds | PSNR vs reference (dB) | mean abs error |\n\
+         | backend | spp | model | seconds | PSNR vs reference | mean abs error |\n\
          |---|---|---|---|---|---|\n",
         lens = f.lens,
         w = f.width,
@@ -328,9 +329,7 @@ fn markdown(timings: &Timings) -> String {
         res = f.table_resolution.map(|n| n.to_string()).join("x"),
     );
     for r in &rows {
-        let db = r
-            .psnr_vs_reference_db
-            .map_or("-".to_string(), |v| format!("{v:.1}"));
+        let db = r.psnr_vs_reference_db.map_or("-".to_string(), psnr_text);
         let mae = r
             .mean_abs_error
             .map_or("-".to_string(), |v| format!("{v:.2e}"));

@@ -13,7 +13,7 @@ use lensbake::render::camera::{Camera, Film};
 use lensbake::render::chromatic::default_wavelengths;
 use lensbake::render::gpu::{GpuRenderer, gpu_worth_using};
 use lensbake::render::image::{RgbImage, write_exr, write_png};
-use lensbake::render::reference::psnr;
+use lensbake::render::reference::{psnr, psnr_text};
 use lensbake::render::scene::{DEMO_LENS, DEMO_SIZE, Scene};
 use lensbake::render::{Backend, RenderSettings, layer_view, render_layers};
 use lensbake::report::{FigureOptions, write_report};
@@ -131,8 +131,9 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
     let (report_files, speedup, psnr) =
         lensbake::output::publish_dir(&args.out, |staging| run_into(&args, staging))?;
     say!(
-        "wrote {} ({report_files} report files): baked {speedup:.2}x faster than traced, PSNR {psnr:.1} dB",
+        "wrote {} ({report_files} report files): baked {speedup:.2}x faster than traced, PSNR {}",
         args.out.display(),
+        psnr_text(psnr),
     );
     Ok(())
 }
@@ -310,7 +311,7 @@ fn run_into(args: &DemoArgs, staging: &Path) -> anyhow::Result<(usize, f64, f64)
          | traced render | {traced:.2} |\n\
          | baked render | {baked:.2} |\n\n\
          Baked is {speedup:.2}x faster than traced at equal samples. PSNR baked vs traced: \
-         {psnr:.1} dB; mean abs difference {mean:.2e}, max {max:.2e} (linear radiance, \
+         {psnr}; mean abs difference {mean:.2e}, max {max:.2e} (linear radiance, \
          display range 0..1). The machine is shared; timings are wall clock.\n",
         lens = t.lens,
         focus = args.focus_mm,
@@ -335,7 +336,7 @@ fn run_into(args: &DemoArgs, staging: &Path) -> anyhow::Result<(usize, f64, f64)
         traced = t.traced_render_seconds,
         baked = t.baked_render_seconds,
         speedup = t.baked_speedup,
-        psnr = t.psnr_baked_vs_traced_db,
+        psnr = psnr_text(t.psnr_baked_vs_traced_db),
         mean = t.mean_abs_error,
         max = t.max_abs_error,
     );

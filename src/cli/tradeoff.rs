@@ -17,6 +17,7 @@ use lensbake::lrtf::io::write_table;
 use lensbake::model::ModelKind;
 use lensbake::output::write_bytes;
 use lensbake::plot::{ParetoPlot, ParetoPoint, write_plot};
+use lensbake::render::reference::psnr_text;
 use lensbake::render::scene::Scene;
 use lensbake::tradeoff::choose::{Choice, choose_model};
 use lensbake::tradeoff::render::RenderBench;
@@ -137,7 +138,7 @@ fn markdown(
     );
     let _ = writeln!(
         s,
-        "| model | bake s | bytes | render ms/frame | image PSNR dB vs traced | direction p99 mrad | direction max mrad | image p50 px | image p99 px | image max px | validity mismatch | rays compared |"
+        "| model | bake s | bytes | render ms/frame | image PSNR vs traced | direction p99 mrad | direction max mrad | image p50 px | image p99 px | image max px | validity mismatch | rays compared |"
     );
     let _ = writeln!(
         s,
@@ -152,9 +153,7 @@ fn markdown(
             e.bake_seconds,
             e.table_bytes,
             e.render_ms_per_frame,
-            m.render
-                .psnr_db
-                .map_or("reference".into(), |db| format!("{db:.1}")),
+            m.render.psnr_db.map_or("reference".into(), psnr_text),
             e.ray_error_p99_mrad,
             m.error.direction_mrad.max,
             m.error.image_px.median,

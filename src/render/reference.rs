@@ -259,6 +259,16 @@ pub fn render_reference(
 
 /// Peak signal-to-noise ratio (dB) of `image` against `reference`, peak = 1 after clamping both
 /// to [0, 1] (the display range; emitters saturate in both).
+/// [`psnr`] as reports print it: dB to one decimal, or `identical` for images without a
+/// difference (an infinite PSNR, which no table or line should show as `inf`).
+pub fn psnr_text(db: f64) -> String {
+    if db.is_finite() {
+        format!("{db:.1} dB")
+    } else {
+        "identical".into()
+    }
+}
+
 pub fn psnr(image: &RgbImage, reference: &RgbImage) -> f64 {
     let mut squared = 0.0;
     for (a, b) in image.pixels.iter().zip(&reference.pixels) {
@@ -272,5 +282,26 @@ pub fn psnr(image: &RgbImage, reference: &RgbImage) -> f64 {
         f64::INFINITY
     } else {
         -10.0 * mse.log10()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn psnr_is_printed_as_decibels_or_identical() {
+        let image = |value: f32| RgbImage {
+            width: 2,
+            height: 1,
+            pixels: vec![[value; 3]; 2],
+        };
+        let same = psnr(&image(0.5), &image(0.5));
+        assert_eq!(same, f64::INFINITY);
+        assert_eq!(psnr_text(same), "identical");
+        // A difference of 0.1 everywhere: MSE 0.01, 20 dB.
+        let db = psnr(&image(0.6), &image(0.5));
+        assert!((db - 20.0).abs() < 1e-5, "{db}");
+        assert_eq!(psnr_text(db), "20.0 dB");
     }
 }
