@@ -19,7 +19,7 @@ fn main() -> ExitCode {
             ExitCode::from(2)
         }
         (Err(error), _) => {
-            eprintln!("error: {}", describe(&error));
+            eprintln!("error: {}", printable(&describe(&error)));
             ExitCode::from(2)
         }
     }
@@ -37,6 +37,20 @@ fn describe(error: &anyhow::Error) -> String {
         }
     }
     message
+}
+
+/// `text` with every control character but the line break escaped (`\u{1b}` for ESC): an error
+/// may quote a file's bytes, and a terminal would act on its escape sequences.
+fn printable(text: &str) -> String {
+    text.chars()
+        .map(|c| {
+            if c.is_control() && c != '\n' {
+                c.escape_default().to_string()
+            } else {
+                c.to_string()
+            }
+        })
+        .collect()
 }
 
 /// Graphics drivers (Mesa's among them) print `error: XDG_RUNTIME_DIR is invalid or not set` on

@@ -60,3 +60,18 @@ fn list_filters_by_catalogue_and_unknown_names_fail_with_suggestions() {
         "{err}"
     );
 }
+
+/// An error that quotes what the user gave escapes its control characters: a terminal would act
+/// on an escape sequence printed raw.
+#[test]
+fn errors_print_control_characters_escaped() {
+    let output = lensbake(&["glass", "show", "N-BK7\u{1b}[31m\r"]);
+    assert_eq!(output.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(
+        stderr.starts_with("error: ") && stderr.lines().count() == 1,
+        "{stderr}"
+    );
+    assert!(!stderr.contains(['\u{1b}', '\r']), "{stderr:?}");
+    assert!(stderr.contains("N-BK7\\u{1b}[31m\\r"), "{stderr:?}");
+}

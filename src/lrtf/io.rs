@@ -90,10 +90,12 @@ pub struct Rebake {
 
 impl std::fmt::Display for Rebake {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        // The lens name comes from the sidecar, a file anyone may have edited: escaped, so a
+        // line break or terminal control in it cannot forge lines of the message.
         write!(
             f,
             "`lensbake bake {} --out {}`",
-            self.lens,
+            self.lens.escape_debug(),
             self.dir.display()
         )
     }
