@@ -183,7 +183,18 @@ pub fn parse_action(content: &str) -> Result<Action, String> {
         }
         "screenshot" => {
             expect(1)?;
-            Action::Screenshot(PathBuf::from(args[0]))
+            let path = PathBuf::from(args[0]);
+            // Screenshots are PNG; any other name would hold PNG bytes under a wrong extension.
+            if !path
+                .extension()
+                .is_some_and(|e| e.eq_ignore_ascii_case("png"))
+            {
+                return Err(format!(
+                    "`screenshot`: {} must end in .png (screenshots are PNG)",
+                    path.display()
+                ));
+            }
+            Action::Screenshot(path)
         }
         "window" => {
             expect(2)?;
@@ -243,6 +254,8 @@ mod tests {
             ("spp-per-frame 0", "at least 1"),
             ("frames 10000001", "at most 10000000"),
             ("zoom 2", "unknown action `zoom`"),
+            ("screenshot shot.jpg", "must end in .png"),
+            ("screenshot shot", "must end in .png"),
         ] {
             let text = format!("frames 1\n\n{bad}\nquit\n");
             let error = parse_script(&text, Path::new("dir/s.txt")).unwrap_err();
