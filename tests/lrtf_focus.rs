@@ -413,5 +413,20 @@ fn budget_bake_defaults_to_the_focus_directory() {
         text(&o)
     );
     assert!(!lens_dir.join("lrtf.ron").exists(), "{}", text(&o));
+    // The scene's options without a budget would be ignored: refused before any bake.
+    let o = lensbake(
+        &dir,
+        &[
+            "bake",
+            "dgauss-50mm",
+            "--film-fraction",
+            "NaN",
+            "--out",
+            "ignored",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("without a budget"), "{}", text(&o));
+    assert!(!dir.join("ignored").exists());
     let _ = std::fs::remove_dir_all(&dir);
 }

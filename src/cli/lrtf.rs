@@ -193,6 +193,12 @@ pub fn run_bake(args: BakeArgs) -> anyhow::Result<()> {
             lens.source.origin
         );
     }
+    if args.error_budget_px.is_none() && args.scene.any() {
+        anyhow::bail!(
+            "--scene, --nearest-mm and --film-fraction describe what a --error-budget-px bake \
+             must serve; without a budget they would be ignored"
+        );
+    }
     if let Some(budget) = args.error_budget_px {
         return super::tradeoff::bake_within_budget(
             &lens,

@@ -39,6 +39,11 @@ pub struct SceneArgs {
 }
 
 impl SceneArgs {
+    /// Whether any of the scene's options is given.
+    pub fn any(&self) -> bool {
+        self.scene.is_some() || self.nearest_mm.is_some() || self.film_fraction.is_some()
+    }
+
     fn requirements(
         &self,
         focus_mm: Option<f64>,
@@ -233,6 +238,9 @@ pub fn run(args: TradeoffArgs) -> anyhow::Result<()> {
         anyhow::bail!("--rays must be positive");
     }
     limits::check("--rays", args.rays as u64, limits::MAX_RAYS)?;
+    if args.render_frames == 0 {
+        anyhow::bail!("--render-frames must be at least 1 (the cost is their median)");
+    }
     let bench = RenderBench {
         width: args.render_width,
         height: args.render_height,
