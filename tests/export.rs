@@ -194,6 +194,24 @@ fn what_a_format_cannot_hold_is_refused_naming_the_surface() {
         why.contains("surface 4: a conic or aspheric surface"),
         "{why}"
     );
+    // A sphere of curvature 0 (or -0, or subnormal) is a plane: refused as one when it
+    // refracts (its reciprocal radius was written as `inf`), written as radius 0 at the stop.
+    for curvature in [0.0, -0.0, 5e-324] {
+        let mut flat = system("dgauss-50mm").prescription;
+        flat.surfaces[3].shape = lensbake::prescription::Shape::Sphere { curvature };
+        let why = refusal(write_pbrt(&flat, 587.6));
+        assert!(
+            why.contains("surface 4: a plane refracting surface"),
+            "{why}"
+        );
+        let stop = flat.surfaces.iter().position(|s| s.stop.is_some()).unwrap();
+        flat.surfaces[3] = system("dgauss-50mm").prescription.surfaces[3].clone();
+        flat.surfaces[stop].shape = lensbake::prescription::Shape::Sphere { curvature };
+        let text = write_pbrt(&flat, 587.6).unwrap();
+        assert!(!text.contains("inf"), "{text}");
+        let back = read_back(&text, Format::Pbrt);
+        assert_eq!(back.prescription.surfaces.len(), flat.surfaces.len());
+    }
     p.surfaces[0].medium = Medium::Sellmeier {
         b: [1.0, 0.2, 1.0],
         c: [0.006, 0.02, 100.0],

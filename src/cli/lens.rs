@@ -96,6 +96,17 @@ impl LensArgs {
     }
 }
 
+/// A surface's radius for the tables: `flat` for a plane, an ideal lens, or a sphere whose
+/// radius does not fit an f64 (curvature 0 or subnormal), which printed as `inf`.
+fn radius_text(shape: &Shape) -> String {
+    let radius = shape.radius();
+    match shape {
+        Shape::Plane | Shape::IdealLens { .. } => "flat".to_string(),
+        _ if !radius.is_finite() => "flat".to_string(),
+        _ => format!("{radius:.4}"),
+    }
+}
+
 /// A lens as `lens check` and `trace` read it: centred and validated, or placed off one axis
 /// (what no centred lens describes; only the 3-D trace reads it).
 pub enum Readable {
@@ -278,10 +289,7 @@ fn summary(lens: &LoadedLens) -> String {
         "semi-ap"
     ));
     for (i, (s, s_at)) in p.surfaces.iter().zip(&at.surfaces).enumerate() {
-        let radius = match s.shape {
-            Shape::Plane | Shape::IdealLens { .. } => "flat".to_string(),
-            _ => format!("{:.4}", s.shape.radius()),
-        };
+        let radius = radius_text(&s.shape);
         let kind = shape_name(&s.shape);
         line(format!(
             "  {:>3} {:4} {:>12} {:>11.4} {:11} {:16} {:>9.6} {:>9.4}",
@@ -399,10 +407,7 @@ fn placed_summary(
         "clear"
     ));
     for (i, (s, frame)) in p.surfaces.iter().zip(&lens.frames).enumerate() {
-        let radius = match s.shape {
-            Shape::Plane | Shape::IdealLens { .. } => "flat".to_string(),
-            _ => format!("{:.4}", s.shape.radius()),
-        };
+        let radius = radius_text(&s.shape);
         let axis = frame.axis();
         let tilt = axis[0].hypot(axis[1]).atan2(axis[2]).to_degrees();
         let clear = if lens.outlines[i].is_some() {

@@ -259,9 +259,11 @@ pub fn write_pbrt(p: &Prescription, wavelength_nm: f64) -> Result<String, Proble
         let surface = i + 1;
         not_reflecting_or_obscured(s, surface)?;
         let radius = match s.shape {
-            Shape::Sphere { curvature } => 1.0 / curvature,
-            Shape::Plane if s.stop.is_some() => 0.0,
-            Shape::Plane => {
+            // A sphere whose radius does not fit an f64 (curvature 0, -0 or subnormal) is a
+            // plane to pbrt too; its reciprocal written out (`inf`) made a file no reader takes.
+            Shape::Sphere { curvature } if (1.0 / curvature).is_finite() => 1.0 / curvature,
+            Shape::Sphere { .. } | Shape::Plane if s.stop.is_some() => 0.0,
+            Shape::Sphere { .. } | Shape::Plane => {
                 return refuse(format!(
                     "surface {surface}: a plane refracting surface; pbrt reads radius 0 as the \
                      aperture stop"
