@@ -100,6 +100,8 @@ pub enum LimitError {
     },
     #[error("{what} is NaN, not a number")]
     NotANumber { what: String },
+    #[error("{what} must be positive and finite, got {}", short(*.value))]
+    NotPositive { what: String, value: f64 },
     #[error(
         "{what} needs about {needed_mib} MiB of memory and only {available_mib} MiB is available"
     )]
@@ -120,6 +122,18 @@ pub fn check(what: &str, requested: u64, limit: u64) -> Result<(), LimitError> {
         });
     }
     Ok(())
+}
+
+/// Refuses `value` unless it is finite and above 0 (NaN included).
+pub fn check_positive(what: &str, value: f64) -> Result<(), LimitError> {
+    if value.is_finite() && value > 0.0 {
+        Ok(())
+    } else {
+        Err(LimitError::NotPositive {
+            what: what.to_string(),
+            value,
+        })
+    }
 }
 
 /// Refuses `value` outside `low..=high` (NaN included).

@@ -435,3 +435,34 @@ fn model_errors_that_only_ron_can_express() {
     assert_eq!(e.problem, Problem::BladeCurvatureOutOfRange { value: 1.5 });
     assert_eq!(e.location.field.as_deref(), Some("stop"));
 }
+
+/// A file's claims are refused with the rule they break, not an interval of f64 extremes
+/// (`outside [2.2250738585072014e-308, 1.7976931348623157e308]`).
+#[test]
+fn claims_that_cannot_hold_name_the_rule() {
+    let base = include_str!("../lenses/dgauss-50mm.ron");
+    for (claim, needle) in [
+        (
+            "claimed_f_number: Some(-2.0)",
+            "must be positive and finite, got -2",
+        ),
+        (
+            "claimed_f_number: Some(0.0)",
+            "must be positive and finite, got 0",
+        ),
+    ] {
+        let text = base.replace("claimed_f_number: Some(2.0)", claim);
+        assert_ne!(text, base);
+        let e = error(&text, Format::Ron);
+        let message = e.to_string();
+        assert!(message.contains(needle), "{message}");
+        assert!(
+            !message.contains("e308") && !message.contains("e-308"),
+            "{message}"
+        );
+        assert_eq!(
+            e.location.field.as_deref(),
+            Some("provenance.claimed_f_number")
+        );
+    }
+}

@@ -89,27 +89,22 @@ fn check_provenance(p: &Prescription, map: &SourceMap) -> Result<(), Prescriptio
         field: Some(format!("provenance.{name}")),
         ..Location::default()
     };
-    // A diverging lens claims a negative focal length; an f-number is positive.
-    let claims = [
-        (
-            "claimed_focal_length_mm",
-            p.provenance.claimed_focal_length_mm,
-            -f64::MAX,
-        ),
-        (
-            "claimed_f_number",
-            p.provenance.claimed_f_number,
-            f64::MIN_POSITIVE,
-        ),
-    ];
-    // A half field is an angle a chief ray can have: above 0, below 90 degrees.
-    if let Some(deg) = p.provenance.claimed_half_field_deg {
-        limits::check_range("claimed_half_field_deg", deg, f64::MIN_POSITIVE, 89.999)
-            .map_err(|e| PrescriptionError::new(field("claimed_half_field_deg"), e.into()))?;
+    // A diverging lens claims a negative focal length; an f-number is positive, and a half
+    // field an angle a chief ray can have, above 0 and below 90 degrees.
+    if let Some(efl) = p.provenance.claimed_focal_length_mm {
+        finite(efl, field("claimed_focal_length_mm"))?;
     }
-    for (name, value, low) in claims {
+    for (name, value, most) in [
+        ("claimed_f_number", p.provenance.claimed_f_number, f64::MAX),
+        (
+            "claimed_half_field_deg",
+            p.provenance.claimed_half_field_deg,
+            89.999,
+        ),
+    ] {
         if let Some(value) = value {
-            limits::check_range(name, value, low, f64::MAX)
+            limits::check_positive(name, value)
+                .and_then(|()| limits::check_range(name, value, 0.0, most))
                 .map_err(|e| PrescriptionError::new(field(name), e.into()))?;
         }
     }
