@@ -466,3 +466,23 @@ fn claims_that_cannot_hold_name_the_rule() {
         );
     }
 }
+
+/// An aperture a file states must be one: a pupil diameter, f-number or numerical aperture of 0
+/// or below is refused on its line (before, the design conditions dropped it without a word and
+/// took the stop's own).
+#[test]
+fn stated_apertures_must_be_positive() {
+    for (text, format, line, field) in [
+        ("MODE SEQ\nENPD -10\n", Format::Zemax, 2, "ENPD"),
+        ("MODE SEQ\nFNUM 0 0\n", Format::Zemax, 2, "FNUM"),
+        ("EPD 0\n", Format::CodeV, 1, "EPD"),
+        ("DIM M\nFNO -2\n", Format::CodeV, 2, "FNO"),
+    ] {
+        let e = error(text, format);
+        assert!(
+            e.to_string().contains("must be positive and finite"),
+            "{text}: {e}"
+        );
+        assert_at(&e, Some(line), None, Some(field));
+    }
+}

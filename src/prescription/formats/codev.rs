@@ -53,8 +53,8 @@ use super::placement::{
     self, ApertureOutline, Asymmetry, OutlineShape, Placement, PlacementKind, StatedOutline,
 };
 use super::{
-    AsphereTerms, Format, LoadNote, Loaded, Source, finite, named_medium, number, scale_to_mm,
-    shape,
+    AsphereTerms, Format, LoadNote, Loaded, Source, finite, named_medium, number, positive,
+    scale_to_mm, shape,
 };
 use crate::prescription::DEFAULT_WAVELENGTH_NM;
 use crate::prescription::error::{Location, PrescriptionError, Problem};
@@ -407,6 +407,12 @@ impl Reader {
         let list = |field: &str| -> Result<Vec<f64>, PrescriptionError> {
             c.args.iter().map(|a| finite(a, &at(field))).collect()
         };
+        let stated_aperture = |field: &str| -> Result<f64, PrescriptionError> {
+            match c.args.as_slice() {
+                [value] => positive(value, &at(field)),
+                other => Err(count("1 value", other.len())),
+            }
+        };
         let name = c.name.as_str();
         if let Some(wavelengths) = &self.private_block {
             match name {
@@ -487,9 +493,9 @@ impl Reader {
                     None => return Err(count("1 unit letter", 0)),
                 }
             }
-            "EPD" => self.epd = Some(one("EPD")?),
-            "FNO" => self.f_number = Some(one("FNO")?),
-            "NAO" => self.object_na = Some(one("NAO")?),
+            "EPD" => self.epd = Some(stated_aperture("EPD")?),
+            "FNO" => self.f_number = Some(stated_aperture("FNO")?),
+            "NAO" => self.object_na = Some(stated_aperture("NAO")?),
             "NA" => self.unusable_aperture = Some(format!("the aperture is given as {name}")),
             "WL" => self.wavelengths = list("WL")?,
             "WTW" => self.wavelength_weights = list("WTW")?,
@@ -1068,8 +1074,8 @@ impl Reader {
                     value: finite(value, &at(&field))?,
                 });
             }
-            ("EPD", _, None, Some(value)) => self.epd = Some(finite(value, &at(&field))?),
-            ("FNO", _, None, Some(value)) => self.f_number = Some(finite(value, &at(&field))?),
+            ("EPD", _, None, Some(value)) => self.epd = Some(positive(value, &at(&field))?),
+            ("FNO", _, None, Some(value)) => self.f_number = Some(positive(value, &at(&field))?),
             _ => {
                 self.zoomed_as_written.insert(item.clone());
             }

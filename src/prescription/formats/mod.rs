@@ -510,6 +510,17 @@ fn finite(text: &str, at: &Location) -> Result<f64, PrescriptionError> {
     }
 }
 
+/// A number that must be above 0 and finite (an aperture a file states: its pupil diameter,
+/// f-number or numerical aperture), refused where it is written; the design conditions would
+/// otherwise drop it without a word and take the stop's own.
+fn positive(text: &str, at: &Location) -> Result<f64, PrescriptionError> {
+    let value = finite(text, at)?;
+    let what = at.field.clone().unwrap_or_else(|| "the value".into());
+    crate::limits::check_positive(&what, value)
+        .map_err(|e| PrescriptionError::new(at.clone(), e.into()))?;
+    Ok(value)
+}
+
 /// The simplest shape that describes a surface with even-asphere terms (on r^2, r^4, ...): a
 /// plane when flat without them, a sphere without conic or terms, and so on. Trailing zero
 /// terms are dropped.

@@ -56,7 +56,8 @@ use super::placement::{
     StatedToroid,
 };
 use super::{
-    Format, LoadNote, Loaded, Source, finite, named_medium, number, odd_shape, scale_to_mm, shape,
+    Format, LoadNote, Loaded, Source, finite, named_medium, number, odd_shape, positive,
+    scale_to_mm, shape,
 };
 use crate::prescription::DEFAULT_WAVELENGTH_NM;
 use crate::prescription::error::{PrescriptionError, Problem};
@@ -308,6 +309,8 @@ impl Reader {
         let list = || -> Result<Vec<f64>, PrescriptionError> {
             args.iter().map(|a| finite(a, &at(keyword))).collect()
         };
+        let stated_aperture =
+            || -> Result<f64, PrescriptionError> { positive(arg(0, "1 value(s)")?, &at(keyword)) };
         let index = |k: usize| -> Result<usize, PrescriptionError> {
             let text = arg(k, &format!("{} value(s)", k + 1))?;
             text.parse::<usize>().map_err(|_| {
@@ -564,9 +567,9 @@ impl Reader {
                 }
             }
             "GCAT" => self.catalogues = args.iter().map(|a| a.to_ascii_uppercase()).collect(),
-            "ENPD" => self.set_aperture(ApertureSpec::EntrancePupilDiameter(value(0)?)),
-            "FNUM" => self.set_aperture(ApertureSpec::FNumber(value(0)?)),
-            "OBNA" => self.set_aperture(ApertureSpec::ObjectNumericalAperture(value(0)?)),
+            "ENPD" => self.set_aperture(ApertureSpec::EntrancePupilDiameter(stated_aperture()?)),
+            "FNUM" => self.set_aperture(ApertureSpec::FNumber(stated_aperture()?)),
+            "OBNA" => self.set_aperture(ApertureSpec::ObjectNumericalAperture(stated_aperture()?)),
             "FLOA" => self.set_aperture(ApertureSpec::FloatByStop),
             "OBSA" | "EFNO" => {
                 self.aperture = None;
