@@ -272,7 +272,7 @@ pub fn rgb_tracers(system: &LensSystem) -> [Tracer; 3] {
 /// clear semi-aperture and still pass. A ray aimed at the rim (a spot diagram's outer ring, a
 /// marginal ray through a stop at the first surface) arrives there within a few ulps either side,
 /// so without it the rounding of its last digits decided whether it passed, and a change in
-/// the order of operations moved a spot diagram's edge rays in and out (3.6e-14 mm at a 10 mm
+/// the order of operations moved a spot diagram's edge rays in and out (1.8e-14 mm at a 10 mm
 /// rim: no ray a physical aperture would treat differently).
 const RIM_ROUNDING: f64 = 16.0 * f64::EPSILON;
 
