@@ -148,7 +148,7 @@ fn concurrent_runs_into_one_directory_keep_every_row() {
 }
 
 /// Settings are checked before anything is loaded, baked or written: a bad sample count, layer
-/// cap or backend leaves neither a table nor a timings file behind.
+/// cap, backend or lens leaves neither a table nor an output folder behind.
 #[test]
 fn bad_settings_are_refused_before_any_table_or_file() {
     let dir = std::env::temp_dir().join(format!("lensbake-bench-bad-{}", std::process::id()));
@@ -160,6 +160,12 @@ fn bad_settings_are_refused_before_any_table_or_file() {
         ("--spp", "65537", "over the limit"),
         ("--max-layers", "0", "must be positive"),
         ("--backends", "cpu,tpu", "`tpu` is not cpu or gpu"),
+        // Found after the output folder is made: the folder goes again.
+        (
+            "--lens",
+            "no-such-lens",
+            "neither a lens file nor a bundled lens",
+        ),
     ] {
         let output = lensbake(&[
             "bench",

@@ -143,9 +143,20 @@ pub fn run(args: RenderBenchArgs) -> anyhow::Result<()> {
     {
         anyhow::bail!("--backends: `{other}` is not cpu or gpu");
     }
-    // Made before the table, so an unusable destination is refused before a bake.
+    // Made before the table, so an unusable destination is refused before a bake; removed
+    // again if the run fails before it saved a row (a folder with rows keeps them).
+    let made_here = !args.out.exists();
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
+    let measured = measure(&args, base);
+    if measured.is_err() && made_here {
+        let _ = std::fs::remove_dir(&args.out);
+    }
+    measured
+}
+
+/// The frames `args` asks for, each saved to `<out>/timings.json` as it is measured.
+fn measure(args: &RenderBenchArgs, base: RenderSettings) -> anyhow::Result<()> {
     let lens = super::lens::render_lens(&args.lens, &args.read)?;
     let RenderLens::Real(real) = &lens else {
         anyhow::bail!("bench render needs a real lens (a file or bundled name), not `ideal:`");
