@@ -486,3 +486,21 @@ fn stated_apertures_must_be_positive() {
         assert_at(&e, Some(line), None, Some(field));
     }
 }
+
+/// A Zemax wavelength outside what lensbake traces is refused on its WAVM line (validation saw
+/// only the design wavelength, and named an internal field with no line).
+#[test]
+fn zemax_wavelengths_are_located_on_their_line() {
+    let base = include_str!("../examples/lenses/cooke_triplet.zmx");
+    // The design wavelength (PWAV 2) on line 22, another one in use on line 21.
+    for (written, zero, line) in [
+        ("WAVM 2 0.55 1", "WAVM 2 0 1", 22),
+        ("WAVM 1 0.48 1", "WAVM 1 0 1", 21),
+    ] {
+        let text = base.replace(written, zero);
+        assert_ne!(text, base);
+        let e = error(&text, Format::Zemax);
+        assert!(e.to_string().contains("the wavelength (nm) is 0"), "{e}");
+        assert_at(&e, Some(line), None, Some("WAVM"));
+    }
+}

@@ -59,6 +59,7 @@ use super::{
     Format, LoadNote, Loaded, Source, finite, named_medium, number, odd_shape, positive,
     scale_to_mm, shape,
 };
+use crate::limits;
 use crate::prescription::DEFAULT_WAVELENGTH_NM;
 use crate::prescription::error::{PrescriptionError, Problem};
 use crate::prescription::model::{
@@ -227,6 +228,8 @@ struct Reader {
     vignetting: [Vec<f64>; 4],
     /// Wavelengths in µm by number (1-based in the file), and their weights.
     wavelengths: Vec<f64>,
+    /// The line and keyword each wavelength was given on, by number.
+    wavelength_lines: Vec<(usize, &'static str)>,
     wavelength_weights: Vec<f64>,
     primary: Option<(usize, usize)>,
     blocks: Vec<Block>,
@@ -632,14 +635,18 @@ impl Reader {
                     .max(self.wavelengths.len())
                     .max(self.wavelength_weights.len());
                 self.wavelengths.resize(len, f64::NAN);
+                self.wavelength_lines.resize(len, (line, "WAVM"));
                 self.wavelength_weights.resize(len, 1.0);
                 self.wavelengths[number - 1] = um;
+                self.wavelength_lines[number - 1] = (line, "WAVM");
                 if args.len() > 2 {
                     self.wavelength_weights[number - 1] = value(2)?;
                 }
             }
             "WAVN" | "WAVL" => {
                 self.wavelengths = list()?;
+                let keyword = if keyword == "WAVN" { "WAVN" } else { "WAVL" };
+                self.wavelength_lines = vec![(line, keyword); self.wavelengths.len()];
                 self.wavelength_weights.resize(self.wavelengths.len(), 1.0);
             }
             "WWGT" => self.wavelength_weights = list()?,
@@ -722,6 +729,9 @@ impl Reader {
                 Problem::Unsupported("a curved image surface".into()),
             ));
         }
+        let design = self
+            .primary
+            .map_or(0, |(primary, _)| primary.wrapping_sub(1));
         let wavelength_nm = match self.primary {
             Some((primary, line)) => match self.wavelengths.get(primary.wrapping_sub(1)) {
                 Some(um) if um.is_finite() => Some(um * 1000.0),
@@ -738,6 +748,24 @@ impl Reader {
                 .filter(|um| um.is_finite())
                 .map(|um| um * 1000.0),
         };
+        // Checked here, where the line each was written on is known (later checks see the
+        // numbers without their lines): the design wavelength and every one in use.
+        let used = self.wavelength_count.unwrap_or(self.wavelengths.len());
+        for (k, (um, &(line, keyword))) in self
+            .wavelengths
+            .iter()
+            .zip(&self.wavelength_lines)
+            .enumerate()
+        {
+            if (k < used || k == design) && um.is_finite() {
+                limits::check_wavelength(um * 1000.0).map_err(|e| {
+                    PrescriptionError::new(
+                        source.location(Some(line)).with_field(keyword),
+                        e.into(),
+                    )
+                })?;
+            }
+        }
         if image.kind == SurfaceType::CoordinateBreak {
             return Err(PrescriptionError::new(
                 source.location(Some(image.line)).with_field("TYPE"),
