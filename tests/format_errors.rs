@@ -487,10 +487,10 @@ fn stated_apertures_must_be_positive() {
     }
 }
 
-/// A Zemax wavelength outside what lensbake traces is refused on its WAVM line (validation saw
-/// only the design wavelength, and named an internal field with no line).
+/// A wavelength outside what lensbake traces is refused on its line (WAVM in Zemax, WL in CODE
+/// V); validation saw only the design wavelength, and named an internal field with no line.
 #[test]
-fn zemax_wavelengths_are_located_on_their_line() {
+fn wavelengths_are_located_on_their_line() {
     let base = include_str!("../examples/lenses/cooke_triplet.zmx");
     // The design wavelength (PWAV 2) on line 22, another one in use on line 21.
     for (written, zero, line) in [
@@ -503,4 +503,8 @@ fn zemax_wavelengths_are_located_on_their_line() {
         assert!(e.to_string().contains("the wavelength (nm) is 0"), "{e}");
         assert_at(&e, Some(line), None, Some("WAVM"));
     }
+    // CODE V lists its wavelengths (nm) on one WL line.
+    let e = error("DIM M\nWL 587.56 0\n", Format::CodeV);
+    assert!(e.to_string().contains("the wavelength (nm) is 0"), "{e}");
+    assert_at(&e, Some(2), None, Some("WL"));
 }

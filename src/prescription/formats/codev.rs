@@ -497,7 +497,15 @@ impl Reader {
             "FNO" => self.f_number = Some(stated_aperture("FNO")?),
             "NAO" => self.object_na = Some(stated_aperture("NAO")?),
             "NA" => self.unusable_aperture = Some(format!("the aperture is given as {name}")),
-            "WL" => self.wavelengths = list("WL")?,
+            "WL" => {
+                let wavelengths = list("WL")?;
+                // Checked on their line: later checks see the design wavelength without one.
+                for &nm in &wavelengths {
+                    crate::limits::check_wavelength(nm)
+                        .map_err(|e| PrescriptionError::new(at("WL"), e.into()))?;
+                }
+                self.wavelengths = wavelengths;
+            }
             "WTW" => self.wavelength_weights = list("WTW")?,
             "WTF" => self.field_weights = list("WTF")?,
             "REF" => {
