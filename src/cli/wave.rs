@@ -118,12 +118,7 @@ impl Setup {
         // The limits every other command applies (f/0.5 is the fastest cone a lens in air
         // can form), so a tiny pupil cannot shrink the wave grids' lag step to nothing.
         if let Some(epd) = args.epd_mm {
-            limits::check_range(
-                "--epd-mm",
-                epd,
-                limits::MIN_LENGTH_MM,
-                limits::MAX_LENGTH_MM,
-            )?;
+            limits::check_length("--epd-mm", epd)?;
         }
         if let Some(f_number) = args.f_number {
             limits::check_range("--f-number", f_number, 0.5, limits::MAX_F_NUMBER)?;

@@ -103,13 +103,6 @@ pub enum Problem {
     )]
     IndexBelowVacuum { index: f64 },
     #[error(
-        "semi-aperture must be {} to {} mm, got {}",
-        crate::limits::short(crate::limits::MIN_LENGTH_MM),
-        crate::limits::short(crate::limits::MAX_LENGTH_MM),
-        crate::limits::short(*.value)
-    )]
-    ApertureOutOfRange { value: f64 },
-    #[error(
         "central obscuration radius {} mm must be positive and inside the semi-aperture {} mm",
         crate::limits::short(*.radius),
         crate::limits::short(*.semi_aperture)

@@ -238,14 +238,8 @@ fn check_surface(i: usize, s: &Surface, map: &SourceMap) -> Result<(), Prescript
     finite(s.semi_aperture, map.surface(i, "semi_aperture"))?;
     // Below a nanometre the bake's pupil search divides by squares that underflow (a 1e-300 mm
     // aperture baked a table of NaN margins).
-    if !(limits::MIN_LENGTH_MM..=limits::MAX_LENGTH_MM).contains(&s.semi_aperture) {
-        return Err(PrescriptionError::new(
-            map.surface(i, "semi_aperture"),
-            Problem::ApertureOutOfRange {
-                value: s.semi_aperture,
-            },
-        ));
-    }
+    limits::check_length("the semi-aperture", s.semi_aperture)
+        .map_err(|e| PrescriptionError::new(map.surface(i, "semi_aperture"), e.into()))?;
     check_medium(&s.medium, map.surface(i, "medium"))?;
     if let Some(radius) = s.obscuration {
         finite(radius, map.surface(i, "obscuration"))?;
