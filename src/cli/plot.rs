@@ -29,8 +29,7 @@ pub struct PlotArgs {
 
 /// The kinds `plot` draws, listed from [`PlotKind::ALL`] so the help cannot fall behind it.
 fn kind_help() -> String {
-    let kinds: Vec<&str> = PlotKind::ALL.iter().map(|k| k.name()).collect();
-    format!("{}, lrtf-error", kinds.join(", "))
+    format!("{}, lrtf-error", PlotKind::names())
 }
 
 /// The design-condition flags `plot` and `report` share with `analyze`: each overrides the

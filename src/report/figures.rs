@@ -62,6 +62,11 @@ impl PlotKind {
         PlotKind::MtfField,
     ];
 
+    /// Every kind's command-line name, comma separated.
+    pub fn names() -> String {
+        PlotKind::ALL.map(PlotKind::name).join(", ")
+    }
+
     /// The command-line name, also the report's file stem.
     pub fn name(self) -> &'static str {
         match self {
@@ -164,7 +169,7 @@ impl FigureOptions {
 
 #[derive(Debug, thiserror::Error)]
 pub enum FigureError {
-    #[error("unknown plot kind {0:?}; expected one of {names}", names = PlotKind::ALL.map(PlotKind::name).join(", "))]
+    #[error("unknown plot kind {0:?}; expected one of {names}", names = PlotKind::names())]
     UnknownKind(String),
     #[error(transparent)]
     Analysis(#[from] AnalysisError),
