@@ -729,11 +729,12 @@ impl Reader {
                 Problem::Unsupported("a curved image surface".into()),
             ));
         }
+        // Wavelength numbers are 1-based; PWAV 0 wraps to an index no list has.
         let design = self
             .primary
             .map_or(0, |(primary, _)| primary.wrapping_sub(1));
         let wavelength_nm = match self.primary {
-            Some((primary, line)) => match self.wavelengths.get(primary.wrapping_sub(1)) {
+            Some((primary, line)) => match self.wavelengths.get(design) {
                 Some(um) if um.is_finite() => Some(um * 1000.0),
                 _ => {
                     return Err(PrescriptionError::new(
