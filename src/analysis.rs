@@ -43,6 +43,15 @@ pub enum AnalysisError {
     Wavelength(#[from] PrescriptionError),
     #[error(transparent)]
     Paraxial(#[from] ParaxialError),
+    /// A condition the lens file states cannot be used, located where the file states it
+    /// ([`LensSystem::condition_locations`]).
+    #[error("{}the lens file's {}: {error}", at.prefix(), condition.describe())]
+    Stated {
+        condition: crate::prescription::StatedCondition,
+        at: crate::prescription::Location,
+        #[source]
+        error: ParaxialError,
+    },
     #[error("{quantity} is not finite: the lens is too close to a degenerate case to analyse")]
     NonFinite { quantity: String },
 }

@@ -189,3 +189,54 @@ fn list_names_every_bundled_lens() {
         assert_eq!(o.status.code(), Some(0), "{}: {}", lens.name, stderr(&o));
     }
 }
+
+/// A condition the file states that no analysis can use (here a virtual object, DISZ -100 on
+/// SURF 0) fails `lens check` as it fails `analyze`, on the keyword's line, and the report
+/// writes nothing rather than a page of skipped plots.
+#[test]
+fn a_stated_condition_no_analysis_can_use_fails_check_and_report_on_its_line() {
+    let dir = temp_dir("stated");
+    let path = dir.join("virtual-object.zmx");
+    let base = include_str!("../examples/lenses/cooke_triplet.zmx");
+    let text = base.replacen("  DISZ INFINITY", "  DISZ -100", 1);
+    assert_ne!(text, base);
+    std::fs::write(&path, text).unwrap();
+    let expected = format!(
+        "error: {}:32, field `DISZ`: the lens file's object distance: object distance must be \
+         positive",
+        path.display()
+    );
+    let report = dir.join("report");
+    for args in [
+        vec!["lens", "check", path.to_str().unwrap()],
+        vec!["analyze", path.to_str().unwrap()],
+        vec![
+            "report",
+            path.to_str().unwrap(),
+            "--out",
+            report.to_str().unwrap(),
+        ],
+    ] {
+        let o = lensbake(&args);
+        assert_eq!(o.status.code(), Some(2), "{args:?}");
+        let errors: Vec<&str> = std::str::from_utf8(&o.stderr)
+            .unwrap()
+            .lines()
+            .filter(|l| l.starts_with("error:"))
+            .collect();
+        assert_eq!(errors.len(), 1, "{args:?}: {errors:?}");
+        assert!(errors[0].starts_with(&expected), "{args:?}: {errors:?}");
+        assert!(stdout(&o).is_empty(), "{args:?}");
+    }
+    assert!(!report.exists());
+    // The lens as written checks, and its summary lists the conditions it is analysed under.
+    std::fs::write(&path, base).unwrap();
+    let o = lensbake(&["lens", "check", path.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(
+        stdout(&o).contains("    entrance-pupil diameter  10.000 mm (f/5.00) (lens file)\n"),
+        "{}",
+        stdout(&o)
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}

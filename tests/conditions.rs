@@ -3,10 +3,14 @@
 //! and the rule come in that order; flags override all three everywhere alike.
 
 use lensbake::analysis::{
-    AnalyzeOptions, ConditionOverrides, DesignConditions, Origin, RULE_MAX_FIELD_DEG, analyze,
+    AnalysisError, AnalyzeOptions, ConditionOverrides, DesignConditions, Origin,
+    RULE_MAX_FIELD_DEG, analyze,
 };
 use lensbake::lenses;
+use lensbake::paraxial::ParaxialError;
+use lensbake::prescription::StatedCondition;
 use lensbake::prescription::formats::LoadOptions;
+use lensbake::prescription::formats::{Format, read_str};
 use lensbake::report::{Figure, FigureOptions, PlotKind, figure, write_report};
 use lensbake::system::LensSystem;
 use lensbake::trace::{RaySource, Tracer, Travel, aim_at_stop};
@@ -244,4 +248,91 @@ fn a_claimed_f_number_sets_the_pupil_only_where_the_stop_allows_it() {
     assert_eq!(dgauss.aperture_from, Origin::Rule);
     assert!(dgauss.notes.iter().any(|n| n.contains("claimed f/2")));
     assert!((dgauss.f_number - 2.03).abs() < 0.01);
+}
+
+/// A stated condition no analysis can use is refused naming the line and keyword that state
+/// it; a flag that replaces it lets the lens be analysed.
+#[test]
+fn unusable_stated_conditions_are_located_where_the_file_states_them() {
+    let zemax = include_str!("../examples/lenses/cooke_triplet.zmx");
+    let codev = include_str!("../examples/lenses/ag_dblgauss.seq");
+    let cases = [
+        // A virtual object (SURF 0's DISZ, line 32).
+        (
+            zemax,
+            Format::Zemax,
+            "  DISZ INFINITY",
+            "  DISZ -100",
+            StatedCondition::Object,
+            32,
+            "DISZ",
+        ),
+        // A field at 90 degrees (line 14).
+        (
+            zemax,
+            Format::Zemax,
+            "YFLN 0 14 20",
+            "YFLN 0 14 90",
+            StatedCondition::Fields,
+            14,
+            "YFLN",
+        ),
+        // 95 degrees, whose tangent is that of -85 degrees: it must not pass as 85.
+        (
+            codev,
+            Format::CodeV,
+            "YAN   0.0 10.0000000023 14.0000000032",
+            "YAN 0 10 95",
+            StatedCondition::Fields,
+            10,
+            "YAN",
+        ),
+        (
+            codev,
+            Format::CodeV,
+            "SO    0.0 993938392063.0",
+            "SO 0 -50",
+            StatedCondition::Object,
+            14,
+            "SO",
+        ),
+    ];
+    for (base, format, written, changed, condition, line, keyword) in cases {
+        let text = base.replacen(written, changed, 1);
+        assert_ne!(text, base, "{changed}");
+        let loaded = read_str(
+            &text,
+            Some(Path::new("lens.txt")),
+            format,
+            &LoadOptions::default(),
+        )
+        .unwrap();
+        let system = LensSystem::new(loaded.prescription, &loaded.map).unwrap();
+        match DesignConditions::resolve(&system, &ConditionOverrides::default()) {
+            Err(AnalysisError::Stated {
+                condition: refused,
+                at,
+                error,
+            }) => {
+                assert_eq!(refused, condition, "{changed}");
+                assert_eq!(at.file.as_deref(), Some(Path::new("lens.txt")));
+                assert_eq!((at.line, at.field.as_deref()), (Some(line), Some(keyword)));
+                assert!(
+                    matches!(
+                        error,
+                        ParaxialError::ObjectNotInFront { .. }
+                            | ParaxialError::InvalidFieldAngle { .. }
+                    ),
+                    "{error}"
+                );
+            }
+            other => panic!("{changed}: {other:?}"),
+        }
+        let flags = ConditionOverrides {
+            field_deg: Some(10.0),
+            object_distance_mm: Some(5000.0),
+            ..ConditionOverrides::default()
+        };
+        DesignConditions::resolve(&system, &flags).unwrap();
+    }
 }

@@ -215,7 +215,7 @@ fn unknown_glass() {
         Format::CodeV,
     );
     assert!(matches!(e.problem, Problem::UnknownGlass { .. }), "{e}");
-    assert_at(&e, Some(2), Some(1), Some("glass"));
+    assert_at(&e, Some(2), Some(1), Some("medium"));
     // Close names are suggested.
     let e = error(
         "RDM N\nS 0.02 5 NBK8\nCIR 10\nSTO\nS -0.02 40\nCIR 10\n",
@@ -514,4 +514,26 @@ fn wavelengths_are_located_on_their_line() {
     let e = error("DIM M\nWL 587.56 0\n", Format::CodeV);
     assert!(e.to_string().contains("the wavelength (nm) is 0"), "{e}");
     assert_at(&e, Some(2), None, Some("WL"));
+}
+
+/// Zemax writes a surface's fields one keyword to a line: a problem found after reading names
+/// the line of the keyword that set the field (GLAS, DISZ, DIAM, ...), not the surface's SURF
+/// line.
+#[test]
+fn zemax_fields_are_located_on_their_keyword_line() {
+    let base = include_str!("../examples/lenses/cooke_triplet.zmx");
+    let cases = [
+        // SURF 1's glass, on line 41.
+        ("  GLAS SK16 1 0", "  GLAS NOSUCH 1 0", 41, 1, "GLAS"),
+        // SURF 2's gap to surface 3, on line 49, made to cross it.
+        ("  DISZ 6.00755", "  DISZ -6.00755", 49, 2, "DISZ"),
+        // SURF 1's semi-aperture, on line 42, made larger than its 22 mm radius.
+        ("  DIAM 8.84 1", "  DIAM 30 1", 42, 1, "DIAM"),
+    ];
+    for (written, changed, line, surface, keyword) in cases {
+        let text = base.replacen(written, changed, 1);
+        assert_ne!(text, base);
+        let e = error(&text, Format::Zemax);
+        assert_at(&e, Some(line), Some(surface), Some(keyword));
+    }
 }

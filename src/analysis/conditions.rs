@@ -9,8 +9,10 @@
 
 use super::AnalysisError;
 use crate::glass::{C_LINE_NM, F_LINE_NM};
-use crate::paraxial::{Aperture, Field, ObjectPosition, Paraxial, ParaxialOptions, StopChoice};
-use crate::prescription::{ApertureSpec, FieldKind, FieldSpec};
+use crate::paraxial::{
+    Aperture, Field, ObjectPosition, Paraxial, ParaxialError, ParaxialOptions, StopChoice,
+};
+use crate::prescription::{ApertureSpec, FieldKind, FieldSpec, StatedCondition};
 use crate::system::{LensSystem, SystemAt};
 use crate::trace::{Tracer, traceable_field_deg};
 use serde::Serialize;
@@ -153,7 +155,8 @@ impl DesignConditions {
                 field: Field::Angle { deg: 0.0 },
                 stop: overrides.stop,
             },
-        )?;
+        )
+        .map_err(|error| blame(system, object_from, StatedCondition::Object, error))?;
         let efl = wide_open.first_order.efl.abs();
         let (epd_mm, aperture_from) = if let Some(epd) = overrides.epd_mm {
             (epd, Origin::Flag)
@@ -183,12 +186,12 @@ impl DesignConditions {
             }
         };
 
-        let file_fields = if overrides.field_deg.is_some() {
-            None
-        } else {
-            stated
-                .and_then(|c| c.fields.as_ref())
-                .and_then(|f| stated_fields(f, &wide_open, object_distance_mm, &mut notes))
+        let file_fields = match stated.and_then(|c| c.fields.as_ref()) {
+            Some(fields) if overrides.field_deg.is_none() => {
+                stated_fields(fields, &wide_open, object_distance_mm, &mut notes)
+                    .map_err(|error| stated_error(system, StatedCondition::Fields, error))?
+            }
+            _ => None,
         };
         let (fields_deg, paraxial_field, field_from) = if let Some(deg) = overrides.field_deg {
             (fractions_of(deg), Field::Angle { deg }, Origin::Flag)
@@ -221,7 +224,8 @@ impl DesignConditions {
                 field: Field::Angle { deg: 0.0 },
                 stop: overrides.stop,
             },
-        )?;
+        )
+        .map_err(|error| blame(system, aperture_from, StatedCondition::Aperture, error))?;
         Ok(DesignConditions {
             reference_nm,
             reference_from,
@@ -371,6 +375,32 @@ impl FileDefaults {
     }
 }
 
+/// `error` as the fault of the file's `condition` where the value came from the file.
+fn blame(
+    system: &LensSystem,
+    origin: Origin,
+    condition: StatedCondition,
+    error: ParaxialError,
+) -> AnalysisError {
+    if origin == Origin::File {
+        stated_error(system, condition, error)
+    } else {
+        error.into()
+    }
+}
+
+fn stated_error(
+    system: &LensSystem,
+    condition: StatedCondition,
+    error: ParaxialError,
+) -> AnalysisError {
+    AnalysisError::Stated {
+        condition,
+        at: system.condition_locations[&condition].clone(),
+        error,
+    }
+}
+
 /// The top field, 0.7 of it and the axis.
 fn fractions_of(top_deg: f64) -> Vec<f64> {
     FIELD_FRACTIONS.iter().map(|f| f * top_deg).collect()
@@ -444,7 +474,7 @@ fn stated_fields(
     probe: &Paraxial,
     object_distance_mm: Option<f64>,
     notes: &mut Vec<String>,
-) -> Option<(Vec<f64>, Field)> {
+) -> Result<Option<(Vec<f64>, Field)>, ParaxialError> {
     let radial: Vec<f64> = fields
         .x
         .iter()
@@ -461,10 +491,22 @@ fn stated_fields(
         })
         .collect();
     let largest = radial.iter().copied().fold(0.0, f64::max);
+    // Checked on the components: the tangents of 95 and 85 degrees differ only in sign.
+    if fields.kind == FieldKind::AngleDeg
+        && let Some(&deg) = fields.x.iter().chain(&fields.y).find(|v| !(v.abs() < 90.0))
+    {
+        return Err(ParaxialError::InvalidFieldAngle { deg });
+    }
+    if fields.kind == FieldKind::AngleDeg && !(largest < 90.0) {
+        return Err(ParaxialError::InvalidFieldAngle { deg: largest });
+    }
+    if !largest.is_finite() {
+        return Err(ParaxialError::InvalidObjectHeight { height: largest });
+    }
     if largest <= 0.0 {
         notes
             .push("the file's fields are all on axis: the field comes from the next source".into());
-        return None;
+        return Ok(None);
     }
     let efl = probe.first_order.efl.abs();
     let pupil_z = probe.entrance_pupil.z;
@@ -485,7 +527,9 @@ fn stated_fields(
                 )
             }
             (FieldKind::ParaxialImageHeight, Some(d)) => {
-                let m = probe.magnification.filter(|m| *m != 0.0)?;
+                let Some(m) = probe.magnification.filter(|m| *m != 0.0) else {
+                    return Ok(None);
+                };
                 (
                     Box::new(move |h| (h / m.abs() / (d + pupil_z)).atan().to_degrees()),
                     Field::ObjectHeight {
@@ -498,11 +542,11 @@ fn stated_fields(
                     "the file's {kind:?} fields need a real-ray search this build does not do: \
                  the field comes from the next source"
                 ));
-                return None;
+                return Ok(None);
             }
         };
     let mut angles: Vec<f64> = radial.iter().map(|&v| to_angle(v)).collect();
     angles.sort_by(|a, b| b.total_cmp(a));
     angles.dedup();
-    Some((angles, field))
+    Ok(Some((angles, field)))
 }

@@ -1,9 +1,8 @@
 //! `lensbake analyze`: first-order data, pupils and Seidel sums as a readable report or JSON.
 
 use super::lens::LensArgs;
-use anyhow::Context;
 use clap::Args;
-use lensbake::analysis::{Analysis, AnalyzeOptions, analyze};
+use lensbake::analysis::{Analysis, AnalysisError, AnalyzeOptions, analyze};
 use lensbake::paraxial::StopChoice;
 use std::fmt::Write as _;
 
@@ -51,8 +50,11 @@ pub fn run(args: AnalyzeArgs) -> anyhow::Result<()> {
             StopChoice::Marked
         },
     };
-    let analysis = analyze(&name, &lens.system, &options)
-        .with_context(|| format!("analysing {}", lens.source.origin))?;
+    let analysis = analyze(&name, &lens.system, &options).map_err(|error| match error {
+        // Located in the file already.
+        AnalysisError::Stated { .. } => anyhow::Error::new(error),
+        other => anyhow::Error::new(other).context(format!("analysing {}", lens.source.origin)),
+    })?;
     if args.json {
         say!("{}", serde_json::to_string_pretty(&analysis)?);
     } else {

@@ -3,6 +3,7 @@
 use anyhow::{Context, bail};
 use clap::builder::{PossibleValuesParser, TypedValueParser};
 use clap::{Args, Subcommand};
+use lensbake::analysis::{AnalysisError, ConditionOverrides, DesignConditions};
 use lensbake::job::RenderLens;
 use lensbake::lenses::{self, BUNDLED, LensError, LensSource, LoadedLens};
 use lensbake::model::ModelKind;
@@ -167,7 +168,7 @@ pub fn run(command: LensCommand) -> anyhow::Result<()> {
     match command {
         LensCommand::Check(args) => {
             match args.load_or_placed()? {
-                Readable::Centred(lens) => say_raw!("{}", summary(&lens)),
+                Readable::Centred(lens) => say_raw!("{}", summary(&lens)?),
                 Readable::Placed {
                     offence,
                     location,
@@ -238,9 +239,14 @@ fn list() -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The one-screen summary `lens check` prints.
-fn summary(lens: &LoadedLens) -> String {
+/// The one-screen summary `lens check` prints. A condition the file states that no analysis
+/// can use fails the check, as it would fail `analyze`.
+fn summary(lens: &LoadedLens) -> anyhow::Result<String> {
     let system = &lens.system;
+    let conditions = match DesignConditions::resolve(system, &ConditionOverrides::default()) {
+        Err(error @ AnalysisError::Stated { .. }) => return Err(error.into()),
+        resolved => resolved,
+    };
     let p = &system.prescription;
     let wavelength_nm = system.design_wavelength_nm();
     let at = system.at(wavelength_nm);
@@ -330,10 +336,20 @@ fn summary(lens: &LoadedLens) -> String {
         p.surfaces.len(),
         last.thickness
     ));
+    line(String::new());
+    match conditions {
+        Ok(conditions) => {
+            line("  conditions (what analyze, plot and report use without flags):".into());
+            for (what, value, origin) in conditions.summary_rows() {
+                line(format!("    {what:24} {value} ({origin})"));
+            }
+        }
+        Err(error) => line(format!("  conditions:  none resolve: {error}")),
+    }
     for note in &lens.source.loaded.notes {
         line(format!("note: {note}"));
     }
-    out
+    Ok(out)
 }
 
 /// The beam `lens`'s file describes, or the one line that says what the 3-D trace takes instead.

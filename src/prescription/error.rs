@@ -39,6 +39,17 @@ impl Location {
     }
 }
 
+impl Location {
+    /// `"<location>: "` to put before a message, or nothing where nothing is known.
+    pub fn prefix(&self) -> String {
+        if *self == Location::default() {
+            String::new()
+        } else {
+            format!("{self}: ")
+        }
+    }
+}
+
 impl fmt::Display for Location {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let mut parts: Vec<String> = Vec::new();

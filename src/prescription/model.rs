@@ -44,6 +44,28 @@ pub struct Provenance {
     pub conditions: Option<Conditions>,
 }
 
+/// One of the conditions a file states, as an error about it names it (see
+/// [`crate::prescription::SourceMap::condition_lines`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub enum StatedCondition {
+    /// The object distance (Zemax's object `DISZ`, CODE V's `SO` thickness).
+    Object,
+    /// The aperture (`ENPD`/`FNUM`/`OBNA`, `EPD`/`FNO`/`NAO`).
+    Aperture,
+    /// The fields (`XFLN`/`YFLN`, `XAN`/`YAN`/`XOB`/`YOB`/...).
+    Fields,
+}
+
+impl StatedCondition {
+    pub fn describe(self) -> &'static str {
+        match self {
+            StatedCondition::Object => "object distance",
+            StatedCondition::Aperture => "aperture",
+            StatedCondition::Fields => "fields",
+        }
+    }
+}
+
 /// Object, aperture, fields and wavelengths as the source file states them, in mm and nm.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]

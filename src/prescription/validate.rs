@@ -1,8 +1,11 @@
 //! Checks a prescription before anything computes with it.
 
 use super::error::{Location, PrescriptionError, Problem};
-use super::model::{MAX_ASPHERE_TERMS, MIN_INDEX, Medium, Prescription, Shape, StopShape};
+use super::model::{
+    MAX_ASPHERE_TERMS, MIN_INDEX, Medium, Prescription, Shape, StatedCondition, StopShape,
+};
 use crate::limits;
+use std::collections::BTreeMap;
 use std::path::PathBuf;
 
 /// Where each surface came from in its file, so errors found after parsing still cite lines.
@@ -11,25 +14,50 @@ pub struct SourceMap {
     pub file: Option<PathBuf>,
     /// 1-based line of each surface's row, by 0-based surface index.
     pub surface_lines: Vec<Option<usize>>,
+    /// Fields a format writes on lines of their own (Zemax: one keyword per line), by 0-based
+    /// surface index and lensbake's field name: the line and the keyword the file used, so an
+    /// error names the line a reader has to edit rather than the surface's first line.
+    pub field_lines: BTreeMap<(usize, &'static str), (usize, &'static str)>,
+    /// The line and keyword of each condition the file states, for errors found when an
+    /// analysis uses it.
+    pub condition_lines: BTreeMap<StatedCondition, (usize, &'static str)>,
 }
 
 impl SourceMap {
     pub fn for_file(file: impl Into<PathBuf>) -> SourceMap {
         SourceMap {
             file: Some(file.into()),
-            surface_lines: Vec::new(),
+            ..SourceMap::default()
         }
     }
 
-    /// Location of surface `index` (0-based) and one of its fields.
+    /// Location of surface `index` (0-based) and one of its fields: the field's own line and
+    /// keyword where the file wrote it apart, else the surface's line.
     pub fn surface(&self, index: usize, field: &str) -> Location {
+        let own_line = self
+            .field_lines
+            .iter()
+            .find(|((surface, name), _)| *surface == index && *name == field)
+            .map(|(_, &at)| at);
         let mut location = Location {
             file: self.file.clone(),
             ..Location::default()
         }
         .with_surface(index + 1)
-        .with_field(field);
-        location.line = self.surface_lines.get(index).copied().flatten();
+        .with_field(own_line.map_or(field, |(_, keyword)| keyword));
+        location.line = own_line
+            .map(|(line, _)| line)
+            .or_else(|| self.surface_lines.get(index).copied().flatten());
+        location
+    }
+
+    /// Location of a stated condition: the file, and its line and keyword where known.
+    pub fn condition(&self, condition: StatedCondition) -> Location {
+        let mut location = self.whole_file();
+        if let Some(&(line, keyword)) = self.condition_lines.get(&condition) {
+            location.line = Some(line);
+            location.field = Some(keyword.to_string());
+        }
         location
     }
 

@@ -8,6 +8,7 @@ mod wave_figures;
 pub use figures::{Figure, FigureError, FigureOptions, PlotKind, figure, placed_spot_plot};
 pub use page::{Page, PlotEntry, Table, analysis_tables, conditions_table};
 
+use crate::analysis::{AnalysisError, DesignConditions};
 use crate::output::{OutputError, publish_dir, write_bytes};
 use crate::plot::{PlotError, write_plot};
 use crate::system::LensSystem;
@@ -17,6 +18,9 @@ use std::path::{Path, PathBuf};
 pub enum ReportError {
     #[error(transparent)]
     Output(#[from] OutputError),
+    /// A condition the lens file states that no analysis can use: every plot would fail.
+    #[error(transparent)]
+    Conditions(AnalysisError),
     #[error("{kind} plot of {lens}: {source}")]
     Plot {
         lens: String,
@@ -43,6 +47,12 @@ pub fn write_report(
     options: &FigureOptions,
     directory: &Path,
 ) -> Result<Written, ReportError> {
+    // Refused before anything is written, rather than a report of skipped plots.
+    if let Err(error @ AnalysisError::Stated { .. }) =
+        DesignConditions::resolve(system, &options.overrides())
+    {
+        return Err(ReportError::Conditions(error));
+    }
     publish_dir(directory, |stage| {
         fill_report(lens, system, options, stage, directory)
     })

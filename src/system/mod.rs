@@ -6,8 +6,10 @@
 
 use crate::glass::Dispersion;
 use crate::prescription::{
-    Location, Medium, Prescription, PrescriptionError, Shape, SourceMap, StopShape, validate,
+    Location, Medium, Prescription, PrescriptionError, Shape, SourceMap, StatedCondition,
+    StopShape, validate,
 };
+use std::collections::BTreeMap;
 
 pub use crate::prescription::DEFAULT_WAVELENGTH_NM;
 
@@ -20,6 +22,9 @@ pub struct LensSystem {
     pub dispersions: Vec<Dispersion>,
     /// 0-based index of the stop surface.
     pub stop: usize,
+    /// Where the file states each of its conditions (file, line, keyword), so an analysis that
+    /// finds one unusable names the line to edit.
+    pub condition_locations: BTreeMap<StatedCondition, Location>,
 }
 
 impl LensSystem {
@@ -53,11 +58,20 @@ impl LensSystem {
         let stop = prescription
             .stop_index()
             .expect("validate guarantees exactly one stop");
+        let condition_locations = [
+            StatedCondition::Object,
+            StatedCondition::Aperture,
+            StatedCondition::Fields,
+        ]
+        .into_iter()
+        .map(|condition| (condition, map.condition(condition)))
+        .collect();
         Ok(LensSystem {
             prescription,
             object_dispersion,
             dispersions,
             stop,
+            condition_locations,
         })
     }
 

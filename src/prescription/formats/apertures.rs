@@ -432,7 +432,7 @@ fn indices(
         let index = match s.medium {
             crate::prescription::Medium::Mirror => n[i].abs(),
             _ => Dispersion::of(&s.medium)
-                .map_err(|problem| PrescriptionError::new(map.surface(i, "glass"), problem))?
+                .map_err(|problem| PrescriptionError::new(map.surface(i, "medium"), problem))?
                 .index(wavelength_nm),
         };
         n.push(travel * index);

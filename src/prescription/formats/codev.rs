@@ -60,10 +60,10 @@ use crate::prescription::DEFAULT_WAVELENGTH_NM;
 use crate::prescription::error::{Location, PrescriptionError, Problem};
 use crate::prescription::model::{
     ApertureSpec, Conditions, FieldKind, FieldSpec, MAX_ASPHERE_TERMS, Medium, Prescription,
-    Provenance, StopShape, Surface,
+    Provenance, StatedCondition, StopShape, Surface,
 };
 use crate::prescription::validate::SourceMap;
-use std::collections::BTreeSet;
+use std::collections::{BTreeMap, BTreeSet};
 
 /// One command with its words; quoted strings are single words without their quotes.
 struct Command {
@@ -276,6 +276,9 @@ const THICKNESS_SOLVES: &[&str] = &["HMY", "HCY", "HMX", "HCX"];
 const ASPHERE_LETTERS: [&str; MAX_ASPHERE_TERMS - 1] =
     ["A", "B", "C", "D", "E", "F", "G", "H", "J"];
 
+/// The commands that state fields: angles, object heights, paraxial and real image heights.
+const FIELD_COMMANDS: [&str; 8] = ["XAN", "YAN", "XOB", "YOB", "XIM", "YIM", "XRI", "YRI"];
+
 #[derive(Default)]
 struct Reader {
     radius_mode: bool,
@@ -287,6 +290,9 @@ struct Reader {
     unusable_aperture: Option<String>,
     wavelengths: Vec<f64>,
     reference: Option<(usize, usize)>,
+    /// The line and command of the object distance, the aperture and the fields, the last
+    /// written.
+    condition_lines: BTreeMap<StatedCondition, (usize, &'static str)>,
     /// Field kind and x, y values (YAN/XAN angles, YOB/XOB object heights, YIM/XIM paraxial and
     /// YRI/XRI real image heights), and weights (WTF).
     field_kind: Option<FieldKind>,
@@ -493,9 +499,18 @@ impl Reader {
                     None => return Err(count("1 unit letter", 0)),
                 }
             }
-            "EPD" => self.epd = Some(stated_aperture("EPD")?),
-            "FNO" => self.f_number = Some(stated_aperture("FNO")?),
-            "NAO" => self.object_na = Some(stated_aperture("NAO")?),
+            "EPD" => {
+                self.epd = Some(stated_aperture("EPD")?);
+                self.stated(StatedCondition::Aperture, c.line, "EPD");
+            }
+            "FNO" => {
+                self.f_number = Some(stated_aperture("FNO")?);
+                self.stated(StatedCondition::Aperture, c.line, "FNO");
+            }
+            "NAO" => {
+                self.object_na = Some(stated_aperture("NAO")?);
+                self.stated(StatedCondition::Aperture, c.line, "NAO");
+            }
             "NA" => self.unusable_aperture = Some(format!("the aperture is given as {name}")),
             "WL" => {
                 let wavelengths = list("WL")?;
@@ -520,7 +535,7 @@ impl Reader {
                 }
                 self.reference = Some((value as usize, c.line));
             }
-            "XAN" | "YAN" | "XOB" | "YOB" | "XIM" | "YIM" | "XRI" | "YRI" => {
+            name if FIELD_COMMANDS.contains(&name) => {
                 let kind = match &name[1..] {
                     "AN" => FieldKind::AngleDeg,
                     "OB" => FieldKind::ObjectHeight,
@@ -534,6 +549,11 @@ impl Reader {
                 }
                 self.field_kind = Some(kind);
                 let values = list(name)?;
+                let keyword = FIELD_COMMANDS
+                    .iter()
+                    .find(|k| **k == name)
+                    .expect("matched above");
+                self.stated(StatedCondition::Fields, c.line, keyword);
                 if name.starts_with('X') {
                     self.x_fields = values;
                 } else {
@@ -550,6 +570,7 @@ impl Reader {
                     return Err(unsupported("a curved object surface".into()));
                 }
                 self.object_distance = Some(thickness);
+                self.stated(StatedCondition::Object, c.line, "SO");
                 self.object_medium = medium;
                 self.current = Some(Current::Object);
             }
@@ -725,7 +746,10 @@ impl Reader {
                     other => return Err(count("1 value", other.len())),
                 };
                 match self.current() {
-                    Current::Object => self.object_distance = Some(value),
+                    Current::Object => {
+                        self.object_distance = Some(value);
+                        self.stated(StatedCondition::Object, c.line, "THI");
+                    }
                     Current::Surface(i) => {
                         self.surfaces[i].thickness = finite(&c.args[0], &at("THI"))?;
                     }
@@ -818,6 +842,10 @@ impl Reader {
     }
 
     /// `S value thickness [glass]` and its relatives `SO` and `SI`.
+    fn stated(&mut self, condition: StatedCondition, line: usize, keyword: &'static str) {
+        self.condition_lines.insert(condition, (line, keyword));
+    }
+
     fn surface_words(
         &self,
         c: &Command,
@@ -984,6 +1012,8 @@ impl Reader {
         let map = SourceMap {
             file: source.file.map(|f| f.to_path_buf()),
             surface_lines: self.surfaces.iter().map(|s| Some(s.line)).collect(),
+            condition_lines: self.condition_lines.clone(),
+            ..SourceMap::default()
         };
         let pupils: Vec<_> = (0..conditions.fields.as_ref().map_or(0, |f| f.x.len()))
             .map(|k| {
@@ -1067,6 +1097,7 @@ impl Reader {
         match (item.as_str(), pickup_item, target, first) {
             ("THI", _, Some(t), Some(value)) if t == "S0" => {
                 self.object_distance = Some(object_distance(value, &at(&field))?);
+                self.stated(StatedCondition::Object, c.line, "ZOO THI S0");
             }
             (_, Some(item), Some(t), Some(value)) if t.starts_with('S') => {
                 let surface = t[1..].parse::<usize>().map_err(|_| {

@@ -164,6 +164,7 @@ pub(super) fn read(
         map: SourceMap {
             file: None,
             surface_lines: rows.iter().map(|r| Some(r.line)).collect(),
+            ..SourceMap::default()
         },
         format: match dialect {
             Dialect::Pbrt(_) => Format::Pbrt,

@@ -24,6 +24,7 @@ pub(super) fn read(text: &str, source: &Source) -> Result<Loaded, PrescriptionEr
     let map = SourceMap {
         file: None,
         surface_lines: layout.starts.iter().map(|&l| Some(l)).collect(),
+        ..SourceMap::default()
     };
     Ok(Loaded {
         prescription,

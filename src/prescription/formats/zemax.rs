@@ -64,10 +64,10 @@ use crate::prescription::DEFAULT_WAVELENGTH_NM;
 use crate::prescription::error::{PrescriptionError, Problem};
 use crate::prescription::model::{
     ApertureSpec, Conditions, FieldKind, FieldSpec, MAX_ASPHERE_TERMS, Medium, Prescription,
-    Provenance, Shape, StopShape, Surface,
+    Provenance, Shape, StatedCondition, StopShape, Surface,
 };
 use crate::prescription::validate::SourceMap;
-use std::collections::BTreeSet;
+use std::collections::{BTreeMap, BTreeSet};
 
 /// Header and trailer keywords that change no surface, beam or medium: file bookkeeping
 /// (VERS, NOTE, AUTH, LUID, DBDT, ...), display and analysis settings (PFIL, SDMA, ROPD, PICB,
@@ -87,6 +87,38 @@ const TOP_APPLIED: &[&str] = &[
     "XFLD", "YFLN", "YFLD", "FWGN", "FWGT", "VDXN", "ZVDX", "VDYN", "ZVDY", "VCXN", "ZVCX", "VCYN",
     "ZVCY", "WAVM", "WAVN", "WAVL", "WWGT", "PWAV", "MNUM",
 ];
+
+/// The condition a header keyword states, with the keyword.
+fn stated_condition(keyword: &str) -> Option<(StatedCondition, &'static str)> {
+    Some(match keyword {
+        "ENPD" => (StatedCondition::Aperture, "ENPD"),
+        "FNUM" => (StatedCondition::Aperture, "FNUM"),
+        "OBNA" => (StatedCondition::Aperture, "OBNA"),
+        "FLOA" => (StatedCondition::Aperture, "FLOA"),
+        "XFLN" | "XFLD" => (StatedCondition::Fields, "XFLN"),
+        "YFLN" | "YFLD" => (StatedCondition::Fields, "YFLN"),
+        _ => return None,
+    })
+}
+
+/// The field of lensbake's surface a surface keyword sets, as its checks name it (see
+/// [`SourceMap::field_lines`]), with the keyword.
+fn validated_field(keyword: &str) -> Option<(&'static str, &'static str)> {
+    Some(match keyword {
+        "CURV" => ("curvature", "CURV"),
+        "DISZ" => ("thickness", "DISZ"),
+        "GLAS" => ("medium", "GLAS"),
+        "CONI" => ("conic", "CONI"),
+        "PARM" => ("coefficients", "PARM"),
+        "DIAM" => ("semi_aperture", "DIAM"),
+        "CLAP" => ("semi_aperture", "CLAP"),
+        "SQAP" => ("semi_aperture", "SQAP"),
+        "ELAP" => ("semi_aperture", "ELAP"),
+        "OBSC" => ("obscuration", "OBSC"),
+        "STOP" => ("stop", "STOP"),
+        _ => return None,
+    })
+}
 
 /// Surface keywords that change no surface lensbake models: display (HIDE, SLAB, MIRR, the
 /// substrate drawing of a mirror), coating and physical-optics data (COAT, POPS), comments,
@@ -152,6 +184,9 @@ struct Block {
     /// Parameter pickups `PPAR n surface scale offset`: PARM n = scale * (PARM n of that
     /// surface) + offset, with the line.
     pickups: Vec<(usize, usize, f64, f64, usize)>,
+    /// The line and keyword of each validated field (see [`validated_field`]), the last one
+    /// written for the field.
+    field_lines: BTreeMap<&'static str, (usize, &'static str)>,
 }
 
 enum Glass {
@@ -205,6 +240,7 @@ impl Block {
             stop: None,
             glass: None,
             pickups: Vec::new(),
+            field_lines: BTreeMap::new(),
         }
     }
 }
@@ -232,6 +268,8 @@ struct Reader {
     wavelength_lines: Vec<(usize, &'static str)>,
     wavelength_weights: Vec<f64>,
     primary: Option<(usize, usize)>,
+    /// The line and keyword of the aperture and the fields, the last written.
+    condition_lines: BTreeMap<StatedCondition, (usize, &'static str)>,
     blocks: Vec<Block>,
     /// Whether an unindented keyword other than SURF followed a surface: the trailer.
     in_trailer: bool,
@@ -547,8 +585,23 @@ impl Reader {
                 }
             };
             if handled {
+                if let Some((field, keyword)) = validated_field(keyword) {
+                    // A clear aperture (CLAP, or ELAP as a circle) decides the semi-aperture
+                    // over the beam's extent (DIAM) in whichever order they come.
+                    let beam_extent_after_clear_aperture = keyword == "DIAM"
+                        && block
+                            .field_lines
+                            .get(field)
+                            .is_some_and(|(_, k)| *k != "DIAM");
+                    if !beam_extent_after_clear_aperture {
+                        block.field_lines.insert(field, (line, keyword));
+                    }
+                }
                 return Ok(());
             }
+        }
+        if let Some(stated) = stated_condition(keyword) {
+            self.condition_lines.insert(stated.0, (line, stated.1));
         }
         match keyword {
             "MODE" => {
@@ -916,6 +969,26 @@ impl Reader {
         let map = SourceMap {
             file: source.file.map(|f| f.to_path_buf()),
             surface_lines: lens.iter().map(|b| Some(b.line)).collect(),
+            field_lines: lens
+                .iter()
+                .enumerate()
+                .flat_map(|(i, b)| {
+                    b.field_lines
+                        .iter()
+                        .map(move |(&field, &at)| ((i, field), at))
+                })
+                .collect(),
+            condition_lines: self
+                .condition_lines
+                .iter()
+                .map(|(&c, &at)| (c, at))
+                .chain(
+                    object
+                        .field_lines
+                        .get("thickness")
+                        .map(|&at| (StatedCondition::Object, at)),
+                )
+                .collect(),
         };
         let pupils: Vec<_> = (0..conditions.fields.as_ref().map_or(0, |f| f.x.len()))
             .map(|k| {
