@@ -537,3 +537,23 @@ fn zemax_fields_are_located_on_their_keyword_line() {
         assert_at(&e, Some(line), Some(surface), Some(keyword));
     }
 }
+
+/// A RON file's surfaces are counted before RON builds them: one over the limit is refused on
+/// the line of the first surface too many, whatever follows it (here, a syntax error RON would
+/// otherwise report after parsing everything before it).
+#[test]
+fn ron_surfaces_over_the_limit_are_refused_before_parsing() {
+    let surface = "(shape: Plane, thickness: 1.0, medium: Air, semi_aperture: 5.0, stop: None),\n";
+    let over = lensbake::limits::MAX_SURFACES as usize + 1;
+    let text = format!(
+        "(\n provenance: (title: \"many\"),\n object_medium: Air,\n surfaces: [\n{}\n !! ],\n)\n",
+        surface.repeat(over)
+    );
+    let e = error(&text, Format::Ron);
+    assert!(
+        matches!(e.problem, Problem::OverLimit(LimitError::OverLimit { .. })),
+        "{e}"
+    );
+    // Lines 1-4 are the header; surface k (1-based) starts on line 4 + k.
+    assert_at(&e, Some(4 + over), None, None);
+}

@@ -12,6 +12,17 @@ pub(super) fn read(text: &str, source: &Source) -> Result<Loaded, PrescriptionEr
         return Err(source.error(None, Problem::Empty));
     }
     let layout = SurfaceLayout::scan(text);
+    // Counted before RON builds the list: a file of millions of surfaces would otherwise be
+    // parsed whole only to be refused by validation.
+    crate::limits::check(
+        "the number of surfaces",
+        layout.starts.len() as u64,
+        crate::limits::MAX_SURFACES,
+    )
+    .map_err(|e| {
+        let first_over = layout.starts.get(crate::limits::MAX_SURFACES as usize);
+        source.error(first_over.copied(), e.into())
+    })?;
     let prescription: Prescription = ron::Options::default().from_str(text).map_err(|e| {
         let line = e.span.start.line;
         let mut location = source.location(Some(line));
