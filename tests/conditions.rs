@@ -3,7 +3,7 @@
 //! and the rule come in that order; flags override all three everywhere alike.
 
 use lensbake::analysis::{
-    AnalysisError, AnalyzeOptions, ConditionOverrides, DesignConditions, Origin,
+    AnalysisError, AnalyzeOptions, ConditionOverrides, DesignConditions, FileDefaults, Origin,
     RULE_MAX_FIELD_DEG, analyze,
 };
 use lensbake::lenses;
@@ -327,6 +327,17 @@ fn unusable_stated_conditions_are_located_where_the_file_states_them() {
                 );
             }
             other => panic!("{changed}: {other:?}"),
+        }
+        // A bake's and a render's defaults take no field from the file: its fields cannot
+        // fail them; its object distance (their default focus) can.
+        let defaults = FileDefaults::of(&system);
+        if condition == StatedCondition::Fields {
+            assert!(defaults.is_ok(), "{changed}: {defaults:?}");
+        } else {
+            assert!(
+                matches!(defaults, Err(AnalysisError::Stated { .. })),
+                "{changed}: {defaults:?}"
+            );
         }
         let flags = ConditionOverrides {
             field_deg: Some(10.0),

@@ -335,7 +335,13 @@ impl FileDefaults {
         let Some(stated) = system.prescription.provenance.conditions.as_ref() else {
             return Ok(FileDefaults::default());
         };
-        let resolved = DesignConditions::resolve(system, &ConditionOverrides::default())?;
+        // A bake and a render take no field from the file, so a field it states cannot fail
+        // them (nor cost the rule's real-ray search).
+        let no_field = ConditionOverrides {
+            field_deg: Some(0.0),
+            ..ConditionOverrides::default()
+        };
+        let resolved = DesignConditions::resolve(system, &no_field)?;
         let mut notes = Vec::new();
         let f_number = if resolved.aperture_from == Origin::File {
             let at = system.at_checked(resolved.reference_nm)?;
