@@ -402,7 +402,11 @@ fn stated_error(
 ) -> AnalysisError {
     AnalysisError::Stated {
         condition,
-        at: system.condition_locations[&condition].clone(),
+        at: system
+            .condition_locations
+            .get(&condition)
+            .cloned()
+            .unwrap_or_default(),
         error,
     }
 }

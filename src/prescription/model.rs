@@ -57,6 +57,12 @@ pub enum StatedCondition {
 }
 
 impl StatedCondition {
+    pub const ALL: [StatedCondition; 3] = [
+        StatedCondition::Object,
+        StatedCondition::Aperture,
+        StatedCondition::Fields,
+    ];
+
     pub fn describe(self) -> &'static str {
         match self {
             StatedCondition::Object => "object distance",

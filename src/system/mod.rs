@@ -58,14 +58,10 @@ impl LensSystem {
         let stop = prescription
             .stop_index()
             .expect("validate guarantees exactly one stop");
-        let condition_locations = [
-            StatedCondition::Object,
-            StatedCondition::Aperture,
-            StatedCondition::Fields,
-        ]
-        .into_iter()
-        .map(|condition| (condition, map.condition(condition)))
-        .collect();
+        let condition_locations = StatedCondition::ALL
+            .into_iter()
+            .map(|condition| (condition, map.condition(condition)))
+            .collect();
         Ok(LensSystem {
             prescription,
             object_dispersion,
