@@ -50,7 +50,7 @@ pub enum AnalysisError {
         condition: crate::prescription::StatedCondition,
         at: crate::prescription::Location,
         #[source]
-        error: ParaxialError,
+        error: Box<AnalysisError>,
     },
     #[error("{quantity} is not finite: the lens is too close to a degenerate case to analyse")]
     NonFinite { quantity: String },

@@ -296,6 +296,25 @@ fn unusable_stated_conditions_are_located_where_the_file_states_them() {
             14,
             "SO",
         ),
+        // An aperture beyond the length limit, as an EPD (line 6) and as an F-number.
+        (
+            zemax,
+            Format::Zemax,
+            "ENPD 10",
+            "ENPD 1e300",
+            StatedCondition::Aperture,
+            6,
+            "ENPD",
+        ),
+        (
+            codev,
+            Format::CodeV,
+            "EPD   50.0",
+            "FNO 1e-300",
+            StatedCondition::Aperture,
+            3,
+            "FNO",
+        ),
     ];
     for (base, format, written, changed, condition, line, keyword) in cases {
         let text = base.replacen(written, changed, 1);
@@ -317,14 +336,22 @@ fn unusable_stated_conditions_are_located_where_the_file_states_them() {
                 assert_eq!(refused, condition, "{changed}");
                 assert_eq!(at.file.as_deref(), Some(Path::new("lens.txt")));
                 assert_eq!((at.line, at.field.as_deref()), (Some(line), Some(keyword)));
-                assert!(
-                    matches!(
-                        error,
-                        ParaxialError::ObjectNotInFront { .. }
-                            | ParaxialError::InvalidFieldAngle { .. }
-                    ),
-                    "{error}"
-                );
+                let expected = match condition {
+                    StatedCondition::Object => {
+                        matches!(
+                            *error,
+                            AnalysisError::Paraxial(ParaxialError::ObjectNotInFront { .. })
+                        )
+                    }
+                    StatedCondition::Fields => {
+                        matches!(
+                            *error,
+                            AnalysisError::Paraxial(ParaxialError::InvalidFieldAngle { .. })
+                        )
+                    }
+                    StatedCondition::Aperture => matches!(*error, AnalysisError::Limit(_)),
+                };
+                assert!(expected, "{changed}: {error}");
             }
             other => panic!("{changed}: {other:?}"),
         }
@@ -341,6 +368,7 @@ fn unusable_stated_conditions_are_located_where_the_file_states_them() {
         }
         let flags = ConditionOverrides {
             field_deg: Some(10.0),
+            epd_mm: Some(10.0),
             object_distance_mm: Some(5000.0),
             ..ConditionOverrides::default()
         };

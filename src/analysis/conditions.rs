@@ -164,6 +164,10 @@ impl DesignConditions {
             .and_then(|c| c.aperture.as_ref())
             .and_then(|a| stated_epd(a, &wide_open, object_distance_mm))
         {
+            // The same range as a flag's (`--epd-mm`): an `ENPD 1e300` or `FNUM 1e-300` would
+            // reach the analysis as a pupil no number in it can hold.
+            crate::limits::check_length("the entrance-pupil diameter (mm)", epd)
+                .map_err(|error| stated_error(system, StatedCondition::Aperture, error))?;
             (epd, Origin::File)
         } else {
             let open = wide_open.entrance_pupil.diameter;
@@ -386,7 +390,7 @@ fn blame(
     system: &LensSystem,
     origin: Origin,
     condition: StatedCondition,
-    error: ParaxialError,
+    error: impl Into<AnalysisError>,
 ) -> AnalysisError {
     if origin == Origin::File {
         stated_error(system, condition, error)
@@ -398,7 +402,7 @@ fn blame(
 fn stated_error(
     system: &LensSystem,
     condition: StatedCondition,
-    error: ParaxialError,
+    error: impl Into<AnalysisError>,
 ) -> AnalysisError {
     AnalysisError::Stated {
         condition,
@@ -407,7 +411,7 @@ fn stated_error(
             .get(&condition)
             .cloned()
             .unwrap_or_default(),
-        error,
+        error: Box::new(error.into()),
     }
 }
 
