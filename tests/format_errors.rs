@@ -137,6 +137,23 @@ fn index_below_one() {
     assert_at(&e, Some(1), Some(1), Some("medium"));
 }
 
+/// An index past every optical material (an exponent gone wrong) is refused where it is
+/// written, as a constant and as a model glass's nd; analyze had failed later on a
+/// non-finite Seidel sum.
+#[test]
+fn index_above_the_limit() {
+    let e = error("50 5 1e300 20\n0 2 0 10\n-50 40 1 20\n", Format::Pbrt);
+    assert_eq!(e.problem, Problem::IndexAboveLimit { index: 1e300 });
+    assert_at(&e, Some(1), Some(1), Some("medium"));
+    // 10 itself passes (no material comes near it, but it is a number the trace holds).
+    load("50 5 10 20\n0 2 0 10\n-50 40 1 20\n", Format::Pbrt).unwrap();
+    let singlet = include_str!("../lenses/biconvex-singlet.ron");
+    let text = singlet.replacen("medium: Index(1.5)", "medium: Model(nd: 11.0, vd: 60.0)", 1);
+    assert_ne!(text, singlet);
+    let e = error(&text, Format::Ron);
+    assert_eq!(e.problem, Problem::IndexAboveLimit { index: 11.0 });
+}
+
 #[test]
 fn aperture_out_of_range() {
     let e = error("50 5 1.5 20\n0 2 0 0\n-50 40 1 20\n", Format::Pbrt);

@@ -221,7 +221,9 @@ impl Dispersion {
             Dispersion::Tabulated { .. } => wavelength_nm >= low && wavelength_nm <= high,
             _ => wavelength_nm > low && wavelength_nm < high,
         };
-        if inside && n.is_finite() && n >= crate::prescription::MIN_INDEX {
+        if inside
+            && (crate::prescription::MIN_INDEX..=crate::prescription::MAX_INDEX).contains(&n)
+        {
             Ok(n)
         } else {
             Err(Problem::WavelengthOutOfRange { nm: wavelength_nm })

@@ -114,6 +114,12 @@ pub enum Problem {
     )]
     IndexBelowVacuum { index: f64 },
     #[error(
+        "refractive index {} is above {} (no optical material comes near it)",
+        crate::limits::short(*.index),
+        super::model::MAX_INDEX
+    )]
+    IndexAboveLimit { index: f64 },
+    #[error(
         "central obscuration radius {} mm must be positive and inside the semi-aperture {} mm",
         crate::limits::short(*.radius),
         crate::limits::short(*.semi_aperture)

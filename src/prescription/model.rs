@@ -218,6 +218,11 @@ pub const MAX_ASPHERE_TERMS: usize = 10;
 /// so nothing real lies below 1 - 1e-3.
 pub const MIN_INDEX: f64 = 0.999;
 
+/// The highest refractive index a medium may have: above every optical material (germanium is
+/// about 4.0 in the infrared, lead telluride about 5.6), so a larger one is a typo or an
+/// exponent gone wrong, whose rays and Seidel sums would not be numbers.
+pub const MAX_INDEX: f64 = 10.0;
+
 /// Wavelength used when a lens states no design wavelength (helium d line, nm).
 pub const DEFAULT_WAVELENGTH_NM: f64 = 587.56;
 

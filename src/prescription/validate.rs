@@ -2,7 +2,7 @@
 
 use super::error::{Location, PrescriptionError, Problem};
 use super::model::{
-    MAX_ASPHERE_TERMS, MIN_INDEX, Medium, Prescription, Shape, StatedCondition, StopShape,
+    MAX_ASPHERE_TERMS, MAX_INDEX, MIN_INDEX, Medium, Prescription, Shape, StatedCondition, StopShape,
 };
 use crate::limits;
 use std::collections::BTreeMap;
@@ -159,13 +159,7 @@ fn check_medium(medium: &Medium, location: Location) -> Result<(), PrescriptionE
         Medium::Air | Medium::Glass(_) | Medium::Mirror => Ok(()),
         Medium::Index(n) => {
             finite(*n, location.clone())?;
-            if *n < MIN_INDEX {
-                return Err(PrescriptionError::new(
-                    location,
-                    Problem::IndexBelowVacuum { index: *n },
-                ));
-            }
-            Ok(())
+            check_index(*n, location)
         }
         Medium::Sellmeier { b, c } => {
             for v in b.iter().chain(c) {
@@ -203,14 +197,24 @@ fn check_medium(medium: &Medium, location: Location) -> Result<(), PrescriptionE
         Medium::Model { nd, vd } => {
             finite(*nd, location.clone())?;
             finite(*vd, location.clone())?;
-            if *nd < MIN_INDEX {
-                return Err(PrescriptionError::new(
-                    location,
-                    Problem::IndexBelowVacuum { index: *nd },
-                ));
-            }
-            Ok(())
+            check_index(*nd, location)
         }
+    }
+}
+
+fn check_index(n: f64, location: Location) -> Result<(), PrescriptionError> {
+    if n < MIN_INDEX {
+        Err(PrescriptionError::new(
+            location,
+            Problem::IndexBelowVacuum { index: n },
+        ))
+    } else if n > MAX_INDEX {
+        Err(PrescriptionError::new(
+            location,
+            Problem::IndexAboveLimit { index: n },
+        ))
+    } else {
+        Ok(())
     }
 }
 
