@@ -221,8 +221,7 @@ impl Dispersion {
             Dispersion::Tabulated { .. } => wavelength_nm >= low && wavelength_nm <= high,
             _ => wavelength_nm > low && wavelength_nm < high,
         };
-        if inside
-            && (crate::prescription::MIN_INDEX..=crate::prescription::MAX_INDEX).contains(&n)
+        if inside && (crate::prescription::MIN_INDEX..=crate::prescription::MAX_INDEX).contains(&n)
         {
             Ok(n)
         } else {

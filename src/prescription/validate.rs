@@ -2,7 +2,8 @@
 
 use super::error::{Location, PrescriptionError, Problem};
 use super::model::{
-    MAX_ASPHERE_TERMS, MAX_INDEX, MIN_INDEX, Medium, Prescription, Shape, StatedCondition, StopShape,
+    MAX_ASPHERE_TERMS, MAX_INDEX, MIN_INDEX, Medium, Prescription, Shape, StatedCondition,
+    StopShape,
 };
 use crate::limits;
 use std::collections::BTreeMap;
