@@ -252,6 +252,20 @@ fn syntax_errors() {
     );
     assert!(matches!(e.problem, Problem::Syntax(_)), "{e}");
     assert_eq!(e.location.line, Some(4), "{e}");
+    // The surface is found past non-ASCII text, brackets in strings and comments, and a
+    // multi-byte char literal (the scan reads bytes).
+    let e = error(
+        "(\n  provenance: (title: \"Objectif \u{2014} f/2 (\u{00e9}tude) [1]\"),\n  \
+         object_medium: Air, // ] ) \u{00e9}\n  surfaces: [\n    /* ( [ */ (shape: Plane, \
+         thickness: 1.0, medium: Air, semi_aperture: 5.0, stop: None),\n    (shape: 'Ω',\n",
+        Format::Ron,
+    );
+    assert!(matches!(e.problem, Problem::Syntax(_)), "{e}");
+    assert_eq!(
+        (e.location.line, e.location.surface),
+        (Some(6), Some(2)),
+        "{e}"
+    );
     let e = error("MODE SEQ\nSURF 0\nSURF 2\n", Format::Zemax);
     assert!(matches!(e.problem, Problem::Syntax(_)), "{e}");
     assert_at(&e, Some(3), None, Some("SURF"));

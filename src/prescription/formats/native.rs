@@ -74,7 +74,9 @@ impl SurfaceLayout {
     }
 
     fn scan(text: &str) -> SurfaceLayout {
-        let chars: Vec<char> = text.chars().collect();
+        // Bytes, not chars: every byte the scan looks for is ASCII, and UTF-8 never puts an
+        // ASCII byte inside a longer character (a Vec<char> held four bytes per byte of text).
+        let bytes = text.as_bytes();
         let mut layout = SurfaceLayout::default();
         let mut line = 1;
         let mut depth = 0usize;
@@ -83,61 +85,64 @@ impl SurfaceLayout {
         let mut expecting_entry = false;
         let mut surfaces_key_seen = false;
         let mut i = 0;
-        while i < chars.len() {
-            let c = chars[i];
+        while i < bytes.len() {
+            let c = bytes[i];
             match c {
-                '\n' => line += 1,
-                '/' if chars.get(i + 1) == Some(&'/') => {
-                    while i < chars.len() && chars[i] != '\n' {
+                b'\n' => line += 1,
+                b'/' if bytes.get(i + 1) == Some(&b'/') => {
+                    while i < bytes.len() && bytes[i] != b'\n' {
                         i += 1;
                     }
                     continue;
                 }
-                '/' if chars.get(i + 1) == Some(&'*') => {
-                    i = skip_block_comment(&chars, i, &mut line);
+                b'/' if bytes.get(i + 1) == Some(&b'*') => {
+                    i = skip_block_comment(bytes, i, &mut line);
                     continue;
                 }
-                '"' => {
-                    i = skip_string(&chars, i, &mut line);
+                b'"' => {
+                    i = skip_string(bytes, i, &mut line);
                     continue;
                 }
-                'r' if matches!(chars.get(i + 1), Some('"' | '#')) => {
-                    i = skip_raw_string(&chars, i + 1, &mut line);
+                b'r' if matches!(bytes.get(i + 1), Some(b'"' | b'#')) => {
+                    i = skip_raw_string(bytes, i + 1, &mut line);
                     continue;
                 }
-                '\'' => {
-                    // A char literal: 'x' or '\x'.
-                    i += if chars.get(i + 1) == Some(&'\\') {
-                        4
-                    } else {
-                        3
+                b'\'' => {
+                    // A char literal: 'x' (x one character, of up to four bytes) or '\x'.
+                    i = match bytes.get(i + 1) {
+                        Some(b'\\') => i + 4,
+                        Some(&lead) => i + 2 + utf8_width(lead),
+                        None => i + 1,
                     };
                     continue;
                 }
-                '(' | '[' | '{' => {
+                b'(' | b'[' | b'{' => {
                     if list_depth == Some(depth) && expecting_entry {
                         layout.starts.push(line);
                         expecting_entry = false;
                     }
                     depth += 1;
-                    if c == '[' && surfaces_key_seen && list_depth.is_none() && layout.end.is_none()
+                    if c == b'['
+                        && surfaces_key_seen
+                        && list_depth.is_none()
+                        && layout.end.is_none()
                     {
                         list_depth = Some(depth);
                         expecting_entry = true;
                         surfaces_key_seen = false;
                     }
                 }
-                ')' | ']' | '}' => {
+                b')' | b']' | b'}' => {
                     if list_depth == Some(depth) {
                         layout.end = Some(line);
                         list_depth = None;
                     }
                     depth = depth.saturating_sub(1);
                 }
-                ',' if list_depth == Some(depth) => expecting_entry = true,
-                c if c.is_alphabetic() || c == '_' => {
+                b',' if list_depth == Some(depth) => expecting_entry = true,
+                c if is_identifier_byte(c) && !c.is_ascii_digit() => {
                     let start = i;
-                    while i < chars.len() && (chars[i].is_alphanumeric() || chars[i] == '_') {
+                    while i < bytes.len() && is_identifier_byte(bytes[i]) {
                         i += 1;
                     }
                     if list_depth == Some(depth) && expecting_entry {
@@ -145,9 +150,8 @@ impl SurfaceLayout {
                         layout.starts.push(line);
                         expecting_entry = false;
                     }
-                    let word: String = chars[start..i].iter().collect();
                     if depth == 1 && list_depth.is_none() {
-                        surfaces_key_seen = word == "surfaces";
+                        surfaces_key_seen = &bytes[start..i] == b"surfaces";
                     }
                     continue;
                 }
@@ -159,21 +163,35 @@ impl SurfaceLayout {
     }
 }
 
-fn skip_block_comment(chars: &[char], mut i: usize, line: &mut usize) -> usize {
+/// A byte of an identifier: ASCII letters, digits and `_`, and every byte of a non-ASCII
+/// character (RON allows Unicode identifiers; no ASCII byte the scan looks for is among them).
+fn is_identifier_byte(byte: u8) -> bool {
+    byte.is_ascii_alphanumeric() || byte == b'_' || !byte.is_ascii()
+}
+
+/// How many bytes the UTF-8 character that starts with `lead` takes.
+fn utf8_width(lead: u8) -> usize {
+    match lead.leading_ones() {
+        0 => 1,
+        n => n as usize,
+    }
+}
+
+fn skip_block_comment(bytes: &[u8], mut i: usize, line: &mut usize) -> usize {
     // RON block comments nest.
     let mut nesting = 0;
-    while i < chars.len() {
-        if chars[i] == '/' && chars.get(i + 1) == Some(&'*') {
+    while i < bytes.len() {
+        if bytes[i] == b'/' && bytes.get(i + 1) == Some(&b'*') {
             nesting += 1;
             i += 2;
-        } else if chars[i] == '*' && chars.get(i + 1) == Some(&'/') {
+        } else if bytes[i] == b'*' && bytes.get(i + 1) == Some(&b'/') {
             nesting -= 1;
             i += 2;
             if nesting == 0 {
                 return i;
             }
         } else {
-            if chars[i] == '\n' {
+            if bytes[i] == b'\n' {
                 *line += 1;
             }
             i += 1;
@@ -182,13 +200,13 @@ fn skip_block_comment(chars: &[char], mut i: usize, line: &mut usize) -> usize {
     i
 }
 
-fn skip_string(chars: &[char], mut i: usize, line: &mut usize) -> usize {
+fn skip_string(bytes: &[u8], mut i: usize, line: &mut usize) -> usize {
     i += 1;
-    while i < chars.len() {
-        match chars[i] {
-            '\\' => i += 2,
-            '"' => return i + 1,
-            '\n' => {
+    while i < bytes.len() {
+        match bytes[i] {
+            b'\\' => i += 2,
+            b'"' => return i + 1,
+            b'\n' => {
                 *line += 1;
                 i += 1;
             }
@@ -199,21 +217,21 @@ fn skip_string(chars: &[char], mut i: usize, line: &mut usize) -> usize {
 }
 
 /// `i` points just after the `r` of `r"..."` or `r#"..."#`.
-fn skip_raw_string(chars: &[char], mut i: usize, line: &mut usize) -> usize {
+fn skip_raw_string(bytes: &[u8], mut i: usize, line: &mut usize) -> usize {
     let mut hashes = 0;
-    while chars.get(i) == Some(&'#') {
+    while bytes.get(i) == Some(&b'#') {
         hashes += 1;
         i += 1;
     }
-    if chars.get(i) != Some(&'"') {
+    if bytes.get(i) != Some(&b'"') {
         return i;
     }
     i += 1;
-    while i < chars.len() {
-        if chars[i] == '"' && (1..=hashes).all(|k| chars.get(i + k) == Some(&'#')) {
+    while i < bytes.len() {
+        if bytes[i] == b'"' && (1..=hashes).all(|k| bytes.get(i + k) == Some(&b'#')) {
             return i + 1 + hashes;
         }
-        if chars[i] == '\n' {
+        if bytes[i] == b'\n' {
             *line += 1;
         }
         i += 1;
