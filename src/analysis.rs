@@ -4,7 +4,7 @@
 mod conditions;
 
 pub use conditions::{
-    ConditionOverrides, DesignConditions, FIELD_FRACTIONS, FileDefaults, Origin,
+    ConditionOverrides, DesignConditions, FIELD_FRACTIONS, FileDefaults, FocusFrom, Origin,
     RULE_MAX_FIELD_DEG, rule_field_deg,
 };
 

@@ -192,7 +192,8 @@ fn list_names_every_bundled_lens() {
 
 /// A condition the file states that no analysis can use (here a virtual object, DISZ -100 on
 /// SURF 0) fails `lens check` as it fails `analyze`, on the keyword's line, and the report
-/// writes nothing rather than a page of skipped plots.
+/// writes nothing rather than a page of skipped plots; a bake refuses it only where no flag
+/// replaces it.
 #[test]
 fn a_stated_condition_no_analysis_can_use_fails_check_and_report_on_its_line() {
     let dir = temp_dir("stated");
@@ -229,6 +230,27 @@ fn a_stated_condition_no_analysis_can_use_fails_check_and_report_on_its_line() {
         assert!(stdout(&o).is_empty(), "{args:?}");
     }
     assert!(!report.exists());
+    // A bake uses the stated object as its focus: refused without a focus flag, baked with one.
+    let table = dir.join("table");
+    let bake = |extra: &[&str]| {
+        let mut args = vec![
+            "bake",
+            path.to_str().unwrap(),
+            "--resolution",
+            "4",
+            "--out",
+            table.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        lensbake(&args)
+    };
+    let o = bake(&[]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains(&expected), "{}", stderr(&o));
+    assert!(!table.exists());
+    let o = bake(&["--focus-mm", "3000"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(table.join("lrtf.exr").exists());
     // The lens as written checks, and its summary lists the conditions it is analysed under.
     std::fs::write(&path, base).unwrap();
     let o = lensbake(&["lens", "check", path.to_str().unwrap()]);

@@ -3,8 +3,8 @@
 //! and the rule come in that order; flags override all three everywhere alike.
 
 use lensbake::analysis::{
-    AnalysisError, AnalyzeOptions, ConditionOverrides, DesignConditions, FileDefaults, Origin,
-    RULE_MAX_FIELD_DEG, analyze,
+    AnalysisError, AnalyzeOptions, ConditionOverrides, DesignConditions, FileDefaults, FocusFrom,
+    Origin, RULE_MAX_FIELD_DEG, analyze,
 };
 use lensbake::lenses;
 use lensbake::paraxial::ParaxialError;
@@ -356,15 +356,24 @@ fn unusable_stated_conditions_are_located_where_the_file_states_them() {
             other => panic!("{changed}: {other:?}"),
         }
         // A bake's and a render's defaults take no field from the file: its fields cannot
-        // fail them; its object distance (their default focus) can.
-        let defaults = FileDefaults::of(&system);
-        if condition == StatedCondition::Fields {
-            assert!(defaults.is_ok(), "{changed}: {defaults:?}");
-        } else {
-            assert!(
-                matches!(defaults, Err(AnalysisError::Stated { .. })),
-                "{changed}: {defaults:?}"
-            );
+        // fail them; its object distance (their default focus) can, unless a flag sets the
+        // focus.
+        let defaults = FileDefaults::of(&system, FocusFrom::File);
+        let with_focus_flag = FileDefaults::of(&system, FocusFrom::Flag);
+        match condition {
+            StatedCondition::Fields => assert!(defaults.is_ok(), "{changed}: {defaults:?}"),
+            StatedCondition::Object => {
+                assert!(
+                    matches!(defaults, Err(AnalysisError::Stated { .. })),
+                    "{changed}: {defaults:?}"
+                );
+                let chosen = with_focus_flag.unwrap();
+                assert_eq!(chosen.focus_mm, None, "{changed}");
+            }
+            StatedCondition::Aperture => assert!(
+                matches!(with_focus_flag, Err(AnalysisError::Stated { .. })),
+                "{changed}: {with_focus_flag:?}"
+            ),
         }
         let flags = ConditionOverrides {
             field_deg: Some(10.0),

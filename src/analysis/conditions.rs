@@ -334,18 +334,30 @@ pub struct FileDefaults {
     pub notes: Vec<String>,
 }
 
+/// Where a bake's or a render's focus comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FocusFrom {
+    /// The file's stated object distance, where it states one.
+    File,
+    /// The caller's flag: the file's object distance is neither used nor checked, and the
+    /// stated aperture is read for an object at infinity.
+    Flag,
+}
+
 impl FileDefaults {
-    pub fn of(system: &LensSystem) -> Result<FileDefaults, AnalysisError> {
+    pub fn of(system: &LensSystem, focus: FocusFrom) -> Result<FileDefaults, AnalysisError> {
         let Some(stated) = system.prescription.provenance.conditions.as_ref() else {
             return Ok(FileDefaults::default());
         };
         // A bake and a render take no field from the file, so a field it states cannot fail
-        // them (nor cost the rule's real-ray search).
-        let no_field = ConditionOverrides {
+        // them (nor cost the rule's real-ray search). An infinite override distance is the
+        // object at infinity (`resolve` takes 1000 km and beyond as infinity).
+        let used = ConditionOverrides {
             field_deg: Some(0.0),
+            object_distance_mm: (focus == FocusFrom::Flag).then_some(f64::INFINITY),
             ..ConditionOverrides::default()
         };
-        let resolved = DesignConditions::resolve(system, &no_field)?;
+        let resolved = DesignConditions::resolve(system, &used)?;
         let mut notes = Vec::new();
         let f_number = if resolved.aperture_from == Origin::File {
             let at = system.at_checked(resolved.reference_nm)?;

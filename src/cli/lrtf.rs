@@ -7,7 +7,7 @@ use clap::{Args, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::{Deserialize, Serialize};
 
-use lensbake::analysis::FileDefaults;
+use lensbake::analysis::{FileDefaults, FocusFrom};
 use lensbake::job::default_table_dir;
 use lensbake::job::tables::DEFAULT_TABLES_ROOT;
 use lensbake::lrtf::bake::{BakeRequest, bake, first_order};
@@ -175,7 +175,12 @@ fn parse_resolution(text: &str) -> anyhow::Result<[usize; 3]> {
 pub fn run_bake(args: BakeArgs) -> anyhow::Result<()> {
     let lens = args.lens.load()?;
     // Where no flag is given, the lens file's stated aperture and object distance decide.
-    let defaults = FileDefaults::of(&lens.system)?;
+    let focus_from = if args.focus_mm.is_some() {
+        FocusFrom::Flag
+    } else {
+        FocusFrom::File
+    };
+    let defaults = FileDefaults::of(&lens.system, focus_from)?;
     for note in &defaults.notes {
         eprintln!("note: {}: {note}", lens.source.origin);
     }

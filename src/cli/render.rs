@@ -3,7 +3,7 @@
 
 use super::lens::ReadArgs;
 use clap::{Args, ValueEnum};
-use lensbake::analysis::FileDefaults;
+use lensbake::analysis::{FileDefaults, FocusFrom};
 use lensbake::job::{
     BackendChoice, BackendUsed, ChromaticReason, DEFAULT_FOCUS_MM, FocusMode, ModelChoice,
     PeelMode, RenderJob, RenderLens, Rendered, SceneSpec,
@@ -166,8 +166,17 @@ impl RenderArgs {
     /// conditions where no flag is given (one line each, for the user).
     fn job(&self) -> anyhow::Result<(RenderJob, Vec<String>)> {
         let lens = super::lens::render_lens(&self.lens, &self.read)?;
+        let no_focus_flag = self.focus_points.is_none()
+            && self.focus_mm.is_none()
+            && self.focus_pixel.is_none()
+            && self.sensor_mm.is_none();
+        let focus_from = if no_focus_flag {
+            FocusFrom::File
+        } else {
+            FocusFrom::Flag
+        };
         let defaults = match &lens {
-            RenderLens::Real(loaded) => FileDefaults::of(&loaded.system)?,
+            RenderLens::Real(loaded) => FileDefaults::of(&loaded.system, focus_from)?,
             RenderLens::Ideal { .. } => FileDefaults::default(),
         };
         let mut from_file = defaults.notes.clone();
@@ -179,11 +188,7 @@ impl RenderArgs {
         if let Some(f) = file_f_number {
             from_file.push(format!("f/{f:.3} from the lens file"));
         }
-        let no_focus_flag = self.focus_points.is_none()
-            && self.focus_mm.is_none()
-            && self.focus_pixel.is_none()
-            && self.sensor_mm.is_none();
-        let file_focus = no_focus_flag.then_some(defaults.focus_mm).flatten();
+        let file_focus = defaults.focus_mm;
         if let Some(d) = file_focus {
             from_file.push(format!("focus {d:.3} mm: the lens file's object distance"));
         }
