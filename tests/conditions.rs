@@ -156,6 +156,14 @@ fn a_code_v_file_with_fields_0_10_14_is_analysed_at_14_degrees_and_its_epd() {
     assert_eq!(rounded, [14.0, 10.0, 0.0]);
     assert_eq!(conditions.epd_mm, 50.0);
     assert_eq!(conditions.aperture_from, Origin::File);
+    // SO 0 9.9e11: stated, and beyond 1000 km, so at infinity as the file says; a lens that
+    // states no conditions is at infinity by the rule.
+    assert_eq!(
+        (conditions.object_distance_mm, conditions.object_from),
+        (None, Origin::File)
+    );
+    let unstated = resolve(&self::system("dgauss-50mm"), &ConditionOverrides::default());
+    assert_eq!(unstated.object_from, Origin::Rule);
     assert_eq!(conditions.reference_nm, 587.6);
     assert_eq!(conditions.wavelengths_nm, [486.1, 587.6, 656.3]);
     let analysis = analyze("ag_dblgauss", &system, &AnalyzeOptions::default()).unwrap();

@@ -136,6 +136,9 @@ impl DesignConditions {
         ) {
             (Some(d), _) => (Some(d), Origin::Flag),
             (None, Some(d)) => (Some(d), Origin::File),
+            // A file that states conditions states its object, at infinity here (Zemax's
+            // `DISZ INFINITY`, CODE V's `SO 0 1e10`).
+            (None, None) if stated.is_some() => (None, Origin::File),
             (None, None) => (None, Origin::Rule),
         };
         // One rule for a flag and a file: an object 1000 km away or farther is at infinity
