@@ -35,10 +35,11 @@ impl SourceMap {
     /// Location of surface `index` (0-based) and one of its fields: the field's own line and
     /// keyword where the file wrote it apart, else the surface's line.
     pub fn surface(&self, index: usize, field: &str) -> Location {
+        // The surface's own entries only: validation asks for a location of every surface.
         let own_line = self
             .field_lines
-            .iter()
-            .find(|((surface, name), _)| *surface == index && *name == field)
+            .range((index, "")..(index + 1, ""))
+            .find(|((_, name), _)| *name == field)
             .map(|(_, &at)| at);
         let mut location = Location {
             file: self.file.clone(),
