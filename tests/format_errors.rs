@@ -588,3 +588,29 @@ fn ron_surfaces_over_the_limit_are_refused_before_parsing() {
     // Lines 1-4 are the header; surface k (1-based) starts on line 4 + k.
     assert_at(&e, Some(4 + over), None, None);
 }
+
+/// CODE V sets a surface's fields on the `S` line or on command lines after it: a problem found
+/// after reading names the command's line (CIR, GLA, K, ...) where the file wrote one.
+#[test]
+fn code_v_fields_are_located_on_their_command_line() {
+    // Surface 2's clear aperture (line 6) beyond its 50 mm radius.
+    let e = error(
+        "RDM N\nS 0.02 5 N-BK7\nCIR 10\nSTO\nS -0.02 40\nCIR 60\n",
+        Format::CodeV,
+    );
+    assert_at(&e, Some(6), Some(2), Some("CIR"));
+    // Surface 1's glass given on its own line (line 3); the mechanical edge (CIR EDG) on line 4
+    // does not take the clear aperture's place.
+    let e = error(
+        "RDM N\nS 0.02 5\nGLA NOSUCHGLASS\nCIR EDG 12\nCIR 10\nSTO\nS -0.02 40\nCIR 10\n",
+        Format::CodeV,
+    );
+    assert!(matches!(e.problem, Problem::UnknownGlass { .. }), "{e}");
+    assert_at(&e, Some(3), Some(1), Some("GLA"));
+    // On the S line itself, the S line.
+    let e = error(
+        "RDM N\nS 0.02 5 NOSUCHGLASS\nCIR 10\nSTO\nS -0.02 40\nCIR 10\n",
+        Format::CodeV,
+    );
+    assert_at(&e, Some(2), Some(1), Some("medium"));
+}

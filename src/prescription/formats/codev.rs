@@ -293,6 +293,8 @@ struct Reader {
     /// The line and command of the object distance, the aperture and the fields, the last
     /// written.
     condition_lines: BTreeMap<StatedCondition, (usize, &'static str)>,
+    /// The line and command of each surface field set after its `S` line, by surface.
+    field_lines: BTreeMap<(usize, &'static str), (usize, &'static str)>,
     /// Field kind and x, y values (YAN/XAN angles, YOB/XOB object heights, YIM/XIM paraxial and
     /// YRI/XRI real image heights), and weights (WTF).
     field_kind: Option<FieldKind>,
@@ -366,8 +368,45 @@ pub(super) fn read(text: &str, source: &Source) -> Result<Loaded, PrescriptionEr
             break;
         }
         reader.apply(&command, source)?;
+        reader.note_field_line(&command);
     }
     reader.finish(source)
+}
+
+/// The field of lensbake's surface a surface command after `S` sets, as its checks name it
+/// (see [`SourceMap::field_lines`]), with the command.
+fn validated_field(command: &Command) -> Option<(&'static str, &'static str)> {
+    let blocks_inside = || {
+        command.args.first().is_some_and(|first| {
+            first.eq_ignore_ascii_case("OBS") || first.eq_ignore_ascii_case("HOL")
+        })
+    };
+    let edge = || {
+        command
+            .args
+            .first()
+            .is_some_and(|first| first.eq_ignore_ascii_case("EDG"))
+    };
+    Some(match command.name.as_str() {
+        // The mechanical edge, which clips no ray.
+        "CIR" if edge() => return None,
+        "CIR" if blocks_inside() => ("obscuration", "CIR"),
+        "CIR" => ("semi_aperture", "CIR"),
+        "REX" => ("semi_aperture", "REX"),
+        "REY" => ("semi_aperture", "REY"),
+        "ELX" => ("semi_aperture", "ELX"),
+        "ELY" => ("semi_aperture", "ELY"),
+        "STO" | "STOP" => ("stop", "STO"),
+        "K" => ("conic", "K"),
+        "RDY" => ("curvature", "RDY"),
+        "CUY" => ("curvature", "CUY"),
+        "THI" => ("thickness", "THI"),
+        "GLA" => ("medium", "GLA"),
+        letter => (
+            "coefficients",
+            ASPHERE_LETTERS.iter().find(|l| **l == letter)?,
+        ),
+    })
 }
 
 impl Reader {
@@ -842,6 +881,15 @@ impl Reader {
     }
 
     /// `S value thickness [glass]` and its relatives `SO` and `SI`.
+    /// Records the line of a surface command that sets one field of the current surface.
+    fn note_field_line(&mut self, command: &Command) {
+        if let (Current::Surface(i), Some((field, keyword))) =
+            (self.current(), validated_field(command))
+        {
+            self.field_lines.insert((i, field), (command.line, keyword));
+        }
+    }
+
     fn stated(&mut self, condition: StatedCondition, line: usize, keyword: &'static str) {
         self.condition_lines.insert(condition, (line, keyword));
     }
@@ -1013,7 +1061,7 @@ impl Reader {
             file: source.file.map(|f| f.to_path_buf()),
             surface_lines: self.surfaces.iter().map(|s| Some(s.line)).collect(),
             condition_lines: self.condition_lines.clone(),
-            ..SourceMap::default()
+            field_lines: self.field_lines.clone(),
         };
         let pupils: Vec<_> = (0..conditions.fields.as_ref().map_or(0, |f| f.x.len()))
             .map(|k| {
