@@ -373,25 +373,39 @@ pub(super) fn read(text: &str, source: &Source) -> Result<Loaded, PrescriptionEr
     reader.finish(source)
 }
 
+/// What a `CIR` command states: the clear aperture, a radius inside which rays are blocked
+/// (`CIR OBS r`, an obscuration; `CIR HOL r`, a hole, as in a Cassegrain primary), or the
+/// lens's mechanical edge (`CIR EDG`), which clips no ray.
+#[derive(Clone, Copy, PartialEq)]
+enum CircleKind {
+    ClearAperture,
+    BlocksInside,
+    Edge,
+}
+
+impl CircleKind {
+    fn of(args: &[String]) -> CircleKind {
+        match args.first() {
+            Some(first) if first.eq_ignore_ascii_case("EDG") => CircleKind::Edge,
+            Some(first)
+                if first.eq_ignore_ascii_case("OBS") || first.eq_ignore_ascii_case("HOL") =>
+            {
+                CircleKind::BlocksInside
+            }
+            _ => CircleKind::ClearAperture,
+        }
+    }
+}
+
 /// The field of lensbake's surface a surface command after `S` sets, as its checks name it
 /// (see [`SourceMap::field_lines`]), with the command.
 fn validated_field(command: &Command) -> Option<(&'static str, &'static str)> {
-    let blocks_inside = || {
-        command.args.first().is_some_and(|first| {
-            first.eq_ignore_ascii_case("OBS") || first.eq_ignore_ascii_case("HOL")
-        })
-    };
-    let edge = || {
-        command
-            .args
-            .first()
-            .is_some_and(|first| first.eq_ignore_ascii_case("EDG"))
-    };
     Some(match command.name.as_str() {
-        // The mechanical edge, which clips no ray.
-        "CIR" if edge() => return None,
-        "CIR" if blocks_inside() => ("obscuration", "CIR"),
-        "CIR" => ("semi_aperture", "CIR"),
+        "CIR" => match CircleKind::of(&command.args) {
+            CircleKind::Edge => return None,
+            CircleKind::BlocksInside => ("obscuration", "CIR"),
+            CircleKind::ClearAperture => ("semi_aperture", "CIR"),
+        },
         "REX" => ("semi_aperture", "REX"),
         "REY" => ("semi_aperture", "REY"),
         "ELX" => ("semi_aperture", "ELX"),
@@ -659,19 +673,17 @@ impl Reader {
                 }
             },
             "CIR" => {
-                let Some(first) = c.args.first() else {
+                if c.args.is_empty() {
                     return Err(count("1 value", 0));
-                };
-                // CIR EDG is the lens's mechanical edge: it clips no ray.
-                if first.eq_ignore_ascii_case("EDG") {
+                }
+                let kind = CircleKind::of(&c.args);
+                if kind == CircleKind::Edge {
                     self.skipped.insert("CIR EDG".into());
                     return Ok(());
                 }
-                // CIR OBS r (an obscuration) and CIR HOL r (a hole, as in a Cassegrain
-                // primary) both take the rays inside r off the sequential path; an aperture
-                // label (L'A') names the aperture and changes nothing.
-                let blocks_inside =
-                    first.eq_ignore_ascii_case("OBS") || first.eq_ignore_ascii_case("HOL");
+                // An obscuration and a hole both take the rays inside r off the sequential
+                // path; an aperture label (L'A') names the aperture and changes nothing.
+                let blocks_inside = kind == CircleKind::BlocksInside;
                 let values: Vec<&String> = c
                     .args
                     .iter()
