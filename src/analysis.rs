@@ -52,6 +52,8 @@ pub enum AnalysisError {
         #[source]
         error: Box<AnalysisError>,
     },
+    #[error("{reason}")]
+    UnusableAperture { reason: String },
     #[error("{quantity} is not finite: the lens is too close to a degenerate case to analyse")]
     NonFinite { quantity: String },
 }

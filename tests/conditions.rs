@@ -392,3 +392,60 @@ fn unusable_stated_conditions_are_located_where_the_file_states_them() {
         DesignConditions::resolve(&system, &flags).unwrap();
     }
 }
+
+/// An object-space NA gives a pupil only for a finite object and below the object space's
+/// index; otherwise the file's aperture is refused on its line (it had fallen silently to the
+/// stop's own aperture, shown as the rule's).
+#[test]
+fn an_object_space_na_that_gives_no_beam_is_refused_on_its_line() {
+    let base = include_str!("../examples/lenses/cooke_triplet.zmx");
+    let with = |na: &str, object: &str| {
+        let text = base.replacen("ENPD 10", &format!("OBNA {na}"), 1).replacen(
+            "  DISZ INFINITY",
+            &format!("  DISZ {object}"),
+            1,
+        );
+        let loaded = read_str(
+            &text,
+            Some(Path::new("na.zmx")),
+            Format::Zemax,
+            &LoadOptions::default(),
+        )
+        .unwrap();
+        let system = LensSystem::new(loaded.prescription, &loaded.map).unwrap();
+        DesignConditions::resolve(&system, &ConditionOverrides::default())
+    };
+    let usable = with("0.05", "100").unwrap();
+    assert_eq!(usable.aperture_from, Origin::File);
+    for (na, object) in [("1.5", "100"), ("0.05", "INFINITY")] {
+        match with(na, object) {
+            Err(AnalysisError::Stated {
+                condition,
+                at,
+                error,
+            }) => {
+                assert_eq!(condition, StatedCondition::Aperture);
+                assert_eq!((at.line, at.field.as_deref()), (Some(6), Some("OBNA")));
+                assert!(
+                    matches!(*error, AnalysisError::UnusableAperture { .. }),
+                    "{error}"
+                );
+            }
+            other => panic!("OBNA {na}, DISZ {object}: {other:?}"),
+        }
+    }
+}
+
+/// A lens that fails whatever the file states (an afocal test file) is not blamed on the
+/// file's object, and `lens check` still checks it (the conditions line says none resolve).
+#[test]
+fn a_failure_of_the_lens_itself_is_not_blamed_on_a_stated_condition() {
+    let path =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/corpus/rayoptics__dec_test.seq");
+    let system = system(path.to_str().unwrap());
+    assert!(system.prescription.provenance.conditions.is_some());
+    match DesignConditions::resolve(&system, &ConditionOverrides::default()) {
+        Err(AnalysisError::Paraxial(ParaxialError::Afocal)) => {}
+        other => panic!("{other:?}"),
+    }
+}

@@ -165,7 +165,10 @@ impl DesignConditions {
             (epd, Origin::Flag)
         } else if let Some(epd) = stated
             .and_then(|c| c.aperture.as_ref())
-            .and_then(|a| stated_epd(a, &wide_open, object_distance_mm))
+            .map(|a| stated_epd(a, &wide_open, object_distance_mm))
+            .transpose()
+            .map_err(|error| stated_error(system, StatedCondition::Aperture, error))?
+            .flatten()
         {
             // The same range as a flag's (`--epd-mm`): an `ENPD 1e300` or `FNUM 1e-300` would
             // reach the analysis as a pupil no number in it can hold.
@@ -342,8 +345,8 @@ pub struct FileDefaults {
 pub enum FocusFrom {
     /// The file's stated object distance, where it states one.
     File,
-    /// The caller's flag: the file's object distance is neither used nor checked, and the
-    /// stated aperture is read for an object at infinity.
+    /// The caller's flag: the file's object distance is not the focus, and where no analysis
+    /// can use it, the stated aperture is read for an object at infinity instead.
     Flag,
 }
 
@@ -353,14 +356,26 @@ impl FileDefaults {
             return Ok(FileDefaults::default());
         };
         // A bake and a render take no field from the file, so a field it states cannot fail
-        // them (nor cost the rule's real-ray search). An infinite override distance is the
-        // object at infinity (`resolve` takes 1000 km and beyond as infinity).
-        let used = ConditionOverrides {
+        // them (nor cost the rule's real-ray search).
+        let no_field = ConditionOverrides {
             field_deg: Some(0.0),
-            object_distance_mm: (focus == FocusFrom::Flag).then_some(f64::INFINITY),
             ..ConditionOverrides::default()
         };
-        let resolved = DesignConditions::resolve(system, &used)?;
+        let resolved = match DesignConditions::resolve(system, &no_field) {
+            // An infinite override distance is the object at infinity (`resolve` takes 1000
+            // km and beyond as infinity).
+            Err(AnalysisError::Stated {
+                condition: StatedCondition::Object,
+                ..
+            }) if focus == FocusFrom::Flag => DesignConditions::resolve(
+                system,
+                &ConditionOverrides {
+                    object_distance_mm: Some(f64::INFINITY),
+                    ..no_field
+                },
+            )?,
+            other => other?,
+        };
         let mut notes = Vec::new();
         let f_number = if resolved.aperture_from == Origin::File {
             let at = system.at_checked(resolved.reference_nm)?;
@@ -389,7 +404,7 @@ impl FileDefaults {
         listed.dedup();
         Ok(FileDefaults {
             f_number,
-            focus_mm: if resolved.object_from == Origin::File {
+            focus_mm: if resolved.object_from == Origin::File && focus == FocusFrom::File {
                 resolved.object_distance_mm
             } else {
                 None
@@ -400,14 +415,28 @@ impl FileDefaults {
     }
 }
 
-/// `error` as the fault of the file's `condition` where the value came from the file.
+/// `error` as the fault of the file's `condition` where the value came from the file and the
+/// error is about it; a lens with no focal points (afocal) fails whatever the file states.
 fn blame(
     system: &LensSystem,
     origin: Origin,
     condition: StatedCondition,
-    error: impl Into<AnalysisError>,
+    error: ParaxialError,
 ) -> AnalysisError {
-    if origin == Origin::File {
+    let about_condition = match condition {
+        StatedCondition::Object => matches!(
+            error,
+            ParaxialError::ObjectNotInFront { .. }
+                | ParaxialError::ObjectAtEntrancePupil
+                | ParaxialError::ObjectAtFrontFocalPlane
+                | ParaxialError::VirtualImage { .. }
+        ),
+        StatedCondition::Aperture => {
+            matches!(error, ParaxialError::InvalidEntrancePupilDiameter { .. })
+        }
+        StatedCondition::Fields => true,
+    };
+    if origin == Origin::File && about_condition {
         stated_error(system, condition, error)
     } else {
         error.into()
@@ -470,29 +499,46 @@ fn drawn_wavelengths(
     }
 }
 
-/// The entrance-pupil diameter a stated aperture gives, where it can be turned into one.
+/// The entrance-pupil diameter a stated aperture gives: none where the stop's own aperture
+/// sets the beam (Zemax's float by stop size), an error where the stated value can give no
+/// beam.
 fn stated_epd(
     aperture: &ApertureSpec,
     probe: &Paraxial,
     object_distance_mm: Option<f64>,
-) -> Option<f64> {
+) -> Result<Option<f64>, AnalysisError> {
+    let unusable = |reason: String| Err(AnalysisError::UnusableAperture { reason });
     let epd = match (aperture, object_distance_mm) {
-        (ApertureSpec::EntrancePupilDiameter(d), _) => Some(*d),
-        (ApertureSpec::FNumber(f), _) => Some(probe.first_order.efl.abs() / f),
+        (ApertureSpec::FloatByStop, _) => return Ok(None),
+        (ApertureSpec::EntrancePupilDiameter(d), _) => *d,
+        (ApertureSpec::FNumber(f), _) => probe.first_order.efl.abs() / f,
         // The marginal ray scales with the pupil: F = 1 / (2 n' u') fixes u', hence the pupil.
         (ApertureSpec::WorkingFNumber(f), _) => {
             let slope = probe.marginal.image_slope().abs();
+            if !(slope > 0.0) {
+                return unusable(format!(
+                    "a working f-number ({f}) needs a marginal ray that converges to the image,                      and this lens's leaves it parallel"
+                ));
+            }
             let wanted = 1.0 / (2.0 * probe.first_order.image_index * f);
-            (slope > 0.0).then(|| probe.entrance_pupil.diameter * wanted / slope)
+            probe.entrance_pupil.diameter * wanted / slope
         }
         (ApertureSpec::ObjectNumericalAperture(na), Some(distance)) => {
             let n = probe.first_order.object_index;
-            (*na > 0.0 && *na < n)
-                .then(|| 2.0 * (distance + probe.entrance_pupil.z) * (na / n).asin().tan())
+            if !(*na < n) {
+                return unusable(format!(
+                    "an object-space numerical aperture of {na} needs an object-space index                      above it (n = {n:.6})"
+                ));
+            }
+            2.0 * (distance + probe.entrance_pupil.z) * (na / n).asin().tan()
         }
-        _ => None,
+        (ApertureSpec::ObjectNumericalAperture(na), None) => {
+            return unusable(format!(
+                "an object-space numerical aperture ({na}) needs an object at a finite                  distance, and the object is at infinity"
+            ));
+        }
     };
-    epd.filter(|d| d.is_finite() && *d > 0.0)
+    Ok(Some(epd))
 }
 
 /// The stated field points as half-field angles (top first) and the analysed paraxial field.
