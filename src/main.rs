@@ -12,7 +12,7 @@ fn main() -> ExitCode {
     let result = cli::run(args);
     // After the job: a closed stdout must not stop it from writing its files.
     let stdout_failure = cli::stdout::finish();
-    match (result, stdout_failure) {
+    let code = match (result, stdout_failure) {
         (Ok(()), None) => ExitCode::SUCCESS,
         (Ok(()), Some(error)) => {
             eprintln!("error: writing standard output: {error}");
@@ -22,7 +22,10 @@ fn main() -> ExitCode {
             eprintln!("error: {}", printable(&describe(&error)));
             ExitCode::from(2)
         }
-    }
+    };
+    // Notes still held follow the error line, or end a run that never released them.
+    cli::notes::release();
+    code
 }
 
 /// The error and its causes on one line, each said once: a library error that prints its cause

@@ -227,6 +227,13 @@ fn a_stated_condition_no_analysis_can_use_fails_check_and_report_on_its_line() {
             .collect();
         assert_eq!(errors.len(), 1, "{args:?}: {errors:?}");
         assert!(errors[0].starts_with(&expected), "{args:?}: {errors:?}");
+        // The error is the first line; the reading's notes (skipped keywords) follow it.
+        assert!(
+            stderr(&o).starts_with("error: "),
+            "{args:?}: {}",
+            stderr(&o)
+        );
+        assert!(stderr(&o).contains("\nnote: "), "{args:?}: {}", stderr(&o));
         assert!(stdout(&o).is_empty(), "{args:?}");
     }
     assert!(!report.exists());

@@ -36,7 +36,7 @@ pub struct AnalyzeArgs {
 pub fn run(args: AnalyzeArgs) -> anyhow::Result<()> {
     let lens = args.lens.load()?;
     for note in &lens.source.loaded.notes {
-        eprintln!("note: {note}");
+        note!("{note}");
     }
     let name = lens.source.origin.name();
     let options = AnalyzeOptions {

@@ -205,12 +205,12 @@ fn convert(input: &LensArgs, output: &Path) -> anyhow::Result<()> {
             let nm = lens.system.design_wavelength_nm();
             let text = write_pbrt(p, nm).with_context(|| cannot("a pbrt lens file"))?;
             lensbake::output::write_bytes(output, text.as_bytes())?;
-            eprintln!("note: pbrt holds one index per medium: written at {nm} nm");
+            note!("pbrt holds one index per medium: written at {nm} nm");
         }
         _ => write_ron_file(output, p)?,
     }
     for note in &lens.source.loaded.notes {
-        eprintln!("note: {note}");
+        note!("{note}");
     }
     say!(
         "wrote {} ({} surfaces, from {})",
@@ -244,7 +244,12 @@ fn list() -> anyhow::Result<()> {
 fn summary(lens: &LoadedLens) -> anyhow::Result<String> {
     let system = &lens.system;
     let conditions = match DesignConditions::resolve(system, &ConditionOverrides::default()) {
-        Err(error @ AnalysisError::Stated { .. }) => return Err(error.into()),
+        Err(error @ AnalysisError::Stated { .. }) => {
+            for text in &lens.source.loaded.notes {
+                note!("{text}");
+            }
+            return Err(error.into());
+        }
         resolved => resolved,
     };
     let p = &system.prescription;

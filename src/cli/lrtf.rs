@@ -182,19 +182,19 @@ pub fn run_bake(args: BakeArgs) -> anyhow::Result<()> {
     };
     let defaults = FileDefaults::of(&lens.system, focus_from)?;
     for note in &defaults.notes {
-        eprintln!("note: {}: {note}", lens.source.origin);
+        note!("{}: {note}", lens.source.origin);
     }
     let f_number = args.f_number.or(defaults.f_number);
     if let (None, Some(f)) = (args.f_number, defaults.f_number) {
-        eprintln!("note: {}: f/{f:.3} from the lens file", lens.source.origin);
+        note!("{}: f/{f:.3} from the lens file", lens.source.origin);
     }
     let focus = args.focus_mm.unwrap_or(FocusArg {
         far_mm: defaults.focus_mm,
         near_mm: None,
     });
     if let (None, Some(d)) = (&args.focus_mm, defaults.focus_mm) {
-        eprintln!(
-            "note: {}: focus {d:.3} mm, the lens file's object distance",
+        note!(
+            "{}: focus {d:.3} mm, the lens file's object distance",
             lens.source.origin
         );
     }
@@ -215,7 +215,7 @@ pub fn run_bake(args: BakeArgs) -> anyhow::Result<()> {
         );
     }
     for note in &lens.source.loaded.notes {
-        eprintln!("note: {}: {note}", lens.source.origin);
+        note!("{}: {note}", lens.source.origin);
     }
     let name = lens.source.origin.name();
     let system = &lens.system;
@@ -231,6 +231,8 @@ pub fn run_bake(args: BakeArgs) -> anyhow::Result<()> {
         ..BakeRequest::default()
     };
     let out = args.out.unwrap_or_else(|| focus.table_dir(&name));
+    // Checked: what the bake takes from the file is said before the bake's progress.
+    super::notes::release();
     let bar = ProgressBar::new(1);
     bar.set_style(
         ProgressStyle::with_template("{msg} [{bar:40}] {percent}% {elapsed}")

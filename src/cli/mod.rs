@@ -1,6 +1,13 @@
 //! One module per subcommand; each turns parsed arguments into library calls and prints.
 
 /// `println!` through [`stdout`]: a closed stdout never panics or stops the job.
+/// A `note:` line on stderr, through [`notes`] (held until the command releases them).
+macro_rules! note {
+    ($($arg:tt)*) => {
+        $crate::cli::notes::note(format!($($arg)*))
+    };
+}
+
 macro_rules! say {
     ($($arg:tt)*) => {
         $crate::cli::stdout::write(format_args!($($arg)*), true)
@@ -21,6 +28,7 @@ mod demo;
 mod glass;
 mod lens;
 mod lrtf;
+pub mod notes;
 mod plot;
 mod render;
 pub mod stdout;

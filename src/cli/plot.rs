@@ -96,7 +96,7 @@ pub fn run_plot(args: PlotArgs) -> anyhow::Result<()> {
         let view = placed_spot_plot(&plot_name(&args.lens), &lens, &options)?;
         let drawn = write_plot(&view, &args.out)?;
         for message in drawn.messages() {
-            eprintln!("note: {message}");
+            note!("{message}");
         }
         say!("{}", args.out.display());
         return Ok(());
@@ -105,7 +105,7 @@ pub fn run_plot(args: PlotArgs) -> anyhow::Result<()> {
     let view = figure(kind, &name, &system, &options)?;
     let drawn = write_plot(&view, &args.out)?;
     for message in drawn.messages() {
-        eprintln!("note: {message}");
+        note!("{message}");
     }
     say!("{}", args.out.display());
     Ok(())
@@ -129,7 +129,7 @@ pub fn run_report(args: ReportArgs) -> anyhow::Result<()> {
         };
         let written = write_report(&name, &system, &options, &directory)?;
         for (kind, reason) in &written.skipped {
-            eprintln!("note: {name}: {kind} skipped: {reason}");
+            note!("{name}: {kind} skipped: {reason}");
         }
         say!("{}", written.directory.display());
     }
@@ -158,7 +158,7 @@ fn load_lens(spec: &str, read: &ReadArgs) -> anyhow::Result<(String, LensSystem)
     }
     .load()?;
     for note in &lens.source.loaded.notes {
-        eprintln!("note: {}: {note}", lens.source.origin);
+        note!("{}: {note}", lens.source.origin);
     }
     let name = match &lens.source.origin {
         LensOrigin::Bundled(name) => name.to_string(),

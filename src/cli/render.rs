@@ -262,6 +262,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     for line in &from_file {
         say!("lens file: {line}");
     }
+    super::notes::release();
     let rendered = job.run()?;
     print_decisions(&job, &rendered);
     let image = &rendered.image;

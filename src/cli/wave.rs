@@ -140,7 +140,7 @@ impl Setup {
             None => {
                 let lens = lenses::load(&args.lens, &args.read.options())?;
                 for note in &lens.source.loaded.notes {
-                    eprintln!("note: {}: {note}", lens.source.origin);
+                    note!("{}: {note}", lens.source.origin);
                 }
                 let name = lens.source.origin.name();
                 (
@@ -299,8 +299,8 @@ pub fn run_wavefront(args: WavefrontArgs) -> anyhow::Result<()> {
 
 fn print_assumptions(assumptions: &[lensbake::wave::FftAssumption]) {
     for a in assumptions {
-        eprintln!(
-            "note: the FFT's assumptions fail here: {}",
+        note!(
+            "the FFT's assumptions fail here: {}",
             serde_json::to_string(a).unwrap_or_default()
         );
     }
