@@ -304,6 +304,17 @@ fn unusable_stated_conditions_are_located_where_the_file_states_them() {
             14,
             "SO",
         ),
+        // Object heights (FTYP 1) with the object at infinity, as OpticStudio refuses them:
+        // the fields on line 14.
+        (
+            zemax,
+            Format::Zemax,
+            "FTYP 0 0 3 3 0 0 0",
+            "FTYP 1 0 3 3 0 0 0",
+            StatedCondition::Fields,
+            14,
+            "YFLN",
+        ),
         // An aperture beyond the length limit, as an EPD (line 6) and as an F-number.
         (
             zemax,
@@ -351,12 +362,13 @@ fn unusable_stated_conditions_are_located_where_the_file_states_them() {
                             AnalysisError::Paraxial(ParaxialError::ObjectNotInFront { .. })
                         )
                     }
-                    StatedCondition::Fields => {
-                        matches!(
-                            *error,
-                            AnalysisError::Paraxial(ParaxialError::InvalidFieldAngle { .. })
+                    StatedCondition::Fields => matches!(
+                        *error,
+                        AnalysisError::Paraxial(
+                            ParaxialError::InvalidFieldAngle { .. }
+                                | ParaxialError::ObjectHeightAtInfinity
                         )
-                    }
+                    ),
                     StatedCondition::Aperture => matches!(*error, AnalysisError::Limit(_)),
                 };
                 assert!(expected, "{changed}: {error}");

@@ -592,6 +592,7 @@ fn stated_fields(
                 Box::new(move |h| (h / (d + pupil_z)).atan().to_degrees()),
                 Field::ObjectHeight { mm: largest },
             ),
+            (FieldKind::ObjectHeight, None) => return Err(ParaxialError::ObjectHeightAtInfinity),
             (FieldKind::ParaxialImageHeight, None) => {
                 let angle = move |h: f64| (h / efl).atan().to_degrees();
                 (
