@@ -429,7 +429,18 @@ fn an_object_space_na_that_gives_no_beam_is_refused_on_its_line() {
     };
     let usable = with("0.05", "100").unwrap();
     assert_eq!(usable.aperture_from, Origin::File);
-    for (na, object) in [("1.5", "100"), ("0.05", "INFINITY")] {
+    for (na, object, says) in [
+        (
+            "1.5",
+            "100",
+            "needs an object-space index above it (n = 1.000000)",
+        ),
+        (
+            "0.05",
+            "INFINITY",
+            "needs an object at a finite distance, and the object is at infinity",
+        ),
+    ] {
         match with(na, object) {
             Err(AnalysisError::Stated {
                 condition,
@@ -442,6 +453,8 @@ fn an_object_space_na_that_gives_no_beam_is_refused_on_its_line() {
                     matches!(*error, AnalysisError::UnusableAperture { .. }),
                     "{error}"
                 );
+                // One message, one space between its words.
+                assert!(error.to_string().contains(says), "{error}");
             }
             other => panic!("OBNA {na}, DISZ {object}: {other:?}"),
         }

@@ -517,7 +517,8 @@ fn stated_epd(
             let slope = probe.marginal.image_slope().abs();
             if !(slope > 0.0) {
                 return unusable(format!(
-                    "a working f-number ({f}) needs a marginal ray that converges to the image,                      and this lens's leaves it parallel"
+                    "a working f-number ({f}) needs a marginal ray that converges to the image, \
+                     and this lens's leaves it parallel"
                 ));
             }
             let wanted = 1.0 / (2.0 * probe.first_order.image_index * f);
@@ -527,14 +528,16 @@ fn stated_epd(
             let n = probe.first_order.object_index;
             if !(*na < n) {
                 return unusable(format!(
-                    "an object-space numerical aperture of {na} needs an object-space index                      above it (n = {n:.6})"
+                    "an object-space numerical aperture of {na} needs an object-space index \
+                     above it (n = {n:.6})"
                 ));
             }
             2.0 * (distance + probe.entrance_pupil.z) * (na / n).asin().tan()
         }
         (ApertureSpec::ObjectNumericalAperture(na), None) => {
             return unusable(format!(
-                "an object-space numerical aperture ({na}) needs an object at a finite                  distance, and the object is at infinity"
+                "an object-space numerical aperture ({na}) needs an object at a finite \
+                 distance, and the object is at infinity"
             ));
         }
     };
