@@ -8,7 +8,7 @@ mod wave_figures;
 pub use figures::{Figure, FigureError, FigureOptions, PlotKind, figure, placed_spot_plot};
 pub use page::{Page, PlotEntry, Table, analysis_tables, conditions_table};
 
-use crate::analysis::{AnalysisError, DesignConditions};
+use crate::analysis::AnalysisError;
 use crate::output::{OutputError, publish_dir, write_bytes};
 use crate::plot::{PlotError, write_plot};
 use crate::system::LensSystem;
@@ -47,12 +47,6 @@ pub fn write_report(
     options: &FigureOptions,
     directory: &Path,
 ) -> Result<Written, ReportError> {
-    // Refused before anything is written, rather than a report of skipped plots.
-    if let Err(error @ AnalysisError::Stated { .. }) =
-        DesignConditions::resolve(system, &options.overrides())
-    {
-        return Err(ReportError::Conditions(error));
-    }
     publish_dir(directory, |stage| {
         fill_report(lens, system, options, stage, directory)
     })
@@ -73,6 +67,9 @@ fn fill_report(
                 .insert(0, conditions_table(&analysis.conditions));
             page.tables.extend(analysis_tables(&analysis));
         }
+        // Every plot would fail too: the report is refused, and the staged directory with it
+        // (`publish_dir`), rather than written as a page of skipped plots.
+        Err(error @ AnalysisError::Stated { .. }) => return Err(ReportError::Conditions(error)),
         Err(error) => page
             .notes
             .push(format!("Paraxial analysis failed: {error}.")),
