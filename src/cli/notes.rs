@@ -10,14 +10,14 @@ thread_local! {
 }
 
 pub fn note(text: String) {
-    let printed_now = HELD.with(|held| match held.borrow_mut().as_mut() {
+    let not_held = HELD.with(|held| match held.borrow_mut().as_mut() {
         Some(list) => {
-            list.push(text.clone());
-            false
+            list.push(text);
+            None
         }
-        None => true,
+        None => Some(text),
     });
-    if printed_now {
+    if let Some(text) = not_held {
         eprintln!("note: {text}");
     }
 }
