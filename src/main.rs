@@ -42,12 +42,13 @@ fn describe(error: &anyhow::Error) -> String {
     message
 }
 
-/// `text` with every control character but the line break escaped (`\u{1b}` for ESC): an error
-/// may quote a file's bytes, and a terminal would act on its escape sequences.
+/// `text` with every control character escaped (`\u{1b}` for ESC, `\n` for a line break): an
+/// error may quote a file's bytes, a terminal would act on its escape sequences, and a line
+/// break would forge a second line (notes go through `cli::notes`, after the error line).
 fn printable(text: &str) -> String {
     text.chars()
         .map(|c| {
-            if c.is_control() && c != '\n' {
+            if c.is_control() {
                 c.escape_default().to_string()
             } else {
                 c.to_string()

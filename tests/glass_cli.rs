@@ -65,7 +65,8 @@ fn list_filters_by_catalogue_and_unknown_names_fail_with_suggestions() {
 /// on an escape sequence printed raw.
 #[test]
 fn errors_print_control_characters_escaped() {
-    let output = lensbake(&["glass", "show", "N-BK7\u{1b}[31m\r"]);
+    // A line break in the text would forge a second `error:` line.
+    let output = lensbake(&["glass", "show", "N-BK7\u{1b}[31m\r\nerror: forged"]);
     assert_eq!(output.status.code(), Some(2));
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert!(
@@ -73,5 +74,8 @@ fn errors_print_control_characters_escaped() {
         "{stderr}"
     );
     assert!(!stderr.contains(['\u{1b}', '\r']), "{stderr:?}");
-    assert!(stderr.contains("N-BK7\\u{1b}[31m\\r"), "{stderr:?}");
+    assert!(
+        stderr.contains("N-BK7\\u{1b}[31m\\r\\nerror: forged"),
+        "{stderr:?}"
+    );
 }

@@ -119,17 +119,22 @@ pub enum Readable {
     },
 }
 
-/// The lens `source` holds, validated; a failure carries the reading notes after the error.
+/// The lens `source` holds, validated; a failure's reading notes (the pbrt thickness hint
+/// among them) follow the error line.
 fn validated(source: LensSource) -> anyhow::Result<LoadedLens> {
     match LensSystem::new(source.loaded.prescription.clone(), &source.loaded.map) {
         Ok(system) => Ok(LoadedLens { source, system }),
         Err(error) => {
-            let mut message = error.to_string();
-            for note in &source.loaded.notes {
-                message.push_str(&format!("\nnote: {note}"));
-            }
-            bail!(message)
+            note_reading(&source);
+            Err(error.into())
         }
+    }
+}
+
+/// The notes of reading `source`, each as a `note:` line.
+fn note_reading(source: &LensSource) {
+    for text in &source.loaded.notes {
+        note!("{text}");
     }
 }
 
@@ -158,7 +163,8 @@ pub fn model_parser() -> impl TypedValueParser<Value = ModelKind> {
 fn with_hint(error: LensError) -> anyhow::Error {
     match error {
         LensError::NotFound { .. } => {
-            anyhow::anyhow!("{error}\nnote: `lensbake lens list` shows the bundled lenses")
+            note!("`lensbake lens list` shows the bundled lenses");
+            error.into()
         }
         other => other.into(),
     }
@@ -245,9 +251,7 @@ fn summary(lens: &LoadedLens) -> anyhow::Result<String> {
     let system = &lens.system;
     let conditions = match DesignConditions::resolve(system, &ConditionOverrides::default()) {
         Err(error @ AnalysisError::Stated { .. }) => {
-            for text in &lens.source.loaded.notes {
-                note!("{text}");
-            }
+            note_reading(&lens.source);
             return Err(error.into());
         }
         resolved => resolved,
