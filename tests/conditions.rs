@@ -474,3 +474,25 @@ fn a_failure_of_the_lens_itself_is_not_blamed_on_a_stated_condition() {
         other => panic!("{other:?}"),
     }
 }
+
+/// Field components just below 90 degrees are accepted, and combine below 90 (the check is on
+/// the components alone).
+#[test]
+fn field_components_one_ulp_below_90_degrees_combine_below_90() {
+    let below = 90f64.next_down();
+    let text = include_str!("../examples/lenses/cooke_triplet.zmx")
+        .replacen("XFLN 0 0 0", &format!("XFLN 0 0 {below:?}"), 1)
+        .replacen("YFLN 0 14 20", &format!("YFLN 0 14 {below:?}"), 1);
+    let loaded = read_str(
+        &text,
+        Some(Path::new("wide.zmx")),
+        Format::Zemax,
+        &LoadOptions::default(),
+    )
+    .unwrap();
+    let system = LensSystem::new(loaded.prescription, &loaded.map).unwrap();
+    let resolved = resolve(&system, &ConditionOverrides::default());
+    assert_eq!(resolved.field_from, Origin::File);
+    let top = resolved.fields_deg[0];
+    assert!(top < 90.0 && top > 89.9, "{top}");
+}

@@ -569,14 +569,12 @@ fn stated_fields(
         })
         .collect();
     let largest = radial.iter().copied().fold(0.0, f64::max);
-    // Checked on the components: the tangents of 95 and 85 degrees differ only in sign.
+    // Checked on the components: the tangents of 95 and 85 degrees differ only in sign. Two
+    // components below 90 combine below 90 (both one ulp short of it give 89.99999999999999).
     if fields.kind == FieldKind::AngleDeg
         && let Some(&deg) = fields.x.iter().chain(&fields.y).find(|v| !(v.abs() < 90.0))
     {
         return Err(ParaxialError::InvalidFieldAngle { deg });
-    }
-    if fields.kind == FieldKind::AngleDeg && !(largest < 90.0) {
-        return Err(ParaxialError::InvalidFieldAngle { deg: largest });
     }
     if !largest.is_finite() {
         return Err(ParaxialError::InvalidObjectHeight { height: largest });
