@@ -171,6 +171,32 @@ fn aperture_out_of_range() {
     assert_at(&e, Some(1), Some(1), Some("semi_aperture"));
 }
 
+/// A gap or decentre beyond the lens frame's +-1e9 mm is refused where the file states it: a
+/// 1e300 mm gap made Seidel sums that could not be printed, a 1e300 mm `YDE` an infinite spot.
+#[test]
+fn lengths_beyond_the_lens_frame_are_refused_on_their_line() {
+    let beyond = |e: &PrescriptionError, value: f64| {
+        assert!(
+            matches!(e.problem, Problem::OverLimit(LimitError::OutOfRange { value: v, .. }) if v == value),
+            "{e}"
+        );
+    };
+    let e = error("50 5 1.5 20\n0 1e300 0 10\n-50 40 1 20\n", Format::Pbrt);
+    beyond(&e, 1e300);
+    assert_at(&e, Some(2), Some(2), Some("thickness"));
+    // 1e9 mm itself is a position the frame holds.
+    load("50 5 1.5 20\n0 1e9 0 10\n-50 40 1 20\n", Format::Pbrt).unwrap();
+    // The decentre's own line, not the line of the placement's first command (`REV`).
+    let text = "S 50 5 N-BK7\nSTO\nS -50 20\nS 0 0\nREV\nXDE 1\nYDE -1e300\nS 0 10\n";
+    let e = error(text, Format::CodeV);
+    beyond(&e, -1e300);
+    assert_eq!(
+        (e.location.line, e.location.field.as_deref()),
+        (Some(7), Some("YDE")),
+        "{e}"
+    );
+}
+
 #[test]
 fn semi_aperture_larger_than_radius() {
     let e = error("50 5 1.5 20\n0 2 0 10\n-8 40 1 20\n", Format::Pbrt);

@@ -269,6 +269,9 @@ fn check_surface(i: usize, s: &Surface, map: &SourceMap) -> Result<(), Prescript
         finite(*a, map.surface(i, "coefficients"))?;
     }
     finite(s.thickness, map.surface(i, "thickness"))?;
+    // A gap of 1e300 mm gave Seidel sums no analysis could print, and an unlocated error.
+    limits::check_position("the thickness (mm)", s.thickness)
+        .map_err(|e| PrescriptionError::new(map.surface(i, "thickness"), e.into()))?;
     finite(s.semi_aperture, map.surface(i, "semi_aperture"))?;
     // Below a nanometre the bake's pupil search divides by squares that underflow (a 1e-300 mm
     // aperture baked a table of NaN margins).

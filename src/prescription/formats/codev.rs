@@ -277,6 +277,8 @@ const ASPHERE_LETTERS: [&str; MAX_ASPHERE_TERMS - 1] =
     ["A", "B", "C", "D", "E", "F", "G", "H", "J"];
 
 /// The commands that state fields: angles, object heights, paraxial and real image heights.
+/// The decentre commands, by axis.
+const DECENTRES: [&str; 3] = ["XDE", "YDE", "ZDE"];
 const FIELD_COMMANDS: [&str; 8] = ["XAN", "YAN", "XOB", "YOB", "XIM", "YIM", "XRI", "YRI"];
 
 #[derive(Default)]
@@ -872,7 +874,11 @@ impl Reader {
                     "ADE" => placement.tilt_deg[0] = -value,
                     "BDE" => placement.tilt_deg[1] = -value,
                     "CDE" => placement.tilt_deg[2] = value,
-                    _ => placement.decentre[usize::from(name.as_bytes()[0] - b'X')] = value,
+                    _ => {
+                        let axis = usize::from(name.as_bytes()[0] - b'X');
+                        placement.decentre[axis] = value;
+                        placement.decentre_at[axis] = Some((line, DECENTRES[axis]));
+                    }
                 }
             }
             // `CA` alone, in the system data (rayoptics' table of CODE V commands files it

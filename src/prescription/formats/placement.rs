@@ -53,9 +53,11 @@ pub(super) struct Placement {
     pub decentre: [f64; 3],
     /// Right-handed tilts in degrees about x, the new y and the new z.
     pub tilt_deg: [f64; 3],
-    /// Where the file states it, for errors: line and keyword.
+    /// Where the file states it, for errors: line and keyword; and the line and keyword of
+    /// each decentre component it states.
     pub line: usize,
     pub keyword: String,
+    pub decentre_at: [Option<(usize, &'static str)>; 3],
 }
 
 impl Placement {
@@ -66,6 +68,7 @@ impl Placement {
             tilt_deg: [0.0; 3],
             line,
             keyword: keyword.to_string(),
+            decentre_at: [None; 3],
         }
     }
 
@@ -425,6 +428,30 @@ pub(super) fn centre_if_placed(
             location
         }
     };
+    // A decentre beyond the lens frame's reach overflowed the 3-D trace's squares (a 1e300 mm
+    // `YDE` printed an infinite RMS spot).
+    let stated = placements
+        .iter()
+        .map(Option::as_ref)
+        .chain([image_placement]);
+    for (i, placement) in stated.enumerate() {
+        let Some(placement) = placement else { continue };
+        for (value, at) in placement.decentre.iter().zip(placement.decentre_at) {
+            let Some((line, keyword)) = at else { continue };
+            crate::limits::check_position("the decentre (mm)", value * mm_per_unit).map_err(
+                |e| {
+                    let location = locate(i, keyword);
+                    PrescriptionError::new(
+                        Location {
+                            line: Some(line),
+                            ..location
+                        },
+                        e.into(),
+                    )
+                },
+            )?;
+        }
+    }
     // Readers give one entry per surface, in the file's length unit.
     let scaled_outlines: Vec<Option<ApertureOutline>> = asymmetries
         .iter()

@@ -896,6 +896,7 @@ impl Reader {
                     Placement {
                         decentre: [dx, dy, 0.0],
                         tilt_deg: [tx, ty, tz],
+                        decentre_at: [Some((b.line, "PARM 1")), Some((b.line, "PARM 2")), None],
                         ..Placement::new(kind, b.line, "TYPE COORDBRK")
                     }
                 })
