@@ -23,8 +23,8 @@ use std::time::{Duration, Instant};
 
 #[derive(Args, Debug)]
 pub struct DemoArgs {
-    /// Lens file or bundled lens name [default: a 50 mm of real glasses, so the render shows
-    /// colour].
+    /// Lens file or bundled lens name (the default is a 50 mm of real glasses, so the render
+    /// shows colour).
     #[arg(long, default_value = DEMO_LENS)]
     lens: String,
     #[command(flatten)]

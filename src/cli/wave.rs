@@ -53,7 +53,7 @@ pub struct WavefrontArgs {
     /// Zernike ordering: fringe (37 terms, unnormalised) or standard (Noll, RMS-normalised).
     #[arg(long, default_value = "fringe")]
     pub zernike: String,
-    /// Number of Zernike terms fitted [default: 37].
+    /// Number of Zernike terms fitted.
     #[arg(long, default_value_t = 37)]
     pub terms: usize,
     /// Print one JSON object instead of the summary.
