@@ -258,6 +258,41 @@ fn a_stated_condition_no_analysis_can_use_fails_check_and_report_on_its_line() {
     let o = bake(&["--focus-mm", "3000"]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     assert!(table.join("lrtf.exr").exists());
+    // So does a render, with each of its four focus flags.
+    let image = dir.join("render.exr");
+    let render = |extra: &[&str]| {
+        let mut args = vec![
+            "render",
+            "--lens",
+            path.to_str().unwrap(),
+            "--model",
+            "thick",
+            "--width",
+            "16",
+            "--height",
+            "12",
+            "--spp",
+            "1",
+            "--out",
+            image.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        lensbake(&args)
+    };
+    let o = render(&[]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains(&expected), "{}", stderr(&o));
+    assert!(!image.exists());
+    for flag in [
+        ["--focus-mm", "3000"],
+        ["--focus-pixel", "8,6"],
+        ["--sensor-mm", "60"],
+        ["--focus-points", "2,2;14,2;8,10"],
+    ] {
+        let o = render(&flag);
+        assert_eq!(o.status.code(), Some(0), "{flag:?}: {}", stderr(&o));
+        std::fs::remove_file(&image).expect("the render wrote its image");
+    }
     // The lens as written checks, and its summary lists the conditions it is analysed under.
     std::fs::write(&path, base).unwrap();
     let o = lensbake(&["lens", "check", path.to_str().unwrap()]);
