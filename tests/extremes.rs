@@ -1477,3 +1477,39 @@ fn an_aspheric_stop_stopped_far_down_still_bakes_its_field() {
         Outcome::Vignetted { surface: 1 }
     );
 }
+
+/// A relay of two positive singlets further apart than their focal lengths together: the
+/// image of a distant object is real (99 mm behind the last vertex) but the focal length is
+/// negative. The analysis reports it as it is; models, bakes and tradeoffs, which stop a lens
+/// down by comparing f-numbers, refuse it by name (they had refused it as `f-number -2.54 is
+/// faster than the lens wide open (f/-2.542)`).
+#[test]
+fn a_lens_of_negative_focal_length_is_analysed_and_refused_by_name_for_models_and_tables() {
+    use lensbake::model::{FirstOrderModels, ModelError};
+    let relay = "50 5 1.5 20\n-50 75 1 20\n0 75 0 10\n50 5 1.5 20\n-50 60 1 20\n";
+    use lensbake::prescription::formats::{Format, LoadOptions, read_str};
+    let loaded = read_str(relay, None, Format::Pbrt, &LoadOptions::default()).unwrap();
+    let system = LensSystem::new(loaded.prescription, &loaded.map).unwrap();
+    let report = analyze_finite("relay", &system, &AnalyzeOptions::default());
+    let efl = report.first_order.efl;
+    assert!((-50.1..-49.9).contains(&efl), "EFL {efl}");
+    assert!(
+        report.first_order.bfl > 99.0,
+        "BFL {}",
+        report.first_order.bfl
+    );
+    let diverging =
+        |e: &ParaxialError| matches!(e, ParaxialError::Diverging { efl: e } if *e == efl);
+    match FirstOrderModels::of(&system, None) {
+        Err(ModelError::Paraxial(e)) => assert!(diverging(&e), "{e}"),
+        other => panic!("{other:?}"),
+    }
+    let request = BakeRequest {
+        resolution: [4, 4, 4],
+        ..BakeRequest::default()
+    };
+    match bake(&system, &request, &|_| {}) {
+        Err(BakeError::Paraxial(e)) => assert!(diverging(&e), "{e}"),
+        other => panic!("{:?}", other.map(|_| "a table")),
+    }
+}

@@ -374,6 +374,7 @@ pub fn bake(
         });
     }
     let first = first_order(&design, request.focus_mm)?;
+    first.first_order.require_converging()?;
     let wide_open = first.f_number;
     let f_number = request.f_number.unwrap_or(wide_open);
     if f_number < wide_open * (1.0 - 1e-9) {

@@ -121,6 +121,7 @@ impl FirstOrderModels {
         }
         let at = system.at(system.design_wavelength_nm());
         let paraxial = Paraxial::new(&at, &ParaxialOptions::default())?;
+        paraxial.first_order.require_converging()?;
         let wide_open = paraxial.f_number;
         let f_number = f_number.unwrap_or(wide_open);
         if !(f_number.is_finite() && f_number >= wide_open * (1.0 - 1e-9)) {

@@ -108,6 +108,18 @@ impl FirstOrder {
         self.image_index.signum()
     }
 
+    /// Refuses a lens whose focal length, taken in the sense light leaves it, is negative. Lens
+    /// models, tables and renders take the f-number as EFL / EPD and stop a lens down by
+    /// comparing it with the wide-open one, which a negative EFL turns around (a mutated file
+    /// of EFL -2.5 mm was refused as `f-number -4.96 is faster than the lens wide open`).
+    pub fn require_converging(&self) -> Result<(), ParaxialError> {
+        if self.efl * self.image_sense() > 0.0 {
+            Ok(())
+        } else {
+            Err(ParaxialError::Diverging { efl: self.efl })
+        }
+    }
+
     /// Whether a point at `z` in image space lies ahead of the last vertex in the sense light
     /// leaves it, where a real image can form.
     pub fn ahead_of_last_vertex(&self, z: f64) -> bool {

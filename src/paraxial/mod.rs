@@ -67,6 +67,11 @@ pub enum ParaxialError {
     #[error("the system is afocal (zero power): it has no focal points")]
     Afocal,
     #[error(
+        "the lens diverges (EFL {efl:.6} mm): cameras, tables and renders need a lens of positive \
+         focal length"
+    )]
+    Diverging { efl: f64 },
+    #[error(
         "the entrance pupil is at infinity (object-space telecentric stop): the stop cannot \
          define an axial beam from an object at infinity"
     )]

@@ -128,6 +128,10 @@ impl Domain {
         req.check()?;
         let at = system.at(system.design_wavelength_nm());
         let first = first_order(&at, req.focus_mm)?;
+        first
+            .first_order
+            .require_converging()
+            .map_err(BakeError::from)?;
         let f_number = req.f_number.unwrap_or(first.f_number);
         if f_number < first.f_number * (1.0 - 1e-9) {
             return Err(BakeError::FNumber {
