@@ -304,3 +304,49 @@ fn a_stated_condition_no_analysis_can_use_fails_check_and_report_on_its_line() {
     );
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// A bake or render refused for the lens itself (here a single mirror, which sends the light
+/// back) prints its error line first, before the notes on what was read from the file: the
+/// bake checks its request before it releases them, the render releases them only after the
+/// job has run.
+#[test]
+fn a_refused_bake_or_render_prints_its_error_before_the_notes() {
+    let dir = temp_dir("refused-first");
+    let lens = "tests/data/corpus/optiland__mirror.seq";
+    let (table, image) = (dir.join("table"), dir.join("image.exr"));
+    let bake = [
+        "bake",
+        lens,
+        "--resolution",
+        "4",
+        "--out",
+        table.to_str().unwrap(),
+    ];
+    let render = [
+        "render",
+        "--lens",
+        lens,
+        "--width",
+        "16",
+        "--height",
+        "12",
+        "--spp",
+        "1",
+        "--out",
+        image.to_str().unwrap(),
+    ];
+    for args in [&bake[..], &render[..]] {
+        let o = lensbake(args);
+        assert_eq!(o.status.code(), Some(2), "{args:?}");
+        let err = stderr(&o);
+        assert!(
+            err.starts_with("error: ") && err.contains("an odd number of mirrors"),
+            "{args:?}: {err}"
+        );
+        assert_eq!(err.matches("error: ").count(), 1, "{err}");
+    }
+    // The bake's notes (the file's f-number, its derived apertures) follow the error.
+    assert!(stderr(&lensbake(&bake)).contains("\nnote: "));
+    assert!(!table.exists() && !image.exists());
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -10,7 +10,7 @@ use serde::{Deserialize, Serialize};
 use lensbake::analysis::{FileDefaults, FocusFrom};
 use lensbake::job::default_table_dir;
 use lensbake::job::tables::DEFAULT_TABLES_ROOT;
-use lensbake::lrtf::bake::{BakeRequest, bake, first_order};
+use lensbake::lrtf::bake::{BakeRequest, bake, check_request, first_order};
 use lensbake::lrtf::io::{read_sidecar, read_table, write_table};
 use lensbake::lrtf::measure::{SweepRow, table_error_focused};
 use lensbake::lrtf::{Lookup, Parameterisation, Precision, Ray};
@@ -231,7 +231,9 @@ pub fn run_bake(args: BakeArgs) -> anyhow::Result<()> {
         ..BakeRequest::default()
     };
     let out = args.out.unwrap_or_else(|| focus.table_dir(&name));
-    // Checked: what the bake takes from the file is said before the bake's progress.
+    // A request the bake refuses is refused here, so that its error line comes first; what the
+    // bake takes from the file is then said before the bake's progress.
+    check_request(system, &request)?;
     super::notes::release();
     let bar = ProgressBar::new(1);
     bar.set_style(

@@ -262,8 +262,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     for line in &from_file {
         say!("lens file: {line}");
     }
-    super::notes::release();
     let rendered = job.run()?;
+    // Released only now, so that a render the job refuses prints its error line first.
+    super::notes::release();
     print_decisions(&job, &rendered);
     let image = &rendered.image;
     write_exr(image, &args.out)?;

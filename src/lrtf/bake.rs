@@ -318,7 +318,6 @@ pub fn first_order(system: &SystemAt, focus_mm: Option<f64>) -> Result<Paraxial,
     )
 }
 
-/// Bakes a table; `progress` is called from worker threads as nodes complete.
 /// Refuses a table over the node limit or larger than the memory available, before the bake
 /// allocates it (the entries, then the same again while the file is encoded).
 fn check_size(resolution: [usize; 3], layers: usize) -> Result<(), crate::limits::LimitError> {
@@ -338,62 +337,108 @@ fn check_size(resolution: [usize; 3], layers: usize) -> Result<(), crate::limits
     limits::check_memory("the table", limits::product(&[nodes, entry_bytes, 2]))
 }
 
+/// What a bake decides before it traces: every check that refuses a request, made in
+/// milliseconds.
+struct BakePlan {
+    wavelengths: Vec<f64>,
+    design: SystemAt,
+    first: Paraxial,
+    near_mm: Option<f64>,
+    f_number: f64,
+    stop_semi_aperture: f64,
+    /// The design wavelength's image planes of the far and near focus.
+    film_z: [f64; 2],
+    rear_z: f64,
+}
+
+impl BakePlan {
+    fn new(system: &LensSystem, request: &BakeRequest) -> Result<BakePlan, BakeError> {
+        if request.resolution.iter().any(|&n| n < 2) {
+            return Err(BakeError::Resolution(request.resolution));
+        }
+        if !system.images_behind() {
+            return Err(BakeError::ImageInFront);
+        }
+        let wavelengths = if request.wavelengths_nm.is_empty() {
+            vec![system.design_wavelength_nm()]
+        } else {
+            request.wavelengths_nm.clone()
+        };
+        if wavelengths.len() != 1 && wavelengths.len() != 3 {
+            return Err(BakeError::WavelengthCount(wavelengths.len()));
+        }
+        check_size(request.resolution, wavelengths.len())?;
+        // Every layer is traced through `stopped_down`, which trusts the wavelength: refuse the
+        // ones where a medium's dispersion formula no longer gives an index.
+        for &nm in &wavelengths {
+            system.at_checked(nm)?;
+        }
+        let design = system.at_checked(system.design_wavelength_nm())?;
+        let near_mm = request.focus_near_mm.or(request.focus_mm);
+        if let (Some(near), far) = (near_mm, request.focus_mm)
+            && far.is_some_and(|far| near > far)
+        {
+            return Err(BakeError::FocusOrder {
+                far: distance_text(far),
+                near: distance_text(Some(near)),
+            });
+        }
+        let first = first_order(&design, request.focus_mm)?;
+        first.first_order.require_converging()?;
+        let wide_open = first.f_number;
+        let f_number = request.f_number.unwrap_or(wide_open);
+        if f_number < wide_open * (1.0 - 1e-9) {
+            return Err(BakeError::FNumber {
+                asked: f_number,
+                wide_open,
+            });
+        }
+        // The stop scales as 1 / f-number (the entrance pupil is its paraxial image).
+        crate::limits::check_f_number(f_number, wide_open)?;
+        let stop_semi_aperture = design.surfaces[design.stop].semi_aperture * wide_open / f_number;
+        // One physical film plane per focus for every wavelength: the design wavelength's image
+        // plane. The far focus's is the table's reference plane; the near focus's lies behind it.
+        let film_z = [first.z_image, first_order(&design, near_mm)?.z_image];
+        let rear_z = design.last_vertex_z();
+        // A focus inside the front focal length images virtually, in front of the film side.
+        if let Some(&z) = film_z.iter().find(|&&z| z <= rear_z) {
+            return Err(BakeError::FilmPlane { film_z: z, rear_z });
+        }
+        Ok(BakePlan {
+            wavelengths,
+            design,
+            first,
+            near_mm,
+            f_number,
+            stop_semi_aperture,
+            film_z,
+            rear_z,
+        })
+    }
+}
+
+/// Refuses a request [`bake`] would refuse before it traces, in milliseconds: a caller can
+/// report a bad request before it starts the long work's progress.
+pub fn check_request(system: &LensSystem, request: &BakeRequest) -> Result<(), BakeError> {
+    BakePlan::new(system, request).map(|_| ())
+}
+
+/// Bakes a table; `progress` is called from worker threads as nodes complete.
 pub fn bake(
     system: &LensSystem,
     request: &BakeRequest,
     progress: &(dyn Fn(BakeProgress) + Sync),
 ) -> Result<LrtfTable, BakeError> {
-    if request.resolution.iter().any(|&n| n < 2) {
-        return Err(BakeError::Resolution(request.resolution));
-    }
-    if !system.images_behind() {
-        return Err(BakeError::ImageInFront);
-    }
-    let wavelengths = if request.wavelengths_nm.is_empty() {
-        vec![system.design_wavelength_nm()]
-    } else {
-        request.wavelengths_nm.clone()
-    };
-    if wavelengths.len() != 1 && wavelengths.len() != 3 {
-        return Err(BakeError::WavelengthCount(wavelengths.len()));
-    }
-    check_size(request.resolution, wavelengths.len())?;
-    // Every layer is traced through `stopped_down`, which trusts the wavelength: refuse the ones
-    // where a medium's dispersion formula no longer gives an index.
-    for &nm in &wavelengths {
-        system.at_checked(nm)?;
-    }
-    let design = system.at_checked(system.design_wavelength_nm())?;
-    let near_mm = request.focus_near_mm.or(request.focus_mm);
-    if let (Some(near), far) = (near_mm, request.focus_mm)
-        && far.is_some_and(|far| near > far)
-    {
-        return Err(BakeError::FocusOrder {
-            far: distance_text(far),
-            near: distance_text(Some(near)),
-        });
-    }
-    let first = first_order(&design, request.focus_mm)?;
-    first.first_order.require_converging()?;
-    let wide_open = first.f_number;
-    let f_number = request.f_number.unwrap_or(wide_open);
-    if f_number < wide_open * (1.0 - 1e-9) {
-        return Err(BakeError::FNumber {
-            asked: f_number,
-            wide_open,
-        });
-    }
-    // The stop scales as 1 / f-number (the entrance pupil is its paraxial image).
-    crate::limits::check_f_number(f_number, wide_open)?;
-    let stop_semi_aperture = design.surfaces[design.stop].semi_aperture * wide_open / f_number;
-    // One physical film plane per focus for every wavelength: the design wavelength's image
-    // plane. The far focus's is the table's reference plane; the near focus's lies behind it.
-    let film_z = [first.z_image, first_order(&design, near_mm)?.z_image];
-    let rear_z = design.last_vertex_z();
-    // A focus inside the front focal length images virtually, in front of the film side.
-    if let Some(&z) = film_z.iter().find(|&&z| z <= rear_z) {
-        return Err(BakeError::FilmPlane { film_z: z, rear_z });
-    }
+    let BakePlan {
+        wavelengths,
+        design,
+        first,
+        near_mm,
+        f_number,
+        stop_semi_aperture,
+        film_z,
+        rear_z,
+    } = BakePlan::new(system, request)?;
     let design_tracer = Tracer::new(&stopped_down(
         system,
         system.design_wavelength_nm(),
