@@ -92,7 +92,9 @@ impl LensArgs {
                 location: *location,
                 lens,
             }),
-            read => validated(read.map_err(with_hint)?).map(Readable::Centred),
+            read => {
+                validated(read.map_err(with_hint)?).map(|lens| Readable::Centred(Box::new(lens)))
+            }
         }
     }
 }
@@ -111,7 +113,7 @@ fn radius_text(shape: &Shape) -> String {
 /// A lens as `lens check` and `trace` read it: centred and validated, or placed off one axis
 /// (what no centred lens describes; only the 3-D trace reads it).
 pub enum Readable {
-    Centred(LoadedLens),
+    Centred(Box<LoadedLens>),
     Placed {
         offence: String,
         location: Location,

@@ -92,8 +92,13 @@ pub struct PsfArgs {
 
 /// A lens resolved from its argument.
 enum Subject {
-    Real { name: String, system: LensSystem },
-    Ideal { efl_mm: f64 },
+    Real {
+        name: String,
+        system: Box<LensSystem>,
+    },
+    Ideal {
+        efl_mm: f64,
+    },
 }
 
 /// Everything a wave command needs, resolved and checked.
@@ -147,7 +152,7 @@ impl Setup {
                     name.clone(),
                     Subject::Real {
                         name,
-                        system: lens.system,
+                        system: Box::new(lens.system),
                     },
                 )
             }
@@ -358,10 +363,10 @@ pub fn run_mtf(args: MtfArgs) -> anyhow::Result<()> {
         mtf.cutoff_per_mm
     );
     say!("  cycles/mm  tangential  sagittal  diffraction limit");
-    for i in 0..frequencies.len() {
+    for (i, frequency) in frequencies.iter().enumerate() {
         say!(
             "  {:>9.2}  {:>10.4}  {:>8.4}  {:>17.4}",
-            frequencies[i],
+            frequency,
             mtf.tangential[i],
             mtf.sagittal[i],
             mtf.diffraction_limit[i]

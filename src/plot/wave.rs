@@ -63,6 +63,9 @@ pub struct MtfPlot {
     pub diffraction_limit: Vec<(f64, f64)>,
 }
 
+/// Modulation curves against one variable: (variable, tangential, sagittal) samples.
+pub type ModulationCurve = Vec<(f64, f64, f64)>;
+
 /// Modulation at one frequency against the image-plane shift, per field.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ThroughFocusPlot {
@@ -70,7 +73,7 @@ pub struct ThroughFocusPlot {
     pub spectrum: String,
     pub frequency_per_mm: f64,
     /// (field, [(defocus mm, tangential, sagittal)]).
-    pub fields: Vec<(f64, Vec<(f64, f64, f64)>)>,
+    pub fields: Vec<(f64, ModulationCurve)>,
 }
 
 /// Modulation against field angle, per frequency.
@@ -79,7 +82,7 @@ pub struct MtfFieldPlot {
     pub lens: String,
     pub spectrum: String,
     /// (frequency, [(field deg, tangential, sagittal)]).
-    pub frequencies: Vec<(f64, Vec<(f64, f64, f64)>)>,
+    pub frequencies: Vec<(f64, ModulationCurve)>,
 }
 
 /// One panel of modulation (0..1) curves.

@@ -115,6 +115,9 @@ pub fn frequencies_to(cutoff_per_mm: f64, count: usize) -> Vec<f64> {
         .collect()
 }
 
+/// The complex OTF of one wavelength's map, along one axis, at the given frequencies.
+type OtfOfMap = dyn Fn(&WavefrontMap, usize, &[f64]) -> Vec<Complex<f64>>;
+
 /// One field traced at every wavelength of a spectrum.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FieldTrace {
@@ -220,7 +223,7 @@ impl FieldTrace {
         &self,
         maps: &[(WavefrontMap, f64)],
         frequencies_per_mm: &[f64],
-        otf: &dyn Fn(&WavefrontMap, usize, &[f64]) -> Vec<Complex<f64>>,
+        otf: &OtfOfMap,
     ) -> Mtf {
         let total: f64 = maps.iter().map(|m| m.1).sum();
         let mut axes = [

@@ -60,6 +60,10 @@ pub(super) enum FieldPosition {
     ImageHeight(f64),
 }
 
+/// The filled part of one field's pupil, from its vignetting factors: x from..to, then y
+/// from..to, as fractions of the pupil radius.
+pub(super) type PupilFill = ((f64, f64), (f64, f64));
+
 /// What the file says about the beams, in mm and nm.
 #[derive(Clone, Debug, PartialEq)]
 pub(super) struct BeamSpec {
@@ -77,7 +81,7 @@ impl BeamSpec {
     /// the conditions hold none.
     pub fn from_conditions(
         conditions: &Conditions,
-        pupils: &[((f64, f64), (f64, f64))],
+        pupils: &[PupilFill],
         no_aperture: String,
         wavelength_nm: f64,
     ) -> BeamSpec {
