@@ -171,3 +171,48 @@ fn bad_input_is_one_error_line_and_exit_code_2() {
         assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
     }
 }
+
+/// What the user reads is a sentence: a broken FFT assumption names the measured size, its
+/// limit and the flag that mends it (it printed as a JSON object), and a stopped chief ray says
+/// where it stopped (it printed as `Missed { surface: 9 }`).
+#[test]
+fn notes_and_errors_read_as_sentences() {
+    let output = lensbake(&[
+        "mtf",
+        "dgauss-50mm",
+        "--field-deg",
+        "20",
+        "--samples",
+        "8",
+        "--grid",
+        "16",
+    ]);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(0), "{stderr}");
+    let note = stderr
+        .lines()
+        .find(|l| l.contains("pupil samples differ"))
+        .unwrap_or_else(|| panic!("{stderr}"));
+    assert!(
+        note.starts_with(
+            "note: the FFT's assumptions fail here: neighbouring pupil samples differ by "
+        ) && note.ends_with(" waves (limit 0.5), so the phase aliases; raise --samples"),
+        "{note}"
+    );
+    let output = lensbake(&[
+        "psf",
+        "fisheye-10mm",
+        "--field-deg",
+        "60",
+        "--out",
+        "unwritten.exr",
+    ]);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.starts_with("error: ")
+            && stderr.contains("the real chief ray does not reach the image (missed surface 9)"),
+        "{stderr}"
+    );
+    assert!(!std::path::Path::new("unwritten.exr").exists());
+}

@@ -304,10 +304,7 @@ pub fn run_wavefront(args: WavefrontArgs) -> anyhow::Result<()> {
 
 fn print_assumptions(assumptions: &[lensbake::wave::FftAssumption]) {
     for a in assumptions {
-        note!(
-            "the FFT's assumptions fail here: {}",
-            serde_json::to_string(a).unwrap_or_default()
-        );
+        note!("the FFT's assumptions fail here: {a}");
     }
 }
 

@@ -21,7 +21,7 @@ pub enum RaySource {
 /// Why no ray could be aimed.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum AimError {
-    #[error("no ray from this source reaches the stop surface (the paraxial guess ends {0:?})")]
+    #[error("no ray from this source reaches the stop surface (the paraxial guess is {0})")]
     NoStartingRay(Outcome),
     #[error("aiming did not converge: {residual:e} mm from the target on the stop")]
     NoConvergence { residual: f64 },

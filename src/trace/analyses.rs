@@ -24,9 +24,9 @@ use serde::Serialize;
 pub enum RealRayError {
     #[error("field {field}: the real chief ray cannot be aimed at the stop centre: {source}")]
     Aim { field: f64, source: AimError },
-    #[error("field {field}: the real chief ray does not reach the image ({outcome:?})")]
+    #[error("field {field}: the real chief ray does not reach the image ({outcome})")]
     ChiefRay { field: f64, outcome: Outcome },
-    #[error("relative pupil height {rho}: the ray does not reach the image ({outcome:?})")]
+    #[error("relative pupil height {rho}: the ray does not reach the image ({outcome})")]
     PupilRay { rho: f64, outcome: Outcome },
     #[error("relative pupil height {rho}: the ray leaves the lens without crossing the axis")]
     NoAxisCrossing { rho: f64 },

@@ -184,6 +184,20 @@ pub enum Outcome {
     Missed { surface: usize },
 }
 
+/// As a sentence's end: `vignetted at surface 3`, `missed surface 9`.
+impl std::fmt::Display for Outcome {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Outcome::Ok => f.write_str("crossed every surface"),
+            Outcome::Vignetted { surface } => write!(f, "vignetted at surface {surface}"),
+            Outcome::Tir { surface } => {
+                write!(f, "totally internally reflected at surface {surface}")
+            }
+            Outcome::Missed { surface } => write!(f, "missed surface {surface}"),
+        }
+    }
+}
+
 impl Outcome {
     pub fn is_ok(self) -> bool {
         self == Outcome::Ok

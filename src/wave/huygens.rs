@@ -28,6 +28,42 @@ pub enum FftAssumption {
     HighAperture { numerical_aperture: f64 },
 }
 
+/// What was measured against which limit, and what to change (`--huygens`, `--samples` and
+/// `--grid` are the wave commands' flags).
+impl std::fmt::Display for FftAssumption {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match *self {
+            FftAssumption::AffinePupilMap { deviation } => write!(
+                f,
+                "exit directions depart from an affine map of the pupil by {:.1} % of the beam's \
+                 half-width (limit {:.0} %); --huygens sums along the real directions",
+                deviation * 100.0,
+                AFFINE_LIMIT * 100.0
+            ),
+            FftAssumption::PupilUndersampled { step_waves } => write!(
+                f,
+                "neighbouring pupil samples differ by {step_waves:.2} waves (limit \
+                 {STEP_LIMIT_WAVES}), so the phase aliases; raise --samples"
+            ),
+            FftAssumption::WindowTooSmall {
+                spot_radius_mm,
+                window_half_width_mm,
+            } => write!(
+                f,
+                "rays land up to {:.2} um from the reference point, beyond the image window's \
+                 {:.2} um, so the PSF wraps around; raise --grid",
+                spot_radius_mm * 1e3,
+                window_half_width_mm * 1e3
+            ),
+            FftAssumption::HighAperture { numerical_aperture } => write!(
+                f,
+                "image-space numerical aperture {numerical_aperture:.3} is above {NA_LIMIT}, \
+                 where scalar diffraction no longer describes the focus"
+            ),
+        }
+    }
+}
+
 /// Largest affine-map departure accepted, as a fraction of the beam's angular half-width.
 const AFFINE_LIMIT: f64 = 0.02;
 /// Largest OPD step between neighbouring samples for an unaliased pupil phase (Nyquist).
