@@ -253,3 +253,37 @@ fn mirrors_and_obscurations_go_to_zemax_and_are_refused_by_pbrt() {
         other => panic!("{other:?}"),
     }
 }
+
+/// A bundled lens states no conditions but carries its source's claims (f-number, half field),
+/// which lensbake analyses it under. Written to Zemax with the claims stated, it is analysed
+/// under the same pupil and fields; written as it was, with `FLOA` and the axis alone, the
+/// double Gauss lost its 22-degree field (the rule gave 29) and the telephoto its f-number.
+#[test]
+fn claims_go_to_zemax_as_the_conditions_lensbake_analyses_under() {
+    use lensbake::analysis::{ConditionOverrides, DesignConditions, Origin, claims_stated};
+    let resolve = |system: &LensSystem| {
+        DesignConditions::resolve(system, &ConditionOverrides::default()).unwrap()
+    };
+    for lens in lensbake::lenses::BUNDLED {
+        let original = system(lens.name);
+        let before = resolve(&original);
+        let text = write_zemax(&claims_stated(&original)).unwrap();
+        let after = resolve(&read_back(&text, Format::Zemax));
+        assert_eq!(after.fields_deg, before.fields_deg, "{}\n{text}", lens.name);
+        assert_eq!(after.epd_mm, before.epd_mm, "{}\n{text}", lens.name);
+        assert_eq!(after.reference_nm, before.reference_nm, "{}", lens.name);
+        for (origin, became) in [
+            (before.field_from, after.field_from),
+            (before.aperture_from, after.aperture_from),
+        ] {
+            if origin == Origin::Source {
+                assert_eq!(became, Origin::File, "{}", lens.name);
+            }
+        }
+    }
+    // A claim the stop does not allow (the double Gauss's f/2 needs a wider pupil than its
+    // stop's) is not written: the lens is analysed wide open, as before.
+    let dgauss = claims_stated(&system("dgauss-50mm"));
+    let aperture = dgauss.provenance.conditions.unwrap().aperture;
+    assert_eq!(aperture, None);
+}

@@ -12,7 +12,7 @@ use crate::glass::{C_LINE_NM, F_LINE_NM};
 use crate::paraxial::{
     Aperture, Field, ObjectPosition, Paraxial, ParaxialError, ParaxialOptions, StopChoice,
 };
-use crate::prescription::{ApertureSpec, FieldKind, FieldSpec, StatedCondition};
+use crate::prescription::{ApertureSpec, FieldKind, FieldSpec, Prescription, StatedCondition};
 use crate::system::{LensSystem, SystemAt};
 use crate::trace::{Tracer, traceable_field_deg};
 use serde::Serialize;
@@ -462,6 +462,43 @@ fn stated_error(
 /// The top field, 0.7 of it and the axis.
 fn fractions_of(top_deg: f64) -> Vec<f64> {
     FIELD_FRACTIONS.iter().map(|f| f * top_deg).collect()
+}
+
+/// The lens's prescription with the claims of its source that lensbake analyses it under (a
+/// claimed f-number its stop allows, a claimed half field at the field fractions) written as
+/// stated conditions: what a format that holds no claims (a Zemax file) needs so that it is
+/// analysed as the lens is. Unchanged where no condition comes from a claim, or the conditions
+/// do not resolve.
+pub fn claims_stated(system: &LensSystem) -> Prescription {
+    let mut prescription = system.prescription.clone();
+    let Ok(resolved) = DesignConditions::resolve(system, &ConditionOverrides::default()) else {
+        return prescription;
+    };
+    let claimed_f_number = prescription.provenance.claimed_f_number;
+    let mut conditions = prescription
+        .provenance
+        .conditions
+        .clone()
+        .unwrap_or_default();
+    let mut changed = false;
+    if let (Origin::Source, Some(f)) = (resolved.aperture_from, claimed_f_number) {
+        conditions.aperture = Some(ApertureSpec::FNumber(f));
+        changed = true;
+    }
+    if resolved.field_from == Origin::Source {
+        let y: Vec<f64> = resolved.fields_deg.iter().rev().copied().collect();
+        conditions.fields = Some(FieldSpec {
+            kind: FieldKind::AngleDeg,
+            x: vec![0.0; y.len()],
+            weights: vec![1.0; y.len()],
+            y,
+        });
+        changed = true;
+    }
+    if changed {
+        prescription.provenance.conditions = Some(conditions);
+    }
+    prescription
 }
 
 /// The rule: the largest half field whose real chief ray, aimed at the stop centre, passes
