@@ -640,3 +640,36 @@ fn code_v_fields_are_located_on_their_command_line() {
     );
     assert_at(&e, Some(2), Some(1), Some("medium"));
 }
+
+/// A RON file's stated wavelengths, weights, primary wavelength and field points are checked as
+/// the Zemax and CODE V readers check theirs (a RON lens drew a wavelength of -480 nm, and a
+/// primary past the list fell back to the first wavelength without a word).
+#[test]
+fn stated_spectrum_and_fields_of_a_ron_file_are_checked() {
+    let base = include_str!("../lenses/cooke-triplet.ron");
+    load(base, Format::Ron).unwrap();
+    let edit = |from: &str, to: &str| {
+        let text = base.replacen(from, to, 1);
+        assert_ne!(text, base, "the RON layout changed; update this test");
+        error(&text, Format::Ron)
+    };
+    let field = |e: &PrescriptionError| e.location.field.clone().unwrap_or_default();
+    let e = edit("                480.0,", "                -480.0,");
+    assert!(
+        matches!(e.problem, Problem::OverLimit(LimitError::OutOfRange { value, .. }) if value == -480.0),
+        "{e}"
+    );
+    assert_eq!(field(&e), "provenance.conditions.wavelengths_nm");
+    let e = edit("primary: Some(1)", "primary: Some(3)");
+    assert_eq!(field(&e), "provenance.conditions.primary", "{e}");
+    let e = edit(
+        "wavelength_weights: [\n                1.0,",
+        "wavelength_weights: [\n                -1.0,",
+    );
+    assert_eq!(field(&e), "provenance.conditions.wavelength_weights", "{e}");
+    let e = edit("weights: [\n                    1.0,\n", "weights: [\n");
+    assert_eq!(field(&e), "provenance.conditions.fields.weights", "{e}");
+    assert!(e.to_string().contains("2 weights for 3 entries"), "{e}");
+    let e = edit("x: [\n                    0.0,\n", "x: [\n");
+    assert_eq!(field(&e), "provenance.conditions.fields", "{e}");
+}

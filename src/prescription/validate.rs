@@ -103,6 +103,7 @@ pub fn validate(p: &Prescription, map: &SourceMap) -> Result<(), PrescriptionErr
     }
     check_medium(&p.object_medium, object_medium)?;
     check_provenance(p, map)?;
+    check_stated_spectrum_and_fields(p, map)?;
     for (i, s) in p.surfaces.iter().enumerate() {
         check_surface(i, s, map)?;
         check_ideal_lens(p, i, map)?;
@@ -141,6 +142,80 @@ fn check_provenance(p: &Prescription, map: &SourceMap) -> Result<(), Prescriptio
     if let Some(nm) = p.provenance.design_wavelength_nm {
         limits::check_wavelength(nm)
             .map_err(|e| PrescriptionError::new(field("design_wavelength_nm"), e.into()))?;
+    }
+    Ok(())
+}
+
+/// The wavelengths and weights a lens states are lensbake's to trace and sum: each wavelength in
+/// the traceable range, each weight finite and not negative, one weight per wavelength or
+/// field point where weights are given, the primary one of the wavelengths, and one x per y.
+/// The Zemax and CODE V readers check their numbers on their lines; a RON file's come here
+/// whole (a RON lens drew a wavelength of -480 nm).
+fn check_stated_spectrum_and_fields(
+    p: &Prescription,
+    map: &SourceMap,
+) -> Result<(), PrescriptionError> {
+    let Some(conditions) = &p.provenance.conditions else {
+        return Ok(());
+    };
+    let at = |name: &str| Location {
+        file: map.file.clone(),
+        field: Some(format!("provenance.conditions.{name}")),
+        ..Location::default()
+    };
+    let mismatch =
+        |name: &str, what: String| Err(PrescriptionError::new(at(name), Problem::Syntax(what)));
+    for &nm in &conditions.wavelengths_nm {
+        limits::check_wavelength(nm)
+            .map_err(|e| PrescriptionError::new(at("wavelengths_nm"), e.into()))?;
+    }
+    let weights = [(
+        "wavelength_weights",
+        &conditions.wavelength_weights,
+        conditions.wavelengths_nm.len(),
+    )]
+    .into_iter()
+    .chain(
+        conditions
+            .fields
+            .as_ref()
+            .map(|f| ("fields.weights", &f.weights, f.y.len())),
+    );
+    for (name, weights, count) in weights {
+        if !weights.is_empty() && weights.len() != count {
+            return mismatch(
+                name,
+                format!("{} weights for {count} entries", weights.len()),
+            );
+        }
+        for &weight in weights.iter() {
+            if !(weight.is_finite() && weight >= 0.0) {
+                return mismatch(name, format!("weight {weight} is not a finite number >= 0"));
+            }
+        }
+    }
+    if let Some(primary) = conditions.primary
+        && primary >= conditions.wavelengths_nm.len()
+    {
+        return mismatch(
+            "primary",
+            format!(
+                "primary wavelength {primary} (counted from 0) of {} wavelengths",
+                conditions.wavelengths_nm.len()
+            ),
+        );
+    }
+    if let Some(fields) = &conditions.fields
+        && fields.x.len() != fields.y.len()
+    {
+        return mismatch(
+            "fields",
+            format!(
+                "{} x values for {} y values",
+                fields.x.len(),
+                fields.y.len()
+            ),
+        );
     }
     Ok(())
 }

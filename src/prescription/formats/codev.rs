@@ -1290,7 +1290,7 @@ impl Reader {
                 kind,
                 x: component(&self.x_fields),
                 y: component(&self.y_fields),
-                weights: self.field_weights.iter().take(count).copied().collect(),
+                weights: super::field_weights(&self.field_weights, count),
             }),
             primary: primary_nm.and_then(|nm| self.wavelengths.iter().position(|w| *w == nm)),
             wavelength_weights: if weights.len() == self.wavelengths.len() {

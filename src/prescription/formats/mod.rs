@@ -599,3 +599,14 @@ fn named_medium(name: &str, preferred: &[String]) -> Medium {
 
 /// Room for every even-asphere term the model holds (r^2 .. r^20).
 type AsphereTerms = [f64; MAX_ASPHERE_TERMS];
+
+/// A file's field weights for its `count` fields: none when it gives none, else one per field,
+/// those it leaves out weighing 1 (the programs' default).
+fn field_weights(given: &[f64], count: usize) -> Vec<f64> {
+    if given.is_empty() {
+        return Vec::new();
+    }
+    (0..count)
+        .map(|k| given.get(k).copied().unwrap_or(1.0))
+        .collect()
+}

@@ -1083,7 +1083,7 @@ impl Reader {
                 kind,
                 x: component(&self.x_fields),
                 y: component(&self.y_fields),
-                weights: used(&self.field_weights, Some(count)),
+                weights: super::field_weights(&self.field_weights, count),
             }),
             primary: primary_nm.and_then(|nm| wavelengths.iter().position(|w| *w == nm)),
             wavelength_weights: if weights.len() == wavelengths.len() {
