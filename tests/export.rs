@@ -286,4 +286,12 @@ fn claims_go_to_zemax_as_the_conditions_lensbake_analyses_under() {
     let dgauss = claims_stated(&system("dgauss-50mm"));
     let aperture = dgauss.provenance.conditions.unwrap().aperture;
     assert_eq!(aperture, None);
+    // Stated wavelengths without a primary are analysed at the first (656.3 nm here); the Zemax
+    // file's PWAV had named the design wavelength's place (587.6 nm) instead.
+    let mut p = system("codev-dgauss-f2").prescription;
+    p.provenance.conditions.as_mut().unwrap().primary = None;
+    let original = LensSystem::from_prescription(p).unwrap();
+    let back = read_back(&write_zemax(&original.prescription).unwrap(), Format::Zemax);
+    assert_eq!(resolve(&original).reference_nm, 656.3);
+    assert_eq!(resolve(&back).reference_nm, 656.3);
 }

@@ -193,12 +193,10 @@ pub fn write_zemax(p: &Prescription) -> Result<String, Problem> {
             num(weight)
         ));
     }
-    if !wavelengths.is_empty() {
-        let primary = conditions
-            .primary
-            .or_else(|| wavelengths.iter().position(|w| *w == design_nm));
-        line(format!("PWAV {}", primary.unwrap_or(0) + 1));
-    }
+    // Stated wavelengths without a primary are analysed at the first, as the file written must
+    // be (the design wavelength's place in the list made a RON lens analysed at 656.3 nm come
+    // back analysed at 587.6).
+    line(format!("PWAV {}", conditions.primary.unwrap_or(0) + 1));
     line("SURF 0".into());
     line("  TYPE STANDARD".into());
     line("  CURV 0".into());
