@@ -347,6 +347,33 @@ fn a_refused_bake_or_render_prints_its_error_before_the_notes() {
     }
     // The bake's notes (the file's f-number, its derived apertures) follow the error.
     assert!(stderr(&lensbake(&bake)).contains("\nnote: "));
+    // So does a bake's refusal of a lens that passes no light at the film centre (the reflex
+    // lens with its secondary mirror's aperture cut to a tenth, inside its obscuration): it is
+    // found by one pupil fit before the bake, no longer while its progress runs.
+    let reflex = include_str!("../lenses/reflex-1000mm-f7.5.ron");
+    let dark = reflex.replacen(
+        "semi_aperture: 55.9372836428",
+        "semi_aperture: 5.59372836428",
+        1,
+    );
+    assert_ne!(dark, reflex, "the bundled file changed; update this test");
+    let dark_path = dir.join("dark.ron");
+    std::fs::write(&dark_path, dark).unwrap();
+    let o = lensbake(&[
+        "bake",
+        dark_path.to_str().unwrap(),
+        "--resolution",
+        "4",
+        "--out",
+        table.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o)
+            .starts_with("error: no ray from the film at radius 0 mm passes the lens\nnote: "),
+        "{}",
+        stderr(&o)
+    );
     assert!(!table.exists() && !image.exists());
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -349,6 +349,8 @@ struct BakePlan {
     /// The design wavelength's image planes of the far and near focus.
     film_z: [f64; 2],
     rear_z: f64,
+    /// The lens stopped down, at the design wavelength.
+    design_tracer: Tracer,
 }
 
 impl BakePlan {
@@ -404,6 +406,15 @@ impl BakePlan {
         if let Some(&z) = film_z.iter().find(|&&z| z <= rear_z) {
             return Err(BakeError::FilmPlane { film_z: z, rear_z });
         }
+        // The table's first node, the film centre, needs light; one fit tells (a lens that
+        // passes none was refused only once the bake's progress had begun).
+        let stopped = stopped_down(system, system.design_wavelength_nm(), stop_semi_aperture);
+        let design_tracer = Tracer::new(&stopped);
+        let search = rear_search_radius(&stopped);
+        let centre = fit_film_pupil(&design_tracer, film_z[0], search, &request.pupil_fit, 0.0);
+        if centre.is_none_or(|circle| circle.radius <= 0.0) {
+            return Err(BakeError::NothingPasses { film_radius: 0.0 });
+        }
         Ok(BakePlan {
             wavelengths,
             design,
@@ -413,6 +424,7 @@ impl BakePlan {
             stop_semi_aperture,
             film_z,
             rear_z,
+            design_tracer,
         })
     }
 }
@@ -438,12 +450,8 @@ pub fn bake(
         stop_semi_aperture,
         film_z,
         rear_z,
+        design_tracer,
     } = BakePlan::new(system, request)?;
-    let design_tracer = Tracer::new(&stopped_down(
-        system,
-        system.design_wavelength_nm(),
-        stop_semi_aperture,
-    ));
     // The film radius asked for on every film plane of the range; the near focus magnifies.
     let max_film_radius = request.max_film_radius.unwrap_or_else(|| {
         film_z
