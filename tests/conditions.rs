@@ -496,3 +496,24 @@ fn field_components_one_ulp_below_90_degrees_combine_below_90() {
     let top = resolved.fields_deg[0];
     assert!(top < 90.0 && top > 89.9, "{top}");
 }
+
+/// An object at 5e9 mm is at infinity to the readers as it is to the analysis (1e9 mm and
+/// beyond): a CODE V `FNO` there is the image-space f-number. The readers had drawn the line at
+/// 1e10, read the `FNO` as a working f-number of a finite object, and the analysis then put the
+/// object at infinity; a Zemax copy of the lens analysed with a pupil 2e-8 larger.
+#[test]
+fn an_object_beyond_the_length_limit_is_at_infinity_to_the_readers_too() {
+    let text = "FNO 4.0\nWL 550.0\nREF 1\nXAN 0.0 0.0\nYAN 0.0 5.0\nSO 0.0 5e9\n\
+                S 100.0 10.0 1.5168:64.17\nSTO\nS -100.0 95.0\nSI 0.0 0.0\n";
+    let loaded = read_str(text, None, Format::CodeV, &LoadOptions::default()).unwrap();
+    let conditions = loaded.prescription.provenance.conditions.clone().unwrap();
+    assert_eq!(conditions.object_distance_mm, None);
+    assert_eq!(
+        conditions.aperture,
+        Some(lensbake::prescription::ApertureSpec::FNumber(4.0))
+    );
+    let system = LensSystem::new(loaded.prescription, &loaded.map).unwrap();
+    let resolved = resolve(&system, &ConditionOverrides::default());
+    assert_eq!(resolved.object_distance_mm, None);
+    assert_eq!(resolved.f_number, 4.0);
+}

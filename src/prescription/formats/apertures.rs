@@ -138,8 +138,11 @@ impl BeamSpec {
     }
 }
 
-/// Object distances at least this large (mm) are infinite, as CODE V and rayoptics treat them.
-pub(super) const INFINITE_OBJECT_MM: f64 = 1e10;
+/// Object distances at least this large (mm) are infinite: the analysis's own bound (files
+/// write 1e10 for infinity, as CODE V and rayoptics read it). At 1e10 a `SO 0 5e9` was a
+/// finite object to the reader, which took its `FNO` as a working f-number, and infinite to
+/// the analysis.
+pub(super) const INFINITE_OBJECT_MM: f64 = crate::limits::MAX_LENGTH_MM;
 
 /// Sets the semi-aperture of each surface in `missing` (0-based) from paraxial boundary rays,
 /// and lowers those and the `envelopes` (apertures the file gives as the extent of its beams,
