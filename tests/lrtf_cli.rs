@@ -130,6 +130,19 @@ fn eval_with_a_lens_checks_the_prescription_hash() {
     };
     let same = eval("dgauss-50mm");
     assert!(same.status.success(), "{}", stderr(&same));
+    // A line per ray, as `trace` prints; `--json` (ignored before) gives the objects.
+    let lines = String::from_utf8_lossy(&same.stdout).into_owned();
+    assert!(lines.starts_with("ray 0: ok  position ["), "{lines}");
+    let json = lensbake(&[
+        "lrtf",
+        "eval",
+        table.to_str().unwrap(),
+        "--rays",
+        rays.to_str().unwrap(),
+        "--json",
+    ]);
+    let rays_out: serde_json::Value = serde_json::from_slice(&json.stdout).unwrap();
+    assert_eq!(rays_out[0]["status"], "ok", "{rays_out}");
     let other = eval("fisheye-10mm");
     assert_eq!(other.status.code(), Some(2));
     let message = stderr(&other);

@@ -256,7 +256,7 @@ fn the_command_line_bakes_a_range_and_serves_any_focus_inside_it() {
     let inside = eval("1200");
     assert!(inside.status.success(), "{}", text(&inside));
     assert!(
-        text(&inside).contains("\"status\":\"ok\""),
+        text(&inside).contains("ray 0: ok  position"),
         "{}",
         text(&inside)
     );

@@ -16,6 +16,7 @@ pub enum GlassCommand {
     /// Show one glass: indices at the standard lines, Abbe number, formula and source. A maker
     /// suffix picks one catalogue (SK16_HIKARI).
     Show {
+        /// The glass's name, as `glass list` prints it.
         #[arg(value_name = "NAME")]
         name: String,
     },

@@ -5,7 +5,6 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, bail};
 use clap::{Args, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
-use serde::{Deserialize, Serialize};
 
 use lensbake::analysis::{FileDefaults, FocusFrom};
 use lensbake::job::default_table_dir;
@@ -18,6 +17,7 @@ use lensbake::plot::{LrtfErrorPlot, write_plot};
 use lensbake::trace::Tracer;
 
 use super::lens::{LensArgs, ReadArgs};
+use super::trace::RayOutput;
 
 #[derive(Args, Debug)]
 pub struct BakeArgs {
@@ -57,10 +57,12 @@ pub struct BakeArgs {
 pub enum LrtfCommand {
     /// Propagate film-side rays (travelling -z) through a baked table.
     Eval {
+        /// The table's directory (its lrtf.exr and lrtf.ron).
         table: PathBuf,
         /// JSON array of {"origin": [x,y,z], "direction": [dx,dy,dz]}; "-" reads stdin.
         #[arg(long)]
         rays: String,
+        /// Print JSON (one object per input ray, in order) instead of a line per ray.
         #[arg(long)]
         json: bool,
         /// Stop down to this f-number (at or above the baked one).
@@ -79,7 +81,10 @@ pub enum LrtfCommand {
         read: ReadArgs,
     },
     /// Print a table's sidecar summary.
-    Info { table: PathBuf },
+    Info {
+        /// The table's directory (its lrtf.exr and lrtf.ron).
+        table: PathBuf,
+    },
 }
 
 /// `--focus-mm`: one object distance, or a range (far end first; None is infinity).
@@ -296,20 +301,6 @@ pub fn run_bake(args: BakeArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-#[derive(Deserialize)]
-struct InputRay {
-    origin: [f64; 3],
-    direction: [f64; 3],
-}
-
-#[derive(Serialize)]
-struct OutputRay {
-    status: &'static str,
-    surface: Option<usize>,
-    position: [f64; 3],
-    direction: [f64; 3],
-}
-
 pub fn run(command: LrtfCommand) -> anyhow::Result<()> {
     match command {
         LrtfCommand::Info { table } => {
@@ -334,7 +325,7 @@ pub fn run(command: LrtfCommand) -> anyhow::Result<()> {
         LrtfCommand::Eval {
             table,
             rays,
-            json: _,
+            json,
             f_number,
             focus_mm,
             lens,
@@ -344,15 +335,7 @@ pub fn run(command: LrtfCommand) -> anyhow::Result<()> {
                 .map(|lens| LensArgs { lens, read }.load())
                 .transpose()?;
             let loaded = read_table(&table, lens.as_ref().map(|l| &l.system.prescription))?;
-            let text = if rays == "-" {
-                lensbake::limits::read_stdin_text()
-                    .context("cannot read rays from standard input")?
-            } else {
-                lensbake::limits::read_input_text(Path::new(&rays))
-                    .with_context(|| format!("reading {rays}"))?
-            };
-            let input: Vec<InputRay> = serde_json::from_str(&text)
-                .with_context(|| format!("{rays}: not a JSON ray array"))?;
+            let input = super::trace::read_rays(&rays)?;
             let f = f_number.unwrap_or(loaded.info.f_number);
             let stop = loaded.stop_radius(0, f).with_context(|| {
                 format!(
@@ -375,20 +358,17 @@ pub fn run(command: LrtfCommand) -> anyhow::Result<()> {
                 .map(|l| l.system.at_checked(loaded.layers[0].wavelength_nm))
                 .transpose()?;
             let mut output = Vec::with_capacity(input.len());
-            for (k, r) in input.iter().enumerate() {
-                // The exact tracer's ray: the same checks and normalisation.
-                let checked = lensbake::trace::Ray::new(r.origin, r.direction)
-                    .with_context(|| format!("{rays}: ray {k}"))?;
+            for (k, checked) in input.iter().enumerate() {
                 if let Some(at) = &lens_at {
-                    lensbake::trace::check_start(at, &checked, lensbake::trace::Travel::Backward)
+                    lensbake::trace::check_start(at, checked, lensbake::trace::Travel::Backward)
                         .with_context(|| format!("{rays}: ray {k}"))?;
                 }
                 let rear_plane_z = loaded.layers[0].frame.rear_plane_z;
-                if r.origin[2] < rear_plane_z {
+                let start_z = checked.position()[2];
+                if start_z < rear_plane_z {
                     bail!(
-                        "{rays}: ray {k} starts at z = {} mm, in front of the lens's last vertex \
-                         plane (z = {rear_plane_z} mm): a film-side ray must start behind it",
-                        r.origin[2]
+                        "{rays}: ray {k} starts at z = {start_z} mm, in front of the lens's last \
+                         vertex plane (z = {rear_plane_z} mm): a film-side ray must start behind it"
                     );
                 }
                 let ray = Ray {
@@ -396,29 +376,31 @@ pub fn run(command: LrtfCommand) -> anyhow::Result<()> {
                     direction: checked.direction(),
                 };
                 output.push(match loaded.lookup_focused(0, &ray, stop, film_z) {
-                    Lookup::Passes(out) => OutputRay {
+                    Lookup::Passes(out) => RayOutput {
                         status: "ok",
                         surface: None,
                         position: out.origin,
                         direction: out.direction,
+                        image: None,
                     },
                     // Blocked rays have no surface: the table does not know which one.
-                    Lookup::Blocked => OutputRay {
+                    Lookup::Blocked => RayOutput {
                         status: "vignetted",
                         surface: None,
                         position: ray.origin,
                         direction: ray.direction,
+                        image: None,
                     },
-                    Lookup::OutsideDomain => OutputRay {
+                    Lookup::OutsideDomain => RayOutput {
                         status: "missed",
                         surface: None,
                         position: ray.origin,
                         direction: ray.direction,
+                        image: None,
                     },
                 });
             }
-            say!("{}", serde_json::to_string(&output)?);
-            Ok(())
+            super::trace::print(json, &output)
         }
     }
 }

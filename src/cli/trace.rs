@@ -35,15 +35,16 @@ struct RayInput {
     direction: [f64; 3],
 }
 
+/// One ray's result as `trace` and `lrtf eval` print it.
 #[derive(Serialize)]
-struct RayOutput {
-    status: &'static str,
-    surface: Option<usize>,
-    position: [f64; 3],
-    direction: [f64; 3],
+pub(super) struct RayOutput {
+    pub status: &'static str,
+    pub surface: Option<usize>,
+    pub position: [f64; 3],
+    pub direction: [f64; 3],
     /// A lens off the axis: where the ray meets the image plane, in the plane's own frame.
     #[serde(skip_serializing_if = "Option::is_none")]
-    image: Option<[f64; 2]>,
+    pub image: Option<[f64; 2]>,
 }
 
 pub fn run(args: TraceArgs) -> anyhow::Result<()> {
@@ -78,7 +79,7 @@ pub fn run(args: TraceArgs) -> anyhow::Result<()> {
             }
         })
         .collect();
-    print(&args, &traced)
+    print(args.json, &traced)
 }
 
 /// A lens placed off one axis: rays forward through every surface onto the image plane, in the
@@ -113,11 +114,12 @@ fn run_placed(args: &TraceArgs, lens: &PlacedLens) -> anyhow::Result<()> {
             }
         })
         .collect();
-    print(args, &traced)
+    print(args.json, &traced)
 }
 
-fn print(args: &TraceArgs, traced: &[RayOutput]) -> anyhow::Result<()> {
-    if args.json {
+/// The rays as JSON, or a line each.
+pub(super) fn print(json: bool, traced: &[RayOutput]) -> anyhow::Result<()> {
+    if json {
         say!("{}", serde_json::to_string_pretty(&traced)?);
     } else {
         for (i, t) in traced.iter().enumerate() {
@@ -135,7 +137,9 @@ fn print(args: &TraceArgs, traced: &[RayOutput]) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn read_rays(source: &str) -> anyhow::Result<Vec<Ray>> {
+/// The rays of a JSON file (`-`: standard input), each checked and its direction normalised as
+/// the tracer's own rays are.
+pub(super) fn read_rays(source: &str) -> anyhow::Result<Vec<Ray>> {
     let (name, text) = if source == "-" {
         let text =
             lensbake::limits::read_stdin_text().context("cannot read rays from standard input")?;
