@@ -1,8 +1,9 @@
 #!/usr/bin/env python3
-"""Hostile-input sweep of whole commands, beyond the readers (tools/mutate_lens_files.py): copies
-of real lens files with one or two numbers changed go through the commands a user runs on a lens.
+"""Hostile-input sweep of whole commands, beyond the readers (tools/mutate_lens_files.py):
+mutated copies of real lens files go through the commands a user runs on a lens.
 
-Two modes:
+Each case changes one or two numbers of a copy (in `commands` mode also by extremes such as
+1e300 or 89.9999) and in three cases of ten deletes or repeats a line. Two modes:
 - `commands`: analyze, plot, report, psf, mtf, trace (with a file of hostile rays), bake and
   render at small sizes. Each run must exit 0 or 2; a refusal must print `error:` as the first
   line of stderr and leave nothing where the output was asked for; a success must print no
@@ -46,7 +47,16 @@ def seeds():
 
 
 def mutate(rng, data, extremes):
-    """One or two numbers replaced: by an extreme, or scaled."""
+    """One or two numbers replaced (by an extreme, or scaled), and in three cases of ten a line
+    deleted or repeated."""
+    if rng.random() < 0.3:
+        lines = data.split(b"\n")
+        i = rng.randrange(len(lines))
+        if rng.random() < 0.5:
+            del lines[i]
+        else:
+            lines.insert(i, lines[rng.randrange(len(lines))])
+        data = b"\n".join(lines)
     for _ in range(rng.randint(1, 2)):
         numbers = list(NUMBER.finditer(data))
         if not numbers:
