@@ -5,7 +5,7 @@ mod conditions;
 
 pub use conditions::{
     ConditionOverrides, DesignConditions, FIELD_FRACTIONS, FileDefaults, FocusFrom, Origin,
-    RULE_MAX_FIELD_DEG, claims_stated, rule_field_deg,
+    RULE_MAX_FIELD_DEG, rule_field_deg, stated_as_analysed,
 };
 
 use crate::paraxial::{Paraxial, ParaxialError, Pupil, RayAtSurface, StopChoice};

@@ -260,14 +260,14 @@ fn mirrors_and_obscurations_go_to_zemax_and_are_refused_by_pbrt() {
 /// double Gauss lost its 22-degree field (the rule gave 29) and the telephoto its f-number.
 #[test]
 fn claims_go_to_zemax_as_the_conditions_lensbake_analyses_under() {
-    use lensbake::analysis::{ConditionOverrides, DesignConditions, Origin, claims_stated};
+    use lensbake::analysis::{ConditionOverrides, DesignConditions, Origin, stated_as_analysed};
     let resolve = |system: &LensSystem| {
         DesignConditions::resolve(system, &ConditionOverrides::default()).unwrap()
     };
     for lens in lensbake::lenses::BUNDLED {
         let original = system(lens.name);
         let before = resolve(&original);
-        let text = write_zemax(&claims_stated(&original)).unwrap();
+        let text = write_zemax(&stated_as_analysed(&original)).unwrap();
         let after = resolve(&read_back(&text, Format::Zemax));
         assert_eq!(after.fields_deg, before.fields_deg, "{}\n{text}", lens.name);
         assert_eq!(after.epd_mm, before.epd_mm, "{}\n{text}", lens.name);
@@ -283,7 +283,7 @@ fn claims_go_to_zemax_as_the_conditions_lensbake_analyses_under() {
     }
     // A claim the stop does not allow (the double Gauss's f/2 needs a wider pupil than its
     // stop's) is not written: the lens is analysed wide open, as before.
-    let dgauss = claims_stated(&system("dgauss-50mm"));
+    let dgauss = stated_as_analysed(&system("dgauss-50mm"));
     let aperture = dgauss.provenance.conditions.unwrap().aperture;
     assert_eq!(aperture, None);
     // Stated wavelengths without a primary are analysed at the first (656.3 nm here); the Zemax
@@ -294,4 +294,43 @@ fn claims_go_to_zemax_as_the_conditions_lensbake_analyses_under() {
     let back = read_back(&write_zemax(&original.prescription).unwrap(), Format::Zemax);
     assert_eq!(resolve(&original).reference_nm, 656.3);
     assert_eq!(resolve(&back).reference_nm, 656.3);
+}
+
+/// A CODE V `FNO` with a finite object is a working f-number, which a Zemax file cannot state:
+/// converted, it becomes the entrance-pupil diameter it gives (it was left out, and the copy
+/// analysed wide open: the corpus singlet at FNO 0.005 had a 10.27 mm pupil, its copy 0.2 mm).
+#[test]
+fn a_working_f_number_goes_to_zemax_as_the_pupil_it_gives() {
+    use lensbake::analysis::{ConditionOverrides, DesignConditions, stated_as_analysed};
+    use lensbake::prescription::ApertureSpec;
+    for fno in ["5.0", "0.005"] {
+        let text = std::fs::read_to_string(corpus("rayoptics__singlet.seq"))
+            .unwrap()
+            .replacen("fno 5.0", &format!("fno {fno}"), 1);
+        let original = read_back(&text, Format::CodeV);
+        let stated = original
+            .prescription
+            .provenance
+            .conditions
+            .as_ref()
+            .unwrap();
+        assert!(matches!(
+            stated.aperture,
+            Some(ApertureSpec::WorkingFNumber(_))
+        ));
+        let back = read_back(
+            &write_zemax(&stated_as_analysed(&original)).unwrap(),
+            Format::Zemax,
+        );
+        let epd = |system: &LensSystem| {
+            DesignConditions::resolve(system, &ConditionOverrides::default())
+                .unwrap()
+                .epd_mm
+        };
+        let (before, after) = (epd(&original), epd(&back));
+        assert!(
+            (after - before).abs() <= 1e-12 * before,
+            "FNO {fno}: {before} against {after}"
+        );
+    }
 }

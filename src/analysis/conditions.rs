@@ -464,12 +464,13 @@ fn fractions_of(top_deg: f64) -> Vec<f64> {
     FIELD_FRACTIONS.iter().map(|f| f * top_deg).collect()
 }
 
-/// The lens's prescription with the claims of its source that lensbake analyses it under (a
-/// claimed f-number its stop allows, a claimed half field at the field fractions) written as
-/// stated conditions: what a format that holds no claims (a Zemax file) needs so that it is
-/// analysed as the lens is. Unchanged where no condition comes from a claim, or the conditions
-/// do not resolve.
-pub fn claims_stated(system: &LensSystem) -> Prescription {
+/// The lens's prescription with the conditions lensbake analyses it under stated the way any
+/// lens file can state them: the claims of its source (a claimed f-number its stop allows, a
+/// claimed half field at the field fractions) as stated conditions, and a working f-number
+/// (CODE V `FNO` of a finite object) as the entrance-pupil diameter it gives. A format that
+/// holds neither (a Zemax file) then analyses as the lens does. Unchanged where nothing needs
+/// restating, or the conditions do not resolve.
+pub fn stated_as_analysed(system: &LensSystem) -> Prescription {
     let mut prescription = system.prescription.clone();
     let Ok(resolved) = DesignConditions::resolve(system, &ConditionOverrides::default()) else {
         return prescription;
@@ -483,6 +484,10 @@ pub fn claims_stated(system: &LensSystem) -> Prescription {
     let mut changed = false;
     if let (Origin::Source, Some(f)) = (resolved.aperture_from, claimed_f_number) {
         conditions.aperture = Some(ApertureSpec::FNumber(f));
+        changed = true;
+    }
+    if let Some(ApertureSpec::WorkingFNumber(_)) = conditions.aperture {
+        conditions.aperture = Some(ApertureSpec::EntrancePupilDiameter(resolved.epd_mm));
         changed = true;
     }
     if resolved.field_from == Origin::Source {

@@ -3,7 +3,7 @@
 use anyhow::{Context, bail};
 use clap::builder::{PossibleValuesParser, TypedValueParser};
 use clap::{Args, Subcommand};
-use lensbake::analysis::{AnalysisError, ConditionOverrides, DesignConditions, claims_stated};
+use lensbake::analysis::{AnalysisError, ConditionOverrides, DesignConditions, stated_as_analysed};
 use lensbake::job::RenderLens;
 use lensbake::lenses::{self, BUNDLED, LensError, LensSource, LoadedLens};
 use lensbake::model::ModelKind;
@@ -206,9 +206,9 @@ fn convert(input: &LensArgs, output: &Path) -> anyhow::Result<()> {
     let cannot = |what: &str| format!("cannot write {} as {what}", output.display());
     match format {
         Some(Format::Zemax) => {
-            // A Zemax file holds no claims: the ones lensbake analyses the lens under are
-            // written as its aperture and fields.
-            let stated = claims_stated(&lens.system);
+            // A Zemax file holds no claims and no working f-number: the conditions lensbake
+            // analyses the lens under are written as an aperture and fields it holds.
+            let stated = stated_as_analysed(&lens.system);
             let text = write_zemax(&stated).with_context(|| cannot("a Zemax file"))?;
             lensbake::output::write_bytes(output, text.as_bytes())?;
         }

@@ -17,7 +17,8 @@
 //! odd-asphere terms beyond r^8 (both types have PARM 1..8), a medium given by coefficients or a
 //! table (a Zemax file names catalogue glasses), a non-air object space, two glasses of one name
 //! from different catalogues. A working F-number (CODE V `FNO` of a finite object) has no Zemax
-//! keyword and is left out, with the rest of the conditions kept.
+//! keyword and is left out, with the rest of the conditions kept
+//! (`analysis::stated_as_analysed` restates it as the pupil diameter it gives).
 //!
 //! pbrt (`RealisticCamera`, pbrt-v3): one row per surface from the object side, `radius
 //! thickness ior aperture-diameter` in mm, thickness to the next surface, the stop a row of
