@@ -517,3 +517,33 @@ fn an_object_beyond_the_length_limit_is_at_infinity_to_the_readers_too() {
     assert_eq!(resolved.object_distance_mm, None);
     assert_eq!(resolved.f_number, 4.0);
 }
+
+/// A working f-number after an odd number of mirrors: the paraboloid of 200 mm focal length at
+/// FNO 8 with its object 1e8 mm away fills a 25 mm pupil. The image-space index is negative
+/// there, and the pupil came out as -25 mm and was refused.
+#[test]
+fn a_working_f_number_after_a_mirror_gives_a_positive_pupil() {
+    let text = "dim m\nrdm y\nso 0. 100000000.0\ns -400 -200 refl\ncon\nk -1\nsi 0 0\n\
+                fno 8.0; wl 550\nyim 0 10. 20. 30.\n";
+    let loaded = read_str(text, None, Format::CodeV, &LoadOptions::default()).unwrap();
+    assert!(matches!(
+        loaded
+            .prescription
+            .provenance
+            .conditions
+            .as_ref()
+            .unwrap()
+            .aperture,
+        Some(lensbake::prescription::ApertureSpec::WorkingFNumber(8.0))
+    ));
+    let system = LensSystem::new(loaded.prescription, &loaded.map).unwrap();
+    let resolved = resolve(&system, &ConditionOverrides::default());
+    // Paraxially the marginal ray from 1e8 mm converges at 1 / (2 u') = 8 for a pupil of
+    // 25 (1 + 200 / 1e8) mm.
+    let expected = 25.0 * (1.0 + 200.0 / 1e8);
+    assert!(
+        (resolved.epd_mm - expected).abs() < 1e-9 * expected,
+        "{} against {expected}",
+        resolved.epd_mm
+    );
+}

@@ -563,7 +563,9 @@ fn stated_epd(
                      and this lens's leaves it parallel"
                 ));
             }
-            let wanted = 1.0 / (2.0 * probe.first_order.image_index * f);
+            // The image-space index is negative after an odd number of mirrors; the working
+            // f-number 1 / (2 |n'| |u'|) is not (a paraboloid's FNO 8 gave a pupil of -25 mm).
+            let wanted = 1.0 / (2.0 * probe.first_order.image_index.abs() * f);
             probe.entrance_pupil.diameter * wanted / slope
         }
         (ApertureSpec::ObjectNumericalAperture(na), Some(distance)) => {
