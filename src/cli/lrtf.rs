@@ -9,7 +9,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use lensbake::analysis::{FileDefaults, FocusFrom};
 use lensbake::job::default_table_dir;
 use lensbake::job::tables::DEFAULT_TABLES_ROOT;
-use lensbake::lrtf::bake::{BakeRequest, bake, check_request, first_order};
+use lensbake::lrtf::bake::{BakePlan, BakeRequest, first_order};
 use lensbake::lrtf::io::{read_sidecar, read_table, write_table};
 use lensbake::lrtf::measure::{SweepRow, table_error_focused};
 use lensbake::lrtf::{Lookup, Parameterisation, Precision, Ray};
@@ -219,9 +219,7 @@ pub fn run_bake(args: BakeArgs) -> anyhow::Result<()> {
             args.out,
         );
     }
-    for note in &lens.source.loaded.notes {
-        note!("{}: {note}", lens.source.origin);
-    }
+    super::lens::note_reading(&lens.source);
     let name = lens.source.origin.name();
     let system = &lens.system;
     let request = BakeRequest {
@@ -238,7 +236,7 @@ pub fn run_bake(args: BakeArgs) -> anyhow::Result<()> {
     let out = args.out.unwrap_or_else(|| focus.table_dir(&name));
     // A request the bake refuses is refused here, so that its error line comes first; what the
     // bake takes from the file is then said before the bake's progress.
-    check_request(system, &request)?;
+    let plan = BakePlan::new(system, &request)?;
     super::notes::release();
     let bar = ProgressBar::new(1);
     bar.set_style(
@@ -247,7 +245,7 @@ pub fn run_bake(args: BakeArgs) -> anyhow::Result<()> {
     );
     bar.set_message(format!("baking {name}"));
     let start = std::time::Instant::now();
-    let table = bake(system, &request, &|p| {
+    let table = plan.bake(&|p| {
         bar.set_length(p.total as u64);
         bar.set_position(p.done as u64);
     })?;

@@ -338,8 +338,11 @@ fn check_size(resolution: [usize; 3], layers: usize) -> Result<(), crate::limits
 }
 
 /// What a bake decides before it traces: every check that refuses a request, made in
-/// milliseconds.
-struct BakePlan {
+/// milliseconds, so that a caller can report a bad request before it starts the long work's
+/// progress ([`BakePlan::bake`] then traces).
+pub struct BakePlan<'a> {
+    system: &'a LensSystem,
+    request: &'a BakeRequest,
     wavelengths: Vec<f64>,
     design: SystemAt,
     first: Paraxial,
@@ -353,8 +356,11 @@ struct BakePlan {
     design_tracer: Tracer,
 }
 
-impl BakePlan {
-    fn new(system: &LensSystem, request: &BakeRequest) -> Result<BakePlan, BakeError> {
+impl<'a> BakePlan<'a> {
+    pub fn new(
+        system: &'a LensSystem,
+        request: &'a BakeRequest,
+    ) -> Result<BakePlan<'a>, BakeError> {
         if request.resolution.iter().any(|&n| n < 2) {
             return Err(BakeError::Resolution(request.resolution));
         }
@@ -416,6 +422,8 @@ impl BakePlan {
             return Err(BakeError::NothingPasses { film_radius: 0.0 });
         }
         Ok(BakePlan {
+            system,
+            request,
             wavelengths,
             design,
             first,
@@ -427,12 +435,111 @@ impl BakePlan {
             design_tracer,
         })
     }
-}
 
-/// Refuses a request [`bake`] would refuse before it traces, in milliseconds: a caller can
-/// report a bad request before it starts the long work's progress.
-pub fn check_request(system: &LensSystem, request: &BakeRequest) -> Result<(), BakeError> {
-    BakePlan::new(system, request).map(|_| ())
+    /// Bakes the planned table; `progress` is called from worker threads as nodes complete.
+    pub fn bake(self, progress: &(dyn Fn(BakeProgress) + Sync)) -> Result<LrtfTable, BakeError> {
+        let BakePlan {
+            system,
+            request,
+            wavelengths,
+            design,
+            first,
+            near_mm,
+            f_number,
+            stop_semi_aperture,
+            film_z,
+            rear_z,
+            design_tracer,
+        } = self;
+        // The film radius asked for on every film plane of the range; the near focus magnifies.
+        let max_film_radius = request.max_film_radius.unwrap_or_else(|| {
+            film_z
+                .map(|z| chief_ray_film_radius(&design_tracer, &design, z))
+                .into_iter()
+                .fold(0.0, f64::max)
+        });
+        let nodes_per_layer: usize = request.resolution.iter().product();
+        let total = nodes_per_layer * wavelengths.len();
+        let done = AtomicUsize::new(0);
+        let mut layers = Vec::with_capacity(wavelengths.len());
+        for &wavelength_nm in &wavelengths {
+            let at = stopped_down(system, wavelength_nm, stop_semi_aperture);
+            let tracer = Tracer::new(&at);
+            let search = rear_search_radius(&at);
+            let fit = |film_radius: f64, z: f64| {
+                fit_film_pupil(&tracer, z, search, &request.pupil_fit, film_radius)
+            };
+            let pupil_nodes = request.pupil_nodes.unwrap_or(request.resolution[0]);
+            // Pupils fitted between nodes make the interpolated circles conservative. From 64 nodes
+            // on an interval spans under 2 % of the film radius and one check at its middle, where a
+            // linear interpolant strays furthest from a smooth curve, suffices (measured: no passing
+            // ray outside the circle over 200k rays for the three bundled test lenses).
+            let between = |nodes: usize| if nodes >= 64 { 1 } else { 2 };
+            let (pupil, sampling) = if film_z[1] > film_z[0] {
+                let sampling_nodes = pupil_nodes.min(SAMPLING_RADIUS_NODES);
+                let sampling = pupil::build_focus_table(
+                    &fit,
+                    max_film_radius,
+                    sampling_nodes,
+                    between(sampling_nodes),
+                    film_z,
+                    &request.focus_nodes,
+                );
+                let reach = reference_film_radius(&sampling, rear_z);
+                let pupil = pupil::build_table(
+                    &|r| fit(r, film_z[0]),
+                    reach,
+                    pupil_nodes,
+                    between(pupil_nodes),
+                );
+                (pupil, sampling)
+            } else {
+                let pupil = pupil::build_table(
+                    &|r| fit(r, film_z[0]),
+                    max_film_radius,
+                    pupil_nodes,
+                    between(pupil_nodes),
+                );
+                let sampling = FocusPupilTable::single(film_z[0], pupil.clone());
+                (pupil, sampling)
+            };
+            if pupil.circles[0].radius <= 0.0 {
+                return Err(BakeError::NothingPasses { film_radius: 0.0 });
+            }
+            let max_rear_radius = pupil.max_extent();
+            let reach = pupil.max_film_radius;
+            let depth = film_z[0] - rear_z;
+            let frame = Frame {
+                rear_plane_z: rear_z,
+                film_plane_z: film_z[0],
+                max_film_radius: reach,
+                max_rear_radius,
+                max_polar_angle: ((max_rear_radius + reach) / depth).atan(),
+            };
+            let entries = bake_entries(request, &tracer, &frame, &pupil, &|n| {
+                let d = done.fetch_add(n, Ordering::Relaxed) + n;
+                progress(BakeProgress { done: d, total });
+            });
+            layers.push(Layer {
+                wavelength_nm,
+                frame,
+                pupil,
+                sampling,
+                stop_semi_aperture,
+                entries,
+            });
+        }
+        Ok(LrtfTable {
+            info: TableInfo {
+                parameterisation: request.parameterisation,
+                resolution: request.resolution,
+                precision: request.precision,
+                f_number,
+                focus: FocusRange::new(&first.first_order, request.focus_mm, near_mm),
+            },
+            layers,
+        })
+    }
 }
 
 /// Bakes a table; `progress` is called from worker threads as nodes complete.
@@ -441,105 +548,7 @@ pub fn bake(
     request: &BakeRequest,
     progress: &(dyn Fn(BakeProgress) + Sync),
 ) -> Result<LrtfTable, BakeError> {
-    let BakePlan {
-        wavelengths,
-        design,
-        first,
-        near_mm,
-        f_number,
-        stop_semi_aperture,
-        film_z,
-        rear_z,
-        design_tracer,
-    } = BakePlan::new(system, request)?;
-    // The film radius asked for on every film plane of the range; the near focus magnifies.
-    let max_film_radius = request.max_film_radius.unwrap_or_else(|| {
-        film_z
-            .map(|z| chief_ray_film_radius(&design_tracer, &design, z))
-            .into_iter()
-            .fold(0.0, f64::max)
-    });
-    let nodes_per_layer: usize = request.resolution.iter().product();
-    let total = nodes_per_layer * wavelengths.len();
-    let done = AtomicUsize::new(0);
-    let mut layers = Vec::with_capacity(wavelengths.len());
-    for &wavelength_nm in &wavelengths {
-        let at = stopped_down(system, wavelength_nm, stop_semi_aperture);
-        let tracer = Tracer::new(&at);
-        let search = rear_search_radius(&at);
-        let fit = |film_radius: f64, z: f64| {
-            fit_film_pupil(&tracer, z, search, &request.pupil_fit, film_radius)
-        };
-        let pupil_nodes = request.pupil_nodes.unwrap_or(request.resolution[0]);
-        // Pupils fitted between nodes make the interpolated circles conservative. From 64 nodes
-        // on an interval spans under 2 % of the film radius and one check at its middle, where a
-        // linear interpolant strays furthest from a smooth curve, suffices (measured: no passing
-        // ray outside the circle over 200k rays for the three bundled test lenses).
-        let between = |nodes: usize| if nodes >= 64 { 1 } else { 2 };
-        let (pupil, sampling) = if film_z[1] > film_z[0] {
-            let sampling_nodes = pupil_nodes.min(SAMPLING_RADIUS_NODES);
-            let sampling = pupil::build_focus_table(
-                &fit,
-                max_film_radius,
-                sampling_nodes,
-                between(sampling_nodes),
-                film_z,
-                &request.focus_nodes,
-            );
-            let reach = reference_film_radius(&sampling, rear_z);
-            let pupil = pupil::build_table(
-                &|r| fit(r, film_z[0]),
-                reach,
-                pupil_nodes,
-                between(pupil_nodes),
-            );
-            (pupil, sampling)
-        } else {
-            let pupil = pupil::build_table(
-                &|r| fit(r, film_z[0]),
-                max_film_radius,
-                pupil_nodes,
-                between(pupil_nodes),
-            );
-            let sampling = FocusPupilTable::single(film_z[0], pupil.clone());
-            (pupil, sampling)
-        };
-        if pupil.circles[0].radius <= 0.0 {
-            return Err(BakeError::NothingPasses { film_radius: 0.0 });
-        }
-        let max_rear_radius = pupil.max_extent();
-        let reach = pupil.max_film_radius;
-        let depth = film_z[0] - rear_z;
-        let frame = Frame {
-            rear_plane_z: rear_z,
-            film_plane_z: film_z[0],
-            max_film_radius: reach,
-            max_rear_radius,
-            max_polar_angle: ((max_rear_radius + reach) / depth).atan(),
-        };
-        let entries = bake_entries(request, &tracer, &frame, &pupil, &|n| {
-            let d = done.fetch_add(n, Ordering::Relaxed) + n;
-            progress(BakeProgress { done: d, total });
-        });
-        layers.push(Layer {
-            wavelength_nm,
-            frame,
-            pupil,
-            sampling,
-            stop_semi_aperture,
-            entries,
-        });
-    }
-    Ok(LrtfTable {
-        info: TableInfo {
-            parameterisation: request.parameterisation,
-            resolution: request.resolution,
-            precision: request.precision,
-            f_number,
-            focus: FocusRange::new(&first.first_order, request.focus_mm, near_mm),
-        },
-        layers,
-    })
+    BakePlan::new(system, request)?.bake(progress)
 }
 
 /// Film-radius nodes of a focus range's sampling pupil (the table's own count when smaller): 64
