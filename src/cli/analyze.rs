@@ -35,9 +35,7 @@ pub struct AnalyzeArgs {
 
 pub fn run(args: AnalyzeArgs) -> anyhow::Result<()> {
     let lens = args.lens.load()?;
-    for note in &lens.source.loaded.notes {
-        note!("{note}");
-    }
+    super::lens::note_reading(&lens.source);
     let name = lens.source.origin.name();
     let options = AnalyzeOptions {
         wavelength_nm: args.wavelength_nm,

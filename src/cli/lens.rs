@@ -133,10 +133,10 @@ fn validated(source: LensSource) -> anyhow::Result<LoadedLens> {
     }
 }
 
-/// The notes of reading `source`, each as a `note:` line.
-fn note_reading(source: &LensSource) {
+/// The notes of reading `source`, each as a `note:` line naming the lens.
+pub(super) fn note_reading(source: &LensSource) {
     for text in &source.loaded.notes {
-        note!("{text}");
+        note!("{}: {text}", source.origin);
     }
 }
 
@@ -220,9 +220,7 @@ fn convert(input: &LensArgs, output: &Path) -> anyhow::Result<()> {
         }
         _ => write_ron_file(output, p)?,
     }
-    for note in &lens.source.loaded.notes {
-        note!("{note}");
-    }
+    note_reading(&lens.source);
     say!(
         "wrote {} ({} surfaces, from {})",
         output.display(),

@@ -1,6 +1,5 @@
 //! One module per subcommand; each turns parsed arguments into library calls and prints.
 
-/// `println!` through [`stdout`]: a closed stdout never panics or stops the job.
 /// A `note:` line on stderr, through [`notes`] (held until the command releases them).
 macro_rules! note {
     ($($arg:tt)*) => {
@@ -8,6 +7,7 @@ macro_rules! note {
     };
 }
 
+/// `println!` through [`stdout`]: a closed stdout never panics or stops the job.
 macro_rules! say {
     ($($arg:tt)*) => {
         $crate::cli::stdout::write(format_args!($($arg)*), true)

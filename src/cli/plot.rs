@@ -157,9 +157,7 @@ fn load_lens(spec: &str, read: &ReadArgs) -> anyhow::Result<(String, LensSystem)
         read: read.clone(),
     }
     .load()?;
-    for note in &lens.source.loaded.notes {
-        note!("{}: {note}", lens.source.origin);
-    }
+    super::lens::note_reading(&lens.source);
     let name = match &lens.source.origin {
         LensOrigin::Bundled(name) => name.to_string(),
         LensOrigin::File(_) => plot_name(spec),

@@ -144,9 +144,7 @@ impl Setup {
             }
             None => {
                 let lens = lenses::load(&args.lens, &args.read.options())?;
-                for note in &lens.source.loaded.notes {
-                    note!("{}: {note}", lens.source.origin);
-                }
+                super::lens::note_reading(&lens.source);
                 let name = lens.source.origin.name();
                 (
                     name.clone(),
