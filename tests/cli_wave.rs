@@ -199,13 +199,15 @@ fn notes_and_errors_read_as_sentences() {
         ) && note.ends_with(" waves (limit 0.5), so the phase aliases; raise --samples"),
         "{note}"
     );
+    let unwritten =
+        std::env::temp_dir().join(format!("lensbake-unwritten-{}.exr", std::process::id()));
     let output = lensbake(&[
         "psf",
         "fisheye-10mm",
         "--field-deg",
         "60",
         "--out",
-        "unwritten.exr",
+        unwritten.to_str().unwrap(),
     ]);
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert_eq!(output.status.code(), Some(2), "{stderr}");
@@ -214,5 +216,5 @@ fn notes_and_errors_read_as_sentences() {
             && stderr.contains("the real chief ray does not reach the image (missed surface 9)"),
         "{stderr}"
     );
-    assert!(!std::path::Path::new("unwritten.exr").exists());
+    assert!(!unwritten.exists());
 }
