@@ -153,8 +153,10 @@ fn discriminant(a: f64, b: f64, c: f64) -> f64 {
 pub(crate) fn root_from(a: f64, b: f64, c: f64, disc: f64, sense: f64) -> f64 {
     let root = disc.max(0.0).sqrt();
     let near = sense * b >= 0.0;
-    let numerator = if near { c } else { b - sense * root };
-    let denominator = if near { b + sense * root } else { a };
+    // Chosen by selects, not a branch: as a branch (which the compiler made of plain `if`s
+    // here) the block kernels' stride loops stayed scalar.
+    let numerator = std::hint::select_unpredictable(near, c, b - sense * root);
+    let denominator = std::hint::select_unpredictable(near, b + sense * root, a);
     numerator / denominator
 }
 

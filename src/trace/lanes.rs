@@ -614,7 +614,9 @@ unsafe fn stopped_slots_avx2<const STRIDES: usize>(
     };
     const { assert!(CROSSED == 0, "a crossed ray's code is all zero bits") };
     let codes = &events.as_flattened()[..strides * STRIDE];
-    let mut words = [0u64; 2];
+    // Gathered in a register: or-ed into an array indexed by the word, the bits went through
+    // memory, each four codes waiting for the store before them.
+    let mut stopped = 0u128;
     for (k, four) in codes.chunks_exact(4).enumerate() {
         // SAFETY: `four` holds four u64 (32 bytes); AVX2 is the caller's to ensure.
         let crossed = unsafe {
@@ -624,9 +626,9 @@ unsafe fn stopped_slots_avx2<const STRIDES: usize>(
                 _mm256_setzero_si256(),
             )))
         };
-        words[k / 16] |= u64::from(!crossed as u8 & 0xf) << (4 * (k % 16));
+        stopped |= u128::from(!crossed as u8 & 0xf) << (4 * k);
     }
-    Slots(u128::from(words[0]) | u128::from(words[1]) << 64)
+    Slots(stopped)
 }
 
 /// Reports the rays in `stopped`, which the last kernel stopped at surface `i` (0-based), with
@@ -700,6 +702,39 @@ struct LaneColumns<'a> {
     codes: &'a mut [u64],
 }
 
+impl LaneColumns<'_> {
+    fn strides(&self) -> usize {
+        self.codes.len() / STRIDE
+    }
+
+    /// The stride that pipeline stage `stage` crosses at step `step` (stride `step - stage`),
+    /// if there is one.
+    #[inline(always)]
+    fn stage_stride(&mut self, step: usize, stage: usize) -> Option<StrideColumns<'_>> {
+        let k = step.checked_sub(stage).filter(|&k| k < self.strides())?;
+        let [px, py, pz] = &self.p;
+        let [dx, dy, dz] = &self.d;
+        let [qx, qy, qz] = &mut self.q;
+        let [ex, ey, ez] = &mut self.e;
+        Some(StrideColumns {
+            p: [px, py, pz].map(|column| &column.as_chunks().0[k]),
+            d: [dx, dy, dz].map(|column| &column.as_chunks().0[k]),
+            q: [qx, qy, qz].map(|column| &mut column.as_chunks_mut().0[k]),
+            e: [ex, ey, ez].map(|column| &mut column.as_chunks_mut().0[k]),
+            codes: &mut self.codes.as_chunks_mut().0[k],
+        })
+    }
+}
+
+/// One stride of a kernel's [`LaneColumns`].
+struct StrideColumns<'a> {
+    p: [&'a [f64; STRIDE]; 3],
+    d: [&'a [f64; STRIDE]; 3],
+    q: [&'a mut [f64; STRIDE]; 3],
+    e: [&'a mut [f64; STRIDE]; 3],
+    codes: &'a mut [u64; STRIDE],
+}
+
 /// The numbers every kernel needs of a surface.
 #[derive(Clone, Copy)]
 struct Common {
@@ -748,59 +783,96 @@ impl<const FORWARD: bool, const REFRACTS: bool> Crossing for SphereCrossing<FORW
     }
 
     /// A sphere's lane is a chain of a square root, a division and another square root, each
-    /// behind a dozen multiply-adds. In one loop the processor's window held too few lanes to
-    /// keep the divider busy; split into loops that each hold one stage (multiply-adds, root and
-    /// division, multiply-adds, root) the window spans many lanes of one stage. The stages'
-    /// results wait in `q` and `e`, each lane's read before it is overwritten.
+    /// behind a dozen multiply-adds. In one pass over the lanes the processor's window held too
+    /// few lanes to keep the divider busy; in four passes, one per stage (multiply-adds, root
+    /// and division, multiply-adds, root), the divider idled through the multiply-add passes
+    /// and the multiply-add units through the others. So the stages run as a pipeline over
+    /// strides: each step crosses one stride in every stage (stride `k` in the first, `k - 1` in
+    /// the second, ...), independent work the processor overlaps. The stages' results wait in
+    /// `q` and `e`, each lane's read before it is overwritten.
     #[inline(always)]
-    fn cross(&self, lanes: LaneColumns<'_>) {
+    fn cross(&self, mut lanes: LaneColumns<'_>) {
+        let stages = if REFRACTS { 4 } else { 3 };
+        for step in 0..lanes.strides() + stages - 1 {
+            // The divider's stages first, so that its long instructions start before the
+            // multiply-adds that fill the wait for them.
+            if REFRACTS && let Some(stride) = lanes.stage_stride(step, 3) {
+                self.refraction(stride);
+            }
+            if let Some(stride) = lanes.stage_stride(step, 1) {
+                self.distance(stride);
+            }
+            if let Some(stride) = lanes.stage_stride(step, 2) {
+                self.meet(stride);
+            }
+            if let Some(stride) = lanes.stage_stride(step, 0) {
+                self.quadratic(stride);
+            }
+        }
+    }
+}
+
+impl<const FORWARD: bool, const REFRACTS: bool> SphereCrossing<FORWARD, REFRACTS> {
+    /// The start points go to `q`; B, C and the discriminant to `e`.
+    #[inline(always)]
+    fn quadratic(&self, stride: StrideColumns<'_>) {
+        let StrideColumns { p, d, q, e, .. } = stride;
+        for l in 0..STRIDE {
+            let arriving = [p[0][l], p[1][l], p[2][l] - self.common.vertex_z];
+            let direction = [d[0][l], d[1][l], d[2][l]];
+            let quadratic = intersect::SphereQuadratic::new(arriving, direction, self.curvature);
+            [q[0][l], q[1][l], q[2][l]] = quadratic.start;
+            [e[0][l], e[1][l], e[2][l]] = [quadratic.b, quadratic.c, quadratic.disc];
+        }
+    }
+
+    /// The distance along the ray replaces B.
+    #[inline(always)]
+    fn distance(&self, stride: StrideColumns<'_>) {
+        let [b, c, disc] = stride.e;
+        for l in 0..STRIDE {
+            b[l] = intersect::root_from(self.curvature, b[l], c[l], disc[l], self.common.sense);
+        }
+    }
+
+    /// The hit points (relative to the vertex) to `q`, whether each ray hits to its code;
+    /// refracting, the normal's z, the cosine and the radicand to `e`.
+    #[inline(always)]
+    fn meet(&self, stride: StrideColumns<'_>) {
         let (c, common) = (self.curvature, &self.common);
-        let LaneColumns { p, d, q, e, codes } = lanes;
-        let [px, py, pz] = p;
-        let [dx, dy, dz] = d;
-        let [qx, qy, qz] = q;
-        let [ex, ey, ez] = e;
-        let n = codes.len();
-        // The start points go to `q`; B, C and the discriminant to `e`.
-        for l in 0..n {
-            let arriving = [px[l], py[l], pz[l] - common.vertex_z];
-            let quadratic = intersect::SphereQuadratic::new(arriving, [dx[l], dy[l], dz[l]], c);
-            [qx[l], qy[l], qz[l]] = quadratic.start;
-            [ex[l], ey[l], ez[l]] = [quadratic.b, quadratic.c, quadratic.disc];
-        }
-        // The distance along the ray replaces B.
-        for l in 0..n {
-            ex[l] = intersect::root_from(c, ex[l], ey[l], ez[l], common.sense);
-        }
-        // The hit points (relative to the vertex) to `q`, whether each ray hits to its code;
-        // refracting, the normal's z, the cosine and the radicand to `e`.
-        for l in 0..n {
-            let d = [dx[l], dy[l], dz[l]];
-            let start = [qx[l], qy[l], qz[l]];
-            let (point, nz, crosses) = intersect::sphere_meet(start, ez[l], d, c, ex[l]);
+        let StrideColumns { d, q, e, codes, .. } = stride;
+        for l in 0..STRIDE {
+            let d = [d[0][l], d[1][l], d[2][l]];
+            let start = [q[0][l], q[1][l], q[2][l]];
+            let (point, nz, crosses) = intersect::sphere_meet(start, e[2][l], d, c, e[0][l]);
             let hit = crosses & point[0].is_finite() & point[1].is_finite() & point[2].is_finite();
             if REFRACTS {
-                [qx[l], qy[l], qz[l]] = point;
+                [q[0][l], q[1][l], q[2][l]] = point;
                 let (cos_signed, radicand) =
                     refract::refraction_radicand(d, [c * point[0], c * point[1], nz], common.mu);
-                [ex[l], ey[l], ez[l]] = [nz, cos_signed, radicand];
+                [e[0][l], e[1][l], e[2][l]] = [nz, cos_signed, radicand];
                 codes[l] = u64::from(hit);
             } else {
-                [qx[l], qy[l], qz[l]] = [point[0], point[1], point[2] + common.vertex_z];
-                [ex[l], ey[l], ez[l]] = d;
+                [q[0][l], q[1][l], q[2][l]] = [point[0], point[1], point[2] + common.vertex_z];
+                [e[0][l], e[1][l], e[2][l]] = d;
                 codes[l] = event_code(hit, common.inside(point), true);
             }
         }
-        if !REFRACTS {
-            return;
-        }
-        for l in 0..n {
-            let point = [qx[l], qy[l], qz[l]];
-            let normal = [c * point[0], c * point[1], ex[l]];
-            let radicand = ez[l];
-            let d = [dx[l], dy[l], dz[l]];
-            [ex[l], ey[l], ez[l]] = refract::refracted(d, normal, common.mu, ey[l], radicand);
-            qz[l] = point[2] + common.vertex_z;
+    }
+
+    /// The refracted directions to `e`, the leaving points to `q`, the codes.
+    #[inline(always)]
+    fn refraction(&self, stride: StrideColumns<'_>) {
+        let (c, common) = (self.curvature, &self.common);
+        let StrideColumns { d, q, e, codes, .. } = stride;
+        for l in 0..STRIDE {
+            let point = [q[0][l], q[1][l], q[2][l]];
+            let normal = [c * point[0], c * point[1], e[0][l]];
+            let radicand = e[2][l];
+            let d = [d[0][l], d[1][l], d[2][l]];
+            [e[0][l], e[1][l], e[2][l]] =
+                refract::refracted(d, normal, common.mu, e[1][l], radicand);
+            q[2][l] = point[2] + common.vertex_z;
             codes[l] = event_code(codes[l] == 1, common.inside(point), radicand >= 0.0);
         }
     }
@@ -1019,12 +1091,9 @@ fn kernel<K: Crossing, const STRIDES: usize>(
     strides: usize,
     check_apertures: bool,
 ) {
-    // Each loop runs flat over whole strides: the compiler vectorises it across rays (a loop
-    // over strides around a loop over one stride's rays was unrolled and vectorised across
-    // strides, with gathers). Every slice is cut to `n` here, in straight code: sliced inside
-    // an array `map` (a call the compiler kept), their lengths were unknown in the loop, whose
-    // last stride then ran as scalar code behind the bounds checks (a third of the sphere
-    // kernel's time).
+    // Every slice is cut to `n` here, in straight code: sliced inside an array `map` (a call
+    // the compiler kept), their lengths were unknown in the kernels' loops, whose last stride
+    // then ran as scalar code behind the bounds checks (a third of the sphere kernel's time).
     let n = strides * STRIDE;
     let [px, py, pz, dx, dy, dz] = &current.values;
     let [qx, qy, qz, ex, ey, ez] = &mut next.values;
