@@ -794,10 +794,8 @@ impl<const FORWARD: bool, const REFRACTS: bool> Crossing for SphereCrossing<FORW
     fn cross(&self, mut lanes: LaneColumns<'_>) {
         let stages = if REFRACTS { 4 } else { 3 };
         for step in 0..lanes.strides() + stages - 1 {
-            // The divider's stages first, so that its long instructions start before the
-            // multiply-adds that fill the wait for them.
-            if REFRACTS && let Some(stride) = lanes.stage_stride(step, 3) {
-                self.refraction(stride);
+            if let Some(stride) = lanes.stage_stride(step, 0) {
+                self.quadratic(stride);
             }
             if let Some(stride) = lanes.stage_stride(step, 1) {
                 self.distance(stride);
@@ -805,8 +803,8 @@ impl<const FORWARD: bool, const REFRACTS: bool> Crossing for SphereCrossing<FORW
             if let Some(stride) = lanes.stage_stride(step, 2) {
                 self.meet(stride);
             }
-            if let Some(stride) = lanes.stage_stride(step, 0) {
-                self.quadratic(stride);
+            if REFRACTS && let Some(stride) = lanes.stage_stride(step, 3) {
+                self.refraction(stride);
             }
         }
     }
