@@ -8,6 +8,9 @@
 //!
 //! On a processor with neither set the benchmark measures nothing (the trace's portable path
 //! has no roofline of this kind to compare with).
+//!
+//! `roofline_memory` is the other side: the bytes the 1M-ray trace reads and writes, moved
+//! without the arithmetic.
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 
@@ -179,5 +182,33 @@ fn roofline(c: &mut Criterion) {
     let _ = c;
 }
 
-criterion_group!(benches, roofline);
+/// Rays of the 1M-ray trace (`lensbake bench trace --rays 1000000`) whose memory traffic
+/// `memory_roofline` moves.
+const TRAFFIC_RAYS: usize = 1_000_000;
+
+/// The memory side of the roofline: the bytes the 1M-ray trace reads and writes, moved with no
+/// arithmetic. Each ray's start (six f64 columns, 48 bytes) is read and its result (six f64
+/// columns and a 16-byte outcome, 64 bytes) written into storage reused from the last call, as
+/// `Tracer::trace_batch_into` does. "elements/s" = rays per second; the trace cannot run faster
+/// than this however fast its arithmetic.
+fn memory_roofline(c: &mut Criterion) {
+    let rays: [Vec<f64>; 6] = std::array::from_fn(|k| vec![k as f64; TRAFFIC_RAYS]);
+    let mut ended: [Vec<f64>; 6] = std::array::from_fn(|_| vec![0.0; TRAFFIC_RAYS]);
+    let mut outcomes = vec![[0u64; 2]; TRAFFIC_RAYS];
+    let mut group = c.benchmark_group("roofline_memory");
+    group.throughput(Throughput::Elements(TRAFFIC_RAYS as u64));
+    group.sample_size(20);
+    group.bench_function("trace_traffic_1m_rays", |b| {
+        b.iter(|| {
+            for (to, from) in ended.iter_mut().zip(&rays) {
+                to.copy_from_slice(std::hint::black_box(from));
+            }
+            outcomes.fill(std::hint::black_box([1, 0]));
+            std::hint::black_box((&ended, &outcomes));
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(benches, roofline, memory_roofline);
 criterion_main!(benches);
