@@ -1153,8 +1153,9 @@ mod tests {
         isas
     }
 
-    /// Spheres and planes (kernels) around a conic (the one-ray code inside the block), with
-    /// apertures small enough that rays stop at several surfaces, so blocks are compacted.
+    /// Spheres (one between equal indices, which does not refract) and planes (kernels) around
+    /// a conic (the one-ray code inside the block), with apertures small enough that rays stop
+    /// at several surfaces, so blocks are compacted.
     fn tracer() -> Tracer {
         let surface = |shape, thickness, n: f64, stop| Surface {
             shape,
@@ -1173,6 +1174,7 @@ mod tests {
             object_medium: Medium::Air,
             surfaces: vec![
                 surface(Shape::Sphere { curvature: 0.04 }, 4.0, 1.7, None),
+                surface(Shape::Sphere { curvature: -0.03 }, 1.0, 1.7, None),
                 surface(Shape::Plane, 3.0, 1.0, Some(StopShape::Circle)),
                 surface(Shape::Plane, 3.0, 1.5, None),
                 surface(conic, 2.0, 1.5, None),
@@ -1197,12 +1199,33 @@ mod tests {
             .collect()
     }
 
+    /// [`rays`] mirrored to start behind the lens and travel back through it.
+    fn backward_rays(n: usize) -> Vec<Ray> {
+        rays(n)
+            .into_iter()
+            .map(|ray| {
+                let ([x, y, _], [dx, dy, dz]) = (ray.position, ray.direction);
+                Ray::new([x, y, 60.0], [dx, dy, -dz]).unwrap()
+            })
+            .collect()
+    }
+
     /// The block trace compiled for each instruction set (the portable code is what processors
-    /// without AVX2 and FMA run) against the one-ray path compiled for each, bit for bit.
+    /// without AVX2 and FMA run) against the one-ray path compiled for each, bit for bit, in
+    /// both directions.
     #[test]
     fn every_instruction_set_traces_blocks_bit_for_bit_as_one_ray() {
         let tracer = tracer();
-        let rays = rays(3 * 128 + 5);
+        for (travel, rays) in [
+            (Travel::Forward, rays(3 * 128 + 5)),
+            (Travel::Backward, backward_rays(3 * 128 + 5)),
+        ] {
+            blocks_trace_as_one_ray(&tracer, travel, &rays);
+        }
+    }
+
+    fn blocks_trace_as_one_ray(tracer: &Tracer, travel: Travel, rays: &[Ray]) {
+        let n = tracer.surfaces.len();
         let mut outcomes = std::collections::HashSet::new();
         for check in [true, false] {
             let apertures = if check {
@@ -1212,13 +1235,12 @@ mod tests {
             };
             let single: Vec<_> = rays
                 .iter()
-                .map(|&ray| tracer.trace_with(ray, Travel::Forward, apertures))
+                .map(|&ray| tracer.trace_with(ray, travel, apertures))
                 .collect();
             for isa in runnable() {
                 for (k, &ray) in rays.iter().enumerate() {
-                    let (one, _) =
-                        tracer.run_on(isa, ray, Travel::Forward, 0..5, apertures, &mut |_, _| {});
-                    assert_eq!(one, single[k], "{isa:?}, one ray {k}");
+                    let (one, _) = tracer.run_on(isa, ray, travel, 0..n, apertures, &mut |_, _| {});
+                    assert_eq!(one, single[k], "{travel:?}, {isa:?}, one ray {k}");
                 }
                 for (b, chunk) in rays.chunks(128).enumerate() {
                     let mut block = Block::<16>::new();
@@ -1227,26 +1249,39 @@ mod tests {
                     let count = tracer.trace_block_on(
                         isa,
                         &mut block,
-                        Travel::Forward,
+                        travel,
                         check,
                         &mut NoVisit,
                         &mut |id: usize, traced: Traced| {
                             assert!(!seen[id], "ray {id} reported twice");
                             seen[id] = true;
-                            assert_eq!(traced, single[128 * b + id], "{isa:?}, ray {id}");
+                            assert_eq!(
+                                traced,
+                                single[128 * b + id],
+                                "{travel:?}, {isa:?}, ray {id}"
+                            );
                             outcomes.insert(traced.outcome.status());
                         },
                     );
                     assert!(seen.iter().all(|&s| s));
+                    // A ray stopped at surface s (1-based) crossed s surfaces forward, n + 1 - s
+                    // backward.
                     let expected: usize = single[128 * b..128 * b + chunk.len()]
                         .iter()
-                        .map(|t| t.outcome.surface().unwrap_or(5))
+                        .map(|t| match (t.outcome.surface(), travel) {
+                            (None, _) => n,
+                            (Some(s), Travel::Forward) => s,
+                            (Some(s), Travel::Backward) => n + 1 - s,
+                        })
                         .sum();
                     assert_eq!(count, expected as u64);
                 }
             }
         }
-        assert!(outcomes.len() >= 3, "a mix of outcomes: {outcomes:?}");
+        assert!(
+            outcomes.len() >= 3,
+            "{travel:?}: a mix of outcomes: {outcomes:?}"
+        );
     }
 
     /// A group traced from its columns reports exactly the chosen lanes, each by its lane and
