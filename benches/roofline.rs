@@ -13,6 +13,7 @@
 //! without the arithmetic.
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use lensbake::trace::Outcome;
 
 /// Vector operations per chain and iteration of a measurement.
 const STEPS: usize = 4096;
@@ -188,13 +189,14 @@ const TRAFFIC_RAYS: usize = 1_000_000;
 
 /// The memory side of the roofline: the bytes the 1M-ray trace reads and writes, moved with no
 /// arithmetic. Each ray's start (six f64 columns, 48 bytes) is read and its result (six f64
-/// columns and a 16-byte outcome, 64 bytes) written into storage reused from the last call, as
+/// columns and an [`Outcome`], 64 bytes) written into storage reused from the last call, as
 /// `Tracer::trace_batch_into` does. "elements/s" = rays per second; the trace cannot run faster
 /// than this however fast its arithmetic.
 fn memory_roofline(c: &mut Criterion) {
+    const { assert!(size_of::<Outcome>() == 16, "README counts a 16-byte outcome per ray") };
     let rays: [Vec<f64>; 6] = std::array::from_fn(|k| vec![k as f64; TRAFFIC_RAYS]);
     let mut ended: [Vec<f64>; 6] = std::array::from_fn(|_| vec![0.0; TRAFFIC_RAYS]);
-    let mut outcomes = vec![[0u64; 2]; TRAFFIC_RAYS];
+    let mut outcomes = vec![Outcome::Ok; TRAFFIC_RAYS];
     let mut group = c.benchmark_group("roofline_memory");
     group.throughput(Throughput::Elements(TRAFFIC_RAYS as u64));
     group.sample_size(20);
@@ -203,7 +205,7 @@ fn memory_roofline(c: &mut Criterion) {
             for (to, from) in ended.iter_mut().zip(&rays) {
                 to.copy_from_slice(std::hint::black_box(from));
             }
-            outcomes.fill(std::hint::black_box([1, 0]));
+            outcomes.fill(std::hint::black_box(Outcome::Vignetted { surface: 1 }));
             std::hint::black_box((&ended, &outcomes));
         })
     });
