@@ -137,7 +137,9 @@ mod kernels {
 
     /// The kernels of the widest set this processor has, with its lanes per vector and name.
     pub type Kernel = unsafe fn(f64) -> f64;
-    pub fn widest() -> Option<(&'static str, usize, [(&'static str, Kernel); 4])> {
+    /// Each measurement's name and kernel.
+    pub type Named = [(&'static str, Kernel); 4];
+    pub fn widest() -> Option<(&'static str, usize, Named)> {
         if is_x86_feature_detected!("avx512f") {
             Some((
                 "avx512",
