@@ -195,7 +195,12 @@ const TRAFFIC_RAYS: usize = 1_000_000;
 /// `Tracer::trace_batch_into` does. "elements/s" = rays per second; the trace cannot run faster
 /// than this however fast its arithmetic.
 fn memory_roofline(c: &mut Criterion) {
-    const { assert!(size_of::<Outcome>() == 16, "README counts a 16-byte outcome per ray") };
+    const {
+        assert!(
+            size_of::<Outcome>() == 16,
+            "README counts a 16-byte outcome per ray"
+        )
+    };
     let rays: [Vec<f64>; 6] = std::array::from_fn(|k| vec![k as f64; TRAFFIC_RAYS]);
     let mut ended: [Vec<f64>; 6] = std::array::from_fn(|_| vec![0.0; TRAFFIC_RAYS]);
     let mut outcomes = vec![Outcome::Ok; TRAFFIC_RAYS];
