@@ -147,21 +147,22 @@ pub fn inverse_stereographic(s: [f64; 2]) -> [f64; 3] {
 
 #[inline(always)]
 fn normalise(v: [f64; 3]) -> [f64; 3] {
-    let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-    [v[0] / n, v[1] / n, v[2] / n]
+    let per_length = 1.0 / (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    v.map(|value| value * per_length)
 }
 
 /// Point where `ray` crosses the plane z = `z`, if it travels towards it (rays here travel -z).
 #[inline(always)]
 fn crossing(ray: &Ray, z: f64) -> Option<[f64; 2]> {
     let away = ray.direction[2] >= 0.0;
-    (!away).then(|| crossing_of_plane(ray, z))
+    (!away).then(|| crossing_of_plane(ray, z, 1.0 / ray.direction[2]))
 }
 
-/// Where the line of `ray` crosses the plane z = `z`, whichever way it travels.
+/// Where the line of `ray` crosses the plane z = `z`, whichever way it travels, given
+/// `per_z`, the reciprocal of the direction's z.
 #[inline(always)]
-fn crossing_of_plane(ray: &Ray, z: f64) -> [f64; 2] {
-    let t = (z - ray.origin[2]) / ray.direction[2];
+fn crossing_of_plane(ray: &Ray, z: f64, per_z: f64) -> [f64; 2] {
+    let t = (z - ray.origin[2]) * per_z;
     [
         ray.origin[0] + t * ray.direction[0],
         ray.origin[1] + t * ray.direction[1],
@@ -176,8 +177,9 @@ fn crossing_of_plane(ray: &Ray, z: f64) -> [f64; 2] {
 #[inline(always)]
 fn polar_of(p: [f64; 2]) -> (f64, [f64; 2]) {
     let r = (p[0] * p[0] + p[1] * p[1]).sqrt();
+    let per_r = 1.0 / r;
     let rotation = if r > 0.0 {
-        [p[0] / r, p[1] / r]
+        [p[0] * per_r, p[1] * per_r]
     } else {
         [1.0, 0.0]
     };
@@ -195,7 +197,12 @@ fn in_unit(c: [f64; 3]) -> bool {
 /// picks its circle of the coordinate pupil.
 #[inline(always)]
 pub(crate) fn film_radius_of(frame: &Frame, ray: &Ray) -> f64 {
-    polar_of(crossing_of_plane(ray, frame.film_plane_z)).0
+    polar_of(crossing_of_plane(
+        ray,
+        frame.film_plane_z,
+        1.0 / ray.direction[2],
+    ))
+    .0
 }
 
 /// Where a film-side ray lands in the pupil-planes coordinates of `frame`, given the
@@ -211,16 +218,19 @@ pub(crate) fn locate_pupil_planes(
     // Along the plane or away from it, never there (a NaN direction goes on, as one at a time).
     let away = ray.direction[2] >= 0.0;
     let reaches = !away;
-    let rear = crossing_of_plane(ray, frame.rear_plane_z);
-    let film = crossing_of_plane(ray, frame.film_plane_z);
+    // One division for both crossings (the divider, not the multipliers, bounds a lookup).
+    let per_z = 1.0 / ray.direction[2];
+    let rear = crossing_of_plane(ray, frame.rear_plane_z, per_z);
+    let film = crossing_of_plane(ray, frame.film_plane_z, per_z);
     let (film_radius, [c, s]) = polar_of(film);
     let q = rotate(rear, c, -s);
     let mirror = if q[1] < 0.0 { -1.0 } else { 1.0 };
     let circle = circle_at(film_radius);
     let open = circle.radius > 0.0;
     let radial = film_radius / frame.max_film_radius;
-    let across = 0.5 * ((q[0] - circle.centre_x) / circle.radius + 1.0);
-    let up = q[1] * mirror / circle.radius;
+    let per_radius = 1.0 / circle.radius;
+    let across = 0.5 * ((q[0] - circle.centre_x) * per_radius + 1.0);
+    let up = q[1] * mirror * per_radius;
     // A closed circle (no ray passes) gives coordinates outside the unit cube.
     let coords = [
         radial,
@@ -238,6 +248,7 @@ pub(crate) fn locate_pupil_planes(
 
 impl Parameterisation {
     /// Table coordinates of a film-side ray travelling -z; None if it never reaches the planes.
+    /// Only the ray's line and sense count: its direction need not be unit.
     #[inline(always)]
     pub fn locate(self, frame: &Frame, pupil: &PupilTable, ray: &Ray) -> Option<Located> {
         match self {
@@ -246,7 +257,7 @@ impl Parameterisation {
                 let (rear_radius, [c, s]) = polar_of(rear);
                 let d = rotate([ray.direction[0], ray.direction[1]], c, -s);
                 let mirror = if d[1] < 0.0 { -1.0 } else { 1.0 };
-                let polar = (-ray.direction[2]).clamp(-1.0, 1.0).acos();
+                let polar = (-normalise(ray.direction)[2]).clamp(-1.0, 1.0).acos();
                 let azimuth = (d[1] * mirror).atan2(d[0]);
                 let coords = [
                     rear_radius / frame.max_rear_radius,

@@ -470,7 +470,8 @@ impl LrtfTable {
 
     /// [`LrtfTable::lookup_group`] of the first `count` rays of a group held in columns
     /// (x, y, z, dx, dy, dz), as the renderer's CPU twin builds them: ray k's result is handed
-    /// to `emit(k, ..)`, once for each k below `count`, in order.
+    /// to `emit(k, ..)`, once for each k below `count`, in order. A direction need not be unit
+    /// (a lookup reads only a ray's line and sense).
     ///
     /// # Panics
     /// When `count` is above [`LOOKUP_GROUP`].

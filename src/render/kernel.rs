@@ -730,7 +730,7 @@ fn lens_rays(frame: &FrameParams, rays: LensRays, samples: &SampleLanes, out: &m
             let mut built = [false; SAMPLE_GROUP];
             with_widest_isa(
                 #[inline(always)]
-                |_| film_side_rays(samples, &mut columns, &mut built),
+                |_| film_side_rays::<true>(samples, &mut columns, &mut built),
             );
             out.fill(blocked_ray());
             tracer.trace_group(&columns, &built[..count], Travel::Backward, |k, traced| {
@@ -745,11 +745,12 @@ fn lens_rays(frame: &FrameParams, rays: LensRays, samples: &SampleLanes, out: &m
             layer,
         } => {
             // Looked up together, so the table reads of the whole group overlap. A ray that
-            // cannot be built has no direction, which no table holds (it falls outside).
+            // cannot be built has no direction, which no table holds (it falls outside). A
+            // lookup reads only the line of a ray, so the directions are not made unit.
             let mut columns = [[0.0; SAMPLE_GROUP]; 6];
             with_widest_isa(
                 #[inline(always)]
-                |_| film_side_rays(samples, &mut columns, &mut [false; SAMPLE_GROUP]),
+                |_| film_side_rays::<false>(samples, &mut columns, &mut [false; SAMPLE_GROUP]),
             );
             table.lookup_columns(layer, &columns, count, stop_radius, |k, looked| {
                 out[k] = match looked {
@@ -762,14 +763,14 @@ fn lens_rays(frame: &FrameParams, rays: LensRays, samples: &SampleLanes, out: &m
 }
 
 /// The f64 film-side rays of all lanes of `samples` (from the film point towards the pupil
-/// point, the direction made unit) into `columns`, a column per coordinate (x, y, z, dx, dy, dz),
-/// and whether each could be built into `built`: what [`crate::trace::Ray::new`] makes of them,
-/// bit for bit, side by side in vector lanes. From f32 points a direction's squared length can
-/// neither overflow nor underflow f64, so `Ray::new` divides by the length, as here; it refuses
-/// only non-finite values and a zero direction. Written into the caller's columns: returned by
-/// value, they were copied once more.
+/// point, the direction made unit when `UNIT`) into `columns`, a column per coordinate (x, y, z,
+/// dx, dy, dz), and whether each could be built into `built`: with `UNIT`, what
+/// [`crate::trace::Ray::new`] makes of them, bit for bit, side by side in vector lanes. From f32
+/// points a direction's squared length can neither overflow nor underflow f64, so `Ray::new`
+/// divides by the length, as here; it refuses only non-finite values and a zero direction.
+/// Written into the caller's columns: returned by value, they were copied once more.
 #[inline(always)]
-fn film_side_rays(
+fn film_side_rays<const UNIT: bool>(
     samples: &SampleLanes,
     columns: &mut [[f64; SAMPLE_GROUP]; 6],
     built: &mut [bool; SAMPLE_GROUP],
@@ -788,7 +789,7 @@ fn film_side_rays(
         built[k] = finite & (length > 0.0);
         for axis in 0..3 {
             columns[axis][k] = position[axis];
-            columns[3 + axis][k] = d[axis] / length;
+            columns[3 + axis][k] = if UNIT { d[axis] / length } else { d[axis] };
         }
     }
 }
