@@ -156,6 +156,7 @@ pub mod limits;
 pub mod lrtf;
 pub mod model;
 pub mod output;
+mod pages;
 pub mod paraxial;
 #[cfg(feature = "plot")]
 pub mod plot;

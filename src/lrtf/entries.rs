@@ -14,6 +14,7 @@ use half::f16;
 
 use super::param::{CHANNELS, MARGIN};
 use super::table::{Corners, Precision};
+use crate::pages::resize_on_huge_pages;
 use crate::trace::{Isa, with_widest_isa};
 
 /// Nodes per brick edge (a power of two, so brick and offset are a shift and a mask).
@@ -251,9 +252,8 @@ impl<N: Node> Grid<N> {
             u32::try_from(nodes).is_ok(),
             "{dims:?} nodes are numbered in u32 (MAX_TABLE_NODES keeps tables far below)"
         );
-        let mut storage = Vec::with_capacity(nodes);
-        advise_huge_pages(storage.spare_capacity_mut());
-        storage.resize(nodes, N::default());
+        let mut storage = Vec::new();
+        resize_on_huge_pages(&mut storage, nodes, N::default());
         let mut grid = Grid {
             layout: Bricks {
                 dims,
@@ -320,36 +320,6 @@ impl<N: Node> Grid<N> {
             self.nodes[layout.index(row_major_node(layout.dims, k)) as usize].values()
         })
     }
-}
-
-/// Asks Linux to back `storage` (not yet written) with 2 MiB pages where it covers whole ones.
-/// A render reads a large table's nodes all over a slab of it, and each 4 KiB page of it costs a
-/// TLB entry; under a hypervisor a TLB miss walks two page tables. With huge pages a 128^3 f32
-/// table (64 MiB) rendered about 7 % faster (README, Performance). Only a hint: where the
-/// system has no huge pages to give, or refuses, nothing changes.
-fn advise_huge_pages<T>(storage: &mut [std::mem::MaybeUninit<T>]) {
-    #[cfg(target_os = "linux")]
-    {
-        const HUGE_PAGE: usize = 2 << 20;
-        let start = storage.as_mut_ptr() as usize;
-        let end = start + std::mem::size_of_val(storage);
-        let first = start.next_multiple_of(HUGE_PAGE);
-        let last = end / HUGE_PAGE * HUGE_PAGE;
-        if first < last {
-            // SAFETY: the range lies inside `storage`, which this process owns and nothing
-            // reads yet; the advice changes how its pages are backed, never their contents.
-            // A refusal (a kernel without transparent huge pages) leaves the pages as they are.
-            let _ = unsafe {
-                rustix::mm::madvise(
-                    first as *mut std::ffi::c_void,
-                    last - first,
-                    rustix::mm::Advice::LinuxHugepage,
-                )
-            };
-        }
-    }
-    #[cfg(not(target_os = "linux"))]
-    let _ = storage;
 }
 
 /// Asks the cache for the line holding `node` ahead of its use. No effect on any value.

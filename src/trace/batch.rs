@@ -2,6 +2,7 @@
 
 use super::lanes::{Block, Finish, NoVisit, STRIDE};
 use super::{Apertures, Outcome, Ray, Traced, Tracer, Travel};
+use crate::pages::resize_on_huge_pages;
 use rayon::prelude::*;
 
 /// Rays per parallel work item: large enough to amortise scheduling, small enough to balance
@@ -80,7 +81,8 @@ impl RayBatch {
         [&self.x, &self.y, &self.z, &self.dx, &self.dy, &self.dz]
     }
 
-    /// Makes every column `n` long, keeping the storage (new entries are zero).
+    /// Makes every column `n` long, keeping the storage (new entries are zero; new storage on
+    /// huge pages, see [`crate::pages`]).
     fn resize(&mut self, n: usize) {
         for column in [
             &mut self.x,
@@ -90,7 +92,7 @@ impl RayBatch {
             &mut self.dy,
             &mut self.dz,
         ] {
-            column.resize(n, 0.0);
+            resize_on_huge_pages(column, n, 0.0);
         }
     }
 }
@@ -193,7 +195,7 @@ impl Tracer {
         out: &mut BatchTrace,
     ) {
         let n = rays.len();
-        out.outcomes.resize(n, Outcome::Ok);
+        resize_on_huge_pages(&mut out.outcomes, n, Outcome::Ok);
         out.rays.resize(n);
         let check = apertures == Apertures::Checked;
         let columns = rays.columns();
