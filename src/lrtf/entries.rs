@@ -472,6 +472,14 @@ impl Entries {
         self.len() == 0
     }
 
+    /// Bytes the nodes take in memory, bricks' padding included.
+    pub fn stored_bytes(&self) -> usize {
+        match self {
+            Entries::F32(g) => std::mem::size_of_val(g.nodes.as_slice()),
+            Entries::F16(g) => std::mem::size_of_val(g.nodes.as_slice()),
+        }
+    }
+
     /// The entries in row-major order, as f32 (what the file and the GPU textures hold).
     pub fn row_major(&self) -> Box<dyn Iterator<Item = [f32; CHANNELS]> + '_> {
         match self {
