@@ -166,7 +166,7 @@ const PREFETCH_AHEAD: usize = 8;
 
 /// Tables up to this size are read without prefetching: they stay in a core's second-level
 /// cache (512 KiB on AMD's Zen 2, 1-2 MiB on recent cores) once read, and the prefetches cost
-/// their address arithmetic and issue slots for nothing (about 2 % of a 16^3 table's frame).
+/// their address arithmetic and issue slots for nothing (about 3 % of a 16^3 table's frame).
 const PREFETCH_ABOVE_BYTES: usize = 256 << 10;
 
 /// What a located ray's place says before the table is read: it falls inside (`LRTF_PASSES`,
