@@ -17,6 +17,14 @@ pub(crate) fn resize_on_huge_pages<T: Clone>(v: &mut Vec<T>, n: usize, value: T)
     v.resize(n, value);
 }
 
+/// `source.to_vec()`, the copy's storage asked for on huge pages before it is written.
+pub(crate) fn to_vec_on_huge_pages<T: Clone>(source: &[T]) -> Vec<T> {
+    let mut copy = Vec::with_capacity(source.len());
+    advise_huge_pages(copy.spare_capacity_mut());
+    copy.extend_from_slice(source);
+    copy
+}
+
 /// Asks Linux to back `storage` with 2 MiB pages where it covers whole ones.
 fn advise_huge_pages<T>(storage: &mut [std::mem::MaybeUninit<T>]) {
     #[cfg(target_os = "linux")]
@@ -48,7 +56,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn resizing_on_huge_pages_keeps_the_values_a_plain_resize_gives() {
+    fn huge_page_vectors_hold_what_plain_ones_do() {
         // Large enough to span whole 2 MiB pages, from a short vector and from an empty one.
         let n = 3 << 20;
         for start in [vec![1u64, 2, 3], Vec::new()] {
@@ -57,6 +65,7 @@ mod tests {
             let mut huge = start;
             resize_on_huge_pages(&mut huge, n, 7);
             assert_eq!(huge, plain);
+            assert_eq!(to_vec_on_huge_pages(&huge), plain);
             resize_on_huge_pages(&mut huge, 2, 9);
             assert_eq!(huge, plain[..2]);
         }

@@ -14,7 +14,7 @@ use half::f16;
 
 use super::param::{CHANNELS, MARGIN};
 use super::table::{Corners, Precision};
-use crate::pages::resize_on_huge_pages;
+use crate::pages::{resize_on_huge_pages, to_vec_on_huge_pages};
 use crate::trace::{Isa, with_widest_isa};
 
 /// Nodes per brick edge (a power of two, so brick and offset are a shift and a mask).
@@ -102,10 +102,21 @@ fn widen(value: f16) -> f32 {
 }
 
 /// The grid of one element type, brick by brick.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Debug, PartialEq)]
 pub struct Grid<N> {
     layout: Bricks,
     nodes: Vec<N>,
+}
+
+/// A copy's nodes on huge pages too: a render's camera holds a clone of the table it was
+/// built with (`bench render` renders through one).
+impl<N: Node> Clone for Grid<N> {
+    fn clone(&self) -> Self {
+        Grid {
+            layout: self.layout,
+            nodes: to_vec_on_huge_pages(&self.nodes),
+        }
+    }
 }
 
 /// Where a grid's nodes are stored, whatever their element type: its nodes along each axis and
