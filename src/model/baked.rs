@@ -1,6 +1,8 @@
 //! A baked LRTF table as a model: one texture fetch per ray, through a stop realising the
 //! render's f-number, on a film plane of the table's focus range.
 
+use std::sync::Arc;
+
 use super::{FirstOrderModels, ModelError, ParaxialLens, PupilSampling};
 use crate::lrtf::LrtfTable;
 
@@ -9,7 +11,9 @@ use crate::lrtf::LrtfTable;
 #[derive(Clone, Debug, PartialEq)]
 pub struct BakedLens {
     pub paraxial: ParaxialLens,
-    pub table: LrtfTable,
+    /// Shared, not copied, by clones: a render's camera is a clone of the one it was built
+    /// from, and a 128^3 f32 table is 64 MiB.
+    pub table: Arc<LrtfTable>,
     pub stop_radius: f64,
     /// The table layer a monochrome render reads: 0 from [`BakedLens::new`], the design
     /// wavelength's after [`BakedLens::with_wavelength`] (a three-wavelength table lists its
@@ -46,7 +50,7 @@ impl BakedLens {
         table.info.focus.check_film_z(film_z, &asked)?;
         Ok(BakedLens {
             paraxial: first_order.thick.clone(),
-            table,
+            table: Arc::new(table),
             stop_radius,
             layer: 0,
             film_z,
