@@ -14,7 +14,7 @@ use half::f16;
 
 use super::param::{CHANNELS, MARGIN};
 use super::table::{Corners, Precision};
-use crate::pages::{resize_on_huge_pages, to_vec_on_huge_pages};
+use crate::pages::{Pages, resize_on, to_vec_on_huge_pages};
 use crate::trace::{Isa, with_widest_isa};
 
 /// Nodes per brick edge (a power of two, so brick and offset are a shift and a mask).
@@ -256,7 +256,7 @@ impl Bricks {
 }
 
 impl<N: Node> Grid<N> {
-    fn from_row_major(dims: [usize; 3], values: &[[f32; CHANNELS]]) -> Grid<N> {
+    fn from_row_major(pages: Pages, dims: [usize; 3], values: &[[f32; CHANNELS]]) -> Grid<N> {
         let bricks = dims.map(|n| n.div_ceil(BRICK));
         let nodes = bricks.iter().product::<usize>() * BRICK_NODES;
         assert!(
@@ -264,7 +264,7 @@ impl<N: Node> Grid<N> {
             "{dims:?} nodes are numbered in u32 (MAX_TABLE_NODES keeps tables far below)"
         );
         let mut storage = Vec::new();
-        resize_on_huge_pages(&mut storage, nodes, N::default());
+        resize_on(pages, &mut storage, nodes, N::default());
         let mut grid = Grid {
             layout: Bricks {
                 dims,
@@ -444,14 +444,25 @@ impl Entries {
         precision: Precision,
         values: &[[f32; CHANNELS]],
     ) -> Entries {
+        Entries::from_row_major_on(Pages::Plain, dims, precision, values)
+    }
+
+    /// [`Entries::from_row_major`] with the nodes on `pages`: huge pages for a table that is
+    /// read from disk to be looked up in.
+    pub(crate) fn from_row_major_on(
+        pages: Pages,
+        dims: [usize; 3],
+        precision: Precision,
+        values: &[[f32; CHANNELS]],
+    ) -> Entries {
         assert_eq!(
             values.len(),
             dims.iter().product::<usize>(),
             "entries for a {dims:?} grid"
         );
         match precision {
-            Precision::F32 => Entries::F32(Grid::from_row_major(dims, values)),
-            Precision::F16 => Entries::F16(Grid::from_row_major(dims, values)),
+            Precision::F32 => Entries::F32(Grid::from_row_major(pages, dims, values)),
+            Precision::F16 => Entries::F16(Grid::from_row_major(pages, dims, values)),
         }
     }
 
@@ -508,10 +519,10 @@ impl Entries {
         }
     }
 
-    /// The same entries stored in `precision`.
+    /// The same entries stored in `precision`, on huge pages (a copy is made to render with).
     pub fn to_precision(&self, precision: Precision) -> Entries {
         let values: Vec<_> = self.row_major().collect();
-        Entries::from_row_major(self.dims(), precision, &values)
+        Entries::from_row_major_on(Pages::Huge, self.dims(), precision, &values)
     }
 
     /// The cell holding table coordinates `coords` (clamped to \[0, 1\]^3).
@@ -696,7 +707,7 @@ mod tests {
     #[test]
     fn cell_corners_are_the_nodes_around_the_point() {
         let dims = [9, 6, 13];
-        let grid: Grid<NodeF32> = Grid::from_row_major(dims, &ramp(dims));
+        let grid: Grid<NodeF32> = Grid::from_row_major(Pages::Plain, dims, &ramp(dims));
         for i2 in 0..dims[2] - 1 {
             for i1 in 0..dims[1] - 1 {
                 for i0 in 0..dims[0] - 1 {

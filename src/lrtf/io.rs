@@ -21,6 +21,7 @@ use serde::{Deserialize, Serialize};
 use super::entries::Entries;
 use super::param::{CHANNEL_NAMES, CHANNELS, Frame};
 use super::table::{Layer, LrtfTable, Precision, TableInfo};
+use crate::pages::Pages;
 use crate::prescription::Prescription;
 use crate::pupil::{FocusPupilTable, PupilTable};
 
@@ -649,7 +650,8 @@ pub fn read_table(
             pupil: info.pupil.clone(),
             sampling: info.sampling_pupil.clone(),
             stop_semi_aperture: info.stop_semi_aperture,
-            entries: Entries::from_row_major(
+            entries: Entries::from_row_major_on(
+                Pages::Huge,
                 sidecar.info.resolution,
                 sidecar.info.precision,
                 &entries,

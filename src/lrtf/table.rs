@@ -619,8 +619,12 @@ impl LrtfTable {
                 .layers
                 .iter()
                 .map(|l| Layer {
+                    wavelength_nm: l.wavelength_nm,
+                    frame: l.frame.clone(),
+                    pupil: l.pupil.clone(),
+                    sampling: l.sampling.clone(),
+                    stop_semi_aperture: l.stop_semi_aperture,
                     entries: l.entries.to_precision(precision),
-                    ..l.clone()
                 })
                 .collect(),
         }
