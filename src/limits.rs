@@ -37,8 +37,12 @@ pub const MAX_BLADES: u64 = 64;
 pub const MAX_SCENE_DEPTH: u64 = 256;
 /// Most triangles in a scene.
 pub const MAX_TRIANGLES: u64 = 1 << 24;
-/// Largest input file read whole (lens file, glTF buffer, ray list).
+/// Largest input file read whole (glTF buffer, ray list, table).
 pub const MAX_INPUT_BYTES: u64 = 1 << 30;
+/// Largest lens file. The largest real one in tests/data (about 60 files) is 30 KB, and a lens
+/// of [`MAX_SURFACES`] surfaces takes under 1 MiB in any format lensbake reads; a larger file is
+/// refused before it is read rather than read whole and then refused by its surface count.
+pub const MAX_LENS_FILE_BYTES: u64 = 16 << 20;
 
 /// Slowest f-number: a pinhole of 1/1000 of the focal length. Slower stops gave pupils so small
 /// that radiance divided by their area overflowed to infinity.
@@ -210,11 +214,16 @@ fn available_memory() -> Option<u64> {
 /// never end) and files over [`MAX_INPUT_BYTES`]. The errors are `std::io::Error`s, so each
 /// reader keeps its own way of naming the file.
 pub fn read_input(path: &Path) -> std::io::Result<Vec<u8>> {
-    read_bounded(path)
+    read_input_within(path, MAX_INPUT_BYTES)
+}
+
+/// [`read_input`] with a limit of `max_bytes` (a lens file's is [`MAX_LENS_FILE_BYTES`]).
+pub fn read_input_within(path: &Path, max_bytes: u64) -> std::io::Result<Vec<u8>> {
+    read_bounded(path, max_bytes)
         .map_err(|error| std::io::Error::new(error.kind(), crate::output::describe_io(&error)))
 }
 
-fn read_bounded(path: &Path) -> std::io::Result<Vec<u8>> {
+fn read_bounded(path: &Path, max_bytes: u64) -> std::io::Result<Vec<u8>> {
     // Looked at before opening: opening a FIFO for reading blocks until a writer comes.
     let metadata = std::fs::metadata(path)?;
     if metadata.is_dir() {
@@ -225,23 +234,31 @@ fn read_bounded(path: &Path) -> std::io::Result<Vec<u8>> {
             "is not a regular file (a pipe, socket or device); lensbake reads only files",
         ));
     }
-    if metadata.len() > MAX_INPUT_BYTES {
+    if metadata.len() > max_bytes {
         return Err(std::io::Error::other(format!(
-            "is {} bytes, over the input limit of {MAX_INPUT_BYTES} bytes (docs/limits.md)",
+            "is {} bytes, over the input limit of {max_bytes} bytes (docs/limits.md)",
             metadata.len()
         )));
     }
     // A file that grows while it is read still stops at the limit.
-    read_capped(std::fs::File::open(path)?, metadata.len() as usize)
+    read_capped(
+        std::fs::File::open(path)?,
+        metadata.len() as usize,
+        max_bytes,
+    )
 }
 
-/// Everything `source` gives up to [`MAX_INPUT_BYTES`], refusing more.
-fn read_capped(source: impl Read, expected_bytes: usize) -> std::io::Result<Vec<u8>> {
+/// Everything `source` gives up to `max_bytes`, refusing more.
+fn read_capped(
+    source: impl Read,
+    expected_bytes: usize,
+    max_bytes: u64,
+) -> std::io::Result<Vec<u8>> {
     let mut bytes = Vec::with_capacity(expected_bytes);
-    source.take(MAX_INPUT_BYTES + 1).read_to_end(&mut bytes)?;
-    if bytes.len() as u64 > MAX_INPUT_BYTES {
+    source.take(max_bytes + 1).read_to_end(&mut bytes)?;
+    if bytes.len() as u64 > max_bytes {
         return Err(std::io::Error::other(format!(
-            "went past the input limit of {MAX_INPUT_BYTES} bytes (docs/limits.md)"
+            "went past the input limit of {max_bytes} bytes (docs/limits.md)"
         )));
     }
     Ok(bytes)
@@ -250,7 +267,7 @@ fn read_capped(source: impl Read, expected_bytes: usize) -> std::io::Result<Vec<
 /// Standard input as UTF-8 text, at most [`MAX_INPUT_BYTES`] of it (a pipe from /dev/zero
 /// would otherwise fill the memory).
 pub fn read_stdin_text() -> std::io::Result<String> {
-    utf8(read_capped(std::io::stdin().lock(), 0)?)
+    utf8(read_capped(std::io::stdin().lock(), 0, MAX_INPUT_BYTES)?)
 }
 
 fn utf8(bytes: Vec<u8>) -> std::io::Result<String> {

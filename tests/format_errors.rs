@@ -414,6 +414,27 @@ fn unknown_format_and_io() {
     assert_eq!(*e.location, Location::file(&missing));
 }
 
+/// A lens file over the lens-file limit is refused from its size, before it is read (the file
+/// here is sparse: 17 MiB long, no bytes on disk); one at the limit is read and then judged on
+/// its text.
+#[test]
+fn an_oversized_lens_file_is_refused_before_it_is_read() {
+    let limit = lensbake::limits::MAX_LENS_FILE_BYTES;
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR"));
+    for (name, length) in [("oversized.zmx", limit + 1), ("at-limit.zmx", limit)] {
+        let path = dir.join(name);
+        let file = std::fs::File::create(&path).unwrap();
+        file.set_len(length).unwrap();
+        drop(file);
+        let e = read_file(&path, &LoadOptions::default()).unwrap_err();
+        assert_eq!(*e.location, Location::file(&path));
+        let refused_by_size = matches!(&e.problem, Problem::Io(message)
+            if message.contains(&format!("{length} bytes, over the input limit of {limit} bytes")));
+        assert_eq!(refused_by_size, length > limit, "{name}: {e}");
+        std::fs::remove_file(&path).unwrap();
+    }
+}
+
 #[test]
 fn not_text() {
     let e = read_bytes(

@@ -59,7 +59,8 @@ fn describe(info: &wgpu::AdapterInfo) -> String {
 /// Whether an automatic backend choice should use the GPU: Ok when the best adapter is a
 /// hardware one, else why not. A software rasteriser (Mesa's llvmpipe, WARP, SwiftShader:
 /// device type `Cpu`) runs the kernel on the same cores as the CPU twin, only slower: `lensbake
-/// bench render` measured the twin 3-4x faster than llvmpipe on a two-core machine.
+/// bench render` measured the twin 4.8-23x faster than llvmpipe on a two-core machine
+/// (notebooks-out/render).
 pub fn gpu_worth_using() -> Result<(), String> {
     let adapter = request_adapter().map_err(|e| e.to_string())?;
     let info = adapter.get_info();

@@ -394,7 +394,7 @@ pub fn read_bytes(
 /// Reads a lens file, choosing the format from `options.format` or else the extension.
 pub fn read_file(path: &Path, options: &LoadOptions) -> Result<Loaded, PrescriptionError> {
     // Read first: a directory or a device is that, whatever its name says about a format.
-    let bytes = crate::limits::read_input(path)
+    let bytes = crate::limits::read_input_within(path, crate::limits::MAX_LENS_FILE_BYTES)
         .map_err(|e| PrescriptionError::new(Location::file(path), Problem::Io(e.to_string())))?;
     let format = match options.format {
         Some(format) => format,
