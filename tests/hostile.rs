@@ -465,6 +465,20 @@ fn sidecars_that_disagree_with_the_data_or_the_lens_are_refused() {
             },
             |e| matches!(e, TableError::Data { .. }) && e.to_string().contains("wl1"),
         ),
+        (
+            "one stored layer listed twice",
+            {
+                let start = sidecar.find("layers: [").unwrap() + "layers: [".len();
+                let end = sidecar.rfind(']').unwrap();
+                let layer = sidecar[start..end].trim().trim_end_matches(',');
+                format!(
+                    "{}\n{layer},\n{layer},\n{}",
+                    &sidecar[..start],
+                    &sidecar[end..]
+                )
+            },
+            |e| matches!(e, TableError::Sidecar { .. }) && e.to_string().contains("wl0 twice"),
+        ),
     ];
     for (case, text, expected) in cases {
         let dir = Scratch::with("mismatch", &original.data, &common::sealed(&text));
