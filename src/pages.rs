@@ -8,8 +8,8 @@
 //! Asking is only a hint: where the system has no huge pages to give, or refuses, nothing changes.
 //!
 //! Huge pages are not free where their first touch is slow: on this project's KVM machines a
-//! fresh 2 MiB page costs several times what 512 small ones do (the host backs free guest
-//! memory again page by page), so a bake, which writes its table once in order and never reads
+//! fresh 2 MiB page costs several times what 512 small ones do (most likely because the host
+//! takes free guest memory back and must back it again at the first touch), so a bake, which writes its table once in order and never reads
 //! it scattered, keeps its table on plain pages ([`Pages::Plain`]): 0.14 s of system time at
 //! 128^3. A table read from disk to render with, or copied, goes on huge pages.
 

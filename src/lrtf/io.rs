@@ -540,7 +540,17 @@ pub fn read_table(
             message,
         })
     })?;
-    // Each data layer is moved out of the decoded image once it is read.
+    let fields = sidecar.fields_checksum();
+    if sidecar.sidecar_crc32.as_deref() != Some(fields.as_str()) {
+        return Err(TableError::SidecarAltered {
+            path: sidecar_path,
+            found: fields,
+            expected: sidecar.sidecar_crc32.unwrap_or_else(|| "nothing".into()),
+            rebake: rebake(),
+        });
+    }
+    // Each data layer is moved out of the decoded image once it is read: a second sidecar layer
+    // naming it would find it gone and call it missing.
     let layers = &sidecar.layers;
     if let Some(twice) = (1..layers.len()).find(|&k| {
         layers[..k]
@@ -550,15 +560,6 @@ pub fn read_table(
         return Err(TableError::Sidecar {
             path: dir.join(SIDECAR_FILE),
             message: format!("names the data layer {} twice", layers[twice].exr_layer),
-        });
-    }
-    let fields = sidecar.fields_checksum();
-    if sidecar.sidecar_crc32.as_deref() != Some(fields.as_str()) {
-        return Err(TableError::SidecarAltered {
-            path: sidecar_path,
-            found: fields,
-            expected: sidecar.sidecar_crc32.unwrap_or_else(|| "nothing".into()),
-            rebake: rebake(),
         });
     }
     let mut data_path = dir.join(DATA_FILE);
