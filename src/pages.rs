@@ -9,9 +9,10 @@
 //!
 //! Huge pages are not free where their first touch is slow: on this project's KVM machines a
 //! fresh 2 MiB page costs several times what 512 small ones do (most likely because the host
-//! takes free guest memory back and must back it again at the first touch), so a bake, which writes its table once in order and never reads
-//! it scattered, keeps its table on plain pages ([`Pages::Plain`]): 0.14 s of system time at
-//! 128^3. A table read from disk to render with, or copied, goes on huge pages.
+//! takes free guest memory back and must back it again at the first touch). So a bake, which
+//! writes its table once in order and never reads it scattered, keeps its table on plain pages
+//! ([`Pages::Plain`]; on huge ones it took 0.14-0.17 s more system time at 128^3). A table read
+//! from disk to render with, or copied, goes on huge pages.
 
 /// Which pages a large array's new storage is asked for on.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -22,13 +23,8 @@ pub(crate) enum Pages {
     Huge,
 }
 
-/// `v.resize(n, value)`, with any new storage asked for on huge pages before it is first
-/// written (the kernel picks the page size when a page is first touched).
-pub(crate) fn resize_on_huge_pages<T: Clone>(v: &mut Vec<T>, n: usize, value: T) {
-    resize_on(Pages::Huge, v, n, value);
-}
-
-/// `v.resize(n, value)`, any new storage on `pages`.
+/// `v.resize(n, value)`, any new storage on `pages` (asked for before it is first written: the
+/// kernel picks the page size when a page is first touched).
 pub(crate) fn resize_on<T: Clone>(pages: Pages, v: &mut Vec<T>, n: usize, value: T) {
     if pages == Pages::Huge && n > v.capacity() {
         v.reserve_exact(n - v.len());
@@ -83,10 +79,10 @@ mod tests {
             let mut plain = start.clone();
             plain.resize(n, 7);
             let mut huge = start;
-            resize_on_huge_pages(&mut huge, n, 7);
+            resize_on(Pages::Huge, &mut huge, n, 7);
             assert_eq!(huge, plain);
             assert_eq!(to_vec_on_huge_pages(&huge), plain);
-            resize_on_huge_pages(&mut huge, 2, 9);
+            resize_on(Pages::Huge, &mut huge, 2, 9);
             assert_eq!(huge, plain[..2]);
         }
     }

@@ -108,8 +108,8 @@ pub struct Grid<N> {
     nodes: Vec<N>,
 }
 
-/// A copy's nodes on huge pages too: a render's camera holds a clone of the table it was
-/// built with (`bench render` renders through one).
+/// A copy's nodes on huge pages too: the error-budget chooser (`tradeoff::choose`) renders
+/// through clones of its tables.
 impl<N: Node> Clone for Grid<N> {
     fn clone(&self) -> Self {
         Grid {

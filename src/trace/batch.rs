@@ -2,7 +2,7 @@
 
 use super::lanes::{Block, Finish, NoVisit, STRIDE};
 use super::{Apertures, Outcome, Ray, Traced, Tracer, Travel};
-use crate::pages::resize_on_huge_pages;
+use crate::pages::{Pages, resize_on};
 use rayon::prelude::*;
 
 /// Rays per parallel work item: large enough to amortise scheduling, small enough to balance
@@ -92,7 +92,7 @@ impl RayBatch {
             &mut self.dy,
             &mut self.dz,
         ] {
-            resize_on_huge_pages(column, n, 0.0);
+            resize_on(Pages::Huge, column, n, 0.0);
         }
     }
 }
@@ -195,7 +195,7 @@ impl Tracer {
         out: &mut BatchTrace,
     ) {
         let n = rays.len();
-        resize_on_huge_pages(&mut out.outcomes, n, Outcome::Ok);
+        resize_on(Pages::Huge, &mut out.outcomes, n, Outcome::Ok);
         out.rays.resize(n);
         let check = apertures == Apertures::Checked;
         let columns = rays.columns();
