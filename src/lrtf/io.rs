@@ -323,8 +323,6 @@ pub fn read_sidecar(dir: &Path) -> Result<Sidecar, TableError> {
     })
 }
 
-/// Loads a table, refusing one whose format or parameterisation version differs from this
-/// build's, or (when `prescription` is given) one baked from another prescription.
 /// The first sidecar number that cannot describe a table (NaN, infinite, or of the wrong sign
 /// where a length, wavelength or f-number must be positive), named by its field.
 fn implausible_number(sidecar: &Sidecar) -> Option<String> {
@@ -489,6 +487,8 @@ fn implausible_number(sidecar: &Sidecar) -> Option<String> {
         .map(|(name, value, _)| format!("{name} = {value} cannot describe a table"))
 }
 
+/// Loads a table, refusing one whose format or parameterisation version differs from this
+/// build's, or (when `prescription` is given) one baked from another prescription.
 pub fn read_table(
     dir: &Path,
     prescription: Option<&Prescription>,
