@@ -1,6 +1,6 @@
 //! Many rays at once: a structure-of-arrays batch traced in parallel with rayon.
 
-use super::lanes::{Block, Finish, NoVisit, STRIDE};
+use super::lanes::{Block, Finish, Isa, NoVisit, STRIDE};
 use super::{Apertures, Outcome, Ray, Traced, Tracer, Travel};
 use crate::pages::{Pages, resize_on};
 use rayon::prelude::*;
@@ -218,12 +218,19 @@ impl Tracer {
                     columns: [x, y, z, dx, dy, dz],
                 };
                 let mut count = 0;
+                let isa = Isa::detect();
                 for first in (0..results.outcomes.len()).step_by(BatchBlock::CAPACITY) {
                     let width = BatchBlock::CAPACITY.min(results.outcomes.len() - first);
-                    block.load_columns(columns, chunk * CHUNK + first, width);
+                    let rays = chunk * CHUNK + first..chunk * CHUNK + first + width;
                     results.first = first;
-                    count +=
-                        self.trace_block(&mut block, travel, check, &mut NoVisit, &mut results);
+                    count += self.trace_columns_on(
+                        isa,
+                        &mut block,
+                        columns.map(|column| &column[rays.clone()]),
+                        travel,
+                        check,
+                        &mut results,
+                    );
                 }
                 count
             })
