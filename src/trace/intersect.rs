@@ -151,7 +151,18 @@ fn discriminant(a: f64, b: f64, c: f64) -> f64 {
 /// root and one division, the form that does not cancel.
 #[inline(always)]
 pub(crate) fn root_from(a: f64, b: f64, c: f64, disc: f64, sense: f64) -> f64 {
-    let root = disc.max(0.0).sqrt();
+    root_given(a, b, c, clamped_sqrt(disc), sense)
+}
+
+/// The square root of `v`, or 0 where rounding made `v` negative.
+#[inline(always)]
+pub(crate) fn clamped_sqrt(v: f64) -> f64 {
+    v.max(0.0).sqrt()
+}
+
+/// [`root_from`] given the [`clamped_sqrt`] of the discriminant.
+#[inline(always)]
+pub(crate) fn root_given(a: f64, b: f64, c: f64, root: f64, sense: f64) -> f64 {
     let near = sense * b >= 0.0;
     // Chosen by selects, not a branch: as a branch (which the compiler made of plain `if`s
     // here) the block kernels' stride loops stayed scalar.

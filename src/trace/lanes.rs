@@ -21,7 +21,7 @@
 //! vector square roots and divisions are rounded exactly, so the three give the same bits; on
 //! a processor without FMA, `f64::mul_add` is a (slow, correctly rounded) library call.
 
-use super::intersect::{self, radius_sq};
+use super::intersect::{self, clamped_sqrt, radius_sq};
 use super::refract;
 use super::{FlatSurface, Outcome, Profile, Ray, Traced, Tracer, Travel, Vec3};
 
@@ -826,6 +826,19 @@ impl LaneColumns<'_> {
             codes: &mut self.codes.as_chunks_mut().0[k],
         })
     }
+
+    /// The [`clamped_sqrt`] of `e`'s last column (the discriminant or the radicand) over the
+    /// stride of stage `stage` at step `step`; zeros where there is no such stride.
+    #[inline(always)]
+    fn stage_roots(&mut self, step: usize, stage: usize) -> [f64; STRIDE] {
+        let mut roots = [0.0; STRIDE];
+        if let Some(stride) = self.stage_stride(step, stage) {
+            for (root, &value) in roots.iter_mut().zip(stride.e[2].iter()) {
+                *root = clamped_sqrt(value);
+            }
+        }
+        roots
+    }
 }
 
 /// One stride of a kernel's [`LaneColumns`].
@@ -892,21 +905,32 @@ impl<const FORWARD: bool, const REFRACTS: bool> Crossing for SphereCrossing<FORW
     /// strides: each step crosses one stride in every stage (stride `k` in the first, `k - 1` in
     /// the second, ...), independent work the processor overlaps. The stages' results wait in
     /// `q` and `e`, each lane's read before it is overwritten.
+    ///
+    /// Each step takes its two square roots first and uses them last: the divider works on
+    /// them while the multiply-add stages run, instead of their dependents waiting in the
+    /// scheduler ahead of that work (`bench trace` 1.7-1.8 % faster; the division moved up
+    /// before the hit points was 2-4 % slower than this).
     #[inline(always)]
     fn cross(&self, mut lanes: LaneColumns<'_>) {
         let stages = if REFRACTS { 4 } else { 3 };
         for step in 0..lanes.strides() + stages - 1 {
+            let disc_roots = lanes.stage_roots(step, 1);
+            let radicand_roots = if REFRACTS {
+                lanes.stage_roots(step, 3)
+            } else {
+                [0.0; STRIDE]
+            };
             if let Some(stride) = lanes.stage_stride(step, 0) {
                 self.quadratic(stride);
-            }
-            if let Some(stride) = lanes.stage_stride(step, 1) {
-                self.distance(stride);
             }
             if let Some(stride) = lanes.stage_stride(step, 2) {
                 self.meet(stride);
             }
+            if let Some(stride) = lanes.stage_stride(step, 1) {
+                self.distance(stride, &disc_roots);
+            }
             if REFRACTS && let Some(stride) = lanes.stage_stride(step, 3) {
-                self.refraction(stride);
+                self.refraction(stride, &radicand_roots);
             }
         }
     }
@@ -926,12 +950,12 @@ impl<const FORWARD: bool, const REFRACTS: bool> SphereCrossing<FORWARD, REFRACTS
         }
     }
 
-    /// The distance along the ray replaces B.
+    /// The distance along the ray replaces B, from the discriminant's `roots`.
     #[inline(always)]
-    fn distance(&self, stride: StrideColumns<'_>) {
-        let [b, c, disc] = stride.e;
+    fn distance(&self, stride: StrideColumns<'_>, roots: &[f64; STRIDE]) {
+        let [b, c, _] = stride.e;
         for l in 0..STRIDE {
-            b[l] = intersect::root_from(self.curvature, b[l], c[l], disc[l], self.common.sense);
+            b[l] = intersect::root_given(self.curvature, b[l], c[l], roots[l], self.common.sense);
         }
     }
 
@@ -960,9 +984,10 @@ impl<const FORWARD: bool, const REFRACTS: bool> SphereCrossing<FORWARD, REFRACTS
         }
     }
 
-    /// The refracted directions to `e`, the leaving points to `q`, the codes.
+    /// The refracted directions (from the radicand's `roots`) to `e`, the leaving points to
+    /// `q`, the codes.
     #[inline(always)]
-    fn refraction(&self, stride: StrideColumns<'_>) {
+    fn refraction(&self, stride: StrideColumns<'_>, roots: &[f64; STRIDE]) {
         let (c, common) = (self.curvature, &self.common);
         let StrideColumns { d, q, e, codes, .. } = stride;
         for l in 0..STRIDE {
@@ -971,7 +996,7 @@ impl<const FORWARD: bool, const REFRACTS: bool> SphereCrossing<FORWARD, REFRACTS
             let radicand = e[2][l];
             let d = [d[0][l], d[1][l], d[2][l]];
             [e[0][l], e[1][l], e[2][l]] =
-                refract::refracted(d, normal, common.mu, e[1][l], radicand);
+                refract::refracted_given(d, normal, common.mu, e[1][l], roots[l]);
             q[2][l] = point[2] + common.vertex_z;
             codes[l] = event_code(codes[l] == 1, common.inside(point), radicand >= 0.0);
         }

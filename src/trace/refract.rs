@@ -6,7 +6,7 @@
 //! side. A negative radicand is total internal reflection.
 
 use super::Vec3;
-use super::intersect::dot;
+use super::intersect::{clamped_sqrt, dot};
 
 /// Refracted unit direction, or None on total internal reflection.
 #[inline(always)]
@@ -35,7 +35,13 @@ pub(crate) fn refraction_radicand(d: Vec3, normal: Vec3, mu: f64) -> (f64, f64) 
 /// The second stage of [`refract_candidate`]: the direction from the first stage's results.
 #[inline(always)]
 pub(crate) fn refracted(d: Vec3, normal: Vec3, mu: f64, cos_signed: f64, radicand: f64) -> Vec3 {
-    let along = (-mu).mul_add(cos_signed, radicand.max(0.0).sqrt().copysign(cos_signed));
+    refracted_given(d, normal, mu, cos_signed, clamped_sqrt(radicand))
+}
+
+/// [`refracted`] given the [`clamped_sqrt`] of the radicand.
+#[inline(always)]
+pub(crate) fn refracted_given(d: Vec3, normal: Vec3, mu: f64, cos_signed: f64, root: f64) -> Vec3 {
+    let along = (-mu).mul_add(cos_signed, root.copysign(cos_signed));
     [
         along.mul_add(normal[0], mu * d[0]),
         along.mul_add(normal[1], mu * d[1]),
@@ -56,7 +62,7 @@ pub(crate) fn refract_plane(d: Vec3, mu: f64) -> Option<Vec3> {
 pub(crate) fn refract_plane_candidate(d: Vec3, mu: f64) -> (Vec3, f64) {
     let (x, y) = (mu * d[0], mu * d[1]);
     let radicand = 1.0 - x.mul_add(x, y * y);
-    ([x, y, radicand.max(0.0).sqrt().copysign(d[2])], radicand)
+    ([x, y, clamped_sqrt(radicand).copysign(d[2])], radicand)
 }
 
 /// Deflection by an ideal thin lens of `power` (1/mm) met at transverse point `at`: the
