@@ -1323,9 +1323,9 @@ mod tests {
         isas
     }
 
-    /// Spheres (one between equal indices, which does not refract) and planes (kernels) around
-    /// a conic (the one-ray code inside the block), with apertures small enough that rays stop
-    /// at several surfaces, so blocks are compacted.
+    /// Spheres and planes (kernels; one of each between equal indices, which does not refract)
+    /// around a conic (the one-ray code inside the block), with apertures small enough that
+    /// rays stop at several surfaces, so blocks are compacted.
     fn tracer() -> Tracer {
         let surface = |shape, thickness, n: f64, stop| Surface {
             shape,
@@ -1346,6 +1346,7 @@ mod tests {
                 surface(Shape::Sphere { curvature: 0.04 }, 4.0, 1.7, None),
                 surface(Shape::Sphere { curvature: -0.03 }, 1.0, 1.7, None),
                 surface(Shape::Plane, 3.0, 1.0, Some(StopShape::Circle)),
+                surface(Shape::Plane, 2.0, 1.0, None),
                 surface(Shape::Plane, 3.0, 1.5, None),
                 surface(conic, 2.0, 1.5, None),
                 surface(Shape::Sphere { curvature: -0.05 }, 30.0, 1.0, None),
