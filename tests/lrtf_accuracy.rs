@@ -150,20 +150,40 @@ fn small_table(system: &LensSystem, parameterisation: Parameterisation) -> LrtfT
 }
 
 /// The renderer looks rays up in groups (table reads overlapping); each ray's outcome must be
-/// the one it gets alone, for rays that pass, are blocked and fall outside the domain.
+/// the one it gets alone, for rays that pass, are blocked and fall outside the domain, in both
+/// parameterisations.
 #[test]
 fn group_lookups_are_single_lookups() {
-    let table = small_table(&dgauss(), Parameterisation::PupilPlanes);
-    let rays = lattice_rays(&table);
-    let stop = table.stop_radius(0, table.info.f_number).unwrap();
-    let mut grouped = vec![Lookup::Blocked; rays.len()];
-    table.lookup_group(0, &rays, stop, &mut grouped);
-    let single: Vec<Lookup> = rays.iter().map(|r| table.lookup(0, r, stop)).collect();
-    assert_eq!(grouped, single);
-    let count = |f: fn(&Lookup) -> bool| single.iter().filter(|l| f(l)).count();
-    assert!(count(|l| matches!(l, Lookup::Passes(_))) > 50);
-    assert!(count(|l| matches!(l, Lookup::Blocked)) > 50);
-    assert!(count(|l| matches!(l, Lookup::OutsideDomain)) > 50);
+    let system = dgauss();
+    for parameterisation in [Parameterisation::PupilPlanes, Parameterisation::Spherical] {
+        let table = small_table(&system, parameterisation);
+        let mut rays = lattice_rays(&table);
+        // Every tenth ray turned round, away from the lens: outside either domain.
+        let away: Vec<Ray> = rays
+            .iter()
+            .step_by(10)
+            .map(|r| Ray {
+                direction: r.direction.map(|v| -v),
+                ..*r
+            })
+            .collect();
+        rays.extend(away);
+        let stop = table.stop_radius(0, table.info.f_number).unwrap();
+        let mut grouped = vec![Lookup::Blocked; rays.len()];
+        table.lookup_group(0, &rays, stop, &mut grouped);
+        let single: Vec<Lookup> = rays.iter().map(|r| table.lookup(0, r, stop)).collect();
+        assert_eq!(grouped, single, "{parameterisation:?}");
+        let count = |f: fn(&Lookup) -> bool| single.iter().filter(|l| f(l)).count();
+        let counts = [
+            count(|l| matches!(l, Lookup::Passes(_))),
+            count(|l| matches!(l, Lookup::Blocked)),
+            count(|l| matches!(l, Lookup::OutsideDomain)),
+        ];
+        assert!(
+            counts.iter().all(|&c| c > 50),
+            "{parameterisation:?}: {counts:?}"
+        );
+    }
 }
 
 /// A lookup reads a ray's line and sense, not the length of its direction (the renderer hands
