@@ -200,6 +200,7 @@ impl Tracer {
         let check = apertures == Apertures::Checked;
         let columns = rays.columns();
         let ended = &mut out.rays;
+        let isa = Isa::detect();
         out.ray_surfaces = out
             .outcomes
             .par_chunks_mut(CHUNK)
@@ -218,7 +219,6 @@ impl Tracer {
                     columns: [x, y, z, dx, dy, dz],
                 };
                 let mut count = 0;
-                let isa = Isa::detect();
                 for first in (0..results.outcomes.len()).step_by(BatchBlock::CAPACITY) {
                     let width = BatchBlock::CAPACITY.min(results.outcomes.len() - first);
                     let rays = chunk * CHUNK + first..chunk * CHUNK + first + width;
