@@ -1849,21 +1849,18 @@ mod tests {
     #[test]
     fn film_side_rays_are_what_ray_new_makes_bit_for_bit() {
         let mut samples = SampleLanes::EMPTY;
-        for k in 0..SAMPLE_GROUP {
-            let u = |a: f32| (a * k as f32).fract() - 0.5;
-            let film = [36.0 * u(0.618_034), 24.0 * u(0.381_966), 69.4];
-            let pupil = [20.0 * u(0.414_214), 20.0 * u(0.732_051), 40.0 + u(0.5)];
-            for axis in 0..3 {
-                samples.film[axis][k] = film[axis];
-                samples.pupil[axis][k] = pupil[axis];
-            }
-        }
         let mut set = |k: usize, film: Vec3, pupil: Vec3| {
             for axis in 0..3 {
                 samples.film[axis][k] = film[axis];
                 samples.pupil[axis][k] = pupil[axis];
             }
         };
+        for k in 0..SAMPLE_GROUP {
+            let u = |a: f32| (a * k as f32).fract() - 0.5;
+            let film = [36.0 * u(0.618_034), 24.0 * u(0.381_966), 69.4];
+            let pupil = [20.0 * u(0.414_214), 20.0 * u(0.732_051), 40.0 + u(0.5)];
+            set(k, film, pupil);
+        }
         set(0, [1.0, 2.0, 3.0], [1.0, 2.0, 3.0]);
         set(1, [f32::INFINITY, 0.0, 69.0], [0.0, 0.0, 40.0]);
         set(2, [f32::MAX, 0.0, 69.0], [-f32::MAX, 0.0, 40.0]);
