@@ -908,8 +908,8 @@ impl<const FORWARD: bool, const REFRACTS: bool> Crossing for SphereCrossing<FORW
     ///
     /// Each step takes its two square roots first and uses them last: the divider works on
     /// them while the multiply-add stages run, instead of their dependents waiting in the
-    /// scheduler ahead of that work (`bench trace` 1.7-1.8 % faster; the division moved up
-    /// before the hit points was 2-4 % slower than this).
+    /// scheduler ahead of that work (`bench trace` 1.4-1.8 % faster; the division moved up
+    /// before the hit points was about 4 % slower than this).
     #[inline(always)]
     fn cross(&self, mut lanes: LaneColumns<'_>) {
         let stages = if REFRACTS { 4 } else { 3 };
