@@ -1476,30 +1476,40 @@ mod tests {
     }
 
     /// A group traced from its columns reports exactly the chosen lanes, each by its lane and
-    /// with what the one-ray trace gives.
+    /// with what the one-ray trace gives, in a fresh block and in one a group with other rays
+    /// and other lanes went through before.
     #[test]
     fn a_group_from_columns_traces_the_chosen_lanes_as_one_ray() {
-        use crate::trace::GROUP_RAYS;
+        use crate::trace::{GROUP_RAYS, GroupBlock};
         let tracer = tracer();
-        let rays = rays(GROUP_RAYS);
-        let mut columns = [[0.0; GROUP_RAYS]; 6];
-        for (lane, ray) in rays.iter().enumerate() {
-            for (axis, value) in ray.position.into_iter().chain(ray.direction).enumerate() {
-                columns[axis][lane] = value;
+        let rays = rays(2 * GROUP_RAYS);
+        let mut block = GroupBlock::new();
+        // Every third lane left out, then every fifth, and the lanes past `count` not offered.
+        for (group, skipped, count) in [(1, 3, GROUP_RAYS - 5), (0, 5, GROUP_RAYS - 9)] {
+            let rays = &rays[group * GROUP_RAYS..][..GROUP_RAYS];
+            let mut columns = [[0.0; GROUP_RAYS]; 6];
+            for (lane, ray) in rays.iter().enumerate() {
+                for (axis, value) in ray.position.into_iter().chain(ray.direction).enumerate() {
+                    columns[axis][lane] = value;
+                }
             }
+            let chosen: Vec<bool> = (0..count).map(|lane| lane % skipped != 1).collect();
+            let mut seen = [false; GROUP_RAYS];
+            tracer.trace_group(
+                &mut block,
+                &columns,
+                &chosen,
+                Travel::Forward,
+                |lane, traced| {
+                    assert!(chosen[lane] && !seen[lane], "lane {lane}");
+                    seen[lane] = true;
+                    let one = tracer.trace_with(rays[lane], Travel::Forward, Apertures::Checked);
+                    assert_eq!(traced, one, "group {group}, lane {lane}");
+                },
+            );
+            assert_eq!(seen[..count], chosen[..]);
+            assert!(seen[count..].iter().all(|&s| !s));
         }
-        // Every third lane left out, and the lanes past `count` not offered at all.
-        let count = GROUP_RAYS - 5;
-        let chosen: Vec<bool> = (0..count).map(|lane| lane % 3 != 1).collect();
-        let mut seen = [false; GROUP_RAYS];
-        tracer.trace_group(&columns, &chosen, Travel::Forward, |lane, traced| {
-            assert!(chosen[lane] && !seen[lane], "lane {lane}");
-            seen[lane] = true;
-            let one = tracer.trace_with(rays[lane], Travel::Forward, Apertures::Checked);
-            assert_eq!(traced, one, "lane {lane}");
-        });
-        assert_eq!(seen[..count], chosen[..]);
-        assert!(seen[count..].iter().all(|&s| !s));
     }
 
     /// The visitor sees each travelling ray's hit point on every surface, as the one-ray path

@@ -23,8 +23,8 @@ pub mod placed;
 mod refract;
 
 pub use aim::{AimError, RaySource, aim_at_stop, traceable_field_deg};
-pub(crate) use batch::GROUP_RAYS;
 pub use batch::{BatchTrace, RayBatch};
+pub(crate) use batch::{GROUP_RAYS, GroupBlock};
 pub use bundle::FieldBundle;
 #[cfg(feature = "render")]
 pub(crate) use intersect::{ASPHERE_MAX_STEPS, dot};
