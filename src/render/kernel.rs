@@ -1360,8 +1360,7 @@ fn render_pixel(
     lens: &LensData,
     rays: LensRays,
     scratch: &mut LensScratch,
-    x: u32,
-    y: u32,
+    [x, y]: [u32; 2],
 ) -> Vec3 {
     let mut sum = [0.0f32; 3];
     let mut object = [blocked_ray(); SAMPLE_GROUP];
@@ -1420,8 +1419,7 @@ fn render_pixel_chromatic(
     channels: &ChannelParams,
     rays: &[LensRays; CHANNELS],
     scratch: &mut LensScratch,
-    x: u32,
-    y: u32,
+    [x, y]: [u32; 2],
 ) -> Vec3 {
     let mut sum = [0.0f32; 3];
     let mut object = [blocked_ray(); SAMPLE_GROUP];
@@ -1576,7 +1574,7 @@ pub fn accumulate(
 ) {
     let order = PixelOrder::for_lenses(&[rays]);
     accumulate_pixels(frame, order, radiance_sum, |scratch, x, y| {
-        render_pixel(frame, layers, lens, rays, scratch, x, y)
+        render_pixel(frame, layers, lens, rays, scratch, [x, y])
     });
 }
 
@@ -1592,7 +1590,7 @@ pub fn accumulate_chromatic(
 ) {
     let order = PixelOrder::for_lenses(&rays);
     accumulate_pixels(frame, order, radiance_sum, |scratch, x, y| {
-        render_pixel_chromatic(frame, layers, lens, channels, &rays, scratch, x, y)
+        render_pixel_chromatic(frame, layers, lens, channels, &rays, scratch, [x, y])
     });
 }
 
