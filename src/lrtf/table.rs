@@ -296,7 +296,7 @@ enum LookupRays<'a> {
 /// The two largest columns a group of lookups is worked out in (7 KB). A caller that looks up
 /// group after group keeps one and passes it each time, since every group overwrites what it
 /// reads: a baked frame ran 2-3 % faster than with them cleared afresh per group. The other
-/// columns stay the group's own: held here as well, they made the frame 9-13 % slower, the
+/// columns stay the group's own: held here as well, they made the frame 8-9 % slower, the
 /// compiler no longer knowing them apart from each other.
 pub(crate) struct LookupScratch {
     /// The interpolated channels; a lane whose ray is not placed keeps an earlier group's.

@@ -345,9 +345,10 @@ pub(crate) trait Finish {
     fn finish_crossed(&mut self, ids: &[u32], columns: [&[f64]; 6]) {
         // Indexed column by column: `columns.map` stayed a call per ray, and a traced frame
         // took 5-8 % longer. Written out rather than through `ray_at`, which computes the same:
-        // with `ray_at` here the batch trace, which never runs this default, measured 4-6 %
-        // slower in every alternating run (0.0500 against 0.0471 s), for a reason in the
-        // compiled code that neither 64-byte loop nor function alignment removed.
+        // with `ray_at` here the batch trace, which never runs this default, measured 3-6 %
+        // slower in each of four alternating runs (0.0500 against 0.0471 s in the widest), for
+        // a reason in the compiled code that neither 64-byte loop nor function alignment
+        // removed.
         let [x, y, z, dx, dy, dz] = columns;
         for (slot, &id) in ids.iter().enumerate() {
             let ray = Ray::from_parts([x[slot], y[slot], z[slot]], [dx[slot], dy[slot], dz[slot]]);
