@@ -346,7 +346,7 @@ pub(crate) trait Finish {
         // Indexed column by column: `columns.map` stayed a call per ray, and a traced frame
         // took 5-8 % longer. Written out rather than through `ray_at`, which computes the same:
         // with `ray_at` here the batch trace, which never runs this default, measured 3-6 %
-        // slower in each of four alternating runs (0.0500 against 0.0471 s in the widest), for
+        // slower in each of three alternating runs (0.0500 against 0.0471 s in the widest), for
         // a reason in the compiled code that neither 64-byte loop nor function alignment
         // removed.
         let [x, y, z, dx, dy, dz] = columns;
