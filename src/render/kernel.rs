@@ -958,94 +958,23 @@ impl SamplingCircles<'_> {
         }
     }
 
-    /// Where `film_radius` falls along the rows: the interval between circles `i` and `i + 1`
-    /// that holds it, and its position `t` in intervals from the first circle.
+    /// The circle (centre_x, radius) at `film_radius`: bilinear in film radius and focus.
     #[inline(always)]
-    fn interval(&self, film_radius: f32) -> (u32, f32) {
+    fn at(&self, film_radius: f32) -> Vec2 {
         let last = self.near.len() - 1;
         let t = (film_radius / self.max_film_radius).clamp(0.0, 1.0) * self.intervals;
-        (floor_clamped(t, (last as u32).saturating_sub(1)), t)
-    }
-
-    /// The circles at both ends of interval `i` in both rows: near `i`, near `i + 1`, far `i`,
-    /// far `i + 1` (the last circle for both ends of a single circle's row).
-    #[inline(always)]
-    fn ends(&self, i: u32) -> [Vec2; 4] {
-        let last = self.near.len() - 1;
-        let (i0, i1) = ((i as usize).min(last), (i as usize + 1).min(last));
+        let i = floor_clamped(t, (last as u32).saturating_sub(1)) as usize;
+        let f = t - i as f32;
+        let (i0, i1) = (i.min(last), (i + 1).min(last));
         // SAFETY: both rows hold last + 1 circles (`new` cut them to the same length), and
         // i0, i1 <= last. Unchecked, so a group's lanes load them without a branch each.
-        let circle = |row: &[Vec2], k: usize| unsafe { *row.get_unchecked(k) };
-        [
-            circle(self.near, i0),
-            circle(self.near, i1),
-            circle(self.far, i0),
-            circle(self.far, i1),
-        ]
-    }
-
-    /// The circle at position `t` of interval `i`, whose circles are `ends`: bilinear in film
-    /// radius and focus.
-    #[inline(always)]
-    fn blend(&self, [near0, near1, far0, far1]: [Vec2; 4], i: u32, t: f32) -> Vec2 {
-        let f = t - i as f32;
+        let corner = |row: &[Vec2], k: usize| unsafe { *row.get_unchecked(k) };
         let mix2 =
             |a: Vec2, b: Vec2, t: f32| [a[0] * (1.0 - t) + b[0] * t, a[1] * (1.0 - t) + b[1] * t];
-        mix2(
-            mix2(near0, near1, f),
-            mix2(far0, far1, f),
-            self.focus_fraction,
-        )
+        let near = mix2(corner(self.near, i0), corner(self.near, i1), f);
+        let far = mix2(corner(self.far, i0), corner(self.far, i1), f);
+        mix2(near, far, self.focus_fraction)
     }
-}
-
-/// The sampling circle (centre_x, radius) at a film radius.
-trait CircleAt {
-    fn at(&self, film_radius: f32) -> Vec2;
-}
-
-impl CircleAt for SamplingCircles<'_> {
-    #[inline(always)]
-    fn at(&self, film_radius: f32) -> Vec2 {
-        let (i, t) = self.interval(film_radius);
-        self.blend(self.ends(i), i, t)
-    }
-}
-
-/// [`SamplingCircles`] for film radii that all fall in one interval, whose circles are read
-/// once: what it gives is what [`SamplingCircles::at`] gives there, bit for bit. Read lane by
-/// lane, each circle is an index, a clamp and a scalar load. Where the circles lie several
-/// pixels apart a pixel's samples mostly share an interval (86 % of the groups of a 200x150
-/// demo frame with 16 circles, whose baked frame ran 2-4 % faster); 128 circles lie about a
-/// pixel apart there, and almost no group does.
-struct IntervalCircles<'a, 'c> {
-    circles: &'c SamplingCircles<'a>,
-    interval: u32,
-    ends: [Vec2; 4],
-}
-
-impl<'a, 'c> IntervalCircles<'a, 'c> {
-    fn new(circles: &'c SamplingCircles<'a>, interval: u32) -> IntervalCircles<'a, 'c> {
-        IntervalCircles {
-            circles,
-            interval,
-            ends: circles.ends(interval),
-        }
-    }
-}
-
-impl CircleAt for IntervalCircles<'_, '_> {
-    #[inline(always)]
-    fn at(&self, film_radius: f32) -> Vec2 {
-        let (_, t) = self.circles.interval(film_radius);
-        self.circles.blend(self.ends, self.interval, t)
-    }
-}
-
-/// How far a film point lies from the axis (what picks its sampling circle).
-#[inline(always)]
-fn film_radius_of(film: Vec3) -> f32 {
-    (film[0] * film[0] + film[1] * film[1]).sqrt()
 }
 
 /// A lens sample (the shader's `pupil_sample`): the point on the sampling plane for unit-square
@@ -1062,11 +991,11 @@ fn film_radius_of(film: Vec3) -> f32 {
 #[inline(always)]
 fn pupil_sample(
     frame: &FrameParams,
-    circles: &impl CircleAt,
+    circles: &SamplingCircles,
     film: Vec3,
     lens_u: Vec2,
 ) -> (Vec3, f32) {
-    let film_radius = film_radius_of(film);
+    let film_radius = (film[0] * film[0] + film[1] * film[1]).sqrt();
     let azimuth = if film_radius > 0.0 {
         [film[0] / film_radius, film[1] / film_radius]
     } else {
@@ -1166,10 +1095,9 @@ impl SampleLanes {
 }
 
 /// Samples `first..first + SAMPLE_GROUP` of pixel (x, y) in this dispatch's numbering, all of
-/// them side by side (the ones past the dispatch's last are computed and not used): the loops
-/// have no branches and write only their own columns, so compiled for the widest instruction set
-/// they run in vector lanes. The film points come first; where they all fall in one interval of
-/// the sampling circles, the pupil points are drawn with its circles read once.
+/// them side by side (the ones past the dispatch's last are computed and not used): the loop
+/// has no branches and writes only its own columns, so compiled for the widest instruction set
+/// it runs in vector lanes.
 #[inline(always)]
 fn sample_lanes(
     frame: &FrameParams,
@@ -1179,56 +1107,21 @@ fn sample_lanes(
     first: u32,
 ) -> SampleLanes {
     let mut lanes = SampleLanes::EMPTY;
-    let mut lens_u = [[0.0; SAMPLE_GROUP]; 2];
-    let mut intervals = [0; SAMPLE_GROUP];
     for k in 0..SAMPLE_GROUP {
         let index = frame.sample_offset.wrapping_add(
             first
                 .wrapping_add(k as u32)
                 .wrapping_mul(frame.sample_stride),
         );
-        let (film, u) = pixel_sample(frame, scrambles, x, y, index);
-        for (column, value) in lanes.film.iter_mut().zip(film) {
-            column[k] = value;
+        let (film, lens_u) = pixel_sample(frame, scrambles, x, y, index);
+        let (pupil, weight) = pupil_sample(frame, circles, film, lens_u);
+        for axis in 0..3 {
+            lanes.film[axis][k] = film[axis];
+            lanes.pupil[axis][k] = pupil[axis];
         }
-        for (column, value) in lens_u.iter_mut().zip(u) {
-            column[k] = value;
-        }
-        intervals[k] = circles.interval(film_radius_of(film)).0;
-    }
-    let lowest = intervals.iter().fold(u32::MAX, |low, &i| low.min(i));
-    let highest = intervals.iter().fold(0, |high, &i| high.max(i));
-    if lowest == highest {
-        pupil_lanes(
-            frame,
-            &IntervalCircles::new(circles, lowest),
-            &lens_u,
-            &mut lanes,
-        );
-    } else {
-        pupil_lanes(frame, circles, &lens_u, &mut lanes);
+        lanes.weight[k] = weight;
     }
     lanes
-}
-
-/// The pupil points and weights of `lanes` from their film points and the unit-square lens
-/// samples `lens_u` (a column per coordinate).
-#[inline(always)]
-fn pupil_lanes(
-    frame: &FrameParams,
-    circles: &impl CircleAt,
-    lens_u: &[[f32; SAMPLE_GROUP]; 2],
-    lanes: &mut SampleLanes,
-) {
-    let [u0, u1] = lens_u;
-    for (k, weight) in lanes.weight.iter_mut().enumerate() {
-        let film = [0, 1, 2].map(|axis| lanes.film[axis][k]);
-        let (pupil, w) = pupil_sample(frame, circles, film, [u0[k], u1[k]]);
-        for (column, value) in lanes.pupil.iter_mut().zip(pupil) {
-            column[k] = value;
-        }
-        *weight = w;
-    }
 }
 
 /// This dispatch's samples of output pixel (x, y), [`SAMPLE_GROUP`] at a time, handed to
@@ -1935,39 +1828,6 @@ mod tests {
             hits += found.is_some() as u32;
         }
         assert!(hits > 5000, "{hits}");
-    }
-
-    #[test]
-    fn circles_read_once_per_interval_are_the_circles_read_per_radius() {
-        let near: Vec<Vec2> = (0..6)
-            .map(|k| [0.3 * k as f32 - 0.1, 4.0 - 0.37 * k as f32])
-            .collect();
-        let far: Vec<Vec2> = near.iter().map(|&[c, r]| [1.1 * c, 0.9 * r]).collect();
-        let circles = SamplingCircles {
-            near: &near,
-            far: &far,
-            focus_fraction: 0.37,
-            max_film_radius: 21.6,
-            intervals: 5.0,
-        };
-        let mut intervals_seen = std::collections::BTreeSet::new();
-        // Radii inside, at and past the circles' range, NaN and infinity included.
-        let radii =
-            (0..400)
-                .map(|k| k as f32 * 0.061)
-                .chain([0.0, 21.6, 4.32, f32::NAN, f32::INFINITY]);
-        for film_radius in radii {
-            let (interval, _) = circles.interval(film_radius);
-            intervals_seen.insert(interval);
-            let once = IntervalCircles::new(&circles, interval).at(film_radius);
-            let per_radius = circles.at(film_radius);
-            assert_eq!(
-                once.map(f32::to_bits),
-                per_radius.map(f32::to_bits),
-                "film radius {film_radius}"
-            );
-        }
-        assert_eq!(intervals_seen.len(), 5, "every interval tried");
     }
 
     #[test]
