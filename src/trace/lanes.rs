@@ -689,14 +689,19 @@ type Kernel<const STRIDES: usize> = unsafe fn(
 /// time (a vector compare and its mask).
 #[inline(always)]
 fn stopped_slots<const STRIDES: usize>(events: &[[u64; STRIDE]; STRIDES], strides: usize) -> Slots {
-    let mut slots = 0u128;
-    for (k, stride) in events[..strides].iter().enumerate() {
-        let bits = stride.iter().enumerate().fold(0u32, |bits, (lane, &code)| {
-            bits | (u32::from(code != CROSSED) << lane)
-        });
-        slots |= u128::from(bits) << (k * STRIDE);
-    }
-    Slots(slots)
+    // A 64-bit word per half, as in `stopped_slots_avx2`.
+    let word = |strides: &[[u64; STRIDE]]| {
+        let mut slots = 0u64;
+        for (k, stride) in strides.iter().enumerate() {
+            let bits = stride.iter().enumerate().fold(0u64, |bits, (lane, &code)| {
+                bits | (u64::from(code != CROSSED) << lane)
+            });
+            slots |= bits << (k * STRIDE);
+        }
+        slots
+    };
+    let (low, high) = events[..strides].split_at(strides.min(64 / STRIDE));
+    Slots(u128::from(word(low)) | u128::from(word(high)) << 64)
 }
 
 /// [`stopped_slots`] with AVX2 instructions.
