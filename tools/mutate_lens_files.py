@@ -43,13 +43,18 @@ def mutate(text, rng):
     return "\n".join(lines)
 
 
+def echoes(line, text):
+    # A line that repeats the file, whole or after its label ("source:   <the file's text>").
+    return line.strip() in text or line.split(":", 1)[-1].strip() in text
+
+
 def prints_nan(output, text):
     # Titles and glass names may hold the letters; a number printed as NaN stands alone, on a
-    # line that does not echo the file (a mutated title may hold the word itself).
+    # line that does not echo the file (a mutated title or source may hold the word itself).
     return any(
         word.strip(",;:()[]") in ("NaN", "nan", "-NaN")
         for line in output.splitlines()
-        if line.strip() not in text
+        if not echoes(line, text)
         for word in line.split()
     )
 
