@@ -154,6 +154,39 @@ fn index_above_the_limit() {
     assert_eq!(e.problem, Problem::IndexAboveLimit { index: 11.0 });
 }
 
+/// A model glass's Abbe number below 1 (but not 0, no dispersion) is refused at its medium: a
+/// subnormal one had made the model's dispersion overflow and `lens check` print a NaN index.
+#[test]
+fn abbe_number_below_the_limit() {
+    let singlet = include_str!("../lenses/biconvex-singlet.ron");
+    let with_vd = |vd: &str| {
+        let text = singlet.replacen(
+            "medium: Index(1.5)",
+            &format!("medium: Model(nd: 1.5311, vd: {vd})"),
+            1,
+        );
+        assert_ne!(text, singlet);
+        text
+    };
+    for (vd, value) in [("1e-320", 1e-320), ("0.5", 0.5), ("-20.0", -20.0)] {
+        let e = error(&with_vd(vd), Format::Ron);
+        assert_eq!(
+            e.problem,
+            Problem::AbbeNumberBelowLimit { vd: value },
+            "{e}"
+        );
+        assert_eq!(
+            (e.location.surface, e.location.field.as_deref()),
+            (Some(1), Some("medium"))
+        );
+        assert!(e.location.line.is_some());
+    }
+    // No dispersion, and the smallest Abbe number allowed.
+    for vd in ["0.0", "1.0"] {
+        load(&with_vd(vd), Format::Ron).unwrap();
+    }
+}
+
 #[test]
 fn aperture_out_of_range() {
     let e = error("50 5 1.5 20\n0 2 0 0\n-50 40 1 20\n", Format::Pbrt);

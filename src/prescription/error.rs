@@ -120,6 +120,12 @@ pub enum Problem {
     )]
     IndexAboveLimit { index: f64 },
     #[error(
+        "Abbe number {} is below {} (0 means no dispersion; no optical material comes near it)",
+        crate::limits::short(*.vd),
+        super::model::MIN_ABBE_NUMBER
+    )]
+    AbbeNumberBelowLimit { vd: f64 },
+    #[error(
         "central obscuration radius {} mm must be positive and inside the semi-aperture {} mm",
         crate::limits::short(*.radius),
         crate::limits::short(*.semi_aperture)

@@ -223,6 +223,13 @@ pub const MIN_INDEX: f64 = 0.999;
 /// exponent gone wrong, whose rays and Seidel sums would not be numbers.
 pub const MAX_INDEX: f64 = 10.0;
 
+/// The smallest Abbe number a model glass may have (0 stands for no dispersion). The model's
+/// index falls by (nd - 1) / vd times 1.06 from the d line to 1 um, so below 1 it drops under
+/// air's before the near infrared; the most dispersive optical materials have vd near 10 to 20,
+/// and a tiny vd (a typo, an exponent gone wrong) makes the model's dispersion overflow, its
+/// indices not numbers.
+pub const MIN_ABBE_NUMBER: f64 = 1.0;
+
 /// Wavelength used when a lens states no design wavelength (helium d line, nm).
 pub const DEFAULT_WAVELENGTH_NM: f64 = 587.56;
 

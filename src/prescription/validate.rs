@@ -2,8 +2,8 @@
 
 use super::error::{Location, PrescriptionError, Problem};
 use super::model::{
-    MAX_ASPHERE_TERMS, MAX_INDEX, MIN_INDEX, Medium, Prescription, Shape, StatedCondition,
-    StopShape,
+    MAX_ASPHERE_TERMS, MAX_INDEX, MIN_ABBE_NUMBER, MIN_INDEX, Medium, Prescription, Shape,
+    StatedCondition, StopShape,
 };
 use crate::limits;
 use std::collections::BTreeMap;
@@ -274,6 +274,12 @@ fn check_medium(medium: &Medium, location: Location) -> Result<(), PrescriptionE
         Medium::Model { nd, vd } => {
             finite(*nd, location.clone())?;
             finite(*vd, location.clone())?;
+            if *vd != 0.0 && *vd < MIN_ABBE_NUMBER {
+                return Err(PrescriptionError::new(
+                    location,
+                    Problem::AbbeNumberBelowLimit { vd: *vd },
+                ));
+            }
             check_index(*nd, location)
         }
     }
