@@ -164,10 +164,12 @@ pub const LOOKUP_GROUP: usize = 64;
 /// cache when read (a group's 512 corners fill it).
 const PREFETCH_AHEAD: usize = 8;
 
-/// Tables up to this size are read without prefetching: they stay in a core's second-level
-/// cache (512 KiB on AMD's Zen 2, 1-2 MiB on recent cores) once read, and the prefetches cost
-/// their address arithmetic and issue slots for nothing (about 3 % of a 16^3 table's frame).
-const PREFETCH_ABOVE_BYTES: usize = 256 << 10;
+/// Tables up to this size are read without prefetching: once read they stay in a core's
+/// second-level cache (1-2 MiB on recent cores) or close to it (512 KiB on AMD's Zen 2, with the
+/// third level a few dozen cycles away), and the prefetches cost their address arithmetic and
+/// issue slots for nothing (about 3 % of a 16^3 table's frame; 1.5-2 % of a 32^3 one, 1 MiB in
+/// f32, on Zen 2). An 8 MiB table (64^3 f32) gains from them (1.5 %).
+const PREFETCH_ABOVE_BYTES: usize = 2 << 20;
 
 /// What a located ray's place says before the table is read: it falls inside (`LRTF_PASSES`,
 /// the lookup goes on), or outside the domain, or outside the conservative pupil bound
