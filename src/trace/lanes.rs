@@ -689,7 +689,8 @@ type Kernel<const STRIDES: usize> = unsafe fn(
 /// time (a vector compare and its mask).
 #[inline(always)]
 fn stopped_slots<const STRIDES: usize>(events: &[[u64; STRIDE]; STRIDES], strides: usize) -> Slots {
-    // A 64-bit word per half, as in `stopped_slots_avx2`.
+    // A 64-bit word per half: into one u128, each stride's bits took a two-word shift by a
+    // variable count (see `stopped_slots_avx2`).
     let word = |strides: &[[u64; STRIDE]]| {
         let mut slots = 0u64;
         for (k, stride) in strides.iter().enumerate() {
