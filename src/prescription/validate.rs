@@ -120,13 +120,19 @@ fn check_provenance(p: &Prescription, map: &SourceMap) -> Result<(), Prescriptio
         field: Some(format!("provenance.{name}")),
         ..Location::default()
     };
-    // A diverging lens claims a negative focal length; an f-number is positive, and a half
-    // field an angle a chief ray can have, above 0 and below 90 degrees.
+    // A diverging lens claims a negative focal length; an f-number is positive and at most
+    // the slowest a command takes (a claimed f/1e300 set a pupil so small that the PSF plot's
+    // axes spanned 1e297 mm and `report` never finished them), and a half field an angle a
+    // chief ray can have, above 0 and below 90 degrees.
     if let Some(efl) = p.provenance.claimed_focal_length_mm {
         finite(efl, field("claimed_focal_length_mm"))?;
     }
     for (name, value, most) in [
-        ("claimed_f_number", p.provenance.claimed_f_number, f64::MAX),
+        (
+            "claimed_f_number",
+            p.provenance.claimed_f_number,
+            limits::MAX_F_NUMBER,
+        ),
         (
             "claimed_half_field_deg",
             p.provenance.claimed_half_field_deg,
