@@ -65,7 +65,7 @@ fn bad_requests_exit_2_with_a_clear_error_and_no_file() {
     let lens = cooke_file(&dir);
     let lens = lens.to_str().unwrap();
     let jpg = dir.join("layout.jpg");
-    let cases: [(Vec<&str>, &str); 4] = [
+    let cases: [(Vec<&str>, &str); 5] = [
         (
             vec!["plot", "bokeh", lens, "--out", "x.png"],
             "unknown plot kind \"bokeh\"",
@@ -81,6 +81,11 @@ fn bad_requests_exit_2_with_a_clear_error_and_no_file() {
         (
             vec!["plot", "layout", lens, "--out", "x.png", "--field-deg=-3"],
             "--field-deg",
+        ),
+        // A pupil slower than f/1000: its PSF plot had never finished its axes.
+        (
+            vec!["plot", "psf", lens, "--out", "x.png", "--epd-mm", "1e-290"],
+            "f-number",
         ),
     ];
     for (args, expected) in cases {
