@@ -65,7 +65,7 @@ fn bad_requests_exit_2_with_a_clear_error_and_no_file() {
     let lens = cooke_file(&dir);
     let lens = lens.to_str().unwrap();
     let jpg = dir.join("layout.jpg");
-    let cases: [(Vec<&str>, &str); 5] = [
+    let cases: [(Vec<&str>, &str); 6] = [
         (
             vec!["plot", "bokeh", lens, "--out", "x.png"],
             "unknown plot kind \"bokeh\"",
@@ -82,10 +82,16 @@ fn bad_requests_exit_2_with_a_clear_error_and_no_file() {
             vec!["plot", "layout", lens, "--out", "x.png", "--field-deg=-3"],
             "--field-deg",
         ),
-        // A pupil slower than f/1000: its PSF plot had never finished its axes.
+        // A pupil slower than f/1000 (1 um across: about f/50000 here): an f/1e300 one had
+        // hung the PSF plot in its axes' ticks.
+        (
+            vec!["plot", "psf", lens, "--out", "x.png", "--epd-mm", "1e-3"],
+            "f-number",
+        ),
+        // A length no command takes, as the wave commands refuse it.
         (
             vec!["plot", "psf", lens, "--out", "x.png", "--epd-mm", "1e-290"],
-            "f-number",
+            "--epd-mm is 1e-290",
         ),
     ];
     for (args, expected) in cases {

@@ -142,10 +142,9 @@ fn check_options(options: &FigureOptions) -> anyhow::Result<()> {
     {
         bail!("--field-deg must be in [0, 90), got {field}");
     }
-    if let Some(epd) = options.epd_mm
-        && !(epd.is_finite() && epd > 0.0)
-    {
-        bail!("--epd-mm must be positive, got {epd}");
+    // The lengths every other command takes (the wave commands' `--epd-mm` too).
+    if let Some(epd) = options.epd_mm {
+        lensbake::limits::check_length("--epd-mm", epd)?;
     }
     Ok(())
 }
