@@ -163,6 +163,8 @@ fn bad_input_is_one_error_line_and_exit_code_2() {
             "--epd-mm",
             "1e-320",
         ],
+        // A length every command takes, but a pupil slower than f/1000 (about f/50000).
+        &["mtf", "dgauss-50mm", "--field-deg", "0", "--epd-mm", "1e-3"],
     ] {
         let output = lensbake(args);
         let stderr = String::from_utf8_lossy(&output.stderr);

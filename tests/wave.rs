@@ -384,6 +384,29 @@ fn bad_input_is_a_typed_error() {
         trace(&wide, 0.0, Sampling::default()),
         Err(WaveError::NotPositive { .. })
     ));
+    // A pupil slower than f/1000, given as an f-number or as a diameter (1 um on a 50 mm lens:
+    // f/50000), is refused as a limit; f/1000 itself traces.
+    let slow_ideal = |f_number| WaveLens::Ideal {
+        efl_mm: 50.0,
+        f_number,
+    };
+    assert!(matches!(
+        trace(&slow_ideal(1000.5), 0.0, Sampling::default()),
+        Err(WaveError::Limit(_))
+    ));
+    assert!(trace(&slow_ideal(1000.0), 0.0, Sampling::default()).is_ok());
+    let dgauss = lenses::load("dgauss-50mm", &LoadOptions::default())
+        .unwrap()
+        .system;
+    let pinhole = |epd_mm| WaveLens::Real {
+        system: &dgauss,
+        epd_mm: Some(epd_mm),
+    };
+    assert!(matches!(
+        trace(&pinhole(1e-3), 0.0, Sampling::default()),
+        Err(WaveError::Limit(_))
+    ));
+    assert!(trace(&pinhole(0.06), 0.0, Sampling::default()).is_ok());
     assert!(Spectrum::new(vec![550.0], vec![0.0], 0).is_err());
     assert!(Spectrum::new(vec![550.0], vec![f64::NAN], 0).is_err());
 }

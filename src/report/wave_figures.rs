@@ -44,14 +44,6 @@ struct WaveSet<'a> {
 impl<'a> WaveSet<'a> {
     fn new(system: &'a LensSystem, options: &FigureOptions) -> Result<WaveSet<'a>, FigureError> {
         let conditions = options.conditions(system)?;
-        // The slowest f-number a command takes (`--f-number` of the wave commands): an f/1e300
-        // pupil made the PSF plot's axes span 1e297 mm, and plotters never finished their ticks.
-        // (A diverging lens's f-number is negative; an afocal one's is not finite and has no
-        // such axes.)
-        let f_number = conditions.f_number.abs();
-        if f_number.is_finite() {
-            crate::limits::check_range("the f-number", f_number, 0.0, crate::limits::MAX_F_NUMBER)?;
-        }
         let drawn = Drawn::of(&conditions);
         let reference = drawn
             .drawn_nm

@@ -275,6 +275,7 @@ fn trace_real(
         positive("entrance-pupil diameter (mm)", epd_mm)?;
     }
     let reference = Paraxial::new(&system.at_checked(reference_nm)?, &options)?;
+    check_f_number(reference.f_number.abs())?;
     let at = system.at_checked(wavelength_nm)?;
     let paraxial = Paraxial::new(&at, &options)?;
     let exit_pupil_z = paraxial.exit_pupil.ok_or(WaveError::ExitPupilAtInfinity)?.z;
@@ -376,6 +377,17 @@ fn exit_ray(
     })
 }
 
+/// Refuses a pupil slower than the slowest f-number any command takes (docs/limits.md): the
+/// PSF's scale grows with the f-number, and at f/1e300 a PSF plot's axes spanned 1e297 mm and
+/// plotters never finished their ticks. An afocal lens's f-number is not finite; it has no image
+/// to scale and fails on its exit pupil instead.
+fn check_f_number(f_number: f64) -> Result<(), WaveError> {
+    if f_number.is_finite() {
+        crate::limits::check_range("the f-number", f_number, 0.0, crate::limits::MAX_F_NUMBER)?;
+    }
+    Ok(())
+}
+
 /// The ideal lens: rays leave a spherical exit pupil of radius f centred on the image point,
 /// their direction cosines linear in the pupil coordinates (sin U' = ρ / 2N), all on one
 /// wavefront. Its image of field θ lies at f tan θ; the pupil is the same at every field.
@@ -394,6 +406,7 @@ fn ideal(
             value: f_number - 0.5,
         });
     }
+    check_f_number(f_number)?;
     if !(field_deg.is_finite() && field_deg.abs() < 90.0) {
         return Err(RealRayError::InvalidField { field: field_deg }.into());
     }
