@@ -2,6 +2,7 @@
 //! in any image plane.
 
 use super::{NM_TO_MM, Sampling, WaveError, positive};
+use crate::limits::short;
 use crate::paraxial::{Aperture, Field, Paraxial, ParaxialOptions};
 use crate::system::{LensSystem, SystemAt};
 use crate::trace::analyses::{RealRayError, RealRays};
@@ -275,7 +276,11 @@ fn trace_real(
         positive("entrance-pupil diameter (mm)", epd_mm)?;
     }
     let reference = Paraxial::new(&system.at_checked(reference_nm)?, &options)?;
-    check_f_number(reference.f_number.abs())?;
+    let pupil = match epd_mm {
+        Some(epd_mm) => format!("the f-number of a {} mm entrance pupil", short(epd_mm)),
+        None => "the f-number wide open".to_string(),
+    };
+    check_f_number(&pupil, reference.f_number.abs())?;
     let at = system.at_checked(wavelength_nm)?;
     let paraxial = Paraxial::new(&at, &options)?;
     let exit_pupil_z = paraxial.exit_pupil.ok_or(WaveError::ExitPupilAtInfinity)?.z;
@@ -381,9 +386,9 @@ fn exit_ray(
 /// PSF's scale grows with the f-number, and at f/1e300 a PSF plot's axes spanned 1e297 mm and
 /// plotters never finished their ticks. An afocal lens's f-number is not finite; it has no image
 /// to scale and fails on its exit pupil instead.
-fn check_f_number(f_number: f64) -> Result<(), WaveError> {
+fn check_f_number(what: &str, f_number: f64) -> Result<(), WaveError> {
     if f_number.is_finite() {
-        crate::limits::check_range("the f-number", f_number, 0.0, crate::limits::MAX_F_NUMBER)?;
+        crate::limits::check_range(what, f_number, 0.0, crate::limits::MAX_F_NUMBER)?;
     }
     Ok(())
 }
@@ -406,7 +411,7 @@ fn ideal(
             value: f_number - 0.5,
         });
     }
-    check_f_number(f_number)?;
+    check_f_number("the f-number", f_number)?;
     if !(field_deg.is_finite() && field_deg.abs() < 90.0) {
         return Err(RealRayError::InvalidField { field: field_deg }.into());
     }
