@@ -3,17 +3,12 @@
 
 mod common;
 
+use common::lensbake;
+
 use common::{assert_close, get, load_oracle, num};
 use serde_json::Value;
 use std::path::PathBuf;
-use std::process::{Command, Output};
-
-fn lensbake(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_lensbake"))
-        .args(args)
-        .output()
-        .expect("run lensbake")
-}
+use std::process::Output;
 
 /// Writes `text` to a file in this test binary's scratch directory.
 fn scratch_file(name: &str, text: &str) -> PathBuf {

@@ -1,14 +1,11 @@
 //! `lensbake bench render` as a user runs it: one row per model, backend and sample count, each
 //! measured against the exact reference, accumulating across runs of the same frame.
 
-use std::process::{Command, Output};
+mod common;
 
-fn lensbake(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_lensbake"))
-        .args(args)
-        .output()
-        .expect("run lensbake")
-}
+use common::lensbake;
+
+use std::process::Command;
 
 fn rows(dir: &std::path::Path) -> Vec<serde_json::Value> {
     let text = std::fs::read_to_string(dir.join("timings.json")).unwrap();

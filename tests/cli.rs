@@ -2,16 +2,11 @@
 
 mod common;
 
+use common::lensbake;
+
 use common::lens_file;
 use std::path::Path;
-use std::process::{Command, Output};
-
-fn lensbake(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_lensbake"))
-        .args(args)
-        .output()
-        .expect("run lensbake")
-}
+use std::process::Output;
 
 fn stdout(o: &Output) -> String {
     String::from_utf8_lossy(&o.stdout).into_owned()

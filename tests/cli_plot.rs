@@ -2,8 +2,10 @@
 
 mod common;
 
+use common::lensbake;
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
 fn scratch(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("lensbake-cli-{name}-{}", std::process::id()));
@@ -22,13 +24,6 @@ fn cooke_file(dir: &Path) -> PathBuf {
     )
     .unwrap();
     path
-}
-
-fn lensbake(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_lensbake"))
-        .args(args)
-        .output()
-        .unwrap()
 }
 
 fn stderr(output: &Output) -> String {

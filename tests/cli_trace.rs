@@ -20,18 +20,10 @@ fn lens_file(tag: &str) -> (PathBuf, Value) {
 }
 
 fn lensbake(args: &[&str], stdin: Option<&str>) -> Output {
-    use std::io::Write;
-    let mut child = Command::new(env!("CARGO_BIN_EXE_lensbake"))
-        .args(args)
-        .stdin(std::process::Stdio::piped())
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    let input = stdin.unwrap_or("").to_string();
-    let mut pipe = child.stdin.take().unwrap();
-    std::thread::spawn(move || pipe.write_all(input.as_bytes()));
-    child.wait_with_output().unwrap()
+    common::finished(
+        Command::new(env!("CARGO_BIN_EXE_lensbake")).args(args),
+        stdin,
+    )
 }
 
 #[test]

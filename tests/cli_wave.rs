@@ -3,17 +3,11 @@
 
 mod common;
 
+use common::lensbake;
+
 use common::nums;
 use lensbake::wave::diffraction_limited_mtf;
 use serde_json::Value;
-use std::process::{Command, Output};
-
-fn lensbake(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_lensbake"))
-        .args(args)
-        .output()
-        .unwrap()
-}
 
 fn json(args: &[&str]) -> Value {
     let output = lensbake(args);

@@ -1,13 +1,8 @@
 //! `lensbake glass list` and `lensbake glass show` as a user runs them.
 
-use std::process::{Command, Output};
+mod common;
 
-fn lensbake(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_lensbake"))
-        .args(args)
-        .output()
-        .expect("run lensbake")
-}
+use common::lensbake;
 
 #[test]
 fn show_prints_the_standard_lines_abbe_number_formula_and_source() {

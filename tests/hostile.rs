@@ -983,55 +983,21 @@ struct Run {
 /// Runs the binary in `dir` with `stdout` as its standard output (None: captured), killing it
 /// after [`CASE_TIMEOUT`].
 fn run_in(dir: &Path, args: &[String], stdout: Option<std::process::Stdio>) -> Run {
-    use std::io::Read;
-    use std::process::{Command, Stdio};
-    let captured = stdout.is_none();
-    let mut child = Command::new(binary())
-        .args(args)
-        .current_dir(dir)
-        .stdin(Stdio::null())
-        .stdout(stdout.unwrap_or_else(Stdio::piped))
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("the binary starts");
-    let out = child.stdout.take();
-    let err = child.stderr.take();
-    let reader = std::thread::spawn(move || {
-        let mut text = String::new();
-        if let Some(mut out) = out {
-            let _ = out.read_to_string(&mut text);
-        }
-        text
-    });
-    let err_reader = std::thread::spawn(move || {
-        let mut text = String::new();
-        if let Some(mut err) = err {
-            let _ = err.read_to_string(&mut text);
-        }
-        text
-    });
-    let started = std::time::Instant::now();
-    let (status, hung) = loop {
-        if let Some(status) = child.try_wait().unwrap() {
-            break (Some(status), false);
-        }
-        if started.elapsed() > CASE_TIMEOUT {
-            let _ = child.kill();
-            let _ = child.wait();
-            break (None, true);
-        }
-        std::thread::sleep(std::time::Duration::from_millis(10));
-    };
-    let stdout = if captured {
-        reader.join().unwrap()
-    } else {
-        String::new()
-    };
-    Run {
-        code: status.and_then(|s| s.code()),
-        stdout,
-        stderr: err_reader.join().unwrap(),
-        hung,
+    let mut command = std::process::Command::new(binary());
+    command.args(args).current_dir(dir);
+    match common::output_within(&mut command, None, stdout, CASE_TIMEOUT) {
+        Some(output) => Run {
+            code: output.status.code(),
+            stdout: String::from_utf8_lossy(&output.stdout).into_owned(),
+            stderr: String::from_utf8_lossy(&output.stderr).into_owned(),
+            hung: false,
+        },
+        None => Run {
+            code: None,
+            stdout: String::new(),
+            stderr: String::new(),
+            hung: true,
+        },
     }
 }
 

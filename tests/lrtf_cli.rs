@@ -1,8 +1,12 @@
 //! The LRTF commands end to end: `plot lrtf-error` draws exactly the measured numbers, and
 //! `lrtf eval --lens` refuses a table baked from another prescription.
 
+mod common;
+
+use common::lensbake;
+
 use std::path::PathBuf;
-use std::process::{Command, Output};
+use std::process::Output;
 
 use lensbake::lrtf::measure::{IMAGE_ERROR_TARGET_PX, SweepRow};
 use lensbake::plot::{Format, LrtfErrorPlot, TARGET_LABEL, render};
@@ -12,13 +16,6 @@ fn scratch(name: &str) -> PathBuf {
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     dir
-}
-
-fn lensbake(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_lensbake"))
-        .args(args)
-        .output()
-        .expect("run lensbake")
 }
 
 fn stderr(o: &Output) -> String {

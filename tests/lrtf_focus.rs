@@ -3,6 +3,8 @@
 //! density there, and the command line (bake a range, show it, evaluate and render inside it,
 //! refuse outside it).
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -191,11 +193,12 @@ fn sampling_pupil_holds_every_passing_ray_between_focus_nodes_and_its_pdf_integr
 }
 
 fn lensbake(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_lensbake"))
-        .current_dir(dir)
-        .args(args)
-        .output()
-        .expect("run lensbake")
+    common::finished(
+        Command::new(env!("CARGO_BIN_EXE_lensbake"))
+            .current_dir(dir)
+            .args(args),
+        None,
+    )
 }
 
 fn text(o: &Output) -> String {

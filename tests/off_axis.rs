@@ -3,6 +3,8 @@
 
 mod common;
 
+use common::lensbake;
+
 use lensbake::prescription::formats::{Format, LoadOptions, PlacedLens, read_file, read_str};
 use lensbake::prescription::{Medium, Problem};
 use lensbake::trace::Outcome;
@@ -150,14 +152,6 @@ fn an_off_axis_paraboloid_focuses_a_collimated_beam_to_a_point() {
         "{moved} against {shift}"
     );
     assert!(tilted.rms_radius.unwrap() > 1e-4, "{tilted:?}");
-}
-
-fn lensbake(args: &[&str]) -> std::process::Output {
-    std::process::Command::new(env!("CARGO_BIN_EXE_lensbake"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .unwrap()
 }
 
 /// `lens check` prints where each surface sits and the 3-D trace of the file's fields; every

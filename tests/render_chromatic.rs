@@ -4,6 +4,8 @@
 
 mod common;
 
+use common::lensbake;
+
 use common::{gpu_or_skip, load_oracle};
 use lensbake::glass::{C_LINE_NM, F_LINE_NM};
 use lensbake::lrtf::LrtfTable;
@@ -624,13 +626,6 @@ fn auto_mode_follows_dispersion_and_visibility() {
             mode == ChromaticMode::On
         );
     }
-}
-
-fn lensbake(args: &[&str]) -> std::process::Output {
-    std::process::Command::new(env!("CARGO_BIN_EXE_lensbake"))
-        .args(args)
-        .output()
-        .expect("run lensbake")
 }
 
 #[test]

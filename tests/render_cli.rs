@@ -3,15 +3,12 @@
 //! `--error-budget-px`, which picks the cheapest model within a budget of this render's pixels
 //! and says what it predicted and measured.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
-fn lensbake(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_lensbake"))
-        .args(args)
-        .output()
-        .expect("run lensbake")
-}
+use common::lensbake;
+
+use std::path::{Path, PathBuf};
+use std::process::Output;
 
 fn temp_dir(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("lensbake-render-{name}-{}", std::process::id()));

@@ -10,6 +10,8 @@
 
 mod common;
 
+use common::lensbake;
+
 use lensbake::job::{BackendChoice, FocusMode, RenderJob, RenderLens};
 use lensbake::lenses;
 use lensbake::model::ModelKind;
@@ -21,7 +23,7 @@ use lensbake::render::reference::psnr;
 use lensbake::view::script::Action;
 use lensbake::view::{Session, Step, Viewer};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Command;
 
 fn temp_dir(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("lensbake-view-{name}-{}", std::process::id()));
@@ -227,13 +229,6 @@ fn split_view_shows_baked_left_and_traced_right_of_identical_samples() {
     assert!(scale.unwrap() > 0.0);
     assert_eq!(map.len(), 80 * 60 * 3);
     std::fs::remove_dir_all(&dir).unwrap();
-}
-
-fn lensbake(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_lensbake"))
-        .args(args)
-        .output()
-        .expect("run lensbake")
 }
 
 /// A script that focuses, switches model, splits and takes screenshots, under `dir`.

@@ -25,6 +25,94 @@ pub fn test_data(name: &str) -> PathBuf {
         .join(name)
 }
 
+/// Longest a test waits for one command. Far longer than any command of the tests takes on a
+/// loaded two-core machine: a command that reaches it hangs, and the test fails naming it
+/// instead of holding CI until its own limit.
+pub const COMMAND_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(600);
+
+/// Runs `command` with `stdin` on its standard input (none: the null device) and `stdout` as
+/// its standard output (None: captured into the output), its standard error captured; None
+/// where it ran past `timeout` and was killed.
+pub fn output_within(
+    command: &mut std::process::Command,
+    stdin: Option<&str>,
+    stdout: Option<std::process::Stdio>,
+    timeout: std::time::Duration,
+) -> Option<std::process::Output> {
+    use std::io::{Read, Write};
+    use std::process::Stdio;
+    let mut child = command
+        .stdin(if stdin.is_some() {
+            Stdio::piped()
+        } else {
+            Stdio::null()
+        })
+        .stdout(stdout.unwrap_or_else(Stdio::piped))
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("the lensbake binary starts");
+    if let (Some(text), Some(mut pipe)) = (stdin, child.stdin.take()) {
+        let text = text.to_string();
+        // A command that exits before reading its input closes the pipe: not the test's error.
+        std::thread::spawn(move || pipe.write_all(text.as_bytes()));
+    }
+    let read_all = |pipe: Option<Box<dyn Read + Send>>| {
+        std::thread::spawn(move || {
+            let mut bytes = Vec::new();
+            if let Some(mut pipe) = pipe {
+                let _ = pipe.read_to_end(&mut bytes);
+            }
+            bytes
+        })
+    };
+    let out = read_all(
+        child
+            .stdout
+            .take()
+            .map(|p| Box::new(p) as Box<dyn Read + Send>),
+    );
+    let err = read_all(
+        child
+            .stderr
+            .take()
+            .map(|p| Box::new(p) as Box<dyn Read + Send>),
+    );
+    let started = std::time::Instant::now();
+    let status = loop {
+        if let Some(status) = child.try_wait().expect("the child's status") {
+            break status;
+        }
+        if started.elapsed() > timeout {
+            let _ = child.kill();
+            let _ = child.wait();
+            return None;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    };
+    Some(std::process::Output {
+        status,
+        stdout: out.join().expect("stdout reader"),
+        stderr: err.join().expect("stderr reader"),
+    })
+}
+
+/// `command` run to its end within [`COMMAND_TIMEOUT`], its output captured; a hang fails the
+/// test with the command's arguments.
+pub fn finished(command: &mut std::process::Command, stdin: Option<&str>) -> std::process::Output {
+    let described = format!("{command:?}");
+    output_within(command, stdin, None, COMMAND_TIMEOUT)
+        .unwrap_or_else(|| panic!("{described} ran past {COMMAND_TIMEOUT:?}: it hangs"))
+}
+
+/// This build's `lensbake` binary with `args`, run from the test's working directory (the
+/// crate's root), within [`COMMAND_TIMEOUT`].
+pub fn lensbake(args: &[&str]) -> std::process::Output {
+    finished(
+        std::process::Command::new(env!("CARGO_BIN_EXE_lensbake")).args(args),
+        None,
+    )
+}
+
 /// Relative difference, safe at zero.
 pub fn relative(a: f64, b: f64) -> f64 {
     if a == b {
