@@ -500,6 +500,19 @@ fn apertures_that_cannot_be_derived() {
         matches!(&e.problem, Problem::CannotDeriveApertures { reason } if reason.contains("object heights")),
         "{e}"
     );
+    // A floating aperture with a stop of no stated size (a file DeepLens wrote): the message
+    // says what to add.
+    let e = error(
+        "MODE SEQ\nFLOA\nWAVM 1 0.55 1\nSURF 0\n  DISZ INFINITY\nSURF 1\n  CURV 0.02\n  \
+         DISZ 5\n  GLAS N-BK7\n  DIAM 10\nSURF 2\n  STOP\n  DISZ 5\nSURF 3\n  CURV -0.02\n  \
+         DISZ 40\n  DIAM 10\nSURF 4\n  DISZ 0\n",
+        Format::Zemax,
+    );
+    assert!(
+        matches!(&e.problem, Problem::CannotDeriveApertures { reason }
+            if reason.contains("stop has no size") && reason.contains("DIAM")),
+        "{e}"
+    );
 }
 
 #[test]

@@ -268,7 +268,10 @@ fn derive(
             let stop_radius = p.surfaces[stop].semi_aperture;
             if missing.contains(&stop) || stop_radius <= 0.0 {
                 return Err(cannot(
-                    "the aperture floats by stop size but the stop has no size".into(),
+                    "the aperture floats by stop size but the stop has no size (give the stop \
+                     its semi-aperture, e.g. Zemax's DIAM, or state the aperture another way, \
+                     e.g. ENPD)"
+                        .into(),
                 ));
             }
             match distance {

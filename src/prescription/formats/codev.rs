@@ -25,8 +25,8 @@
 //! surfaces and `SI` are read; `placement` turns them into the centred lens they describe (fold
 //! mirrors unfolded) or refuses the lens.
 //!
-//! Paraxial solves (`PIM`, `CUM`, `CUC`, `THM`, `THC`) keep the values the file writes: see
-//! `SOLVES`.
+//! Paraxial solves (`PIM`, `CUM`, `CUC`, `THM`, `THC`, `RED`, and the long forms `CUY UMY`,
+//! `THI HMY` and their kin) keep the values the file writes: see `SOLVES`.
 //!
 //! Rectangular apertures (`REX`, `REY`), elliptical ones (`ELX`, `ELY`; with equal semi-axes
 //! the circle `CIR` states) and aperture decentres (`ADX`, `ADY`) are read and, like a tilted
@@ -264,7 +264,10 @@ const HARMLESS: &[&str] = &[
 /// writes `CUM 0.0; THM 0.601` on a primary mirror whose written curvature gives the marginal
 /// ray slope 0.223 and height 0.354 in at the secondary, and that written lens is the Questar
 /// 3.5" (EFL 1282.7 mm, f/14.4), so what CODE V solves for is not what those names suggest.
-const SOLVES: &[&str] = &["PIM", "CUM", "CUC", "THM", "THC"];
+///
+/// `RED` (on the object) solves the object distance for a reduction ratio, the magnification;
+/// CODE V wrote the solved distance on the `SO` line, which is kept the same way.
+const SOLVES: &[&str] = &["PIM", "CUM", "CUC", "THM", "THC", "RED"];
 
 /// Aperture outline commands: a rectangle's half widths in x and y, an ellipse's semi-axes in x
 /// and y, an aperture decentre in x and y.
@@ -272,6 +275,11 @@ const APERTURE_COMMANDS: [&str; 6] = ["REX", "REY", "ELX", "ELY", "ADX", "ADY"];
 
 /// Thickness solves written after `THI`: the marginal or chief ray's height in y or x.
 const THICKNESS_SOLVES: &[&str] = &["HMY", "HCY", "HMX", "HCX"];
+
+/// Curvature solves written after `CUY` (the long form of `CUM` and `CUC`): the marginal or
+/// chief ray's angle after the surface (`U`) or its angle of incidence (`I`), in y or x. As for
+/// the other solves, the file writes the solved curvature on the surface line, which is kept.
+const CURVATURE_SOLVES: &[&str] = &["UMY", "UCY", "UMX", "UCX", "IMY", "ICY", "IMX", "ICX"];
 
 const ASPHERE_LETTERS: [&str; MAX_ASPHERE_TERMS - 1] =
     ["A", "B", "C", "D", "E", "F", "G", "H", "J"];
@@ -767,6 +775,23 @@ impl Reader {
                     value != 0.0,
                     |s| s.terms[term] = value,
                 )?;
+            }
+            // `CUY UMY -0.1` solves the curvature for a marginal ray angle of -0.1 after the
+            // surface; CODE V wrote the solved curvature on the surface line.
+            "CUY"
+                if c.args.len() == 2
+                    && CURVATURE_SOLVES.contains(&c.args[0].to_ascii_uppercase().as_str()) =>
+            {
+                finite(&c.args[1], &at("CUY"))?;
+                self.solves
+                    .insert(format!("CUY {}", c.args[0].to_ascii_uppercase()));
+            }
+            "CUY" if c.args.len() == 2 && c.args[0].parse::<f64>().is_err() => {
+                return Err(unsupported(format!(
+                    "CODE V curvature solve `CUY {}` (read: {})",
+                    c.args[0],
+                    CURVATURE_SOLVES.join(", ")
+                )));
             }
             "RDY" | "CUY" => {
                 let value = one(name)?;
