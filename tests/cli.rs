@@ -49,6 +49,32 @@ fn check_prints_a_summary() {
     assert!(stderr(&o).is_empty());
 }
 
+/// A glass whose formula does not reach the file's wavelength (B270's ends at 656 nm; the file
+/// designs at 920 nm) has no index printed: its extrapolated value (1.517476) is a number no
+/// analysis uses, since each refuses the wavelength, as the conditions line says.
+#[test]
+fn check_prints_no_index_outside_a_formula_range() {
+    let dir = temp_dir("range");
+    let path = dir.join("b270.zmx");
+    std::fs::write(
+        &path,
+        "MODE SEQ\nENPD 10\nWAVM 1 0.92 1\nSURF 0\n  DISZ INFINITY\nSURF 1\n  STOP\n  \
+         CURV 0.02\n  DISZ 4\n  GLAS B270\n  DIAM 8\nSURF 2\n  CURV -0.02\n  DISZ 45\n  \
+         DIAM 8\nSURF 3\n  DISZ 0\n",
+    )
+    .unwrap();
+    let o = lensbake(&["lens", "check", path.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let out = stdout(&o);
+    let row = out
+        .lines()
+        .find(|l| l.trim_start().starts_with("1 STO"))
+        .unwrap_or_else(|| panic!("{out}"));
+    assert!(row.contains("B270") && row.contains("outside"), "{out}");
+    assert!(out.contains("920 nm is outside the range"), "{out}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 #[test]
 fn a_bad_file_exits_2_naming_file_and_line() {
     let dir = temp_dir("bad");

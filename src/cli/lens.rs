@@ -309,15 +309,21 @@ fn summary(lens: &LoadedLens) -> anyhow::Result<String> {
     for (i, (s, s_at)) in p.surfaces.iter().zip(&at.surfaces).enumerate() {
         let radius = radius_text(&s.shape);
         let kind = shape_name(&s.shape);
+        // Where the medium's formula does not hold at this wavelength, its value there is an
+        // extrapolation no analysis uses (they refuse the wavelength): none is printed.
+        let index = match system.dispersions[i].checked_index(wavelength_nm) {
+            Ok(_) => format!("{:.6}", s_at.index_after.abs()),
+            Err(_) => "outside".to_string(),
+        };
         line(format!(
-            "  {:>3} {:4} {:>12} {:>11.4} {:11} {:16} {:>9.6} {:>9.4}",
+            "  {:>3} {:4} {:>12} {:>11.4} {:11} {:16} {:>9} {:>9.4}",
             i + 1,
             if s.stop.is_some() { "STO" } else { "" },
             radius,
             s.thickness,
             kind,
             s.medium.describe(),
-            s_at.index_after.abs(),
+            index,
             s.semi_aperture
         ));
     }
