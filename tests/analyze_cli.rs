@@ -277,3 +277,29 @@ fn an_object_1000_km_away_or_farther_is_at_infinity_and_nan_is_refused() {
         "{stderr}"
     );
 }
+
+/// The text report's first line gives the wavelength as the file writes it (0.5875618 um is
+/// 587.5618000000001 nm in f64) and the half field as the conditions table does: positive for a
+/// finite object's height, whose paraxial angle is negative by the sign convention (the JSON's
+/// `field_deg` keeps that sign).
+#[test]
+fn the_report_header_prints_what_a_reader_wrote() {
+    let path = scratch_file(
+        "finite.zmx",
+        "MODE SEQ\nENPD 10\nFTYP 1 0 2 1 0 0 0\nXFLN 0 0\nYFLN 0 8\nWAVM 1 0.5875618 1\n\
+         SURF 0\n  DISZ 100\nSURF 1\n  STOP\n  CURV 0.02\n  DISZ 4\n  GLAS N-BK7\n  DIAM 8\n\
+         SURF 2\n  CURV -0.02\n  DISZ 60\n  DIAM 8\nSURF 3\n  DISZ 0\n",
+    );
+    let lens = path.to_str().unwrap();
+    let output = lensbake(&["analyze", lens]);
+    assert_eq!(output.status.code(), Some(0));
+    let text = String::from_utf8_lossy(&output.stdout).into_owned();
+    let json = stdout_json(&lensbake(&["analyze", lens, "--json"]));
+    let field = num(&json["field_deg"]);
+    assert!(field < 0.0, "{field}");
+    let header = format!(
+        "wavelength 587.5618 nm   half field {:.4} deg   object 100.0000 mm before surface 1",
+        -field
+    );
+    assert_eq!(text.lines().nth(1), Some(header.as_str()), "{text}");
+}

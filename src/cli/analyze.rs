@@ -73,7 +73,10 @@ fn report(a: &Analysis) -> String {
     let _ = writeln!(
         out,
         "wavelength {} nm   half field {:.4} deg   object {object}",
-        a.wavelength_nm, a.field_deg
+        super::lens::printed_nm(a.wavelength_nm),
+        // The field as the conditions below give it: the paraxial angle of a finite object's
+        // height is negative by the sign convention (`field_deg` in the JSON keeps it).
+        a.conditions.field_deg()
     );
     let _ = writeln!(out, "\nDesign conditions (docs/conditions.md)");
     for (name, value, from) in a.conditions.summary_rows() {

@@ -536,7 +536,7 @@ fn placed_summary(
 
 /// A wavelength as a reader would write it: at most six decimals, trailing zeros dropped (a
 /// Zemax file's 0.5875618 µm is 587.5618000000001 nm in f64).
-fn printed_nm(nm: f64) -> String {
+pub(super) fn printed_nm(nm: f64) -> String {
     let fixed = format!("{nm:.6}");
     fixed
         .trim_end_matches('0')
