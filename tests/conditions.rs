@@ -258,6 +258,41 @@ fn a_claimed_f_number_sets_the_pupil_only_where_the_stop_allows_it() {
     assert!((dgauss.f_number - 2.03).abs() < 0.01);
 }
 
+/// A requested or stated pupil wider than the stop opens is used as given (the paraxial data
+/// are for it, as OpticStudio takes a file's ENPD), with a note that the stop cuts it; one the
+/// stop passes gets none.
+#[test]
+fn a_pupil_wider_than_the_stop_is_used_with_a_note() {
+    let dgauss = system("dgauss-50mm");
+    let with_epd = |epd_mm: f64| {
+        resolve(
+            &dgauss,
+            &ConditionOverrides {
+                epd_mm: Some(epd_mm),
+                ..ConditionOverrides::default()
+            },
+        )
+    };
+    let wide = with_epd(30.0);
+    assert_eq!((wide.epd_mm, wide.aperture_from), (30.0, Origin::Flag));
+    assert!(
+        wide.notes
+            .iter()
+            .any(|n| n.contains("30.000 mm entrance pupil is larger than the stop's 24.805 mm")),
+        "{:?}",
+        wide.notes
+    );
+    let inside = with_epd(20.0);
+    assert!(
+        !inside
+            .notes
+            .iter()
+            .any(|n| n.contains("larger than the stop")),
+        "{:?}",
+        inside.notes
+    );
+}
+
 /// A stated condition no analysis can use is refused naming the line and keyword that state
 /// it; a flag that replaces it lets the lens be analysed.
 #[test]

@@ -196,6 +196,22 @@ impl DesignConditions {
             }
         };
 
+        // A flag's or a file's pupil is used as given (OpticStudio does the same with a file's
+        // ENPD), but the stop cuts it: the paraxial numbers describe a beam that does not pass.
+        let open = wide_open.entrance_pupil.diameter;
+        if matches!(aperture_from, Origin::Flag | Origin::File) && epd_mm > open * (1.0 + 1e-9) {
+            notes.push(format!(
+                "the {} {epd_mm:.3} mm entrance pupil is larger than the stop's {open:.3} mm: \
+                 the paraxial data are for the larger pupil, and real rays outside the stop's \
+                 are vignetted there",
+                if aperture_from == Origin::Flag {
+                    "requested"
+                } else {
+                    "lens file's"
+                }
+            ));
+        }
+
         let file_fields = match stated.and_then(|c| c.fields.as_ref()) {
             Some(fields) if overrides.field_deg.is_none() => {
                 stated_fields(fields, &wide_open, object_distance_mm, &mut notes)

@@ -361,6 +361,9 @@ fn summary(lens: &LoadedLens) -> anyhow::Result<String> {
             for (what, value, origin) in conditions.summary_rows() {
                 line(format!("    {what:24} {value} ({origin})"));
             }
+            for note in &conditions.notes {
+                line(format!("    note: {note}"));
+            }
         }
         Err(error) => line(format!("  conditions:  none resolve: {error}")),
     }
