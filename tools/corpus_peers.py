@@ -28,6 +28,9 @@ PEER_FILES = [
     "rayoptics__CODV_65988_noDOE.seq",
     # rayoptics ignores FLOA (float by stop size) and takes EPD 1: only EFL and BFL compare.
     "optiland__lens_floa.zmx",
+    "zospy__simple_system.zmx",
+    # A double Gauss template written by OpticStudio (fields as angles, ENPD).
+    "kbg__DoubleGauss.zmx",
     # Mirrors (tests/corpus.rs says why rc_f16.seq, optiland__mirror.seq and HoO-V2C18Ex27.zmx
     # are not here).
     "rayoptics__paraboloid.seq",
