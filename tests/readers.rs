@@ -596,15 +596,15 @@ fn codev_cuf_zero_is_read_and_other_values_refused() {
 }
 
 /// Solves in their long forms (`CUY UMY`, a curvature solved for a marginal ray angle, as the
-/// CODE V singlet sample writes it) and `RED` on the object (a reduction ratio, the
+/// CODE V singlet sample writes it; `THI HMY`, a thickness solved for a ray height) and `RED` on the object (a reduction ratio, the
 /// magnification) keep what the file writes, as `CUM` and `PIM` do, and are named in the note;
 /// a curvature solve lensbake does not know is refused where it stands.
 #[test]
 fn codev_long_form_solves_keep_the_written_values() {
     let singlet = |solve: &str| {
         format!(
-            "EPD 20\nWL 500\nSO 0 150\n  RED 0.5\nS 50 5 N-BK7\n  STO\nS 1175.7 96.6\n  \
-             {solve}\n  PIM\nSI 0 0\n"
+            "EPD 20\nWL 500\nSO 0 150\n  RED 0.5\nS 50 5 N-BK7\n  STO\n  THI HMY 0\n\
+             S 1175.7 96.6\n  {solve}\n  PIM\nSI 0 0\n"
         )
     };
     let loaded = codev(&singlet("CUY UMY -0.1")).unwrap();
@@ -616,14 +616,14 @@ fn codev_long_form_solves_keep_the_written_values() {
             _ => None,
         })
         .unwrap();
-    assert_eq!(solves, ["CUY UMY", "PIM", "RED"]);
+    assert_eq!(solves, ["CUY UMY", "PIM", "RED", "THI HMY"]);
     let surfaces = &loaded.prescription.surfaces;
     assert_eq!(surfaces[1].shape.curvature(), 1.0 / 1175.7);
     let conditions = loaded.prescription.provenance.conditions.as_ref().unwrap();
     assert_eq!(conditions.object_distance_mm, Some(150.0));
     let e = codev(&singlet("CUY QQY -0.1")).unwrap_err();
     assert!(
-        e.to_string().contains("CUY QQY") && e.location.line == Some(8),
+        e.to_string().contains("CUY QQY") && e.location.line == Some(9),
         "{e}"
     );
 }

@@ -276,6 +276,16 @@ const APERTURE_COMMANDS: [&str; 6] = ["REX", "REY", "ELX", "ELY", "ADX", "ADY"];
 /// Thickness solves written after `THI`: the marginal or chief ray's height in y or x.
 const THICKNESS_SOLVES: &[&str] = &["HMY", "HCY", "HMX", "HCX"];
 
+/// Whether `code` after `command` (`CUY` or `THI`) names one of its solves.
+fn long_form_solve(command: &str, code: &str) -> bool {
+    let solves = if command == "CUY" {
+        CURVATURE_SOLVES
+    } else {
+        THICKNESS_SOLVES
+    };
+    solves.contains(&code.to_ascii_uppercase().as_str())
+}
+
 /// Curvature solves written after `CUY` (the long form of `CUM` and `CUC`): the marginal or
 /// chief ray's angle after the surface (`U`) or its angle of incidence (`I`), in y or x. As for
 /// the other solves, the file writes the solved curvature on the surface line, which is kept.
@@ -777,14 +787,13 @@ impl Reader {
                 )?;
             }
             // `CUY UMY -0.1` solves the curvature for a marginal ray angle of -0.1 after the
-            // surface; CODE V wrote the solved curvature on the surface line.
-            "CUY"
-                if c.args.len() == 2
-                    && CURVATURE_SOLVES.contains(&c.args[0].to_ascii_uppercase().as_str()) =>
-            {
-                finite(&c.args[1], &at("CUY"))?;
+            // surface, `THI HMY 0` the thickness for a marginal ray height of 0 on the next
+            // surface; CODE V wrote the solved value on the surface line, which is kept as for
+            // the other solves.
+            "CUY" | "THI" if c.args.len() == 2 && long_form_solve(name, &c.args[0]) => {
+                finite(&c.args[1], &at(name))?;
                 self.solves
-                    .insert(format!("CUY {}", c.args[0].to_ascii_uppercase()));
+                    .insert(format!("{name} {}", c.args[0].to_ascii_uppercase()));
             }
             "CUY" if c.args.len() == 2 && c.args[0].parse::<f64>().is_err() => {
                 return Err(unsupported(format!(
@@ -806,17 +815,6 @@ impl Reader {
                         s.radius_mode = radius_mode;
                     },
                 )?;
-            }
-            // `THI HMY 0` is a thickness solve (marginal or chief ray height on the next surface);
-            // CODE V wrote the solved thickness on the surface line, which is kept as for the
-            // other solves.
-            "THI"
-                if c.args.len() == 2
-                    && THICKNESS_SOLVES.contains(&c.args[0].to_ascii_uppercase().as_str()) =>
-            {
-                finite(&c.args[1], &at("THI"))?;
-                self.solves
-                    .insert(format!("THI {}", c.args[0].to_ascii_uppercase()));
             }
             "THI" => {
                 let value = match c.args.as_slice() {
