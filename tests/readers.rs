@@ -623,7 +623,12 @@ fn codev_long_form_solves_keep_the_written_values() {
     assert_eq!(conditions.object_distance_mm, Some(150.0));
     let e = codev(&singlet("CUY QQY -0.1")).unwrap_err();
     assert!(
-        e.to_string().contains("CUY QQY") && e.location.line == Some(9),
+        e.to_string().contains("solve `CUY QQY`") && e.location.line == Some(9),
+        "{e}"
+    );
+    let e = codev(&singlet("THI QQY 0")).unwrap_err();
+    assert!(
+        e.to_string().contains("solve `THI QQY`") && e.location.line == Some(9),
         "{e}"
     );
 }

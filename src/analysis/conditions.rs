@@ -202,8 +202,8 @@ impl DesignConditions {
         if matches!(aperture_from, Origin::Flag | Origin::File) && epd_mm > open * (1.0 + 1e-9) {
             notes.push(format!(
                 "the {} {epd_mm:.3} mm entrance pupil is larger than the stop's {open:.3} mm: \
-                 the paraxial data are for the larger pupil, and real rays outside the stop's \
-                 are vignetted there",
+                 the paraxial data are for the larger pupil, and real rays beyond the stop's \
+                 own pupil are vignetted at the stop",
                 if aperture_from == Origin::Flag {
                     "requested"
                 } else {

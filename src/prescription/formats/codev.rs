@@ -276,14 +276,13 @@ const APERTURE_COMMANDS: [&str; 6] = ["REX", "REY", "ELX", "ELY", "ADX", "ADY"];
 /// Thickness solves written after `THI`: the marginal or chief ray's height in y or x.
 const THICKNESS_SOLVES: &[&str] = &["HMY", "HCY", "HMX", "HCX"];
 
-/// Whether `code` after `command` (`CUY` or `THI`) names one of its solves.
-fn long_form_solve(command: &str, code: &str) -> bool {
-    let solves = if command == "CUY" {
+/// The solves written after `command` (`CUY` or `THI`).
+fn long_form_solves(command: &str) -> &'static [&'static str] {
+    if command == "CUY" {
         CURVATURE_SOLVES
     } else {
         THICKNESS_SOLVES
-    };
-    solves.contains(&code.to_ascii_uppercase().as_str())
+    }
 }
 
 /// Curvature solves written after `CUY` (the long form of `CUM` and `CUC`): the marginal or
@@ -790,16 +789,20 @@ impl Reader {
             // surface, `THI HMY 0` the thickness for a marginal ray height of 0 on the next
             // surface; CODE V wrote the solved value on the surface line, which is kept as for
             // the other solves.
-            "CUY" | "THI" if c.args.len() == 2 && long_form_solve(name, &c.args[0]) => {
+            "CUY" | "THI"
+                if c.args.len() == 2
+                    && long_form_solves(name)
+                        .contains(&c.args[0].to_ascii_uppercase().as_str()) =>
+            {
                 finite(&c.args[1], &at(name))?;
                 self.solves
                     .insert(format!("{name} {}", c.args[0].to_ascii_uppercase()));
             }
-            "CUY" if c.args.len() == 2 && c.args[0].parse::<f64>().is_err() => {
+            "CUY" | "THI" if c.args.len() == 2 && c.args[0].parse::<f64>().is_err() => {
                 return Err(unsupported(format!(
-                    "CODE V curvature solve `CUY {}` (read: {})",
+                    "CODE V solve `{name} {}` (read after {name}: {})",
                     c.args[0],
-                    CURVATURE_SOLVES.join(", ")
+                    long_form_solves(name).join(", ")
                 )));
             }
             "RDY" | "CUY" => {
