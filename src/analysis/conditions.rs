@@ -212,6 +212,15 @@ impl DesignConditions {
             ));
         }
 
+        if let Some(distance) = object_distance_mm {
+            notes.push(format!(
+                "the aberration plots and wave figures trace the object at infinity, at the \
+                 angles its points subtend at the entrance-pupil centre; the first-order data \
+                 and Seidel sums use it at {} mm",
+                crate::limits::short(distance)
+            ));
+        }
+
         let file_fields = match stated.and_then(|c| c.fields.as_ref()) {
             Some(fields) if overrides.field_deg.is_none() => {
                 stated_fields(fields, &wide_open, object_distance_mm, &mut notes)

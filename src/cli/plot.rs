@@ -104,6 +104,12 @@ pub fn run_plot(args: PlotArgs) -> anyhow::Result<()> {
     let (name, system) = load_lens(&args.lens, &args.read)?;
     let view = figure(kind, &name, &system, &options)?;
     let drawn = write_plot(&view, &args.out)?;
+    // The figure resolved these conditions already, so they resolve here too.
+    if let Ok(conditions) = options.conditions(&system) {
+        for message in &conditions.notes {
+            note!("{message}");
+        }
+    }
     for message in drawn.messages() {
         note!("{message}");
     }
