@@ -148,6 +148,44 @@ fn three_point_focus_prints_the_tilt_and_sensor_distance() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// A catadioptric lens whose image forms among its own surfaces (rayoptics' HoO-V2C18Ex27, a
+/// Cassegrain) cannot take a sensor there; the message says where it must go and blames no
+/// tilt, since none was asked for.
+#[test]
+fn a_sensor_inside_the_lens_is_refused_without_blaming_a_tilt() {
+    let dir = temp_dir("inside");
+    let out = dir.join("x.exr");
+    let lens = format!(
+        "{}/tests/data/corpus/rayoptics__HoO-V2C18Ex27.zmx",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let o = lensbake(&[
+        "render",
+        "--lens",
+        &lens,
+        "--model",
+        "traced",
+        "--backend",
+        "cpu",
+        "--width",
+        "64",
+        "--height",
+        "48",
+        "--spp",
+        "4",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("error: the sensor at z = ") && !stderr.contains("tilt"),
+        "{stderr}"
+    );
+    assert!(!out.exists());
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 #[test]
 fn bad_sensor_settings_exit_with_code_2_and_say_why() {
     let dir = temp_dir("bad");
@@ -162,7 +200,7 @@ fn bad_sensor_settings_exit_with_code_2_and_say_why() {
         (vec!["--tilt-deg=-50,0"], "within +-45"),
         (
             vec!["--tilt-deg", "0,30", "--sensor-mm", "5"],
-            "reaches the lens",
+            "the tilted sensor's corner at z",
         ),
     ] {
         let mut args = vec![

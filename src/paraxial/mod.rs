@@ -108,6 +108,9 @@ pub enum ParaxialError {
     InvalidEntrancePupilDiameter { diameter: f64 },
     #[error("no surface limits the axial beam (it meets every surface on the axis)")]
     NoLimitingAperture,
-    #[error("no clear aperture limits the chief ray, so there is no largest field; give one")]
+    #[error(
+        "no clear aperture limits the chief ray, so the lens has no largest field: give its \
+         surfaces clear apertures (analyze, plot and report also take a --field-deg)"
+    )]
     UnlimitedField,
 }

@@ -178,9 +178,17 @@ impl Camera {
         let bound = sampling.off_plane_bound();
         for corner in self.film.corners(self.film_z) {
             if corner[2] <= behind {
+                // Untilted, the whole sensor sits there: the focus put it inside the lens (a
+                // catadioptric lens forms its image among its surfaces), not a tilt.
+                let (sensor, at) = if tilt == [0.0, 0.0] {
+                    ("the sensor", "")
+                } else {
+                    ("the tilted sensor's corner", " (tilt less)")
+                };
                 return Err(RenderError::InvalidSetting(format!(
-                    "the tilted sensor's corner at z = {:.3} mm reaches the lens (it must stay \
-                     behind z = {behind:.3} mm)",
+                    "{sensor} at z = {:.3} mm reaches the lens: it must stay behind z = \
+                     {behind:.3} mm, the rear principal plane or the plane the exit rays are \
+                     sampled on, whichever is further back{at}",
                     corner[2]
                 )));
             }
