@@ -111,15 +111,36 @@ fn name_of(path: &Path) -> Result<String, OutputError> {
         })
 }
 
+/// What [`temporary`] creates.
+#[derive(Clone, Copy)]
+enum Temporary {
+    File,
+    Directory,
+}
+
 /// Creates (with `create`) a temporary file or directory named for the destination `name`:
-/// `.<name>.<pid>.<random>.tmp`.
+/// `.<name>.<pid>.<random>.tmp`. It is created with the modes any new file or directory gets
+/// (read and write for all, less the umask): tempfile's private 0600 and 0700 would stay on the
+/// published output, which the user's umask, not lensbake, should decide.
 fn temporary<R>(
     name: &str,
+    kind: Temporary,
     create: impl FnOnce(&tempfile::Builder) -> std::io::Result<R>,
 ) -> std::io::Result<R> {
     let prefix = format!(".{name}.{}.", std::process::id());
     let mut builder = tempfile::Builder::new();
     builder.prefix(&prefix).suffix(".tmp");
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        let mode = match kind {
+            Temporary::File => 0o666,
+            Temporary::Directory => 0o777,
+        };
+        builder.permissions(std::fs::Permissions::from_mode(mode));
+    }
+    #[cfg(not(unix))]
+    let _ = kind;
     create(&builder)
 }
 
@@ -175,7 +196,8 @@ pub fn write_file(
     let name = name_of(path)?;
     check_folder(path, dir)?;
     remove_abandoned(dir, &name);
-    let temp = temporary(&name, |b| b.tempfile_in(dir)).map_err(OutputError::io(path))?;
+    let temp =
+        temporary(&name, Temporary::File, |b| b.tempfile_in(dir)).map_err(OutputError::io(path))?;
     {
         let mut buffered = BufWriter::new(temp.as_file());
         write(&mut buffered)
@@ -217,7 +239,8 @@ pub fn publish_dir<T, E: From<OutputError>>(
     }
     std::fs::create_dir_all(parent).map_err(OutputError::io(parent))?;
     remove_abandoned(parent, &name);
-    let staging = temporary(&name, |b| b.tempdir_in(parent)).map_err(OutputError::io(dest))?;
+    let staging = temporary(&name, Temporary::Directory, |b| b.tempdir_in(parent))
+        .map_err(OutputError::io(dest))?;
     let value = fill(staging.path())?;
     write_bytes(
         &staging.path().join(PUBLISHED_MARKER),
@@ -258,7 +281,8 @@ pub fn create_dir_whole(dest: &Path, files: &[(&str, &[u8])]) -> Result<bool, Ou
     let name = name_of(dest)?;
     std::fs::create_dir_all(parent).map_err(OutputError::io(parent))?;
     remove_abandoned(parent, &name);
-    let staging = temporary(&name, |b| b.tempdir_in(parent)).map_err(OutputError::io(dest))?;
+    let staging = temporary(&name, Temporary::Directory, |b| b.tempdir_in(parent))
+        .map_err(OutputError::io(dest))?;
     for (file, bytes) in files {
         write_bytes(&staging.path().join(file), bytes)?;
     }
@@ -323,9 +347,11 @@ fn swap_into_place(staged: &Path, dest: &Path) -> Result<(), OutputError> {
         }
     }
     let parent = parent_of(dest);
-    let old = temporary(&name_of(dest)?, |b| b.tempdir_in(parent))
-        .map_err(OutputError::io(dest))?
-        .keep();
+    let old = temporary(&name_of(dest)?, Temporary::Directory, |b| {
+        b.tempdir_in(parent)
+    })
+    .map_err(OutputError::io(dest))?
+    .keep();
     std::fs::remove_dir(&old).map_err(OutputError::io(dest))?;
     std::fs::rename(dest, &old).map_err(OutputError::io(dest))?;
     if let Err(error) = std::fs::rename(staged, dest) {
@@ -369,6 +395,30 @@ mod tests {
         assert!(result.is_err());
         assert_eq!(std::fs::read(&path).unwrap(), b"old");
         assert_eq!(names(&dir), ["a.txt"]);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// Published files and directories take the modes the umask leaves (0644 and 0755 under
+    /// the usual 022), not tempfile's private 0600 and 0700. The umask is read from /proc.
+    #[cfg(target_os = "linux")]
+    #[test]
+    fn outputs_take_the_modes_the_umask_leaves() {
+        use std::os::unix::fs::PermissionsExt;
+        let status = std::fs::read_to_string("/proc/self/status").unwrap();
+        let umask = status
+            .lines()
+            .find_map(|l| l.strip_prefix("Umask:"))
+            .map(|m| u32::from_str_radix(m.trim(), 8).unwrap())
+            .unwrap();
+        let dir = scratch("modes");
+        let file = dir.join("a.txt");
+        write_bytes(&file, b"text").unwrap();
+        let published = dir.join("folder");
+        assert!(create_dir_whole(&published, &[("b.txt", b"text")]).unwrap());
+        let mode = |path: &Path| std::fs::metadata(path).unwrap().permissions().mode() & 0o777;
+        assert_eq!(mode(&file), 0o666 & !umask);
+        assert_eq!(mode(&published), 0o777 & !umask);
+        assert_eq!(mode(&published.join("b.txt")), 0o666 & !umask);
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
