@@ -161,6 +161,7 @@ impl DesignConditions {
         )
         .map_err(|error| blame(system, object_from, StatedCondition::Object, error))?;
         let efl = wide_open.first_order.efl.abs();
+        let open = wide_open.entrance_pupil.diameter;
         let (epd_mm, aperture_from) = if let Some(epd) = overrides.epd_mm {
             (epd, Origin::Flag)
         } else if let Some(epd) = stated
@@ -176,7 +177,6 @@ impl DesignConditions {
                 .map_err(|error| stated_error(system, StatedCondition::Aperture, error))?;
             (epd, Origin::File)
         } else {
-            let open = wide_open.entrance_pupil.diameter;
             match claimed
                 .claimed_f_number
                 .filter(|f| *f > 0.0 && object_distance_mm.is_none())
@@ -198,7 +198,6 @@ impl DesignConditions {
 
         // A flag's or a file's pupil is used as given (OpticStudio does the same with a file's
         // ENPD), but the stop cuts it: the paraxial numbers describe a beam that does not pass.
-        let open = wide_open.entrance_pupil.diameter;
         if matches!(aperture_from, Origin::Flag | Origin::File) && epd_mm > open * (1.0 + 1e-9) {
             notes.push(format!(
                 "the {} {epd_mm:.3} mm entrance pupil is larger than the stop's {open:.3} mm: \

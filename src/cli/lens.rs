@@ -261,7 +261,6 @@ fn summary(lens: &LoadedLens) -> anyhow::Result<String> {
     };
     let p = &system.prescription;
     let wavelength_nm = system.design_wavelength_nm();
-    let at = system.at(wavelength_nm);
     let wavelength = printed_nm(wavelength_nm);
     let mut out = String::new();
     let mut line = |text: String| {
@@ -286,7 +285,7 @@ fn summary(lens: &LoadedLens) -> anyhow::Result<String> {
     line(format!(
         "  object:      {} (n = {:.6})",
         p.object_medium.describe(),
-        at.object_index
+        system.object_dispersion.index(wavelength_nm)
     ));
     if let Some(f) = p.provenance.claimed_focal_length_mm {
         line(format!("  claimed EFL: {f} mm"));
@@ -306,13 +305,13 @@ fn summary(lens: &LoadedLens) -> anyhow::Result<String> {
         format!("n@{wavelength}"),
         "semi-ap"
     ));
-    for (i, (s, s_at)) in p.surfaces.iter().zip(&at.surfaces).enumerate() {
+    for (i, s) in p.surfaces.iter().enumerate() {
         let radius = radius_text(&s.shape);
         let kind = shape_name(&s.shape);
         // Where the medium's formula does not hold at this wavelength, its value there is an
         // extrapolation no analysis uses (they refuse the wavelength): none is printed.
         let index = match system.dispersions[i].checked_index(wavelength_nm) {
-            Ok(_) => format!("{:.6}", s_at.index_after.abs()),
+            Ok(n) => format!("{n:.6}"),
             Err(_) => "outside".to_string(),
         };
         line(format!(

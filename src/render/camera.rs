@@ -180,7 +180,7 @@ impl Camera {
             if corner[2] <= behind {
                 // Untilted, the whole sensor sits there: the focus put it inside the lens (a
                 // catadioptric lens forms its image among its surfaces), not a tilt.
-                let (sensor, at) = if tilt == [0.0, 0.0] {
+                let (sensor, advice) = if tilt == [0.0, 0.0] {
                     ("the sensor", "")
                 } else {
                     ("the tilted sensor's corner", " (tilt less)")
@@ -188,7 +188,7 @@ impl Camera {
                 return Err(RenderError::InvalidSetting(format!(
                     "{sensor} at z = {:.3} mm reaches the lens: it must stay behind z = \
                      {behind:.3} mm, the rear principal plane or the plane the exit rays are \
-                     sampled on, whichever is further back{at}",
+                     sampled on, whichever is further back{advice}",
                     corner[2]
                 )));
             }

@@ -181,8 +181,6 @@ pub enum FigureError {
     Lens(#[from] crate::prescription::PrescriptionError),
     #[error(transparent)]
     PlacedBeam(#[from] PlacedBeamError),
-    #[error(transparent)]
-    Limit(#[from] crate::limits::LimitError),
 }
 
 /// Any one plot, ready to draw.
