@@ -39,7 +39,7 @@ pub fn output_within(
     stdout: Option<std::process::Stdio>,
     timeout: std::time::Duration,
 ) -> Option<std::process::Output> {
-    use std::io::{Read, Write};
+    use std::io::Write;
     use std::process::Stdio;
     let mut child = command
         .stdin(if stdin.is_some() {
@@ -56,27 +56,8 @@ pub fn output_within(
         // A command that exits before reading its input closes the pipe: not the test's error.
         std::thread::spawn(move || pipe.write_all(text.as_bytes()));
     }
-    let read_all = |pipe: Option<Box<dyn Read + Send>>| {
-        std::thread::spawn(move || {
-            let mut bytes = Vec::new();
-            if let Some(mut pipe) = pipe {
-                let _ = pipe.read_to_end(&mut bytes);
-            }
-            bytes
-        })
-    };
-    let out = read_all(
-        child
-            .stdout
-            .take()
-            .map(|p| Box::new(p) as Box<dyn Read + Send>),
-    );
-    let err = read_all(
-        child
-            .stderr
-            .take()
-            .map(|p| Box::new(p) as Box<dyn Read + Send>),
-    );
+    let out = read_all(child.stdout.take());
+    let err = read_all(child.stderr.take());
     let started = std::time::Instant::now();
     let status = loop {
         if let Some(status) = child.try_wait().expect("the child's status") {
@@ -93,6 +74,18 @@ pub fn output_within(
         status,
         stdout: out.join().expect("stdout reader"),
         stderr: err.join().expect("stderr reader"),
+    })
+}
+
+/// Reads `pipe` to its end on a thread of its own, so that a child filling one pipe cannot
+/// block on it while the other is read.
+fn read_all(pipe: Option<impl std::io::Read + Send + 'static>) -> std::thread::JoinHandle<Vec<u8>> {
+    std::thread::spawn(move || {
+        let mut bytes = Vec::new();
+        if let Some(mut pipe) = pipe {
+            let _ = pipe.read_to_end(&mut bytes);
+        }
+        bytes
     })
 }
 
