@@ -186,6 +186,55 @@ fn a_sensor_inside_the_lens_is_refused_without_blaming_a_tilt() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// A focus distance nobody asked for (render's 2000 mm, or the file's object distance) that the
+/// lens cannot reach is refused naming where it came from and the flags that set another.
+#[test]
+fn an_unreachable_focus_nobody_asked_for_names_its_origin() {
+    let dir = temp_dir("unasked");
+    let out = dir.join("x.exr");
+    for (file, origin) in [
+        // A Ritchey-Chretien telescope: its front focal point is 31.7 m out.
+        (
+            "rayoptics__rc_f16.seq",
+            "that distance is render's default focus: give --focus-mm farther than 31702.216 or \
+             --sensor-mm",
+        ),
+        // A finite-conjugate lens whose thin model's front focal point lies beyond the object.
+        (
+            "rayoptics__US05831776-1.zmx",
+            "that distance is the lens file's object distance: give --focus-mm farther than \
+             129.381 or --sensor-mm",
+        ),
+    ] {
+        let lens = format!("{}/tests/data/corpus/{file}", env!("CARGO_MANIFEST_DIR"));
+        let o = lensbake(&[
+            "render",
+            "--lens",
+            &lens,
+            "--model",
+            "thin",
+            "--backend",
+            "cpu",
+            "--width",
+            "32",
+            "--height",
+            "24",
+            "--spp",
+            "2",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{file}: {stderr}");
+        assert!(
+            stderr.starts_with("error: cannot focus at ") && stderr.contains(origin),
+            "{file}: {stderr}"
+        );
+        assert!(!out.exists());
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 #[test]
 fn bad_sensor_settings_exit_with_code_2_and_say_why() {
     let dir = temp_dir("bad");

@@ -4,14 +4,15 @@
 use super::lens::ReadArgs;
 use clap::{Args, ValueEnum};
 use lensbake::analysis::{FileDefaults, FocusFrom};
+use lensbake::job::JobError;
 use lensbake::job::{
     BackendChoice, BackendUsed, ChromaticReason, DEFAULT_FOCUS_MM, FocusMode, ModelChoice,
     PeelMode, RenderJob, RenderLens, Rendered, SceneSpec,
 };
-use lensbake::model::ModelKind;
-use lensbake::render::RenderSettings;
+use lensbake::model::{ModelError, ModelKind};
 use lensbake::render::chromatic::{CHANNELS, ChromaticMode};
 use lensbake::render::image::{png_beside, write_exr, write_png};
+use lensbake::render::{RenderError, RenderSettings};
 use std::path::PathBuf;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -67,7 +68,8 @@ pub struct RenderArgs {
     /// f-number; default: the lens wide open (f/2.8 for `ideal:`).
     #[arg(long)]
     f_number: Option<f64>,
-    /// Focus on the plane this far in front of the first vertex (mm).
+    /// Focus on the plane this far in front of the first vertex (mm); default: the lens file's
+    /// object distance, else 2000 mm.
     #[arg(long, conflicts_with_all = ["focus_pixel", "sensor_mm"])]
     focus_mm: Option<f64>,
     /// Focus on the nearest surface under output pixel X,Y.
@@ -164,7 +166,7 @@ fn parse_focus_points(text: &str) -> Result<[(u32, u32); 3], String> {
 impl RenderArgs {
     /// The job these arguments describe, and what it takes from the lens file's stated
     /// conditions where no flag is given (one line each, for the user).
-    fn job(&self) -> anyhow::Result<(RenderJob, Vec<String>)> {
+    fn job(&self) -> anyhow::Result<(RenderJob, Vec<String>, Option<&'static str>)> {
         let lens = super::lens::render_lens(&self.lens, &self.read)?;
         let no_focus_flag = self.focus_points.is_none()
             && self.focus_mm.is_none()
@@ -211,6 +213,11 @@ impl RenderArgs {
             })?),
             None => file_wavelengths,
         };
+        let unasked_focus = no_focus_flag.then_some(if file_focus.is_some() {
+            "the lens file's object distance"
+        } else {
+            "render's default focus"
+        });
         let focus = match (
             self.focus_points,
             self.focus_mm,
@@ -251,18 +258,20 @@ impl RenderArgs {
             wavelengths_nm,
             ..RenderJob::new(lens)
         };
-        Ok((job, from_file))
+        Ok((job, from_file, unasked_focus))
     }
 }
 
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let png = png_beside(&args.out)?;
-    let (job, from_file) = args.job()?;
+    let (job, from_file, unasked_focus) = args.job()?;
     job.settings.check()?;
     for line in &from_file {
         say!("lens file: {line}");
     }
-    let rendered = job.run()?;
+    let rendered = job
+        .run()
+        .map_err(|error| say_how_to_focus(error, unasked_focus))?;
     // Released only now, so that a render the job refuses prints its error line first.
     super::notes::release();
     print_decisions(&job, &rendered);
@@ -287,6 +296,26 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     );
     say!("wrote {} and {}", args.out.display(), png.display());
     Ok(())
+}
+
+/// A focus nobody asked for that the lens cannot reach (a telescope's front focal point lies
+/// kilometres out, beyond render's 2000 mm) is refused saying where the distance came from and
+/// which flags set another.
+fn say_how_to_focus(error: JobError, unasked_focus: Option<&str>) -> anyhow::Error {
+    let cannot_focus = match &error {
+        JobError::Model(cause) | JobError::Render(RenderError::Model(cause)) => match cause {
+            ModelError::CannotFocus { front_focal_mm, .. } => Some(*front_focal_mm),
+            _ => None,
+        },
+        _ => None,
+    };
+    match (cannot_focus, unasked_focus) {
+        (Some(front_focal_mm), Some(origin)) => anyhow::anyhow!(
+            "{error}; that distance is {origin}: give --focus-mm farther than \
+             {front_focal_mm:.3} or --sensor-mm"
+        ),
+        _ => error.into(),
+    }
 }
 
 /// Prints what the job decided, in the order it decided it.
