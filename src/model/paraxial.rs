@@ -2,8 +2,8 @@
 //! thick models, and the first-order part of every other model).
 
 use super::ModelError;
-use crate::paraxial::{Paraxial, ParaxialOptions};
-use crate::system::LensSystem;
+use crate::paraxial::{Field, Paraxial, ParaxialError, ParaxialOptions};
+use crate::system::{LensSystem, SystemAt};
 
 /// A lens reduced to first order: power and unit-magnification principal planes, with its pupils.
 /// A thin lens is the case where both principal planes and both pupils coincide.
@@ -120,7 +120,7 @@ impl FirstOrderModels {
             return Err(ModelError::ImageInFront);
         }
         let at = system.at(system.design_wavelength_nm());
-        let paraxial = Paraxial::new(&at, &ParaxialOptions::default())?;
+        let paraxial = wide_open_at_infinity(&at)?;
         paraxial.first_order.require_converging()?;
         let wide_open = paraxial.f_number;
         let f_number = f_number.unwrap_or(wide_open);
@@ -162,7 +162,7 @@ impl FirstOrderModels {
         wavelength_nm: f64,
     ) -> Result<FirstOrderModels, ModelError> {
         let at = system.at_checked(wavelength_nm)?;
-        let paraxial = Paraxial::new(&at, &ParaxialOptions::default())?;
+        let paraxial = wide_open_at_infinity(&at)?;
         let thick = thick_model(&paraxial, self.wide_open_f_number / self.f_number)?;
         let thin = ParaxialLens {
             focal_length_mm: paraxial.first_order.efl,
@@ -175,6 +175,20 @@ impl FirstOrderModels {
             f_number: self.f_number,
         })
     }
+}
+
+/// The paraxial data of `system` wide open with the object at infinity. The models take their
+/// power, principal planes and pupils from it, none of which depends on a field, so it is
+/// traced on axis: a lens whose apertures set no largest field (its one surface is the stop)
+/// still has its models.
+fn wide_open_at_infinity(system: &SystemAt) -> Result<Paraxial, ParaxialError> {
+    Paraxial::new(
+        system,
+        &ParaxialOptions {
+            field: Field::Angle { deg: 0.0 },
+            ..ParaxialOptions::default()
+        },
+    )
 }
 
 /// The thick model of `paraxial` with its pupils scaled by `pupil_scale` (the stop's).

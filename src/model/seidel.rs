@@ -2,21 +2,32 @@
 //! focus (after Asberg, seed 001 section 3.10).
 
 use super::{FirstOrderModels, ModelError, ParaxialLens};
-use crate::paraxial::{ObjectPosition, Paraxial, ParaxialError, ParaxialOptions};
+use crate::paraxial::{Field, ObjectPosition, Paraxial, ParaxialError, ParaxialOptions};
 use crate::seidel::{Seidel, SeidelTerms};
 use crate::system::{LensSystem, SystemAt};
 
 /// The paraxial setup for an object in focus at `focus_mm` (None: infinity), wide open, at the
-/// largest unvignetted field: the conjugate a [`SeidelLens`] is built for.
+/// largest unvignetted field: the conjugate a [`SeidelLens`] is built for. A lens whose clear
+/// apertures set no largest field (its one surface is the stop) is set up at the field
+/// `analyze`'s rule gives it: the polynomial's aberration at an image point does not depend on
+/// the field it is normalised at, since each coefficient scales as the power of h it carries.
 pub fn paraxial_for(system: &SystemAt, focus_mm: Option<f64>) -> Result<Paraxial, ParaxialError> {
-    let object = ObjectPosition::in_focus(focus_mm);
-    Paraxial::new(
-        system,
-        &ParaxialOptions {
-            object,
-            ..ParaxialOptions::default()
-        },
-    )
+    let options = ParaxialOptions {
+        object: ObjectPosition::in_focus(focus_mm),
+        ..ParaxialOptions::default()
+    };
+    match Paraxial::new(system, &options) {
+        Err(ParaxialError::UnlimitedField) => Paraxial::new(
+            system,
+            &ParaxialOptions {
+                field: Field::Angle {
+                    deg: crate::analysis::rule_field_deg(system),
+                },
+                ..options
+            },
+        ),
+        result => result,
+    }
 }
 
 /// The third-order transverse aberration polynomial of a [`SeidelLens`], as coefficients (mm in
@@ -211,5 +222,66 @@ mod tests {
         let sagittal = lens.aberration(edge, [1.0, 0.0]);
         assert!(close(sagittal[0], t.tsa + t.sas));
         assert!(close(sagittal[1], t.tco / 3.0 + t.dst));
+    }
+
+    #[test]
+    fn the_aberration_does_not_depend_on_the_field_it_is_normalised_at() {
+        let lens = lenses::load("dgauss-50mm", &LoadOptions::default()).unwrap();
+        let thick = FirstOrderModels::of(&lens.system, None).unwrap().thick;
+        let at = lens.system.at(lens.system.design_wavelength_nm());
+        let largest = paraxial_for(&at, None).unwrap();
+        let at_largest = SeidelLens::new(&at, &largest, thick.clone());
+        let small = Paraxial::new(
+            &at,
+            &ParaxialOptions {
+                field: Field::Angle { deg: 3.0 },
+                ..ParaxialOptions::default()
+            },
+        )
+        .unwrap();
+        let at_small = SeidelLens::new(&at, &small, thick);
+        assert!(at_small.chief_image_height < 0.3 * at_largest.chief_image_height);
+        let edge = at_largest.chief_image_height;
+        for g in [
+            [0.0, 0.0],
+            [0.3 * edge, 0.0],
+            [-0.2 * edge, 0.7 * edge],
+            [0.0, edge],
+        ] {
+            for pupil in [[0.0, 1.0], [1.0, 0.0], [-0.6, 0.5], [0.0, 0.0]] {
+                let a = at_largest.aberration(g, pupil);
+                let b = at_small.aberration(g, pupil);
+                for k in 0..2 {
+                    assert!(
+                        (a[k] - b[k]).abs() <= 1e-12 * (1.0 + a[k].abs()),
+                        "{a:?} {b:?}"
+                    );
+                }
+            }
+        }
+    }
+
+    /// One refracting surface that is its own stop: no clear aperture limits the chief ray, so
+    /// the lens has no largest field, yet it has a focal length, pupils and third-order sums.
+    #[test]
+    fn a_lens_whose_apertures_set_no_field_has_its_models() {
+        let text = "(provenance: (title: \"one surface\", source: None, design_wavelength_nm: \
+            None, claimed_focal_length_mm: None, claimed_f_number: None, notes: None), \
+            object_medium: Air, surfaces: [(shape: Sphere(curvature: 0.02), thickness: 150.0, \
+            medium: Index(1.5), semi_aperture: 10.0, stop: Some(Circle))])";
+        let loaded = crate::prescription::formats::read_str(
+            text,
+            None,
+            crate::prescription::formats::Format::Ron,
+            &LoadOptions::default(),
+        )
+        .unwrap();
+        let system = LensSystem::from_prescription(loaded.prescription).unwrap();
+        let first_order = FirstOrderModels::of(&system, None).unwrap();
+        // f' = n' / power = 1.5 / (0.5 * 0.02) = 150 mm; the stop at the vertex is both pupils.
+        assert!((first_order.thick.focal_length_mm - 150.0).abs() < 1e-12);
+        assert!((first_order.thick.exit_pupil_radius_mm - 10.0).abs() < 1e-12);
+        let seidel = SeidelLens::in_focus(&system, &first_order, None).unwrap();
+        assert!(seidel.chief_image_height != 0.0);
     }
 }

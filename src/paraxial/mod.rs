@@ -109,8 +109,8 @@ pub enum ParaxialError {
     #[error("no surface limits the axial beam (it meets every surface on the axis)")]
     NoLimitingAperture,
     #[error(
-        "no clear aperture limits the chief ray, so the lens has no largest field: give its \
-         surfaces clear apertures (analyze, plot and report also take a --field-deg)"
+        "no clear aperture limits the chief ray, so the lens has no largest field: give the \
+         field as an angle or an object height"
     )]
     UnlimitedField,
 }
