@@ -32,6 +32,28 @@ fn wavefront_json_has_the_numbers_a_designer_reads() {
     assert_eq!(value["zernike"]["ordering"], "fringe");
 }
 
+/// The analytic relay (tests/data/perfect_relay.ron) images its object point 40 mm out
+/// without aberration: its axial wavefront is flat there and far from flat from infinity.
+#[test]
+fn wavefront_takes_the_object_distance() {
+    let relay = common::test_data("perfect_relay.ron");
+    let rms = |distance: &[&str]| {
+        let mut args = vec![
+            "wavefront",
+            relay.to_str().unwrap(),
+            "--field-deg",
+            "0",
+            "--json",
+        ];
+        args.extend_from_slice(distance);
+        json(&args)["rms_waves"].as_f64().unwrap()
+    };
+    let near = rms(&["--object-distance-mm", "40"]);
+    assert!(near < 1e-6, "{near} waves");
+    let far = rms(&[]);
+    assert!(far > 1.0, "{far} waves");
+}
+
 #[test]
 fn mtf_of_an_ideal_lens_is_the_diffraction_limit() {
     let value = json(&[
@@ -159,6 +181,23 @@ fn bad_input_is_one_error_line_and_exit_code_2() {
         ],
         // A length every command takes, but a pupil slower than f/1000 (about f/50000).
         &["mtf", "dgauss-50mm", "--field-deg", "0", "--epd-mm", "1e-3"],
+        // An ideal lens images infinity only; a distance must be a number.
+        &[
+            "wavefront",
+            "ideal:50",
+            "--field-deg",
+            "0",
+            "--object-distance-mm",
+            "100",
+        ],
+        &[
+            "wavefront",
+            "cooke-triplet",
+            "--field-deg",
+            "0",
+            "--object-distance-mm",
+            "nan",
+        ],
     ] {
         let output = lensbake(args);
         let stderr = String::from_utf8_lossy(&output.stderr);

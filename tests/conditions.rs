@@ -258,31 +258,6 @@ fn a_claimed_f_number_sets_the_pupil_only_where_the_stop_allows_it() {
     assert!((dgauss.f_number - 2.03).abs() < 0.01);
 }
 
-/// A finite object is used by the first-order data and the Seidel sums, while the plots and the
-/// wave figures trace collimated beams (docs/conditions.md): the conditions say so, so that a
-/// plot of a finite-conjugate design is not read as its design performance.
-#[test]
-fn a_finite_object_notes_that_the_plots_trace_it_at_infinity() {
-    let dgauss = system("dgauss-50mm");
-    let says_infinity = |conditions: &DesignConditions| {
-        conditions
-            .notes
-            .iter()
-            .any(|n| n.contains("plots and wave figures trace the object at infinity"))
-    };
-    let near = resolve(
-        &dgauss,
-        &ConditionOverrides {
-            object_distance_mm: Some(1000.0),
-            ..ConditionOverrides::default()
-        },
-    );
-    assert!(says_infinity(&near), "{:?}", near.notes);
-    assert!(near.notes.iter().any(|n| n.contains("at 1000 mm")));
-    let far = resolve(&dgauss, &ConditionOverrides::default());
-    assert!(!says_infinity(&far), "{:?}", far.notes);
-}
-
 /// A requested or stated pupil wider than the stop opens is used as given (the paraxial data
 /// are for it, as OpticStudio takes a file's ENPD), with a note that the stop cuts it; one the
 /// stop passes gets none.

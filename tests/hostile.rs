@@ -1130,6 +1130,7 @@ fn absurd_numeric_arguments_end_cleanly() {
         "d",
     ];
     let plot: &[&str] = &["plot", "vignetting", "dgauss-50mm", "--out", "p.png"];
+    let wavefront: &[&str] = &["wavefront", "dgauss-50mm", "--field-deg", "5"];
     // (base, flag, values): every value is tried; the ones that would be accepted run small.
     let integers = ABSURD_INTEGERS;
     let reals = ABSURD_REALS;
@@ -1176,6 +1177,8 @@ fn absurd_numeric_arguments_end_cleanly() {
         ),
         (demo, "--focus-mm", &["NaN", "-5", "inf"]),
         (plot, "--field-deg", &["NaN", "1e30", "-1e308"]),
+        (plot, "--object-distance-mm", reals),
+        (wavefront, "--object-distance-mm", reals),
     ];
     let mut cases = Vec::new();
     for (base, flag, values) in plan {

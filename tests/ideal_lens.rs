@@ -227,6 +227,7 @@ fn wave_optics_refuses_an_ideal_lens_by_its_surface() {
     let wave_lens = WaveLens::Real {
         system: &lens,
         epd_mm: None,
+        object_distance_mm: None,
     };
     let sampling = Sampling::default();
     let e = PupilTrace::trace(&wave_lens, 0.0, WAVELENGTH_NM, WAVELENGTH_NM, sampling).unwrap_err();

@@ -183,6 +183,7 @@ fn fft_and_huygens_psf_agree_on_a_real_lens() {
     let lens = WaveLens::Real {
         system: &system,
         epd_mm: None,
+        object_distance_mm: None,
     };
     let trace = PupilTrace::trace(&lens, 5.0, wavelength, wavelength, Sampling::default()).unwrap();
     let map = trace.wavefront(0.0).unwrap();
@@ -290,6 +291,7 @@ fn polychromatic_mtf_of_one_repeated_wavelength_is_the_monochromatic_one() {
     let lens = WaveLens::Real {
         system: &system,
         epd_mm: None,
+        object_distance_mm: None,
     };
     let frequencies = [10.0, 40.0, 80.0];
     let mono = FieldTrace::new(
@@ -379,6 +381,7 @@ fn bad_input_is_a_typed_error() {
     let wide = WaveLens::Real {
         system: &system,
         epd_mm: Some(-1.0),
+        object_distance_mm: None,
     };
     assert!(matches!(
         trace(&wide, 0.0, Sampling::default()),
@@ -401,6 +404,7 @@ fn bad_input_is_a_typed_error() {
     let pinhole = |epd_mm| WaveLens::Real {
         system: &dgauss,
         epd_mm: Some(epd_mm),
+        object_distance_mm: None,
     };
     assert!(matches!(
         trace(&pinhole(1e-3), 0.0, Sampling::default()),

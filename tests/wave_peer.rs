@@ -59,6 +59,7 @@ fn rms_wavefront_error_matches_optiland_within_three_percent() {
         let lens = WaveLens::Real {
             system,
             epd_mm: Some(epd_mm),
+            object_distance_mm: None,
         };
         let trace = PupilTrace::trace(&lens, field_deg, wavelength_nm, wavelength_nm, sampling)
             .unwrap_or_else(|e| panic!("{name} at {field_deg}°: {e}"));
@@ -91,6 +92,7 @@ fn fft_mtf_matches_optiland_within_0_02() {
         let lens = WaveLens::Real {
             system: &system,
             epd_mm: record["epd_mm"].as_f64(),
+            object_distance_mm: None,
         };
         let spectrum = Spectrum::monochromatic(record["wavelength_nm"].as_f64().unwrap());
         for field in record["fields"].as_array().unwrap() {

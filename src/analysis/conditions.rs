@@ -211,15 +211,6 @@ impl DesignConditions {
             ));
         }
 
-        if let Some(distance) = object_distance_mm {
-            notes.push(format!(
-                "the aberration plots and wave figures trace the object at infinity, at the \
-                 angles its points subtend at the entrance-pupil centre; the first-order data \
-                 and Seidel sums use it at {} mm",
-                crate::limits::short(distance)
-            ));
-        }
-
         let file_fields = match stated.and_then(|c| c.fields.as_ref()) {
             Some(fields) if overrides.field_deg.is_none() => {
                 stated_fields(fields, &wide_open, object_distance_mm, &mut notes)
@@ -294,18 +285,6 @@ impl DesignConditions {
             aperture: Aperture::EntrancePupilDiameter(self.epd_mm),
             field: self.paraxial_field,
             stop: self.stop,
-        }
-    }
-
-    /// The same options with the object at infinity and the field as an angle: what the plots,
-    /// which trace collimated beams, use.
-    pub fn paraxial_options_at_infinity(&self) -> ParaxialOptions {
-        ParaxialOptions {
-            object: ObjectPosition::Infinite,
-            field: Field::Angle {
-                deg: self.field_deg(),
-            },
-            ..self.paraxial_options()
         }
     }
 

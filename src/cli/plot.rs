@@ -48,6 +48,11 @@ pub struct ConditionArgs {
     /// claimed f-number where the stop allows it, else the stop wide open].
     #[arg(long)]
     epd_mm: Option<f64>,
+    /// Object distance from the first vertex in mm [default: the lens file's, else infinity];
+    /// a finite object's points are traced where they are, and named by the angle their chief
+    /// ray makes at the entrance-pupil centre.
+    #[arg(long)]
+    object_distance_mm: Option<f64>,
 }
 
 impl ConditionArgs {
@@ -56,6 +61,7 @@ impl ConditionArgs {
             field_deg: self.field_deg,
             wavelengths_nm: self.wavelength_nm.clone(),
             epd_mm: self.epd_mm,
+            object_distance_mm: self.object_distance_mm,
         };
         check_options(&options)?;
         Ok(options)
@@ -151,6 +157,14 @@ fn check_options(options: &FigureOptions) -> anyhow::Result<()> {
     // The lengths every other command takes (the wave commands' `--epd-mm` too).
     if let Some(epd) = options.epd_mm {
         lensbake::limits::check_length("--epd-mm", epd)?;
+    }
+    if let Some(distance) = options.object_distance_mm {
+        lensbake::limits::check_range(
+            "--object-distance-mm",
+            distance,
+            f64::NEG_INFINITY,
+            f64::INFINITY,
+        )?;
     }
     Ok(())
 }

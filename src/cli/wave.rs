@@ -22,9 +22,14 @@ pub struct WaveArgs {
     pub lens: String,
     #[command(flatten)]
     pub read: ReadArgs,
-    /// Half-field angle in degrees (object at infinity, field in the y-z plane).
+    /// Half-field angle in degrees, field in the y-z plane: for a finite object, the angle its
+    /// point's chief ray makes at the entrance-pupil centre.
     #[arg(long, allow_negative_numbers = true)]
     pub field_deg: f64,
+    /// Object distance from the first vertex in mm [default: infinity]; the image plane is its
+    /// paraxial conjugate.
+    #[arg(long, allow_negative_numbers = true)]
+    pub object_distance_mm: Option<f64>,
     /// Entrance-pupil diameter in mm [default: the stop's clear aperture imaged to object space].
     #[arg(long, allow_negative_numbers = true, conflicts_with = "f_number")]
     pub epd_mm: Option<f64>,
@@ -110,6 +115,7 @@ struct Setup {
     spectrum: Spectrum,
     sampling: Sampling,
     field_deg: f64,
+    object_distance_mm: Option<f64>,
 }
 
 impl Setup {
@@ -127,6 +133,19 @@ impl Setup {
         }
         if let Some(f_number) = args.f_number {
             limits::check_range("--f-number", f_number, 0.5, limits::MAX_F_NUMBER)?;
+        }
+        if let Some(distance) = args.object_distance_mm {
+            limits::check_range(
+                "--object-distance-mm",
+                distance,
+                f64::NEG_INFINITY,
+                f64::INFINITY,
+            )?;
+            if args.lens.starts_with("ideal:") {
+                bail!(
+                    "an ideal lens (`ideal:`) images an object at infinity: leave out --object-distance-mm"
+                );
+            }
         }
         let (name, subject) = match args.lens.strip_prefix("ideal:") {
             Some(efl) => {
@@ -189,6 +208,10 @@ impl Setup {
             spectrum,
             sampling,
             field_deg: args.field_deg,
+            // As `analyze` reads it: 1000 km or farther is infinity.
+            object_distance_mm: args
+                .object_distance_mm
+                .filter(|d| d.abs() < limits::MAX_LENGTH_MM),
         })
     }
 
@@ -213,7 +236,11 @@ impl Setup {
                     }
                     None => self.epd_mm,
                 };
-                WaveLens::Real { system, epd_mm }
+                WaveLens::Real {
+                    system,
+                    epd_mm,
+                    object_distance_mm: self.object_distance_mm,
+                }
             }
         })
     }

@@ -279,6 +279,18 @@ impl Paraxial {
     pub fn stop_surface(&self) -> usize {
         self.stop + 1
     }
+
+    /// The field value the real-ray analyses take ([`crate::trace::analyses::RealRays`]) for
+    /// the field point whose chief ray makes `field_deg` with the axis at the entrance-pupil
+    /// centre: that angle at infinity; for a finite object, the height of the object point,
+    /// below the axis for a positive angle, as a collimated beam rising at that angle comes
+    /// from below.
+    pub fn field_at_angle(&self, field_deg: f64) -> f64 {
+        match self.object_distance {
+            None => field_deg,
+            Some(distance) => -field_deg.to_radians().tan() * (distance + self.entrance_pupil.z),
+        }
+    }
 }
 
 fn angle_slope(deg: f64) -> Result<f64, ParaxialError> {

@@ -138,6 +138,8 @@ pub struct FigureOptions {
     pub wavelengths_nm: Vec<f64>,
     /// Entrance-pupil diameter (default: the design aperture).
     pub epd_mm: Option<f64>,
+    /// Object distance from the first vertex, mm (default: the lens file's, else infinity).
+    pub object_distance_mm: Option<f64>,
 }
 
 impl FigureOptions {
@@ -147,6 +149,7 @@ impl FigureOptions {
             wavelengths_nm: self.wavelengths_nm.clone(),
             field_deg: self.field_deg,
             epd_mm: self.epd_mm,
+            object_distance_mm: self.object_distance_mm,
             ..ConditionOverrides::default()
         }
     }
@@ -157,6 +160,7 @@ impl FigureOptions {
             wavelength_nm: self.wavelengths_nm.first().copied(),
             field_deg: self.field_deg,
             epd_mm: self.epd_mm,
+            object_distance_mm: self.object_distance_mm,
             ..AnalyzeOptions::default()
         }
     }
@@ -332,7 +336,9 @@ impl Spectrum {
 }
 
 /// The real-ray analyses of `system` at each drawn wavelength, all in the paraxial image plane
-/// of the reference wavelength, with the largest field to plot.
+/// of the reference wavelength, with the largest field to plot. Fields are the angles chief
+/// rays make at the entrance-pupil centre; a finite object is traced from its own points, the
+/// same points at every wavelength ([`RealSet::traced`]).
 struct RealSet {
     conditions: DesignConditions,
     reference: RealRays,
@@ -343,7 +349,7 @@ impl RealSet {
     fn new(system: &LensSystem, options: &FigureOptions) -> Result<RealSet, FigureError> {
         let conditions = options.conditions(system)?;
         let spectrum = Spectrum::of(&conditions);
-        let paraxial_options = conditions.paraxial_options_at_infinity();
+        let paraxial_options = conditions.paraxial_options();
         let real_at = |wavelength_nm: f64| -> Result<RealRays, FigureError> {
             let at = system.at(wavelength_nm);
             let paraxial = Paraxial::new(&at, &paraxial_options).map_err(AnalysisError::from)?;
@@ -366,6 +372,13 @@ impl RealSet {
     /// The design fields of the fan and spot plots, top first.
     fn grid_fields(&self) -> Vec<f64> {
         self.conditions.fields_deg.clone()
+    }
+
+    /// The field value the analyses trace for the field angle `field_deg`: the angle at
+    /// infinity, the object height of the reference wavelength's chief ray otherwise, so that
+    /// every wavelength starts from the same object point.
+    fn traced(&self, field_deg: f64) -> f64 {
+        self.reference.paraxial().field_at_angle(field_deg)
     }
 
     /// Evenly spaced fields from the axis to the design field; the axis is moved out to
@@ -401,7 +414,7 @@ fn ray_fan_plot(
             };
             for (wavelength_nm, real) in &set.by_wavelength {
                 // A wavelength whose centre ray is blocked gets no curve: the panel says so.
-                let Ok(fan) = real.ray_fan(field_deg, FAN_SAMPLES) else {
+                let Ok(fan) = real.ray_fan(set.traced(field_deg), FAN_SAMPLES) else {
                     field.dropped_nm.push(*wavelength_nm);
                     continue;
                 };
@@ -436,16 +449,17 @@ fn spot_plot(
         .map(|field_deg| {
             // Every colour is drawn around the reference colour's centroid, so lateral colour
             // shows as an offset.
+            let field = set.traced(field_deg);
             let centre = set
                 .reference
-                .spot(field_deg, SPOT_RINGS)
+                .spot(field, SPOT_RINGS)
                 .map(|s| s.centroid)
                 .ok();
             let spots = set
                 .by_wavelength
                 .iter()
                 .filter_map(|(wavelength_nm, real)| {
-                    let spot = real.spot(field_deg, SPOT_RINGS).ok()?;
+                    let spot = real.spot(field, SPOT_RINGS).ok()?;
                     let [cx, cy] = centre.unwrap_or(spot.centroid);
                     Some(Spot {
                         wavelength_nm: *wavelength_nm,
@@ -607,11 +621,10 @@ fn field_curves_plot(
         .iter()
         .map(|(wavelength_nm, real)| FieldCurve {
             wavelength_nm: *wavelength_nm,
-            points: where_traceable(&fields, |f| real.field_curves(&[f]))
-                .into_iter()
-                .flatten()
-                .map(|p| (p.field, p.sagittal, p.tangential))
-                .collect(),
+            points: where_traceable(&fields, |f| {
+                let focus = real.field_curves(&[set.traced(f)])?;
+                Ok((f, focus[0].sagittal, focus[0].tangential))
+            }),
         })
         .collect();
     Ok(FieldCurvesPlot {
@@ -627,15 +640,17 @@ fn distortion_plot(
 ) -> Result<DistortionPlot, FigureError> {
     let set = RealSet::new(system, options)?;
     let fields = set.curve_fields(NEAR_AXIS);
-    let points = where_traceable(&fields, |f| set.reference.distortion(&[f]))
-        .into_iter()
-        .flatten()
-        .map(|p| (p.field, p.percent))
-        .collect();
+    let points = where_traceable(&fields, |f| {
+        Ok((f, set.reference.distortion(&[set.traced(f)])?[0].percent))
+    });
+    let reference = match set.conditions.object_distance_mm {
+        None => "f·tan θ",
+        Some(_) => "m·h",
+    };
     Ok(DistortionPlot {
         lens: lens.to_string(),
         wavelength_nm: set.reference.paraxial().wavelength_nm,
-        reference: "f·tan θ".into(),
+        reference: reference.into(),
         points,
     })
 }
@@ -650,8 +665,8 @@ fn lateral_color_plot(
     let set = RealSet::new(system, options)?;
     let reference_nm = set.reference.paraxial().wavelength_nm;
     let fields = set.curve_fields(0.0);
-    let height = |real: &RealRays, field: f64| -> Result<f64, RealRayError> {
-        Ok(real.distortion(&[field])?[0].real_height)
+    let height = |real: &RealRays, field_deg: f64| -> Result<f64, RealRayError> {
+        Ok(real.distortion(&[set.traced(field_deg)])?[0].real_height)
     };
     let curves = if system.disperses() {
         set.by_wavelength
@@ -683,12 +698,11 @@ fn vignetting_plot(
     let set = RealSet::new(system, options)?;
     let fields = set.curve_fields(0.0);
     let points = where_traceable(&fields, |f| {
-        set.reference.illumination(&[f], ILLUMINATION_GRID)
-    })
-    .into_iter()
-    .flatten()
-    .map(|p| (p.field, p.relative, 1.0 - p.vignetted_fraction))
-    .collect();
+        let lit = &set
+            .reference
+            .illumination(&[set.traced(f)], ILLUMINATION_GRID)?[0];
+        Ok((f, lit.relative, 1.0 - lit.vignetted_fraction))
+    });
     Ok(VignettingPlot {
         lens: lens.to_string(),
         points,
@@ -713,17 +727,38 @@ fn layout_plot(
         &at,
         &ParaxialOptions {
             aperture: Aperture::StopClearAperture,
-            ..conditions.paraxial_options_at_infinity()
+            ..conditions.paraxial_options()
         },
     )
     .map_err(AnalysisError::from)?;
     let fill = (conditions.epd_mm / wide_open.entrance_pupil.diameter).min(1.0);
     let mut plot = LayoutPlot::of_system(lens, &at);
+    if wide_open.object_distance.is_some() {
+        plot.image_z = wide_open.z_image;
+    }
     let mut fields = conditions.fields_deg.clone();
     fields.reverse();
     for field_deg in fields {
-        plot.rays
-            .extend(layout_rays(&tracer, &at, field_deg, fill, plot.image_z));
+        let source = match wide_open.object_distance {
+            None => {
+                let angle = field_deg.to_radians();
+                RaySource::Collimated {
+                    direction: [0.0, angle.sin(), angle.cos()],
+                    start_z: tracer.front_start_z(),
+                }
+            }
+            Some(distance) => RaySource::Point {
+                position: [0.0, wide_open.field_at_angle(field_deg), -distance],
+            },
+        };
+        plot.rays.extend(layout_rays(
+            &tracer,
+            &at,
+            field_deg,
+            &source,
+            fill,
+            plot.image_z,
+        ));
     }
     // The image plane as tall as the bundles that reach it.
     let reached = plot
@@ -739,34 +774,41 @@ fn layout_plot(
     Ok(plot)
 }
 
-/// The meridional rays of one field for the layout, from in front of the lens to the image
-/// plane or to the surface that stops them, crossing the stop at `fill` of its radius at most.
-/// Rays that cannot be aimed, and vignetted rays that never enter the lens (they would float
-/// as fragments in front of it), are left out.
+/// The meridional rays of one field, leaving `source`, for the layout: from in front of the lens
+/// (a near object's point itself) to the image plane or to the surface that stops them,
+/// crossing the stop at `fill` of its radius at most. Rays that cannot be aimed, and vignetted
+/// rays that never enter the lens (they would float as fragments in front of it), are left out.
 fn layout_rays(
     tracer: &Tracer,
     at: &SystemAt,
     field_deg: f64,
+    source: &RaySource,
     fill: f64,
     image_z: f64,
 ) -> Vec<LayoutRay> {
-    let angle = field_deg.to_radians();
-    let source = RaySource::Collimated {
-        direction: [0.0, angle.sin(), angle.cos()],
-        start_z: tracer.front_start_z(),
-    };
     let stop_radius = at.surfaces[at.stop].semi_aperture * fill;
     let largest = at
         .surfaces
         .iter()
         .map(|s| s.semi_aperture)
         .fold(0.0, f64::max);
-    // Incoming rays start 1.5 apertures in front of the lens, or later where a steep ray would
-    // otherwise run far outside the lens's height and dwarf the drawing.
+    // Rays from an object no farther in front of the lens than the image lies behind its first
+    // vertex start at the object point, as a finite-conjugate layout is drawn; others start 1.5
+    // apertures in front of the lens, or later where a steep ray would otherwise run far
+    // outside the lens's height and dwarf the drawing, and never before the object.
+    let first_vertex = at.surfaces[0].vertex_z;
+    let object_z = match source {
+        RaySource::Point { position } => position[2],
+        RaySource::Collimated { .. } => f64::NEG_INFINITY,
+    };
+    let near_object = object_z >= first_vertex - (image_z - first_vertex).abs();
     let draw_from = |ray: &crate::trace::Ray| {
+        if near_object {
+            return object_z;
+        }
         let [_, y, z] = ray.position();
         let [_, dy, dz] = ray.direction();
-        let earliest = at.surfaces[0].vertex_z - 1.5 * largest;
+        let earliest = (first_vertex - 1.5 * largest).max(object_z);
         if dy == 0.0 {
             return earliest;
         }
@@ -775,7 +817,7 @@ fn layout_rays(
     };
     LAYOUT_STOP_HEIGHTS
         .iter()
-        .filter_map(|&h| aim_at_stop(tracer, &source, [0.0, h * stop_radius]).ok())
+        .filter_map(|&h| aim_at_stop(tracer, source, [0.0, h * stop_radius]).ok())
         .filter_map(|ray| {
             let traced = tracer.trace_path(ray, Travel::Forward, Apertures::Checked);
             let start = ray.point_at_z(draw_from(&ray))?;

@@ -69,6 +69,7 @@ impl<'a> WaveSet<'a> {
         let lens = WaveLens::Real {
             system,
             epd_mm: Some(conditions.epd_mm),
+            object_distance_mm: conditions.object_distance_mm,
         };
         let probe = Sampling {
             samples: 16,

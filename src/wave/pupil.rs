@@ -3,7 +3,7 @@
 
 use super::{NM_TO_MM, Sampling, WaveError, positive};
 use crate::limits::short;
-use crate::paraxial::{Aperture, Field, Paraxial, ParaxialOptions};
+use crate::paraxial::{Aperture, Field, ObjectPosition, Paraxial, ParaxialOptions};
 use crate::system::{LensSystem, SystemAt};
 use crate::trace::analyses::{RealRayError, RealRays};
 use crate::trace::{Apertures, Ray, Travel, Vec3};
@@ -14,13 +14,16 @@ use serde::Serialize;
 /// lens of a given focal length and f-number.
 #[derive(Clone, Copy, Debug)]
 pub enum WaveLens<'a> {
-    /// A real lens with an object at infinity. `epd_mm` sets the beam's diameter in the
-    /// paraxial entrance pupil as a design program's EPD does: the stop keeps its clear
-    /// aperture, so a beam wider than it is clipped and a narrower one passes whole. None fills
-    /// the stop.
+    /// A real lens. `epd_mm` sets the beam's diameter in the paraxial entrance pupil as a
+    /// design program's EPD does: the stop keeps its clear aperture, so a beam wider than it is
+    /// clipped and a narrower one passes whole. None fills the stop. The object lies
+    /// `object_distance_mm` in front of surface 1, at infinity when None; its field points are
+    /// named by the angle their chief ray makes at the entrance-pupil centre
+    /// ([`crate::paraxial::Paraxial::field_at_angle`]), and the image plane is its conjugate.
     Real {
         system: &'a LensSystem,
         epd_mm: Option<f64>,
+        object_distance_mm: Option<f64>,
     },
     /// A perfect lens in air: every field point is imaged to a point by a spherical wave whose
     /// exit pupil is a sphere of radius `efl_mm` (the sine condition holds), so its numerical
@@ -147,9 +150,14 @@ impl PupilTrace {
             {
                 Err(WaveError::IdealLensPath { surface: i + 1 })
             }
-            WaveLens::Real { system, epd_mm } => trace_real(
+            WaveLens::Real {
                 system,
                 epd_mm,
+                object_distance_mm,
+            } => trace_real(
+                system,
+                epd_mm,
+                ObjectPosition::in_focus(object_distance_mm),
                 field_deg,
                 wavelength_nm,
                 reference_nm,
@@ -262,12 +270,14 @@ fn distance(a: Vec3, b: Vec3) -> f64 {
 fn trace_real(
     system: &LensSystem,
     epd_mm: Option<f64>,
+    object: ObjectPosition,
     field_deg: f64,
     wavelength_nm: f64,
     reference_nm: f64,
     samples: usize,
 ) -> Result<PupilTrace, WaveError> {
     let options = ParaxialOptions {
+        object,
         aperture: epd_mm.map_or(Aperture::StopClearAperture, Aperture::EntrancePupilDiameter),
         field: Field::Angle { deg: field_deg },
         ..ParaxialOptions::default()
@@ -286,12 +296,14 @@ fn trace_real(
     let exit_pupil_z = paraxial.exit_pupil.ok_or(WaveError::ExitPupilAtInfinity)?.z;
     let cutoff_per_mm = 1.0 / (wavelength_nm * NM_TO_MM * paraxial.working_f_number);
     let real = RealRays::new(&at, paraxial);
+    // Every wavelength starts from the reference wavelength's object point.
+    let field = reference.field_at_angle(field_deg);
     // Optical paths weigh lengths by the physical index; the sign of the image-space index only
     // says which way light travels there.
     let image_index = at.image_index().abs();
-    let chief_start = real.pupil_ray(field_deg, 0.0, 0.0)?;
+    let chief_start = real.pupil_ray(field, 0.0, 0.0)?;
     let trace = |px: f64, py: f64, apertures: Apertures| -> Result<Option<ExitRay>, WaveError> {
-        let ray = real.pupil_ray(field_deg, px, py)?;
+        let ray = real.pupil_ray(field, px, py)?;
         Ok(exit_ray(&real, &at, ray, &chief_start, apertures))
     };
     let chief = trace(0.0, 0.0, Apertures::Ignored)?.ok_or(RealRayError::ChiefRay {
