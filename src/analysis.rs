@@ -144,14 +144,6 @@ pub fn analyze(
     if let Some(epd) = options.epd_mm.filter(|epd| epd.is_finite() && *epd > 0.0) {
         crate::limits::check_length("the entrance-pupil diameter (mm)", epd)?;
     }
-    if let Some(distance) = options.object_distance_mm {
-        crate::limits::check_range(
-            "the object distance (mm)",
-            distance,
-            f64::NEG_INFINITY,
-            f64::INFINITY,
-        )?;
-    }
     let conditions = DesignConditions::resolve(system, &options.overrides())?;
     let wavelength_nm = conditions.reference_nm;
     let at = system.at_checked(wavelength_nm)?;

@@ -69,6 +69,18 @@ pub const MAX_LENGTH_MM: f64 = 1e9;
 /// Shortest length that is not zero, in mm (one nanometre).
 pub const MIN_LENGTH_MM: f64 = 1e-6;
 
+/// An object distance as every analysis takes it: None (infinity) at [`MAX_LENGTH_MM`] or
+/// farther, where a finite distance would only lose digits (files write 1e10 for infinity). NaN
+/// is refused; a negative distance is the paraxial model's to refuse, which says why.
+pub fn object_distance(what: &str, mm: f64) -> Result<Option<f64>, LimitError> {
+    if mm.is_nan() {
+        return Err(LimitError::NotANumber {
+            what: what.to_string(),
+        });
+    }
+    Ok((mm.abs() < MAX_LENGTH_MM).then_some(mm))
+}
+
 /// Refuses a length (a diameter, a film size) outside [[`MIN_LENGTH_MM`], [`MAX_LENGTH_MM`]].
 pub fn check_length(what: &str, mm: f64) -> Result<(), LimitError> {
     check_range(what, mm, MIN_LENGTH_MM, MAX_LENGTH_MM)

@@ -141,10 +141,11 @@ impl DesignConditions {
             (None, None) if stated.is_some() => (None, Origin::File),
             (None, None) => (None, Origin::Rule),
         };
-        // One rule for a flag and a file: an object 1000 km away or farther is at infinity
-        // (files write 1e10 for it), where a finite distance would only lose digits.
-        let object_distance_mm =
-            object_distance_mm.filter(|d| d.abs() < crate::limits::MAX_LENGTH_MM);
+        // One rule for a flag and a file.
+        let object_distance_mm = object_distance_mm
+            .map(|d| crate::limits::object_distance("the object distance (mm)", d))
+            .transpose()?
+            .flatten();
         let object = object_distance_mm.map_or(ObjectPosition::Infinite, |distance| {
             ObjectPosition::Finite { distance }
         });

@@ -158,14 +158,6 @@ fn check_options(options: &FigureOptions) -> anyhow::Result<()> {
     if let Some(epd) = options.epd_mm {
         lensbake::limits::check_length("--epd-mm", epd)?;
     }
-    if let Some(distance) = options.object_distance_mm {
-        lensbake::limits::check_range(
-            "--object-distance-mm",
-            distance,
-            f64::NEG_INFINITY,
-            f64::INFINITY,
-        )?;
-    }
     Ok(())
 }
 

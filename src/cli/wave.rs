@@ -134,18 +134,16 @@ impl Setup {
         if let Some(f_number) = args.f_number {
             limits::check_range("--f-number", f_number, 0.5, limits::MAX_F_NUMBER)?;
         }
-        if let Some(distance) = args.object_distance_mm {
-            limits::check_range(
-                "--object-distance-mm",
-                distance,
-                f64::NEG_INFINITY,
-                f64::INFINITY,
-            )?;
-            if args.lens.starts_with("ideal:") {
-                bail!(
-                    "an ideal lens (`ideal:`) images an object at infinity: leave out --object-distance-mm"
-                );
-            }
+        let object_distance_mm = args
+            .object_distance_mm
+            .map(|d| limits::object_distance("--object-distance-mm", d))
+            .transpose()?
+            .flatten();
+        if args.object_distance_mm.is_some() && args.lens.starts_with("ideal:") {
+            bail!(
+                "an ideal lens (`ideal:`) images an object at infinity: leave out \
+                 --object-distance-mm"
+            );
         }
         let (name, subject) = match args.lens.strip_prefix("ideal:") {
             Some(efl) => {
@@ -208,10 +206,7 @@ impl Setup {
             spectrum,
             sampling,
             field_deg: args.field_deg,
-            // As `analyze` reads it: 1000 km or farther is infinity.
-            object_distance_mm: args
-                .object_distance_mm
-                .filter(|d| d.abs() < limits::MAX_LENGTH_MM),
+            object_distance_mm,
         })
     }
 
