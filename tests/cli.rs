@@ -72,6 +72,19 @@ fn check_prints_no_index_outside_a_formula_range() {
         .unwrap_or_else(|| panic!("{out}"));
     assert!(row.contains("B270") && row.contains("outside"), "{out}");
     assert!(out.contains("920 nm is outside the range"), "{out}");
+    // The object medium's line follows the same rule.
+    let immersed = dir.join("immersed.zmx");
+    std::fs::write(
+        &immersed,
+        "MODE SEQ\nENPD 10\nWAVM 1 0.92 1\nSURF 0\n  DISZ 20\n  GLAS B270\nSURF 1\n  STOP\n  \
+         CURV 0.02\n  DISZ 4\n  GLAS B270\n  DIAM 8\nSURF 2\n  CURV -0.02\n  DISZ 45\n  \
+         DIAM 8\nSURF 3\n  DISZ 0\n",
+    )
+    .unwrap();
+    let o = lensbake(&["lens", "check", immersed.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let out = stdout(&o);
+    assert!(out.contains("object:      B270 (n = outside)"), "{out}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

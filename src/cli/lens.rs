@@ -282,10 +282,17 @@ fn summary(lens: &LoadedLens) -> anyhow::Result<String> {
         "none stated; d line"
     };
     line(format!("  wavelength:  {wavelength} nm ({stated})"));
+    // Where a medium's formula does not hold at this wavelength, its value there is an
+    // extrapolation no analysis uses (they refuse the wavelength): none is printed.
+    let index_text =
+        |dispersion: &lensbake::glass::Dispersion| match dispersion.checked_index(wavelength_nm) {
+            Ok(n) => format!("{n:.6}"),
+            Err(_) => "outside".to_string(),
+        };
     line(format!(
-        "  object:      {} (n = {:.6})",
+        "  object:      {} (n = {})",
         p.object_medium.describe(),
-        system.object_dispersion.index(wavelength_nm)
+        index_text(&system.object_dispersion)
     ));
     if let Some(f) = p.provenance.claimed_focal_length_mm {
         line(format!("  claimed EFL: {f} mm"));
@@ -308,12 +315,7 @@ fn summary(lens: &LoadedLens) -> anyhow::Result<String> {
     for (i, s) in p.surfaces.iter().enumerate() {
         let radius = radius_text(&s.shape);
         let kind = shape_name(&s.shape);
-        // Where the medium's formula does not hold at this wavelength, its value there is an
-        // extrapolation no analysis uses (they refuse the wavelength): none is printed.
-        let index = match system.dispersions[i].checked_index(wavelength_nm) {
-            Ok(n) => format!("{n:.6}"),
-            Err(_) => "outside".to_string(),
-        };
+        let index = index_text(&system.dispersions[i]);
         line(format!(
             "  {:>3} {:4} {:>12} {:>11.4} {:11} {:16} {:>9} {:>9.4}",
             i + 1,

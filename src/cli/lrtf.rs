@@ -36,7 +36,8 @@ pub struct BakeArgs {
     /// f-number to bake (default: wide open); the table serves this and every slower one.
     #[arg(long)]
     pub f_number: Option<f64>,
-    /// Object distance in focus, mm in front of surface 1 (default: infinity), or a focus range
+    /// Object distance in focus, mm in front of surface 1 (default: the lens file's object
+    /// distance, else infinity), or a focus range
     /// FAR..NEAR (or FAR,NEAR; `inf` for infinity) that one table serves for every focus
     /// between, e.g. `inf..1000`.
     #[arg(long, value_name = "D | FAR..NEAR", value_parser = parse_focus)]
