@@ -6,6 +6,12 @@
 mod common;
 
 use common::lensbake;
+use lensbake::job::{BackendChoice, FilmSize, ModelChoice, RenderJob, RenderLens};
+use lensbake::model::ModelKind;
+use lensbake::prescription::formats::LoadOptions;
+use lensbake::render::RenderSettings;
+use lensbake::render::chromatic::ChromaticMode;
+use lensbake::render::image::RgbImage;
 
 use std::path::{Path, PathBuf};
 use std::process::Output;
@@ -186,6 +192,59 @@ fn a_sensor_inside_the_lens_is_refused_without_blaming_a_tilt() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// A lens made for a phone-sized sensor (CODE V sample 65564 via rayoptics, EFL 1.5 mm) lights a
+/// speck of a full frame: the film is the largest frame inside its image circle, so the scene
+/// fills the image; asked for, the full frame comes back with its speck.
+#[test]
+fn a_small_format_lens_gets_a_film_inside_its_image_circle() {
+    let path = format!(
+        "{}/tests/data/corpus/rayoptics__CODV_65564.seq",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let lens = lensbake::lenses::load(&path, &LoadOptions::default()).unwrap();
+    let (width, height) = (64, 48);
+    let render = |film_width_mm| {
+        RenderJob {
+            model: ModelChoice::Model(ModelKind::Traced),
+            backend: BackendChoice::Cpu,
+            settings: RenderSettings {
+                width,
+                height,
+                samples_per_pixel: 4,
+                seed: 1,
+                max_layers: 4,
+            },
+            chromatic: ChromaticMode::Off,
+            film_width_mm,
+            ..RenderJob::new(RenderLens::Real(Box::new(lens.clone())))
+        }
+        .run()
+        .unwrap()
+    };
+    let lit = |image: &RgbImage| {
+        let lit = image
+            .pixels
+            .iter()
+            .filter(|p| p.iter().any(|&v| v > 1e-3))
+            .count();
+        lit as f64 / image.pixels.len() as f64
+    };
+    let chosen = render(None);
+    let FilmSize::ImageCircle { diameter_mm } = chosen.prepared.film_size else {
+        panic!("{:?}", chosen.prepared.film_size)
+    };
+    // The circle the real chief ray draws at the largest field it passes: about 2 f tan(23.9 deg)
+    // for this lens, whose rule field (lens check) is 23.85 deg.
+    assert!((1.2..1.4).contains(&diameter_mm), "{diameter_mm}");
+    let film = &chosen.prepared.camera.film;
+    assert!((film.width_mm.hypot(film.height_mm) - diameter_mm).abs() < 1e-12);
+    assert!((film.width_mm / film.height_mm - 4.0 / 3.0).abs() < 1e-12);
+    assert!(lit(&chosen.image) > 0.9, "{}", lit(&chosen.image));
+    let full = render(Some(36.0));
+    assert_eq!(full.prepared.film_size, FilmSize::Asked);
+    assert!(lit(&full.image) < 0.05, "{}", lit(&full.image));
+}
+
 /// A focus distance nobody asked for (render's 2000 mm, or the file's object distance) that the
 /// lens cannot reach is refused naming where it came from and the flags that set another.
 #[test]
@@ -247,6 +306,8 @@ fn bad_sensor_settings_exit_with_code_2_and_say_why() {
             "cannot be used",
         ),
         (vec!["--tilt-deg=-50,0"], "within +-45"),
+        (vec!["--film-mm", "0"], "the film width (mm)"),
+        (vec!["--film-mm", "NaN"], "the film width (mm)"),
         (
             vec!["--tilt-deg", "0,30", "--sensor-mm", "5"],
             "the tilted sensor's corner at z",

@@ -6,8 +6,8 @@ use clap::{Args, ValueEnum};
 use lensbake::analysis::{FileDefaults, FocusFrom};
 use lensbake::job::JobError;
 use lensbake::job::{
-    BackendChoice, BackendUsed, ChromaticReason, DEFAULT_FOCUS_MM, FocusMode, ModelChoice,
-    PeelMode, RenderJob, RenderLens, Rendered, SceneSpec,
+    BackendChoice, BackendUsed, ChromaticReason, DEFAULT_FOCUS_MM, FilmSize, FocusMode,
+    ModelChoice, PeelMode, RenderJob, RenderLens, Rendered, SceneSpec,
 };
 use lensbake::model::{ModelError, ModelKind};
 use lensbake::render::chromatic::{CHANNELS, ChromaticMode};
@@ -78,6 +78,11 @@ pub struct RenderArgs {
     /// Put the film this far behind the first vertex (mm).
     #[arg(long)]
     sensor_mm: Option<f64>,
+    /// Sensor width (mm), its height following the image's aspect [default: full frame, 36 x
+    /// 24 mm cropped to the aspect; for a lens whose image circle is smaller than half the full
+    /// frame's height (a phone or machine-vision lens), the largest frame inside that circle].
+    #[arg(long)]
+    film_mm: Option<f64>,
     /// Sensor shift X,Y (mm).
     #[arg(long, value_parser = parse_pair::<f64>, default_value = "0,0")]
     shift_mm: (f64, f64),
@@ -252,6 +257,7 @@ impl RenderArgs {
             },
             f_number: self.f_number.or(file_f_number),
             focus,
+            film_width_mm: self.film_mm,
             shift_mm: [self.shift_mm.0, self.shift_mm.1],
             tilt_deg: [self.tilt_deg.0, self.tilt_deg.1],
             chromatic: self.chromatic.into(),
@@ -320,6 +326,15 @@ fn say_how_to_focus(error: JobError, unasked_focus: Option<&str>) -> anyhow::Err
 
 /// Prints what the job decided, in the order it decided it.
 fn print_decisions(job: &RenderJob, rendered: &Rendered) {
+    if let FilmSize::ImageCircle { diameter_mm } = rendered.prepared.film_size {
+        let film = &rendered.prepared.camera.film;
+        say!(
+            "film {:.3} x {:.3} mm: the largest frame inside the lens's {diameter_mm:.3} mm image \
+             circle, which would light a speck of a full frame (--film-mm sets the width)",
+            film.width_mm,
+            film.height_mm
+        );
+    }
     if let Some(triangles) = rendered.prepared.scene.triangles {
         let on = match &rendered.prepared.scene.peeled_on_gpu {
             Some(adapter) => format!("the gpu ({adapter})"),

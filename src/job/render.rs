@@ -7,12 +7,12 @@ use super::{
     load_or_bake,
 };
 use crate::lenses::LoadedLens;
-use crate::lrtf::bake::BakeProgress;
+use crate::lrtf::bake::{BakeProgress, chief_ray_film_radius};
 use crate::model::{
     BakedLens, FirstOrderModels, LensModel, ModelKind, PupilSampling, SeidelLens, TracedLens,
     pupil_film_radius,
 };
-use crate::render::camera::{Camera, Film, Focus};
+use crate::render::camera::{Camera, FULL_FRAME_MM, Film, Focus};
 use crate::render::chromatic::{
     CHANNELS, Chromatic, ChromaticMode, ColourSpread, default_wavelengths, wants_chromatic,
 };
@@ -29,6 +29,7 @@ use crate::render::mesh::MeshScene;
 use crate::render::raster::{Peeling, mesh_layer_view, peel_mesh, surfel_count};
 use crate::render::scene::Scene;
 use crate::render::{Backend, RenderError, RenderSettings, render_layers};
+use crate::trace::Tracer;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
@@ -122,6 +123,10 @@ pub struct RenderJob {
     /// None: the lens wide open (f/2.8 for an ideal lens).
     pub f_number: Option<f64>,
     pub focus: FocusMode,
+    /// Sensor width (mm), its height following the image's aspect; None: full frame, or the
+    /// largest frame inside the lens's image circle where that circle is smaller than half a
+    /// full frame's height ([`FilmSize`]).
+    pub film_width_mm: Option<f64>,
     pub shift_mm: [f64; 2],
     /// See [`Film::tilt_deg`].
     pub tilt_deg: [f64; 2],
@@ -152,12 +157,26 @@ impl RenderJob {
             },
             f_number: None,
             focus: FocusMode::Distance(DEFAULT_FOCUS_MM),
+            film_width_mm: None,
             shift_mm: [0.0, 0.0],
             tilt_deg: [0.0, 0.0],
             chromatic: ChromaticMode::Auto,
             wavelengths_nm: None,
         }
     }
+}
+
+/// How the sensor's size was chosen.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum FilmSize {
+    /// The job's `film_width_mm`.
+    Asked,
+    /// Full frame, cropped to the image's aspect.
+    FullFrame,
+    /// The largest frame inside the lens's image circle, `diameter_mm` across at infinity focus
+    /// (the real chief ray at the largest field it passes), which is smaller than half a full
+    /// frame's height: a phone or machine-vision lens would light a speck of a full frame.
+    ImageCircle { diameter_mm: f64 },
 }
 
 /// The scene as the job peeled it.
@@ -256,6 +275,7 @@ pub struct Rendered {
 pub struct PreparedRender {
     /// The camera rendered through (model, film and its placement, colour channels).
     pub camera: Camera,
+    pub film_size: FilmSize,
     pub layers: LayeredDepthImage,
     pub scene: SceneReport,
     pub focus_plane: Option<FocusPlaneReport>,
@@ -353,10 +373,11 @@ impl RenderJob {
             _ => LensModel::Thick(first_order.thick.clone()),
         };
         let settings = &self.settings;
+        let (sized, film_size) = self.film(&first_order)?;
         let film = Film {
             shift_mm: self.shift_mm,
             tilt_deg: self.tilt_deg,
-            ..Film::full_frame_for(settings.width, settings.height)
+            ..sized
         };
         let (source, scene) = self.scene_source()?;
         let (focus, film, focus_plane) =
@@ -449,6 +470,7 @@ impl RenderJob {
         };
         Ok(PreparedRender {
             camera,
+            film_size,
             layers: ldi,
             scene,
             focus_plane,
@@ -457,6 +479,34 @@ impl RenderJob {
             table,
             peel,
         })
+    }
+
+    /// The sensor's size ([`RenderJob::film_width_mm`]), untilted and unshifted.
+    fn film(&self, first_order: &FirstOrderModels) -> Result<(Film, FilmSize), JobError> {
+        let [width, height] = [self.settings.width, self.settings.height];
+        if let Some(width_mm) = self.film_width_mm {
+            crate::limits::check_length("the film width (mm)", width_mm)
+                .map_err(RenderError::from)?;
+            return Ok((Film::of_width(width_mm, width, height), FilmSize::Asked));
+        }
+        let full_frame = (Film::full_frame_for(width, height), FilmSize::FullFrame);
+        let RenderLens::Real(real) = &self.lens else {
+            return Ok(full_frame);
+        };
+        let design = real.system.at(real.system.design_wavelength_nm());
+        let thick = &first_order.thick;
+        let focal_plane = thick.rear_principal_z + thick.focal_length_mm;
+        let diameter_mm = 2.0 * chief_ray_film_radius(&Tracer::new(&design), &design, focal_plane);
+        Ok(
+            if diameter_mm > 0.0 && diameter_mm < 0.5 * FULL_FRAME_MM[1] {
+                (
+                    Film::inside_circle(diameter_mm, width, height),
+                    FilmSize::ImageCircle { diameter_mm },
+                )
+            } else {
+                full_frame
+            },
+        )
     }
 
     fn scene_source(&self) -> Result<(SceneSource, SceneReport), JobError> {

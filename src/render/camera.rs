@@ -64,21 +64,43 @@ impl FilmAxes {
     }
 }
 
+/// A full-frame sensor, width and height in mm.
+pub const FULL_FRAME_MM: [f64; 2] = [36.0, 24.0];
+
 impl Film {
     /// A full-frame sensor cropped to the aspect ratio of `width` x `height` pixels.
     pub fn full_frame_for(width: u32, height: u32) -> Film {
         let aspect = width as f64 / height as f64;
-        let (w, h) = if aspect >= 1.5 {
-            (36.0, 36.0 / aspect)
+        let [full_width, full_height] = FULL_FRAME_MM;
+        let (width_mm, height_mm) = if aspect >= full_width / full_height {
+            (full_width, full_width / aspect)
         } else {
-            (24.0 * aspect, 24.0)
+            (full_height * aspect, full_height)
         };
         Film {
-            width_mm: w,
-            height_mm: h,
+            width_mm,
+            height_mm,
             shift_mm: [0.0, 0.0],
             tilt_deg: [0.0, 0.0],
         }
+    }
+
+    /// An untilted, unshifted sensor `width_mm` across with the aspect ratio of `width` x
+    /// `height` pixels.
+    pub fn of_width(width_mm: f64, width: u32, height: u32) -> Film {
+        Film {
+            width_mm,
+            height_mm: width_mm * height as f64 / width as f64,
+            shift_mm: [0.0, 0.0],
+            tilt_deg: [0.0, 0.0],
+        }
+    }
+
+    /// The largest sensor with the aspect ratio of `width` x `height` pixels whose corners lie
+    /// on a circle `diameter_mm` across.
+    pub fn inside_circle(diameter_mm: f64, width: u32, height: u32) -> Film {
+        let (w, h) = (width as f64, height as f64);
+        Film::of_width(diameter_mm * w / w.hypot(h), width, height)
     }
 
     pub fn axes(&self) -> FilmAxes {
