@@ -47,6 +47,10 @@ pub struct ViewArgs {
     /// Focus on the plane this far in front of the first vertex (mm) at the start.
     #[arg(long, default_value_t = DEFAULT_FOCUS_MM)]
     focus_mm: f64,
+    /// Sensor width (mm), as `render --film-mm` [default: full frame, or the largest frame
+    /// inside the image circle of a lens whose circle is smaller than half its height].
+    #[arg(long)]
+    film_mm: Option<f64>,
     #[arg(long, value_enum, default_value = "auto")]
     backend: BackendArg,
     #[arg(long, value_enum, default_value = "off")]
@@ -102,6 +106,7 @@ pub fn run(args: ViewArgs) -> anyhow::Result<()> {
         },
         f_number: args.f_number,
         focus: FocusMode::Distance(args.focus_mm),
+        film_width_mm: args.film_mm,
         chromatic: args.chromatic.into(),
         ..RenderJob::new(lens)
     };
