@@ -94,18 +94,22 @@ def hostile_rays(rng):
 def command_for(rng, lens, work, outputs):
     field = str(rng.choice([0, 1, 5, 20, 45, 89]))
     kind = rng.choice(["analyze", "plot", "report", "psf", "mtf", "trace", "bake", "render"])
+    # A finite object now and then, from touching the lens to far away.
+    near = (["--object-distance-mm", str(rng.choice([1e-3, 0.5, 5, 50, 500, 5000, 1e6]))]
+            if rng.random() < 0.3 else [])
     if kind == "analyze":
-        return [BINARY, "analyze", lens, "--json", "--field-deg", field]
+        return [BINARY, "analyze", lens, "--json", "--field-deg", field] + near
     if kind == "plot":
-        return [BINARY, "plot", rng.choice(PLOTS), lens, "--out", f"{outputs}/plot.png"]
+        return [BINARY, "plot", rng.choice(PLOTS), lens, "--out", f"{outputs}/plot.png"] + near
     if kind == "report":
-        return [BINARY, "report", lens, "--out", f"{outputs}/report"]
+        return [BINARY, "report", lens, "--out", f"{outputs}/report"] + near
     if kind == "psf":
         huygens = ["--huygens"] if rng.random() < 0.3 else []
         return [BINARY, "psf", lens, "--field-deg", field, "--samples", "16", "--grid", "32",
-                "--out", f"{outputs}/psf.exr"] + huygens
+                "--out", f"{outputs}/psf.exr"] + huygens + near
     if kind == "mtf":
-        return [BINARY, "mtf", lens, "--field-deg", field, "--samples", "16", "--grid", "32"]
+        return [BINARY, "mtf", lens, "--field-deg", field, "--samples", "16", "--grid",
+                "32"] + near
     if kind == "trace":
         rays = f"{work}/rays.json"
         with open(rays, "w") as f:
@@ -116,8 +120,9 @@ def command_for(rng, lens, work, outputs):
         return [BINARY, "bake", lens, "--resolution", "8", "--out", f"{outputs}/table"]
     model = rng.choice(["traced", "baked", "thin", "thick", "seidel"])
     table = ["--table", f"{outputs}/table", "--bake-resolution", "8"] if model == "baked" else []
+    film = ["--film-mm", str(rng.choice([0.5, 5, 100]))] if rng.random() < 0.2 else []
     return [BINARY, "render", "--lens", lens, "--model", model, "--backend", "cpu", "--width",
-            "32", "--height", "24", "--spp", "4", "--out", f"{outputs}/render.exr"] + table
+            "32", "--height", "24", "--spp", "4", "--out", f"{outputs}/render.exr"] + table + film
 
 
 def commands_case(rng, lens, work):
