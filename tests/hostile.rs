@@ -1142,6 +1142,7 @@ fn absurd_numeric_arguments_end_cleanly() {
         (render, "--f-number", reals),
         (render, "--focus-mm", reals),
         (render, "--sensor-mm", reals),
+        (render, "--film-mm", reals),
         (bake, "--resolution", integers),
         (bake, "--f-number", reals),
         (bake, "--focus-mm", reals),
