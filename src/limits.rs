@@ -81,6 +81,16 @@ pub fn object_distance(what: &str, mm: f64) -> Result<Option<f64>, LimitError> {
     Ok((mm.abs() < MAX_LENGTH_MM).then_some(mm))
 }
 
+/// An object distance (mm from the first vertex) as a reader wants it: `d mm before surface 1`,
+/// or behind it for a virtual object; `decimals` digits after the point.
+pub fn object_place(distance_mm: f64, decimals: usize) -> String {
+    if distance_mm < 0.0 {
+        format!("{:.decimals$} mm behind surface 1 (virtual)", -distance_mm)
+    } else {
+        format!("{distance_mm:.decimals$} mm before surface 1")
+    }
+}
+
 /// Refuses a length (a diameter, a film size) outside [[`MIN_LENGTH_MM`], [`MAX_LENGTH_MM`]].
 pub fn check_length(what: &str, mm: f64) -> Result<(), LimitError> {
     check_range(what, mm, MIN_LENGTH_MM, MAX_LENGTH_MM)

@@ -224,21 +224,21 @@ fn list_names_every_bundled_lens() {
     }
 }
 
-/// A condition the file states that no analysis can use (here a virtual object, DISZ -100 on
-/// SURF 0) fails `lens check` as it fails `analyze`, on the keyword's line, and the report
+/// A condition the file states that no analysis can use (here an object on the first vertex,
+/// DISZ 0 on SURF 0) fails `lens check` as it fails `analyze`, on the keyword's line, and the report
 /// writes nothing rather than a page of skipped plots; a bake refuses it only where no flag
 /// replaces it.
 #[test]
 fn a_stated_condition_no_analysis_can_use_fails_check_and_report_on_its_line() {
     let dir = temp_dir("stated");
-    let path = dir.join("virtual-object.zmx");
+    let path = dir.join("object-on-surface-1.zmx");
     let base = include_str!("../examples/lenses/cooke_triplet.zmx");
-    let text = base.replacen("  DISZ INFINITY", "  DISZ -100", 1);
+    let text = base.replacen("  DISZ INFINITY", "  DISZ 0", 1);
     assert_ne!(text, base);
     std::fs::write(&path, text).unwrap();
     let expected = format!(
         "error: {}:32, field `DISZ`: the lens file's object distance: object distance must be \
-         positive",
+         finite and not zero",
         path.display()
     );
     let report = dir.join("report");

@@ -300,12 +300,12 @@ fn unusable_stated_conditions_are_located_where_the_file_states_them() {
     let zemax = include_str!("../examples/lenses/cooke_triplet.zmx");
     let codev = include_str!("../examples/lenses/ag_dblgauss.seq");
     let cases = [
-        // A virtual object (SURF 0's DISZ, line 32).
+        // An object on the first vertex (SURF 0's DISZ, line 32).
         (
             zemax,
             Format::Zemax,
             "  DISZ INFINITY",
-            "  DISZ -100",
+            "  DISZ 0",
             StatedCondition::Object,
             32,
             "DISZ",
@@ -334,7 +334,7 @@ fn unusable_stated_conditions_are_located_where_the_file_states_them() {
             codev,
             Format::CodeV,
             "SO    0.0 993938392063.0",
-            "SO 0 -50",
+            "SO 0 0",
             StatedCondition::Object,
             14,
             "SO",
@@ -394,7 +394,7 @@ fn unusable_stated_conditions_are_located_where_the_file_states_them() {
                     StatedCondition::Object => {
                         matches!(
                             *error,
-                            AnalysisError::Paraxial(ParaxialError::ObjectNotInFront { .. })
+                            AnalysisError::Paraxial(ParaxialError::InvalidObjectDistance { .. })
                         )
                     }
                     StatedCondition::Fields => matches!(

@@ -9,10 +9,14 @@ use lensbake::prescription::Prescription;
 use lensbake::report::{Figure, FigureOptions, PlotKind, figure};
 use lensbake::system::LensSystem;
 
-fn relay() -> LensSystem {
-    let text = std::fs::read_to_string(test_data("perfect_relay.ron")).unwrap();
+fn test_lens(file: &str) -> LensSystem {
+    let text = std::fs::read_to_string(test_data(file)).unwrap();
     let prescription: Prescription = ron::from_str(&text).unwrap();
     LensSystem::from_prescription(prescription).unwrap()
+}
+
+fn relay() -> LensSystem {
+    test_lens("perfect_relay.ron")
 }
 
 /// The relay's conjugate: its object point lies at the focus of its first hyperboloid.
@@ -25,8 +29,8 @@ fn at_distance(object_distance_mm: Option<f64>) -> FigureOptions {
     }
 }
 
-fn lsa_extent(options: &FigureOptions) -> f64 {
-    let Figure::Lsa(lsa) = figure(PlotKind::Lsa, "relay", &relay(), options).unwrap() else {
+fn lsa_extent(system: &LensSystem, options: &FigureOptions) -> f64 {
+    let Figure::Lsa(lsa) = figure(PlotKind::Lsa, "lens", system, options).unwrap() else {
         panic!("not an LSA plot")
     };
     assert!(lsa.curves[0].points.len() > 30);
@@ -43,8 +47,8 @@ fn lsa_extent(options: &FigureOptions) -> f64 {
 #[test]
 fn a_perfect_relay_plots_no_axial_aberration_at_its_conjugate() {
     let near = at_distance(Some(RELAY_OBJECT_MM));
-    assert!(lsa_extent(&near) < 1e-10, "{}", lsa_extent(&near));
-    assert!(lsa_extent(&at_distance(None)) > 0.1);
+    assert!(lsa_extent(&relay(), &near) < 1e-10);
+    assert!(lsa_extent(&relay(), &at_distance(None)) > 0.1);
 
     let Figure::RayFan(fan) = figure(PlotKind::RayFan, "relay", &relay(), &near).unwrap() else {
         panic!("not a ray fan")
@@ -183,5 +187,65 @@ fn finite_object_fans_and_lsa_match_the_oracle() {
             (ours - truth).abs() < 5e-6,
             "LSA at {rho}: {ours} vs {truth}"
         );
+    }
+}
+
+/// A virtual object: a beam converging on a point behind the first vertex, as a relay or an
+/// eyepiece receives it. One refracting sphere (tests/data/aplanatic_surface.ron, R = 20 mm,
+/// n = 1.5) refracts a beam converging on its outer aplanatic point, n R beyond its centre
+/// (50 mm behind the vertex), exactly onto the inner one, R / n beyond it (z = 100/3 mm): at
+/// that conjugate the paraxial image lies there, the LSA and the axial OPD vanish to rounding
+/// (from infinity the LSA reaches 3.5 mm), and the layout's rays converge on the image point.
+#[test]
+fn a_virtual_object_is_traced_converging_on_its_point() {
+    let sphere = test_lens("aplanatic_surface.ron");
+    let virtual_object = at_distance(Some(-50.0));
+    let conditions = virtual_object.conditions(&sphere).unwrap();
+    let rows = conditions.summary_rows();
+    assert!(
+        rows.iter()
+            .any(|(_, value, _)| value == "50.000 mm behind surface 1 (virtual)"),
+        "{rows:?}"
+    );
+    assert!(lsa_extent(&sphere, &virtual_object) < 1e-10);
+    assert!(lsa_extent(&sphere, &at_distance(None)) > 1.0);
+
+    let Figure::Layout(layout) =
+        figure(PlotKind::Layout, "sphere", &sphere, &virtual_object).unwrap()
+    else {
+        panic!("not a layout")
+    };
+    let image_z = 100.0 / 3.0;
+    assert!(
+        (layout.image_z - image_z).abs() < 1e-12,
+        "{}",
+        layout.image_z
+    );
+    let axial: Vec<_> = layout.rays.iter().filter(|r| r.field_deg == 0.0).collect();
+    assert_eq!(axial.len(), 5);
+    for ray in axial {
+        let end = *ray.path.last().unwrap();
+        assert!(
+            (end.0 - image_z).abs() < 1e-9 && end.1.abs() < 1e-9,
+            "{end:?}"
+        );
+        // Drawn from in front of the lens, not from the point behind it.
+        assert!(ray.path[0].0 < 0.0, "{:?}", ray.path[0]);
+    }
+
+    let Figure::OpdFan(opd) = figure(PlotKind::OpdFan, "sphere", &sphere, &virtual_object).unwrap()
+    else {
+        panic!("not an OPD fan")
+    };
+    let axis = opd.fields.iter().find(|f| f.field_deg == 0.0).unwrap();
+    let points: Vec<_> = axis
+        .tangential
+        .iter()
+        .chain(&axis.sagittal)
+        .flat_map(|c| &c.points)
+        .collect();
+    assert!(points.len() > 30);
+    for &(rho, waves) in points {
+        assert!(waves.abs() < 1e-6, "pupil {rho}: {waves} waves");
     }
 }

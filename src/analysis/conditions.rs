@@ -312,9 +312,8 @@ impl DesignConditions {
             ),
             (
                 "object".into(),
-                self.object_distance_mm.map_or("at infinity".into(), |d| {
-                    format!("{d:.3} mm before surface 1")
-                }),
+                self.object_distance_mm
+                    .map_or("at infinity".into(), |d| crate::limits::object_place(d, 3)),
                 self.object_from.describe(),
             ),
             (
@@ -431,6 +430,7 @@ fn blame(
         StatedCondition::Object => matches!(
             error,
             ParaxialError::ObjectNotInFront { .. }
+                | ParaxialError::InvalidObjectDistance { .. }
                 | ParaxialError::ObjectAtEntrancePupil
                 | ParaxialError::ObjectAtFrontFocalPlane
                 | ParaxialError::VirtualImage { .. }
@@ -580,7 +580,7 @@ fn stated_epd(
                      above it (n = {n:.6})"
                 ));
             }
-            2.0 * (distance + probe.entrance_pupil.z) * (na / n).asin().tan()
+            2.0 * (distance + probe.entrance_pupil.z).abs() * (na / n).asin().tan()
         }
         (ApertureSpec::ObjectNumericalAperture(na), None) => {
             return unusable(format!(
@@ -637,8 +637,9 @@ fn stated_fields(
     let (to_angle, field): (Box<dyn Fn(f64) -> f64>, Field) =
         match (fields.kind, object_distance_mm) {
             (FieldKind::AngleDeg, _) => (Box::new(|a| a), Field::Angle { deg: largest }),
+            // A virtual object lies behind the entrance pupil: the angle is the same magnitude.
             (FieldKind::ObjectHeight, Some(d)) => (
-                Box::new(move |h| (h / (d + pupil_z)).atan().to_degrees()),
+                Box::new(move |h| (h / (d + pupil_z).abs()).atan().to_degrees()),
                 Field::ObjectHeight { mm: largest },
             ),
             (FieldKind::ObjectHeight, None) => return Err(ParaxialError::ObjectHeightAtInfinity),
@@ -656,7 +657,7 @@ fn stated_fields(
                     return Ok(None);
                 };
                 (
-                    Box::new(move |h| (h / m.abs() / (d + pupil_z)).atan().to_degrees()),
+                    Box::new(move |h| (h / m.abs() / (d + pupil_z).abs()).atan().to_degrees()),
                     Field::ObjectHeight {
                         mm: largest / m.abs(),
                     },

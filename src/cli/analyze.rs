@@ -67,7 +67,7 @@ fn report(a: &Analysis) -> String {
     let s = &a.seidel;
     let mut out = String::new();
     let object = a.object_distance_mm.map_or("at infinity".to_string(), |d| {
-        format!("{d:.4} mm before surface 1")
+        lensbake::limits::object_place(d, 4)
     });
     let _ = writeln!(out, "{}", a.lens);
     let _ = writeln!(

@@ -50,7 +50,8 @@ impl ObjectPosition {
         }
     }
 
-    /// Checks that a finite object lies in front of surface 1 at a finite distance.
+    /// Checks that a finite object lies in front of surface 1 at a finite distance: a real
+    /// object, the only kind a sensor can be focused on.
     fn checked(self) -> Result<ObjectPosition, ParaxialError> {
         match self {
             ObjectPosition::Finite { distance } if !(distance.is_finite() && distance > 0.0) => {
@@ -58,6 +59,23 @@ impl ObjectPosition {
             }
             other => Ok(other),
         }
+    }
+
+    /// Checks that a finite object lies at a finite distance off the first vertex: in front of
+    /// it (real), or behind it (virtual: a beam converging on a point behind surface 1, as a
+    /// relay or an eyepiece receives it), which the analyses take too.
+    fn checked_real_or_virtual(self) -> Result<ObjectPosition, ParaxialError> {
+        match self {
+            ObjectPosition::Finite { distance } if !(distance.is_finite() && distance != 0.0) => {
+                Err(ParaxialError::InvalidObjectDistance { distance })
+            }
+            other => Ok(other),
+        }
+    }
+
+    /// Whether the object is virtual (behind surface 1).
+    pub fn is_virtual(&self) -> bool {
+        matches!(self, ObjectPosition::Finite { distance } if *distance < 0.0)
     }
 }
 
@@ -80,6 +98,11 @@ pub enum ParaxialError {
         "object distance must be positive and finite (the object lies in front of surface 1), got {distance} mm"
     )]
     ObjectNotInFront { distance: f64 },
+    #[error(
+        "object distance must be finite and not zero (negative for a virtual object behind \
+         surface 1), got {distance} mm"
+    )]
+    InvalidObjectDistance { distance: f64 },
     #[error("the object lies in the entrance-pupil plane, so no chief or marginal ray joins them")]
     ObjectAtEntrancePupil,
     #[error("the object lies in the front focal plane: its image is at infinity")]

@@ -99,7 +99,7 @@ pub fn exit_pupil(system: &SystemAt, stop: usize) -> Option<(f64, f64)> {
 /// The surface (0-based) whose clear aperture first limits an axial beam from `object`: the
 /// smallest ratio of semi-aperture to the height of any axial ray.
 pub fn limiting_surface(system: &SystemAt, object: ObjectPosition) -> Result<usize, ParaxialError> {
-    let axial = match object.checked()? {
+    let axial = match object.checked_real_or_virtual()? {
         ObjectPosition::Infinite => ParaxialRay::trace(system, 1.0, 0.0),
         ObjectPosition::Finite { distance } => ParaxialRay::trace(system, 1.0, 1.0 / distance),
     };
@@ -176,7 +176,7 @@ pub struct Paraxial {
 impl Paraxial {
     /// Builds the model; fails where a pupil, the image or the field does not exist.
     pub fn new(system: &SystemAt, options: &ParaxialOptions) -> Result<Paraxial, ParaxialError> {
-        let object = options.object.checked()?;
+        let object = options.object.checked_real_or_virtual()?;
         let first_order = FirstOrder::of(system)?;
         let stop = match options.stop {
             StopChoice::Marked => system.stop,

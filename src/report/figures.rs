@@ -747,8 +747,12 @@ fn layout_plot(
                     start_z: tracer.front_start_z(),
                 }
             }
-            Some(distance) => RaySource::Point {
+            Some(distance) if distance > 0.0 => RaySource::Point {
                 position: [0.0, wide_open.field_at_angle(field_deg), -distance],
+            },
+            Some(distance) => RaySource::Converging {
+                position: [0.0, wide_open.field_at_angle(field_deg), -distance],
+                start_z: tracer.front_start_z(),
             },
         };
         plot.rays.extend(layout_rays(
@@ -799,7 +803,7 @@ fn layout_rays(
     let first_vertex = at.surfaces[0].vertex_z;
     let object_z = match source {
         RaySource::Point { position } => position[2],
-        RaySource::Collimated { .. } => f64::NEG_INFINITY,
+        RaySource::Collimated { .. } | RaySource::Converging { .. } => f64::NEG_INFINITY,
     };
     let near_object = object_z >= first_vertex - (image_z - first_vertex).abs();
     let draw_from = |ray: &crate::trace::Ray| {

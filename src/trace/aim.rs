@@ -16,6 +16,9 @@ pub enum RaySource {
     Collimated { direction: Vec3, start_z: f64 },
     /// A point object at `position`; rays leave it towards +z.
     Point { position: Vec3 },
+    /// A virtual point object at `position`, behind the front of the lens: rays converge on it,
+    /// starting on the plane z = `start_z` in front of the lens.
+    Converging { position: Vec3, start_z: f64 },
 }
 
 /// Why no ray could be aimed.
@@ -36,18 +39,30 @@ const AIM_MAX_HALVINGS: usize = 40;
 
 impl RaySource {
     /// The ray fixed by the two unknowns `v`.
-    fn ray(&self, v: [f64; 2]) -> Option<Ray> {
+    pub(crate) fn ray(&self, v: [f64; 2]) -> Option<Ray> {
         match *self {
             RaySource::Collimated { direction, start_z } => {
                 Ray::new([v[0], v[1], start_z], direction).ok()
             }
             RaySource::Point { position } => Ray::new(position, [v[0], v[1], 1.0]).ok(),
+            RaySource::Converging { position, start_z } => {
+                let back = start_z - position[2];
+                Ray::new(
+                    [
+                        position[0] + back * v[0],
+                        position[1] + back * v[1],
+                        start_z,
+                    ],
+                    [v[0], v[1], 1.0],
+                )
+                .ok()
+            }
         }
     }
 
     /// Unknowns of the ray that would pass the axial point z = `z` at height (x, y) if the lens
     /// were not there; the paraxial entrance pupil makes this a good first guess.
-    fn unknowns_through(&self, point: Vec3) -> [f64; 2] {
+    pub(crate) fn unknowns_through(&self, point: Vec3) -> [f64; 2] {
         match *self {
             RaySource::Collimated { direction, start_z } => {
                 let back = (point[2] - start_z) / direction[2];
@@ -56,7 +71,8 @@ impl RaySource {
                     point[1] - back * direction[1],
                 ]
             }
-            RaySource::Point { position } => {
+            // The line's tangents, whichever side of the point the object lies.
+            RaySource::Point { position } | RaySource::Converging { position, .. } => {
                 let dz = point[2] - position[2];
                 [(point[0] - position[0]) / dz, (point[1] - position[1]) / dz]
             }
@@ -148,7 +164,9 @@ fn search_start(
     // for a point object: scale the search to sweep the same region of surface 1.
     let radius = match *source {
         RaySource::Collimated { .. } => reach,
-        RaySource::Point { position } => reach / (first.vertex_z - position[2]).abs().max(1e-9),
+        RaySource::Point { position } | RaySource::Converging { position, .. } => {
+            reach / (first.vertex_z - position[2]).abs().max(1e-9)
+        }
     };
     let mut best: Option<([f64; 2], [f64; 2])> = None;
     for ring in 1..=SEARCH_RINGS {

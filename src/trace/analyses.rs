@@ -190,8 +190,12 @@ impl RealRays {
                     start_z: self.start_z,
                 })
             }
-            Some(distance) if field.is_finite() => Ok(RaySource::Point {
+            Some(distance) if field.is_finite() && distance > 0.0 => Ok(RaySource::Point {
                 position: [0.0, field, -distance],
+            }),
+            Some(distance) if field.is_finite() => Ok(RaySource::Converging {
+                position: [0.0, field, -distance],
+                start_z: self.start_z,
             }),
             _ => Err(RealRayError::InvalidField { field }),
         }
@@ -213,6 +217,7 @@ impl RealRays {
                     ],
                     direction,
                 )
+                .ok()
             }
             RaySource::Point { position } => Ray::new(
                 position,
@@ -221,11 +226,15 @@ impl RealRays {
                     target[1] - position[1],
                     target[2] - position[2],
                 ],
-            ),
+            )
+            .ok(),
+            converging @ RaySource::Converging { .. } => {
+                converging.ray(converging.unknowns_through(target))
+            }
         };
         // Paraxial::new refuses an object in the pupil plane, so only absurd pupil
         // coordinates can fail here.
-        ray.map_err(|_| RealRayError::InvalidField { field })
+        ray.ok_or(RealRayError::InvalidField { field })
     }
 
     /// The real chief ray of `field`, aimed at the stop centre (apertures ignored).
@@ -466,10 +475,21 @@ impl RealRays {
     }
 
     /// `chief` moved sideways by `offset` (mm) in the entrance pupil: its start point for a
-    /// collimated beam, its aim for a point object.
+    /// collimated beam, its aim for a point object, real or virtual.
     fn shifted(&self, chief: Ray, source: &RaySource, offset: [f64; 2]) -> Ray {
         let (p, d) = (chief.position(), chief.direction());
         let moved = match source {
+            RaySource::Converging { .. } => {
+                let reach = (self.paraxial.entrance_pupil.z - p[2]) / d[2];
+                let through = [
+                    p[0] + d[0] * reach + offset[0],
+                    p[1] + d[1] * reach + offset[1],
+                    self.paraxial.entrance_pupil.z,
+                ];
+                return source
+                    .ray(source.unknowns_through(through))
+                    .expect("a small shift of a valid ray is a valid ray");
+            }
             RaySource::Collimated { .. } => Ray::new([p[0] + offset[0], p[1] + offset[1], p[2]], d),
             RaySource::Point { .. } => {
                 let reach = (self.paraxial.entrance_pupil.z - p[2]) / d[2];

@@ -302,9 +302,15 @@ fn trace_real(
     // says which way light travels there.
     let image_index = at.image_index().abs();
     let chief_start = real.pupil_ray(field, 0.0, 0.0)?;
+    // A point on the incident wavefront: the chief ray's start on a collimated beam's plane, the
+    // object point of a real or a virtual object.
+    let wavefront_origin = match object {
+        ObjectPosition::Infinite => chief_start.position(),
+        ObjectPosition::Finite { distance } => [0.0, field, -distance],
+    };
     let trace = |px: f64, py: f64, apertures: Apertures| -> Result<Option<ExitRay>, WaveError> {
         let ray = real.pupil_ray(field, px, py)?;
-        Ok(exit_ray(&real, &at, ray, &chief_start, apertures))
+        Ok(exit_ray(&real, &at, ray, wavefront_origin, apertures))
     };
     let chief = trace(0.0, 0.0, Apertures::Ignored)?.ok_or(RealRayError::ChiefRay {
         field: field_deg,
@@ -359,13 +365,14 @@ fn trace_real(
     })
 }
 
-/// Traces `ray` and sums its optical path: from the incident wavefront through `chief_start`
-/// (a plane normal to a collimated beam, or the object point) to the last surface.
+/// Traces `ray` and sums its optical path: from the incident wavefront through `origin` (a plane
+/// normal to a collimated beam, or a sphere about the object point)
+/// to the last surface.
 fn exit_ray(
     real: &RealRays,
     at: &SystemAt,
     ray: Ray,
-    chief_start: &Ray,
+    origin: Vec3,
     apertures: Apertures,
 ) -> Option<ExitRay> {
     let path = real.tracer().trace_path(ray, Travel::Forward, apertures);
@@ -376,8 +383,9 @@ fn exit_ray(
     let launch = ray.direction();
     // Collimated rays start on one plane z = const, which is not a wavefront when the beam is
     // oblique: add the incident path from the plane normal to the beam through the chief's
-    // start. A point object's rays share their start, so this term is zero for them.
-    let origin = chief_start.position();
+    // start. A real point object's rays share their start, so this term is zero for them; a
+    // virtual object's start on a plane before the lens, short of the point they converge on
+    // by the (negative) path this term adds.
     let mut optical_path = at.object_index
         * ((start[0] - origin[0]) * launch[0]
             + (start[1] - origin[1]) * launch[1]
