@@ -22,7 +22,8 @@ pub struct AnalyzeArgs {
     /// aperture imaged to object space].
     #[arg(long, allow_negative_numbers = true)]
     pub epd_mm: Option<f64>,
-    /// Object distance from the first vertex in mm [default: the lens file's, else infinity].
+    /// Object distance from the first vertex in mm [default: the lens file's, else infinity];
+    /// negative for a virtual object (a beam converging on a point behind the first vertex).
     #[arg(long, allow_negative_numbers = true)]
     pub object_distance_mm: Option<f64>,
     /// Take as aperture stop the surface that limits the axial beam, not the marked one.

@@ -50,8 +50,8 @@ pub struct ConditionArgs {
     epd_mm: Option<f64>,
     /// Object distance from the first vertex in mm [default: the lens file's, else infinity];
     /// a finite object's points are traced where they are, and named by the angle their chief
-    /// ray makes at the entrance-pupil centre.
-    #[arg(long)]
+    /// ray makes at the entrance-pupil centre; negative for a virtual object.
+    #[arg(long, allow_negative_numbers = true)]
     object_distance_mm: Option<f64>,
 }
 

@@ -26,8 +26,8 @@ pub struct WaveArgs {
     /// point's chief ray makes at the entrance-pupil centre.
     #[arg(long, allow_negative_numbers = true)]
     pub field_deg: f64,
-    /// Object distance from the first vertex in mm [default: infinity]; the image plane is its
-    /// paraxial conjugate.
+    /// Object distance from the first vertex in mm [default: infinity], negative for a virtual
+    /// object; the image plane is its paraxial conjugate.
     #[arg(long, allow_negative_numbers = true)]
     pub object_distance_mm: Option<f64>,
     /// Entrance-pupil diameter in mm [default: the stop's clear aperture imaged to object space].
