@@ -94,8 +94,8 @@ def hostile_rays(rng):
 def command_for(rng, lens, work, outputs):
     field = str(rng.choice([0, 1, 5, 20, 45, 89]))
     kind = rng.choice(["analyze", "plot", "report", "psf", "mtf", "trace", "bake", "render"])
-    # A finite object now and then, from touching the lens to far away.
-    near = (["--object-distance-mm", str(rng.choice([1e-3, 0.5, 5, 50, 500, 5000, 1e6]))]
+    # A finite object now and then, from touching the lens to far away, or a virtual one.
+    near = (["--object-distance-mm=" + str(rng.choice([1e-3, 0.5, 5, 50, 500, 5000, 1e6, -5, -50]))]
             if rng.random() < 0.3 else [])
     if kind == "analyze":
         return [BINARY, "analyze", lens, "--json", "--field-deg", field] + near
