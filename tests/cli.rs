@@ -55,35 +55,30 @@ fn check_prints_a_summary() {
 #[test]
 fn check_prints_no_index_outside_a_formula_range() {
     let dir = temp_dir("range");
-    let path = dir.join("b270.zmx");
-    std::fs::write(
-        &path,
-        "MODE SEQ\nENPD 10\nWAVM 1 0.92 1\nSURF 0\n  DISZ INFINITY\nSURF 1\n  STOP\n  \
-         CURV 0.02\n  DISZ 4\n  GLAS B270\n  DIAM 8\nSURF 2\n  CURV -0.02\n  DISZ 45\n  \
-         DIAM 8\nSURF 3\n  DISZ 0\n",
-    )
-    .unwrap();
-    let o = lensbake(&["lens", "check", path.to_str().unwrap()]);
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    let out = stdout(&o);
+    // The same B270 lens in air, and with its object in B270 too.
+    let check = |name: &str, object: &str| -> String {
+        let path = dir.join(name);
+        std::fs::write(
+            &path,
+            format!(
+                "MODE SEQ\nENPD 10\nWAVM 1 0.92 1\nSURF 0\n{object}SURF 1\n  STOP\n  CURV \
+                 0.02\n  DISZ 4\n  GLAS B270\n  DIAM 8\nSURF 2\n  CURV -0.02\n  DISZ 45\n  \
+                 DIAM 8\nSURF 3\n  DISZ 0\n"
+            ),
+        )
+        .unwrap();
+        let o = lensbake(&["lens", "check", path.to_str().unwrap()]);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        stdout(&o)
+    };
+    let out = check("b270.zmx", "  DISZ INFINITY\n");
     let row = out
         .lines()
         .find(|l| l.trim_start().starts_with("1 STO"))
         .unwrap_or_else(|| panic!("{out}"));
     assert!(row.contains("B270") && row.contains("outside"), "{out}");
     assert!(out.contains("920 nm is outside the range"), "{out}");
-    // The object medium's line follows the same rule.
-    let immersed = dir.join("immersed.zmx");
-    std::fs::write(
-        &immersed,
-        "MODE SEQ\nENPD 10\nWAVM 1 0.92 1\nSURF 0\n  DISZ 20\n  GLAS B270\nSURF 1\n  STOP\n  \
-         CURV 0.02\n  DISZ 4\n  GLAS B270\n  DIAM 8\nSURF 2\n  CURV -0.02\n  DISZ 45\n  \
-         DIAM 8\nSURF 3\n  DISZ 0\n",
-    )
-    .unwrap();
-    let o = lensbake(&["lens", "check", immersed.to_str().unwrap()]);
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    let out = stdout(&o);
+    let out = check("immersed.zmx", "  DISZ 20\n  GLAS B270\n");
     assert!(out.contains("object:      B270 (n = outside)"), "{out}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
