@@ -241,6 +241,40 @@ fn the_rule_is_the_last_passing_chief_ray_capped_well_below_90_degrees() {
     assert!(!chief_ray_passes(&telephoto, top + 1e-6));
 }
 
+/// For a finite object the rule traces each angle's chief ray from its object point: the
+/// analytic relay 40 mm out passes up to 22.70 degrees at the entrance pupil (22.38 from
+/// infinity), and the point just beyond is stopped.
+#[test]
+fn the_rule_for_a_finite_object_traces_from_its_points() {
+    let text = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/perfect_relay.ron"),
+    )
+    .unwrap();
+    let relay = LensSystem::from_prescription(ron::from_str(&text).unwrap()).unwrap();
+    let near = resolve(
+        &relay,
+        &ConditionOverrides {
+            object_distance_mm: Some(40.0),
+            ..ConditionOverrides::default()
+        },
+    );
+    assert_eq!(near.field_from, Origin::Rule);
+    let top = near.field_deg();
+    let far = resolve(&relay, &ConditionOverrides::default()).field_deg();
+    assert!((top - far).abs() > 0.1, "{top} against {far} from infinity");
+    let at = relay.at(near.reference_nm);
+    let paraxial = lensbake::paraxial::Paraxial::new(&at, &near.paraxial_options()).unwrap();
+    let tracer = Tracer::new(&at);
+    let passes = |deg: f64| {
+        let source =
+            RaySource::finite_object(40.0, paraxial.field_at_angle(deg), tracer.front_start_z());
+        aim_at_stop(&tracer, &source, [0.0, 0.0])
+            .is_ok_and(|ray| tracer.trace(ray, Travel::Forward).outcome.is_ok())
+    };
+    assert!(passes(top));
+    assert!(!passes(top + 1e-6));
+}
+
 #[test]
 fn a_claimed_f_number_sets_the_pupil_only_where_the_stop_allows_it() {
     // The telephoto claims f/5.6; its stop opens to f/5.42, so f/5.6 is used.

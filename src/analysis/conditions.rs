@@ -14,7 +14,7 @@ use crate::paraxial::{
 };
 use crate::prescription::{ApertureSpec, FieldKind, FieldSpec, Prescription, StatedCondition};
 use crate::system::{LensSystem, SystemAt};
-use crate::trace::{Tracer, traceable_field_deg};
+use crate::trace::{RaySource, Tracer, traceable_field_deg, traceable_field_deg_from};
 use serde::Serialize;
 
 /// Largest half field the rule picks (degrees). A lens whose clear apertures pass the chief
@@ -226,7 +226,7 @@ impl DesignConditions {
         } else if let Some(deg) = claimed.claimed_half_field_deg {
             (fractions_of(deg), Field::Angle { deg }, Origin::Source)
         } else {
-            let deg = rule_field_deg(&at);
+            let deg = rule_field_deg_for(&at, &wide_open);
             (fractions_of(deg), Field::Angle { deg }, Origin::Rule)
         };
 
@@ -514,6 +514,21 @@ pub fn stated_as_analysed(system: &LensSystem) -> Prescription {
 /// every clear aperture at the reference wavelength, at most [`RULE_MAX_FIELD_DEG`].
 pub fn rule_field_deg(at: &SystemAt) -> f64 {
     traceable_field_deg(&Tracer::new(at), FIELD_SCAN_DEG).min(RULE_MAX_FIELD_DEG)
+}
+
+/// The rule for the object of `paraxial` (computed from `at`): at infinity [`rule_field_deg`];
+/// for a finite object, real or virtual, the largest angle at the entrance pupil whose object
+/// point's real chief ray passes, traced from that point.
+fn rule_field_deg_for(at: &SystemAt, paraxial: &Paraxial) -> f64 {
+    let Some(distance) = paraxial.object_distance else {
+        return rule_field_deg(at);
+    };
+    let tracer = Tracer::new(at);
+    let start_z = tracer.front_start_z();
+    traceable_field_deg_from(&tracer, FIELD_SCAN_DEG, |deg| {
+        RaySource::finite_object(distance, paraxial.field_at_angle(deg), start_z)
+    })
+    .min(RULE_MAX_FIELD_DEG)
 }
 
 fn drawn_wavelengths(

@@ -747,13 +747,11 @@ fn layout_plot(
                     start_z: tracer.front_start_z(),
                 }
             }
-            Some(distance) if distance > 0.0 => RaySource::Point {
-                position: [0.0, wide_open.field_at_angle(field_deg), -distance],
-            },
-            Some(distance) => RaySource::Converging {
-                position: [0.0, wide_open.field_at_angle(field_deg), -distance],
-                start_z: tracer.front_start_z(),
-            },
+            Some(distance) => RaySource::finite_object(
+                distance,
+                wide_open.field_at_angle(field_deg),
+                tracer.front_start_z(),
+            ),
         };
         plot.rays.extend(layout_rays(
             &tracer,

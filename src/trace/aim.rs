@@ -38,6 +38,18 @@ const AIM_MAX_ITERATIONS: usize = 60;
 const AIM_MAX_HALVINGS: usize = 40;
 
 impl RaySource {
+    /// The point `height` mm up the y axis of an object `distance` mm in front of surface 1:
+    /// a real point, or, for a negative distance, a virtual one whose rays start on the plane
+    /// z = `start_z` in front of the lens.
+    pub fn finite_object(distance: f64, height: f64, start_z: f64) -> RaySource {
+        let position = [0.0, height, -distance];
+        if distance > 0.0 {
+            RaySource::Point { position }
+        } else {
+            RaySource::Converging { position, start_z }
+        }
+    }
+
     /// The ray fixed by the two unknowns `v`.
     pub(crate) fn ray(&self, v: [f64; 2]) -> Option<Ray> {
         match *self {
@@ -233,16 +245,27 @@ fn newton_step(
 /// meets, aside): scanned upward in `scan_deg` steps from the axis, then bisected to 1e-9
 /// degrees. Stops at 89.9 degrees.
 pub fn traceable_field_deg(tracer: &Tracer, scan_deg: f64) -> f64 {
-    let clear = tracer.unobscured();
-    let tracer = clear.as_ref();
     let start_z = tracer.front_start_z();
-    let passes = |deg: f64| {
+    traceable_field_deg_from(tracer, scan_deg, |deg| {
         let a = deg.to_radians();
-        let source = RaySource::Collimated {
+        RaySource::Collimated {
             direction: [0.0, a.sin(), a.cos()],
             start_z,
-        };
-        aim_at_stop(tracer, &source, [0.0, 0.0])
+        }
+    })
+}
+
+/// [`traceable_field_deg`] for the field points `source_at` gives each angle: a finite object's
+/// point whose chief ray makes that angle at the entrance pupil.
+pub fn traceable_field_deg_from(
+    tracer: &Tracer,
+    scan_deg: f64,
+    source_at: impl Fn(f64) -> RaySource,
+) -> f64 {
+    let clear = tracer.unobscured();
+    let tracer = clear.as_ref();
+    let passes = |deg: f64| {
+        aim_at_stop(tracer, &source_at(deg), [0.0, 0.0])
             .is_ok_and(|ray| tracer.trace(ray, Travel::Forward).outcome.is_ok())
     };
     const LIMIT_DEG: f64 = 89.9;

@@ -190,13 +190,9 @@ impl RealRays {
                     start_z: self.start_z,
                 })
             }
-            Some(distance) if field.is_finite() && distance > 0.0 => Ok(RaySource::Point {
-                position: [0.0, field, -distance],
-            }),
-            Some(distance) if field.is_finite() => Ok(RaySource::Converging {
-                position: [0.0, field, -distance],
-                start_z: self.start_z,
-            }),
+            Some(distance) if field.is_finite() => {
+                Ok(RaySource::finite_object(distance, field, self.start_z))
+            }
             _ => Err(RealRayError::InvalidField { field }),
         }
     }
