@@ -219,6 +219,43 @@ fn list_names_every_bundled_lens() {
     }
 }
 
+/// A virtual object in a file (DISZ -100: a beam converging 100 mm behind surface 1) is what
+/// `analyze` analyses; a bake focuses on real objects only, so it bakes at infinity and says
+/// why.
+#[test]
+fn a_virtual_object_in_a_file_is_analysed_and_not_baked_as_a_focus() {
+    let dir = temp_dir("virtual");
+    let path = dir.join("virtual-object.zmx");
+    let base = include_str!("../examples/lenses/cooke_triplet.zmx");
+    let text = base.replacen("  DISZ INFINITY", "  DISZ -100", 1);
+    assert_ne!(text, base);
+    std::fs::write(&path, text).unwrap();
+    let o = lensbake(&["analyze", path.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(
+        stdout(&o).contains("object 100.0000 mm behind surface 1 (virtual)"),
+        "{}",
+        stdout(&o)
+    );
+    let table = dir.join("table");
+    let o = lensbake(&[
+        "bake",
+        path.to_str().unwrap(),
+        "--resolution",
+        "4",
+        "--out",
+        table.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("100.000 mm behind surface 1 (virtual): a bake or a render focuses"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(stdout(&o).contains("focus infinity"), "{}", stdout(&o));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 /// A condition the file states that no analysis can use (here an object on the first vertex,
 /// DISZ 0 on SURF 0) fails `lens check` as it fails `analyze`, on the keyword's line, and the report
 /// writes nothing rather than a page of skipped plots; a bake refuses it only where no flag

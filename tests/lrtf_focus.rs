@@ -369,6 +369,23 @@ fn focus_outside_a_range_is_a_typed_error() {
         &|_| {},
     );
     assert!(reversed.is_err());
+    // A table is focused on a real object: a virtual one (behind surface 1), which the
+    // analyses take, is refused.
+    let virtual_object = bake(
+        &system,
+        &BakeRequest {
+            resolution: [4; 3],
+            focus_mm: Some(-100.0),
+            ..BakeRequest::default()
+        },
+        &|_| {},
+    );
+    assert!(
+        virtual_object
+            .as_ref()
+            .is_err_and(|e| e.to_string().contains("object distance must be positive")),
+        "{virtual_object:?}"
+    );
     // A range reaching inside the front focal length (the telephoto's front focal point lies
     // 333 mm in front) has no real film plane at its near end.
     let telephoto = lensbake::lenses::load("telephoto-250mm", &Default::default())

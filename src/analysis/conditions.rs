@@ -405,13 +405,20 @@ impl FileDefaults {
         let mut listed = stated.wavelengths_nm.clone();
         listed.sort_by(|a, b| b.total_cmp(a));
         listed.dedup();
+        let stated_focus = resolved
+            .object_distance_mm
+            .filter(|_| resolved.object_from == Origin::File && focus == FocusFrom::File);
+        // Bakes and renders focus on real objects; a converging beam is no scene.
+        if let Some(d) = stated_focus.filter(|d| *d < 0.0) {
+            notes.push(format!(
+                "the file's object lies {}: a bake or a render focuses on a real object, so \
+                 it is not taken as the focus",
+                crate::limits::object_place(d, 3)
+            ));
+        }
         Ok(FileDefaults {
             f_number,
-            focus_mm: if resolved.object_from == Origin::File && focus == FocusFrom::File {
-                resolved.object_distance_mm
-            } else {
-                None
-            },
+            focus_mm: stated_focus.filter(|d| *d > 0.0),
             rgb_wavelengths_nm: <[f64; 3]>::try_from(listed.as_slice()).ok(),
             notes,
         })

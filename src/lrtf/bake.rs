@@ -307,6 +307,11 @@ pub fn stopped_down(system: &LensSystem, wavelength_nm: f64, stop_semi_aperture:
 /// object at infinity or `focus_mm` in front of surface 1 (EFL, wide-open f-number = EFL / EPD,
 /// paraxial image plane).
 pub fn first_order(system: &SystemAt, focus_mm: Option<f64>) -> Result<Paraxial, ParaxialError> {
+    // A table is focused on a real object; the analyses also take a virtual one (a converging
+    // beam), which is no scene.
+    if let Some(distance) = focus_mm.filter(|d| !(*d > 0.0)) {
+        return Err(ParaxialError::ObjectNotInFront { distance });
+    }
     let object = ObjectPosition::in_focus(focus_mm);
     Paraxial::new(
         system,
