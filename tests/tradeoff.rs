@@ -276,3 +276,44 @@ fn tradeoff_json_has_exactly_the_documented_shape() {
     }
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// Like `bake` and `render`, `tradeoff` measures a finite-conjugate lens where its file puts the
+/// object (DeepLens's double Gauss, 100 mm out), not at infinity, and says so.
+#[test]
+fn tradeoff_takes_the_lens_files_object_distance() {
+    let dir = std::env::temp_dir().join(format!("lensbake-tradeoff-file-{}", std::process::id()));
+    let lens = format!(
+        "{}/tests/data/corpus/deeplens__zemax_double_gaussian.zmx",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_lensbake"))
+        .args([
+            "tradeoff",
+            &lens,
+            "--rays",
+            "200",
+            "--render-width",
+            "8",
+            "--render-height",
+            "6",
+            "--render-spp",
+            "1",
+            "--render-frames",
+            "1",
+            "--out",
+        ])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    let (stdout, stderr) = (
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr),
+    );
+    assert!(out.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("focus 100.000 mm, the lens file's object distance"),
+        "{stderr}"
+    );
+    assert!(stdout.contains("focus 100 mm,"), "{stdout}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -9,6 +9,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use lensbake::analysis::{FileDefaults, FocusFrom};
 use lensbake::job::default_table_dir;
 use lensbake::job::tables::DEFAULT_TABLES_ROOT;
+use lensbake::lenses::LoadedLens;
 use lensbake::lrtf::bake::{BakePlan, BakeRequest, first_order};
 use lensbake::lrtf::io::{read_sidecar, read_table, write_table};
 use lensbake::lrtf::measure::{SweepRow, table_error_focused};
@@ -178,10 +179,14 @@ fn parse_resolution(text: &str) -> anyhow::Result<[usize; 3]> {
     }
 }
 
-pub fn run_bake(args: BakeArgs) -> anyhow::Result<()> {
-    let lens = args.lens.load()?;
-    // Where no flag is given, the lens file's stated aperture and object distance decide.
-    let focus_from = if args.focus_mm.is_some() {
+/// The f-number and the focus (None: infinity) a bake or a tradeoff uses where no flag gives
+/// them: the lens file's stated aperture and real object distance, each choice noted.
+pub(super) fn stated_choices(
+    lens: &LoadedLens,
+    f_number_flag: Option<f64>,
+    focus_flag_given: bool,
+) -> anyhow::Result<(Option<f64>, Option<f64>)> {
+    let focus_from = if focus_flag_given {
         FocusFrom::Flag
     } else {
         FocusFrom::File
@@ -190,20 +195,25 @@ pub fn run_bake(args: BakeArgs) -> anyhow::Result<()> {
     for note in &defaults.notes {
         note!("{}: {note}", lens.source.origin);
     }
-    let f_number = args.f_number.or(defaults.f_number);
-    if let (None, Some(f)) = (args.f_number, defaults.f_number) {
+    if let (None, Some(f)) = (f_number_flag, defaults.f_number) {
         note!("{}: f/{f:.3} from the lens file", lens.source.origin);
     }
-    let focus = args.focus_mm.unwrap_or(FocusArg {
-        far_mm: defaults.focus_mm,
-        near_mm: None,
-    });
-    if let (None, Some(d)) = (&args.focus_mm, defaults.focus_mm) {
+    if let Some(d) = defaults.focus_mm {
         note!(
             "{}: focus {d:.3} mm, the lens file's object distance",
             lens.source.origin
         );
     }
+    Ok((f_number_flag.or(defaults.f_number), defaults.focus_mm))
+}
+
+pub fn run_bake(args: BakeArgs) -> anyhow::Result<()> {
+    let lens = args.lens.load()?;
+    let (f_number, file_focus) = stated_choices(&lens, args.f_number, args.focus_mm.is_some())?;
+    let focus = args.focus_mm.unwrap_or(FocusArg {
+        far_mm: file_focus,
+        near_mm: None,
+    });
     if args.error_budget_px.is_none() && args.scene.any() {
         anyhow::bail!(
             "--scene, --nearest-mm and --film-fraction describe what a --error-budget-px bake \

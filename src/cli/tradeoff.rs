@@ -74,10 +74,11 @@ pub struct TradeoffArgs {
     pub lens: LensArgs,
     #[command(flatten)]
     pub scene: SceneArgs,
-    /// Object distance in focus, mm in front of surface 1 (default: infinity).
+    /// Object distance in focus, mm in front of surface 1 (default: the lens file's object
+    /// distance, else infinity).
     #[arg(long)]
     pub focus_mm: Option<f64>,
-    /// Default: wide open.
+    /// f-number [default: the lens file's aperture where the stop allows it, else wide open].
     #[arg(long)]
     pub f_number: Option<f64>,
     /// Random film-side rays every model is measured on.
@@ -233,7 +234,11 @@ fn pareto(lens: &str, measured: &[Measured], bench: &RenderBench) -> ParetoPlot 
 pub fn run(args: TradeoffArgs) -> anyhow::Result<()> {
     let loaded = args.lens.load()?;
     let name = loaded.source.origin.name();
-    let req = args.scene.requirements(args.focus_mm, args.f_number)?;
+    let (f_number, file_focus) =
+        super::lrtf::stated_choices(&loaded, args.f_number, args.focus_mm.is_some())?;
+    let req = args
+        .scene
+        .requirements(args.focus_mm.or(file_focus), f_number)?;
     if args.rays == 0 {
         anyhow::bail!("--rays must be positive");
     }
