@@ -239,4 +239,18 @@ fn a_virtual_object_is_traced_converging_on_its_point() {
     }
 
     assert_no_axial_opd(&sphere, &virtual_object);
+
+    // Near the axis both astigmatic foci lie in the image plane (the pairs of rays beside the
+    // chief ray are aimed through the virtual point too).
+    let Figure::FieldCurves(curves) =
+        figure(PlotKind::FieldCurves, "sphere", &sphere, &virtual_object).unwrap()
+    else {
+        panic!("not field curves")
+    };
+    let &(field, sagittal, tangential) = curves.curves[0].points.first().unwrap();
+    assert_eq!(field, 0.0);
+    assert!(
+        sagittal.abs() < 1e-6 && tangential.abs() < 1e-6,
+        "{sagittal} {tangential}"
+    );
 }

@@ -474,30 +474,27 @@ impl RealRays {
     /// collimated beam, its aim for a point object, real or virtual.
     fn shifted(&self, chief: Ray, source: &RaySource, offset: [f64; 2]) -> Ray {
         let (p, d) = (chief.position(), chief.direction());
+        let pupil_z = self.paraxial.entrance_pupil.z;
+        // The chief ray reaches the entrance-pupil plane at p + reach d.
+        let reach = (pupil_z - p[2]) / d[2];
         let moved = match source {
-            RaySource::Converging { .. } => {
-                let reach = (self.paraxial.entrance_pupil.z - p[2]) / d[2];
-                let through = [
-                    p[0] + d[0] * reach + offset[0],
-                    p[1] + d[1] * reach + offset[1],
-                    self.paraxial.entrance_pupil.z,
-                ];
-                return source
-                    .ray(source.unknowns_through(through))
-                    .expect("a small shift of a valid ray is a valid ray");
+            RaySource::Collimated { .. } => {
+                Ray::new([p[0] + offset[0], p[1] + offset[1], p[2]], d).ok()
             }
-            RaySource::Collimated { .. } => Ray::new([p[0] + offset[0], p[1] + offset[1], p[2]], d),
-            RaySource::Point { .. } => {
-                let reach = (self.paraxial.entrance_pupil.z - p[2]) / d[2];
-                Ray::new(
-                    p,
-                    [
-                        d[0] * reach + offset[0],
-                        d[1] * reach + offset[1],
-                        d[2] * reach,
-                    ],
-                )
-            }
+            RaySource::Point { .. } => Ray::new(
+                p,
+                [
+                    d[0] * reach + offset[0],
+                    d[1] * reach + offset[1],
+                    d[2] * reach,
+                ],
+            )
+            .ok(),
+            RaySource::Converging { .. } => source.ray(source.unknowns_through([
+                p[0] + d[0] * reach + offset[0],
+                p[1] + d[1] * reach + offset[1],
+                pupil_z,
+            ])),
         };
         moved.expect("a small shift of a valid ray is a valid ray")
     }
