@@ -71,7 +71,7 @@ pub const MIN_LENGTH_MM: f64 = 1e-6;
 
 /// An object distance as every analysis takes it: None (infinity) at [`MAX_LENGTH_MM`] or
 /// farther, where a finite distance would only lose digits (files write 1e10 for infinity). NaN
-/// is refused; a negative distance is the paraxial model's to refuse, which says why.
+/// is refused; a negative distance is a virtual object, zero the paraxial model's to refuse.
 pub fn object_distance(what: &str, mm: f64) -> Result<Option<f64>, LimitError> {
     if mm.is_nan() {
         return Err(LimitError::NotANumber {

@@ -195,11 +195,7 @@ fn a_code_v_file_with_fields_0_10_14_is_analysed_at_14_degrees_and_its_epd() {
 /// Whether the real chief ray of `deg`, aimed at the stop centre, passes every clear aperture.
 fn chief_ray_passes(system: &LensSystem, deg: f64) -> bool {
     let tracer = Tracer::new(&system.at(system.design_wavelength_nm()));
-    let a = deg.to_radians();
-    let source = RaySource::Collimated {
-        direction: [0.0, a.sin(), a.cos()],
-        start_z: tracer.front_start_z(),
-    };
+    let source = RaySource::collimated(deg, tracer.front_start_z());
     aim_at_stop(&tracer, &source, [0.0, 0.0])
         .is_ok_and(|ray| tracer.trace(ray, Travel::Forward).outcome.is_ok())
 }

@@ -139,13 +139,11 @@ impl Setup {
             .map(|d| limits::object_distance("--object-distance-mm", d))
             .transpose()?
             .flatten();
-        if args.object_distance_mm.is_some() && args.lens.starts_with("ideal:") {
-            bail!(
+        let (name, subject) = match args.lens.strip_prefix("ideal:") {
+            Some(_) if args.object_distance_mm.is_some() => bail!(
                 "an ideal lens (`ideal:`) images an object at infinity: leave out \
                  --object-distance-mm"
-            );
-        }
-        let (name, subject) = match args.lens.strip_prefix("ideal:") {
+            ),
             Some(efl) => {
                 let efl_mm: f64 = efl
                     .parse()

@@ -72,11 +72,6 @@ impl ObjectPosition {
             other => Ok(other),
         }
     }
-
-    /// Whether the object is virtual (behind surface 1).
-    pub fn is_virtual(&self) -> bool {
-        matches!(self, ObjectPosition::Finite { distance } if *distance < 0.0)
-    }
 }
 
 /// Why a first-order quantity does not exist for this lens or these conjugates.

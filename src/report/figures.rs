@@ -739,20 +739,11 @@ fn layout_plot(
     let mut fields = conditions.fields_deg.clone();
     fields.reverse();
     for field_deg in fields {
-        let source = match wide_open.object_distance {
-            None => {
-                let angle = field_deg.to_radians();
-                RaySource::Collimated {
-                    direction: [0.0, angle.sin(), angle.cos()],
-                    start_z: tracer.front_start_z(),
-                }
-            }
-            Some(distance) => RaySource::finite_object(
-                distance,
-                wide_open.field_at_angle(field_deg),
-                tracer.front_start_z(),
-            ),
-        };
+        let source = RaySource::of_field(
+            wide_open.object_distance,
+            wide_open.field_at_angle(field_deg),
+            tracer.front_start_z(),
+        );
         plot.rays.extend(layout_rays(
             &tracer,
             &at,

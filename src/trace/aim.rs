@@ -38,6 +38,26 @@ const AIM_MAX_ITERATIONS: usize = 60;
 const AIM_MAX_HALVINGS: usize = 40;
 
 impl RaySource {
+    /// A beam from infinity at `deg` to the axis in the y-z plane (rising for a positive angle),
+    /// its rays starting on the plane z = `start_z`.
+    pub fn collimated(deg: f64, start_z: f64) -> RaySource {
+        let a = deg.to_radians();
+        RaySource::Collimated {
+            direction: [0.0, a.sin(), a.cos()],
+            start_z,
+        }
+    }
+
+    /// The source of one field point: at infinity (`object_distance` None) `field` is the angle
+    /// in degrees ([`RaySource::collimated`]), for a finite object the point's height
+    /// ([`RaySource::finite_object`]).
+    pub fn of_field(object_distance: Option<f64>, field: f64, start_z: f64) -> RaySource {
+        match object_distance {
+            None => RaySource::collimated(field, start_z),
+            Some(distance) => RaySource::finite_object(distance, field, start_z),
+        }
+    }
+
     /// The point `height` mm up the y axis of an object `distance` mm in front of surface 1:
     /// a real point, or, for a negative distance, a virtual one whose rays start on the plane
     /// z = `start_z` in front of the lens.
@@ -246,13 +266,7 @@ fn newton_step(
 /// degrees. Stops at 89.9 degrees.
 pub fn traceable_field_deg(tracer: &Tracer, scan_deg: f64) -> f64 {
     let start_z = tracer.front_start_z();
-    traceable_field_deg_from(tracer, scan_deg, |deg| {
-        let a = deg.to_radians();
-        RaySource::Collimated {
-            direction: [0.0, a.sin(), a.cos()],
-            start_z,
-        }
-    })
+    traceable_field_deg_from(tracer, scan_deg, |deg| RaySource::collimated(deg, start_z))
 }
 
 /// [`traceable_field_deg`] for the field points `source_at` gives each angle: a finite object's

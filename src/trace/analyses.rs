@@ -182,19 +182,11 @@ impl RealRays {
     }
 
     fn source(&self, field: f64) -> Result<RaySource, RealRayError> {
-        match self.paraxial.object_distance {
-            None if field.is_finite() && field.abs() < 90.0 => {
-                let a = field.to_radians();
-                Ok(RaySource::Collimated {
-                    direction: [0.0, a.sin(), a.cos()],
-                    start_z: self.start_z,
-                })
-            }
-            Some(distance) if field.is_finite() => {
-                Ok(RaySource::finite_object(distance, field, self.start_z))
-            }
-            _ => Err(RealRayError::InvalidField { field }),
+        let distance = self.paraxial.object_distance;
+        if !(field.is_finite() && (distance.is_some() || field.abs() < 90.0)) {
+            return Err(RealRayError::InvalidField { field });
         }
+        Ok(RaySource::of_field(distance, field, self.start_z))
     }
 
     /// The ray of `field` through the point (px, py) of the paraxial entrance pupil (relative
