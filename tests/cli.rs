@@ -219,17 +219,38 @@ fn list_names_every_bundled_lens() {
     }
 }
 
+/// The Cooke triplet's Zemax file with SURF 0's `DISZ INFINITY` (line 32) replaced by
+/// `DISZ {disz}` (unchanged for `INFINITY`), written into `dir`.
+fn cooke_with_object(dir: &std::path::Path, disz: &str) -> std::path::PathBuf {
+    let path = dir.join("cooke-object.zmx");
+    let base = include_str!("../examples/lenses/cooke_triplet.zmx");
+    let text = base.replacen("  DISZ INFINITY", &format!("  DISZ {disz}"), 1);
+    assert!(text.contains(&format!("  DISZ {disz}\n")));
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+/// `lensbake bake LENS --resolution 4 --out TABLE` with `extra` options.
+fn bake_small(lens: &std::path::Path, table: &std::path::Path, extra: &[&str]) -> Output {
+    let mut args = vec![
+        "bake",
+        lens.to_str().unwrap(),
+        "--resolution",
+        "4",
+        "--out",
+        table.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    lensbake(&args)
+}
+
 /// A virtual object in a file (DISZ -100: a beam converging 100 mm behind surface 1) is what
 /// `analyze` analyses; a bake focuses on real objects only, so it bakes at infinity and says
 /// why.
 #[test]
 fn a_virtual_object_in_a_file_is_analysed_and_not_baked_as_a_focus() {
     let dir = temp_dir("virtual");
-    let path = dir.join("virtual-object.zmx");
-    let base = include_str!("../examples/lenses/cooke_triplet.zmx");
-    let text = base.replacen("  DISZ INFINITY", "  DISZ -100", 1);
-    assert_ne!(text, base);
-    std::fs::write(&path, text).unwrap();
+    let path = cooke_with_object(&dir, "-100");
     let o = lensbake(&["analyze", path.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     assert!(
@@ -237,15 +258,7 @@ fn a_virtual_object_in_a_file_is_analysed_and_not_baked_as_a_focus() {
         "{}",
         stdout(&o)
     );
-    let table = dir.join("table");
-    let o = lensbake(&[
-        "bake",
-        path.to_str().unwrap(),
-        "--resolution",
-        "4",
-        "--out",
-        table.to_str().unwrap(),
-    ]);
+    let o = bake_small(&path, &dir.join("table"), &[]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     assert!(
         stderr(&o).contains("100.000 mm behind surface 1 (virtual): a bake or a render focuses"),
@@ -263,11 +276,7 @@ fn a_virtual_object_in_a_file_is_analysed_and_not_baked_as_a_focus() {
 #[test]
 fn a_stated_condition_no_analysis_can_use_fails_check_and_report_on_its_line() {
     let dir = temp_dir("stated");
-    let path = dir.join("object-on-surface-1.zmx");
-    let base = include_str!("../examples/lenses/cooke_triplet.zmx");
-    let text = base.replacen("  DISZ INFINITY", "  DISZ 0", 1);
-    assert_ne!(text, base);
-    std::fs::write(&path, text).unwrap();
+    let path = cooke_with_object(&dir, "0");
     let expected = format!(
         "error: {}:32, field `DISZ`: the lens file's object distance: object distance must be \
          finite and not zero",
@@ -305,18 +314,7 @@ fn a_stated_condition_no_analysis_can_use_fails_check_and_report_on_its_line() {
     assert!(!report.exists());
     // A bake uses the stated object as its focus: refused without a focus flag, baked with one.
     let table = dir.join("table");
-    let bake = |extra: &[&str]| {
-        let mut args = vec![
-            "bake",
-            path.to_str().unwrap(),
-            "--resolution",
-            "4",
-            "--out",
-            table.to_str().unwrap(),
-        ];
-        args.extend_from_slice(extra);
-        lensbake(&args)
-    };
+    let bake = |extra: &[&str]| bake_small(&path, &table, extra);
     let o = bake(&[]);
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains(&expected), "{}", stderr(&o));
@@ -360,7 +358,7 @@ fn a_stated_condition_no_analysis_can_use_fails_check_and_report_on_its_line() {
         std::fs::remove_file(&image).expect("the render wrote its image");
     }
     // The lens as written checks, and its summary lists the conditions it is analysed under.
-    std::fs::write(&path, base).unwrap();
+    let path = cooke_with_object(&dir, "INFINITY");
     let o = lensbake(&["lens", "check", path.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     assert!(

@@ -1,5 +1,8 @@
 //! The trade-off measurement and the error-budget choice on the bundled double Gauss.
 
+mod common;
+
+use std::path::Path;
 use std::sync::OnceLock;
 
 use lensbake::lenses;
@@ -203,29 +206,32 @@ fn the_chosen_model_meets_the_budget_on_fresh_rays() {
     }
 }
 
+/// `lensbake tradeoff LENS` with `rays` rays and one small frame per model, written to `out`.
+fn small_tradeoff(lens: &str, rays: &str, out: &Path, extra: &[&str]) -> std::process::Output {
+    let mut args = vec![
+        "tradeoff",
+        lens,
+        "--rays",
+        rays,
+        "--render-width",
+        "32",
+        "--render-height",
+        "24",
+        "--render-spp",
+        "2",
+        "--render-frames",
+        "1",
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    common::lensbake(&args)
+}
+
 #[test]
 fn tradeoff_json_has_exactly_the_documented_shape() {
     let dir = std::env::temp_dir().join(format!("lensbake-tradeoff-{}", std::process::id()));
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_lensbake"))
-        .args([
-            "tradeoff",
-            "biconvex-singlet",
-            "--json",
-            "--rays",
-            "800",
-            "--render-width",
-            "32",
-            "--render-height",
-            "24",
-            "--render-spp",
-            "2",
-            "--render-frames",
-            "1",
-            "--out",
-        ])
-        .arg(&dir)
-        .output()
-        .unwrap();
+    let out = small_tradeoff("biconvex-singlet", "800", &dir, &["--json"]);
     assert!(
         out.status.success(),
         "{}",
@@ -286,25 +292,7 @@ fn tradeoff_takes_the_lens_files_object_distance() {
         "{}/tests/data/corpus/deeplens__zemax_double_gaussian.zmx",
         env!("CARGO_MANIFEST_DIR")
     );
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_lensbake"))
-        .args([
-            "tradeoff",
-            &lens,
-            "--rays",
-            "200",
-            "--render-width",
-            "8",
-            "--render-height",
-            "6",
-            "--render-spp",
-            "1",
-            "--render-frames",
-            "1",
-            "--out",
-        ])
-        .arg(&dir)
-        .output()
-        .unwrap();
+    let out = small_tradeoff(&lens, "200", &dir, &[]);
     let (stdout, stderr) = (
         String::from_utf8_lossy(&out.stdout),
         String::from_utf8_lossy(&out.stderr),

@@ -202,14 +202,19 @@ mod tests {
     use crate::lenses;
     use crate::prescription::formats::LoadOptions;
 
+    /// The double Gauss at its design wavelength, and its thick model wide open.
+    fn dgauss() -> (SystemAt, ParaxialLens) {
+        let lens = lenses::load("dgauss-50mm", &LoadOptions::default()).unwrap();
+        let thick = FirstOrderModels::of(&lens.system, None).unwrap().thick;
+        (lens.system.at(lens.system.design_wavelength_nm()), thick)
+    }
+
     #[test]
     fn seidel_aberration_reproduces_the_transverse_sums() {
         // At the pupil rim and the edge of the field, the polynomial must give back the transverse
         // forms already checked against CODE V: TSA on axis, TCO and TAS in the meridional plane
         // (their sum, since both act at y = 1), SAS across it, DST through the pupil centre.
-        let lens = lenses::load("dgauss-50mm", &LoadOptions::default()).unwrap();
-        let thick = FirstOrderModels::of(&lens.system, None).unwrap().thick;
-        let at = lens.system.at(lens.system.design_wavelength_nm());
+        let (at, thick) = dgauss();
         let paraxial = paraxial_for(&at, None).unwrap();
         let lens = SeidelLens::new(&at, &paraxial, thick);
         let t = Seidel::new(&at, &paraxial, None).transverse;
@@ -226,9 +231,7 @@ mod tests {
 
     #[test]
     fn the_aberration_does_not_depend_on_the_field_it_is_normalised_at() {
-        let lens = lenses::load("dgauss-50mm", &LoadOptions::default()).unwrap();
-        let thick = FirstOrderModels::of(&lens.system, None).unwrap().thick;
-        let at = lens.system.at(lens.system.design_wavelength_nm());
+        let (at, thick) = dgauss();
         let largest = paraxial_for(&at, None).unwrap();
         let at_largest = SeidelLens::new(&at, &largest, thick.clone());
         let small = Paraxial::new(
