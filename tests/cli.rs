@@ -2,7 +2,7 @@
 
 mod common;
 
-use common::lensbake;
+use common::{bake_small, lensbake};
 
 use common::lens_file;
 use std::path::Path;
@@ -228,20 +228,6 @@ fn cooke_with_object(dir: &std::path::Path, disz: &str) -> std::path::PathBuf {
     assert!(text.contains(&format!("  DISZ {disz}\n")));
     std::fs::write(&path, text).unwrap();
     path
-}
-
-/// `lensbake bake LENS --resolution 4 --out TABLE` with `extra` options.
-fn bake_small(lens: &std::path::Path, table: &std::path::Path, extra: &[&str]) -> Output {
-    let mut args = vec![
-        "bake",
-        lens.to_str().unwrap(),
-        "--resolution",
-        "4",
-        "--out",
-        table.to_str().unwrap(),
-    ];
-    args.extend_from_slice(extra);
-    lensbake(&args)
 }
 
 /// A virtual object in a file (DISZ -100: a beam converging 100 mm behind surface 1) is what

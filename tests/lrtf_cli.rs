@@ -176,16 +176,7 @@ fn bake_defaults_to_the_files_aperture_and_object_distance() {
     .efl;
     let out = dir.join("table");
     let bake = |extra: &[&str]| {
-        let mut args = vec![
-            "bake",
-            lens.to_str().unwrap(),
-            "--resolution",
-            "4",
-            "--out",
-            out.to_str().unwrap(),
-        ];
-        args.extend_from_slice(extra);
-        let o = lensbake(&args);
+        let o = common::bake_small(&lens, &out, extra);
         assert!(o.status.success(), "{}", stderr(&o));
         (
             stderr(&o),

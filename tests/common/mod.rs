@@ -106,6 +106,25 @@ pub fn lensbake(args: &[&str]) -> std::process::Output {
     )
 }
 
+/// `lensbake bake LENS --resolution 4 --out TABLE` with `extra` options: a table small enough
+/// for a command-line test.
+pub fn bake_small(
+    lens: &std::path::Path,
+    table: &std::path::Path,
+    extra: &[&str],
+) -> std::process::Output {
+    let mut args = vec![
+        "bake",
+        lens.to_str().unwrap(),
+        "--resolution",
+        "4",
+        "--out",
+        table.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    lensbake(&args)
+}
+
 /// Relative difference, safe at zero.
 pub fn relative(a: f64, b: f64) -> f64 {
     if a == b {
