@@ -9,7 +9,7 @@ pub use conditions::{
 };
 
 use crate::paraxial::{Paraxial, ParaxialError, Pupil, RayAtSurface, StopChoice};
-use crate::prescription::PrescriptionError;
+use crate::prescription::{PrescriptionError, RayAiming};
 use crate::seidel::{IndexDifferences, Seidel};
 use crate::system::LensSystem;
 use crate::trace::analyses::{RealRays, RealReport};
@@ -33,6 +33,9 @@ pub struct AnalyzeOptions {
     /// Object distance from surface 1; default: the file's, else infinity.
     pub object_distance_mm: Option<f64>,
     pub stop: StopChoice,
+    /// How the real rays of distortion and LSA aim a pupil coordinate; default: the file's
+    /// (Zemax `RAIM`), else paraxial.
+    pub ray_aiming: Option<RayAiming>,
 }
 
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
@@ -54,6 +57,8 @@ pub enum AnalysisError {
     },
     #[error("{reason}")]
     UnusableAperture { reason: String },
+    #[error("real ray aiming: {0}")]
+    Aiming(#[from] crate::trace::analyses::RealRayError),
     #[error("{quantity} is not finite: the lens is too close to a degenerate case to analyse")]
     NonFinite { quantity: String },
 }
@@ -129,6 +134,7 @@ impl AnalyzeOptions {
             epd_mm: self.epd_mm,
             object_distance_mm: self.object_distance_mm,
             stop: self.stop,
+            ray_aiming: self.ray_aiming,
         }
     }
 }
@@ -150,7 +156,17 @@ pub fn analyze(
     let paraxial = Paraxial::new(&at, &conditions.paraxial_options())?;
     let colour = IndexDifferences::fraunhofer(system);
     let seidel = Seidel::new(&at, &paraxial, colour.as_ref());
-    let real = RealReport::new(&RealRays::new(&at, paraxial.clone()));
+    let mut real_rays = RealRays::new(&at, paraxial.clone());
+    let aiming = conditions.aiming_stop_radius(&real_rays);
+    if let Ok(Some(radius)) = aiming {
+        real_rays = real_rays.aimed_at_stop(radius);
+    }
+    let mut real = RealReport::new(&real_rays);
+    if let Err(error) = aiming {
+        real.notes.push(format!(
+            "real ray aiming: {error}; distortion and LSA are traced with paraxial aiming"
+        ));
+    }
     let f = &paraxial.first_order;
     let analysis = Analysis {
         lens: lens.to_string(),

@@ -7,6 +7,7 @@ mod common;
 
 use common::surface;
 use lensbake::analysis::{AnalyzeOptions, analyze};
+use lensbake::prescription::RayAiming;
 use lensbake::prescription::formats::{Format, LoadOptions, read_str, write_pbrt, write_zemax};
 use lensbake::prescription::{
     Medium, Prescription, Problem, Provenance, Shape, StopShape, Surface,
@@ -228,6 +229,7 @@ fn wave_optics_refuses_an_ideal_lens_by_its_surface() {
         system: &lens,
         epd_mm: None,
         object_distance_mm: None,
+        ray_aiming: RayAiming::Paraxial,
     };
     let sampling = Sampling::default();
     let e = PupilTrace::trace(&wave_lens, 0.0, WAVELENGTH_NM, WAVELENGTH_NM, sampling).unwrap_err();

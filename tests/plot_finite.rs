@@ -123,6 +123,7 @@ fn finite_object_fans_and_lsa_match_the_oracle() {
         wavelengths_nm: vec![oracle.wavelength_nm()],
         epd_mm: Some(oracle.epd_used()),
         object_distance_mm: Some(distance),
+        ..FigureOptions::default()
     };
     let image_point = |id: &str| -> [f64; 2] {
         let ray = finite["real_rays"]["rays"]

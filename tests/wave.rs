@@ -3,6 +3,7 @@
 //! against Huygens, and typed errors for bad input.
 
 use lensbake::lenses;
+use lensbake::prescription::RayAiming;
 use lensbake::prescription::formats::LoadOptions;
 use lensbake::wave::{
     FieldTrace, PupilTrace, Sampling, Spectrum, WaveError, WaveLens, WavefrontMap, ZernikeOrdering,
@@ -184,6 +185,7 @@ fn fft_and_huygens_psf_agree_on_a_real_lens() {
         system: &system,
         epd_mm: None,
         object_distance_mm: None,
+        ray_aiming: RayAiming::Paraxial,
     };
     let trace = PupilTrace::trace(&lens, 5.0, wavelength, wavelength, Sampling::default()).unwrap();
     let map = trace.wavefront(0.0).unwrap();
@@ -292,6 +294,7 @@ fn polychromatic_mtf_of_one_repeated_wavelength_is_the_monochromatic_one() {
         system: &system,
         epd_mm: None,
         object_distance_mm: None,
+        ray_aiming: RayAiming::Paraxial,
     };
     let frequencies = [10.0, 40.0, 80.0];
     let mono = FieldTrace::new(
@@ -382,6 +385,7 @@ fn bad_input_is_a_typed_error() {
         system: &system,
         epd_mm: Some(-1.0),
         object_distance_mm: None,
+        ray_aiming: RayAiming::Paraxial,
     };
     assert!(matches!(
         trace(&wide, 0.0, Sampling::default()),
@@ -405,6 +409,7 @@ fn bad_input_is_a_typed_error() {
         system: &dgauss,
         epd_mm: Some(epd_mm),
         object_distance_mm: None,
+        ray_aiming: RayAiming::Paraxial,
     };
     assert!(matches!(
         trace(&pinhole(1e-3), 0.0, Sampling::default()),

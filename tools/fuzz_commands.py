@@ -97,6 +97,8 @@ def command_for(rng, lens, work, outputs):
     # A finite object now and then, from touching the lens to far away, or a virtual one.
     near = (["--object-distance-mm=" + str(rng.choice([1e-3, 0.5, 5, 50, 500, 5000, 1e6, -5, -50]))]
             if rng.random() < 0.3 else [])
+    # Real ray aiming now and then (a Zemax file's RAIM may ask for it already).
+    near += ["--ray-aiming", rng.choice(["real", "paraxial"])] if rng.random() < 0.3 else []
     if kind == "analyze":
         return [BINARY, "analyze", lens, "--json", "--field-deg", field] + near
     if kind == "plot":

@@ -12,9 +12,15 @@ use crate::glass::{C_LINE_NM, F_LINE_NM};
 use crate::paraxial::{
     Aperture, Field, ObjectPosition, Paraxial, ParaxialError, ParaxialOptions, StopChoice,
 };
-use crate::prescription::{ApertureSpec, FieldKind, FieldSpec, Prescription, StatedCondition};
+use crate::prescription::{
+    ApertureSpec, FieldKind, FieldSpec, Prescription, RayAiming, StatedCondition,
+};
 use crate::system::{LensSystem, SystemAt};
-use crate::trace::{RaySource, Tracer, traceable_field_deg, traceable_field_deg_from};
+use crate::trace::{
+    RaySource, Tracer,
+    analyses::{RealRayError, RealRays},
+    traceable_field_deg, traceable_field_deg_from,
+};
 use serde::Serialize;
 
 /// Largest half field the rule picks (degrees). A lens whose clear apertures pass the chief
@@ -67,6 +73,7 @@ pub struct ConditionOverrides {
     /// Distance of the object in front of surface 1 (mm).
     pub object_distance_mm: Option<f64>,
     pub stop: StopChoice,
+    pub ray_aiming: Option<RayAiming>,
 }
 
 /// The resolved conditions of one lens.
@@ -89,6 +96,9 @@ pub struct DesignConditions {
     pub epd_mm: f64,
     pub f_number: f64,
     pub aperture_from: Origin,
+    /// How the real-ray plots and wave figures aim a relative pupil coordinate.
+    pub ray_aiming: RayAiming,
+    pub ray_aiming_from: Origin,
     /// Choices worth a reader's attention (a claim not used, a field kind converted).
     pub notes: Vec<String>,
     #[serde(skip)]
@@ -242,6 +252,12 @@ impl DesignConditions {
                 ));
             }
         }
+        let (ray_aiming, ray_aiming_from) =
+            match (overrides.ray_aiming, stated.and_then(|c| c.ray_aiming)) {
+                (Some(aiming), _) => (aiming, Origin::Flag),
+                (None, Some(aiming)) => (aiming, Origin::File),
+                (None, None) => (RayAiming::Paraxial, Origin::Rule),
+            };
         let chosen = Paraxial::new(
             &at,
             &ParaxialOptions {
@@ -264,10 +280,29 @@ impl DesignConditions {
             epd_mm,
             f_number: chosen.f_number,
             aperture_from,
+            ray_aiming,
+            ray_aiming_from,
             notes,
             paraxial_field,
             stop: overrides.stop,
         })
+    }
+
+    /// Whether the stop's own clear aperture sets the beam (the lens is used wide open), so
+    /// that real aiming fills the stop ([`RealRays::filled_stop_radius`]).
+    pub fn stop_sets_beam(&self) -> bool {
+        self.aperture_from == Origin::Rule
+    }
+
+    /// The stop radius real ray aiming fills, from the reference wavelength's analyses; None
+    /// under paraxial aiming.
+    pub fn aiming_stop_radius(&self, reference: &RealRays) -> Result<Option<f64>, RealRayError> {
+        match self.ray_aiming {
+            RayAiming::Paraxial => Ok(None),
+            RayAiming::Real => reference
+                .filled_stop_radius(self.stop_sets_beam())
+                .map(Some),
+        }
     }
 
     /// The analysed (top) half field, degrees.
@@ -315,6 +350,11 @@ impl DesignConditions {
                 self.object_distance_mm
                     .map_or("at infinity".into(), |d| crate::limits::object_place(d, 3)),
                 self.object_from.describe(),
+            ),
+            (
+                "ray aiming".into(),
+                self.ray_aiming.name().into(),
+                self.ray_aiming_from.describe(),
             ),
             (
                 "reference wavelength".into(),

@@ -1,6 +1,6 @@
 //! `lensbake analyze`: first-order data, pupils and Seidel sums as a readable report or JSON.
 
-use super::lens::LensArgs;
+use super::lens::{AimingArg, LensArgs};
 use clap::Args;
 use lensbake::analysis::{Analysis, AnalysisError, AnalyzeOptions, analyze};
 use lensbake::paraxial::StopChoice;
@@ -29,6 +29,10 @@ pub struct AnalyzeArgs {
     /// Take as aperture stop the surface that limits the axial beam, not the marked one.
     #[arg(long)]
     pub find_stop: bool,
+    /// How the real rays of distortion and LSA aim a pupil coordinate [default: the lens
+    /// file's (Zemax RAIM), else paraxial].
+    #[arg(long, value_enum)]
+    pub ray_aiming: Option<AimingArg>,
     /// Print one JSON object instead of the report.
     #[arg(long)]
     pub json: bool,
@@ -48,6 +52,7 @@ pub fn run(args: AnalyzeArgs) -> anyhow::Result<()> {
         } else {
             StopChoice::Marked
         },
+        ray_aiming: args.ray_aiming.map(Into::into),
     };
     let analysis = analyze(&name, &lens.system, &options).map_err(|error| match error {
         // Located in the file already.

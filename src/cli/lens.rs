@@ -34,6 +34,24 @@ pub enum LensCommand {
 }
 
 /// A lens argument as every subcommand that takes a lens accepts it.
+/// `--ray-aiming`: how a relative pupil coordinate becomes a real ray.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum AimingArg {
+    /// At that point of the paraxial entrance pupil (Zemax's ray aiming off).
+    Paraxial,
+    /// The real ray through that point of the stop (Zemax's real ray aiming).
+    Real,
+}
+
+impl From<AimingArg> for lensbake::prescription::RayAiming {
+    fn from(arg: AimingArg) -> Self {
+        match arg {
+            AimingArg::Paraxial => lensbake::prescription::RayAiming::Paraxial,
+            AimingArg::Real => lensbake::prescription::RayAiming::Real,
+        }
+    }
+}
+
 #[derive(Args, Debug, Clone)]
 pub struct LensArgs {
     /// A lens file (.ron, .dat, .txt/.tsv/.csv, .seq, .zmx) or the name of a bundled lens.

@@ -3,7 +3,7 @@
 use anyhow::bail;
 use clap::Args;
 
-use super::lens::{LensArgs, ReadArgs};
+use super::lens::{AimingArg, LensArgs, ReadArgs};
 use lensbake::lenses::{self, BUNDLED, LensError, LensOrigin};
 use lensbake::plot::write_plot;
 use lensbake::prescription::{PrescriptionError, Problem};
@@ -53,6 +53,11 @@ pub struct ConditionArgs {
     /// ray makes at the entrance-pupil centre; negative for a virtual object.
     #[arg(long, allow_negative_numbers = true)]
     object_distance_mm: Option<f64>,
+    /// How a relative pupil coordinate becomes a real ray in the fans, spots, LSA and wave
+    /// plots: at that point of the paraxial entrance pupil, or through that point of the stop
+    /// [default: the lens file's (Zemax RAIM), else paraxial].
+    #[arg(long, value_enum)]
+    ray_aiming: Option<AimingArg>,
 }
 
 impl ConditionArgs {
@@ -62,6 +67,7 @@ impl ConditionArgs {
             wavelengths_nm: self.wavelength_nm.clone(),
             epd_mm: self.epd_mm,
             object_distance_mm: self.object_distance_mm,
+            ray_aiming: self.ray_aiming.map(Into::into),
         };
         check_options(&options)?;
         Ok(options)

@@ -1,10 +1,11 @@
 //! `lensbake wavefront`, `lensbake mtf` and `lensbake psf`: wave optics of one field point.
 
-use super::lens::ReadArgs;
+use super::lens::{AimingArg, ReadArgs};
 use anyhow::{Context, bail};
 use clap::Args;
 use lensbake::glass::D_LINE_NM;
 use lensbake::paraxial::FirstOrder;
+use lensbake::prescription::RayAiming;
 use lensbake::system::LensSystem;
 use lensbake::wave::{
     FieldTrace, PupilTrace, Sampling, Spectrum, WaveLens, ZernikeOrdering, fft_assumptions,
@@ -49,6 +50,10 @@ pub struct WaveArgs {
     /// FFT grid per side (at least twice --samples).
     #[arg(long, default_value_t = lensbake::wave::DEFAULT_GRID)]
     pub grid: usize,
+    /// How a pupil sample becomes a real ray: at that point of the paraxial entrance pupil, or
+    /// through that point of the stop [default: the lens file's (Zemax RAIM), else paraxial].
+    #[arg(long, value_enum)]
+    pub ray_aiming: Option<AimingArg>,
 }
 
 #[derive(Args, Debug)]
@@ -116,6 +121,7 @@ struct Setup {
     sampling: Sampling,
     field_deg: f64,
     object_distance_mm: Option<f64>,
+    ray_aiming: Option<RayAiming>,
 }
 
 impl Setup {
@@ -144,6 +150,9 @@ impl Setup {
                 "an ideal lens (`ideal:`) images an object at infinity: leave out \
                  --object-distance-mm"
             ),
+            Some(_) if args.ray_aiming.is_some() => {
+                bail!("an ideal lens (`ideal:`) has no stop to aim rays at: leave out --ray-aiming")
+            }
             Some(efl) => {
                 let efl_mm: f64 = efl
                     .parse()
@@ -205,6 +214,7 @@ impl Setup {
             sampling,
             field_deg: args.field_deg,
             object_distance_mm,
+            ray_aiming: args.ray_aiming.map(Into::into),
         })
     }
 
@@ -233,6 +243,15 @@ impl Setup {
                     system,
                     epd_mm,
                     object_distance_mm: self.object_distance_mm,
+                    ray_aiming: self.ray_aiming.unwrap_or_else(|| {
+                        system
+                            .prescription
+                            .provenance
+                            .conditions
+                            .as_ref()
+                            .and_then(|c| c.ray_aiming)
+                            .unwrap_or_default()
+                    }),
                 }
             }
         })

@@ -8,7 +8,7 @@ mod validate;
 pub use error::{Location, PrescriptionError, Problem};
 pub use model::{
     ApertureSpec, Conditions, DEFAULT_WAVELENGTH_NM, FieldKind, FieldSpec, MAX_ASPHERE_TERMS,
-    MAX_INDEX, MIN_INDEX, Medium, Prescription, Provenance, Shape, StatedCondition, StopShape,
-    Surface,
+    MAX_INDEX, MIN_INDEX, Medium, Prescription, Provenance, RayAiming, Shape, StatedCondition,
+    StopShape, Surface,
 };
 pub use validate::{CROSSING_TOLERANCE_MM, SourceMap, validate};

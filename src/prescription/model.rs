@@ -90,6 +90,33 @@ pub struct Conditions {
     pub wavelength_weights: Vec<f64>,
     #[serde(default)]
     pub primary: Option<usize>,
+    /// How the source aims the rays of a pupil coordinate (Zemax `RAIM`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ray_aiming: Option<RayAiming>,
+}
+
+/// How a relative pupil coordinate (px, py) becomes a real ray.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum RayAiming {
+    /// Towards (px, py) of the paraxial entrance pupil, as if the lens were not in the way
+    /// (Zemax with ray aiming off or paraxial, optiland's default): quick, and exact where the
+    /// pupil has no aberration.
+    #[default]
+    Paraxial,
+    /// The real ray through (px, py) of the stop surface, scaled to the radius the axial beam
+    /// fills there (Zemax's real ray aiming): the stop is filled at every field even where the
+    /// entrance pupil is distorted or moves with the field (wide-angle lenses, high-NA
+    /// objectives).
+    Real,
+}
+
+impl RayAiming {
+    pub fn name(self) -> &'static str {
+        match self {
+            RayAiming::Paraxial => "paraxial",
+            RayAiming::Real => "real",
+        }
+    }
 }
 
 /// How the source sizes the beam.

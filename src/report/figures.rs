@@ -13,6 +13,7 @@ use crate::plot::{
     RayFanPlot, SeidelBar, SeidelPlot, Spot, SpotField, SpotPlot, ThroughFocusPlot, View,
     VignettingPlot, WavefrontMapPlot, WavelengthCurve,
 };
+use crate::prescription::RayAiming;
 use crate::prescription::formats::PlacedLens;
 use crate::system::{LensSystem, SystemAt};
 use crate::trace::analyses::{FanPoint, RealRayError, RealRays};
@@ -140,6 +141,9 @@ pub struct FigureOptions {
     pub epd_mm: Option<f64>,
     /// Object distance from the first vertex, mm (default: the lens file's, else infinity).
     pub object_distance_mm: Option<f64>,
+    /// How a relative pupil coordinate becomes a real ray (default: the lens file's, else
+    /// paraxial).
+    pub ray_aiming: Option<RayAiming>,
 }
 
 impl FigureOptions {
@@ -150,6 +154,7 @@ impl FigureOptions {
             field_deg: self.field_deg,
             epd_mm: self.epd_mm,
             object_distance_mm: self.object_distance_mm,
+            ray_aiming: self.ray_aiming,
             ..ConditionOverrides::default()
         }
     }
@@ -161,6 +166,7 @@ impl FigureOptions {
             field_deg: self.field_deg,
             epd_mm: self.epd_mm,
             object_distance_mm: self.object_distance_mm,
+            ray_aiming: self.ray_aiming,
             ..AnalyzeOptions::default()
         }
     }
@@ -356,11 +362,20 @@ impl RealSet {
             Ok(RealRays::new(&at, paraxial))
         };
         let reference = real_at(spectrum.reference_nm)?;
+        // Every wavelength fills the reference wavelength's stop radius.
+        let stop_radius = conditions
+            .aiming_stop_radius(&reference)
+            .map_err(AnalysisError::from)?;
+        let aimed = |real: RealRays| match stop_radius {
+            Some(radius) => real.aimed_at_stop(radius),
+            None => real,
+        };
+        let reference = aimed(reference);
         let z_image = reference.paraxial().z_image;
         let by_wavelength = spectrum
             .drawn_nm
             .iter()
-            .map(|&w| Ok((w, real_at(w)?.with_image_plane(z_image))))
+            .map(|&w| Ok((w, aimed(real_at(w)?.with_image_plane(z_image)))))
             .collect::<Result<_, FigureError>>()?;
         Ok(RealSet {
             conditions,

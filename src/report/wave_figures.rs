@@ -70,6 +70,7 @@ impl<'a> WaveSet<'a> {
             system,
             epd_mm: Some(conditions.epd_mm),
             object_distance_mm: conditions.object_distance_mm,
+            ray_aiming: conditions.ray_aiming,
         };
         let probe = Sampling {
             samples: 16,

@@ -5,7 +5,10 @@
 //!   and the object height in mm for a finite object (the object point is (0, h, -d));
 //! - pupil coordinates (px, py) are fractions of the paraxial entrance-pupil radius on the
 //!   paraxial entrance-pupil plane, measured from the axis; the rays of a field point pass
-//!   through those points (collimated beams at infinity, from the object point otherwise);
+//!   through those points (collimated beams at infinity, from the object point otherwise).
+//!   With real ray aiming ([`RealRays::aimed_at_stop`]) they are fractions of the radius the
+//!   axial beam fills on the stop surface instead, and each ray is the real ray that crosses
+//!   the stop there;
 //! - the real chief ray is aimed to cross the stop surface at its centre;
 //! - the image plane is the paraxial image plane of the conjugate analysed, unless
 //!   [`RealRays::with_image_plane`] moves it (a sensor position, a defocus).
@@ -39,6 +42,11 @@ pub enum RealRayError {
          height in mm otherwise)"
     )]
     InvalidField { field: f64 },
+    #[error(
+        "real ray aiming needs the radius the beam fills on the stop: the axial rim ray \
+         {outcome}, and the stop has no clear aperture"
+    )]
+    NoStopRadius { outcome: Outcome },
     #[error("{what} needs {needs}")]
     Unsupported {
         what: &'static str,
@@ -142,6 +150,16 @@ pub struct RealRays {
     paraxial: Paraxial,
     start_z: f64,
     z_image: f64,
+    aim: PupilAim,
+}
+
+/// Where a relative pupil coordinate points.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum PupilAim {
+    /// The paraxial entrance pupil, by a straight line from the source.
+    EntrancePupil,
+    /// The stop surface, by a real ray; coordinates scale by `radius` (mm).
+    Stop { radius: f64 },
 }
 
 impl RealRays {
@@ -155,6 +173,48 @@ impl RealRays {
             system: system.clone(),
             tracer,
             paraxial,
+            aim: PupilAim::EntrancePupil,
+        }
+    }
+
+    /// The same analyses with real ray aiming: the pupil coordinate (px, py) is the real ray
+    /// that crosses the stop surface at (px, py) `stop_radius`, found by iteration
+    /// ([`aim_at_stop`]). A coordinate no real ray reaches (a ray totally reflected or missing a
+    /// surface before the stop) is a ray that does not pass. Give every wavelength the reference
+    /// wavelength's radius ([`RealRays::filled_stop_radius`]), as a design program fills the stop
+    /// once for all of them.
+    pub fn aimed_at_stop(mut self, stop_radius: f64) -> RealRays {
+        self.aim = PupilAim::Stop {
+            radius: stop_radius,
+        };
+        self
+    }
+
+    /// The radius the axial beam fills on the stop surface: the stop's clear semi-aperture when
+    /// the beam is the stop's own (`stop_sets_beam`: a lens used wide open), else the height at
+    /// which the real axial ray through the rim of the paraxial entrance pupil crosses the stop,
+    /// so that real aiming keeps the axial beam the aperture states (its rim ray is the same).
+    /// Where that ray cannot reach the stop (an aperture wider than the lens passes), the stop
+    /// is filled as well.
+    pub fn filled_stop_radius(&self, stop_sets_beam: bool) -> Result<f64, RealRayError> {
+        let stop = self.tracer.stop;
+        let semi_aperture = self.tracer.surfaces[stop].semi_aperture;
+        let rim = self.entrance_pupil_ray(0.0, 0.0, 1.0)?;
+        let at_stop = self
+            .tracer
+            .trace_to(rim, Travel::Forward, stop + 1, Apertures::Ignored);
+        let radius = if stop_sets_beam || !at_stop.outcome.is_ok() {
+            semi_aperture
+        } else {
+            let p = at_stop.ray.position();
+            p[0].hypot(p[1])
+        };
+        if radius.is_finite() && radius > 0.0 {
+            Ok(radius)
+        } else {
+            Err(RealRayError::NoStopRadius {
+                outcome: at_stop.outcome,
+            })
         }
     }
 
@@ -189,9 +249,46 @@ impl RealRays {
         Ok(RaySource::of_field(distance, field, self.start_z))
     }
 
-    /// The ray of `field` through the point (px, py) of the paraxial entrance pupil (relative
-    /// coordinates).
+    /// The ray of `field` at the relative pupil coordinates (px, py): through that point of the
+    /// paraxial entrance pupil, or with real ray aiming, through that point of the stop; an
+    /// error where no real ray reaches it.
     pub fn pupil_ray(&self, field: f64, px: f64, py: f64) -> Result<Ray, RealRayError> {
+        self.launch(field, px, py)?
+            .map_err(|outcome| RealRayError::PupilRay {
+                rho: px.hypot(py),
+                outcome,
+            })
+    }
+
+    /// [`RealRays::pupil_ray`], with a coordinate that real aiming cannot reach told apart
+    /// from an invalid field: the inner error is how the nearest try ended.
+    pub(crate) fn launch(
+        &self,
+        field: f64,
+        px: f64,
+        py: f64,
+    ) -> Result<Result<Ray, Outcome>, RealRayError> {
+        match self.aim {
+            PupilAim::EntrancePupil => self.entrance_pupil_ray(field, px, py).map(Ok),
+            PupilAim::Stop { radius } => {
+                let target = [px * radius, py * radius];
+                Ok(
+                    aim_at_stop(&self.tracer, &self.source(field)?, target).map_err(|error| {
+                        match error {
+                            AimError::NoStartingRay(outcome) => outcome,
+                            _ => Outcome::Missed {
+                                surface: self.tracer.stop + 1,
+                            },
+                        }
+                    }),
+                )
+            }
+        }
+    }
+
+    /// The ray of `field` through the point (px, py) of the paraxial entrance pupil (relative
+    /// coordinates), whatever the aiming.
+    fn entrance_pupil_ray(&self, field: f64, px: f64, py: f64) -> Result<Ray, RealRayError> {
         let r = self.pupil_radius();
         let target = [px * r, py * r, self.paraxial.entrance_pupil.z];
         let ray = match self.source(field)? {
@@ -369,8 +466,10 @@ impl RealRays {
             rhos.iter()
                 .map(|&rho| {
                     let (px, py) = pupil(rho);
-                    let ray = self.pupil_ray(field, px, py)?;
-                    Ok(match self.image_point(ray, Apertures::Checked) {
+                    let reached = self
+                        .launch(field, px, py)?
+                        .and_then(|ray| self.image_point(ray, Apertures::Checked));
+                    Ok(match reached {
                         Ok(p) => FanPoint {
                             rho,
                             outcome: Outcome::Ok,
@@ -405,7 +504,10 @@ impl RealRays {
         }
         let mut points = Vec::with_capacity(pupil.len());
         for &(px, py) in &pupil {
-            if let Ok(p) = self.image_point(self.pupil_ray(field, px, py)?, Apertures::Checked) {
+            let reached = self
+                .launch(field, px, py)?
+                .and_then(|ray| self.image_point(ray, Apertures::Checked));
+            if let Ok(p) = reached {
                 points.push([p[0], p[1]]);
             }
         }
@@ -566,7 +668,7 @@ impl RealRays {
         // Whether a pupil point's ray passes every aperture and the stop alone, and its weight
         // per unit pupil area.
         let sample = |x: f64, y: f64| -> Result<(bool, bool, f64), RealRayError> {
-            let ray = self.pupil_ray(field, x / r, y / r)?;
+            let ray = self.entrance_pupil_ray(field, x / r, y / r)?;
             let at_stop = self
                 .tracer
                 .trace_to(ray, Travel::Forward, stop, Apertures::Ignored);

@@ -4,6 +4,7 @@
 use super::{NM_TO_MM, Sampling, WaveError, positive};
 use crate::limits::short;
 use crate::paraxial::{Aperture, Field, ObjectPosition, Paraxial, ParaxialOptions};
+use crate::prescription::RayAiming;
 use crate::system::{LensSystem, SystemAt};
 use crate::trace::analyses::{RealRayError, RealRays};
 use crate::trace::{Apertures, Ray, Travel, Vec3};
@@ -20,10 +21,13 @@ pub enum WaveLens<'a> {
     /// `object_distance_mm` in front of surface 1, at infinity when None; its field points are
     /// named by the angle their chief ray makes at the entrance-pupil centre
     /// ([`crate::paraxial::Paraxial::field_at_angle`]), and the image plane is its conjugate.
+    /// `ray_aiming` says where a pupil coordinate points ([`RealRays::aimed_at_stop`]); real
+    /// aiming fills the stop radius of the reference wavelength.
     Real {
         system: &'a LensSystem,
         epd_mm: Option<f64>,
         object_distance_mm: Option<f64>,
+        ray_aiming: RayAiming,
     },
     /// A perfect lens in air: every field point is imaged to a point by a spherical wave whose
     /// exit pupil is a sphere of radius `efl_mm` (the sine condition holds), so its numerical
@@ -154,10 +158,14 @@ impl PupilTrace {
                 system,
                 epd_mm,
                 object_distance_mm,
+                ray_aiming,
             } => trace_real(
-                system,
-                epd_mm,
-                ObjectPosition::in_focus(object_distance_mm),
+                RealLens {
+                    system,
+                    epd_mm,
+                    object: ObjectPosition::in_focus(object_distance_mm),
+                    ray_aiming,
+                },
                 field_deg,
                 wavelength_nm,
                 reference_nm,
@@ -267,15 +275,27 @@ fn distance(a: Vec3, b: Vec3) -> f64 {
     ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
 }
 
-fn trace_real(
-    system: &LensSystem,
+/// The fields of [`WaveLens::Real`], its object placed.
+struct RealLens<'a> {
+    system: &'a LensSystem,
     epd_mm: Option<f64>,
     object: ObjectPosition,
+    ray_aiming: RayAiming,
+}
+
+fn trace_real(
+    lens: RealLens,
     field_deg: f64,
     wavelength_nm: f64,
     reference_nm: f64,
     samples: usize,
 ) -> Result<PupilTrace, WaveError> {
+    let RealLens {
+        system,
+        epd_mm,
+        object,
+        ray_aiming,
+    } = lens;
     let options = ParaxialOptions {
         object,
         aperture: epd_mm.map_or(Aperture::StopClearAperture, Aperture::EntrancePupilDiameter),
@@ -285,7 +305,8 @@ fn trace_real(
     if let Some(epd_mm) = epd_mm {
         positive("entrance-pupil diameter (mm)", epd_mm)?;
     }
-    let reference = Paraxial::new(&system.at_checked(reference_nm)?, &options)?;
+    let reference_at = system.at_checked(reference_nm)?;
+    let reference = Paraxial::new(&reference_at, &options)?;
     let pupil = match epd_mm {
         Some(epd_mm) => format!("the f-number of a {} mm entrance pupil", short(epd_mm)),
         None => "the f-number wide open".to_string(),
@@ -296,6 +317,28 @@ fn trace_real(
     let exit_pupil_z = paraxial.exit_pupil.ok_or(WaveError::ExitPupilAtInfinity)?.z;
     let cutoff_per_mm = 1.0 / (wavelength_nm * NM_TO_MM * paraxial.working_f_number);
     let real = RealRays::new(&at, paraxial);
+    let real = match ray_aiming {
+        RayAiming::Paraxial => real,
+        RayAiming::Real => {
+            // A pupil the size of the stop's own (as the design conditions give a lens used
+            // wide open) is the stop filled.
+            let wide_open = ParaxialOptions {
+                aperture: Aperture::StopClearAperture,
+                ..options
+            };
+            let stop_sets_beam = match epd_mm {
+                None => true,
+                Some(epd) => {
+                    epd == Paraxial::new(&reference_at, &wide_open)?
+                        .entrance_pupil
+                        .diameter
+                }
+            };
+            let radius = RealRays::new(&reference_at, reference.clone())
+                .filled_stop_radius(stop_sets_beam)?;
+            real.aimed_at_stop(radius)
+        }
+    };
     // Every wavelength starts from the reference wavelength's object point.
     let field = reference.field_at_angle(field_deg);
     // Optical paths weigh lengths by the physical index; the sign of the image-space index only
@@ -309,8 +352,10 @@ fn trace_real(
         ObjectPosition::Finite { distance } => [0.0, field, -distance],
     };
     let trace = |px: f64, py: f64, apertures: Apertures| -> Result<Option<ExitRay>, WaveError> {
-        let ray = real.pupil_ray(field, px, py)?;
-        Ok(exit_ray(&real, &at, ray, wavefront_origin, apertures))
+        Ok(real
+            .launch(field, px, py)?
+            .ok()
+            .and_then(|ray| exit_ray(&real, &at, ray, wavefront_origin, apertures)))
     };
     let chief = trace(0.0, 0.0, Apertures::Ignored)?.ok_or(RealRayError::ChiefRay {
         field: field_deg,

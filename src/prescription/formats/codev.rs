@@ -1325,6 +1325,8 @@ impl Reader {
                 vec![1.0; self.wavelengths.len()]
             },
             wavelengths_nm: self.wavelengths.clone(),
+            // No CODE V command this reader applies states one.
+            ray_aiming: None,
         }
     }
 }

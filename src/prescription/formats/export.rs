@@ -31,7 +31,7 @@ use crate::glass::{Dispersion, lookup};
 use crate::prescription::DEFAULT_WAVELENGTH_NM;
 use crate::prescription::error::Problem;
 use crate::prescription::model::{
-    ApertureSpec, FieldKind, FieldSpec, Medium, Prescription, Shape, Surface,
+    ApertureSpec, FieldKind, FieldSpec, Medium, Prescription, RayAiming, Shape, Surface,
 };
 
 /// Terms the Zemax even asphere holds: PARM 1..8 multiply r^2 .. r^16.
@@ -198,6 +198,11 @@ pub fn write_zemax(p: &Prescription) -> Result<String, Problem> {
     // be (the design wavelength's place in the list made a RON lens analysed at 656.3 nm come
     // back analysed at 587.6).
     line(format!("PWAV {}", conditions.primary.unwrap_or(0) + 1));
+    match conditions.ray_aiming {
+        Some(RayAiming::Real) => line("RAIM 0 2 1 1 0 0 0 0 0".into()),
+        Some(RayAiming::Paraxial) => line("RAIM 0 0 1 1 0 0 0 0 0".into()),
+        None => {}
+    }
     line("SURF 0".into());
     line("  TYPE STANDARD".into());
     line("  CURV 0".into());

@@ -64,28 +64,28 @@ use crate::prescription::DEFAULT_WAVELENGTH_NM;
 use crate::prescription::error::{PrescriptionError, Problem};
 use crate::prescription::model::{
     ApertureSpec, Conditions, FieldKind, FieldSpec, MAX_ASPHERE_TERMS, Medium, Prescription,
-    Provenance, Shape, StatedCondition, StopShape, Surface,
+    Provenance, RayAiming, Shape, StatedCondition, StopShape, Surface,
 };
 use crate::prescription::validate::SourceMap;
 use std::collections::{BTreeMap, BTreeSet};
 
 /// Header and trailer keywords that change no surface, beam or medium: file bookkeeping
 /// (VERS, NOTE, AUTH, LUID, DBDT, ...), display and analysis settings (PFIL, SDMA, ROPD, PICB,
-/// POLS, GLRS, GSTD, ...), ray aiming (RAIM), environment data (ENVD, GFAC; lensbake's indices are
+/// POLS, GLRS, GSTD, ...), environment data (ENVD, GFAC; lensbake's indices are
 /// the catalogue's at its reference temperature), non-sequential settings, coatings, and the
 /// merit-function and tolerance data (TOL, MOFF, DMFS, EERA, IWDP, EFLY, REAY, TCMM, OEMA, ...).
 const HARMLESS_TOP: &[&str] = &[
     "VERS", "NOTE", "PFIL", "LANG", "ENVD", "GFAC", "SDMA", "OMMA", "ROPD", "HYPR", "PICB", "VANN",
-    "ZVAN", "POLS", "GLRS", "GSTD", "NSCD", "COFN", "RAIM", "PUSH", "BLNK", "TOL", "DMFS", "MOFF",
-    "AUTH", "EERA", "IWDP", "LUID", "SSID", "EFLY", "REAY", "TCMM", "DBDT", "OEMA", "BLNK", "SCOL",
-    "PUCN", "CONF", "FLOA2", "XFIE", "WWGN",
+    "ZVAN", "POLS", "GLRS", "GSTD", "NSCD", "COFN", "PUSH", "BLNK", "TOL", "DMFS", "MOFF", "AUTH",
+    "EERA", "IWDP", "LUID", "SSID", "EFLY", "REAY", "TCMM", "DBDT", "OEMA", "BLNK", "SCOL", "PUCN",
+    "CONF", "FLOA2", "XFIE", "WWGN",
 ];
 
 /// Header keywords this reader applies; seen after the surface table, they open the trailer.
 const TOP_APPLIED: &[&str] = &[
     "MODE", "NAME", "UNIT", "GCAT", "ENPD", "FNUM", "OBNA", "FLOA", "OBSA", "EFNO", "FTYP", "XFLN",
     "XFLD", "YFLN", "YFLD", "FWGN", "FWGT", "VDXN", "ZVDX", "VDYN", "ZVDY", "VCXN", "ZVCX", "VCYN",
-    "ZVCY", "WAVM", "WAVN", "WAVL", "WWGT", "PWAV", "MNUM",
+    "ZVCY", "WAVM", "WAVN", "WAVL", "WWGT", "PWAV", "MNUM", "RAIM",
 ];
 
 /// The condition a header keyword states, with the keyword.
@@ -268,6 +268,7 @@ struct Reader {
     wavelength_lines: Vec<(usize, &'static str)>,
     wavelength_weights: Vec<f64>,
     primary: Option<(usize, usize)>,
+    ray_aiming: Option<RayAiming>,
     /// The line and keyword of the aperture and the fields, the last written.
     condition_lines: BTreeMap<StatedCondition, (usize, &'static str)>,
     blocks: Vec<Block>,
@@ -627,6 +628,20 @@ impl Reader {
             "FNUM" => self.set_aperture(ApertureSpec::FNumber(stated_aperture()?)),
             "OBNA" => self.set_aperture(ApertureSpec::ObjectNumericalAperture(stated_aperture()?)),
             "FLOA" => self.set_aperture(ApertureSpec::FloatByStop),
+            // RAIM's second number is the aiming: 0 off and 1 paraxial both aim at the paraxial
+            // entrance pupil, 2 aims real rays at the stop.
+            "RAIM" => {
+                self.ray_aiming = Some(match index(1)? {
+                    0 | 1 => RayAiming::Paraxial,
+                    2 => RayAiming::Real,
+                    other => {
+                        return Err(unsupported(format!(
+                            "ray aiming {other} (RAIM): lensbake reads 0 (off), 1 (paraxial) \
+                             and 2 (real)"
+                        )));
+                    }
+                })
+            }
             "OBSA" | "EFNO" => {
                 self.aperture = None;
                 self.unusable_aperture = Some(format!("the aperture is given as {keyword}"));
@@ -1092,6 +1107,7 @@ impl Reader {
                 vec![1.0; wavelengths.len()]
             },
             wavelengths_nm: wavelengths,
+            ray_aiming: self.ray_aiming,
         }
     }
 }
