@@ -2345,7 +2345,7 @@ fn each_error_says_its_real_cause_once() {
         (
             "a scene outside the field",
             render("aside.gltf", "r.exr"),
-            "lie outside the field of view",
+            "cover no pixel centre of its",
         ),
     ];
     let expected: std::collections::HashMap<String, &str> = cases

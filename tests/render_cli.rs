@@ -350,6 +350,86 @@ fn bad_sensor_settings_exit_with_code_2_and_say_why() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// A film of 5 m behind a 50 mm lens sees nearly 180 degrees, which puts the whole demo scene
+/// between the pixel centres of a tiny render: the render is refused after it baked its table,
+/// and the table it baked goes with it, so the refused command leaves nothing (a table that was
+/// there before stays).
+#[test]
+fn a_baked_render_refused_after_its_bake_removes_the_table_it_baked() {
+    let dir = temp_dir("baked-refused");
+    let table = dir.join("table");
+    let out = dir.join("x.exr");
+    let refused = |table: &Path| {
+        let o = lensbake(&[
+            "render",
+            "--lens",
+            "dgauss-50mm",
+            "--model",
+            "baked",
+            "--backend",
+            "cpu",
+            "--width",
+            "8",
+            "--height",
+            "6",
+            "--spp",
+            "1",
+            "--bake-resolution",
+            "8",
+            "--film-mm",
+            "5000",
+            "--table",
+            table.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        let stderr = text(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{stderr}");
+        assert!(
+            stderr.starts_with("error: no surface of the scene is in view")
+                && stderr.contains("between its pixels"),
+            "{stderr}"
+        );
+    };
+    refused(&table);
+    assert!(
+        !table.exists(),
+        "the table baked for the refused render is gone"
+    );
+    assert!(!out.exists());
+    let kept = dir.join("kept");
+    let baked = lensbake(&[
+        "render",
+        "--lens",
+        "dgauss-50mm",
+        "--model",
+        "baked",
+        "--backend",
+        "cpu",
+        "--width",
+        "8",
+        "--height",
+        "6",
+        "--spp",
+        "1",
+        "--bake-resolution",
+        "8",
+        "--table",
+        kept.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(baked.status.success(), "{}", text(&baked.stderr));
+    std::fs::remove_file(&out).unwrap();
+    std::fs::remove_file(out.with_extension("png")).ok();
+    refused(&kept);
+    assert!(
+        kept.join("lrtf.ron").exists(),
+        "a table found on disk stays"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 /// A small CPU render of the bundled double Gauss on the demo scene, focused at 2 m.
 /// Returns the output whether it succeeded or not.
 fn render_dgauss(out: &Path, extra: &[&str]) -> Output {

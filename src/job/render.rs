@@ -310,7 +310,7 @@ impl SceneSource {
                 let view = mesh_layer_view(camera, settings, scene)?;
                 let layers = peel_mesh(scene, view, peeling, settings.max_layers, gpu.as_ref())?;
                 if layers.depth_range().is_none() {
-                    return Err(RenderError::NothingInView(scene.why_unseen(camera.eye_z())));
+                    return Err(RenderError::NothingInView(scene.why_unseen(&view)));
                 }
                 Ok(layers)
             }
@@ -446,19 +446,31 @@ impl RenderJob {
                 )?;
                 let film_z = baked.film_z();
                 let model = LensModel::Baked(Box::new(baked));
-                (Camera::new(model, film, Focus::FilmZ(film_z))?, Some(table))
+                let camera = Camera::new(model, film, Focus::FilmZ(film_z))
+                    .inspect_err(|_| discard_if_baked_now(Some(&table)))?;
+                (camera, Some(table))
             }
         };
-        let camera = match (wavelengths, &self.lens) {
-            (Some(nm), RenderLens::Real(real)) => {
-                let channels =
-                    Chromatic::for_camera(&camera, &real.system, &first_order, nm, PUPIL_NODES)?;
-                camera.with_chromatic(channels)?
-            }
-            _ => camera,
+        let peeled = || -> Result<_, JobError> {
+            let camera = match (wavelengths, &self.lens) {
+                (Some(nm), RenderLens::Real(real)) => {
+                    let channels = Chromatic::for_camera(
+                        &camera,
+                        &real.system,
+                        &first_order,
+                        nm,
+                        PUPIL_NODES,
+                    )?;
+                    camera.with_chromatic(channels)?
+                }
+                _ => camera,
+            };
+            let started = Instant::now();
+            let ldi = source.layers(&camera, settings)?;
+            Ok((camera, ldi, started.elapsed()))
         };
-        let started = Instant::now();
-        let ldi = source.layers(&camera, settings)?;
+        let (camera, ldi, peel_time) =
+            peeled().inspect_err(|_| discard_if_baked_now(table.as_ref()))?;
         let peel = PeelReport {
             layers: ldi.layers.len(),
             view_size: [ldi.view.width, ldi.view.height],
@@ -466,7 +478,7 @@ impl RenderJob {
                 SceneSource::Mesh { peel, .. } => Some((*peel, surfel_count(&ldi))),
                 SceneSource::Exr(_) => None,
             },
-            time: started.elapsed(),
+            time: peel_time,
         };
         Ok(PreparedRender {
             camera,
@@ -732,6 +744,15 @@ impl RenderJob {
 
 /// The film radius on `camera`'s film plane that a traced or baked model's effective pupil must
 /// cover (see [`pupil_film_radius`]).
+/// Removes the table a render baked when the render cannot go on, so that a refused command
+/// leaves nothing behind; a table found on disk stays.
+fn discard_if_baked_now(table: Option<&TableUse>) {
+    if let Some(table) = table.filter(|t| t.baked_now) {
+        // Best effort: the render's own error is the one to report.
+        let _ = std::fs::remove_dir_all(&table.dir);
+    }
+}
+
 fn sensor_film_radius(real: &LoadedLens, camera: &Camera) -> f64 {
     let design = real.system.at(real.system.design_wavelength_nm());
     pupil_film_radius(

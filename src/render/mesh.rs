@@ -8,6 +8,7 @@
 //! read as the albedo under a uniform white environment of unit radiance, no shadows) plus its
 //! emission. The panels' radiance is reproduced exactly (see [`MeshScene::from_panels`]).
 
+use super::layers::View;
 use super::scene::{Outline, Scene, Texture};
 
 /// How texture coordinates outside [0, 1] wrap (glTF sampler wrap modes).
@@ -163,10 +164,10 @@ impl MeshScene {
         mesh
     }
 
-    /// Why no triangle reached a pixel of a view from `eye_z` (mm, lens frame): how many have
-    /// no area, how many lie wholly behind the eye, and how many are left, which lie outside the
-    /// field of view.
-    pub fn why_unseen(&self, eye_z: f64) -> String {
+    /// Why no triangle reached a pixel of `view`: how many have no area, how many lie wholly
+    /// behind its eye, and how many are left, which cover no pixel centre: outside the view, or
+    /// between its pixels (a view of nearly 180 degrees across a few pixels).
+    pub fn why_unseen(&self, view: &View) -> String {
         let flat = |t: &Triangle| {
             let n = cross3(
                 sub3(t.corners[1], t.corners[0]),
@@ -174,7 +175,7 @@ impl MeshScene {
             );
             n.iter().all(|c| *c == 0.0)
         };
-        let behind = |t: &Triangle| t.corners.iter().all(|c| eye_z - c[2] <= 0.0);
+        let behind = |t: &Triangle| t.corners.iter().all(|c| view.eye_z - c[2] <= 0.0);
         let without_area = self.triangles.iter().filter(|t| flat(t)).count();
         let behind_eye = self
             .triangles
@@ -182,10 +183,16 @@ impl MeshScene {
             .filter(|t| !flat(t) && behind(t))
             .count();
         let outside = self.triangles.len() - without_area - behind_eye;
+        let degrees = view.tan_half.map(|t| 2.0 * t.atan().to_degrees());
         format!(
             "of its {} triangles, {without_area} have no area, {behind_eye} lie behind the \
-             camera and {outside} lie outside the field of view",
-            self.triangles.len()
+             camera and {outside} cover no pixel centre of its {} x {} view, {:.1} x {:.1} \
+             degrees across (outside it, or between its pixels)",
+            self.triangles.len(),
+            view.width,
+            view.height,
+            degrees[0],
+            degrees[1]
         )
     }
 
