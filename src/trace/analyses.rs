@@ -183,6 +183,28 @@ impl RealRays {
     /// surface before the stop) is a ray that does not pass. Give every wavelength the reference
     /// wavelength's radius ([`RealRays::filled_stop_radius`]), as a design program fills the stop
     /// once for all of them.
+    ///
+    /// ```
+    /// use lensbake::analysis::{ConditionOverrides, DesignConditions};
+    /// use lensbake::paraxial::Paraxial;
+    /// use lensbake::prescription::RayAiming;
+    /// use lensbake::trace::analyses::RealRays;
+    /// use lensbake::{LoadOptions, load_lens};
+    ///
+    /// let lens = load_lens("dgauss-50mm", &LoadOptions::default())?;
+    /// let overrides = ConditionOverrides {
+    ///     ray_aiming: Some(RayAiming::Real),
+    ///     ..ConditionOverrides::default()
+    /// };
+    /// let conditions = DesignConditions::resolve(&lens.system, &overrides)?;
+    /// let at = lens.system.at(conditions.reference_nm);
+    /// let real = RealRays::new(&at, Paraxial::new(&at, &conditions.paraxial_options())?);
+    /// // Used wide open, the lens fills its stop to the rim.
+    /// let radius = conditions.aiming_stop_radius(&real)?.expect("real aiming asked for");
+    /// let fan = real.aimed_at_stop(radius).ray_fan(15.0, 21)?;
+    /// assert_eq!(fan.tangential.len(), 21);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
     pub fn aimed_at_stop(mut self, stop_radius: f64) -> RealRays {
         self.aim = PupilAim::Stop {
             radius: stop_radius,
