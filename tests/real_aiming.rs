@@ -268,3 +268,49 @@ fn the_lithography_lens_draws_its_wavefront_with_the_real_aiming_it_asks_for() {
         map.rms_waves
     );
 }
+
+/// The fisheye's entrance pupil moves and grows with the field: at 54.56 degrees paraxial aiming
+/// sends most rays of the hexapolar pattern where the lens stops them, and real aiming fills the
+/// stop. At its claimed 77.95 degrees no ray passes either way, and the spot plot says so in a
+/// panel of its own instead of leaving the row empty.
+#[test]
+fn the_fisheye_spot_fills_with_real_aiming_and_a_dark_field_says_so() {
+    let system = lenses::load("fisheye-10mm", &LoadOptions::default())
+        .unwrap()
+        .system;
+    let spots = |aiming| {
+        let options = FigureOptions {
+            ray_aiming: Some(aiming),
+            ..FigureOptions::default()
+        };
+        let Ok(Figure::Spot(plot)) = figure(PlotKind::Spot, "fisheye-10mm", &system, &options)
+        else {
+            panic!("a spot plot")
+        };
+        plot.fields
+            .iter()
+            .map(|f| {
+                (
+                    f.field_deg,
+                    f.spots.iter().map(|s| s.points.len()).collect(),
+                )
+            })
+            .collect::<Vec<(f64, Vec<usize>)>>()
+    };
+    let (paraxial, real) = (spots(RayAiming::Paraxial), spots(RayAiming::Real));
+    for drawn in [&paraxial, &real] {
+        assert_eq!(drawn.len(), 3, "a row per design field: {drawn:?}");
+        assert_eq!(
+            drawn[0].1,
+            [0],
+            "the dark top field has its panel: {drawn:?}"
+        );
+    }
+    let (passed_paraxial, passed_real) = (paraxial[1].1[0], real[1].1[0]);
+    assert!(
+        passed_real > 5 * passed_paraxial,
+        "at {} deg: {passed_real} rays pass aimed at the stop, {passed_paraxial} aimed \
+         paraxially",
+        real[1].0
+    );
+}

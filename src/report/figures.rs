@@ -474,17 +474,31 @@ fn spot_plot(
                 .by_wavelength
                 .iter()
                 .filter_map(|(wavelength_nm, real)| {
-                    let spot = real.spot(field, SPOT_RINGS).ok()?;
+                    let airy_radius_mm = AIRY_FIRST_ZERO
+                        * wavelength_nm
+                        * NM_TO_MM
+                        * real.paraxial().working_f_number;
+                    let spot = match real.spot(field, SPOT_RINGS) {
+                        Ok(spot) => spot,
+                        // A panel that says every ray is vignetted, not an empty row.
+                        Err(RealRayError::NoLight { .. }) => {
+                            return Some(Spot {
+                                wavelength_nm: *wavelength_nm,
+                                points: Vec::new(),
+                                rms_radius_mm: 0.0,
+                                geometric_radius_mm: 0.0,
+                                airy_radius_mm,
+                            });
+                        }
+                        Err(_) => return None,
+                    };
                     let [cx, cy] = centre.unwrap_or(spot.centroid);
                     Some(Spot {
                         wavelength_nm: *wavelength_nm,
                         points: spot.points.iter().map(|p| (p[0] - cx, p[1] - cy)).collect(),
                         rms_radius_mm: spot.rms_radius,
                         geometric_radius_mm: spot.geometric_radius,
-                        airy_radius_mm: AIRY_FIRST_ZERO
-                            * wavelength_nm
-                            * NM_TO_MM
-                            * real.paraxial().working_f_number,
+                        airy_radius_mm,
                     })
                 })
                 .collect();
