@@ -314,3 +314,48 @@ fn the_fisheye_spot_fills_with_real_aiming_and_a_dark_field_says_so() {
         real[1].0
     );
 }
+
+/// Aimed at the stop, the two analytic lenses keep their perfect axial image: the plano-
+/// hyperbolic relay images its object 40 mm out without aberration, and a refracting sphere
+/// images a beam converging on its outer aplanatic point (a virtual object 50 mm behind the
+/// vertex) onto the inner one. Real aiming from a point object (the unknowns are direction
+/// tangents) and onto a virtual one (start points on a plane) both reach the same wavefront as
+/// paraxial aiming: flat to rounding, every sample aimed and passed.
+#[test]
+fn real_aiming_keeps_the_analytic_lenses_perfect_on_axis() {
+    use lensbake::wave::{PupilTrace, Sampling, WaveLens};
+    for (file, distance) in [
+        ("perfect_relay.ron", 40.0),
+        ("aplanatic_surface.ron", -50.0),
+    ] {
+        let path = common::test_data(file);
+        let system = lenses::load(path.to_str().unwrap(), &LoadOptions::default())
+            .unwrap()
+            .system;
+        let lens = WaveLens::Real {
+            system: &system,
+            epd_mm: None,
+            object_distance_mm: Some(distance),
+            ray_aiming: RayAiming::Real,
+        };
+        let nm = system.design_wavelength_nm();
+        let sampling = Sampling {
+            samples: 32,
+            grid: 64,
+        };
+        let stats = PupilTrace::trace(&lens, 0.0, nm, nm, sampling)
+            .unwrap()
+            .wavefront(0.0)
+            .unwrap()
+            .stats();
+        assert!(
+            stats.pv_waves < 1e-6,
+            "{file}: {} waves peak to valley",
+            stats.pv_waves
+        );
+        assert_eq!(
+            stats.transmitted_samples, stats.pupil_samples,
+            "{file}: every aimed sample passes"
+        );
+    }
+}
