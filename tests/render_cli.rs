@@ -357,10 +357,10 @@ fn bad_sensor_settings_exit_with_code_2_and_say_why() {
 #[test]
 fn a_baked_render_refused_after_its_bake_removes_the_table_it_baked() {
     let dir = temp_dir("baked-refused");
-    let table = dir.join("table");
     let out = dir.join("x.exr");
-    let refused = |table: &Path| {
-        let o = lensbake(&[
+    // A tiny baked render with its table in `table`, and `extra` flags.
+    let baked_render = |table: &Path, extra: &[&str]| {
+        let mut args = vec![
             "render",
             "--lens",
             "dgauss-50mm",
@@ -376,13 +376,16 @@ fn a_baked_render_refused_after_its_bake_removes_the_table_it_baked() {
             "1",
             "--bake-resolution",
             "8",
-            "--film-mm",
-            "5000",
             "--table",
             table.to_str().unwrap(),
             "--out",
             out.to_str().unwrap(),
-        ]);
+        ];
+        args.extend_from_slice(extra);
+        lensbake(&args)
+    };
+    let refused = |table: &Path| {
+        let o = baked_render(table, &["--film-mm", "5000"]);
         let stderr = text(&o.stderr);
         assert_eq!(o.status.code(), Some(2), "{stderr}");
         assert!(
@@ -391,6 +394,7 @@ fn a_baked_render_refused_after_its_bake_removes_the_table_it_baked() {
             "{stderr}"
         );
     };
+    let table = dir.join("table");
     refused(&table);
     assert!(
         !table.exists(),
@@ -398,27 +402,7 @@ fn a_baked_render_refused_after_its_bake_removes_the_table_it_baked() {
     );
     assert!(!out.exists());
     let kept = dir.join("kept");
-    let baked = lensbake(&[
-        "render",
-        "--lens",
-        "dgauss-50mm",
-        "--model",
-        "baked",
-        "--backend",
-        "cpu",
-        "--width",
-        "8",
-        "--height",
-        "6",
-        "--spp",
-        "1",
-        "--bake-resolution",
-        "8",
-        "--table",
-        kept.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let baked = baked_render(&kept, &[]);
     assert!(baked.status.success(), "{}", text(&baked.stderr));
     std::fs::remove_file(&out).unwrap();
     std::fs::remove_file(out.with_extension("png")).ok();
