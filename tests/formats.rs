@@ -16,13 +16,15 @@ use lensbake::system::LensSystem;
 use serde_json::Value;
 use std::path::Path;
 
-/// Whether the reading notes only list skipped harmless keywords and solves read as written (no
-/// derived apertures).
+/// Whether the reading notes only list skipped harmless keywords, solves read as written and
+/// vignetting factors not applied (no derived apertures).
 fn only_skipped_keywords(notes: &[LoadNote]) -> bool {
     notes.iter().all(|n| {
         matches!(
             n,
-            LoadNote::SkippedKeywords { .. } | LoadNote::SolvesAsWritten { .. }
+            LoadNote::SkippedKeywords { .. }
+                | LoadNote::SolvesAsWritten { .. }
+                | LoadNote::VignettingNotApplied { .. }
         )
     })
 }
@@ -408,6 +410,15 @@ fn ag_dblgauss_seq_derives_paraxial_clear_apertures() {
             surfaces: (1..=11).collect(),
             limited_at_edge: Vec::new(),
         }]
+    );
+    // Its vignetting factors size those apertures; the analyses trace the whole pupil, and the
+    // reader says so.
+    assert!(
+        loaded
+            .notes
+            .contains(&LoadNote::VignettingNotApplied { fields: vec![2, 3] }),
+        "{:?}",
+        loaded.notes
     );
 
     // Expected: the paraxial marginal and 14-degree chief rays of the oracle (rayoptics),
@@ -851,4 +862,24 @@ fn lens_names_and_paths() {
         assert_round_trip(&lens.system.prescription);
     }
     assert!(lenses::find("no-such-lens").is_none());
+}
+
+/// A Zemax file's vignetting factors (VDYN, VCYN on fields 2 and 3 here) are named in a note:
+/// the analyses trace the whole pupil.
+#[test]
+fn a_zemax_files_unapplied_vignetting_factors_are_named() {
+    let path = test_data("corpus").join("rayoptics__US00583336-2-scaled.zmx");
+    let loaded = load(&path, &LoadOptions::default());
+    assert!(
+        loaded
+            .notes
+            .contains(&LoadNote::VignettingNotApplied { fields: vec![2, 3] }),
+        "{:?}",
+        loaded.notes
+    );
+    let note = LoadNote::VignettingNotApplied { fields: vec![2, 3] }.to_string();
+    assert!(
+        note.starts_with("the vignetting factors of fields 2-3 are not applied"),
+        "{note}"
+    );
 }

@@ -64,6 +64,17 @@ pub(super) enum FieldPosition {
 /// from..to, as fractions of the pupil radius.
 pub(super) type PupilFill = ((f64, f64), (f64, f64));
 
+/// The fields (1-based) whose vignetting factors trim the pupil, for
+/// [`super::LoadNote::VignettingNotApplied`].
+pub(super) fn trimmed_fields(pupils: &[PupilFill]) -> Vec<usize> {
+    pupils
+        .iter()
+        .enumerate()
+        .filter(|(_, fill)| **fill != ((-1.0, 1.0), (-1.0, 1.0)))
+        .map(|(k, _)| k + 1)
+        .collect()
+}
+
 /// What the file says about the beams, in mm and nm.
 #[derive(Clone, Debug, PartialEq)]
 pub(super) struct BeamSpec {

@@ -1114,6 +1114,7 @@ impl Reader {
                 ((-(1.0 - vlx), 1.0 - vux), (-(1.0 - vly), 1.0 - vuy))
             })
             .collect();
+        let trimmed = apertures::trimmed_fields(&pupils);
         let beams = BeamSpec::from_conditions(
             &conditions,
             &pupils,
@@ -1125,6 +1126,11 @@ impl Reader {
         let mut loaded =
             apertures::complete(prescription, &missing, &[], &beams, map, Format::CodeV)?;
         loaded.notes.extend(centred);
+        if !trimmed.is_empty() {
+            loaded
+                .notes
+                .push(LoadNote::VignettingNotApplied { fields: trimmed });
+        }
         if !self.skipped.is_empty() {
             loaded.notes.push(LoadNote::SkippedKeywords {
                 keywords: self.skipped.into_iter().collect(),

@@ -187,6 +187,11 @@ pub enum LoadNote {
     /// OpticStudio saves the active configuration's values in the surface table, and the other
     /// configurations' values (the configuration records after it) are not applied.
     ActiveConfiguration { active: usize, count: usize },
+    /// Fields (1-based) whose vignetting factors (Zemax `VDX`/`VDY`/`VCX`/`VCY`, CODE V
+    /// `VUY`/`VLY`/`VUX`/`VLX`) trim their pupil. lensbake traces the whole pupil at every field
+    /// and lets the clear apertures vignette it; the factors only size clear apertures the file
+    /// does not give.
+    VignettingNotApplied { fields: Vec<usize> },
     /// A CODE V zoom file (`ZOO n`), read at position 1: zoomed thicknesses, radii, curvatures,
     /// conics, the object distance, EPD and FNO take their first `ZOO` value; the zoomed items in
     /// `as_written` (fields, vignetting, ...) are read as the lens data write them, and the other
@@ -263,6 +268,14 @@ impl fmt::Display for LoadNote {
                 f,
                 "skipped keywords that change nothing lensbake models: {}",
                 keywords.join(", ")
+            ),
+            LoadNote::VignettingNotApplied { fields } => write!(
+                f,
+                "the vignetting factors of field{} {} are not applied: the fans, spots and wave \
+                 figures trace the whole pupil and the clear apertures vignette it, where the \
+                 program that wrote the file traces the part the factors keep",
+                plural(fields),
+                list_ranges(fields)
             ),
             LoadNote::ActiveConfiguration { active, count } => write!(
                 f,

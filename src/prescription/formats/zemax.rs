@@ -1017,6 +1017,7 @@ impl Reader {
                 )
             })
             .collect();
+        let trimmed = apertures::trimmed_fields(&pupils);
         let beams = BeamSpec::from_conditions(
             &conditions,
             &pupils,
@@ -1034,6 +1035,11 @@ impl Reader {
             Format::Zemax,
         )?;
         loaded.notes.extend(centred);
+        if !trimmed.is_empty() {
+            loaded
+                .notes
+                .push(LoadNote::VignettingNotApplied { fields: trimmed });
+        }
         if let Some((active, count)) = self.configuration {
             loaded
                 .notes
