@@ -288,20 +288,12 @@ impl DesignConditions {
         })
     }
 
-    /// Whether the stop's own clear aperture sets the beam (the lens is used wide open), so
-    /// that real aiming fills the stop ([`RealRays::filled_stop_radius`]).
-    pub fn stop_sets_beam(&self) -> bool {
-        self.aperture_from == Origin::Rule
-    }
-
-    /// The stop radius real ray aiming fills, from the reference wavelength's analyses; None
-    /// under paraxial aiming.
+    /// The stop radius real ray aiming fills ([`RealRays::filled_stop_radius`]), from the
+    /// reference wavelength's analyses; None under paraxial aiming.
     pub fn aiming_stop_radius(&self, reference: &RealRays) -> Result<Option<f64>, RealRayError> {
         match self.ray_aiming {
             RayAiming::Paraxial => Ok(None),
-            RayAiming::Real => reference
-                .filled_stop_radius(self.stop_sets_beam())
-                .map(Some),
+            RayAiming::Real => reference.filled_stop_radius().map(Some),
         }
     }
 

@@ -213,31 +213,45 @@ impl RealRays {
     }
 
     /// The radius the axial beam fills on the stop surface: the stop's clear semi-aperture when
-    /// the beam is the stop's own (`stop_sets_beam`: a lens used wide open), else the height at
-    /// which the real axial ray through the rim of the paraxial entrance pupil crosses the stop,
-    /// so that real aiming keeps the axial beam the aperture states (its rim ray is the same).
-    /// Where that ray cannot reach the stop (an aperture wider than the lens passes), the stop
-    /// is filled as well.
-    pub fn filled_stop_radius(&self, stop_sets_beam: bool) -> Result<f64, RealRayError> {
+    /// the paraxial entrance pupil is the stop's own image (a lens used wide open), else the
+    /// height at which the real axial ray through the rim of the paraxial entrance pupil crosses
+    /// the stop, so that real aiming keeps the axial beam the aperture states (its rim ray is the
+    /// same). Where that ray cannot reach the stop (an aperture wider than the lens passes), the
+    /// stop is filled as well.
+    pub fn filled_stop_radius(&self) -> Result<f64, RealRayError> {
         let stop = self.tracer.stop;
         let semi_aperture = self.tracer.surfaces[stop].semi_aperture;
-        let rim = self.entrance_pupil_ray(0.0, 0.0, 1.0)?;
-        let at_stop = self
-            .tracer
-            .trace_to(rim, Travel::Forward, stop + 1, Apertures::Ignored);
-        let radius = if stop_sets_beam || !at_stop.outcome.is_ok() {
-            semi_aperture
+        let rim_outcome = if self.stop_sets_beam() {
+            Outcome::Ok
         } else {
-            let p = at_stop.ray.position();
-            p[0].hypot(p[1])
+            let rim = self.entrance_pupil_ray(0.0, 0.0, 1.0)?;
+            let at_stop = self
+                .tracer
+                .trace_to(rim, Travel::Forward, stop + 1, Apertures::Ignored);
+            if at_stop.outcome.is_ok() {
+                let p = at_stop.ray.position();
+                return Ok(p[0].hypot(p[1]));
+            }
+            at_stop.outcome
         };
-        if radius.is_finite() && radius > 0.0 {
-            Ok(radius)
+        if semi_aperture.is_finite() && semi_aperture > 0.0 {
+            Ok(semi_aperture)
         } else {
             Err(RealRayError::NoStopRadius {
-                outcome: at_stop.outcome,
+                outcome: rim_outcome,
             })
         }
+    }
+
+    /// Whether the paraxial entrance pupil is the stop's clear aperture imaged into object
+    /// space: the beam of a lens used wide open, whatever set its diameter (the design
+    /// conditions' rule, or no pupil given to the wave optics).
+    fn stop_sets_beam(&self) -> bool {
+        let semi_aperture = self.tracer.surfaces[self.tracer.stop].semi_aperture;
+        self.tracer.stop_image.is_some_and(|image| {
+            let own = 2.0 * (semi_aperture / image.scale.abs());
+            (self.paraxial.entrance_pupil.diameter - own).abs() <= 1e-12 * own
+        })
     }
 
     /// The same analyses in the plane z = `z_image` (lens frame) instead of the paraxial image
@@ -312,36 +326,12 @@ impl RealRays {
     /// coordinates), whatever the aiming.
     fn entrance_pupil_ray(&self, field: f64, px: f64, py: f64) -> Result<Ray, RealRayError> {
         let r = self.pupil_radius();
-        let target = [px * r, py * r, self.paraxial.entrance_pupil.z];
-        let ray = match self.source(field)? {
-            RaySource::Collimated { direction, start_z } => {
-                let back = (target[2] - start_z) / direction[2];
-                Ray::new(
-                    [
-                        target[0] - back * direction[0],
-                        target[1] - back * direction[1],
-                        start_z,
-                    ],
-                    direction,
-                )
-                .ok()
-            }
-            RaySource::Point { position } => Ray::new(
-                position,
-                [
-                    target[0] - position[0],
-                    target[1] - position[1],
-                    target[2] - position[2],
-                ],
-            )
-            .ok(),
-            converging @ RaySource::Converging { .. } => {
-                converging.ray(converging.unknowns_through(target))
-            }
-        };
+        let source = self.source(field)?;
         // Paraxial::new refuses an object in the pupil plane, so only absurd pupil
         // coordinates can fail here.
-        ray.ok_or(RealRayError::InvalidField { field })
+        source
+            .ray(source.unknowns_through([px * r, py * r, self.paraxial.entrance_pupil.z]))
+            .ok_or(RealRayError::InvalidField { field })
     }
 
     /// The real chief ray of `field`, aimed at the stop centre (apertures ignored).
@@ -586,33 +576,19 @@ impl RealRays {
             .collect()
     }
 
-    /// `chief` moved sideways by `offset` (mm) in the entrance pupil: its start point for a
-    /// collimated beam, its aim for a point object, real or virtual.
+    /// `chief` moved sideways by `offset` (mm) in the entrance pupil: the ray of `source` through
+    /// the point where the chief ray crosses the entrance-pupil plane, shifted by `offset`.
     fn shifted(&self, chief: Ray, source: &RaySource, offset: [f64; 2]) -> Ray {
         let (p, d) = (chief.position(), chief.direction());
         let pupil_z = self.paraxial.entrance_pupil.z;
-        // The chief ray reaches the entrance-pupil plane at p + reach d.
         let reach = (pupil_z - p[2]) / d[2];
-        let moved = match source {
-            RaySource::Collimated { .. } => {
-                Ray::new([p[0] + offset[0], p[1] + offset[1], p[2]], d).ok()
-            }
-            RaySource::Point { .. } => Ray::new(
-                p,
-                [
-                    d[0] * reach + offset[0],
-                    d[1] * reach + offset[1],
-                    d[2] * reach,
-                ],
-            )
-            .ok(),
-            RaySource::Converging { .. } => source.ray(source.unknowns_through([
+        source
+            .ray(source.unknowns_through([
                 p[0] + d[0] * reach + offset[0],
                 p[1] + d[1] * reach + offset[1],
                 pupil_z,
-            ])),
-        };
-        moved.expect("a small shift of a valid ray is a valid ray")
+            ]))
+            .expect("a small shift of a valid ray is a valid ray")
     }
 
     /// Relative illumination and vignetted fraction at each field (at infinity: field angles).

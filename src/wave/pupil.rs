@@ -319,25 +319,8 @@ fn trace_real(
     let real = RealRays::new(&at, paraxial);
     let real = match ray_aiming {
         RayAiming::Paraxial => real,
-        RayAiming::Real => {
-            // A pupil the size of the stop's own (as the design conditions give a lens used
-            // wide open) is the stop filled.
-            let wide_open = ParaxialOptions {
-                aperture: Aperture::StopClearAperture,
-                ..options
-            };
-            let stop_sets_beam = match epd_mm {
-                None => true,
-                Some(epd) => {
-                    epd == Paraxial::new(&reference_at, &wide_open)?
-                        .entrance_pupil
-                        .diameter
-                }
-            };
-            let radius = RealRays::new(&reference_at, reference.clone())
-                .filled_stop_radius(stop_sets_beam)?;
-            real.aimed_at_stop(radius)
-        }
+        RayAiming::Real => real
+            .aimed_at_stop(RealRays::new(&reference_at, reference.clone()).filled_stop_radius()?),
     };
     // Every wavelength starts from the reference wavelength's object point.
     let field = reference.field_at_angle(field_deg);
