@@ -742,8 +742,6 @@ impl RenderJob {
     }
 }
 
-/// The film radius on `camera`'s film plane that a traced or baked model's effective pupil must
-/// cover (see [`pupil_film_radius`]).
 /// Removes the table a render baked when the render cannot go on, so that a refused command
 /// leaves nothing behind; a table found on disk stays.
 fn discard_if_baked_now(table: Option<&TableUse>) {
@@ -753,6 +751,8 @@ fn discard_if_baked_now(table: Option<&TableUse>) {
     }
 }
 
+/// The film radius on `camera`'s film plane that a traced or baked model's effective pupil must
+/// cover (see [`pupil_film_radius`]).
 fn sensor_film_radius(real: &LoadedLens, camera: &Camera) -> f64 {
     let design = real.system.at(real.system.design_wavelength_nm());
     pupil_film_radius(
