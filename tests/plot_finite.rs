@@ -251,8 +251,9 @@ fn a_virtual_object_is_traced_converging_on_its_point() {
     };
     let &(field, sagittal, tangential) = curves.curves[0].points.first().unwrap();
     assert_eq!(field, 0.0);
+    // Measured: 7.1e-15 mm each; held to the traced rays' 1e-9 mm.
     assert!(
-        sagittal.abs() < 1e-6 && tangential.abs() < 1e-6,
+        sagittal.abs() < 1e-9 && tangential.abs() < 1e-9,
         "{sagittal} {tangential}"
     );
 }

@@ -64,8 +64,8 @@ fn corpus(file: &str) -> String {
 }
 
 /// A tiny CPU render of `lens` with `model` to `out`; the output whether it succeeded or not.
-fn tiny_render(lens: &str, model: &str, out: &Path) -> Output {
-    lensbake(&[
+fn tiny_render(lens: &str, model: &str, out: &Path, extra: &[&str]) -> Output {
+    let mut args = vec![
         "render",
         "--lens",
         lens,
@@ -81,7 +81,9 @@ fn tiny_render(lens: &str, model: &str, out: &Path) -> Output {
         "2",
         "--out",
         out.to_str().unwrap(),
-    ])
+    ];
+    args.extend_from_slice(extra);
+    lensbake(&args)
 }
 
 /// The sensor centre z and tilt the render reports.
@@ -190,7 +192,7 @@ fn three_point_focus_prints_the_tilt_and_sensor_distance() {
 fn a_sensor_inside_the_lens_is_refused_without_blaming_a_tilt() {
     let dir = temp_dir("inside");
     let out = dir.join("x.exr");
-    let o = tiny_render(&corpus("rayoptics__HoO-V2C18Ex27.zmx"), "traced", &out);
+    let o = tiny_render(&corpus("rayoptics__HoO-V2C18Ex27.zmx"), "traced", &out, &[]);
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(2), "{stderr}");
     assert!(
@@ -293,7 +295,7 @@ fn an_unreachable_focus_nobody_asked_for_names_its_origin() {
              129.381 or --sensor-mm",
         ),
     ] {
-        let o = tiny_render(&corpus(file), "thin", &out);
+        let o = tiny_render(&corpus(file), "thin", &out, &[]);
         let stderr = String::from_utf8_lossy(&o.stderr);
         assert_eq!(o.status.code(), Some(2), "{file}: {stderr}");
         assert!(
@@ -360,29 +362,8 @@ fn a_baked_render_refused_after_its_bake_removes_the_table_it_baked() {
     let out = dir.join("x.exr");
     // A tiny baked render with its table in `table`, and `extra` flags.
     let baked_render = |table: &Path, extra: &[&str]| {
-        let mut args = vec![
-            "render",
-            "--lens",
-            "dgauss-50mm",
-            "--model",
-            "baked",
-            "--backend",
-            "cpu",
-            "--width",
-            "8",
-            "--height",
-            "6",
-            "--spp",
-            "1",
-            "--bake-resolution",
-            "8",
-            "--table",
-            table.to_str().unwrap(),
-            "--out",
-            out.to_str().unwrap(),
-        ];
-        args.extend_from_slice(extra);
-        lensbake(&args)
+        let table = ["--bake-resolution", "8", "--table", table.to_str().unwrap()];
+        tiny_render("dgauss-50mm", "baked", &out, &[&table[..], extra].concat())
     };
     let refused = |table: &Path| {
         let o = baked_render(table, &["--film-mm", "5000"]);
