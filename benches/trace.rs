@@ -4,6 +4,11 @@
 //! `one_core` and `all_cores` trace into one reused result (`Tracer::trace_batch_into`, as a
 //! caller tracing batch after batch does); `one_core_new_output` allocates the result every
 //! call (`Tracer::trace_batch`), so its fresh pages are part of the time.
+//!
+//! `aim_fisheye_top_field` aims a 17 x 17 grid of stop points at the fisheye's top field (77.95
+//! degrees, where the paraxial pupil misses the lens): each point alone from the paraxial guess
+//! (`aim_at_stop`, a ring search where that guess fails) against the field's points started
+//! from its chief ray (`StopAim`), as the real-aiming analyses launch a field's rays.
 
 #[path = "../tests/common/mod.rs"]
 mod common;
@@ -11,7 +16,9 @@ mod common;
 use common::load_oracle;
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use lensbake::system::LensSystem;
-use lensbake::trace::{Apertures, BatchTrace, FieldBundle, Tracer, Travel};
+use lensbake::trace::{
+    Apertures, BatchTrace, FieldBundle, RaySource, StopAim, Tracer, Travel, aim_at_stop,
+};
 
 const RAYS: usize = 100_000;
 
@@ -54,5 +61,34 @@ fn trace(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, trace);
+fn aim(c: &mut Criterion) {
+    let lens = lensbake::lenses::load("fisheye-10mm", &Default::default()).unwrap();
+    let at = lens.system.at(lens.system.design_wavelength_nm());
+    let tracer = Tracer::new(&at);
+    let source = RaySource::collimated(77.95, tracer.front_start_z());
+    let radius = at.surfaces[tracer.stop_surface() - 1].semi_aperture;
+    let targets: Vec<[f64; 2]> = (0..17 * 17)
+        .map(|k| [(k % 17) as f64 / 8.0 - 1.0, (k / 17) as f64 / 8.0 - 1.0].map(|t| t * radius))
+        .collect();
+    let mut group = c.benchmark_group("aim_fisheye_top_field");
+    group.throughput(Throughput::Elements(targets.len() as u64));
+    group.sample_size(10);
+    group.bench_function("each_point_alone", |b| {
+        b.iter(|| {
+            targets
+                .iter()
+                .filter(|&&t| aim_at_stop(&tracer, &source, t).is_ok())
+                .count()
+        })
+    });
+    group.bench_function("from_the_chief_ray", |b| {
+        b.iter(|| {
+            let field = StopAim::new(&tracer, source);
+            targets.iter().filter(|&&t| field.aim(t).is_ok()).count()
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(benches, trace, aim);
 criterion_main!(benches);

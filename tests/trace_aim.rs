@@ -5,7 +5,7 @@ mod common;
 use common::{ORACLE_LENSES, OracleLens, load_oracle, num, vec3};
 use lensbake::system::LensSystem;
 use lensbake::trace::{
-    Apertures, Ray, RaySource, Tracer, Travel, aim_at_stop, traceable_field_deg,
+    Apertures, Ray, RaySource, StopAim, Tracer, Travel, aim_at_stop, traceable_field_deg,
 };
 use serde_json::Value;
 
@@ -136,4 +136,73 @@ fn aiming_finds_the_chief_ray_where_the_paraxial_guess_fails() {
         at_stop[0].abs() < 1e-11 && at_stop[1].abs() < 1e-11,
         "{at_stop:?}"
     );
+}
+
+#[test]
+fn a_field_aimed_from_its_chief_ray_finds_the_rays_each_aim_finds() {
+    // Every point of a pupil grid at the fisheye's top field, where the paraxial pupil misses
+    // the lens, and a skew grid from a finite object point through the double Gauss: the aims
+    // started from the chief ray cross the stop where asked and are the rays each separate aim
+    // finds, point for point, unreachable points included.
+    let cases = [
+        ("fisheye-10mm", RaySource::collimated(77.95, 0.0)),
+        (
+            "dgauss-50mm",
+            RaySource::Point {
+                position: [30.0, -120.0, -1000.0],
+            },
+        ),
+    ];
+    for (name, source) in cases {
+        let lens = lensbake::lenses::load(name, &Default::default()).unwrap();
+        let at = lens.system.at(lens.system.design_wavelength_nm());
+        let tracer = Tracer::new(&at);
+        let source = match source {
+            RaySource::Collimated { direction, .. } => RaySource::Collimated {
+                direction,
+                start_z: tracer.front_start_z(),
+            },
+            point => point,
+        };
+        let stop = tracer.stop_surface();
+        let radius = at.surfaces[stop - 1].semi_aperture;
+        let field = StopAim::new(&tracer, source);
+        let (mut reached, mut points) = (0, 0);
+        for i in 0..9 {
+            for j in 0..9 {
+                let target = [
+                    radius * (i as f64 / 4.0 - 1.0),
+                    radius * (j as f64 / 4.0 - 1.0),
+                ];
+                points += 1;
+                let alone = aim_at_stop(&tracer, &source, target);
+                let from_chief = field.aim(target);
+                assert_eq!(alone.is_ok(), from_chief.is_ok(), "{name} {target:?}");
+                let (Ok(alone), Ok(from_chief)) = (alone, from_chief) else {
+                    continue;
+                };
+                reached += 1;
+                let at_stop = tracer
+                    .trace_to(from_chief, Travel::Forward, stop, Apertures::Ignored)
+                    .ray
+                    .position();
+                assert!(
+                    (at_stop[0] - target[0]).hypot(at_stop[1] - target[1]) < 1e-11,
+                    "{name} {target:?}: {at_stop:?}"
+                );
+                for axis in 0..3 {
+                    assert!(
+                        (alone.position()[axis] - from_chief.position()[axis]).abs() < 1e-9
+                            && (alone.direction()[axis] - from_chief.direction()[axis]).abs()
+                                < 1e-12,
+                        "{name} {target:?}: {alone:?} against {from_chief:?}"
+                    );
+                }
+            }
+        }
+        assert!(
+            reached >= points / 2,
+            "{name}: {reached} of {points} reached"
+        );
+    }
 }

@@ -18,7 +18,7 @@ use crate::prescription::formats::PlacedLens;
 use crate::system::{LensSystem, SystemAt};
 use crate::trace::analyses::{FanPoint, RealRayError, RealRays};
 use crate::trace::placed::{PlacedBeam, PlacedBeamError, PlacedTracer, SPOT_GRID};
-use crate::trace::{Apertures, RaySource, Tracer, Travel, aim_at_stop};
+use crate::trace::{Apertures, RaySource, StopAim, Tracer, Travel};
 use plotters::coord::Shift;
 use plotters::prelude::{DrawingArea, DrawingBackend};
 use std::fmt;
@@ -837,9 +837,10 @@ fn layout_rays(
         let limit = 1.3 * largest * dy.signum();
         earliest.max(z + (-limit - y) * dz / dy)
     };
+    let aim = StopAim::new(tracer, *source);
     LAYOUT_STOP_HEIGHTS
         .iter()
-        .filter_map(|&h| aim_at_stop(tracer, source, [0.0, h * stop_radius]).ok())
+        .filter_map(|&h| aim.aim([0.0, h * stop_radius]).ok())
         .filter_map(|ray| {
             let traced = tracer.trace_path(ray, Travel::Forward, Apertures::Checked);
             let start = ray.point_at_z(draw_from(&ray))?;

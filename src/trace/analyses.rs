@@ -17,7 +17,9 @@
 //! traced with apertures ignored, as design programs do; what the sensor receives (fans,
 //! spots, illumination) is traced with every clear aperture and the stop's shape applied.
 
-use super::{AimError, Apertures, Outcome, Ray, RaySource, Tracer, Travel, Vec3, aim_at_stop};
+use super::{
+    AimError, Apertures, Outcome, Ray, RaySource, StopAim, Tracer, Travel, Vec3, aim_at_stop,
+};
 use crate::paraxial::Paraxial;
 use crate::system::SystemAt;
 use serde::Serialize;
@@ -162,6 +164,52 @@ enum PupilAim {
     Stop { radius: f64 },
 }
 
+/// The rays of one field point of a [`RealRays`] ([`RealRays::field_rays`]).
+pub(crate) struct FieldRays<'a> {
+    real: &'a RealRays,
+    field: f64,
+    source: RaySource,
+    aim: FieldAim<'a>,
+}
+
+enum FieldAim<'a> {
+    EntrancePupil,
+    Stop { radius: f64, aim: StopAim<'a> },
+}
+
+impl FieldRays<'_> {
+    /// [`RealRays::pupil_ray`] of this field.
+    pub(crate) fn pupil_ray(&self, px: f64, py: f64) -> Result<Ray, RealRayError> {
+        self.launch(px, py)?
+            .map_err(|outcome| RealRayError::PupilRay {
+                rho: px.hypot(py),
+                outcome,
+            })
+    }
+
+    /// The ray at the relative pupil coordinates (px, py) ([`RealRays::pupil_ray`]), with a
+    /// coordinate that real aiming cannot reach told apart from an invalid one: the inner error
+    /// is how the nearest try ended.
+    pub(crate) fn launch(&self, px: f64, py: f64) -> Result<Result<Ray, Outcome>, RealRayError> {
+        match &self.aim {
+            FieldAim::EntrancePupil => self
+                .real
+                .entrance_pupil_ray_of(&self.source, self.field, px, py)
+                .map(Ok),
+            FieldAim::Stop { radius, aim } => {
+                Ok(aim
+                    .aim([px * radius, py * radius])
+                    .map_err(|error| match error {
+                        AimError::NoStartingRay(outcome) => outcome,
+                        _ => Outcome::Missed {
+                            surface: self.real.tracer.stop + 1,
+                        },
+                    }))
+            }
+        }
+    }
+}
+
 impl RealRays {
     /// `paraxial` must have been computed from `system` (it fixes the object, the pupil size
     /// and the image plane).
@@ -289,44 +337,42 @@ impl RealRays {
     /// paraxial entrance pupil, or with real ray aiming, through that point of the stop; an
     /// error where no real ray reaches it.
     pub fn pupil_ray(&self, field: f64, px: f64, py: f64) -> Result<Ray, RealRayError> {
-        self.launch(field, px, py)?
-            .map_err(|outcome| RealRayError::PupilRay {
-                rho: px.hypot(py),
-                outcome,
-            })
+        self.field_rays(field)?.pupil_ray(px, py)
     }
 
-    /// [`RealRays::pupil_ray`], with a coordinate that real aiming cannot reach told apart
-    /// from an invalid field: the inner error is how the nearest try ended.
-    pub(crate) fn launch(
-        &self,
-        field: f64,
-        px: f64,
-        py: f64,
-    ) -> Result<Result<Ray, Outcome>, RealRayError> {
-        match self.aim {
-            PupilAim::EntrancePupil => self.entrance_pupil_ray(field, px, py).map(Ok),
-            PupilAim::Stop { radius } => {
-                let target = [px * radius, py * radius];
-                Ok(
-                    aim_at_stop(&self.tracer, &self.source(field)?, target).map_err(|error| {
-                        match error {
-                            AimError::NoStartingRay(outcome) => outcome,
-                            _ => Outcome::Missed {
-                                surface: self.tracer.stop + 1,
-                            },
-                        }
-                    }),
-                )
-            }
-        }
+    /// The rays of `field`, to be launched pupil point by pupil point: with real aiming, the
+    /// field's chief ray is aimed once here for all of them.
+    pub(crate) fn field_rays(&self, field: f64) -> Result<FieldRays<'_>, RealRayError> {
+        let source = self.source(field)?;
+        let aim = match self.aim {
+            PupilAim::EntrancePupil => FieldAim::EntrancePupil,
+            PupilAim::Stop { radius } => FieldAim::Stop {
+                radius,
+                aim: StopAim::new(&self.tracer, source),
+            },
+        };
+        Ok(FieldRays {
+            real: self,
+            field,
+            source,
+            aim,
+        })
     }
 
     /// The ray of `field` through the point (px, py) of the paraxial entrance pupil (relative
     /// coordinates), whatever the aiming.
     fn entrance_pupil_ray(&self, field: f64, px: f64, py: f64) -> Result<Ray, RealRayError> {
+        self.entrance_pupil_ray_of(&self.source(field)?, field, px, py)
+    }
+
+    fn entrance_pupil_ray_of(
+        &self,
+        source: &RaySource,
+        field: f64,
+        px: f64,
+        py: f64,
+    ) -> Result<Ray, RealRayError> {
         let r = self.pupil_radius();
-        let source = self.source(field)?;
         // Paraxial::new refuses an object in the pupil plane, so only absurd pupil
         // coordinates can fail here.
         source
@@ -426,9 +472,10 @@ impl RealRays {
     /// Longitudinal spherical aberration of the meridional ray through (0, rho) of the
     /// entrance pupil (axis-parallel at infinity, from the axial object point otherwise).
     pub fn lsa(&self, rhos: &[f64]) -> Result<Vec<LsaPoint>, RealRayError> {
+        let axial = self.field_rays(0.0)?;
         rhos.iter()
             .map(|&rho| {
-                let ray = self.pupil_ray(0.0, 0.0, rho)?;
+                let ray = axial.pupil_ray(0.0, rho)?;
                 let traced = self
                     .tracer
                     .trace_with(ray, Travel::Forward, Apertures::Ignored);
@@ -456,12 +503,13 @@ impl RealRays {
     /// Tangential and sagittal ray fans of `field`, `samples` rays each from rho = -1 to 1,
     /// with apertures applied. Errors are measured from the ray through the pupil centre.
     pub fn ray_fan(&self, field: f64, samples: usize) -> Result<RayFan, RealRayError> {
+        let rays = self.field_rays(field)?;
         let centre = self
             // The ray through the pupil centre is the fan's axis, not a ray that must reach
             // the image: central obscurations do not stop it.
             .image_point_through(
                 &self.tracer.unobscured(),
-                self.pupil_ray(field, 0.0, 0.0)?,
+                rays.pupil_ray(0.0, 0.0)?,
                 Apertures::Checked,
             )
             .map_err(|outcome| RealRayError::PupilRay { rho: 0.0, outcome })?;
@@ -478,8 +526,8 @@ impl RealRays {
             rhos.iter()
                 .map(|&rho| {
                     let (px, py) = pupil(rho);
-                    let reached = self
-                        .launch(field, px, py)?
+                    let reached = rays
+                        .launch(px, py)?
                         .and_then(|ray| self.image_point(ray, Apertures::Checked));
                     Ok(match reached {
                         Ok(p) => FanPoint {
@@ -514,10 +562,11 @@ impl RealRays {
                 pupil.push((r * a.cos(), r * a.sin()));
             }
         }
+        let rays = self.field_rays(field)?;
         let mut points = Vec::with_capacity(pupil.len());
         for &(px, py) in &pupil {
-            let reached = self
-                .launch(field, px, py)?
+            let reached = rays
+                .launch(px, py)?
                 .and_then(|ray| self.image_point(ray, Apertures::Checked));
             if let Ok(p) = reached {
                 points.push([p[0], p[1]]);

@@ -22,7 +22,9 @@ mod lanes;
 pub mod placed;
 mod refract;
 
-pub use aim::{AimError, RaySource, aim_at_stop, traceable_field_deg, traceable_field_deg_from};
+pub use aim::{
+    AimError, RaySource, StopAim, aim_at_stop, traceable_field_deg, traceable_field_deg_from,
+};
 pub use batch::{BatchTrace, RayBatch};
 pub(crate) use batch::{GROUP_RAYS, GroupBlock};
 pub use bundle::FieldBundle;

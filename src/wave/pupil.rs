@@ -327,7 +327,8 @@ fn trace_real(
     // Optical paths weigh lengths by the physical index; the sign of the image-space index only
     // says which way light travels there.
     let image_index = at.image_index().abs();
-    let chief_start = real.pupil_ray(field, 0.0, 0.0)?;
+    let field_rays = real.field_rays(field)?;
+    let chief_start = field_rays.pupil_ray(0.0, 0.0)?;
     // A point on the incident wavefront: the chief ray's start on a collimated beam's plane, the
     // object point of a real or a virtual object.
     let wavefront_origin = match object {
@@ -335,8 +336,8 @@ fn trace_real(
         ObjectPosition::Finite { distance } => [0.0, field, -distance],
     };
     let trace = |px: f64, py: f64, apertures: Apertures| -> Result<Option<ExitRay>, WaveError> {
-        Ok(real
-            .launch(field, px, py)?
+        Ok(field_rays
+            .launch(px, py)?
             .ok()
             .and_then(|ray| exit_ray(&real, &at, ray, wavefront_origin, apertures)))
     };
