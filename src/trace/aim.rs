@@ -141,6 +141,23 @@ pub fn aim_at_stop(tracer: &Tracer, source: &RaySource, target: [f64; 2]) -> Res
 /// report traced 18 M rays aiming against 0.8 M for a double Gauss); the chief ray and how its
 /// stop point moves with the unknowns, found once, put every other point's start within the
 /// beam.
+///
+/// ```
+/// use lensbake::trace::{Apertures, RaySource, StopAim, Tracer, Travel};
+/// use lensbake::{LoadOptions, load_lens};
+///
+/// let lens = load_lens("fisheye-10mm", &LoadOptions::default())?;
+/// let at = lens.system.at(lens.system.design_wavelength_nm());
+/// let tracer = Tracer::new(&at);
+/// let stop = tracer.stop_surface();
+/// let radius = at.surfaces[stop - 1].semi_aperture;
+/// // The top of the fisheye's field, where the paraxial entrance pupil misses the lens.
+/// let field = StopAim::new(&tracer, RaySource::collimated(70.0, tracer.front_start_z()));
+/// let ray = field.aim([0.0, 0.8 * radius])?;
+/// let at_stop = tracer.trace_to(ray, Travel::Forward, stop, Apertures::Ignored);
+/// assert!((at_stop.ray.position()[1] - 0.8 * radius).abs() < 1e-11);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub struct StopAim<'a> {
     tracer: &'a Tracer,
     source: RaySource,

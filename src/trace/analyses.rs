@@ -226,8 +226,8 @@ impl RealRays {
     }
 
     /// The same analyses with real ray aiming: the pupil coordinate (px, py) is the real ray
-    /// that crosses the stop surface at (px, py) `stop_radius`, found by iteration
-    /// ([`aim_at_stop`]). A coordinate no real ray reaches (a ray totally reflected or missing a
+    /// that crosses the stop surface at (px, py) `stop_radius`, found by iteration from the
+    /// field's chief ray ([`StopAim`]). A coordinate no real ray reaches (a ray totally reflected or missing a
     /// surface before the stop) is a ray that does not pass. Give every wavelength the reference
     /// wavelength's radius ([`RealRays::filled_stop_radius`]), as a design program fills the stop
     /// once for all of them.
