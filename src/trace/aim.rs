@@ -158,6 +158,7 @@ pub fn aim_at_stop(tracer: &Tracer, source: &RaySource, target: [f64; 2]) -> Res
 /// assert!((at_stop.ray.position()[1] - 0.8 * radius).abs() < 1e-11);
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
+#[derive(Clone, Debug)]
 pub struct StopAim<'a> {
     tracer: &'a Tracer,
     source: RaySource,
@@ -166,6 +167,7 @@ pub struct StopAim<'a> {
 
 /// The chief ray's unknowns and the inverse of the Jacobian of the stop point there: the
 /// unknowns of a ray to `target` are about `chief + inverse * target`.
+#[derive(Clone, Debug)]
 struct Anchor {
     chief: [f64; 2],
     inverse: [[f64; 2]; 2],
