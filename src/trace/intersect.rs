@@ -268,7 +268,7 @@ pub(crate) fn sphere_meet(
 }
 
 /// Meets the conic `c (x^2 + y^2 + e z^2) - 2 z = 0` (e = 1 + k) on its vertex sheet.
-#[inline]
+#[inline(always)]
 pub(crate) fn conic(
     p: Vec3,
     d: Vec3,
@@ -295,7 +295,7 @@ pub(crate) fn conic(
 
 /// Sag of the conic base and of the whole asphere, and d(sag)/d(r^2), at `rho = r^2`; None
 /// beyond the rim of the conic base.
-#[inline]
+#[inline(always)]
 pub(crate) fn asphere_sag(
     rho: f64,
     curvature: f64,
@@ -350,6 +350,11 @@ fn horner(terms: &AsphereTerms, x: f64) -> (f64, f64) {
 /// the size of the search region, and once two iterates straddle the surface every step stays
 /// inside that bracket (a step that would leave it bisects instead). No convergence within
 /// [`ASPHERE_MAX_STEPS`], or a crossing in the wrong sense, is a miss.
+///
+/// Inlined, as the conic and the Newton search are, into the traces compiled for an instruction
+/// set: as functions of their own they were compiled for the baseline set, where every
+/// `mul_add` is a library call.
+#[inline(always)]
 pub(crate) fn asphere(
     p: Vec3,
     d: Vec3,
@@ -427,6 +432,7 @@ pub(crate) fn toroid(
 /// and dg/dt; None outside the region where the surface exists. Steps are limited to
 /// `search_radius`; once two iterates straddle the surface every step stays inside that bracket
 /// (a step that would leave it bisects instead).
+#[inline(always)]
 fn newton_crossing(
     p: Vec3,
     d: Vec3,
@@ -485,6 +491,7 @@ fn newton_crossing(
 }
 
 /// Accepts an asphere crossing only in the travel sense (object side to image side forward).
+#[inline(always)]
 fn finish_asphere(q: Vec3, gradient: Vec3, d: Vec3, sense: f64) -> Option<Hit> {
     let normal = normalised(gradient);
     let towards = dot(normal, d);
