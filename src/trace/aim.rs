@@ -131,7 +131,7 @@ pub fn aim_at_stop(tracer: &Tracer, source: &RaySource, target: [f64; 2]) -> Res
         paraxial_guess(tracer, source, target),
         Start::Search,
     )
-    .map(|(ray, _)| ray)
+    .map(|solved| solved.ray)
 }
 
 /// The rays of one source aimed at points of the stop, each solve starting a linear step from
@@ -165,43 +165,31 @@ pub struct StopAim<'a> {
     anchor: Option<Anchor>,
 }
 
-/// The chief ray's unknowns and the inverse of the Jacobian of the stop point there: the
-/// unknowns of a ray to `target` are about `chief + inverse * target`.
+/// The chief ray's solve and the Jacobian of its stop point: a ray to `target` starts one
+/// Newton step from the chief ray, the chief's residual less `target` its residual.
 #[derive(Clone, Debug)]
 struct Anchor {
-    chief: [f64; 2],
-    inverse: [[f64; 2]; 2],
+    chief: Solved,
+    jacobian: [[f64; 2]; 2],
 }
 
 impl<'a> StopAim<'a> {
     /// Aims `source`'s chief ray at the stop centre; a source whose chief ray cannot be aimed
-    /// (or whose stop point does not move with both unknowns) aims every point from the paraxial
-    /// guess, as [`aim_at_stop`] does.
+    /// aims every point from the paraxial guess, as [`aim_at_stop`] does.
     pub fn new(tracer: &'a Tracer, source: RaySource) -> StopAim<'a> {
+        let centre = [0.0, 0.0];
         let anchor = solve(
             tracer,
             &source,
-            [0.0, 0.0],
-            paraxial_guess(tracer, &source, [0.0, 0.0]),
+            centre,
+            paraxial_guess(tracer, &source, centre),
             Start::Search,
         )
         .ok()
-        .and_then(|(_, chief)| {
-            let residual_at = residual_fn(tracer, &source, [0.0, 0.0]);
-            let jacobian = jacobian(&residual_at, chief, residual_at(chief).ok()?)?;
-            let det = jacobian[0][0] * jacobian[1][1] - jacobian[0][1] * jacobian[1][0];
-            let scale = jacobian
-                .iter()
-                .flatten()
-                .fold(0.0f64, |m, j| m.max(j.abs()));
-            // A stop point that barely moves with one unknown gives no usable linear step.
-            (det.abs() > 1e-12 * scale * scale).then(|| Anchor {
-                chief,
-                inverse: [
-                    [jacobian[1][1] / det, -jacobian[0][1] / det],
-                    [-jacobian[1][0] / det, jacobian[0][0] / det],
-                ],
-            })
+        .and_then(|chief| {
+            let residual_at = residual_fn(tracer, &source, centre);
+            let jacobian = jacobian(&residual_at, chief.unknowns, chief.residual)?;
+            Some(Anchor { chief, jacobian })
         });
         StopAim {
             tracer,
@@ -214,17 +202,19 @@ impl<'a> StopAim<'a> {
     /// apertures ignored: from the chief ray's linear step, and where that start does not reach
     /// the stop or does not converge, as [`aim_at_stop`] finds it.
     pub fn aim(&self, target: [f64; 2]) -> Result<Ray, AimError> {
-        if let Some(anchor) = &self.anchor {
-            let [[a, b], [c, d]] = anchor.inverse;
-            let guess = [
-                anchor.chief[0] + a * target[0] + b * target[1],
-                anchor.chief[1] + c * target[0] + d * target[1],
-            ];
-            if let Ok((ray, _)) = solve(self.tracer, &self.source, target, guess, Start::AsGiven) {
-                return Ok(ray);
-            }
+        let from_chief = self.anchor.as_ref().and_then(|anchor| {
+            let Solved {
+                unknowns, residual, ..
+            } = anchor.chief;
+            let residual = [residual[0] - target[0], residual[1] - target[1]];
+            let step = step_for(&anchor.jacobian, residual)?;
+            let guess = [unknowns[0] + step[0], unknowns[1] + step[1]];
+            solve(self.tracer, &self.source, target, guess, Start::AsGiven).ok()
+        });
+        match from_chief {
+            Some(solved) => Ok(solved.ray),
+            None => aim_at_stop(self.tracer, &self.source, target),
         }
-        aim_at_stop(self.tracer, &self.source, target)
     }
 }
 
@@ -264,14 +254,22 @@ fn residual_fn<'t>(
     }
 }
 
-/// Newton's method from `guess` for the ray to `target`; the ray and its unknowns.
+/// A ray aimed at the stop: the ray, its unknowns, and where it meets the stop less the target.
+#[derive(Clone, Copy, Debug)]
+struct Solved {
+    ray: Ray,
+    unknowns: [f64; 2],
+    residual: [f64; 2],
+}
+
+/// Newton's method from `guess` for the ray to `target`.
 fn solve(
     tracer: &Tracer,
     source: &RaySource,
     target: [f64; 2],
     guess: [f64; 2],
     start: Start,
-) -> Result<(Ray, [f64; 2]), AimError> {
+) -> Result<Solved, AimError> {
     let stop_radius = tracer.surfaces[tracer.stop].semi_aperture;
     let scale = 1.0 + stop_radius;
     let residual_at = residual_fn(tracer, source, target);
@@ -284,10 +282,18 @@ fn solve(
         }
         .ok_or(AimError::NoStartingRay(outcome))?,
     };
-    let solved = |v: [f64; 2]| Ok((source.ray(v).expect("a ray that traced is a valid ray"), v));
+    let solved = |unknowns: [f64; 2], residual: [f64; 2]| {
+        Ok(Solved {
+            ray: source
+                .ray(unknowns)
+                .expect("a ray that traced is a valid ray"),
+            unknowns,
+            residual,
+        })
+    };
     for _ in 0..AIM_MAX_ITERATIONS {
         if norm(r) <= AIM_TOLERANCE * scale {
-            return solved(v);
+            return solved(v, r);
         }
         let Some(step) = newton_step(&residual_at, v, r) else {
             break;
@@ -311,7 +317,7 @@ fn solve(
     }
     if norm(r) <= AIM_TOLERANCE * scale * 1e3 {
         // Stalled within rounding of the target: the best f64 can do for this ray.
-        return solved(v);
+        return solved(v, r);
     }
     Err(AimError::NoConvergence { residual: norm(r) })
 }
@@ -380,14 +386,18 @@ fn jacobian(
     Some(jacobian)
 }
 
-/// Newton step from a forward-difference Jacobian; None when the Jacobian is singular or a
+/// Newton step from a forward-difference Jacobian; None when the step is not finite or a
 /// difference ray fails to trace.
 fn newton_step(
     residual_at: &impl Fn([f64; 2]) -> Result<[f64; 2], Outcome>,
     v: [f64; 2],
     r: [f64; 2],
 ) -> Option<[f64; 2]> {
-    let jacobian = jacobian(residual_at, v, r)?;
+    step_for(&jacobian(residual_at, v, r)?, r)
+}
+
+/// The Newton step s with `jacobian` s = -`r`; None where it is not finite.
+fn step_for(jacobian: &[[f64; 2]; 2], r: [f64; 2]) -> Option<[f64; 2]> {
     // In a meridional aim one unknown does not move the residual at all to first order in the
     // other: solve each decoupled equation alone rather than failing on a singular matrix.
     let det = jacobian[0][0] * jacobian[1][1] - jacobian[0][1] * jacobian[1][0];
