@@ -108,25 +108,37 @@ fn traceable_field_within_oracle_bracket() {
     }
 }
 
+/// How the collimated ray at `deg` through the centre of the paraxial entrance pupil (the first
+/// guess of the chief ray's aim) ends at the stop, apertures ignored.
+fn paraxial_chief_guess(tracer: &Tracer, deg: f64) -> lensbake::trace::Outcome {
+    let angle = deg.to_radians();
+    let direction = [0.0, angle.sin(), angle.cos()];
+    let start_z = tracer.front_start_z();
+    let pupil = tracer.paraxial_entrance_pupil().unwrap();
+    let back = (pupil.z - start_z) / direction[2];
+    let guess = Ray::new([0.0, -back * direction[1], start_z], direction).unwrap();
+    tracer
+        .trace_to(
+            guess,
+            Travel::Forward,
+            tracer.stop_surface(),
+            Apertures::Ignored,
+        )
+        .outcome
+}
+
 #[test]
 fn aiming_finds_the_chief_ray_where_the_paraxial_guess_fails() {
     // A fisheye: at 70 degrees the paraxial entrance pupil is far from the real one, and the
     // ray through its centre misses the lens; the search must still find the chief ray.
     let lens = lensbake::lenses::load("fisheye-10mm", &Default::default()).unwrap();
     let tracer = Tracer::new(&lens.system.at(lens.system.design_wavelength_nm()));
-    let angle = 70f64.to_radians();
-    let direction = [0.0, angle.sin(), angle.cos()];
-    let start_z = tracer.front_start_z();
-    let pupil = tracer.paraxial_entrance_pupil().unwrap();
-    let back = (pupil.z - start_z) / direction[2];
-    let paraxial_guess = Ray::new([0.0, -back * direction[1], start_z], direction).unwrap();
-    let stop = tracer.stop_surface();
-    let guess_at_stop = tracer.trace_to(paraxial_guess, Travel::Forward, stop, Apertures::Ignored);
     assert!(
-        !guess_at_stop.outcome.is_ok(),
+        !paraxial_chief_guess(&tracer, 70.0).is_ok(),
         "the paraxial guess must fail for this test to mean anything"
     );
-    let source = RaySource::Collimated { direction, start_z };
+    let source = RaySource::collimated(70.0, tracer.front_start_z());
+    let stop = tracer.stop_surface();
     let chief = aim_at_stop(&tracer, &source, [0.0, 0.0]).unwrap();
     let at_stop = tracer
         .trace_to(chief, Travel::Forward, stop, Apertures::Ignored)
@@ -140,41 +152,37 @@ fn aiming_finds_the_chief_ray_where_the_paraxial_guess_fails() {
 
 #[test]
 fn a_field_aimed_from_its_chief_ray_finds_the_rays_each_aim_finds() {
-    // Every point of a pupil grid at the fisheye's top field, where the paraxial pupil misses
-    // the lens, and a skew grid from a finite object point through the double Gauss: the aims
-    // started from the chief ray cross the stop where asked and are the rays each separate aim
-    // finds, point for point, unreachable points included.
-    let cases = [
-        ("fisheye-10mm", RaySource::collimated(77.95, 0.0)),
-        (
-            "dgauss-50mm",
-            RaySource::Point {
-                position: [30.0, -120.0, -1000.0],
-            },
-        ),
-    ];
-    for (name, source) in cases {
+    // A 9 x 9 stop grid (to 1.41 of its radius at the corners, apertures ignored) at the
+    // fisheye's top field, where the paraxial chief ray misses the lens, and from a finite
+    // object point off axis in x and y through the double Gauss: the aims started from the
+    // chief ray reach the points each separate aim reaches (measured: 81 and 79 of 81), cross
+    // the stop within the aim's tolerance (measured 3.5e-13 and 9.3e-13 mm) and are the same
+    // rays (start points 8.4e-13 mm apart at most, directions 1.5e-15).
+    for (name, field_deg, at_least) in
+        [("fisheye-10mm", Some(77.95), 81), ("dgauss-50mm", None, 79)]
+    {
         let lens = lensbake::lenses::load(name, &Default::default()).unwrap();
         let at = lens.system.at(lens.system.design_wavelength_nm());
         let tracer = Tracer::new(&at);
-        let source = match source {
-            RaySource::Collimated { direction, .. } => RaySource::Collimated {
-                direction,
-                start_z: tracer.front_start_z(),
+        let source = match field_deg {
+            Some(deg) => {
+                assert!(!paraxial_chief_guess(&tracer, deg).is_ok(), "{name}");
+                RaySource::collimated(deg, tracer.front_start_z())
+            }
+            None => RaySource::Point {
+                position: [30.0, -120.0, -1000.0],
             },
-            point => point,
         };
         let stop = tracer.stop_surface();
         let radius = at.surfaces[stop - 1].semi_aperture;
         let field = StopAim::new(&tracer, source);
-        let (mut reached, mut points) = (0, 0);
+        let mut reached = 0;
         for i in 0..9 {
             for j in 0..9 {
                 let target = [
                     radius * (i as f64 / 4.0 - 1.0),
                     radius * (j as f64 / 4.0 - 1.0),
                 ];
-                points += 1;
                 let alone = aim_at_stop(&tracer, &source, target);
                 let from_chief = field.aim(target);
                 assert_eq!(alone.is_ok(), from_chief.is_ok(), "{name} {target:?}");
@@ -186,23 +194,21 @@ fn a_field_aimed_from_its_chief_ray_finds_the_rays_each_aim_finds() {
                     .trace_to(from_chief, Travel::Forward, stop, Apertures::Ignored)
                     .ray
                     .position();
+                // The aim converges to 1e-13 (1 + stop radius) mm.
                 assert!(
-                    (at_stop[0] - target[0]).hypot(at_stop[1] - target[1]) < 1e-11,
+                    (at_stop[0] - target[0]).hypot(at_stop[1] - target[1]) < 1e-12 * (1.0 + radius),
                     "{name} {target:?}: {at_stop:?}"
                 );
                 for axis in 0..3 {
                     assert!(
-                        (alone.position()[axis] - from_chief.position()[axis]).abs() < 1e-9
+                        (alone.position()[axis] - from_chief.position()[axis]).abs() < 1e-11
                             && (alone.direction()[axis] - from_chief.direction()[axis]).abs()
-                                < 1e-12,
+                                < 1e-13,
                         "{name} {target:?}: {alone:?} against {from_chief:?}"
                     );
                 }
             }
         }
-        assert!(
-            reached >= points / 2,
-            "{name}: {reached} of {points} reached"
-        );
+        assert!(reached >= at_least, "{name}: {reached} of 81 reached");
     }
 }
