@@ -712,10 +712,11 @@ impl RealRays {
             .ok_or(RealRayError::NoLight { field })?;
         let stop = self.tracer.stop_surface();
         let r = self.pupil_radius();
+        let source = self.source(field)?;
         // Whether a pupil point's ray passes every aperture and the stop alone, and its weight
         // per unit pupil area.
         let sample = |x: f64, y: f64| -> Result<(bool, bool, f64), RealRayError> {
-            let ray = self.entrance_pupil_ray(field, x / r, y / r)?;
+            let ray = self.entrance_pupil_ray_of(&source, field, x / r, y / r)?;
             let at_stop = self
                 .tracer
                 .trace_to(ray, Travel::Forward, stop, Apertures::Ignored);
