@@ -124,17 +124,9 @@ pub(crate) fn plane_candidate(p: Vec3, d: Vec3, sense: f64) -> (Vec3, bool) {
     )
 }
 
-/// The wanted root of `a t^2 - 2 B t + C = 0` (see the module notes), or None when the line
-/// misses or the root is not a finite number.
-#[inline(always)]
-fn quadratic_root(a: f64, b: f64, c: f64, sense: f64) -> Option<f64> {
-    let (t, real) = root_candidate(a, b, c, sense);
-    (real && t.is_finite()).then_some(t)
-}
-
-/// [`quadratic_root`] without branches: the root (meaningless when the line misses) and whether
-/// the discriminant is non-negative. One division whichever form is taken, so a vector of lanes
-/// divides once.
+/// The wanted root of `a t^2 - 2 B t + C = 0` (see the module notes) without branches: the root
+/// (meaningless when the line misses) and whether the discriminant is non-negative. One
+/// division whichever form is taken, so a vector of lanes divides once.
 #[inline(always)]
 fn root_candidate(a: f64, b: f64, c: f64, sense: f64) -> (f64, bool) {
     let disc = discriminant(a, b, c);
@@ -276,21 +268,33 @@ pub(crate) fn conic(
     conic_factor: f64,
     sense: f64,
 ) -> Option<Hit> {
+    let (q, crosses) = conic_candidate(p, d, curvature, conic_factor, sense);
+    let nz = (curvature * conic_factor).mul_add(q[2], -1.0);
+    crosses.then(|| Hit {
+        point: q,
+        normal: normalised([curvature * q[0], curvature * q[1], nz]),
+    })
+}
+
+/// [`conic`] without branches, for the lane kernels: the point, and whether it is a crossing of
+/// the vertex sheet.
+#[inline(always)]
+fn conic_candidate(
+    p: Vec3,
+    d: Vec3,
+    curvature: f64,
+    conic_factor: f64,
+    sense: f64,
+) -> (Vec3, bool) {
     let p = nearest_to_vertex(p, d);
     let (c, e) = (curvature, conic_factor);
     let a = c * dot(d, [d[0], d[1], e * d[2]]);
     let b = (-c).mul_add(dot(p, [d[0], d[1], e * d[2]]), d[2]);
     let cc = c.mul_add(dot(p, [p[0], p[1], e * p[2]]), -2.0 * p[2]);
-    let t = quadratic_root(a, b, cc, sense)?;
+    let (t, real) = root_candidate(a, b, cc, sense);
     let q = along(p, d, t);
     let nz = (c * e).mul_add(q[2], -1.0);
-    if !(nz < 0.0) {
-        return None;
-    }
-    Some(Hit {
-        point: q,
-        normal: normalised([c * q[0], c * q[1], nz]),
-    })
+    (q, real & t.is_finite() & (nz < 0.0))
 }
 
 /// Sag of the conic base and of the whole asphere, and d(sag)/d(r^2), at `rho = r^2`; None
@@ -302,33 +306,45 @@ pub(crate) fn asphere_sag(
     conic_factor: f64,
     terms: &AsphereTerms,
 ) -> Option<(f64, f64)> {
-    let c = curvature;
-    let under = 1.0 - conic_factor * c * c * rho;
-    if !(under > 0.0) {
+    let (sag, slope, exists) = conic_base(rho, curvature, conic_factor);
+    if !exists {
         return None;
     }
+    let x = polynomial_variable(terms.odd, rho);
+    let (poly, dpoly) = horner(terms, x);
+    let (poly_sag, poly_slope) =
+        polynomial_part(terms.odd, terms.coefficients[1], rho, x, poly, dpoly);
+    Some((sag + poly_sag, slope + poly_slope))
+}
+
+/// The conic base's sag and d(sag)/d(r^2) at `rho = r^2`, and whether the base reaches that far
+/// (the numbers are meaningless where it does not).
+#[inline(always)]
+fn conic_base(rho: f64, curvature: f64, conic_factor: f64) -> (f64, f64, bool) {
+    let c = curvature;
+    let under = 1.0 - conic_factor * c * c * rho;
     let root = under.sqrt();
-    let mut sag = c * rho / (1.0 + root);
-    let mut slope = 0.5 * c / root;
-    let (poly, dpoly) = if terms.odd {
-        // Horner in r; d/d(r^2) = d/dr / (2 r), whose limit on the axis is the r^2 coefficient
-        // (zero-padded when there is none; an r term's cone has a slope there, but no
-        // direction: the gradient takes slope times (x, y), which vanishes).
-        let r = rho.sqrt();
-        let (poly, dpoly_dr) = horner(terms, r);
-        let slope = if r > 0.0 {
-            dpoly_dr / (2.0 * r)
-        } else {
-            terms.coefficients[1]
-        };
-        (poly * r, slope)
+    (c * rho / (1.0 + root), 0.5 * c / root, under > 0.0)
+}
+
+/// The variable [`horner`] runs over: r for an odd asphere, r^2 for an even one.
+#[inline(always)]
+fn polynomial_variable(odd: bool, rho: f64) -> f64 {
+    if odd { rho.sqrt() } else { rho }
+}
+
+/// The polynomial's sag and d(sag)/d(r^2) at `rho = r^2` from [`horner`]'s `poly` and `dpoly`
+/// over `x` ([`polynomial_variable`]). For an odd asphere d/d(r^2) = d/dr / (2 r), whose limit on
+/// the axis is the r^2 coefficient `a1` (zero-padded when there is none; an r term's cone has a
+/// slope there, but no direction: the gradient takes slope times (x, y), which vanishes).
+#[inline(always)]
+fn polynomial_part(odd: bool, a1: f64, rho: f64, x: f64, poly: f64, dpoly: f64) -> (f64, f64) {
+    if odd {
+        let slope = std::hint::select_unpredictable(x > 0.0, dpoly / (2.0 * x), a1);
+        (poly * x, slope)
     } else {
-        let (poly, dpoly) = horner(terms, rho);
         (poly * rho, dpoly)
-    };
-    sag += poly;
-    slope += dpoly;
-    Some((sag, slope))
+    }
 }
 
 /// `sum a_i x^i` and `sum (i + 1) a_i x^i` over the coefficients a_i of `terms`, by Horner's
@@ -343,6 +359,17 @@ fn horner(terms: &AsphereTerms, x: f64) -> (f64, f64) {
         dpoly = dpoly * x + (i + 1) as f64 * a;
     }
     (poly, dpoly)
+}
+
+/// An asphere's Newton residual at the point `q` of a line along `d`, from the sag and its
+/// slope there: g (the sag minus q's z: positive while q is on the object side), the gradient
+/// of the implicit form and dg/dt.
+#[inline(always)]
+fn asphere_residual(q: Vec3, d: Vec3, sag: f64, slope: f64) -> (f64, Vec3, f64) {
+    let g = sag - q[2];
+    let gradient = [2.0 * slope * q[0], 2.0 * slope * q[1], -1.0];
+    let dg = 2.0 * slope * (q[0] * d[0] + q[1] * d[1]) - d[2];
+    (g, gradient, dg)
 }
 
 /// Meets an asphere by Newton's method on the ray parameter, started at the crossing of
@@ -363,21 +390,169 @@ pub(crate) fn asphere(
     terms: &AsphereTerms,
     sense: f64,
 ) -> Option<Hit> {
-    let p = nearest_to_vertex(p, d);
-    let start = conic(p, d, curvature, conic_factor, sense)
-        .map(|hit| hit.point)
-        .or_else(|| plane(p, d, sense))?;
+    let (p, start, starts) = asphere_start(p, d, curvature, conic_factor, sense);
+    if !starts {
+        return None;
+    }
     let max_rho = terms.search_radius * terms.search_radius;
-    newton_crossing(p, d, start, terms.search_radius, sense, |q| {
+    let search = NewtonSearch::from(p, d, start);
+    newton_crossing(p, d, search, terms.search_radius, sense, |q| {
         let rho = q[0] * q[0] + q[1] * q[1];
         let (sag, slope) = (rho <= max_rho)
             .then(|| asphere_sag(rho, curvature, conic_factor, terms))
             .flatten()?;
-        // g(t) = sag(r(t)) - z(t): positive while the point is on the object side.
-        let g = sag - q[2];
-        let gradient = [2.0 * slope * q[0], 2.0 * slope * q[1], -1.0];
-        let dg = 2.0 * slope * (q[0] * d[0] + q[1] * d[1]) - d[2];
-        Some((g, gradient, dg))
+        Some(asphere_residual(q, d, sag, slope))
+    })
+}
+
+/// Where an asphere's Newton search starts: the point of the line nearest the vertex, the
+/// crossing of the conic base (or of the vertex plane when the base is missed), and whether the
+/// line meets either in the travel sense.
+#[inline(always)]
+fn asphere_start(
+    p: Vec3,
+    d: Vec3,
+    curvature: f64,
+    conic_factor: f64,
+    sense: f64,
+) -> (Vec3, Vec3, bool) {
+    let p = nearest_to_vertex(p, d);
+    let (on_conic, meets_conic) = conic_candidate(p, d, curvature, conic_factor, sense);
+    let (on_plane, meets_plane) = plane_candidate(p, d, sense);
+    let start = std::hint::select_unpredictable(meets_conic, on_conic, on_plane);
+    (p, start, meets_conic | meets_plane)
+}
+
+/// Rays whose Newton searches [`asphere_lanes`] runs side by side.
+pub(crate) const NEWTON_LANES: usize = 16;
+
+/// A group of [`NEWTON_LANES`] values, one per lane.
+pub(crate) type Lanes<T> = [T; NEWTON_LANES];
+
+/// [`asphere`] of the lines from `p` along `d` (columns x, y, z, vertex frame) in vector lanes:
+/// whether each meets the surface, and the points and normals where it does. Every lane takes
+/// Newton steps until every lane has converged or failed (a settled lane keeps its result), each
+/// stage over all lanes before the next, with no branch on a lane's numbers; each lane's
+/// arithmetic is [`asphere`]'s, so the results are the same bits.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn asphere_lanes(
+    p: &[Lanes<f64>; 3],
+    d: &[Lanes<f64>; 3],
+    curvature: f64,
+    conic_factor: f64,
+    terms: &AsphereTerms,
+    sense: f64,
+    points: &mut [Lanes<f64>; 3],
+    normals: &mut [Lanes<f64>; 3],
+) -> Lanes<bool> {
+    // The odd and even polynomials compiled apart, so that neither lane loop holds the other's
+    // square root and division.
+    if terms.odd {
+        asphere_lanes_of::<true>(p, d, curvature, conic_factor, terms, sense, points, normals)
+    } else {
+        asphere_lanes_of::<false>(p, d, curvature, conic_factor, terms, sense, points, normals)
+    }
+}
+
+/// [`asphere_lanes`] for an odd (`ODD`) or even asphere.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn asphere_lanes_of<const ODD: bool>(
+    p: &[Lanes<f64>; 3],
+    d: &[Lanes<f64>; 3],
+    curvature: f64,
+    conic_factor: f64,
+    terms: &AsphereTerms,
+    sense: f64,
+    points: &mut [Lanes<f64>; 3],
+    normals: &mut [Lanes<f64>; 3],
+) -> Lanes<bool> {
+    const L: usize = NEWTON_LANES;
+    let direction = |l: usize| [d[0][l], d[1][l], d[2][l]];
+    // The searches, a column per number (see `NewtonSearch`).
+    let mut nearest = [[0.0; L]; 3];
+    let [mut t, mut t_object, mut t_image, mut last_inside] = [[0.0; L]; 4];
+    let mut progress = [NEWTON_FAILED; L];
+    for l in 0..L {
+        let arriving = [p[0][l], p[1][l], p[2][l]];
+        let (near, start, starts) =
+            asphere_start(arriving, direction(l), curvature, conic_factor, sense);
+        let search = NewtonSearch::from(near, direction(l), start);
+        for axis in 0..3 {
+            nearest[axis][l] = near[axis];
+        }
+        [t[l], t_object[l], t_image[l], last_inside[l]] = search.columns();
+        progress[l] = std::hint::select_unpredictable(starts, NEWTON_SEARCHING, NEWTON_FAILED);
+    }
+    let max_rho = terms.search_radius * terms.search_radius;
+    let mut gradients = [[0.0; L]; 2];
+    for _ in 0..ASPHERE_MAX_STEPS {
+        if !progress.contains(&NEWTON_SEARCHING) {
+            break;
+        }
+        let mut q = [[0.0; L]; 3];
+        let [mut rho, mut x, mut base_sag, mut base_slope] = [[0.0; L]; 4];
+        let mut exists = [0u64; L];
+        for l in 0..L {
+            let near = [nearest[0][l], nearest[1][l], nearest[2][l]];
+            let at = NewtonSearch::at(t[l]).point(near, direction(l));
+            for axis in 0..3 {
+                q[axis][l] = at[axis];
+            }
+            rho[l] = at[0] * at[0] + at[1] * at[1];
+            let (sag, slope, reaches) = conic_base(rho[l], curvature, conic_factor);
+            (base_sag[l], base_slope[l]) = (sag, slope);
+            exists[l] = u64::from(reaches & (rho[l] <= max_rho));
+            x[l] = polynomial_variable(ODD, rho[l]);
+        }
+        let mut poly = [0.0; L];
+        let mut dpoly = [0.0; L];
+        for i in (0..terms.len).rev() {
+            let a = terms.coefficients[i];
+            for l in 0..L {
+                poly[l] = poly[l] * x[l] + a;
+                dpoly[l] = dpoly[l] * x[l] + (i + 1) as f64 * a;
+            }
+        }
+        for l in 0..L {
+            let at = [q[0][l], q[1][l], q[2][l]];
+            let (poly_sag, poly_slope) =
+                polynomial_part(ODD, terms.coefficients[1], rho[l], x[l], poly[l], dpoly[l]);
+            let (g, gradient, dg) = asphere_residual(
+                at,
+                direction(l),
+                base_sag[l] + poly_sag,
+                base_slope[l] + poly_slope,
+            );
+            let search = NewtonSearch::of([t[l], t_object[l], t_image[l], last_inside[l]]);
+            let (next, step) = search.advance(exists[l] == 1, g, dg, terms.search_radius);
+            let searching = progress[l] == NEWTON_SEARCHING;
+            let met = searching & (step == NEWTON_MET);
+            let next = next.columns();
+            for (column, value) in [&mut t, &mut t_object, &mut t_image, &mut last_inside]
+                .into_iter()
+                .zip(next)
+            {
+                column[l] = std::hint::select_unpredictable(searching, value, column[l]);
+            }
+            progress[l] = std::hint::select_unpredictable(searching, step, progress[l]);
+            for axis in 0..3 {
+                points[axis][l] = std::hint::select_unpredictable(met, at[axis], points[axis][l]);
+            }
+            for axis in 0..2 {
+                gradients[axis][l] =
+                    std::hint::select_unpredictable(met, gradient[axis], gradients[axis][l]);
+            }
+        }
+    }
+    std::array::from_fn(|l| {
+        let gradient = [gradients[0][l], gradients[1][l], -1.0];
+        let (normal, crosses) = finish_candidate(gradient, direction(l), sense);
+        for axis in 0..3 {
+            normals[axis][l] = normal[axis];
+        }
+        crosses & (progress[l] == NEWTON_MET)
     })
 }
 
@@ -399,7 +574,8 @@ pub(crate) fn toroid(
     let p = nearest_to_vertex(p, d);
     let start = plane(p, d, sense)?;
     let reach = terms.search_radius;
-    newton_crossing(p, d, start, reach, sense, |q| {
+    let search = NewtonSearch::from(p, d, start);
+    newton_crossing(p, d, search, reach, sense, |q| {
         if !(q[0].abs() <= reach && q[1].abs() <= reach) {
             return None;
         }
@@ -426,76 +602,170 @@ pub(crate) fn toroid(
     })
 }
 
-/// Newton's method on the ray parameter for the crossing of `p + t d` with a surface, started at
-/// `start`. `surface(q)` gives, at a point q of the line, g (the surface's z there minus q's z:
+/// Newton's method on the ray parameter for the crossing of `p + t d` with a surface, from
+/// `search`. `surface(q)` gives, at a point q of the line, g (the surface's z there minus q's z:
 /// positive on the object side), the gradient of the surface's implicit form (z component -1)
-/// and dg/dt; None outside the region where the surface exists. Steps are limited to
-/// `search_radius`; once two iterates straddle the surface every step stays inside that bracket
-/// (a step that would leave it bisects instead).
+/// and dg/dt; None outside the region where the surface exists.
 #[inline(always)]
 fn newton_crossing(
     p: Vec3,
     d: Vec3,
-    start: Vec3,
+    mut search: NewtonSearch,
     search_radius: f64,
     sense: f64,
     surface: impl Fn(Vec3) -> Option<(f64, Vec3, f64)>,
 ) -> Option<Hit> {
-    let along = |q: Vec3| (q[0] - p[0]) * d[0] + (q[1] - p[1]) * d[1] + (q[2] - p[2]) * d[2];
-    let mut t = along(start);
-    let max_step = search_radius;
-    let scale = 1.0 + search_radius;
-    // Ray parameters known to lie on the object side (g > 0) and on the image side (g < 0) of
-    // the surface; NaN until found. Once both are known they bracket the crossing.
-    let (mut t_object, mut t_image) = (f64::NAN, f64::NAN);
-    let mut last_inside = f64::NAN;
     for _ in 0..ASPHERE_MAX_STEPS {
-        let q = [p[0] + t * d[0], p[1] + t * d[1], p[2] + t * d[2]];
-        let Some((g, gradient, dg)) = surface(q) else {
-            // Outside the region where the surface exists: fall back towards known ground.
-            t = if t_object.is_finite() && t_image.is_finite() {
-                0.5 * (t_object + t_image)
-            } else if last_inside.is_finite() {
-                0.5 * (t + last_inside)
-            } else {
-                return None;
-            };
-            continue;
-        };
-        last_inside = t;
-        if g.abs() <= ASPHERE_SAG_TOLERANCE * scale {
-            return finish_asphere(q, gradient, d, sense);
+        let q = search.point(p, d);
+        let found = surface(q);
+        let (g, gradient, dg) = found.unwrap_or((f64::NAN, [f64::NAN; 3], f64::NAN));
+        let (next, progress) = search.advance(found.is_some(), g, dg, search_radius);
+        match progress {
+            NEWTON_SEARCHING => search = next,
+            NEWTON_MET => return finish_asphere(q, gradient, d, sense),
+            _ => return None,
         }
-        if g > 0.0 {
-            t_object = t;
-        } else {
-            t_image = t;
-        }
-        let step = -g / dg;
-        if step.is_nan() {
-            return None;
-        }
-        let mut next = t + step.clamp(-max_step, max_step);
-        if t_object.is_finite() && t_image.is_finite() {
-            let (lo, hi) = (t_object.min(t_image), t_object.max(t_image));
-            if !(next > lo && next < hi) {
-                next = 0.5 * (lo + hi);
-            }
-        }
-        if (next - t).abs() <= ASPHERE_STEP_TOLERANCE * (1.0 + t.abs()) {
-            return finish_asphere(q, gradient, d, sense);
-        }
-        t = next;
     }
     None
+}
+
+/// What a Newton step came to: still searching, converged (the point is on the surface), or
+/// failed (the search has nowhere left to go). 64-bit, to share vector lanes with the f64
+/// comparisons they come from.
+const NEWTON_SEARCHING: u64 = 0;
+const NEWTON_MET: u64 = 1;
+const NEWTON_FAILED: u64 = 2;
+
+/// Where one ray's Newton search stands: the ray parameter t of its iterate; the ray parameters
+/// known to lie on the object side (g > 0) and on the image side (g < 0) of the surface, NaN
+/// until found (once both are known they bracket the crossing); and the last iterate inside the
+/// region where the surface exists, NaN until there is one.
+#[derive(Clone, Copy, Debug)]
+struct NewtonSearch {
+    t: f64,
+    t_object: f64,
+    t_image: f64,
+    last_inside: f64,
+}
+
+impl NewtonSearch {
+    /// A search of the line `p + t d` that starts at its point `start`.
+    #[inline(always)]
+    fn from(p: Vec3, d: Vec3, start: Vec3) -> NewtonSearch {
+        NewtonSearch {
+            t: (start[0] - p[0]) * d[0] + (start[1] - p[1]) * d[1] + (start[2] - p[2]) * d[2],
+            t_object: f64::NAN,
+            t_image: f64::NAN,
+            last_inside: f64::NAN,
+        }
+    }
+
+    /// A search whose numbers are `columns` (t, t_object, t_image, last_inside).
+    #[inline(always)]
+    fn of(columns: [f64; 4]) -> NewtonSearch {
+        let [t, t_object, t_image, last_inside] = columns;
+        NewtonSearch {
+            t,
+            t_object,
+            t_image,
+            last_inside,
+        }
+    }
+
+    /// A search at `t`, for its [`NewtonSearch::point`].
+    #[inline(always)]
+    fn at(t: f64) -> NewtonSearch {
+        NewtonSearch::of([t, f64::NAN, f64::NAN, f64::NAN])
+    }
+
+    /// The numbers of the search, as [`NewtonSearch::of`] takes them.
+    #[inline(always)]
+    fn columns(&self) -> [f64; 4] {
+        [self.t, self.t_object, self.t_image, self.last_inside]
+    }
+
+    /// The iterate: the point at t on the line `p + t d`.
+    #[inline(always)]
+    fn point(&self, p: Vec3, d: Vec3) -> Vec3 {
+        let t = self.t;
+        [p[0] + t * d[0], p[1] + t * d[1], p[2] + t * d[2]]
+    }
+
+    /// One Newton step from the residual `g` and its derivative `dg` at the iterate (`valid`:
+    /// whether the surface exists there), without branches: the search after it, and what it
+    /// came to. Outside the surface's region the search falls back towards known ground (the
+    /// bracket's middle, or halfway to the last iterate inside); steps are limited to
+    /// `search_radius`; once two iterates straddle the surface a step that would leave that
+    /// bracket bisects instead. It converges when the residual is below
+    /// [`ASPHERE_SAG_TOLERANCE`] (1 + `search_radius`) or a step moves t by less than
+    /// [`ASPHERE_STEP_TOLERANCE`] (1 + |t|).
+    #[inline(always)]
+    fn advance(&self, valid: bool, g: f64, dg: f64, search_radius: f64) -> (NewtonSearch, u64) {
+        use std::hint::select_unpredictable as select;
+        let t = self.t;
+        let was_bracketed = self.t_object.is_finite() & self.t_image.is_finite();
+        let fallback = NewtonSearch {
+            t: select(
+                was_bracketed,
+                0.5 * (self.t_object + self.t_image),
+                0.5 * (t + self.last_inside),
+            ),
+            ..*self
+        };
+        let can_fall_back = was_bracketed | self.last_inside.is_finite();
+        let object_side = g > 0.0;
+        let t_object = select(object_side, t, self.t_object);
+        let t_image = select(object_side, self.t_image, t);
+        let step = -g / dg;
+        let mut next = t + step.clamp(-search_radius, search_radius);
+        let (lo, hi) = (t_object.min(t_image), t_object.max(t_image));
+        let bracketed = t_object.is_finite() & t_image.is_finite();
+        next = select(
+            bracketed & !((next > lo) & (next < hi)),
+            0.5 * (lo + hi),
+            next,
+        );
+        let stepped = NewtonSearch {
+            t: next,
+            t_object,
+            t_image,
+            last_inside: t,
+        };
+        let settled = g.abs() <= ASPHERE_SAG_TOLERANCE * (1.0 + search_radius);
+        let still = (next - t).abs() <= ASPHERE_STEP_TOLERANCE * (1.0 + t.abs());
+        let inside_progress = select(
+            settled,
+            NEWTON_MET,
+            select(
+                step.is_nan(),
+                NEWTON_FAILED,
+                select(still, NEWTON_MET, NEWTON_SEARCHING),
+            ),
+        );
+        let outside_progress = select(can_fall_back, NEWTON_SEARCHING, NEWTON_FAILED);
+        let (stepped, fallback) = (stepped.columns(), fallback.columns());
+        (
+            NewtonSearch::of(std::array::from_fn(|k| {
+                select(valid, stepped[k], fallback[k])
+            })),
+            select(valid, inside_progress, outside_progress),
+        )
+    }
 }
 
 /// Accepts an asphere crossing only in the travel sense (object side to image side forward).
 #[inline(always)]
 fn finish_asphere(q: Vec3, gradient: Vec3, d: Vec3, sense: f64) -> Option<Hit> {
+    let (normal, crosses) = finish_candidate(gradient, d, sense);
+    crosses.then_some(Hit { point: q, normal })
+}
+
+/// [`finish_asphere`] without branches: the unit normal along `gradient`, and whether a ray
+/// along `d` crosses there in the travel sense.
+#[inline(always)]
+fn finish_candidate(gradient: Vec3, d: Vec3, sense: f64) -> (Vec3, bool) {
     let normal = normalised(gradient);
-    let towards = dot(normal, d);
-    (sense * towards < 0.0).then_some(Hit { point: q, normal })
+    (normal, sense * dot(normal, d) < 0.0)
 }
 
 #[inline(always)]

@@ -23,7 +23,9 @@
 
 use super::intersect::{self, clamped_sqrt, radius_sq};
 use super::refract;
-use super::{FlatSurface, Outcome, Profile, Ray, Traced, Tracer, Travel, Vec3};
+use super::{
+    Event, FlatSurface, Outcome, Profile, Ray, Traced, Tracer, Travel, Vec3, in_vertex_frame,
+};
 
 /// Rays one vector instruction holds at most (eight f64 with AVX-512). Kernels run over whole
 /// strides; slots of stopped rays, and past the last ray, compute numbers nobody reads.
@@ -620,14 +622,27 @@ impl Tracer {
                 }
                 None => {
                     let mut stopped = Slots::default();
-                    for slot in travelling.iter() {
-                        match self.cross::<FORWARD>(s, &ray_at(arriving, slot), check_apertures) {
-                            Ok(ray) => next.set(slot, ray),
-                            Err((event, at)) => {
-                                let outcome = event.outcome(i + 1);
-                                finish.finish(ids[slot] as usize, Traced { outcome, ray: at });
-                                stopped = Slots(stopped.0 | 1u128 << slot);
-                            }
+                    let mut settle = |slot: usize, crossed: Result<Ray, (Event, Ray)>| match crossed
+                    {
+                        Ok(ray) => next.set(slot, ray),
+                        Err((event, at)) => {
+                            let outcome = event.outcome(i + 1);
+                            finish.finish(ids[slot] as usize, Traced { outcome, ray: at });
+                            stopped = Slots(stopped.0 | 1u128 << slot);
+                        }
+                    };
+                    if let Profile::Asphere { .. } = s.profile {
+                        self.cross_asphere::<FORWARD>(
+                            s,
+                            arriving,
+                            travelling,
+                            check_apertures,
+                            &mut settle,
+                        );
+                    } else {
+                        for slot in travelling.iter() {
+                            let ray = ray_at(arriving, slot);
+                            settle(slot, self.cross::<FORWARD>(s, &ray, check_apertures));
                         }
                     }
                     stopped
@@ -660,6 +675,81 @@ impl Tracer {
             .map(|column| &column.as_flattened()[..count]);
         finish.finish_crossed(&ids[..count], columns);
         ray_surfaces
+    }
+}
+
+impl Tracer {
+    /// [`Tracer::cross`] of the `travelling` rays of `arriving` at the asphere `s`, each slot's
+    /// result handed to `settle`: [`intersect::NEWTON_LANES`] rays at a time, met side by side
+    /// in vector lanes ([`intersect::asphere_lanes`], the same bits as one ray's search), then
+    /// each through the aperture and bent as one ray is.
+    #[inline(always)]
+    fn cross_asphere<const FORWARD: bool>(
+        &self,
+        s: &FlatSurface,
+        arriving: [&[f64]; 6],
+        travelling: Slots,
+        check_apertures: bool,
+        settle: &mut impl FnMut(usize, Result<Ray, (Event, Ray)>),
+    ) {
+        const L: usize = intersect::NEWTON_LANES;
+        let Profile::Asphere {
+            curvature,
+            conic_factor,
+            terms,
+        } = s.profile
+        else {
+            unreachable!("only aspheres are met in lanes")
+        };
+        let terms = &self.asphere_terms[terms];
+        let mut slots = travelling.iter();
+        loop {
+            let mut chosen = [0; L];
+            let count = chosen
+                .iter_mut()
+                .zip(&mut slots)
+                .map(|(chosen, slot)| *chosen = slot)
+                .count();
+            if count == 0 {
+                break;
+            }
+            // Lanes past the last ray repeat the first.
+            let rays: [Ray; L] =
+                std::array::from_fn(|l| ray_at(arriving, chosen[l.min(count - 1)]));
+            let mut p = [[0.0; L]; 3];
+            let mut d = [[0.0; L]; 3];
+            let mut sense = 1.0;
+            for (l, ray) in rays.iter().enumerate() {
+                let (position, direction, ray_sense) = in_vertex_frame::<FORWARD>(s, ray);
+                for axis in 0..3 {
+                    p[axis][l] = position[axis];
+                    d[axis][l] = direction[axis];
+                }
+                sense = ray_sense;
+            }
+            let mut points = [[0.0; L]; 3];
+            let mut normals = [[0.0; L]; 3];
+            let hits = intersect::asphere_lanes(
+                &p,
+                &d,
+                curvature,
+                conic_factor,
+                terms,
+                sense,
+                &mut points,
+                &mut normals,
+            );
+            for l in 0..count {
+                let met = hits[l].then(|| {
+                    let point = [points[0][l], points[1][l], points[2][l]];
+                    (point, Some([normals[0][l], normals[1][l], normals[2][l]]))
+                });
+                settle(
+                    chosen[l],
+                    self.leave::<FORWARD>(s, &rays[l], met, check_apertures),
+                );
+            }
+        }
     }
 }
 
@@ -1343,8 +1433,9 @@ mod tests {
     }
 
     /// Spheres and planes (kernels; one of each between equal indices, which does not refract)
-    /// around a conic (the one-ray code inside the block), with apertures small enough that
-    /// rays stop at several surfaces, so blocks are compacted.
+    /// around a conic (the one-ray code inside the block) and an even and an odd asphere (met
+    /// in lanes), with apertures small enough that rays stop at several surfaces, so blocks are
+    /// compacted.
     fn tracer() -> Tracer {
         let surface = |shape, thickness, n: f64, stop| Surface {
             shape,
@@ -1358,6 +1449,17 @@ mod tests {
             curvature: -0.02,
             conic: -0.6,
         };
+        // Strong enough terms that the searches take different numbers of steps.
+        let even_asphere = Shape::EvenAsphere {
+            curvature: 0.03,
+            conic: -0.5,
+            coefficients: vec![0.0, -4e-4, 2e-6, -1e-8],
+        };
+        let odd_asphere = Shape::OddAsphere {
+            curvature: -0.02,
+            conic: 0.0,
+            coefficients: vec![1e-3, 2e-3, -3e-4, 1e-5],
+        };
         let prescription = Prescription {
             provenance: Provenance::default(),
             object_medium: Medium::Air,
@@ -1368,6 +1470,8 @@ mod tests {
                 surface(Shape::Plane, 2.0, 1.0, None),
                 surface(Shape::Plane, 3.0, 1.5, None),
                 surface(conic, 2.0, 1.5, None),
+                surface(even_asphere, 2.0, 1.6, None),
+                surface(odd_asphere, 3.0, 1.6, None),
                 surface(Shape::Sphere { curvature: -0.05 }, 30.0, 1.0, None),
             ],
         };
@@ -1567,6 +1671,9 @@ mod tests {
         record.0.sort_by_key(|a| (a.0, a.1));
         expected.sort_by_key(|a| (a.0, a.1));
         assert_eq!(record.0, expected);
-        assert!(expected.len() > 2 * LANES && expected.len() < 5 * LANES);
+        // Rays cross several surfaces, the aspheres (surfaces 7 and 8) among them, and some stop.
+        let surfaces = tracer.surfaces.len();
+        assert!(expected.len() > 2 * LANES && expected.len() < surfaces * LANES);
+        assert!(expected.iter().any(|&(surface, ..)| surface == 7));
     }
 }

@@ -631,18 +631,23 @@ impl Tracer {
         ray: &Ray,
         check_apertures: bool,
     ) -> Result<Ray, (Event, Ray)> {
-        let sense = if FORWARD {
-            s.sense_forward
-        } else {
-            s.sense_backward
-        };
+        let (p, d, sense) = in_vertex_frame::<FORWARD>(s, ray);
+        let met = meet(&s.profile, &self.asphere_terms, p, d, sense);
+        self.leave::<FORWARD>(s, ray, met, check_apertures)
+    }
+
+    /// The rest of [`Tracer::cross`] once the surface is `met` (the point in the vertex frame
+    /// and the normal, None where the ray misses it): the aperture, then the bend.
+    #[inline(always)]
+    fn leave<const FORWARD: bool>(
+        &self,
+        s: &FlatSurface,
+        ray: &Ray,
+        met: Option<(Vec3, Option<Vec3>)>,
+        check_apertures: bool,
+    ) -> Result<Ray, (Event, Ray)> {
         let d = ray.direction;
-        let p = [
-            ray.position[0],
-            ray.position[1],
-            ray.position[2] - s.vertex_z,
-        ];
-        let Some((q, normal)) = meet(&s.profile, &self.asphere_terms, p, d, sense) else {
+        let Some((q, normal)) = met else {
             return Err((Event::Missed, *ray));
         };
         // A hit far enough out to overflow is no hit.
@@ -681,6 +686,23 @@ impl Tracer {
             Err(event) => Err((event, at)),
         }
     }
+}
+
+/// A ray arriving at surface `s` in the surface's vertex frame: its position and direction,
+/// and the travel sense along z.
+#[inline(always)]
+fn in_vertex_frame<const FORWARD: bool>(s: &FlatSurface, ray: &Ray) -> (Vec3, Vec3, f64) {
+    let sense = if FORWARD {
+        s.sense_forward
+    } else {
+        s.sense_backward
+    };
+    let p = [
+        ray.position[0],
+        ray.position[1],
+        ray.position[2] - s.vertex_z,
+    ];
+    (p, ray.direction, sense)
 }
 
 /// A prescription shape as the tracers read it; an asphere's coefficients go to `asphere_terms`,
