@@ -114,7 +114,7 @@ fn trace_rejects_bad_rays_with_exit_2() {
 
 #[test]
 fn bench_trace_reports_rays_and_intersections() {
-    let (path, _) = lens_file("bench");
+    let (path, lens) = lens_file("bench");
     let out = lensbake(
         &[
             "bench",
@@ -140,6 +140,28 @@ fn bench_trace_reports_rays_and_intersections() {
     assert!((20_000..=220_000).contains(&surfaces), "{surfaces}");
     assert!(report["seconds"].as_f64().unwrap() > 0.0);
     assert!(report["seconds_new_output"].as_f64().unwrap() > 0.0);
+    // The bundle it drew from, for side-by-side scripts to draw the same: the oracle's paraxial
+    // entrance pupil, and its traceable field (between the last field it traced and the first
+    // it could not).
+    let bundle = &report["bundle"];
+    let quick = &lens["quick_reference"];
+    let number = |value: &Value| value.as_f64().unwrap();
+    let close = |key: &str, truth: f64| {
+        let value = number(&bundle[key]);
+        assert!(
+            (value - truth).abs() <= 1e-9,
+            "{key}: {value} against {truth}"
+        );
+    };
+    close("entrance_pupil_z", number(&quick["z_entrance_pupil"]));
+    close("entrance_pupil_diameter", number(&quick["epd"]));
+    let field = &lens["infinite_conjugate"]["max_field_with_traceable_chief_ray"]["with_apertures"];
+    let max_field = number(&bundle["max_field_deg"]);
+    assert!(
+        (number(&field["last_ok_deg"])..=number(&field["first_fail_deg"])).contains(&max_field),
+        "{max_field}"
+    );
+    assert!(bundle["start_z"].as_f64().unwrap() < 0.0);
 }
 
 /// Standard input is held to the input limit (1 GiB) like a file: an endless stream is refused

@@ -1,12 +1,17 @@
 """Side-by-side exact trace: optiland 0.6.3 (NumPy) and lensbake, same lens, same ray bundle.
 
 Run through run.sh, which creates the virtual environment. Steps:
-1. The lens is an oracle table (constant indices): written as a lensbake RON file and built as an
-   optiland Optic with ideal materials and radial clear apertures.
+1. The lens is an oracle table (`--lens NAME` with tests/data/truth/oracle/NAME.json, constant
+   indices), or any lens lensbake reads (a bundled name or a file) whose media have one index at
+   the d line (air, `Index`, or a `Model` glass, whose index there is its nd) and whose surfaces
+   are planes, spheres, conics or even aspheres (optiland's `even_asphere`, coefficients on r^2,
+   r^4, ... as lensbake's). Either is written as a lensbake RON file of constant indices and
+   built as an optiland Optic with ideal materials and radial clear apertures.
 2. The ray bundle is the one `lensbake bench trace` draws: collimated beams, field angle uniform
    over [0, traceable field] in the y-z plane, pupil point uniform over the paraxial entrance
    pupil, rays starting one semi-aperture plus 1 mm before surface 1. The traceable field and
-   the pupil are the oracle's (lensbake's own agree with them, see tests/trace_aim.rs).
+   the pupil are the oracle's (lensbake's own agree with them, see tests/trace_aim.rs) or, for
+   a lens without an oracle, the ones `lensbake bench trace --json` reports.
 3. Agreement: a sample of rays goes through `lensbake trace --json` and through optiland; the
    status must agree ray by ray and the ray after the last surface within 1e-9 mm / 1e-12.
 4. Throughput: optiland's NumPy trace of N rays against `lensbake bench trace` of N rays on one
@@ -19,6 +24,7 @@ Run through run.sh, which creates the virtual environment. Steps:
 import argparse
 import json
 import os
+import re
 import statistics
 import subprocess
 import sys
@@ -34,6 +40,9 @@ from optiland.rays import RealRays
 POSITION_TOLERANCE_MM = 1e-9
 DIRECTION_TOLERANCE = 1e-12
 WAVELENGTH_UM = 0.5875618
+# optiland's Newton search for an asphere stops at a sag residual of 1e-6 mm unless told; lensbake
+# converges to rounding, and the rays are compared to 1e-9 mm.
+ASPHERE_TOLERANCE_MM = 1e-12
 
 
 def oracle_dir():
@@ -41,57 +50,187 @@ def oracle_dir():
     return os.path.normpath(os.path.join(here, "..", "..", "tests", "data", "truth", "oracle"))
 
 
-def ron_prescription(lens):
-    table = lens["prescription"]
-    rows = []
-    for s in table["surfaces"]:
-        shape = "Plane" if s["curvature"] == 0 else f"Sphere(curvature: {s['curvature']!r})"
-        stop = "Some(Circle)" if s["stop"] else "None"
-        rows.append(
-            f"    (shape: {shape}, thickness: {s['thickness']!r}, medium: Index({s['n']!r}), "
-            f"semi_aperture: {s['semi_aperture']!r}, stop: {stop}),"
+class Lens:
+    """A lens of constant indices, as both programs are given it: each surface's curvature, conic
+    constant, even aspheric coefficients (on r^2, r^4, ...), thickness, index after it, clear
+    semi-aperture and whether it is the stop; and the bundle `lensbake bench trace` draws."""
+
+    def __init__(self, name, object_index, surfaces, field_deg, pupil_z, pupil_diameter, start_z):
+        self.name, self.object_index, self.surfaces = name, object_index, surfaces
+        self.field_deg, self.pupil_z, self.pupil_diameter, self.start_z = (
+            field_deg, pupil_z, pupil_diameter, start_z)
+
+    @staticmethod
+    def from_oracle(name):
+        with open(os.path.join(oracle_dir(), name + ".json")) as f:
+            lens = json.load(f)["lenses"][0]
+        table = lens["prescription"]
+        surfaces = [dict(curvature=s["curvature"], conic=0.0, coefficients=[],
+                         thickness=s["thickness"], n=s["n"], semi_aperture=s["semi_aperture"],
+                         stop=s["stop"]) for s in table["surfaces"]]
+        quick = lens["quick_reference"]
+        field = lens["infinite_conjugate"]["max_field_with_traceable_chief_ray"]["with_apertures"]
+        first = table["surfaces"][0]
+        return Lens(lens["name"], table["object_space_index"], surfaces, field["last_ok_deg"],
+                    quick["z_entrance_pupil"], quick["epd"],
+                    first["vertex_z"] - first["semi_aperture"] - 1.0)
+
+    @staticmethod
+    def from_lensbake(binary, spec, tmp):
+        """`spec` read by lensbake, written out as its RON and read back here."""
+        path = os.path.join(tmp, "source.ron")
+        run_lensbake(binary, "lens", "convert", spec, path)
+        with open(path) as f:
+            table = parse_ron(f.read())
+        surfaces = [lensbake_surface(k + 1, s) for k, s in enumerate(table["surfaces"])]
+        lens = Lens(spec, constant_index("object_medium", table["object_medium"]), surfaces,
+                    0.0, 0.0, 0.0, 0.0)
+        ron = os.path.join(tmp, "constant.ron")
+        with open(ron, "w") as f:
+            f.write(lens.ron())
+        bundle = lensbake(binary, "bench", "trace", ron, "--rays", "1", "--json")["bundle"]
+        lens.field_deg, lens.pupil_z = bundle["max_field_deg"], bundle["entrance_pupil_z"]
+        lens.pupil_diameter, lens.start_z = bundle["entrance_pupil_diameter"], bundle["start_z"]
+        return lens
+
+    def ron(self):
+        rows = []
+        for s in self.surfaces:
+            if s["coefficients"]:
+                terms = ", ".join(repr(a) for a in s["coefficients"])
+                shape = (f"EvenAsphere(curvature: {s['curvature']!r}, conic: {s['conic']!r}, "
+                         f"coefficients: [{terms}])")
+            elif s["conic"] != 0.0:
+                shape = f"Conic(curvature: {s['curvature']!r}, conic: {s['conic']!r})"
+            elif s["curvature"] == 0.0:
+                shape = "Plane"
+            else:
+                shape = f"Sphere(curvature: {s['curvature']!r})"
+            stop = "Some(Circle)" if s["stop"] else "None"
+            rows.append(
+                f"    (shape: {shape}, thickness: {s['thickness']!r}, medium: Index({s['n']!r}), "
+                f"semi_aperture: {s['semi_aperture']!r}, stop: {stop}),"
+            )
+        return (
+            f'(provenance: (title: "{self.name}", design_wavelength_nm: Some({WAVELENGTH_UM * 1e3:.4f})),\n'
+            f" object_medium: Index({self.object_index!r}),\n surfaces: [\n"
+            + "\n".join(rows)
+            + "\n])\n"
         )
-    return (
-        f'(provenance: (title: "{lens["name"]}", design_wavelength_nm: Some({lens["wavelength_nm"]!r})),\n'
-        f" object_medium: Index({table['object_space_index']!r}),\n surfaces: [\n"
-        + "\n".join(rows)
-        + "\n])\n"
-    )
+
+    def optic(self):
+        optic = Optic()
+        optic.surfaces.add(index=0, radius=np.inf, thickness=np.inf,
+                           material=IdealMaterial(self.object_index))
+        for k, s in enumerate(self.surfaces, start=1):
+            radius = np.inf if s["curvature"] == 0 else 1.0 / s["curvature"]
+            shape = {"conic": s["conic"]}
+            if s["coefficients"]:
+                shape.update(surface_type="even_asphere", coefficients=list(s["coefficients"]),
+                             tol=ASPHERE_TOLERANCE_MM)
+            optic.surfaces.add(index=k, radius=radius, thickness=s["thickness"],
+                               material=IdealMaterial(s["n"]), is_stop=s["stop"],
+                               aperture=RadialAperture(r_max=s["semi_aperture"]), **shape)
+        optic.surfaces.add(index=len(self.surfaces) + 1)
+        optic.set_aperture(aperture_type="EPD", value=self.pupil_diameter)
+        optic.fields.set_type("angle")
+        optic.fields.add(y=0.0)
+        optic.wavelengths.add(value=WAVELENGTH_UM, is_primary=True)
+        return optic
+
+    def bundle(self, n, seed):
+        pupil_r = 0.5 * self.pupil_diameter
+        rng = np.random.default_rng(seed)
+        field = np.radians(rng.uniform(0.0, self.field_deg, n))
+        radius = pupil_r * np.sqrt(rng.uniform(0.0, 1.0, n))
+        azimuth = rng.uniform(0.0, 2.0 * np.pi, n)
+        M, N = np.sin(field), np.cos(field)
+        back = (self.pupil_z - self.start_z) / N
+        x = radius * np.cos(azimuth)
+        y = radius * np.sin(azimuth) - back * M
+        return x, y, np.full(n, self.start_z), np.zeros(n), M, N
 
 
-def optiland_lens(lens):
-    table = lens["prescription"]
-    optic = Optic()
-    optic.surfaces.add(index=0, radius=np.inf, thickness=np.inf,
-                       material=IdealMaterial(table["object_space_index"]))
-    for k, s in enumerate(table["surfaces"], start=1):
-        radius = np.inf if s["curvature"] == 0 else 1.0 / s["curvature"]
-        optic.surfaces.add(index=k, radius=radius, thickness=s["thickness"],
-                           material=IdealMaterial(s["n"]), is_stop=s["stop"],
-                           aperture=RadialAperture(r_max=s["semi_aperture"]))
-    optic.surfaces.add(index=len(table["surfaces"]) + 1)
-    optic.set_aperture(aperture_type="EPD", value=lens["system"]["epd_used"])
-    optic.fields.set_type("angle")
-    optic.fields.add(y=0.0)
-    optic.wavelengths.add(value=WAVELENGTH_UM, is_primary=True)
-    return optic
+def parse_ron(text):
+    """The subset of RON lensbake writes: structs and tuples `(...)` (named fields become a dict,
+    an enum variant `Name(...)` a dict with its name under "variant"), lists, strings, numbers,
+    bare names (`None`, `Air`, `Circle`)."""
+    tokens = re.findall(r'"(?:[^"\\]|\\.)*"|[A-Za-z_][A-Za-z0-9_]*|[-+0-9.eE]+|[()\[\]:,]', text)
+    position = 0
+
+    def value():
+        nonlocal position
+        token = tokens[position]
+        position += 1
+        if token == "[":
+            items = []
+            while tokens[position] != "]":
+                items.append(value())
+                if tokens[position] == ",":
+                    position += 1
+            position += 1
+            return items
+        if token == "(":
+            return group(None)
+        if token.startswith('"'):
+            return json.loads(token)
+        if re.match(r"[A-Za-z_]", token):
+            if position < len(tokens) and tokens[position] == "(":
+                position += 1
+                return group(token)
+            return {"variant": token}
+        return float(token)
+
+    def group(variant):
+        nonlocal position
+        fields, items = {}, []
+        while tokens[position] != ")":
+            if tokens[position + 1] == ":" and re.match(r"[A-Za-z_]", tokens[position]):
+                key = tokens[position]
+                position += 2
+                fields[key] = value()
+            else:
+                items.append(value())
+            if tokens[position] == ",":
+                position += 1
+        position += 1
+        if variant is not None:
+            fields["variant"] = variant
+            if items:
+                fields["items"] = items
+        return fields
+
+    return value()
 
 
-def bundle(lens, n, seed):
-    quick = lens["quick_reference"]
-    field_deg = lens["infinite_conjugate"]["max_field_with_traceable_chief_ray"]["with_apertures"]["last_ok_deg"]
-    pupil_z, pupil_r = quick["z_entrance_pupil"], 0.5 * quick["epd"]
-    first = lens["prescription"]["surfaces"][0]
-    start_z = first["vertex_z"] - first["semi_aperture"] - 1.0
-    rng = np.random.default_rng(seed)
-    field = np.radians(rng.uniform(0.0, field_deg, n))
-    radius = pupil_r * np.sqrt(rng.uniform(0.0, 1.0, n))
-    azimuth = rng.uniform(0.0, 2.0 * np.pi, n)
-    M, N = np.sin(field), np.cos(field)
-    back = (pupil_z - start_z) / N
-    x = radius * np.cos(azimuth)
-    y = radius * np.sin(azimuth) - back * M
-    return x, y, np.full(n, start_z), np.zeros(n), M, N, field_deg, (pupil_z, pupil_r)
+def constant_index(where, medium):
+    """The index of a medium at the d line: air, a constant index, or a model glass's nd."""
+    kind = medium["variant"]
+    if kind == "Air":
+        return 1.0
+    if kind == "Index":
+        return medium["items"][0]
+    if kind == "Model":
+        return medium["nd"]
+    sys.exit(f"error: {where}: medium {kind} has no single index here (the side-by-side trace "
+             "takes air, Index and Model media)")
+
+
+def lensbake_surface(number, surface):
+    shape = surface["shape"]
+    kind = shape["variant"]
+    if kind not in ("Plane", "Sphere", "Conic", "EvenAsphere"):
+        sys.exit(f"error: surface {number}: shape {kind} is not one optiland is built with here "
+                 "(planes, spheres, conics and even aspheres are)")
+    obscuration = surface.get("obscuration", {"variant": "None"})
+    if obscuration.get("variant") != "None" or surface["stop"].get("variant") not in ("None", "Some"):
+        sys.exit(f"error: surface {number}: obscurations and shaped stops are not built here")
+    if surface["stop"].get("variant") == "Some" and surface["stop"]["items"][0]["variant"] != "Circle":
+        sys.exit(f"error: surface {number}: only a circular stop is built here")
+    return dict(curvature=shape.get("curvature", 0.0), conic=shape.get("conic", 0.0),
+                coefficients=shape.get("coefficients", []), thickness=surface["thickness"],
+                n=constant_index(f"surface {number}", surface["medium"]),
+                semi_aperture=surface["semi_aperture"], stop=surface["stop"]["variant"] == "Some")
 
 
 def optiland_trace(optic, rays, record):
@@ -103,9 +242,16 @@ def optiland_trace(optic, rays, record):
     return time.perf_counter() - start
 
 
+def run_lensbake(binary, *args, stdin=None):
+    """lensbake's standard output; its error line, and exit, where it fails."""
+    out = subprocess.run([binary, *args], input=stdin, capture_output=True, text=True)
+    if out.returncode != 0:
+        sys.exit(out.stderr.strip() or f"error: lensbake {' '.join(args)} failed")
+    return out.stdout
+
+
 def lensbake(binary, *args, stdin=None):
-    out = subprocess.run([binary, *args], input=stdin, capture_output=True, text=True, check=True)
-    return json.loads(out.stdout)
+    return json.loads(run_lensbake(binary, *args, stdin=stdin))
 
 
 def check_agreement(binary, ron, optic, rays, n_surfaces):
@@ -145,26 +291,28 @@ def main():
     parser.add_argument("--repeats", type=int, default=5)
     args = parser.parse_args()
 
-    with open(os.path.join(oracle_dir(), args.lens + ".json")) as f:
-        lens = json.load(f)["lenses"][0]
-    n_surfaces = len(lens["prescription"]["surfaces"])
-    optic = optiland_lens(lens)
     with tempfile.TemporaryDirectory() as tmp:
-        ron = os.path.join(tmp, args.lens + ".ron")
+        if os.path.exists(os.path.join(oracle_dir(), args.lens + ".json")):
+            lens = Lens.from_oracle(args.lens)
+        else:
+            lens = Lens.from_lensbake(args.lensbake, args.lens, tmp)
+        n_surfaces = len(lens.surfaces)
+        optic = lens.optic()
+        ron = os.path.join(tmp, "lens.ron")
         with open(ron, "w") as f:
-            f.write(ron_prescription(lens))
+            f.write(lens.ron())
 
-        *sample, field_deg, (pupil_z, pupil_r) = bundle(lens, args.sample, seed=1)
-        print(f"lens {args.lens}: {n_surfaces} surfaces; bundle: field 0..{field_deg} deg, "
-              f"entrance pupil radius {pupil_r:.6f} mm at z = {pupil_z:.6f} mm")
+        sample = lens.bundle(args.sample, seed=1)
+        print(f"lens {args.lens}: {n_surfaces} surfaces; bundle: field 0..{lens.field_deg} deg, "
+              f"entrance pupil radius {0.5 * lens.pupil_diameter:.6f} mm at z = {lens.pupil_z:.6f} mm")
         counts, mismatches, worst_p, worst_d = check_agreement(args.lensbake, ron, optic, sample, n_surfaces)
         print(f"agreement on {args.sample} rays: statuses {counts}, {mismatches} status mismatches; "
               f"ok rays after surface {n_surfaces}: max |dp| = {worst_p:.2e} mm, max |dd| = {worst_d:.2e}")
         agree = mismatches == 0 and worst_p <= POSITION_TOLERANCE_MM and worst_d <= DIRECTION_TOLERANCE
 
-        *rays, _, _ = bundle(lens, args.rays, seed=2)
+        rays = lens.bundle(args.rays, seed=2)
         # optiland compiles its intersection kernels with numba on first use: keep that out.
-        optiland_trace(optic, bundle(lens, 10_000, seed=3)[:6], record=False)
+        optiland_trace(optic, lens.bundle(10_000, seed=3), record=False)
         timings = {"optiland": [], "lensbake_1": [], "lensbake_1_new_output": [], "lensbake_all": []}
         ray_surfaces = None
         for _ in range(args.repeats):

@@ -4,6 +4,9 @@
 #
 #   benches/peer/run.sh [--lens pbrt_dgauss_50mm] [--rays 1000000] [--repeats 5] [--sample 5000]
 #
+# --lens takes a truth-data table (tests/data/truth/oracle) or any lens lensbake reads whose
+# media have one index at the d line, e.g. --lens asph-50mm-f1.8 (two even aspheres).
+#
 # The virtual environment goes to $PEER_VENV (default: target/peer-venv) and is reused.
 set -euo pipefail
 cd "$(dirname "$0")/../.."

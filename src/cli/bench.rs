@@ -91,6 +91,12 @@ fn bench_trace(
                 "ray_surfaces": ray_surfaces,
                 "seconds": seconds,
                 "seconds_new_output": seconds_new_output,
+                "bundle": {
+                    "max_field_deg": bundle.max_field_deg,
+                    "entrance_pupil_z": bundle.pupil.z,
+                    "entrance_pupil_diameter": bundle.pupil.diameter,
+                    "start_z": bundle.start_z,
+                },
             })
         );
     } else {
