@@ -9,12 +9,13 @@
 //! the block, so rays vignetted at surface 3 cost little at surfaces 4..N: the kernels only
 //! run over the strides in use. Which rays travel is a bit per slot ([`Slots`]).
 //!
-//! Spheres and planes (almost every surface of a real lens) have kernels; conics, aspheres,
-//! mirrors, obscured surfaces and the bladed stop use the one-ray code ([`Tracer::cross`]) for
-//! each live ray. The kernels call the same branch-free arithmetic as the one-ray path
-//! (`*_candidate` in `intersect` and `refract`, or for a sphere the stages those are made of,
-//! each run over the whole block in a loop of its own: every multiply-add fused the same way),
-//! so both give bit-identical results (tested).
+//! Spheres and planes (almost every surface of a real lens) have kernels; aspheres are met in
+//! vector lanes ([`intersect::asphere_lanes`]) and then go through the aperture and bend one ray
+//! at a time; conics, mirrors, obscured surfaces and the bladed stop use the one-ray code
+//! ([`Tracer::cross`]) for each live ray. The kernels and lanes call the same branch-free
+//! arithmetic as the one-ray path (`*_candidate` in `intersect` and `refract`, or for a sphere
+//! the stages those are made of, each run over the whole block in a loop of its own: every
+//! multiply-add fused the same way), so both give bit-identical results (tested).
 //!
 //! The whole block trace is compiled three times, for AVX-512, for AVX2 with FMA and for the
 //! baseline instruction set, and picked at run time ([`Isa::detect`]). Fused multiply-adds and
