@@ -269,17 +269,23 @@ pub(crate) fn conic(
     sense: f64,
 ) -> Option<Hit> {
     let (q, crosses) = conic_candidate(p, d, curvature, conic_factor, sense);
-    let nz = (curvature * conic_factor).mul_add(q[2], -1.0);
     crosses.then(|| Hit {
         point: q,
-        normal: normalised([curvature * q[0], curvature * q[1], nz]),
+        normal: conic_normal(q, curvature, conic_factor),
     })
+}
+
+/// The unit normal of the conic at its point `q`, pointing to the object side.
+#[inline(always)]
+pub(crate) fn conic_normal(q: Vec3, curvature: f64, conic_factor: f64) -> Vec3 {
+    let nz = (curvature * conic_factor).mul_add(q[2], -1.0);
+    normalised([curvature * q[0], curvature * q[1], nz])
 }
 
 /// [`conic`] without branches, for the lane kernels: the point, and whether it is a crossing of
 /// the vertex sheet.
 #[inline(always)]
-fn conic_candidate(
+pub(crate) fn conic_candidate(
     p: Vec3,
     d: Vec3,
     curvature: f64,

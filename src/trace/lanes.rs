@@ -9,9 +9,9 @@
 //! the block, so rays vignetted at surface 3 cost little at surfaces 4..N: the kernels only
 //! run over the strides in use. Which rays travel is a bit per slot ([`Slots`]).
 //!
-//! Spheres and planes (almost every surface of a real lens) have kernels; aspheres are met in
-//! vector lanes ([`intersect::asphere_lanes`]) and then go through the aperture and bend one ray
-//! at a time; conics, mirrors, obscured surfaces and the bladed stop use the one-ray code
+//! Spheres, planes and conics (almost every surface of a real lens) have kernels; aspheres are
+//! met in vector lanes ([`intersect::asphere_lanes`]) and then go through the aperture and bend
+//! one ray at a time; mirrors, obscured surfaces and the bladed stop use the one-ray code
 //! ([`Tracer::cross`]) for each live ray. The kernels and lanes call the same branch-free
 //! arithmetic as the one-ray path (`*_candidate` in `intersect` and `refract`, or for a sphere
 //! the stages those are made of, each run over the whole block in a loop of its own: every
@@ -586,6 +586,12 @@ impl Tracer {
                     (Profile::Plane, false, false) => {
                         Some(M::kernel::<PlaneCrossing<FORWARD, false>, STRIDES>)
                     }
+                    (Profile::Conic { .. }, false, true) => {
+                        Some(M::kernel::<ConicCrossing<FORWARD, true>, STRIDES>)
+                    }
+                    (Profile::Conic { .. }, false, false) => {
+                        Some(M::kernel::<ConicCrossing<FORWARD, false>, STRIDES>)
+                    }
                     _ => None,
                 };
             let stopped = match kernel {
@@ -1152,6 +1158,67 @@ impl<const FORWARD: bool, const REFRACTS: bool> Crossing for PlaneCrossing<FORWA
     }
 }
 
+/// [`intersect::conic_candidate`] and its normal, the aperture test and
+/// [`refract::refract_candidate`].
+struct ConicCrossing<const FORWARD: bool, const REFRACTS: bool> {
+    common: Common,
+    curvature: f64,
+    conic_factor: f64,
+}
+
+impl<const FORWARD: bool, const REFRACTS: bool> Crossing for ConicCrossing<FORWARD, REFRACTS> {
+    #[inline(always)]
+    fn new(s: &FlatSurface, check_apertures: bool) -> Self {
+        let Profile::Conic {
+            curvature,
+            conic_factor,
+        } = s.profile
+        else {
+            unreachable!("the conic kernel runs on conics only")
+        };
+        let common = Common::new::<FORWARD>(s, check_apertures);
+        ConicCrossing {
+            common,
+            curvature,
+            conic_factor,
+        }
+    }
+
+    /// A conic's lane is a square root and a division, then the normal's square root and
+    /// division, then the refraction's square root: one loop, as for a plane.
+    #[inline(always)]
+    fn cross(&self, lanes: LaneColumns<'_>) {
+        let (c, e, common) = (self.curvature, self.conic_factor, &self.common);
+        let LaneColumns {
+            p,
+            d,
+            q,
+            e: out,
+            codes,
+        } = lanes;
+        let [px, py, pz] = p;
+        let [dx, dy, dz] = d;
+        let [qx, qy, qz] = q;
+        let [ex, ey, ez] = out;
+        for l in 0..codes.len() {
+            let d = [dx[l], dy[l], dz[l]];
+            let arriving = [px[l], py[l], pz[l] - common.vertex_z];
+            let (point, crosses) = intersect::conic_candidate(arriving, d, c, e, common.sense);
+            let hit = crosses & point[0].is_finite() & point[1].is_finite() & point[2].is_finite();
+            let (direction, passes) = if REFRACTS {
+                let normal = intersect::conic_normal(point, c, e);
+                let (direction, radicand) = refract::refract_candidate(d, normal, common.mu);
+                (direction, radicand >= 0.0)
+            } else {
+                (d, true)
+            };
+            [qx[l], qy[l], qz[l]] = [point[0], point[1], point[2] + common.vertex_z];
+            [ex[l], ey[l], ez[l]] = direction;
+            codes[l] = event_code(hit, common.inside(point), passes);
+        }
+    }
+}
+
 /// One compiled copy of the block trace and its kernels per instruction set. Each kernel is a
 /// function of its own (never inlined into the block loop, whose two column sets swap places
 /// every surface): there its arguments are known not to overlap, which the compiler needs to
@@ -1434,9 +1501,8 @@ mod tests {
     }
 
     /// Spheres and planes (kernels; one of each between equal indices, which does not refract)
-    /// around a conic (the one-ray code inside the block) and an even and an odd asphere (met
-    /// in lanes), with apertures small enough that rays stop at several surfaces, so blocks are
-    /// compacted.
+    /// around a conic (a kernel too) and an even and an odd asphere (met in lanes), with
+    /// apertures small enough that rays stop at several surfaces, so blocks are compacted.
     fn tracer() -> Tracer {
         let surface = |shape, thickness, n: f64, stop| Surface {
             shape,
