@@ -21,31 +21,42 @@ use common::load_oracle;
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use lensbake::system::LensSystem;
 use lensbake::trace::{
-    Apertures, BatchTrace, FieldBundle, RaySource, StopAim, Tracer, Travel, aim_at_stop,
+    Apertures, BatchTrace, FieldBundle, RayBatch, RaySource, StopAim, Tracer, Travel, aim_at_stop,
 };
 
 const RAYS: usize = 100_000;
 
-fn trace(c: &mut Criterion) {
-    let system =
-        LensSystem::from_prescription(load_oracle("pbrt_dgauss_50mm").prescription).unwrap();
-    let tracer = Tracer::new(&system.at(system.design_wavelength_nm()));
-    let rays = FieldBundle::over_traceable_field(&tracer)
+/// [`RAYS`] rays of the `bench trace` bundle through `tracer`'s lens, and the ray-surface
+/// intersections they make.
+fn bundle(tracer: &Tracer) -> (RayBatch, u64) {
+    let rays = FieldBundle::over_traceable_field(tracer)
         .unwrap()
         .sample(RAYS, 1);
     let ray_surfaces = tracer
         .trace_batch(&rays, Travel::Forward, Apertures::Checked)
         .ray_surfaces;
+    (rays, ray_surfaces)
+}
+
+fn threads(count: usize) -> rayon::ThreadPool {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(count)
+        .build()
+        .unwrap()
+}
+
+fn trace(c: &mut Criterion) {
+    let system =
+        LensSystem::from_prescription(load_oracle("pbrt_dgauss_50mm").prescription).unwrap();
+    let tracer = Tracer::new(&system.at(system.design_wavelength_nm()));
+    let (rays, ray_surfaces) = bundle(&tracer);
 
     let mut group = c.benchmark_group("trace_dgauss50");
     group.throughput(Throughput::Elements(ray_surfaces));
     group.sample_size(20);
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-    for (name, threads) in [("one_core", 1), ("all_cores", cores)] {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
+    for (name, count) in [("one_core", 1), ("all_cores", cores)] {
+        let pool = threads(count);
         let mut out = BatchTrace::default();
         group.bench_function(name, |b| {
             b.iter(|| {
@@ -55,10 +66,7 @@ fn trace(c: &mut Criterion) {
             })
         });
     }
-    let one = rayon::ThreadPoolBuilder::new()
-        .num_threads(1)
-        .build()
-        .unwrap();
+    let one = threads(1);
     group.bench_function("one_core_new_output", |b| {
         b.iter(|| one.install(|| tracer.trace_batch(&rays, Travel::Forward, Apertures::Checked)))
     });
@@ -68,16 +76,8 @@ fn trace(c: &mut Criterion) {
 fn trace_aspheric(c: &mut Criterion) {
     let lens = lensbake::lenses::load("asph-50mm-f1.8", &Default::default()).unwrap();
     let tracer = Tracer::new(&lens.system.at(lens.system.design_wavelength_nm()));
-    let rays = FieldBundle::over_traceable_field(&tracer)
-        .unwrap()
-        .sample(RAYS, 1);
-    let ray_surfaces = tracer
-        .trace_batch(&rays, Travel::Forward, Apertures::Checked)
-        .ray_surfaces;
-    let one = rayon::ThreadPoolBuilder::new()
-        .num_threads(1)
-        .build()
-        .unwrap();
+    let (rays, ray_surfaces) = bundle(&tracer);
+    let one = threads(1);
     let mut group = c.benchmark_group("trace_asph50");
     group.throughput(Throughput::Elements(ray_surfaces));
     group.sample_size(20);

@@ -429,137 +429,152 @@ fn asphere_start(
     (p, start, meets_conic | meets_plane)
 }
 
-/// Rays whose Newton searches [`asphere_lanes`] runs side by side.
+/// Rays whose Newton searches [`AsphereLanes::meet`] runs side by side.
 pub(crate) const NEWTON_LANES: usize = 16;
 
 /// A group of [`NEWTON_LANES`] values, one per lane.
 pub(crate) type Lanes<T> = [T; NEWTON_LANES];
 
-/// [`asphere`] of the lines from `p` along `d` (columns x, y, z, vertex frame) in vector lanes:
-/// whether each meets the surface, and the points and normals where it does. Every lane takes
-/// Newton steps until every lane has converged or failed (a settled lane keeps its result), each
-/// stage over all lanes before the next, with no branch on a lane's numbers; each lane's
-/// arithmetic is [`asphere`]'s, so the results are the same bits.
-#[inline(always)]
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn asphere_lanes(
-    p: &[Lanes<f64>; 3],
-    d: &[Lanes<f64>; 3],
-    curvature: f64,
-    conic_factor: f64,
-    terms: &AsphereTerms,
-    sense: f64,
-    points: &mut [Lanes<f64>; 3],
-    normals: &mut [Lanes<f64>; 3],
-) -> Lanes<bool> {
-    // The odd and even polynomials compiled apart, so that neither lane loop holds the other's
-    // square root and division.
-    if terms.odd {
-        asphere_lanes_of::<true>(p, d, curvature, conic_factor, terms, sense, points, normals)
-    } else {
-        asphere_lanes_of::<false>(p, d, curvature, conic_factor, terms, sense, points, normals)
-    }
+/// Lines in vector lanes: the columns x, y, z of a point on each and of its direction (unit),
+/// in a surface's vertex frame.
+pub(crate) struct LaneLines {
+    pub p: [Lanes<f64>; 3],
+    pub d: [Lanes<f64>; 3],
 }
 
-/// [`asphere_lanes`] for an odd (`ODD`) or even asphere.
-#[inline(always)]
-#[allow(clippy::too_many_arguments)]
-fn asphere_lanes_of<const ODD: bool>(
-    p: &[Lanes<f64>; 3],
-    d: &[Lanes<f64>; 3],
-    curvature: f64,
-    conic_factor: f64,
-    terms: &AsphereTerms,
-    sense: f64,
-    points: &mut [Lanes<f64>; 3],
-    normals: &mut [Lanes<f64>; 3],
-) -> Lanes<bool> {
-    const L: usize = NEWTON_LANES;
-    let direction = |l: usize| [d[0][l], d[1][l], d[2][l]];
-    // The searches, a column per number (see `NewtonSearch`).
-    let mut nearest = [[0.0; L]; 3];
-    let [mut t, mut t_object, mut t_image, mut last_inside] = [[0.0; L]; 4];
-    let mut progress = [NEWTON_FAILED; L];
-    for l in 0..L {
-        let arriving = [p[0][l], p[1][l], p[2][l]];
-        let (near, start, starts) =
-            asphere_start(arriving, direction(l), curvature, conic_factor, sense);
-        let search = NewtonSearch::from(near, direction(l), start);
-        for axis in 0..3 {
-            nearest[axis][l] = near[axis];
+/// Where lines in vector lanes meet a surface: whether each does, and the points and unit
+/// normals where it does.
+#[derive(Default)]
+pub(crate) struct LaneHits {
+    pub met: Lanes<bool>,
+    pub points: [Lanes<f64>; 3],
+    pub normals: [Lanes<f64>; 3],
+}
+
+/// An asphere as its lane search ([`AsphereLanes::meet`]) reads it: the profile, and the sense
+/// the rays travel in.
+#[derive(Clone, Copy)]
+pub(crate) struct AsphereLanes<'a> {
+    pub curvature: f64,
+    pub conic_factor: f64,
+    pub terms: &'a AsphereTerms,
+    pub sense: f64,
+}
+
+impl AsphereLanes<'_> {
+    /// [`asphere`] of the lines in vector lanes into `hits`: whether each meets the surface, and
+    /// the points and normals where it does (kept from before where it does not). Every
+    /// lane takes Newton steps until every lane has converged or failed (a settled lane keeps
+    /// its result), each stage over all lanes before the next, with no branch on a lane's
+    /// numbers; each lane's arithmetic is [`asphere`]'s, so the results are the same bits.
+    #[inline(always)]
+    pub(crate) fn meet(&self, lines: &LaneLines, hits: &mut LaneHits) {
+        // The odd and even polynomials compiled apart, so that neither lane loop holds the
+        // other's square root and division.
+        if self.terms.odd {
+            self.meet_as::<true>(lines, hits)
+        } else {
+            self.meet_as::<false>(lines, hits)
         }
-        [t[l], t_object[l], t_image[l], last_inside[l]] = search.columns();
-        progress[l] = std::hint::select_unpredictable(starts, NEWTON_SEARCHING, NEWTON_FAILED);
     }
-    let max_rho = terms.search_radius * terms.search_radius;
-    let mut gradients = [[0.0; L]; 2];
-    for _ in 0..ASPHERE_MAX_STEPS {
-        if !progress.contains(&NEWTON_SEARCHING) {
-            break;
-        }
-        let mut q = [[0.0; L]; 3];
-        let [mut rho, mut x, mut base_sag, mut base_slope] = [[0.0; L]; 4];
-        let mut exists = [0u64; L];
+
+    /// [`AsphereLanes::meet`] for an odd (`ODD`) or even asphere.
+    #[inline(always)]
+    fn meet_as<const ODD: bool>(&self, lines: &LaneLines, hits: &mut LaneHits) {
+        const L: usize = NEWTON_LANES;
+        let LaneLines { p, d } = lines;
+        let AsphereLanes {
+            curvature,
+            conic_factor,
+            terms,
+            sense,
+        } = *self;
+        let direction = |l: usize| [d[0][l], d[1][l], d[2][l]];
+        // The searches, a column per number (see `NewtonSearch`).
+        let mut nearest = [[0.0; L]; 3];
+        let [mut t, mut t_object, mut t_image, mut last_inside] = [[0.0; L]; 4];
+        let mut progress = [NEWTON_FAILED; L];
         for l in 0..L {
-            let near = [nearest[0][l], nearest[1][l], nearest[2][l]];
-            let at = NewtonSearch::at(t[l]).point(near, direction(l));
+            let arriving = [p[0][l], p[1][l], p[2][l]];
+            let (near, start, starts) =
+                asphere_start(arriving, direction(l), curvature, conic_factor, sense);
+            let search = NewtonSearch::from(near, direction(l), start);
             for axis in 0..3 {
-                q[axis][l] = at[axis];
+                nearest[axis][l] = near[axis];
             }
-            rho[l] = at[0] * at[0] + at[1] * at[1];
-            let (sag, slope, reaches) = conic_base(rho[l], curvature, conic_factor);
-            (base_sag[l], base_slope[l]) = (sag, slope);
-            exists[l] = u64::from(reaches & (rho[l] <= max_rho));
-            x[l] = polynomial_variable(ODD, rho[l]);
+            [t[l], t_object[l], t_image[l], last_inside[l]] = search.columns();
+            progress[l] = std::hint::select_unpredictable(starts, NEWTON_SEARCHING, NEWTON_FAILED);
         }
-        let mut poly = [0.0; L];
-        let mut dpoly = [0.0; L];
-        for i in (0..terms.len).rev() {
-            let a = terms.coefficients[i];
+        let max_rho = terms.search_radius * terms.search_radius;
+        let mut gradients = [[0.0; L]; 2];
+        for _ in 0..ASPHERE_MAX_STEPS {
+            if !progress.contains(&NEWTON_SEARCHING) {
+                break;
+            }
+            let mut q = [[0.0; L]; 3];
+            let [mut rho, mut x, mut base_sag, mut base_slope] = [[0.0; L]; 4];
+            let mut exists = [0u64; L];
             for l in 0..L {
-                poly[l] = poly[l] * x[l] + a;
-                dpoly[l] = dpoly[l] * x[l] + (i + 1) as f64 * a;
+                let near = [nearest[0][l], nearest[1][l], nearest[2][l]];
+                let at = NewtonSearch::at(t[l]).point(near, direction(l));
+                for axis in 0..3 {
+                    q[axis][l] = at[axis];
+                }
+                rho[l] = at[0] * at[0] + at[1] * at[1];
+                let (sag, slope, reaches) = conic_base(rho[l], curvature, conic_factor);
+                (base_sag[l], base_slope[l]) = (sag, slope);
+                exists[l] = u64::from(reaches & (rho[l] <= max_rho));
+                x[l] = polynomial_variable(ODD, rho[l]);
+            }
+            let mut poly = [0.0; L];
+            let mut dpoly = [0.0; L];
+            for i in (0..terms.len).rev() {
+                let a = terms.coefficients[i];
+                for l in 0..L {
+                    poly[l] = poly[l] * x[l] + a;
+                    dpoly[l] = dpoly[l] * x[l] + (i + 1) as f64 * a;
+                }
+            }
+            for l in 0..L {
+                let at = [q[0][l], q[1][l], q[2][l]];
+                let (poly_sag, poly_slope) =
+                    polynomial_part(ODD, terms.coefficients[1], rho[l], x[l], poly[l], dpoly[l]);
+                let (g, gradient, dg) = asphere_residual(
+                    at,
+                    direction(l),
+                    base_sag[l] + poly_sag,
+                    base_slope[l] + poly_slope,
+                );
+                let search = NewtonSearch::of([t[l], t_object[l], t_image[l], last_inside[l]]);
+                let (next, step) = search.advance(exists[l] == 1, g, dg, terms.search_radius);
+                let searching = progress[l] == NEWTON_SEARCHING;
+                let met = searching & (step == NEWTON_MET);
+                let next = next.columns();
+                for (column, value) in [&mut t, &mut t_object, &mut t_image, &mut last_inside]
+                    .into_iter()
+                    .zip(next)
+                {
+                    column[l] = std::hint::select_unpredictable(searching, value, column[l]);
+                }
+                progress[l] = std::hint::select_unpredictable(searching, step, progress[l]);
+                for (column, value) in hits.points.iter_mut().zip(at) {
+                    column[l] = std::hint::select_unpredictable(met, value, column[l]);
+                }
+                for axis in 0..2 {
+                    gradients[axis][l] =
+                        std::hint::select_unpredictable(met, gradient[axis], gradients[axis][l]);
+                }
             }
         }
         for l in 0..L {
-            let at = [q[0][l], q[1][l], q[2][l]];
-            let (poly_sag, poly_slope) =
-                polynomial_part(ODD, terms.coefficients[1], rho[l], x[l], poly[l], dpoly[l]);
-            let (g, gradient, dg) = asphere_residual(
-                at,
-                direction(l),
-                base_sag[l] + poly_sag,
-                base_slope[l] + poly_slope,
-            );
-            let search = NewtonSearch::of([t[l], t_object[l], t_image[l], last_inside[l]]);
-            let (next, step) = search.advance(exists[l] == 1, g, dg, terms.search_radius);
-            let searching = progress[l] == NEWTON_SEARCHING;
-            let met = searching & (step == NEWTON_MET);
-            let next = next.columns();
-            for (column, value) in [&mut t, &mut t_object, &mut t_image, &mut last_inside]
-                .into_iter()
-                .zip(next)
-            {
-                column[l] = std::hint::select_unpredictable(searching, value, column[l]);
+            let gradient = [gradients[0][l], gradients[1][l], -1.0];
+            let (normal, crosses) = finish_candidate(gradient, direction(l), sense);
+            for (column, value) in hits.normals.iter_mut().zip(normal) {
+                column[l] = value;
             }
-            progress[l] = std::hint::select_unpredictable(searching, step, progress[l]);
-            for axis in 0..3 {
-                points[axis][l] = std::hint::select_unpredictable(met, at[axis], points[axis][l]);
-            }
-            for axis in 0..2 {
-                gradients[axis][l] =
-                    std::hint::select_unpredictable(met, gradient[axis], gradients[axis][l]);
-            }
+            hits.met[l] = crosses & (progress[l] == NEWTON_MET);
         }
     }
-    std::array::from_fn(|l| {
-        let gradient = [gradients[0][l], gradients[1][l], -1.0];
-        let (normal, crosses) = finish_candidate(gradient, direction(l), sense);
-        for axis in 0..3 {
-            normals[axis][l] = normal[axis];
-        }
-        crosses & (progress[l] == NEWTON_MET)
-    })
 }
 
 /// Meets a toroid: the y-z curve z(y) of `curvature`, `conic_factor` and `terms` (coefficients

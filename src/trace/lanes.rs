@@ -10,7 +10,7 @@
 //! run over the strides in use. Which rays travel is a bit per slot ([`Slots`]).
 //!
 //! Spheres, planes and conics (almost every surface of a real lens) have kernels; aspheres are
-//! met in vector lanes ([`intersect::asphere_lanes`]) and then go through the aperture and bend
+//! met in vector lanes ([`intersect::AsphereLanes::meet`]) and then go through the aperture and bend
 //! one ray at a time; mirrors, obscured surfaces and the bladed stop use the one-ray code
 //! ([`Tracer::cross`]) for each live ray. The kernels and lanes call the same branch-free
 //! arithmetic as the one-ray path (`*_candidate` in `intersect` and `refract`, or for a sphere
@@ -688,7 +688,7 @@ impl Tracer {
 impl Tracer {
     /// [`Tracer::cross`] of the `travelling` rays of `arriving` at the asphere `s`, each slot's
     /// result handed to `settle`: [`intersect::NEWTON_LANES`] rays at a time, met side by side
-    /// in vector lanes ([`intersect::asphere_lanes`], the same bits as one ray's search), then
+    /// in vector lanes ([`intersect::AsphereLanes::meet`], the same bits as one ray's search), then
     /// each through the aperture and bent as one ray is.
     #[inline(always)]
     fn cross_asphere<const FORWARD: bool>(
@@ -710,6 +710,7 @@ impl Tracer {
         };
         let terms = &self.asphere_terms[terms];
         let mut slots = travelling.iter();
+        let mut hits = intersect::LaneHits::default();
         loop {
             let mut chosen = [0; L];
             let count = chosen
@@ -723,33 +724,31 @@ impl Tracer {
             // Lanes past the last ray repeat the first.
             let rays: [Ray; L] =
                 std::array::from_fn(|l| ray_at(arriving, chosen[l.min(count - 1)]));
-            let mut p = [[0.0; L]; 3];
-            let mut d = [[0.0; L]; 3];
+            let mut lines = intersect::LaneLines {
+                p: [[0.0; L]; 3],
+                d: [[0.0; L]; 3],
+            };
             let mut sense = 1.0;
             for (l, ray) in rays.iter().enumerate() {
                 let (position, direction, ray_sense) = in_vertex_frame::<FORWARD>(s, ray);
                 for axis in 0..3 {
-                    p[axis][l] = position[axis];
-                    d[axis][l] = direction[axis];
+                    lines.p[axis][l] = position[axis];
+                    lines.d[axis][l] = direction[axis];
                 }
                 sense = ray_sense;
             }
-            let mut points = [[0.0; L]; 3];
-            let mut normals = [[0.0; L]; 3];
-            let hits = intersect::asphere_lanes(
-                &p,
-                &d,
+            let asphere = intersect::AsphereLanes {
                 curvature,
                 conic_factor,
                 terms,
                 sense,
-                &mut points,
-                &mut normals,
-            );
+            };
+            asphere.meet(&lines, &mut hits);
             for l in 0..count {
-                let met = hits[l].then(|| {
-                    let point = [points[0][l], points[1][l], points[2][l]];
-                    (point, Some([normals[0][l], normals[1][l], normals[2][l]]))
+                let met = hits.met[l].then(|| {
+                    let [x, y, z] = &hits.points;
+                    let [nx, ny, nz] = &hits.normals;
+                    ([x[l], y[l], z[l]], Some([nx[l], ny[l], nz[l]]))
                 });
                 settle(
                     chosen[l],
@@ -993,6 +992,38 @@ impl Common {
     fn inside(&self, q: Vec3) -> bool {
         !self.check_apertures | (radius_sq(q) <= self.semi_aperture_sq)
     }
+
+    /// Crosses every lane of `lanes` in one loop, for a surface met in closed form:
+    /// `meet(arriving, d)` gives the point (vertex frame) and whether it is a crossing,
+    /// `bend(point, d)` the refracted direction and the radicand, used where `REFRACTS`.
+    #[inline(always)]
+    fn cross_in_one_loop<const REFRACTS: bool>(
+        &self,
+        lanes: LaneColumns<'_>,
+        meet: impl Fn(Vec3, Vec3) -> (Vec3, bool),
+        bend: impl Fn(Vec3, Vec3) -> (Vec3, f64),
+    ) {
+        let LaneColumns { p, d, q, e, codes } = lanes;
+        let [px, py, pz] = p;
+        let [dx, dy, dz] = d;
+        let [qx, qy, qz] = q;
+        let [ex, ey, ez] = e;
+        for l in 0..codes.len() {
+            let d = [dx[l], dy[l], dz[l]];
+            let arriving = [px[l], py[l], pz[l] - self.vertex_z];
+            let (point, crosses) = meet(arriving, d);
+            let hit = crosses & point.iter().fold(true, |all, v| all & v.is_finite());
+            let (direction, passes) = if REFRACTS {
+                let (direction, radicand) = bend(point, d);
+                (direction, radicand >= 0.0)
+            } else {
+                (d, true)
+            };
+            [qx[l], qy[l], qz[l]] = [point[0], point[1], point[2] + self.vertex_z];
+            [ex[l], ey[l], ez[l]] = direction;
+            codes[l] = event_code(hit, self.inside(point), passes);
+        }
+    }
 }
 
 /// [`intersect::sphere_candidate`], the aperture test and [`refract::refract_candidate`].
@@ -1134,27 +1165,12 @@ impl<const FORWARD: bool, const REFRACTS: bool> Crossing for PlaneCrossing<FORWA
     /// A plane's lane has one division and one square root: one loop.
     #[inline(always)]
     fn cross(&self, lanes: LaneColumns<'_>) {
-        let common = &self.common;
-        let LaneColumns { p, d, q, e, codes } = lanes;
-        let [px, py, pz] = p;
-        let [dx, dy, dz] = d;
-        let [qx, qy, qz] = q;
-        let [ex, ey, ez] = e;
-        for l in 0..codes.len() {
-            let d = [dx[l], dy[l], dz[l]];
-            let arriving = [px[l], py[l], pz[l] - common.vertex_z];
-            let (point, crosses) = intersect::plane_candidate(arriving, d, common.sense);
-            let hit = crosses & point[0].is_finite() & point[1].is_finite();
-            let (direction, passes) = if REFRACTS {
-                let (direction, radicand) = refract::refract_plane_candidate(d, common.mu);
-                (direction, radicand >= 0.0)
-            } else {
-                (d, true)
-            };
-            [qx[l], qy[l], qz[l]] = [point[0], point[1], point[2] + common.vertex_z];
-            [ex[l], ey[l], ez[l]] = direction;
-            codes[l] = event_code(hit, common.inside(point), passes);
-        }
+        let (sense, mu) = (self.common.sense, self.common.mu);
+        self.common.cross_in_one_loop::<REFRACTS>(
+            lanes,
+            |arriving, d| intersect::plane_candidate(arriving, d, sense),
+            |_, d| refract::refract_plane_candidate(d, mu),
+        );
     }
 }
 
@@ -1188,34 +1204,13 @@ impl<const FORWARD: bool, const REFRACTS: bool> Crossing for ConicCrossing<FORWA
     /// division, then the refraction's square root: one loop, as for a plane.
     #[inline(always)]
     fn cross(&self, lanes: LaneColumns<'_>) {
-        let (c, e, common) = (self.curvature, self.conic_factor, &self.common);
-        let LaneColumns {
-            p,
-            d,
-            q,
-            e: out,
-            codes,
-        } = lanes;
-        let [px, py, pz] = p;
-        let [dx, dy, dz] = d;
-        let [qx, qy, qz] = q;
-        let [ex, ey, ez] = out;
-        for l in 0..codes.len() {
-            let d = [dx[l], dy[l], dz[l]];
-            let arriving = [px[l], py[l], pz[l] - common.vertex_z];
-            let (point, crosses) = intersect::conic_candidate(arriving, d, c, e, common.sense);
-            let hit = crosses & point[0].is_finite() & point[1].is_finite() & point[2].is_finite();
-            let (direction, passes) = if REFRACTS {
-                let normal = intersect::conic_normal(point, c, e);
-                let (direction, radicand) = refract::refract_candidate(d, normal, common.mu);
-                (direction, radicand >= 0.0)
-            } else {
-                (d, true)
-            };
-            [qx[l], qy[l], qz[l]] = [point[0], point[1], point[2] + common.vertex_z];
-            [ex[l], ey[l], ez[l]] = direction;
-            codes[l] = event_code(hit, common.inside(point), passes);
-        }
+        let (c, e) = (self.curvature, self.conic_factor);
+        let (sense, mu) = (self.common.sense, self.common.mu);
+        self.common.cross_in_one_loop::<REFRACTS>(
+            lanes,
+            |arriving, d| intersect::conic_candidate(arriving, d, c, e, sense),
+            |point, d| refract::refract_candidate(d, intersect::conic_normal(point, c, e), mu),
+        );
     }
 }
 
