@@ -372,6 +372,30 @@ fn the_lane_path_traces_mirrors_bit_for_bit_as_the_one_ray_path() {
     }
     let passed = common::batch_matches_one_ray(&tracer, &batch);
     assert!(passed > 30, "{passed} rays passed");
+    // Backward, as the renderer traces: the rays that came through, reversed. Behind the
+    // primary the light meets the elements travelling -z, in the lane kernels too.
+    let reversed: RayBatch = batch
+        .iter()
+        .map(|ray| tracer.trace(ray, Travel::Forward))
+        .filter(|traced| traced.outcome.is_ok())
+        .map(|traced| {
+            let [dx, dy, dz] = traced.ray.direction();
+            Ray::new(traced.ray.position(), [-dx, -dy, -dz]).unwrap()
+        })
+        .collect();
+    let back = tracer.trace_batch(&reversed, Travel::Backward, Apertures::Checked);
+    let mut returned = 0;
+    for (i, ray) in reversed.iter().enumerate() {
+        let one = tracer.trace(ray, Travel::Backward);
+        assert_eq!(back.outcomes[i], one.outcome, "backward ray {i}");
+        assert_eq!(back.rays.get(i).unwrap(), one.ray, "backward ray {i}");
+        returned += usize::from(one.outcome.is_ok());
+    }
+    assert_eq!(
+        returned,
+        reversed.len(),
+        "every reversed ray retraces its path"
+    );
 }
 
 #[test]

@@ -971,7 +971,8 @@ struct Common {
     vertex_z: f64,
     semi_aperture_sq: f64,
     check_apertures: bool,
-    /// Travel sense (+1 forward, -1 backward) and Snell ratio in that sense.
+    /// The sense along z (+1 or -1) the rays meet the surface in, the way they travel (behind a
+    /// mirror a forward ray travels -z), and the Snell ratio that way.
     sense: f64,
     mu: f64,
 }
@@ -983,7 +984,11 @@ impl Common {
             vertex_z: s.vertex_z,
             semi_aperture_sq: s.semi_aperture_sq,
             check_apertures,
-            sense: if FORWARD { 1.0 } else { -1.0 },
+            sense: if FORWARD {
+                s.sense_forward
+            } else {
+                s.sense_backward
+            },
             mu: if FORWARD { s.mu_forward } else { s.mu_backward },
         }
     }

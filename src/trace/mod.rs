@@ -324,10 +324,10 @@ struct FlatSurface {
 }
 
 impl FlatSurface {
-    /// Whether the surface bends rays and the lane kernels, which assume a refracting surface
-    /// met travelling +z forward with nothing blocking its centre, can cross it.
+    /// Whether the lane kernels, which refract and have nothing blocking a surface's centre, can
+    /// cross it (in either sense along z: behind a mirror the light travels -z forward).
     fn plain(&self) -> bool {
-        !self.reflects && self.obscuration_sq == 0.0 && self.sense_forward == 1.0
+        !self.reflects && self.obscuration_sq == 0.0
     }
 }
 
