@@ -383,14 +383,7 @@ fn the_lane_path_traces_mirrors_bit_for_bit_as_the_one_ray_path() {
             Ray::new(traced.ray.position(), [-dx, -dy, -dz]).unwrap()
         })
         .collect();
-    let back = tracer.trace_batch(&reversed, Travel::Backward, Apertures::Checked);
-    let mut returned = 0;
-    for (i, ray) in reversed.iter().enumerate() {
-        let one = tracer.trace(ray, Travel::Backward);
-        assert_eq!(back.outcomes[i], one.outcome, "backward ray {i}");
-        assert_eq!(back.rays.get(i).unwrap(), one.ray, "backward ray {i}");
-        returned += usize::from(one.outcome.is_ok());
-    }
+    let returned = common::batch_matches_one_ray_going(&tracer, &reversed, Travel::Backward);
     assert_eq!(
         returned,
         reversed.len(),

@@ -680,13 +680,21 @@ pub fn batch_matches_one_ray(
     tracer: &lensbake::trace::Tracer,
     batch: &lensbake::trace::RayBatch,
 ) -> usize {
-    use lensbake::trace::{Apertures, Travel};
-    let traced = tracer.trace_batch(batch, Travel::Forward, Apertures::Checked);
+    batch_matches_one_ray_going(tracer, batch, lensbake::trace::Travel::Forward)
+}
+
+/// [`batch_matches_one_ray`] for rays travelling `travel`.
+pub fn batch_matches_one_ray_going(
+    tracer: &lensbake::trace::Tracer,
+    batch: &lensbake::trace::RayBatch,
+    travel: lensbake::trace::Travel,
+) -> usize {
+    let traced = tracer.trace_batch(batch, travel, lensbake::trace::Apertures::Checked);
     let mut passed = 0;
     for (i, ray) in batch.iter().enumerate() {
-        let one = tracer.trace(ray, Travel::Forward);
-        assert_eq!(traced.outcomes[i], one.outcome, "ray {i}");
-        assert_eq!(traced.rays.get(i).unwrap(), one.ray, "ray {i}");
+        let one = tracer.trace(ray, travel);
+        assert_eq!(traced.outcomes[i], one.outcome, "{travel:?} ray {i}");
+        assert_eq!(traced.rays.get(i).unwrap(), one.ray, "{travel:?} ray {i}");
         passed += usize::from(one.outcome.is_ok());
     }
     passed
