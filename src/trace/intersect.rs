@@ -516,7 +516,7 @@ impl AsphereLanes<'_> {
             let mut exists = [0u64; L];
             for l in 0..L {
                 let near = [nearest[0][l], nearest[1][l], nearest[2][l]];
-                let at = NewtonSearch::at(t[l]).point(near, direction(l));
+                let at = newton_point(near, direction(l), t[l]);
                 for axis in 0..3 {
                     q[axis][l] = at[axis];
                 }
@@ -650,6 +650,14 @@ fn newton_crossing(
     None
 }
 
+/// The point at `t` on the line `p + t d` as the Newton search rounds it (a multiply and an add
+/// per axis, not [`along`]'s fused multiply-add: the search's iterates keep the bits they had
+/// before it ran in lanes).
+#[inline(always)]
+fn newton_point(p: Vec3, d: Vec3, t: f64) -> Vec3 {
+    [p[0] + t * d[0], p[1] + t * d[1], p[2] + t * d[2]]
+}
+
 /// What a Newton step came to: still searching, converged (the point is on the surface), or
 /// failed (the search has nowhere left to go). 64-bit, to share vector lanes with the f64
 /// comparisons they come from.
@@ -693,23 +701,16 @@ impl NewtonSearch {
         }
     }
 
-    /// A search at `t`, for its [`NewtonSearch::point`].
-    #[inline(always)]
-    fn at(t: f64) -> NewtonSearch {
-        NewtonSearch::of([t, f64::NAN, f64::NAN, f64::NAN])
-    }
-
     /// The numbers of the search, as [`NewtonSearch::of`] takes them.
     #[inline(always)]
     fn columns(&self) -> [f64; 4] {
         [self.t, self.t_object, self.t_image, self.last_inside]
     }
 
-    /// The iterate: the point at t on the line `p + t d`.
+    /// The iterate: the point at t on the line `p + t d` ([`newton_point`]).
     #[inline(always)]
     fn point(&self, p: Vec3, d: Vec3) -> Vec3 {
-        let t = self.t;
-        [p[0] + t * d[0], p[1] + t * d[1], p[2] + t * d[2]]
+        newton_point(p, d, self.t)
     }
 
     /// One Newton step from the residual `g` and its derivative `dg` at the iterate (`valid`:

@@ -708,7 +708,12 @@ impl Tracer {
         else {
             unreachable!("only aspheres are met in lanes")
         };
-        let terms = &self.asphere_terms[terms];
+        let asphere = intersect::AsphereLanes {
+            curvature,
+            conic_factor,
+            terms: &self.asphere_terms[terms],
+            sense: s.sense::<FORWARD>(),
+        };
         let mut slots = travelling.iter();
         let mut hits = intersect::LaneHits::default();
         loop {
@@ -721,28 +726,20 @@ impl Tracer {
             if count == 0 {
                 break;
             }
-            // Lanes past the last ray repeat the first.
+            // Lanes past the last ray repeat it.
             let rays: [Ray; L] =
                 std::array::from_fn(|l| ray_at(arriving, chosen[l.min(count - 1)]));
             let mut lines = intersect::LaneLines {
                 p: [[0.0; L]; 3],
                 d: [[0.0; L]; 3],
             };
-            let mut sense = 1.0;
             for (l, ray) in rays.iter().enumerate() {
-                let (position, direction, ray_sense) = in_vertex_frame::<FORWARD>(s, ray);
+                let (position, direction, _) = in_vertex_frame::<FORWARD>(s, ray);
                 for axis in 0..3 {
                     lines.p[axis][l] = position[axis];
                     lines.d[axis][l] = direction[axis];
                 }
-                sense = ray_sense;
             }
-            let asphere = intersect::AsphereLanes {
-                curvature,
-                conic_factor,
-                terms,
-                sense,
-            };
             asphere.meet(&lines, &mut hits);
             for l in 0..count {
                 let met = hits.met[l].then(|| {
@@ -984,11 +981,7 @@ impl Common {
             vertex_z: s.vertex_z,
             semi_aperture_sq: s.semi_aperture_sq,
             check_apertures,
-            sense: if FORWARD {
-                s.sense_forward
-            } else {
-                s.sense_backward
-            },
+            sense: s.sense::<FORWARD>(),
             mu: if FORWARD { s.mu_forward } else { s.mu_backward },
         }
     }
@@ -1516,7 +1509,8 @@ mod tests {
             curvature: -0.02,
             conic: -0.6,
         };
-        // Strong enough terms that the searches take different numbers of steps.
+        // Strong enough terms that the searches take different numbers of steps (1 to 7
+        // evaluations over this test's rays, counted once).
         let even_asphere = Shape::EvenAsphere {
             curvature: 0.03,
             conic: -0.5,

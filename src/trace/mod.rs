@@ -329,6 +329,17 @@ impl FlatSurface {
     fn plain(&self) -> bool {
         !self.reflects && self.obscuration_sq == 0.0
     }
+
+    /// The sense along z (+1 or -1) in which a ray travelling forward (`FORWARD`) or backward
+    /// meets the surface.
+    #[inline(always)]
+    fn sense<const FORWARD: bool>(&self) -> f64 {
+        if FORWARD {
+            self.sense_forward
+        } else {
+            self.sense_backward
+        }
+    }
 }
 
 /// A lens at one wavelength, flattened for tracing.
@@ -692,11 +703,7 @@ impl Tracer {
 /// and the travel sense along z.
 #[inline(always)]
 fn in_vertex_frame<const FORWARD: bool>(s: &FlatSurface, ray: &Ray) -> (Vec3, Vec3, f64) {
-    let sense = if FORWARD {
-        s.sense_forward
-    } else {
-        s.sense_backward
-    };
+    let sense = s.sense::<FORWARD>();
     let p = [
         ray.position[0],
         ray.position[1],
