@@ -50,18 +50,46 @@ def oracle_dir():
     return os.path.normpath(os.path.join(here, "..", "..", "tests", "data", "truth", "oracle"))
 
 
+class Bundle:
+    """The ray bundle `lensbake bench trace` draws: field angles uniform over [0, field_deg] in
+    the y-z plane, pupil points uniform over the paraxial entrance pupil, rays starting on the
+    plane z = start_z."""
+
+    def __init__(self, field_deg, pupil_z, pupil_diameter, start_z):
+        self.field_deg, self.pupil_z = field_deg, pupil_z
+        self.pupil_diameter, self.start_z = pupil_diameter, start_z
+
+    @staticmethod
+    def from_lensbake(binary, ron):
+        """The bundle lensbake draws for the lens in the file `ron`."""
+        bundle = lensbake(binary, "bench", "trace", ron, "--rays", "1", "--json")["bundle"]
+        return Bundle(bundle["max_field_deg"], bundle["entrance_pupil_z"],
+                      bundle["entrance_pupil_diameter"], bundle["start_z"])
+
+    def sample(self, n, seed):
+        pupil_r = 0.5 * self.pupil_diameter
+        rng = np.random.default_rng(seed)
+        field = np.radians(rng.uniform(0.0, self.field_deg, n))
+        radius = pupil_r * np.sqrt(rng.uniform(0.0, 1.0, n))
+        azimuth = rng.uniform(0.0, 2.0 * np.pi, n)
+        M, N = np.sin(field), np.cos(field)
+        back = (self.pupil_z - self.start_z) / N
+        x = radius * np.cos(azimuth)
+        y = radius * np.sin(azimuth) - back * M
+        return x, y, np.full(n, self.start_z), np.zeros(n), M, N
+
+
 class Lens:
     """A lens of constant indices, as both programs are given it: each surface's curvature, conic
     constant, even aspheric coefficients (on r^2, r^4, ...), thickness, index after it, clear
-    semi-aperture and whether it is the stop; and the bundle `lensbake bench trace` draws."""
+    semi-aperture and whether it is the stop."""
 
-    def __init__(self, name, object_index, surfaces, field_deg, pupil_z, pupil_diameter, start_z):
+    def __init__(self, name, object_index, surfaces):
         self.name, self.object_index, self.surfaces = name, object_index, surfaces
-        self.field_deg, self.pupil_z, self.pupil_diameter, self.start_z = (
-            field_deg, pupil_z, pupil_diameter, start_z)
 
     @staticmethod
     def from_oracle(name):
+        """The oracle's lens and the bundle drawn from its own pupil and traceable field."""
         with open(os.path.join(oracle_dir(), name + ".json")) as f:
             lens = json.load(f)["lenses"][0]
         table = lens["prescription"]
@@ -71,9 +99,9 @@ class Lens:
         quick = lens["quick_reference"]
         field = lens["infinite_conjugate"]["max_field_with_traceable_chief_ray"]["with_apertures"]
         first = table["surfaces"][0]
-        return Lens(lens["name"], table["object_space_index"], surfaces, field["last_ok_deg"],
-                    quick["z_entrance_pupil"], quick["epd"],
-                    first["vertex_z"] - first["semi_aperture"] - 1.0)
+        bundle = Bundle(field["last_ok_deg"], quick["z_entrance_pupil"], quick["epd"],
+                        first["vertex_z"] - first["semi_aperture"] - 1.0)
+        return Lens(lens["name"], table["object_space_index"], surfaces), bundle
 
     @staticmethod
     def from_lensbake(binary, spec, tmp):
@@ -83,15 +111,7 @@ class Lens:
         with open(path) as f:
             table = parse_ron(f.read())
         surfaces = [lensbake_surface(k + 1, s) for k, s in enumerate(table["surfaces"])]
-        lens = Lens(spec, constant_index("object_medium", table["object_medium"]), surfaces,
-                    0.0, 0.0, 0.0, 0.0)
-        ron = os.path.join(tmp, "constant.ron")
-        with open(ron, "w") as f:
-            f.write(lens.ron())
-        bundle = lensbake(binary, "bench", "trace", ron, "--rays", "1", "--json")["bundle"]
-        lens.field_deg, lens.pupil_z = bundle["max_field_deg"], bundle["entrance_pupil_z"]
-        lens.pupil_diameter, lens.start_z = bundle["entrance_pupil_diameter"], bundle["start_z"]
-        return lens
+        return Lens(spec, constant_index("object_medium", table["object_medium"]), surfaces)
 
     def ron(self):
         rows = []
@@ -118,7 +138,7 @@ class Lens:
             + "\n])\n"
         )
 
-    def optic(self):
+    def optic(self, epd):
         optic = Optic()
         optic.surfaces.add(index=0, radius=np.inf, thickness=np.inf,
                            material=IdealMaterial(self.object_index))
@@ -132,23 +152,11 @@ class Lens:
                                material=IdealMaterial(s["n"]), is_stop=s["stop"],
                                aperture=RadialAperture(r_max=s["semi_aperture"]), **shape)
         optic.surfaces.add(index=len(self.surfaces) + 1)
-        optic.set_aperture(aperture_type="EPD", value=self.pupil_diameter)
+        optic.set_aperture(aperture_type="EPD", value=epd)
         optic.fields.set_type("angle")
         optic.fields.add(y=0.0)
         optic.wavelengths.add(value=WAVELENGTH_UM, is_primary=True)
         return optic
-
-    def bundle(self, n, seed):
-        pupil_r = 0.5 * self.pupil_diameter
-        rng = np.random.default_rng(seed)
-        field = np.radians(rng.uniform(0.0, self.field_deg, n))
-        radius = pupil_r * np.sqrt(rng.uniform(0.0, 1.0, n))
-        azimuth = rng.uniform(0.0, 2.0 * np.pi, n)
-        M, N = np.sin(field), np.cos(field)
-        back = (self.pupil_z - self.start_z) / N
-        x = radius * np.cos(azimuth)
-        y = radius * np.sin(azimuth) - back * M
-        return x, y, np.full(n, self.start_z), np.zeros(n), M, N
 
 
 def parse_ron(text):
@@ -222,15 +230,16 @@ def lensbake_surface(number, surface):
     if kind not in ("Plane", "Sphere", "Conic", "EvenAsphere"):
         sys.exit(f"error: surface {number}: shape {kind} is not one optiland is built with here "
                  "(planes, spheres, conics and even aspheres are)")
-    obscuration = surface.get("obscuration", {"variant": "None"})
-    if obscuration.get("variant") != "None" or surface["stop"].get("variant") not in ("None", "Some"):
-        sys.exit(f"error: surface {number}: obscurations and shaped stops are not built here")
-    if surface["stop"].get("variant") == "Some" and surface["stop"]["items"][0]["variant"] != "Circle":
+    stop = surface["stop"]
+    is_stop = stop["variant"] == "Some"
+    if surface.get("obscuration", {"variant": "None"})["variant"] != "None":
+        sys.exit(f"error: surface {number}: obscurations are not built here")
+    if is_stop and stop["items"][0]["variant"] != "Circle":
         sys.exit(f"error: surface {number}: only a circular stop is built here")
     return dict(curvature=shape.get("curvature", 0.0), conic=shape.get("conic", 0.0),
                 coefficients=shape.get("coefficients", []), thickness=surface["thickness"],
                 n=constant_index(f"surface {number}", surface["medium"]),
-                semi_aperture=surface["semi_aperture"], stop=surface["stop"]["variant"] == "Some")
+                semi_aperture=surface["semi_aperture"], stop=is_stop)
 
 
 def optiland_trace(optic, rays, record):
@@ -293,26 +302,27 @@ def main():
 
     with tempfile.TemporaryDirectory() as tmp:
         if os.path.exists(os.path.join(oracle_dir(), args.lens + ".json")):
-            lens = Lens.from_oracle(args.lens)
+            lens, bundle = Lens.from_oracle(args.lens)
         else:
-            lens = Lens.from_lensbake(args.lensbake, args.lens, tmp)
-        n_surfaces = len(lens.surfaces)
-        optic = lens.optic()
+            lens, bundle = Lens.from_lensbake(args.lensbake, args.lens, tmp), None
         ron = os.path.join(tmp, "lens.ron")
         with open(ron, "w") as f:
             f.write(lens.ron())
+        bundle = bundle or Bundle.from_lensbake(args.lensbake, ron)
+        n_surfaces = len(lens.surfaces)
+        optic = lens.optic(bundle.pupil_diameter)
 
-        sample = lens.bundle(args.sample, seed=1)
-        print(f"lens {args.lens}: {n_surfaces} surfaces; bundle: field 0..{lens.field_deg} deg, "
-              f"entrance pupil radius {0.5 * lens.pupil_diameter:.6f} mm at z = {lens.pupil_z:.6f} mm")
+        sample = bundle.sample(args.sample, seed=1)
+        print(f"lens {args.lens}: {n_surfaces} surfaces; bundle: field 0..{bundle.field_deg} deg, "
+              f"entrance pupil radius {0.5 * bundle.pupil_diameter:.6f} mm at z = {bundle.pupil_z:.6f} mm")
         counts, mismatches, worst_p, worst_d = check_agreement(args.lensbake, ron, optic, sample, n_surfaces)
         print(f"agreement on {args.sample} rays: statuses {counts}, {mismatches} status mismatches; "
               f"ok rays after surface {n_surfaces}: max |dp| = {worst_p:.2e} mm, max |dd| = {worst_d:.2e}")
         agree = mismatches == 0 and worst_p <= POSITION_TOLERANCE_MM and worst_d <= DIRECTION_TOLERANCE
 
-        rays = lens.bundle(args.rays, seed=2)
+        rays = bundle.sample(args.rays, seed=2)
         # optiland compiles its intersection kernels with numba on first use: keep that out.
-        optiland_trace(optic, lens.bundle(10_000, seed=3), record=False)
+        optiland_trace(optic, bundle.sample(10_000, seed=3), record=False)
         timings = {"optiland": [], "lensbake_1": [], "lensbake_1_new_output": [], "lensbake_all": []}
         ray_surfaces = None
         for _ in range(args.repeats):
