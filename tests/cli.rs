@@ -207,6 +207,67 @@ fn convert_writes_ron_that_checks_the_same() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// `--indices-at-nm`: each glass written as its index there; a wavelength a glass's formula
+/// does not reach is one error line naming the surface, and no file.
+#[test]
+fn convert_writes_constant_indices_at_a_wavelength() {
+    let dir = temp_dir("convert-indices");
+    let output = dir.join("triplet.ron");
+    let out = output.to_str().unwrap();
+    let o = lensbake(&[
+        "lens",
+        "convert",
+        "cooke-triplet",
+        out,
+        "--indices-at-nm",
+        "587.5618",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let text = std::fs::read_to_string(&output).unwrap();
+    assert!(!text.contains("Glass("), "{text}");
+    // Surfaces 1, 3 and 5 are SK16 (HIKARI), F2, SK16: their indices as `glass show` prints
+    // them at the d line (6 decimals).
+    let written: Vec<f64> = text
+        .split("Index(")
+        .skip(1)
+        .map(|rest| rest[..rest.find(')').unwrap()].parse().unwrap())
+        .collect();
+    let shown = |glass: &str| -> f64 {
+        let shown = stdout(&lensbake(&["glass", "show", glass]));
+        let line = shown
+            .lines()
+            .find(|l| l.contains("nd  (587.5618 nm)"))
+            .unwrap();
+        line.split_whitespace().last().unwrap().parse().unwrap()
+    };
+    let (sk16, f2) = (shown("SK16_HIKARI"), shown("F2"));
+    assert_eq!(written.len(), 3, "{text}");
+    for (n, nd) in written.iter().zip([sk16, f2, sk16]) {
+        assert!((n - nd).abs() <= 5e-7, "{n} against {nd}");
+    }
+    let o = lensbake(&["lens", "check", out]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+
+    let refused = dir.join("refused.ron");
+    let o = lensbake(&[
+        "lens",
+        "convert",
+        "cooke-triplet",
+        refused.to_str().unwrap(),
+        "--indices-at-nm",
+        "99000",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = stderr(&o);
+    assert!(
+        err.starts_with("error: ") && err.lines().count() == 1,
+        "{err}"
+    );
+    assert!(err.contains("surface 1") && err.contains("medium"), "{err}");
+    assert!(!refused.exists());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 #[test]
 fn list_names_every_bundled_lens() {
     let o = lensbake(&["lens", "list"]);

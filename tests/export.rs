@@ -334,3 +334,70 @@ fn a_working_f_number_goes_to_zemax_as_the_pupil_it_gives() {
         );
     }
 }
+
+/// Constant indices at one wavelength: every bundled lens at the F line gives, at that
+/// wavelength, the same indices bit for bit (so the same first-order data and Seidel sums), at any other
+/// wavelength the same again (no dispersion left), the same geometry, and mirrors and air kept.
+#[test]
+fn indices_at_one_wavelength_keep_the_lens_at_that_wavelength() {
+    let nm = lensbake::glass::F_LINE_NM;
+    for lens in lensbake::lenses::BUNDLED {
+        let original = system(lens.name);
+        let frozen = original
+            .prescription
+            .with_indices_at(nm)
+            .unwrap_or_else(|e| panic!("{}: {e}", lens.name));
+        assert_same_geometry(&original.prescription, &frozen, false, lens.name);
+        assert_eq!(frozen.provenance.design_wavelength_nm, Some(nm));
+        let frozen = LensSystem::new(frozen, &Default::default()).unwrap();
+        let indices = |s: &LensSystem, at: f64| {
+            let at = s.at(at);
+            let mut indices = vec![at.object_index];
+            indices.extend(at.surfaces.iter().map(|s| s.index_after));
+            indices
+        };
+        assert_eq!(
+            indices(&frozen, nm),
+            indices(&original, nm),
+            "{}",
+            lens.name
+        );
+        assert_eq!(
+            indices(&frozen, 650.0),
+            indices(&frozen, nm),
+            "{}",
+            lens.name
+        );
+        for (before, after) in original
+            .prescription
+            .surfaces
+            .iter()
+            .zip(&frozen.prescription.surfaces)
+        {
+            match &before.medium {
+                Medium::Air | Medium::Mirror | Medium::Index(_) => {
+                    assert_eq!(after.medium, before.medium)
+                }
+                _ => assert!(matches!(after.medium, Medium::Index(_)), "{}", lens.name),
+            }
+        }
+        assert_same_first_order(&original, &frozen, nm, lens.name);
+    }
+}
+
+/// A wavelength where a glass's formula is not defined names the surface and the field, and a
+/// wavelength outside lensbake's range is refused before any medium is looked at.
+#[test]
+fn indices_at_a_wavelength_a_glass_lacks_name_the_surface() {
+    let triplet = system("cooke-triplet").prescription;
+    let e = triplet.with_indices_at(99_000.0).unwrap_err();
+    assert_eq!(e.location.surface, Some(1));
+    assert_eq!(e.location.field.as_deref(), Some("medium"));
+    assert!(
+        matches!(e.problem, Problem::WavelengthOutOfRange { .. }),
+        "{e}"
+    );
+    let e = triplet.with_indices_at(f64::NAN).unwrap_err();
+    assert_eq!(e.location.surface, None);
+    assert!(e.to_string().contains("not a number"), "{e}");
+}

@@ -2,11 +2,12 @@
 
 Run through run.sh, which creates the virtual environment. Steps:
 1. The lens is an oracle table (`--lens NAME` with tests/data/truth/oracle/NAME.json, constant
-   indices), or any lens lensbake reads (a bundled name or a file) whose media have one index at
-   the d line (air, `Index`, or a `Model` glass, whose index there is its nd) and whose surfaces
+   indices), or any lens lensbake reads (a bundled name or a file) whose surfaces refract and
    are planes, spheres, conics or even aspheres (optiland's `even_asphere`, coefficients on r^2,
-   r^4, ... as lensbake's). Either is written as a lensbake RON file of constant indices and
-   built as an optiland Optic with ideal materials and radial clear apertures.
+   r^4, ... as lensbake's); `lensbake lens convert --indices-at-nm` gives each of its media (a
+   catalogue glass, a dispersion formula, a model glass, a table) its index at the d line.
+   Either is written as a lensbake RON file of constant indices and built as an optiland Optic
+   with ideal materials and radial clear apertures.
 2. The ray bundle is the one `lensbake bench trace` draws: collimated beams, field angle uniform
    over [0, traceable field] in the y-z plane, pupil point uniform over the paraxial entrance
    pupil, rays starting one semi-aperture plus 1 mm before surface 1. The traceable field and
@@ -105,9 +106,11 @@ class Lens:
 
     @staticmethod
     def from_lensbake(binary, spec, tmp):
-        """`spec` read by lensbake, written out as its RON and read back here."""
+        """`spec` read by lensbake, written out as its RON with each medium's index at the d line
+        and read back here."""
         path = os.path.join(tmp, "source.ron")
-        run_lensbake(binary, "lens", "convert", spec, path)
+        run_lensbake(binary, "lens", "convert", spec, path,
+                     "--indices-at-nm", f"{WAVELENGTH_UM * 1e3:.4f}")
         with open(path) as f:
             table = parse_ron(f.read())
         surfaces = [lensbake_surface(k + 1, s) for k, s in enumerate(table["surfaces"])]
@@ -212,16 +215,14 @@ def parse_ron(text):
 
 
 def constant_index(where, medium):
-    """The index of a medium at the d line: air, a constant index, or a model glass's nd."""
+    """The index of a medium lensbake wrote at the d line (mirrors are not built here)."""
     kind = medium["variant"]
     if kind == "Air":
         return 1.0
     if kind == "Index":
         return medium["items"][0]
-    if kind == "Model":
-        return medium["nd"]
-    sys.exit(f"error: {where}: medium {kind} has no single index here (the side-by-side trace "
-             "takes air, Index and Model media)")
+    sys.exit(f"error: {where}: medium {kind} is not built here (the side-by-side trace takes "
+             "refracting surfaces)")
 
 
 def lensbake_surface(number, surface):

@@ -4,8 +4,9 @@
 #
 #   benches/peer/run.sh [--lens pbrt_dgauss_50mm] [--rays 1000000] [--repeats 5] [--sample 5000]
 #
-# --lens takes a truth-data table (tests/data/truth/oracle) or any lens lensbake reads whose
-# media have one index at the d line, e.g. --lens asph-50mm-f1.8 (two even aspheres).
+# --lens takes a truth-data table (tests/data/truth/oracle) or any lens lensbake reads with
+# refracting surfaces, e.g. --lens asph-50mm-f1.8 (two even aspheres) or --lens cooke-triplet
+# (catalogue glasses, taken at the d line).
 #
 # The virtual environment goes to $PEER_VENV (default: target/peer-venv) and is reused.
 set -euo pipefail

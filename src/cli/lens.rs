@@ -28,6 +28,11 @@ pub enum LensCommand {
         /// Output file: .ron, .zmx or .dat (pbrt).
         #[arg(value_name = "OUT.ron")]
         output: PathBuf,
+        /// Write each medium as its constant index at this wavelength (nm), which becomes the
+        /// lens's design wavelength; air and mirrors stay as they are. A pbrt file is written
+        /// at this wavelength instead of the design wavelength.
+        #[arg(long, value_name = "NM")]
+        indices_at_nm: Option<f64>,
     },
     /// List the bundled lenses.
     List,
@@ -151,6 +156,25 @@ fn validated(source: LensSource) -> anyhow::Result<LoadedLens> {
     }
 }
 
+/// `lens`'s system with every medium's index at `nm` made constant; a medium without an index
+/// there is named with its line in the file.
+fn at_constant_indices(lens: &LoadedLens, nm: f64) -> anyhow::Result<LensSystem> {
+    let map = &lens.source.loaded.map;
+    let frozen = lens
+        .system
+        .prescription
+        .with_indices_at(nm)
+        .map_err(|e| match e.location.surface {
+            Some(surface) => PrescriptionError::new(map.surface(surface - 1, "medium"), e.problem),
+            None if e.location.field.is_some() => {
+                PrescriptionError::new(map.whole_file(), e.problem)
+            }
+            None => e,
+        })
+        .with_context(|| format!("no constant indices at {nm} nm"))?;
+    Ok(LensSystem::new(frozen, map)?)
+}
+
 /// The notes of reading `source`, each as a `note:` line naming the lens.
 pub(super) fn note_reading(source: &LensSource) {
     for text in &source.loaded.notes {
@@ -206,12 +230,16 @@ pub fn run(command: LensCommand) -> anyhow::Result<()> {
             }
             Ok(())
         }
-        LensCommand::Convert { input, output } => convert(&input, &output),
+        LensCommand::Convert {
+            input,
+            output,
+            indices_at_nm,
+        } => convert(&input, &output, indices_at_nm),
         LensCommand::List => list(),
     }
 }
 
-fn convert(input: &LensArgs, output: &Path) -> anyhow::Result<()> {
+fn convert(input: &LensArgs, output: &Path, indices_at_nm: Option<f64>) -> anyhow::Result<()> {
     let format = Format::from_path(output).ok();
     if !matches!(format, Some(Format::Ron | Format::Zemax | Format::Pbrt)) {
         bail!(
@@ -219,7 +247,10 @@ fn convert(input: &LensArgs, output: &Path) -> anyhow::Result<()> {
             output.display()
         );
     }
-    let lens = input.load()?;
+    let mut lens = input.load()?;
+    if let Some(nm) = indices_at_nm {
+        lens.system = at_constant_indices(&lens, nm)?;
+    }
     let p = &lens.system.prescription;
     let cannot = |what: &str| format!("cannot write {} as {what}", output.display());
     match format {

@@ -3,6 +3,7 @@
 //! Plain data, serialisable to the canonical RON format. Nothing here resolves glass names or
 //! knows about wavelengths; [`crate::system::LensSystem`] does that after validation.
 
+use super::{Location, PrescriptionError};
 use serde::{Deserialize, Serialize};
 
 /// A whole lens prescription: the surface table plus where it came from.
@@ -541,6 +542,43 @@ impl Prescription {
                 sense
             })
             .collect()
+    }
+
+    /// The same lens with each medium's index at `wavelength_nm` as a constant index (air and
+    /// mirrors stay as they are), and that wavelength its design wavelength: the lens a
+    /// monochromatic renderer, pbrt's file or a program without the glass catalogue takes. A
+    /// medium without an index there is an error naming its surface (or the object space).
+    ///
+    /// ```
+    /// use lensbake::prescription::Medium;
+    ///
+    /// let options = lensbake::prescription::formats::LoadOptions::default();
+    /// let lens = lensbake::lenses::load("cooke-triplet", &options).unwrap();
+    /// let at_d = lens.system.prescription.with_indices_at(587.5618).unwrap();
+    /// assert!(matches!(at_d.surfaces[0].medium, Medium::Index(n) if (n - 1.6204).abs() < 1e-4));
+    /// assert_eq!(at_d.provenance.design_wavelength_nm, Some(587.5618));
+    /// ```
+    pub fn with_indices_at(&self, wavelength_nm: f64) -> Result<Prescription, PrescriptionError> {
+        crate::limits::check_wavelength(wavelength_nm)
+            .map_err(|e| PrescriptionError::new(Location::default(), e.into()))?;
+        let constant = |medium: &Medium, location: Location| match medium {
+            Medium::Air | Medium::Index(_) | Medium::Mirror => Ok(medium.clone()),
+            _ => crate::glass::Dispersion::of(medium)
+                .and_then(|dispersion| dispersion.checked_index(wavelength_nm))
+                .map(Medium::Index)
+                .map_err(|problem| PrescriptionError::new(location, problem)),
+        };
+        let mut frozen = self.clone();
+        frozen.object_medium = constant(
+            &self.object_medium,
+            Location::default().with_field("object_medium"),
+        )?;
+        for (i, surface) in frozen.surfaces.iter_mut().enumerate() {
+            let location = Location::default().with_surface(i + 1).with_field("medium");
+            surface.medium = constant(&surface.medium, location)?;
+        }
+        frozen.provenance.design_wavelength_nm = Some(wavelength_nm);
+        Ok(frozen)
     }
 
     /// Distance from the first to the last vertex (excludes the gap to the film).
