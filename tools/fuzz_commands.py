@@ -11,7 +11,8 @@ Each case changes one or two numbers of a copy (in `commands` mode also by extre
 - `round-trip`: `lens convert` to RON or Zemax, then `analyze --json` of both files must agree
   (exit status, and every number to 1e-9 relative, the lens name and the conditions' origins
   aside). pbrt output is converted but not compared: a pbrt file holds one index per medium and
-  no conditions.
+  no conditions. A RON file at constant indices (`--indices-at-nm`, at the wavelength `analyze`
+  takes) must give the same first-order data and monochromatic Seidel sums there.
 
 A failing case is kept as bad-N.<ext> in the output directory, with a JSON line on stdout.
 
@@ -167,8 +168,41 @@ def first_difference(a, b, path=""):
     return None if a == b else f"{path}: {a!r} against {b!r}"
 
 
+def constant_indices_case(lens, work):
+    """`lens convert --indices-at-nm W` at the wavelength `analyze` takes: the same first-order
+    data and monochromatic Seidel sums at W (the colour terms change: no dispersion is left)."""
+    converted = f"{work}/converted-at.ron"
+    if os.path.exists(converted):
+        os.remove(converted)
+    before = run([BINARY, "analyze", lens, "--json"])
+    wavelength = json.loads(before[1])["wavelength_nm"] if before[0] == 0 else 587.5618
+    command = [BINARY, "lens", "convert", lens, converted, "--indices-at-nm", repr(wavelength)]
+    status, _, err, _ = run(command)
+    if status not in (0, 2):
+        return f"convert exit {status}", command
+    if status == 2 and (not err.startswith(b"error:") or os.path.exists(converted)):
+        return "convert refused without the error line first, or left a file", command
+    if status != 0 or before[0] != 0:
+        return None, command
+    after = run([BINARY, "analyze", converted, "--json", "--wavelength-nm", repr(wavelength)])
+    if after[0] != 0:
+        return f"analyze exits {after[0]} at constant indices: {after[2][:200]!r}", command
+    a, b = json.loads(before[1]), json.loads(after[1])
+    for key in ["first_order"]:
+        difference = first_difference(a[key], b[key], key)
+        if difference:
+            return f"analysis at constant indices differs at {difference}", command
+    for key in ["sums", "transverse", "wavefront"]:
+        difference = first_difference(a["seidel"][key], b["seidel"][key], f"seidel.{key}")
+        if difference:
+            return f"analysis at constant indices differs at {difference}", command
+    return None, command
+
+
 def round_trip_case(rng, lens, work):
-    target = rng.choice(["ron", "zmx", "dat"])
+    target = rng.choice(["ron", "zmx", "dat", "ron at one wavelength"])
+    if target == "ron at one wavelength":
+        return constant_indices_case(lens, work)
     converted = f"{work}/converted.{target}"
     if os.path.exists(converted):
         os.remove(converted)
