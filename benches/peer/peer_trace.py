@@ -96,7 +96,7 @@ class Lens:
         table = lens["prescription"]
         surfaces = [dict(curvature=s["curvature"], conic=0.0, coefficients=[],
                          thickness=s["thickness"], n=s["n"], semi_aperture=s["semi_aperture"],
-                         stop=s["stop"]) for s in table["surfaces"]]
+                         stop=s["stop"], obscuration=0.0) for s in table["surfaces"]]
         quick = lens["quick_reference"]
         field = lens["infinite_conjugate"]["max_field_with_traceable_chief_ray"]["with_apertures"]
         first = table["surfaces"][0]
@@ -130,9 +130,11 @@ class Lens:
             else:
                 shape = f"Sphere(curvature: {s['curvature']!r})"
             stop = "Some(Circle)" if s["stop"] else "None"
+            medium = "Mirror" if s["n"] is None else f"Index({s['n']!r})"
+            obscuration = f"Some({s['obscuration']!r})" if s["obscuration"] else "None"
             rows.append(
-                f"    (shape: {shape}, thickness: {s['thickness']!r}, medium: Index({s['n']!r}), "
-                f"semi_aperture: {s['semi_aperture']!r}, stop: {stop}),"
+                f"    (shape: {shape}, thickness: {s['thickness']!r}, medium: {medium}, "
+                f"semi_aperture: {s['semi_aperture']!r}, stop: {stop}, obscuration: {obscuration}),"
             )
         return (
             f'(provenance: (title: "{self.name}", design_wavelength_nm: Some({WAVELENGTH_UM * 1e3:.4f})),\n'
@@ -151,9 +153,11 @@ class Lens:
             if s["coefficients"]:
                 shape.update(surface_type="even_asphere", coefficients=list(s["coefficients"]),
                              tol=ASPHERE_TOLERANCE_MM)
+            # A mirror's material is "mirror": optiland keeps the medium before it after it.
+            material = "mirror" if s["n"] is None else IdealMaterial(s["n"])
+            aperture = RadialAperture(r_max=s["semi_aperture"], r_min=s["obscuration"])
             optic.surfaces.add(index=k, radius=radius, thickness=s["thickness"],
-                               material=IdealMaterial(s["n"]), is_stop=s["stop"],
-                               aperture=RadialAperture(r_max=s["semi_aperture"]), **shape)
+                               material=material, is_stop=s["stop"], aperture=aperture, **shape)
         optic.surfaces.add(index=len(self.surfaces) + 1)
         optic.set_aperture(aperture_type="EPD", value=epd)
         optic.fields.set_type("angle")
@@ -215,14 +219,13 @@ def parse_ron(text):
 
 
 def constant_index(where, medium):
-    """The index of a medium lensbake wrote at the d line (mirrors are not built here)."""
+    """The index of a medium lensbake wrote at the d line."""
     kind = medium["variant"]
     if kind == "Air":
         return 1.0
     if kind == "Index":
         return medium["items"][0]
-    sys.exit(f"error: {where}: medium {kind} is not built here (the side-by-side trace takes "
-             "refracting surfaces)")
+    sys.exit(f"error: {where}: medium {kind} has no constant index")
 
 
 def lensbake_surface(number, surface):
@@ -233,14 +236,15 @@ def lensbake_surface(number, surface):
                  "(planes, spheres, conics and even aspheres are)")
     stop = surface["stop"]
     is_stop = stop["variant"] == "Some"
-    if surface.get("obscuration", {"variant": "None"})["variant"] != "None":
-        sys.exit(f"error: surface {number}: obscurations are not built here")
+    obscuration = surface.get("obscuration", {"variant": "None"})
     if is_stop and stop["items"][0]["variant"] != "Circle":
         sys.exit(f"error: surface {number}: only a circular stop is built here")
+    mirror = surface["medium"]["variant"] == "Mirror"
     return dict(curvature=shape.get("curvature", 0.0), conic=shape.get("conic", 0.0),
                 coefficients=shape.get("coefficients", []), thickness=surface["thickness"],
-                n=constant_index(f"surface {number}", surface["medium"]),
-                semi_aperture=surface["semi_aperture"], stop=is_stop)
+                n=None if mirror else constant_index(f"surface {number}", surface["medium"]),
+                semi_aperture=surface["semi_aperture"], stop=is_stop,
+                obscuration=obscuration["items"][0] if obscuration["variant"] == "Some" else 0.0)
 
 
 def optiland_trace(optic, rays, record):
