@@ -8,6 +8,8 @@
 //! `trace_asph50` traces the same kind of bundle through the bundled Canon RF 50 mm f/1.8
 //! (`asph-50mm-f1.8`, two even aspheres among 12 surfaces) on one core: the batch trace, which
 //! meets the aspheres in vector lanes, against one ray at a time (`Tracer::trace`).
+//! `trace_reflex1000` does the same for the bundled catadioptric 1000 mm f/7.5
+//! (`reflex-1000mm-f7.5`: two Mangin mirrors and a centrally obscured surface among 24).
 //!
 //! `aim_fisheye_top_field` aims a 17 x 17 grid of stop points at the fisheye's top field (77.95
 //! degrees, where the paraxial pupil misses the lens): each point alone from the paraxial guess
@@ -73,12 +75,13 @@ fn trace(c: &mut Criterion) {
     group.finish();
 }
 
-fn trace_aspheric(c: &mut Criterion) {
-    let lens = lensbake::lenses::load("asph-50mm-f1.8", &Default::default()).unwrap();
+/// The batch trace of the bundled lens `name` on one core against one ray at a time.
+fn batch_against_one_ray(c: &mut Criterion, group: &str, name: &str) {
+    let lens = lensbake::lenses::load(name, &Default::default()).unwrap();
     let tracer = Tracer::new(&lens.system.at(lens.system.design_wavelength_nm()));
     let (rays, ray_surfaces) = bundle(&tracer);
     let one = threads(1);
-    let mut group = c.benchmark_group("trace_asph50");
+    let mut group = c.benchmark_group(group);
     group.throughput(Throughput::Elements(ray_surfaces));
     group.sample_size(20);
     let mut out = BatchTrace::default();
@@ -97,6 +100,14 @@ fn trace_aspheric(c: &mut Criterion) {
         })
     });
     group.finish();
+}
+
+fn trace_aspheric(c: &mut Criterion) {
+    batch_against_one_ray(c, "trace_asph50", "asph-50mm-f1.8");
+}
+
+fn trace_catadioptric(c: &mut Criterion) {
+    batch_against_one_ray(c, "trace_reflex1000", "reflex-1000mm-f7.5");
 }
 
 fn aim(c: &mut Criterion) {
@@ -128,5 +139,5 @@ fn aim(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, trace, trace_aspheric, aim);
+criterion_group!(benches, trace, trace_aspheric, trace_catadioptric, aim);
 criterion_main!(benches);

@@ -571,29 +571,37 @@ impl Tracer {
             let i = if FORWARD { step } else { n - 1 - step };
             let s = &self.surfaces[i];
             let strides = occupied.div_ceil(STRIDE);
-            let refracts = s.index_before != s.index_after;
-            let kernel: Option<Kernel<STRIDES>> =
-                match (s.profile, s.bladed || !s.plain(), refracts) {
-                    (Profile::Sphere { .. }, false, true) => {
-                        Some(M::kernel::<SphereCrossing<FORWARD, true>, STRIDES>)
-                    }
-                    (Profile::Sphere { .. }, false, false) => {
-                        Some(M::kernel::<SphereCrossing<FORWARD, false>, STRIDES>)
-                    }
-                    (Profile::Plane, false, true) => {
-                        Some(M::kernel::<PlaneCrossing<FORWARD, true>, STRIDES>)
-                    }
-                    (Profile::Plane, false, false) => {
-                        Some(M::kernel::<PlaneCrossing<FORWARD, false>, STRIDES>)
-                    }
-                    (Profile::Conic { .. }, false, true) => {
-                        Some(M::kernel::<ConicCrossing<FORWARD, true>, STRIDES>)
-                    }
-                    (Profile::Conic { .. }, false, false) => {
-                        Some(M::kernel::<ConicCrossing<FORWARD, false>, STRIDES>)
-                    }
-                    _ => None,
-                };
+            let kernel: Option<Kernel<STRIDES>> = match (s.profile, s.bladed, Bend::of(s)) {
+                (_, true, _) => None,
+                (Profile::Sphere { .. }, _, Bend::Refract) => {
+                    Some(M::kernel::<SphereCrossing<FORWARD, REFRACT>, STRIDES>)
+                }
+                (Profile::Sphere { .. }, _, Bend::Straight) => {
+                    Some(M::kernel::<SphereCrossing<FORWARD, STRAIGHT>, STRIDES>)
+                }
+                (Profile::Sphere { .. }, _, Bend::Reflect) => {
+                    Some(M::kernel::<SphereCrossing<FORWARD, REFLECT>, STRIDES>)
+                }
+                (Profile::Plane, _, Bend::Refract) => {
+                    Some(M::kernel::<PlaneCrossing<FORWARD, REFRACT>, STRIDES>)
+                }
+                (Profile::Plane, _, Bend::Straight) => {
+                    Some(M::kernel::<PlaneCrossing<FORWARD, STRAIGHT>, STRIDES>)
+                }
+                (Profile::Plane, _, Bend::Reflect) => {
+                    Some(M::kernel::<PlaneCrossing<FORWARD, REFLECT>, STRIDES>)
+                }
+                (Profile::Conic { .. }, _, Bend::Refract) => {
+                    Some(M::kernel::<ConicCrossing<FORWARD, REFRACT>, STRIDES>)
+                }
+                (Profile::Conic { .. }, _, Bend::Straight) => {
+                    Some(M::kernel::<ConicCrossing<FORWARD, STRAIGHT>, STRIDES>)
+                }
+                (Profile::Conic { .. }, _, Bend::Reflect) => {
+                    Some(M::kernel::<ConicCrossing<FORWARD, REFLECT>, STRIDES>)
+                }
+                _ => None,
+            };
             let stopped = match kernel {
                 Some(kernel) => {
                     let [px, py, pz, dx, dy, dz] = arriving;
@@ -897,6 +905,32 @@ fn ray_at(columns: [&[f64]; 6], slot: usize) -> Ray {
     Ray::from_parts([x[slot], y[slot], z[slot]], [dx[slot], dy[slot], dz[slot]])
 }
 
+/// What a surface does to a ray's direction, as the kernels' const parameter `BEND` (one of
+/// [`REFRACT`], [`STRAIGHT`], [`REFLECT`]).
+#[derive(Clone, Copy)]
+enum Bend {
+    Refract,
+    /// Between equal media: the one-ray path leaves the direction as it is there.
+    Straight,
+    Reflect,
+}
+
+impl Bend {
+    fn of(s: &FlatSurface) -> Bend {
+        if s.reflects {
+            Bend::Reflect
+        } else if s.index_before != s.index_after {
+            Bend::Refract
+        } else {
+            Bend::Straight
+        }
+    }
+}
+
+const REFRACT: u8 = Bend::Refract as u8;
+const STRAIGHT: u8 = Bend::Straight as u8;
+const REFLECT: u8 = Bend::Reflect as u8;
+
 /// One surface's arithmetic for a block's lanes, written without branches on ray data so that
 /// the loops over lanes become vector instructions.
 trait Crossing {
@@ -967,6 +1001,7 @@ struct StrideColumns<'a> {
 struct Common {
     vertex_z: f64,
     semi_aperture_sq: f64,
+    obscuration_sq: f64,
     check_apertures: bool,
     /// The sense along z (+1 or -1) the rays meet the surface in, the way they travel (behind a
     /// mirror a forward ray travels -z), and the Snell ratio that way.
@@ -980,6 +1015,7 @@ impl Common {
         Common {
             vertex_z: s.vertex_z,
             semi_aperture_sq: s.semi_aperture_sq,
+            obscuration_sq: s.obscuration_sq,
             check_apertures,
             sense: s.sense::<FORWARD>(),
             mu: if FORWARD { s.mu_forward } else { s.mu_backward },
@@ -988,18 +1024,20 @@ impl Common {
 
     #[inline(always)]
     fn inside(&self, q: Vec3) -> bool {
-        !self.check_apertures | (radius_sq(q) <= self.semi_aperture_sq)
+        let r_sq = radius_sq(q);
+        !self.check_apertures | ((r_sq <= self.semi_aperture_sq) & (r_sq >= self.obscuration_sq))
     }
 
     /// Crosses every lane of `lanes` in one loop, for a surface met in closed form:
     /// `meet(arriving, d)` gives the point (vertex frame) and whether it is a crossing,
-    /// `bend(point, d)` the refracted direction and the radicand, used where `REFRACTS`.
+    /// `bend(point, d)` the leaving direction and whether the ray gets through (false on total
+    /// internal reflection), used where `BENDS`.
     #[inline(always)]
-    fn cross_in_one_loop<const REFRACTS: bool>(
+    fn cross_in_one_loop<const BENDS: bool>(
         &self,
         lanes: LaneColumns<'_>,
         meet: impl Fn(Vec3, Vec3) -> (Vec3, bool),
-        bend: impl Fn(Vec3, Vec3) -> (Vec3, f64),
+        bend: impl Fn(Vec3, Vec3) -> (Vec3, bool),
     ) {
         let LaneColumns { p, d, q, e, codes } = lanes;
         let [px, py, pz] = p;
@@ -1011,12 +1049,7 @@ impl Common {
             let arriving = [px[l], py[l], pz[l] - self.vertex_z];
             let (point, crosses) = meet(arriving, d);
             let hit = crosses & point.iter().fold(true, |all, v| all & v.is_finite());
-            let (direction, passes) = if REFRACTS {
-                let (direction, radicand) = bend(point, d);
-                (direction, radicand >= 0.0)
-            } else {
-                (d, true)
-            };
+            let (direction, passes) = if BENDS { bend(point, d) } else { (d, true) };
             [qx[l], qy[l], qz[l]] = [point[0], point[1], point[2] + self.vertex_z];
             [ex[l], ey[l], ez[l]] = direction;
             codes[l] = event_code(hit, self.inside(point), passes);
@@ -1024,15 +1057,14 @@ impl Common {
     }
 }
 
-/// [`intersect::sphere_candidate`], the aperture test and [`refract::refract_candidate`].
-/// `REFRACTS` is false where the media on both sides are the same, as the one-ray path skips
-/// refraction there.
-struct SphereCrossing<const FORWARD: bool, const REFRACTS: bool> {
+/// [`intersect::sphere_candidate`], the aperture test and the bend `BEND`
+/// ([`refract::refract_candidate`], none, or [`refract::reflect`]).
+struct SphereCrossing<const FORWARD: bool, const BEND: u8> {
     common: Common,
     curvature: f64,
 }
 
-impl<const FORWARD: bool, const REFRACTS: bool> Crossing for SphereCrossing<FORWARD, REFRACTS> {
+impl<const FORWARD: bool, const BEND: u8> Crossing for SphereCrossing<FORWARD, BEND> {
     #[inline(always)]
     fn new(s: &FlatSurface, check_apertures: bool) -> Self {
         let Profile::Sphere { curvature } = s.profile else {
@@ -1057,10 +1089,11 @@ impl<const FORWARD: bool, const REFRACTS: bool> Crossing for SphereCrossing<FORW
     /// before the hit points was about 4 % slower than this).
     #[inline(always)]
     fn cross(&self, mut lanes: LaneColumns<'_>) {
-        let stages = if REFRACTS { 4 } else { 3 };
+        let refracts = BEND == REFRACT;
+        let stages = if refracts { 4 } else { 3 };
         for step in 0..lanes.strides() + stages - 1 {
             let disc_roots = lanes.stage_roots(step, 1);
-            let radicand_roots = if REFRACTS {
+            let radicand_roots = if refracts {
                 lanes.stage_roots(step, 3)
             } else {
                 [0.0; STRIDE]
@@ -1074,14 +1107,14 @@ impl<const FORWARD: bool, const REFRACTS: bool> Crossing for SphereCrossing<FORW
             if let Some(stride) = lanes.stage_stride(step, 1) {
                 self.distance(stride, &disc_roots);
             }
-            if REFRACTS && let Some(stride) = lanes.stage_stride(step, 3) {
+            if refracts && let Some(stride) = lanes.stage_stride(step, 3) {
                 self.refraction(stride, &radicand_roots);
             }
         }
     }
 }
 
-impl<const FORWARD: bool, const REFRACTS: bool> SphereCrossing<FORWARD, REFRACTS> {
+impl<const FORWARD: bool, const BEND: u8> SphereCrossing<FORWARD, BEND> {
     /// The start points go to `q`; B, C and the discriminant to `e`.
     #[inline(always)]
     fn quadratic(&self, stride: StrideColumns<'_>) {
@@ -1115,15 +1148,19 @@ impl<const FORWARD: bool, const REFRACTS: bool> SphereCrossing<FORWARD, REFRACTS
             let start = [q[0][l], q[1][l], q[2][l]];
             let (point, nz, crosses) = intersect::sphere_meet(start, e[2][l], d, c, e[0][l]);
             let hit = crosses & point[0].is_finite() & point[1].is_finite() & point[2].is_finite();
-            if REFRACTS {
+            let normal = [c * point[0], c * point[1], nz];
+            if BEND == REFRACT {
                 [q[0][l], q[1][l], q[2][l]] = point;
-                let (cos_signed, radicand) =
-                    refract::refraction_radicand(d, [c * point[0], c * point[1], nz], common.mu);
+                let (cos_signed, radicand) = refract::refraction_radicand(d, normal, common.mu);
                 [e[0][l], e[1][l], e[2][l]] = [nz, cos_signed, radicand];
                 codes[l] = u64::from(hit);
             } else {
                 [q[0][l], q[1][l], q[2][l]] = [point[0], point[1], point[2] + common.vertex_z];
-                [e[0][l], e[1][l], e[2][l]] = d;
+                [e[0][l], e[1][l], e[2][l]] = if BEND == REFLECT {
+                    refract::reflect(d, normal)
+                } else {
+                    d
+                };
                 codes[l] = event_code(hit, common.inside(point), true);
             }
         }
@@ -1148,12 +1185,13 @@ impl<const FORWARD: bool, const REFRACTS: bool> SphereCrossing<FORWARD, REFRACTS
     }
 }
 
-/// [`intersect::plane_candidate`], the aperture test and [`refract::refract_plane_candidate`].
-struct PlaneCrossing<const FORWARD: bool, const REFRACTS: bool> {
+/// [`intersect::plane_candidate`], the aperture test and the bend `BEND`
+/// ([`refract::refract_plane_candidate`], none, or [`refract::reflect`]).
+struct PlaneCrossing<const FORWARD: bool, const BEND: u8> {
     common: Common,
 }
 
-impl<const FORWARD: bool, const REFRACTS: bool> Crossing for PlaneCrossing<FORWARD, REFRACTS> {
+impl<const FORWARD: bool, const BEND: u8> Crossing for PlaneCrossing<FORWARD, BEND> {
     #[inline(always)]
     fn new(s: &FlatSurface, check_apertures: bool) -> Self {
         let common = Common::new::<FORWARD>(s, check_apertures);
@@ -1164,23 +1202,30 @@ impl<const FORWARD: bool, const REFRACTS: bool> Crossing for PlaneCrossing<FORWA
     #[inline(always)]
     fn cross(&self, lanes: LaneColumns<'_>) {
         let (sense, mu) = (self.common.sense, self.common.mu);
-        self.common.cross_in_one_loop::<REFRACTS>(
-            lanes,
-            |arriving, d| intersect::plane_candidate(arriving, d, sense),
-            |_, d| refract::refract_plane_candidate(d, mu),
-        );
+        let meet = |arriving, d| intersect::plane_candidate(arriving, d, sense);
+        let common = &self.common;
+        match BEND {
+            REFRACT => common.cross_in_one_loop::<true>(lanes, meet, |_, d| {
+                let (direction, radicand) = refract::refract_plane_candidate(d, mu);
+                (direction, radicand >= 0.0)
+            }),
+            REFLECT => common.cross_in_one_loop::<true>(lanes, meet, |_, d| {
+                (refract::reflect(d, refract::PLANE_NORMAL), true)
+            }),
+            _ => common.cross_in_one_loop::<false>(lanes, meet, |_, d| (d, true)),
+        }
     }
 }
 
-/// [`intersect::conic_candidate`] and its normal, the aperture test and
-/// [`refract::refract_candidate`].
-struct ConicCrossing<const FORWARD: bool, const REFRACTS: bool> {
+/// [`intersect::conic_candidate`] and its normal, the aperture test and the bend `BEND`
+/// ([`refract::refract_candidate`], none, or [`refract::reflect`]).
+struct ConicCrossing<const FORWARD: bool, const BEND: u8> {
     common: Common,
     curvature: f64,
     conic_factor: f64,
 }
 
-impl<const FORWARD: bool, const REFRACTS: bool> Crossing for ConicCrossing<FORWARD, REFRACTS> {
+impl<const FORWARD: bool, const BEND: u8> Crossing for ConicCrossing<FORWARD, BEND> {
     #[inline(always)]
     fn new(s: &FlatSurface, check_apertures: bool) -> Self {
         let Profile::Conic {
@@ -1204,11 +1249,22 @@ impl<const FORWARD: bool, const REFRACTS: bool> Crossing for ConicCrossing<FORWA
     fn cross(&self, lanes: LaneColumns<'_>) {
         let (c, e) = (self.curvature, self.conic_factor);
         let (sense, mu) = (self.common.sense, self.common.mu);
-        self.common.cross_in_one_loop::<REFRACTS>(
-            lanes,
-            |arriving, d| intersect::conic_candidate(arriving, d, c, e, sense),
-            |point, d| refract::refract_candidate(d, intersect::conic_normal(point, c, e), mu),
-        );
+        let meet = |arriving, d| intersect::conic_candidate(arriving, d, c, e, sense);
+        let common = &self.common;
+        match BEND {
+            REFRACT => common.cross_in_one_loop::<true>(lanes, meet, |point, d| {
+                let normal = intersect::conic_normal(point, c, e);
+                let (direction, radicand) = refract::refract_candidate(d, normal, mu);
+                (direction, radicand >= 0.0)
+            }),
+            REFLECT => common.cross_in_one_loop::<true>(lanes, meet, |point, d| {
+                (
+                    refract::reflect(d, intersect::conic_normal(point, c, e)),
+                    true,
+                )
+            }),
+            _ => common.cross_in_one_loop::<false>(lanes, meet, |_, d| (d, true)),
+        }
     }
 }
 
@@ -1554,6 +1610,49 @@ mod tests {
             .collect()
     }
 
+    /// A folded lens: a sphere with a central obscuration, a plane mirror, elements crossed
+    /// travelling -z, a conic mirror (a paraboloid), elements crossed travelling +z again, a
+    /// spherical mirror and a plane crossed travelling -z.
+    fn folded_tracer() -> Tracer {
+        let surface = |shape, thickness, medium, semi_aperture| Surface {
+            shape,
+            thickness,
+            medium,
+            semi_aperture,
+            stop: None,
+            obscuration: None,
+        };
+        let sphere = |curvature| Shape::Sphere { curvature };
+        let paraboloid = Shape::Conic {
+            curvature: -0.01,
+            conic: -1.0,
+        };
+        let prescription = Prescription {
+            provenance: Provenance::default(),
+            object_medium: Medium::Air,
+            surfaces: vec![
+                Surface {
+                    obscuration: Some(2.5),
+                    ..surface(sphere(0.02), 4.0, Medium::Index(1.6), 10.0)
+                },
+                Surface {
+                    stop: Some(StopShape::Circle),
+                    ..surface(sphere(-0.01), 30.0, Medium::Air, 10.0)
+                },
+                surface(Shape::Plane, -20.0, Medium::Mirror, 12.0),
+                surface(sphere(0.01), -4.0, Medium::Index(1.5), 10.0),
+                surface(sphere(-0.02), -5.0, Medium::Air, 10.0),
+                surface(paraboloid, 12.0, Medium::Mirror, 12.0),
+                surface(sphere(-0.02), 3.0, Medium::Index(1.5), 10.0),
+                surface(Shape::Plane, 10.0, Medium::Air, 10.0),
+                surface(sphere(0.005), -6.0, Medium::Mirror, 14.0),
+                surface(Shape::Plane, -10.0, Medium::Air, 12.0),
+            ],
+        };
+        let system = LensSystem::from_prescription(prescription).unwrap();
+        Tracer::new(&system.at(550.0))
+    }
+
     /// [`rays`] mirrored to start behind the lens and travel back through it.
     fn backward_rays(n: usize) -> Vec<Ray> {
         rays(n)
@@ -1575,6 +1674,51 @@ mod tests {
             (Travel::Forward, rays(3 * 128 + 5)),
             (Travel::Backward, backward_rays(3 * 128 + 5)),
         ] {
+            blocks_trace_as_one_ray(&tracer, travel, &rays);
+        }
+    }
+
+    /// Mirrors (plane, sphere and conic) and an obscured surface in the kernels, bit for bit as
+    /// one ray at a time, both ways; enough rays get past every mirror, and stop at the
+    /// obscuration, for a wrong reflection or aperture to show.
+    #[test]
+    fn every_instruction_set_traces_mirrors_and_obscurations_bit_for_bit_as_one_ray() {
+        let tracer = folded_tracer();
+        // Over the first (forward) or last (backward) surface's clear aperture, most tilted a
+        // little, every fifth steeply (these miss a surface or are reflected totally inside an
+        // element).
+        let rays = |z: f64, sense: f64| -> Vec<Ray> {
+            (0..3 * 128 + 5)
+                .map(|i| {
+                    let (a, r) = (i as f64 * 0.37, 9.5 * ((i % 97) as f64 / 97.0).sqrt());
+                    let tilt = if i % 5 == 0 { 1.5 } else { 0.02 };
+                    let d = [tilt * a.sin(), tilt * (1.3 * a).cos(), sense];
+                    Ray::new([r * a.cos(), r * a.sin(), z], d).unwrap()
+                })
+                .collect()
+        };
+        for (travel, rays, got_past) in [
+            (
+                Travel::Forward,
+                rays(-5.0, 1.0),
+                (|s| s > 9) as fn(usize) -> bool,
+            ),
+            (Travel::Backward, rays(0.0, 1.0), |s| s < 3),
+        ] {
+            let traced: Vec<_> = rays.iter().map(|&ray| tracer.trace(ray, travel)).collect();
+            let past_mirrors = traced
+                .iter()
+                .filter(|t| t.outcome.surface().is_none_or(got_past))
+                .count();
+            assert!(
+                past_mirrors > 30,
+                "{travel:?}: {past_mirrors} past every mirror"
+            );
+            let obscured = traced
+                .iter()
+                .filter(|t| t.outcome == Outcome::Vignetted { surface: 1 })
+                .count();
+            assert!(obscured > 0, "{travel:?}: none obscured");
             blocks_trace_as_one_ray(&tracer, travel, &rays);
         }
     }

@@ -324,12 +324,6 @@ struct FlatSurface {
 }
 
 impl FlatSurface {
-    /// Whether the lane kernels, which refract and have nothing blocking a surface's centre, can
-    /// cross it (in either sense along z: behind a mirror the light travels -z forward).
-    fn plain(&self) -> bool {
-        !self.reflects && self.obscuration_sq == 0.0
-    }
-
     /// The sense along z (+1 or -1) in which a ray travelling forward (`FORWARD`) or backward
     /// meets the surface.
     #[inline(always)]
@@ -784,13 +778,7 @@ fn bend(
     mu: f64,
 ) -> Result<Vec3, Event> {
     if reflects {
-        let normal = normal.unwrap_or([0.0, 0.0, -1.0]);
-        let twice_cos = 2.0 * dot(d, normal);
-        return Ok([
-            (-twice_cos).mul_add(normal[0], d[0]),
-            (-twice_cos).mul_add(normal[1], d[1]),
-            (-twice_cos).mul_add(normal[2], d[2]),
-        ]);
+        return Ok(refract::reflect(d, normal.unwrap_or(refract::PLANE_NORMAL)));
     }
     if let Some(power) = ideal_power {
         // A ray grazing the plane leaves with tangents past what f64 holds: no direction, so no

@@ -8,6 +8,20 @@
 use super::Vec3;
 use super::intersect::{clamped_sqrt, dot};
 
+/// The normal of a plane surface, toward the object side: a plane's crossing carries none.
+pub(crate) const PLANE_NORMAL: Vec3 = [0.0, 0.0, -1.0];
+
+/// The direction `d` reflected off a surface of unit `normal` (either orientation).
+#[inline(always)]
+pub(crate) fn reflect(d: Vec3, normal: Vec3) -> Vec3 {
+    let twice_cos = 2.0 * dot(d, normal);
+    [
+        (-twice_cos).mul_add(normal[0], d[0]),
+        (-twice_cos).mul_add(normal[1], d[1]),
+        (-twice_cos).mul_add(normal[2], d[2]),
+    ]
+}
+
 /// Refracted unit direction, or None on total internal reflection.
 #[inline(always)]
 pub(crate) fn refract(d: Vec3, normal: Vec3, mu: f64) -> Option<Vec3> {
