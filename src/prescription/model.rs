@@ -195,6 +195,21 @@ pub struct Surface {
     pub obscuration: Option<f64>,
 }
 
+impl Surface {
+    /// A surface that is neither the stop nor obscured; mark the stop with struct update
+    /// syntax, as in `Surface { stop: Some(StopShape::Circle), ..Surface::open(...) }`.
+    pub fn open(shape: Shape, thickness: f64, medium: Medium, semi_aperture: f64) -> Surface {
+        Surface {
+            shape,
+            thickness,
+            medium,
+            semi_aperture,
+            stop: None,
+            obscuration: None,
+        }
+    }
+}
+
 /// Surface profile. Curvature c = 1/R (plane: 0); positive when the centre of curvature lies at
 /// larger z.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

@@ -1554,12 +1554,8 @@ mod tests {
     /// apertures small enough that rays stop at several surfaces, so blocks are compacted.
     fn tracer() -> Tracer {
         let surface = |shape, thickness, n: f64, stop| Surface {
-            shape,
-            thickness,
-            medium: Medium::Index(n),
-            semi_aperture: 9.0,
             stop,
-            obscuration: None,
+            ..Surface::open(shape, thickness, Medium::Index(n), 9.0)
         };
         let conic = Shape::Conic {
             curvature: -0.02,
@@ -1614,14 +1610,7 @@ mod tests {
     /// travelling -z, a conic mirror (a paraboloid), elements crossed travelling +z again, a
     /// spherical mirror and a plane crossed travelling -z.
     fn folded_tracer() -> Tracer {
-        let surface = |shape, thickness, medium, semi_aperture| Surface {
-            shape,
-            thickness,
-            medium,
-            semi_aperture,
-            stop: None,
-            obscuration: None,
-        };
+        let surface = Surface::open;
         let sphere = |curvature| Shape::Sphere { curvature };
         let paraboloid = Shape::Conic {
             curvature: -0.01,

@@ -664,14 +664,7 @@ pub fn surface(
     medium: lensbake::prescription::Medium,
     semi_aperture: f64,
 ) -> lensbake::prescription::Surface {
-    lensbake::prescription::Surface {
-        shape,
-        thickness,
-        medium,
-        semi_aperture,
-        stop: None,
-        obscuration: None,
-    }
+    lensbake::prescription::Surface::open(shape, thickness, medium, semi_aperture)
 }
 
 /// Traces `batch` forward both as a batch and ray by ray, asserts the two agree bit for bit
