@@ -61,18 +61,32 @@ impl Diaphragm {
         })
     }
 
-    /// The edge whose wedge holds (x, y) and the point's projection on its outward direction.
-    fn nearest_edge(&self, x: f64, y: f64) -> ([f64; 2], f64) {
-        let mut best = [1.0, 0.0];
-        let mut along = f64::NEG_INFINITY;
+    /// For each point (x[k], y[k]), the edge whose wedge holds it (its outward direction's two
+    /// components) and the point's projection on that direction. The edge loop runs outside the
+    /// points' loop, so that a block's lanes are one vector each; one point is `N = 1`.
+    #[inline(always)]
+    fn nearest_edges<const N: usize>(
+        &self,
+        x: &[f64; N],
+        y: &[f64; N],
+    ) -> ([f64; N], [f64; N], [f64; N]) {
+        let (mut best_x, mut best_y) = ([1.0; N], [0.0; N]);
+        let mut along = [f64::NEG_INFINITY; N];
         for edge in &self.edges {
-            let u = x * edge[0] + y * edge[1];
-            if u > along {
-                along = u;
-                best = *edge;
+            for k in 0..N {
+                let u = x[k] * edge[0] + y[k] * edge[1];
+                let nearer = u > along[k];
+                along[k] = if nearer { u } else { along[k] };
+                best_x[k] = if nearer { edge[0] } else { best_x[k] };
+                best_y[k] = if nearer { edge[1] } else { best_y[k] };
             }
         }
-        (best, along)
+        (best_x, best_y, along)
+    }
+
+    fn nearest_edge(&self, x: f64, y: f64) -> ([f64; 2], f64) {
+        let ([best_x], [best_y], [along]) = self.nearest_edges(&[x], &[y]);
+        ([best_x, best_y], along)
     }
 
     /// How far inside the opening (x, y) lies (mm): positive inside, zero on the blade edges,
@@ -91,15 +105,22 @@ impl Diaphragm {
 
     /// Whether the point (x, y) of the stop plane passes the blades.
     pub fn contains(&self, x: f64, y: f64) -> bool {
-        let (best, along) = self.nearest_edge(x, y);
-        match self.arc {
-            None => along <= self.apothem,
+        let [inside] = self.contains_each(&[x], &[y]);
+        inside
+    }
+
+    /// [`Diaphragm::contains`] for each point (x[k], y[k]), without branches on the points.
+    #[inline(always)]
+    pub fn contains_each<const N: usize>(&self, x: &[f64; N], y: &[f64; N]) -> [bool; N] {
+        let (best_x, best_y, along) = self.nearest_edges(x, y);
+        std::array::from_fn(|k| match self.arc {
+            None => along[k] <= self.apothem,
             Some((centre, radius_sq)) => {
-                let across = -x * best[1] + y * best[0];
-                let u = along - centre;
+                let across = -x[k] * best_y[k] + y[k] * best_x[k];
+                let u = along[k] - centre;
                 u * u + across * across <= radius_sq
             }
-        }
+        })
     }
 }
 
