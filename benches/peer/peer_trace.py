@@ -2,12 +2,13 @@
 
 Run through run.sh, which creates the virtual environment. Steps:
 1. The lens is an oracle table (`--lens NAME` with tests/data/truth/oracle/NAME.json, constant
-   indices), or any lens lensbake reads (a bundled name or a file) whose surfaces refract and
-   are planes, spheres, conics or even aspheres (optiland's `even_asphere`, coefficients on r^2,
-   r^4, ... as lensbake's); `lensbake lens convert --indices-at-nm` gives each of its media (a
-   catalogue glass, a dispersion formula, a model glass, a table) its index at the d line.
-   Either is written as a lensbake RON file of constant indices and built as an optiland Optic
-   with ideal materials and radial clear apertures.
+   indices), or any lens lensbake reads (a bundled name or a file) whose surfaces are planes,
+   spheres, conics or even aspheres (optiland's `even_asphere`, coefficients on r^2, r^4, ... as
+   lensbake's), refracting or mirrors, with circular stops and central obscurations allowed;
+   `lensbake lens convert --indices-at-nm` gives each of its media (a catalogue glass, a
+   dispersion formula, a model glass, a table) its index at the d line. Either is written as a
+   lensbake RON file of constant indices and built as an optiland Optic with ideal materials,
+   optiland's mirrors and radial clear apertures (inner radius: the obscuration).
 2. The ray bundle is the one `lensbake bench trace` draws: collimated beams, field angle uniform
    over [0, traceable field] in the y-z plane, pupil point uniform over the paraxial entrance
    pupil, rays starting one semi-aperture plus 1 mm before surface 1. The traceable field and
