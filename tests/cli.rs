@@ -265,6 +265,28 @@ fn convert_writes_constant_indices_at_a_wavelength() {
     );
     assert!(err.contains("surface 1") && err.contains("medium"), "{err}");
     assert!(!refused.exists());
+    // Glass in object space: the file and the field, not a surface.
+    let bundled =
+        std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("lenses/cooke-triplet.ron");
+    let triplet = std::fs::read_to_string(bundled).unwrap();
+    let immersed = dir.join("immersed.ron");
+    std::fs::write(
+        &immersed,
+        triplet.replace("object_medium: Air,", "object_medium: Glass(\"N-BK7\"),"),
+    )
+    .unwrap();
+    let o = lensbake(&[
+        "lens",
+        "convert",
+        immersed.to_str().unwrap(),
+        refused.to_str().unwrap(),
+        "--indices-at-nm",
+        "99000",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = stderr(&o);
+    assert!(err.contains("immersed.ron, field `object_medium`"), "{err}");
+    assert!(!refused.exists());
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

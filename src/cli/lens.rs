@@ -164,12 +164,15 @@ fn at_constant_indices(lens: &LoadedLens, nm: f64) -> anyhow::Result<LensSystem>
         .system
         .prescription
         .with_indices_at(nm)
-        .map_err(|e| match e.location.surface {
-            Some(surface) => PrescriptionError::new(map.surface(surface - 1, "medium"), e.problem),
-            None if e.location.field.is_some() => {
-                PrescriptionError::new(map.whole_file(), e.problem)
-            }
-            None => e,
+        .map_err(|e| {
+            let location = match (e.location.surface, &e.location.field) {
+                (Some(surface), _) => map.surface(surface - 1, "medium"),
+                // The object space's medium: the file, and the field's name.
+                (None, Some(field)) => map.whole_file().with_field(field.as_str()),
+                // The wavelength asked for: no place in the file.
+                (None, None) => *e.location,
+            };
+            PrescriptionError::new(location, e.problem)
         })
         .with_context(|| format!("no constant indices at {nm} nm"))?;
     Ok(LensSystem::new(frozen, map)?)

@@ -84,6 +84,7 @@ impl Diaphragm {
         (best_x, best_y, along)
     }
 
+    /// The edge whose wedge holds (x, y) and the point's projection on its outward direction.
     fn nearest_edge(&self, x: f64, y: f64) -> ([f64; 2], f64) {
         let ([best_x], [best_y], [along]) = self.nearest_edges(&[x], &[y]);
         ([best_x, best_y], along)

@@ -572,35 +572,21 @@ impl Tracer {
             let i = if FORWARD { step } else { n - 1 - step };
             let s = &self.surfaces[i];
             let strides = occupied.div_ceil(STRIDE);
-            let kernel: Option<Kernel<STRIDES>> = match (s.profile, Bend::of(s)) {
-                (Profile::Sphere { .. }, Bend::Refract) => {
-                    Some(M::kernel::<SphereCrossing<FORWARD, REFRACT>, STRIDES>)
-                }
-                (Profile::Sphere { .. }, Bend::Straight) => {
-                    Some(M::kernel::<SphereCrossing<FORWARD, STRAIGHT>, STRIDES>)
-                }
-                (Profile::Sphere { .. }, Bend::Reflect) => {
-                    Some(M::kernel::<SphereCrossing<FORWARD, REFLECT>, STRIDES>)
-                }
-                (Profile::Plane, Bend::Refract) => {
-                    Some(M::kernel::<PlaneCrossing<FORWARD, REFRACT>, STRIDES>)
-                }
-                (Profile::Plane, Bend::Straight) => {
-                    Some(M::kernel::<PlaneCrossing<FORWARD, STRAIGHT>, STRIDES>)
-                }
-                (Profile::Plane, Bend::Reflect) => {
-                    Some(M::kernel::<PlaneCrossing<FORWARD, REFLECT>, STRIDES>)
-                }
-                (Profile::Conic { .. }, Bend::Refract) => {
-                    Some(M::kernel::<ConicCrossing<FORWARD, REFRACT>, STRIDES>)
-                }
-                (Profile::Conic { .. }, Bend::Straight) => {
-                    Some(M::kernel::<ConicCrossing<FORWARD, STRAIGHT>, STRIDES>)
-                }
-                (Profile::Conic { .. }, Bend::Reflect) => {
-                    Some(M::kernel::<ConicCrossing<FORWARD, REFLECT>, STRIDES>)
-                }
-                _ => None,
+            // The kernel of a crossing type for what the surface does to the direction.
+            macro_rules! bending {
+                ($crossing:ident) => {
+                    Some(match Bend::of(s) {
+                        Bend::Refract => M::kernel::<$crossing<FORWARD, REFRACT>, STRIDES>,
+                        Bend::Straight => M::kernel::<$crossing<FORWARD, STRAIGHT>, STRIDES>,
+                        Bend::Reflect => M::kernel::<$crossing<FORWARD, REFLECT>, STRIDES>,
+                    })
+                };
+            }
+            let kernel: Option<Kernel<STRIDES>> = match s.profile {
+                Profile::Sphere { .. } => bending!(SphereCrossing),
+                Profile::Plane => bending!(PlaneCrossing),
+                Profile::Conic { .. } => bending!(ConicCrossing),
+                Profile::Asphere { .. } | Profile::IdealLens { .. } => None,
             };
             let stopped = match kernel {
                 Some(kernel) => {
@@ -621,7 +607,10 @@ impl Tracer {
                             strides,
                             KernelApertures {
                                 check: check_apertures,
-                                blades: self.diaphragm.as_ref().filter(|_| s.bladed),
+                                blades: self
+                                    .diaphragm
+                                    .as_ref()
+                                    .filter(|_| s.bladed && check_apertures),
                             },
                         )
                     };
@@ -1525,15 +1514,14 @@ fn kernel<K: Crossing, const STRIDES: usize>(
         ],
         codes: &mut events.as_flattened_mut()[..n],
     });
-    if apertures.check
-        && let Some(blades) = apertures.blades
-    {
+    if let Some(blades) = apertures.blades {
         vignette_outside_blades(blades, next, events, strides);
     }
 }
 
 /// What a kernel tests a ray's hit point against: with `check`, the clear aperture and the
-/// central obscuration, and the stop's `blades` where the surface is a bladed stop. The blades
+/// central obscuration; `blades`, the stop's, where the surface is a bladed stop and apertures
+/// are checked. The blades
 /// are tested in the kernel's call, not the block loop: a call in the loop made the compiler
 /// keep less of the loop's state in registers, and the batch trace of an unbladed lens ran
 /// about a fifth slower.
