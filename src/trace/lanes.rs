@@ -44,7 +44,10 @@ pub(crate) type Group = Block<{ LANES / STRIDE }>;
 const CROSSED: u64 = 0;
 const MISSED: u64 = 1;
 const VIGNETTED: u64 = 2;
-const TIR: u64 = 3;
+/// Met inside the apertures, but the bend gave no direction: total internal reflection, or an
+/// ideal lens's tangents past what f64 holds (which the one-ray path reports as a miss at the
+/// hit point).
+const NOT_BENT: u64 = 3;
 
 /// A set of a block's slots, one bit per slot (blocks hold at most 128 rays). The block's
 /// bookkeeping (which rays stopped at a surface, which holes packing fills) works on these
@@ -586,7 +589,8 @@ impl Tracer {
                 Profile::Sphere { .. } => bending!(SphereCrossing),
                 Profile::Plane => bending!(PlaneCrossing),
                 Profile::Conic { .. } => bending!(ConicCrossing),
-                Profile::Asphere { .. } | Profile::IdealLens { .. } => None,
+                Profile::IdealLens { .. } => Some(M::kernel::<IdealLensCrossing<FORWARD>, STRIDES>),
+                Profile::Asphere { .. } => None,
             };
             let stopped = match kernel {
                 Some(kernel) => {
@@ -616,8 +620,15 @@ impl Tracer {
                     };
                     // SAFETY: as above.
                     let stopped = unsafe { M::stopped_slots(events, strides) }.and(travelling);
+                    // What the one-ray path's bend reports where it gives no direction.
+                    let not_bent = if s.profile.ideal_power().is_some() {
+                        Event::Missed
+                    } else {
+                        Event::Tir
+                    };
                     report(
                         i,
+                        not_bent,
                         arriving,
                         next,
                         events.as_flattened(),
@@ -638,20 +649,13 @@ impl Tracer {
                             stopped = Slots(stopped.0 | 1u128 << slot);
                         }
                     };
-                    if let Profile::Asphere { .. } = s.profile {
-                        self.cross_asphere::<FORWARD>(
-                            s,
-                            arriving,
-                            travelling,
-                            check_apertures,
-                            &mut settle,
-                        );
-                    } else {
-                        for slot in travelling.iter() {
-                            let ray = ray_at(arriving, slot);
-                            settle(slot, self.cross::<FORWARD>(s, &ray, check_apertures));
-                        }
-                    }
+                    self.cross_asphere::<FORWARD>(
+                        s,
+                        arriving,
+                        travelling,
+                        check_apertures,
+                        &mut settle,
+                    );
                     stopped
                 }
             };
@@ -840,7 +844,7 @@ unsafe fn stopped_slots_avx2<const STRIDES: usize>(
 
 /// Marks vignetted the lanes of the first `strides` strides whose hit points (`next`'s x and y)
 /// the kernel let through the stop's circle but `blades` stop, as the one-ray path tests the
-/// blades after the circle and before the bend: a lane it gave TIR is vignetted too.
+/// blades after the circle and before the bend: a lane it could not bend is vignetted too.
 #[inline(always)]
 fn vignette_outside_blades<const STRIDES: usize>(
     blades: &Diaphragm,
@@ -852,7 +856,7 @@ fn vignette_outside_blades<const STRIDES: usize>(
     for ((codes, x), y) in events[..strides].iter_mut().zip(x).zip(y) {
         let inside = blades.contains_each(x, y);
         for (code, inside) in codes.iter_mut().zip(inside) {
-            let met = (*code == CROSSED) | (*code == TIR);
+            let met = (*code == CROSSED) | (*code == NOT_BENT);
             *code = if met & !inside { VIGNETTED } else { *code };
         }
     }
@@ -860,10 +864,12 @@ fn vignette_outside_blades<const STRIDES: usize>(
 
 /// Reports the rays in `stopped`, which the last kernel stopped at surface `i` (0-based), with
 /// the ray the one-ray path reports (the ray before the surface for a miss; the hit point and
-/// arriving direction otherwise).
+/// arriving direction otherwise); a ray the surface could not bend as `not_bent`.
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 fn report<const STRIDES: usize>(
     i: usize,
+    not_bent: Event,
     arriving: [&[f64]; 6],
     next: &Columns<STRIDES>,
     events: &[u64],
@@ -879,8 +885,8 @@ fn report<const STRIDES: usize>(
                 let outcome = if code == VIGNETTED {
                     Outcome::Vignetted { surface: i + 1 }
                 } else {
-                    debug_assert_eq!(code, TIR);
-                    Outcome::Tir { surface: i + 1 }
+                    debug_assert_eq!(code, NOT_BENT);
+                    not_bent.outcome(i + 1)
                 };
                 let ray = Ray::from_parts(next.position(slot), arrived.direction);
                 (outcome, ray)
@@ -1229,6 +1235,36 @@ impl<const FORWARD: bool, const BEND: u8> Crossing for PlaneCrossing<FORWARD, BE
     }
 }
 
+/// [`intersect::plane_candidate`], the aperture test and [`refract::ideal_lens_candidate`] (an
+/// ideal lens lies in air and never reflects: the prescription's checks refuse one that would).
+struct IdealLensCrossing<const FORWARD: bool> {
+    common: Common,
+    power: f64,
+}
+
+impl<const FORWARD: bool> Crossing for IdealLensCrossing<FORWARD> {
+    #[inline(always)]
+    fn new(s: &FlatSurface, check_apertures: bool) -> Self {
+        let Some(power) = s.profile.ideal_power() else {
+            unreachable!("the ideal lens kernel runs on ideal lenses only")
+        };
+        debug_assert!(!s.reflects);
+        let common = Common::new::<FORWARD>(s, check_apertures);
+        IdealLensCrossing { common, power }
+    }
+
+    /// One division and one square root, as a refracting plane: one loop.
+    #[inline(always)]
+    fn cross(&self, lanes: LaneColumns<'_>) {
+        let (sense, power) = (self.common.sense, self.power);
+        self.common.cross_in_one_loop::<true>(
+            lanes,
+            |arriving, d| intersect::plane_candidate(arriving, d, sense),
+            |point, d| refract::ideal_lens_candidate(d, [point[0], point[1]], power),
+        );
+    }
+}
+
 /// [`intersect::conic_candidate`] and its normal, the aperture test and the bend `BEND`
 /// ([`refract::refract_candidate`], none, or [`refract::reflect`]).
 struct ConicCrossing<const FORWARD: bool, const BEND: u8> {
@@ -1539,7 +1575,7 @@ fn event_code(hit: bool, inside: bool, passes: bool) -> u64 {
     } else if !inside {
         VIGNETTED
     } else if !passes {
-        TIR
+        NOT_BENT
     } else {
         CROSSED
     }
@@ -1565,8 +1601,9 @@ mod tests {
     }
 
     /// Spheres and planes (kernels; one of each between equal indices, which does not refract)
-    /// around a conic (a kernel too) and an even and an odd asphere (met in lanes), with
-    /// apertures small enough that rays stop at several surfaces, so blocks are compacted.
+    /// around an ideal lens and a conic (kernels too) and an even and an odd asphere (met in
+    /// lanes), with apertures small enough that rays stop at several surfaces, so blocks are
+    /// compacted.
     fn tracer() -> Tracer {
         let surface = |shape, thickness, n: f64, stop| Surface {
             stop,
@@ -1595,6 +1632,7 @@ mod tests {
                 surface(Shape::Sphere { curvature: 0.04 }, 4.0, 1.7, None),
                 surface(Shape::Sphere { curvature: -0.03 }, 1.0, 1.7, None),
                 surface(Shape::Plane, 3.0, 1.0, Some(StopShape::Circle)),
+                surface(Shape::IdealLens { focal_length: 25.0 }, 1.0, 1.0, None),
                 surface(Shape::Plane, 2.0, 1.0, None),
                 surface(Shape::Plane, 3.0, 1.5, None),
                 surface(conic, 2.0, 1.5, None),
@@ -1736,6 +1774,42 @@ mod tests {
         }
     }
 
+    /// An ideal lens met by a ray so nearly parallel to it that the deflected tangents
+    /// overflow: the lanes report the miss at the hit point, as the one-ray path does, beside
+    /// rays it deflects, vignettes, or that miss the surface after it.
+    #[test]
+    fn an_ideal_lens_misses_the_rays_it_cannot_bend_as_one_ray() {
+        let prescription = Prescription {
+            provenance: Provenance::default(),
+            object_medium: Medium::Air,
+            surfaces: vec![
+                Surface::open(
+                    Shape::IdealLens { focal_length: 20.0 },
+                    5.0,
+                    Medium::Air,
+                    9.0,
+                ),
+                Surface {
+                    stop: Some(StopShape::Circle),
+                    ..Surface::open(Shape::Sphere { curvature: 0.1 }, 5.0, Medium::Air, 9.0)
+                },
+            ],
+        };
+        let system = LensSystem::from_prescription(prescription).unwrap();
+        let tracer = Tracer::new(&system.at(550.0));
+        let grazing = Ray::new([1.0, 2.0, 0.0], [1.0, 0.0, 1e-300]).unwrap();
+        let rays: Vec<Ray> = std::iter::repeat_n(grazing, 3)
+            .chain(rays(3 * 128 + 2).into_iter().map(|ray| {
+                let [x, y, _] = ray.position;
+                Ray::new([x, y, -1.0], ray.direction).unwrap()
+            }))
+            .collect();
+        let one = tracer.trace_with(grazing, Travel::Forward, Apertures::Checked);
+        assert_eq!(one.outcome, Outcome::Missed { surface: 1 });
+        assert_eq!(one.ray.position, grazing.position);
+        blocks_trace_as_one_ray(&tracer, Travel::Forward, &rays);
+    }
+
     /// The blade test after a kernel: a lane the kernel let through the circle (crossed, or
     /// totally reflected, which the one-ray path tests after the aperture) is vignetted outside
     /// the blades and kept inside; a miss or a lane already vignetted stays as it was.
@@ -1755,7 +1829,7 @@ mod tests {
             inside, outside, inside, outside, inside, outside, outside, inside,
         ];
         let codes = [
-            CROSSED, CROSSED, TIR, TIR, MISSED, MISSED, VIGNETTED, VIGNETTED,
+            CROSSED, CROSSED, NOT_BENT, NOT_BENT, MISSED, MISSED, VIGNETTED, VIGNETTED,
         ];
         for (slot, [x, y]) in points.into_iter().enumerate() {
             next.values[0][0][slot] = x;
@@ -1764,7 +1838,7 @@ mod tests {
         let mut events = [codes];
         vignette_outside_blades(&blades, &next, &mut events, 1);
         let expected = [
-            CROSSED, VIGNETTED, TIR, VIGNETTED, MISSED, MISSED, VIGNETTED, VIGNETTED,
+            CROSSED, VIGNETTED, NOT_BENT, VIGNETTED, MISSED, MISSED, VIGNETTED, VIGNETTED,
         ];
         assert_eq!(events, [expected]);
     }

@@ -86,13 +86,22 @@ pub(crate) fn refract_plane_candidate(d: Vec3, mu: f64) -> (Vec3, f64) {
 /// None when the tangents overflow (a ray grazing the plane): it leaves in no direction f64 holds.
 #[inline(always)]
 pub(crate) fn ideal_lens(d: Vec3, at: [f64; 2], power: f64) -> Option<Vec3> {
+    let (direction, deflects) = ideal_lens_candidate(d, at, power);
+    deflects.then_some(direction)
+}
+
+/// [`ideal_lens`] without branches, for the lane kernels: the direction (meaningless where the
+/// tangents overflow) and whether they did not.
+#[inline(always)]
+pub(crate) fn ideal_lens_candidate(d: Vec3, at: [f64; 2], power: f64) -> (Vec3, bool) {
     let along = d[2].abs();
     let tx = (-power).mul_add(at[0], d[0] / along);
     let ty = (-power).mul_add(at[1], d[1] / along);
     let length = tx.mul_add(tx, ty.mul_add(ty, 1.0)).sqrt();
-    length
-        .is_finite()
-        .then(|| [tx / length, ty / length, (1.0 / length).copysign(d[2])])
+    (
+        [tx / length, ty / length, (1.0 / length).copysign(d[2])],
+        length.is_finite(),
+    )
 }
 
 #[cfg(test)]
