@@ -23,7 +23,7 @@
 //! a processor without FMA, `f64::mul_add` is a (slow, correctly rounded) library call.
 
 use super::aperture::Diaphragm;
-use super::intersect::{self, clamped_sqrt, radius_sq};
+use super::intersect::{self, LaneHits, Lanes, NEWTON_LANES, clamped_sqrt, radius_sq};
 use super::refract;
 use super::{
     Event, FlatSurface, Outcome, Profile, Ray, Traced, Tracer, Travel, Vec3, in_vertex_frame,
@@ -692,8 +692,8 @@ impl Tracer {
 impl Tracer {
     /// [`Tracer::cross`] of the `travelling` rays of `arriving` at the asphere `s`, each slot's
     /// result handed to `settle`: [`intersect::NEWTON_LANES`] rays at a time, met side by side
-    /// in vector lanes ([`intersect::AsphereLanes::meet`], the same bits as one ray's search), then
-    /// each through the aperture and bent as one ray is.
+    /// in vector lanes ([`intersect::AsphereLanes::meet`], the same bits as one ray's search),
+    /// then through the aperture and bent in lanes ([`leave_lanes`]).
     #[inline(always)]
     fn cross_asphere<const FORWARD: bool>(
         &self,
@@ -718,6 +718,12 @@ impl Tracer {
             terms: &self.asphere_terms[terms],
             sense: s.sense::<FORWARD>(),
         };
+        let common = Common::new::<FORWARD>(s, check_apertures);
+        let bend = Bend::of(s);
+        let blades = self
+            .diaphragm
+            .as_ref()
+            .filter(|_| s.bladed && check_apertures);
         let mut slots = travelling.iter();
         let mut hits = intersect::LaneHits::default();
         loop {
@@ -730,30 +736,37 @@ impl Tracer {
             if count == 0 {
                 break;
             }
-            // Lanes past the last ray repeat it.
-            let rays: [Ray; L] =
-                std::array::from_fn(|l| ray_at(arriving, chosen[l.min(count - 1)]));
             let mut lines = intersect::LaneLines {
                 p: [[0.0; L]; 3],
                 d: [[0.0; L]; 3],
             };
-            for (l, ray) in rays.iter().enumerate() {
-                let (position, direction, _) = in_vertex_frame::<FORWARD>(s, ray);
+            // Lanes past the last ray repeat it. (The rays in an array built by
+            // `array::from_fn` cost a call per lane where the compiler stopped inlining it.)
+            for l in 0..L {
+                let ray = ray_at(arriving, chosen[l.min(count - 1)]);
+                let (position, direction, _) = in_vertex_frame::<FORWARD>(s, &ray);
                 for axis in 0..3 {
                     lines.p[axis][l] = position[axis];
                     lines.d[axis][l] = direction[axis];
                 }
             }
             asphere.meet(&lines, &mut hits);
-            for l in 0..count {
-                let met = hits.met[l].then(|| {
-                    let [x, y, z] = &hits.points;
-                    let [nx, ny, nz] = &hits.normals;
-                    ([x[l], y[l], z[l]], Some([nx[l], ny[l], nz[l]]))
-                });
+            let (codes, directions) = leave_lanes(&common, bend, blades, &lines.d, &hits);
+            let [x, y, z] = &hits.points;
+            for (l, &slot) in chosen[..count].iter().enumerate() {
+                let ray = ray_at(arriving, slot);
+                let at = Ray::from_parts([x[l], y[l], z[l] + s.vertex_z], ray.direction);
                 settle(
-                    chosen[l],
-                    self.leave::<FORWARD>(s, &rays[l], met, check_apertures),
+                    slot,
+                    match codes[l] {
+                        CROSSED => Ok(Ray::from_parts(
+                            at.position,
+                            [directions[0][l], directions[1][l], directions[2][l]],
+                        )),
+                        MISSED => Err((Event::Missed, ray)),
+                        VIGNETTED => Err((Event::Vignetted, at)),
+                        _ => Err((Event::Tir, at)),
+                    },
                 );
             }
         }
@@ -856,10 +869,80 @@ fn vignette_outside_blades<const STRIDES: usize>(
     for ((codes, x), y) in events[..strides].iter_mut().zip(x).zip(y) {
         let inside = blades.contains_each(x, y);
         for (code, inside) in codes.iter_mut().zip(inside) {
-            let met = (*code == CROSSED) | (*code == NOT_BENT);
-            *code = if met & !inside { VIGNETTED } else { *code };
+            *code = after_blades(*code, inside);
         }
     }
+}
+
+/// A lane's code once the blades are tested: met inside the circle (crossed, or not bent, which
+/// the one-ray path decides after the blades) and outside the blades is vignetted.
+#[inline(always)]
+fn after_blades(code: u64, inside_blades: bool) -> u64 {
+    let met = (code == CROSSED) | (code == NOT_BENT);
+    if met & !inside_blades {
+        VIGNETTED
+    } else {
+        code
+    }
+}
+
+/// [`Tracer::leave`] for lanes of lines along `d` that met an asphere as `hits` says: each
+/// lane's code, as a kernel's, and its leaving direction (meaningless unless crossed). The same
+/// tests in the same order (the hit, the aperture and the obscuration, the `blades`, the bend)
+/// with the same arithmetic, so the same bits as one ray at a time.
+#[inline(always)]
+fn leave_lanes(
+    common: &Common,
+    bend: Bend,
+    blades: Option<&Diaphragm>,
+    d: &[Lanes<f64>; 3],
+    hits: &LaneHits,
+) -> (Lanes<u64>, [Lanes<f64>; 3]) {
+    // A loop per bend, so that no lane loop branches on it.
+    let (mut codes, directions) = match bend {
+        Bend::Refract => bend_lanes(common, d, hits, |d, normal| {
+            let (direction, radicand) = refract::refract_candidate(d, normal, common.mu);
+            (direction, radicand >= 0.0)
+        }),
+        Bend::Straight => bend_lanes(common, d, hits, |d, _| (d, true)),
+        Bend::Reflect => bend_lanes(common, d, hits, |d, normal| {
+            (refract::reflect(d, normal), true)
+        }),
+    };
+    if let Some(blades) = blades {
+        let inside = blades.contains_each(&hits.points[0], &hits.points[1]);
+        for (code, inside) in codes.iter_mut().zip(inside) {
+            *code = after_blades(*code, inside);
+        }
+    }
+    (codes, directions)
+}
+
+/// [`leave_lanes`] before the blades, `bent(d, normal)` the leaving direction and whether there
+/// is one.
+#[inline(always)]
+fn bend_lanes(
+    common: &Common,
+    d: &[Lanes<f64>; 3],
+    hits: &LaneHits,
+    bent: impl Fn(Vec3, Vec3) -> (Vec3, bool),
+) -> (Lanes<u64>, [Lanes<f64>; 3]) {
+    let mut codes = [CROSSED; NEWTON_LANES];
+    let mut directions = [[0.0; NEWTON_LANES]; 3];
+    let LaneHits {
+        met,
+        points,
+        normals,
+    } = hits;
+    for l in 0..NEWTON_LANES {
+        let point = [points[0][l], points[1][l], points[2][l]];
+        let normal = [normals[0][l], normals[1][l], normals[2][l]];
+        let hit = met[l] & point.iter().fold(true, |all, v| all & v.is_finite());
+        let (direction, passes) = bent([d[0][l], d[1][l], d[2][l]], normal);
+        [directions[0][l], directions[1][l], directions[2][l]] = direction;
+        codes[l] = event_code(hit, common.inside(point), passes);
+    }
+    (codes, directions)
 }
 
 /// Reports the rays in `stopped`, which the last kernel stopped at surface `i` (0-based), with
@@ -1661,10 +1744,19 @@ mod tests {
 
     /// A folded lens: a sphere with a central obscuration, a bladed stop, a plane mirror, elements crossed
     /// travelling -z, a conic mirror (a paraboloid), elements crossed travelling +z again, a
-    /// spherical mirror and a plane crossed travelling -z.
-    fn folded_tracer() -> Tracer {
+    /// spherical mirror and a plane crossed travelling -z. `aspheric`: the obscured surface, the
+    /// stop and the last mirror even aspheres instead of spheres.
+    fn folded_tracer(aspheric: bool) -> Tracer {
         let surface = Surface::open;
         let sphere = |curvature| Shape::Sphere { curvature };
+        let curved = |curvature| match aspheric {
+            true => Shape::EvenAsphere {
+                curvature,
+                conic: -0.3,
+                coefficients: vec![0.0, 2e-5, -3e-8],
+            },
+            false => sphere(curvature),
+        };
         let paraboloid = Shape::Conic {
             curvature: -0.01,
             conic: -1.0,
@@ -1675,7 +1767,7 @@ mod tests {
             surfaces: vec![
                 Surface {
                     obscuration: Some(4.0),
-                    ..surface(sphere(0.02), 4.0, Medium::Index(1.6), 10.0)
+                    ..surface(curved(0.02), 4.0, Medium::Index(1.6), 10.0)
                 },
                 Surface {
                     stop: Some(StopShape::Blades {
@@ -1683,7 +1775,7 @@ mod tests {
                         rotation_deg: 12.0,
                         blade_curvature: 0.4,
                     }),
-                    ..surface(sphere(-0.01), 30.0, Medium::Air, 10.0)
+                    ..surface(curved(-0.01), 30.0, Medium::Air, 10.0)
                 },
                 surface(Shape::Plane, -20.0, Medium::Mirror, 12.0),
                 surface(sphere(0.01), -4.0, Medium::Index(1.5), 10.0),
@@ -1691,7 +1783,7 @@ mod tests {
                 surface(paraboloid, 12.0, Medium::Mirror, 12.0),
                 surface(sphere(-0.02), 3.0, Medium::Index(1.5), 10.0),
                 surface(Shape::Plane, 10.0, Medium::Air, 10.0),
-                surface(sphere(0.005), -6.0, Medium::Mirror, 14.0),
+                surface(curved(0.005), -6.0, Medium::Mirror, 14.0),
                 surface(Shape::Plane, -10.0, Medium::Air, 12.0),
             ],
         };
@@ -1725,11 +1817,17 @@ mod tests {
     }
 
     /// Mirrors (plane, sphere and conic), an obscured surface and a bladed stop in the kernels,
-    /// bit for bit as one ray at a time, both ways; enough rays get past every mirror, and stop
-    /// at the obscuration and the blades, for a wrong reflection or aperture to show.
+    /// and an aspheric mirror, obscured surface and bladed stop met in lanes, bit for bit as one
+    /// ray at a time, both ways; enough rays get past every mirror, and stop at the obscuration
+    /// and the blades, for a wrong reflection or aperture to show.
     #[test]
     fn every_instruction_set_traces_mirrors_obscurations_and_blades_bit_for_bit_as_one_ray() {
-        let tracer = folded_tracer();
+        for aspheric in [false, true] {
+            folded_lens_traces_blocks_as_one_ray(&folded_tracer(aspheric));
+        }
+    }
+
+    fn folded_lens_traces_blocks_as_one_ray(tracer: &Tracer) {
         // Over the first (forward) or last (backward) surface's clear aperture, most tilted a
         // little, every fifth steeply (these miss a surface or are reflected totally inside an
         // element).
@@ -1770,8 +1868,51 @@ mod tests {
                 .filter(|t| t.outcome == Outcome::Vignetted { surface: 2 })
                 .count();
             assert!(bladed > 0, "{travel:?}: none stopped by the blades");
-            blocks_trace_as_one_ray(&tracer, travel, &rays);
+            blocks_trace_as_one_ray(tracer, travel, &rays);
         }
+    }
+
+    /// An asphere from glass into air, met steeply enough that rays are reflected totally
+    /// inside: the lanes report TIR there, as the one-ray path does.
+    #[test]
+    fn an_asphere_reflects_totally_as_one_ray() {
+        let asphere = Shape::EvenAsphere {
+            curvature: -0.06,
+            conic: -0.5,
+            coefficients: vec![0.0, -1e-4, 2e-7],
+        };
+        let prescription = Prescription {
+            provenance: Provenance::default(),
+            object_medium: Medium::Air,
+            surfaces: vec![
+                Surface {
+                    stop: Some(StopShape::Circle),
+                    ..Surface::open(Shape::Plane, 4.0, Medium::Index(1.8), 9.0)
+                },
+                Surface::open(asphere, 10.0, Medium::Air, 9.0),
+            ],
+        };
+        let system = LensSystem::from_prescription(prescription).unwrap();
+        let tracer = Tracer::new(&system.at(550.0));
+        let rays: Vec<Ray> = (0..3 * 128 + 5)
+            .map(|i| {
+                let (a, r) = (i as f64 * 0.37, 8.5 * ((i % 97) as f64 / 97.0).sqrt());
+                let tilt = 1.2 * ((i % 7) as f64 / 6.0);
+                let d = [tilt * a.sin(), tilt * (1.3 * a).cos(), 1.0];
+                Ray::new([r * a.cos(), r * a.sin(), -1.0], d).unwrap()
+            })
+            .collect();
+        let reflected = rays
+            .iter()
+            .filter(|&&ray| {
+                tracer.trace(ray, Travel::Forward).outcome == Outcome::Tir { surface: 2 }
+            })
+            .count();
+        assert!(
+            reflected > 10,
+            "{reflected} reflected totally at the asphere"
+        );
+        blocks_trace_as_one_ray(&tracer, Travel::Forward, &rays);
     }
 
     /// An ideal lens met by a ray so nearly parallel to it that the deflected tangents
