@@ -725,7 +725,7 @@ impl Tracer {
             .as_ref()
             .filter(|_| s.bladed && check_apertures);
         let mut slots = travelling.iter();
-        let mut hits = intersect::LaneHits::default();
+        let mut hits = LaneHits::default();
         loop {
             let mut chosen = [0; L];
             let count = chosen
