@@ -114,14 +114,20 @@ impl Diaphragm {
     #[inline(always)]
     pub fn contains_each<const N: usize>(&self, x: &[f64; N], y: &[f64; N]) -> [bool; N] {
         let (best_x, best_y, along) = self.nearest_edges(x, y);
-        std::array::from_fn(|k| match self.arc {
-            None => along[k] <= self.apothem,
-            Some((centre, radius_sq)) => {
-                let across = -x[k] * best_y[k] + y[k] * best_x[k];
-                let u = along[k] - centre;
-                u * u + across * across <= radius_sq
-            }
-        })
+        // A plain loop: built by `array::from_fn`, the kernels that test blades called its
+        // closure once per stride instead of inlining it.
+        let mut inside = [false; N];
+        for k in 0..N {
+            inside[k] = match self.arc {
+                None => along[k] <= self.apothem,
+                Some((centre, radius_sq)) => {
+                    let across = -x[k] * best_y[k] + y[k] * best_x[k];
+                    let u = along[k] - centre;
+                    u * u + across * across <= radius_sq
+                }
+            };
+        }
+        inside
     }
 }
 
