@@ -3,8 +3,9 @@
 Run through run.sh, which creates the virtual environment. Steps:
 1. The lens is an oracle table (`--lens NAME` with tests/data/truth/oracle/NAME.json, constant
    indices), or any lens lensbake reads (a bundled name or a file) whose surfaces are planes,
-   spheres, conics or even aspheres (optiland's `even_asphere`, coefficients on r^2, r^4, ... as
-   lensbake's), refracting or mirrors, with circular stops and central obscurations allowed;
+   spheres, conics, even aspheres (optiland's `even_asphere`, coefficients on r^2, r^4, ... as
+   lensbake's) or ideal lenses (optiland's `paraxial`), refracting or mirrors, with circular
+   stops and central obscurations allowed;
    `lensbake lens convert --indices-at-nm` gives each of its media (a catalogue glass, a
    dispersion formula, a model glass, a table) its index at the d line. Either is written as a
    lensbake RON file of constant indices and built as an optiland Optic with ideal materials,
@@ -95,7 +96,7 @@ class Lens:
         with open(os.path.join(oracle_dir(), name + ".json")) as f:
             lens = json.load(f)["lenses"][0]
         table = lens["prescription"]
-        surfaces = [dict(curvature=s["curvature"], conic=0.0, coefficients=[],
+        surfaces = [dict(curvature=s["curvature"], conic=0.0, coefficients=[], focal_length=None,
                          thickness=s["thickness"], n=s["n"], semi_aperture=s["semi_aperture"],
                          stop=s["stop"], obscuration=0.0) for s in table["surfaces"]]
         quick = lens["quick_reference"]
@@ -120,7 +121,9 @@ class Lens:
     def ron(self):
         rows = []
         for s in self.surfaces:
-            if s["coefficients"]:
+            if s["focal_length"] is not None:
+                shape = f"IdealLens(focal_length: {s['focal_length']!r})"
+            elif s["coefficients"]:
                 terms = ", ".join(repr(a) for a in s["coefficients"])
                 shape = (f"EvenAsphere(curvature: {s['curvature']!r}, conic: {s['conic']!r}, "
                          f"coefficients: [{terms}])")
@@ -151,7 +154,11 @@ class Lens:
         for k, s in enumerate(self.surfaces, start=1):
             radius = np.inf if s["curvature"] == 0 else 1.0 / s["curvature"]
             shape = {"conic": s["conic"]}
-            if s["coefficients"]:
+            if s["focal_length"] is not None:
+                # optiland's paraxial surface: a plane whose thin-lens deflection (tangents less
+                # the height over f) is lensbake's ideal lens in air.
+                shape = dict(surface_type="paraxial", f=s["focal_length"])
+            elif s["coefficients"]:
                 shape.update(surface_type="even_asphere", coefficients=list(s["coefficients"]),
                              tol=ASPHERE_TOLERANCE_MM)
             # A mirror's material is "mirror": optiland keeps the medium before it after it.
@@ -232,9 +239,9 @@ def constant_index(where, medium):
 def lensbake_surface(number, surface):
     shape = surface["shape"]
     kind = shape["variant"]
-    if kind not in ("Plane", "Sphere", "Conic", "EvenAsphere"):
+    if kind not in ("Plane", "Sphere", "Conic", "EvenAsphere", "IdealLens"):
         sys.exit(f"error: surface {number}: shape {kind} is not one optiland is built with here "
-                 "(planes, spheres, conics and even aspheres are)")
+                 "(planes, spheres, conics, even aspheres and ideal lenses are)")
     stop = surface["stop"]
     is_stop = stop["variant"] == "Some"
     obscuration = surface.get("obscuration", {"variant": "None"})
@@ -242,7 +249,8 @@ def lensbake_surface(number, surface):
         sys.exit(f"error: surface {number}: only a circular stop is built here")
     mirror = surface["medium"]["variant"] == "Mirror"
     return dict(curvature=shape.get("curvature", 0.0), conic=shape.get("conic", 0.0),
-                coefficients=shape.get("coefficients", []), thickness=surface["thickness"],
+                coefficients=shape.get("coefficients", []),
+                focal_length=shape.get("focal_length"), thickness=surface["thickness"],
                 n=None if mirror else constant_index(f"surface {number}", surface["medium"]),
                 semi_aperture=surface["semi_aperture"], stop=is_stop,
                 obscuration=obscuration["items"][0] if obscuration["variant"] == "Some" else 0.0)
