@@ -27,6 +27,7 @@ use super::intersect::{self, LaneHits, Lanes, NEWTON_LANES, clamped_sqrt, radius
 use super::refract;
 use super::{
     Event, FlatSurface, Outcome, Profile, Ray, Traced, Tracer, Travel, Vec3, in_vertex_frame,
+    unbent,
 };
 
 /// Rays one vector instruction holds at most (eight f64 with AVX-512). Kernels run over whole
@@ -592,7 +593,11 @@ impl Tracer {
                 Profile::IdealLens { .. } => Some(M::kernel::<IdealLensCrossing<FORWARD>, STRIDES>),
                 Profile::Asphere { .. } => None,
             };
-            let stopped = match kernel {
+            let blades = self
+                .diaphragm
+                .as_ref()
+                .filter(|_| s.bladed && check_apertures);
+            match kernel {
                 Some(kernel) => {
                     let [px, py, pz, dx, dy, dz] = arriving;
                     // SAFETY: the block trace runs on machine `M` only where its caller found
@@ -611,54 +616,34 @@ impl Tracer {
                             strides,
                             KernelApertures {
                                 check: check_apertures,
-                                blades: self
-                                    .diaphragm
-                                    .as_ref()
-                                    .filter(|_| s.bladed && check_apertures),
+                                blades,
                             },
                         )
-                    };
-                    // SAFETY: as above.
-                    let stopped = unsafe { M::stopped_slots(events, strides) }.and(travelling);
-                    // What the one-ray path's bend reports where it gives no direction.
-                    let not_bent = if s.profile.ideal_power().is_some() {
-                        Event::Missed
-                    } else {
-                        Event::Tir
-                    };
-                    report(
-                        i,
-                        not_bent,
-                        arriving,
-                        next,
-                        events.as_flattened(),
-                        ids,
-                        stopped,
-                        finish,
-                    );
-                    stopped
+                    }
                 }
-                None => {
-                    let mut stopped = Slots::default();
-                    let mut settle = |slot: usize, crossed: Result<Ray, (Event, Ray)>| match crossed
-                    {
-                        Ok(ray) => next.set(slot, ray),
-                        Err((event, at)) => {
-                            let outcome = event.outcome(i + 1);
-                            finish.finish(ids[slot] as usize, Traced { outcome, ray: at });
-                            stopped = Slots(stopped.0 | 1u128 << slot);
-                        }
-                    };
-                    self.cross_asphere::<FORWARD>(
-                        s,
-                        arriving,
-                        travelling,
-                        check_apertures,
-                        &mut settle,
-                    );
-                    stopped
-                }
-            };
+                None => self.cross_asphere::<FORWARD, STRIDES>(
+                    s,
+                    arriving,
+                    travelling,
+                    check_apertures,
+                    blades,
+                    next,
+                    events,
+                    strides,
+                ),
+            }
+            // SAFETY: as above.
+            let stopped = unsafe { M::stopped_slots(events, strides) }.and(travelling);
+            report(
+                i,
+                unbent(s.profile.ideal_power()),
+                arriving,
+                next,
+                events.as_flattened(),
+                ids,
+                stopped,
+                finish,
+            );
             travelling = travelling.without(stopped);
             // Packing costs a copy per hole filled, worth it only when the kernels then run over
             // fewer strides.
@@ -691,17 +676,23 @@ impl Tracer {
 
 impl Tracer {
     /// [`Tracer::cross`] of the `travelling` rays of `arriving` at the asphere `s`, each slot's
-    /// result handed to `settle`: [`intersect::NEWTON_LANES`] rays at a time, met side by side
-    /// in vector lanes ([`intersect::AsphereLanes::meet`], the same bits as one ray's search),
-    /// then through the aperture and bent in lanes ([`leave_lanes`]).
+    /// leaving ray to `next` and its code to `events`, as a kernel leaves them:
+    /// [`intersect::NEWTON_LANES`] rays at a time, met side by side in vector lanes
+    /// ([`intersect::AsphereLanes::meet`], the same bits as one ray's search), then through the
+    /// aperture and bent in lanes ([`leave_lanes`]), then through the `blades` over the first
+    /// `strides` strides.
     #[inline(always)]
-    fn cross_asphere<const FORWARD: bool>(
+    #[allow(clippy::too_many_arguments)]
+    fn cross_asphere<const FORWARD: bool, const STRIDES: usize>(
         &self,
         s: &FlatSurface,
         arriving: [&[f64]; 6],
         travelling: Slots,
         check_apertures: bool,
-        settle: &mut impl FnMut(usize, Result<Ray, (Event, Ray)>),
+        blades: Option<&Diaphragm>,
+        next: &mut Columns<STRIDES>,
+        events: &mut [[u64; STRIDE]; STRIDES],
+        strides: usize,
     ) {
         const L: usize = intersect::NEWTON_LANES;
         let Profile::Asphere {
@@ -720,10 +711,6 @@ impl Tracer {
         };
         let common = Common::new::<FORWARD>(s, check_apertures);
         let bend = Bend::of(s);
-        let blades = self
-            .diaphragm
-            .as_ref()
-            .filter(|_| s.bladed && check_apertures);
         let mut slots = travelling.iter();
         let mut hits = LaneHits::default();
         loop {
@@ -751,24 +738,21 @@ impl Tracer {
                 }
             }
             asphere.meet(&lines, &mut hits);
-            let (codes, directions) = leave_lanes(&common, bend, blades, &lines.d, &hits);
+            let (codes, directions) = leave_lanes(&common, bend, &lines.d, &hits);
             let [x, y, z] = &hits.points;
             for (l, &slot) in chosen[..count].iter().enumerate() {
-                let ray = ray_at(arriving, slot);
-                let at = Ray::from_parts([x[l], y[l], z[l] + s.vertex_z], ray.direction);
-                settle(
+                next.set(
                     slot,
-                    match codes[l] {
-                        CROSSED => Ok(Ray::from_parts(
-                            at.position,
-                            [directions[0][l], directions[1][l], directions[2][l]],
-                        )),
-                        MISSED => Err((Event::Missed, ray)),
-                        VIGNETTED => Err((Event::Vignetted, at)),
-                        _ => Err((Event::Tir, at)),
-                    },
+                    Ray::from_parts(
+                        [x[l], y[l], z[l] + s.vertex_z],
+                        [directions[0][l], directions[1][l], directions[2][l]],
+                    ),
                 );
+                events[slot / STRIDE][slot % STRIDE] = codes[l];
             }
+        }
+        if let Some(blades) = blades {
+            vignette_outside_blades(blades, next, events, strides);
         }
     }
 }
@@ -869,37 +853,25 @@ fn vignette_outside_blades<const STRIDES: usize>(
     for ((codes, x), y) in events[..strides].iter_mut().zip(x).zip(y) {
         let inside = blades.contains_each(x, y);
         for (code, inside) in codes.iter_mut().zip(inside) {
-            *code = after_blades(*code, inside);
+            let met = (*code == CROSSED) | (*code == NOT_BENT);
+            *code = if met & !inside { VIGNETTED } else { *code };
         }
     }
 }
 
-/// A lane's code once the blades are tested: met inside the circle (crossed, or not bent, which
-/// the one-ray path decides after the blades) and outside the blades is vignetted.
-#[inline(always)]
-fn after_blades(code: u64, inside_blades: bool) -> u64 {
-    let met = (code == CROSSED) | (code == NOT_BENT);
-    if met & !inside_blades {
-        VIGNETTED
-    } else {
-        code
-    }
-}
-
-/// [`Tracer::leave`] for lanes of lines along `d` that met an asphere as `hits` says: each
-/// lane's code, as a kernel's, and its leaving direction (meaningless unless crossed). The same
-/// tests in the same order (the hit, the aperture and the obscuration, the `blades`, the bend)
-/// with the same arithmetic, so the same bits as one ray at a time.
+/// [`Tracer::leave`] up to the blades, for lanes of lines along `d` that met an asphere as
+/// `hits` says: each lane's code, as a kernel's, and its leaving direction (meaningless unless
+/// crossed). The same tests in the same order (the hit, the aperture and the obscuration, the
+/// bend) with the same arithmetic, so the same bits as one ray at a time.
 #[inline(always)]
 fn leave_lanes(
     common: &Common,
     bend: Bend,
-    blades: Option<&Diaphragm>,
     d: &[Lanes<f64>; 3],
     hits: &LaneHits,
 ) -> (Lanes<u64>, [Lanes<f64>; 3]) {
     // A loop per bend, so that no lane loop branches on it.
-    let (mut codes, directions) = match bend {
+    match bend {
         Bend::Refract => bend_lanes(common, d, hits, |d, normal| {
             let (direction, radicand) = refract::refract_candidate(d, normal, common.mu);
             (direction, radicand >= 0.0)
@@ -908,18 +880,11 @@ fn leave_lanes(
         Bend::Reflect => bend_lanes(common, d, hits, |d, normal| {
             (refract::reflect(d, normal), true)
         }),
-    };
-    if let Some(blades) = blades {
-        let inside = blades.contains_each(&hits.points[0], &hits.points[1]);
-        for (code, inside) in codes.iter_mut().zip(inside) {
-            *code = after_blades(*code, inside);
-        }
     }
-    (codes, directions)
 }
 
-/// [`leave_lanes`] before the blades, `bent(d, normal)` the leaving direction and whether there
-/// is one.
+/// [`leave_lanes`] for one bend: `bent(d, normal)` the leaving direction and whether there is
+/// one.
 #[inline(always)]
 fn bend_lanes(
     common: &Common,

@@ -781,9 +781,7 @@ fn bend(
         return Ok(refract::reflect(d, normal.unwrap_or(refract::PLANE_NORMAL)));
     }
     if let Some(power) = ideal_power {
-        // A ray grazing the plane leaves with tangents past what f64 holds: no direction, so no
-        // later surface is met.
-        return refract::ideal_lens(d, [q[0], q[1]], power).ok_or(Event::Missed);
+        return refract::ideal_lens(d, [q[0], q[1]], power).ok_or(unbent(ideal_power));
     }
     if equal_indices {
         return Ok(d);
@@ -792,7 +790,19 @@ fn bend(
         None => refract::refract_plane(d, mu),
         Some(normal) => refract::refract(d, normal, mu),
     }
-    .ok_or(Event::Tir)
+    .ok_or(unbent(ideal_power))
+}
+
+/// What a surface whose bend gives a ray no direction reports (the block trace's kernels too):
+/// an ideal lens (of `ideal_power`) whose deflected tangents pass what f64 holds, a miss, since
+/// no later surface is met; a refraction, total internal reflection.
+#[inline(always)]
+fn unbent(ideal_power: Option<f64>) -> Event {
+    if ideal_power.is_some() {
+        Event::Missed
+    } else {
+        Event::Tir
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
