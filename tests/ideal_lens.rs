@@ -5,7 +5,6 @@
 
 mod common;
 
-use common::surface;
 use lensbake::analysis::{AnalyzeOptions, analyze};
 use lensbake::prescription::RayAiming;
 use lensbake::prescription::formats::{Format, LoadOptions, read_str, write_pbrt, write_zemax};
@@ -30,9 +29,9 @@ fn ideal(f: f64, film: f64) -> Prescription {
         surfaces: vec![
             Surface {
                 stop: Some(StopShape::Circle),
-                ..surface(Shape::Plane, 10.0, Medium::Air, 10.0)
+                ..Surface::open(Shape::Plane, 10.0, Medium::Air, 10.0)
             },
-            surface(
+            Surface::open(
                 Shape::IdealLens { focal_length: f },
                 film,
                 Medium::Air,
@@ -304,12 +303,12 @@ fn an_ideal_lens_after_a_mirror_takes_the_medium_before_it() {
         provenance: Provenance::default(),
         object_medium: Medium::Air,
         surfaces: vec![
-            surface(Shape::Plane, 5.0, first, 20.0),
+            Surface::open(Shape::Plane, 5.0, first, 20.0),
             Surface {
                 stop: Some(StopShape::Circle),
-                ..surface(Shape::from_radius(-200.0), -50.0, Medium::Mirror, 20.0)
+                ..Surface::open(Shape::from_radius(-200.0), -50.0, Medium::Mirror, 20.0)
             },
-            surface(
+            Surface::open(
                 Shape::IdealLens { focal_length: 80.0 },
                 -40.0,
                 Medium::Air,

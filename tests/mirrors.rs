@@ -5,7 +5,6 @@
 
 mod common;
 
-use common::surface;
 use lensbake::analysis::{Analysis, AnalyzeOptions, analyze};
 use lensbake::lrtf::bake::{BakeError, BakeRequest, bake};
 use lensbake::model::{FirstOrderModels, ModelError};
@@ -58,7 +57,12 @@ fn concave_mirror(conic: f64) -> LensSystem {
             conic,
         }
     };
-    system(vec![stopped(surface(shape, -100.0, Medium::Mirror, 12.0))])
+    system(vec![stopped(Surface::open(
+        shape,
+        -100.0,
+        Medium::Mirror,
+        12.0,
+    ))])
 }
 
 /// Fits y(rho) = a rho + b rho^3 + c rho^5 + d rho^7 to the heights `heights` of marginal rays at
@@ -197,14 +201,14 @@ fn a_fold_mirror_turns_the_lens_round_and_changes_nothing_else() {
     // the folded lens is the mirror image of the ray through the straight one.
     let glass = Medium::Glass("N-BK7".into());
     let straight = system(vec![
-        stopped(surface(Shape::Plane, 20.0, Medium::Air, 8.0)),
-        surface(sphere(60.0), 6.0, glass.clone(), 14.0),
-        surface(sphere(-90.0), 80.0, Medium::Air, 14.0),
+        stopped(Surface::open(Shape::Plane, 20.0, Medium::Air, 8.0)),
+        Surface::open(sphere(60.0), 6.0, glass.clone(), 14.0),
+        Surface::open(sphere(-90.0), 80.0, Medium::Air, 14.0),
     ]);
     let folded = system(vec![
-        stopped(surface(Shape::Plane, -20.0, Medium::Mirror, 8.0)),
-        surface(sphere(-60.0), -6.0, glass, 14.0),
-        surface(sphere(90.0), -80.0, Medium::Air, 14.0),
+        stopped(Surface::open(Shape::Plane, -20.0, Medium::Mirror, 8.0)),
+        Surface::open(sphere(-60.0), -6.0, glass, 14.0),
+        Surface::open(sphere(90.0), -80.0, Medium::Air, 14.0),
     ]);
     let (a, b) = (analysis(&straight, 12.0, 5.0), analysis(&folded, 12.0, 5.0));
     let (fa, fb) = (&a.first_order, &b.first_order);
@@ -413,8 +417,8 @@ fn a_surface_behind_a_mirror_must_lie_on_the_side_the_light_returns_to() {
         provenance: Provenance::default(),
         object_medium: Medium::Air,
         surfaces: vec![
-            stopped(surface(sphere(-200.0), 5.0, Medium::Mirror, 12.0)),
-            surface(Shape::Plane, -50.0, Medium::Air, 12.0),
+            stopped(Surface::open(sphere(-200.0), 5.0, Medium::Mirror, 12.0)),
+            Surface::open(Shape::Plane, -50.0, Medium::Air, 12.0),
         ],
     };
     let error = LensSystem::from_prescription(prescription)

@@ -5,7 +5,7 @@
 
 mod common;
 
-use common::{gpu_or_skip, surface};
+use common::gpu_or_skip;
 use lensbake::prescription::{Medium, Prescription, Provenance, Shape, StopShape, Surface};
 use lensbake::render::gpu::GpuRenderer;
 use lensbake::render::gpu_types::{
@@ -112,7 +112,7 @@ fn lens_trace_structs_match_wgsl() {
 fn stop(semi_aperture: f64, thickness: f64, shape: StopShape) -> Surface {
     Surface {
         stop: Some(shape),
-        ..surface(Shape::Plane, thickness, Medium::Air, semi_aperture)
+        ..Surface::open(Shape::Plane, thickness, Medium::Air, semi_aperture)
     }
 }
 
@@ -145,8 +145,8 @@ fn spheres() -> SystemAt {
         "spheres",
         vec![
             stop(7.0, 4.0, StopShape::Circle),
-            surface(sphere(22.0), 9.0, Medium::Index(1.9), 11.0),
-            surface(sphere(-18.0), 30.0, Medium::Air, 11.0),
+            Surface::open(sphere(22.0), 9.0, Medium::Index(1.9), 11.0),
+            Surface::open(sphere(-18.0), 30.0, Medium::Air, 11.0),
         ],
     )
 }
@@ -160,11 +160,11 @@ fn conics() -> SystemAt {
     system(
         "conics",
         vec![
-            surface(conic(30.0, -0.5), 7.0, Medium::Index(1.8), 12.0),
-            surface(conic(-25.0, -2.5), 3.0, Medium::Air, 12.0),
+            Surface::open(conic(30.0, -0.5), 7.0, Medium::Index(1.8), 12.0),
+            Surface::open(conic(-25.0, -2.5), 3.0, Medium::Air, 12.0),
             stop(8.0, 3.0, StopShape::Circle),
-            surface(conic(40.0, -1.0), 6.0, Medium::Index(1.7), 11.0),
-            surface(conic(-20.0, 0.6), 30.0, Medium::Air, 11.0),
+            Surface::open(conic(40.0, -1.0), 6.0, Medium::Index(1.7), 11.0),
+            Surface::open(conic(-20.0, 0.6), 30.0, Medium::Air, 11.0),
         ],
     )
 }
@@ -191,11 +191,11 @@ fn asphere_lens(title: &str, odd: bool, [first, second, third]: [Vec<f64>; 3]) -
     system(
         title,
         vec![
-            surface(asphere(20.0, -0.8, first), 8.0, Medium::Index(1.9), 11.0),
-            surface(asphere(-22.0, 1.5, second), 3.0, Medium::Air, 12.0),
+            Surface::open(asphere(20.0, -0.8, first), 8.0, Medium::Index(1.9), 11.0),
+            Surface::open(asphere(-22.0, 1.5, second), 3.0, Medium::Air, 12.0),
             stop(8.0, 3.0, StopShape::Circle),
-            surface(asphere(-60.0, 0.0, third), 5.0, Medium::Index(1.6), 10.0),
-            surface(sphere(-30.0), 30.0, Medium::Air, 10.0),
+            Surface::open(asphere(-60.0, 0.0, third), 5.0, Medium::Index(1.6), 10.0),
+            Surface::open(sphere(-30.0), 30.0, Medium::Air, 10.0),
         ],
     )
 }
@@ -239,13 +239,16 @@ fn cassegrain() -> SystemAt {
     system(
         "cassegrain",
         vec![
-            surface(Shape::Plane, 5.0, Medium::Index(1.5), 30.0),
-            obscured(surface(Shape::Plane, 60.0, Medium::Air, 30.0), 10.0),
+            Surface::open(Shape::Plane, 5.0, Medium::Index(1.5), 30.0),
+            obscured(Surface::open(Shape::Plane, 60.0, Medium::Air, 30.0), 10.0),
             Surface {
                 stop: Some(StopShape::Circle),
-                ..obscured(surface(sphere(-160.0), -45.0, Medium::Mirror, 30.0), 6.0)
+                ..obscured(
+                    Surface::open(sphere(-160.0), -45.0, Medium::Mirror, 30.0),
+                    6.0,
+                )
             },
-            surface(
+            Surface::open(
                 Shape::Conic {
                     curvature: -1.0 / 70.0,
                     conic: -2.0,
@@ -265,11 +268,11 @@ fn ideal_lenses() -> SystemAt {
     system(
         "ideal lenses",
         vec![
-            surface(ideal(45.0), 5.0, Medium::Air, 7.0),
+            Surface::open(ideal(45.0), 5.0, Medium::Air, 7.0),
             stop(6.0, 4.0, StopShape::Circle),
-            surface(ideal(-70.0), 4.0, Medium::Air, 9.0),
-            surface(sphere(35.0), 6.0, Medium::Index(1.7), 10.0),
-            surface(sphere(-50.0), 40.0, Medium::Air, 10.0),
+            Surface::open(ideal(-70.0), 4.0, Medium::Air, 9.0),
+            Surface::open(sphere(35.0), 6.0, Medium::Index(1.7), 10.0),
+            Surface::open(sphere(-50.0), 40.0, Medium::Air, 10.0),
         ],
     )
 }
@@ -279,8 +282,8 @@ fn bladed(count: u32, blade_curvature: f64) -> SystemAt {
     system(
         "bladed",
         vec![
-            surface(sphere(40.0), 5.0, Medium::Index(1.6), 12.0),
-            surface(sphere(-80.0), 3.0, Medium::Air, 12.0),
+            Surface::open(sphere(40.0), 5.0, Medium::Index(1.6), 12.0),
+            Surface::open(sphere(-80.0), 3.0, Medium::Air, 12.0),
             stop(
                 7.0,
                 3.0,
@@ -290,8 +293,8 @@ fn bladed(count: u32, blade_curvature: f64) -> SystemAt {
                     blade_curvature,
                 },
             ),
-            surface(sphere(50.0), 5.0, Medium::Index(1.6), 11.0),
-            surface(sphere(-35.0), 30.0, Medium::Air, 11.0),
+            Surface::open(sphere(50.0), 5.0, Medium::Index(1.6), 11.0),
+            Surface::open(sphere(-35.0), 30.0, Medium::Air, 11.0),
         ],
     )
 }

@@ -5,9 +5,9 @@
 #   benches/peer/run.sh [--lens pbrt_dgauss_50mm] [--rays 1000000] [--repeats 5] [--sample 5000]
 #
 # --lens takes a truth-data table (tests/data/truth/oracle) or any lens lensbake reads of
-# planes, spheres, conics and even aspheres, mirrors and obscurations included, e.g. --lens
-# asph-50mm-f1.8 (two even aspheres), --lens cooke-triplet (catalogue glasses, taken at the d
-# line) or --lens reflex-1000mm-f7.5 (two Mangin mirrors, an obscured surface).
+# planes, spheres, conics, even aspheres and ideal lenses, mirrors and obscurations included,
+# e.g. --lens asph-50mm-f1.8 (two even aspheres), --lens cooke-triplet (catalogue glasses,
+# taken at the d line) or --lens reflex-1000mm-f7.5 (two Mangin mirrors, an obscured surface).
 #
 # The virtual environment goes to $PEER_VENV (default: target/peer-venv) and is reused.
 set -euo pipefail

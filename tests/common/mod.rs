@@ -657,16 +657,6 @@ pub fn sealed(text: &str) -> String {
     ron::ser::to_string_pretty(&sidecar, ron::ser::PrettyConfig::default()).unwrap()
 }
 
-/// A surface that is neither the stop nor obscured.
-pub fn surface(
-    shape: lensbake::prescription::Shape,
-    thickness: f64,
-    medium: lensbake::prescription::Medium,
-    semi_aperture: f64,
-) -> lensbake::prescription::Surface {
-    lensbake::prescription::Surface::open(shape, thickness, medium, semi_aperture)
-}
-
 /// Traces `batch` forward both as a batch and ray by ray, asserts the two agree bit for bit
 /// (outcome and ray), and returns how many rays passed.
 pub fn batch_matches_one_ray(
