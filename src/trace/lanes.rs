@@ -118,8 +118,11 @@ impl Iterator for SlotIter {
 }
 
 /// Positions and directions of a block's slots: six columns (x, y, z, then dx, dy, dz), each
-/// in strides of [`STRIDE`].
+/// in strides of [`STRIDE`]. Each stride on a cache line of its own: the kernels read and write a
+/// stride with one 64-byte access per column, and where a block happened to sit 8 bytes off a
+/// line on the stack every such access was split across two lines.
 #[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))]
 struct Columns<const STRIDES: usize> {
     values: [[[f64; STRIDE]; STRIDES]; 6],
 }
@@ -161,15 +164,18 @@ impl<const STRIDES: usize> Columns<STRIDES> {
 }
 
 /// Up to `STRIDES` x [`STRIDE`] rays in flight, each with the caller's number for it.
+///
+/// In C order so that the codes, a cache line a stride, follow the line-aligned columns.
 #[derive(Clone, Debug)]
+#[repr(C)]
 pub(crate) struct Block<const STRIDES: usize> {
     /// Two copies of the columns: a kernel reads one and writes the other, so a ray that stops
     /// still has the state it arrived with.
     columns: [Columns<STRIDES>; 2],
-    /// The caller's number of the ray in each slot.
-    ids: [[u32; STRIDE]; STRIDES],
     /// Code per slot from the last kernel.
     events: [[u64; STRIDE]; STRIDES],
+    /// The caller's number of the ray in each slot.
+    ids: [[u32; STRIDE]; STRIDES],
     /// Rays loaded (they fill the first slots of `columns[0]`).
     loaded: usize,
 }
