@@ -1773,6 +1773,28 @@ mod tests {
             .collect()
     }
 
+    /// Every stride of a block's columns and codes starts a cache line, wherever the block is,
+    /// so that no kernel's 64-byte access is split across two lines.
+    #[test]
+    fn block_strides_start_cache_lines() {
+        fn check<const STRIDES: usize>() {
+            let blocks = vec![Block::<STRIDES>::new(), Block::<STRIDES>::new()];
+            for block in &blocks {
+                let columns = block
+                    .columns
+                    .iter()
+                    .flat_map(|set| set.values.iter().flatten());
+                let codes = block.events.iter().map(|codes| codes.as_ptr() as usize);
+                for address in columns.map(|stride| stride.as_ptr() as usize).chain(codes) {
+                    assert_eq!(address % 64, 0, "a block of {STRIDES} strides");
+                }
+            }
+        }
+        check::<1>();
+        check::<{ crate::trace::GROUP_RAYS / STRIDE }>();
+        check::<16>();
+    }
+
     /// The block trace compiled for each instruction set (the portable code is what processors
     /// without AVX2 and FMA run) against the one-ray path compiled for each, bit for bit, in
     /// both directions.
