@@ -4,6 +4,7 @@ use super::lanes::{Block, Finish, Isa, NoVisit, STRIDE};
 use super::{Apertures, Outcome, Ray, Traced, Tracer, Travel};
 use crate::pages::{Pages, resize_on};
 use rayon::prelude::*;
+use std::ops::IndexMut;
 
 /// Rays per parallel work item: large enough to amortise scheduling, small enough to balance
 /// two to a few dozen cores on batches of a few thousand rays.
@@ -133,8 +134,8 @@ const BLOCK_RAYS: usize = BatchBlock::CAPACITY;
 
 /// One block's share of a batch's results, as a block trace fills them: entry `id` of each
 /// window is the result of the block's ray numbered `id`. Windows of exactly a block's size let
-/// the stores go without a bounds check each (a ray's number is below the block's size), which
-/// with seven columns were a tenth of the block loop's instructions.
+/// the seven stores of a ray go without a bounds check each (a ray's number is below the
+/// block's size), where slices of the chunk took seven, against lengths reloaded from the stack.
 struct BlockResults<'a> {
     outcomes: &'a mut [Outcome; BLOCK_RAYS],
     /// x, y, z, dx, dy, dz.
@@ -146,50 +147,20 @@ impl Finish for BlockResults<'_> {
     fn finish(&mut self, id: usize, traced: Traced) {
         let j = id % BLOCK_RAYS;
         self.outcomes[j] = traced.outcome;
-        let (p, d) = (traced.ray.position, traced.ray.direction);
-        for (column, value) in self.columns.iter_mut().zip(p.into_iter().chain(d)) {
-            column[j] = value;
-        }
-    }
-
-    /// A ray at a time, its number read once: the bounds check on the first store is the one
-    /// branch left, and it keeps the loop scalar (vectorised without it, the loop became
-    /// scatters, and the whole trace 20 % slower).
-    #[inline(always)]
-    fn finish_crossed(&mut self, ids: &[u32], columns: [&[f64]; 6]) {
-        let [x, y, z, dx, dy, dz] = columns;
-        for (slot, &id) in ids.iter().enumerate() {
-            let j = id as usize;
-            self.outcomes[j] = Outcome::Ok;
-            let ray = [x[slot], y[slot], z[slot], dx[slot], dy[slot], dz[slot]];
-            for (column, value) in self.columns.iter_mut().zip(ray) {
-                column[j % BLOCK_RAYS] = value;
-            }
-        }
+        store_ray(&mut self.columns, j, traced.ray);
     }
 }
 
-/// Results for a block of fewer than [`BLOCK_RAYS`] rays (a batch's last), copied to their
-/// place once the block is traced.
-struct SpareResults {
-    outcomes: [Outcome; BLOCK_RAYS],
-    columns: [[f64; BLOCK_RAYS]; 6],
-}
-
-impl SpareResults {
-    fn new() -> SpareResults {
-        SpareResults {
-            outcomes: [Outcome::Ok; BLOCK_RAYS],
-            columns: [[0.0; BLOCK_RAYS]; 6],
-        }
-    }
-
-    fn windows(&mut self) -> BlockResults<'_> {
-        let [x, y, z, dx, dy, dz] = &mut self.columns;
-        BlockResults {
-            outcomes: &mut self.outcomes,
-            columns: [x, y, z, dx, dy, dz],
-        }
+/// Writes `ray` into entry `j` of six columns (x, y, z, dx, dy, dz).
+#[inline(always)]
+fn store_ray<C: IndexMut<usize, Output = f64> + ?Sized>(
+    columns: &mut [&mut C; 6],
+    j: usize,
+    ray: Ray,
+) {
+    let values = ray.position.into_iter().chain(ray.direction);
+    for (column, value) in columns.iter_mut().zip(values) {
+        column[j] = value;
     }
 }
 
@@ -248,17 +219,9 @@ impl Tracer {
                 let mut block = BatchBlock::new();
                 let start = chunk * CHUNK;
                 let chunk_len = outcomes.len();
-                let mut trace_block = |first: usize, results: &mut BlockResults<'_>| {
-                    let width = BLOCK_RAYS.min(chunk_len - first);
-                    let rays = start + first..start + first + width;
-                    self.trace_columns_on(
-                        isa,
-                        &mut block,
-                        columns.map(|column| &column[rays.clone()]),
-                        travel,
-                        check,
-                        results,
-                    )
+                let rays_from = |first: usize| {
+                    let rays = start + first..start + first + BLOCK_RAYS.min(chunk_len - first);
+                    columns.map(|column| &column[rays.clone()])
                 };
                 let (outcome_blocks, outcomes_left) = outcomes.as_chunks_mut::<BLOCK_RAYS>();
                 let [x, y, z, dx, dy, dz] =
@@ -276,19 +239,21 @@ impl Tracer {
                             &mut dz.0[k],
                         ],
                     };
-                    count += trace_block(k * BLOCK_RAYS, &mut results);
+                    let rays = rays_from(k * BLOCK_RAYS);
+                    count +=
+                        self.trace_columns_on(isa, &mut block, rays, travel, check, &mut results);
                 }
+                // A chunk's last, shorter block (a batch's last chunk) writes its slices
+                // directly, bounds checked: it runs once a batch.
                 if !outcomes_left.is_empty() {
-                    let width = outcomes_left.len();
-                    let mut spare = SpareResults::new();
-                    count += trace_block(outcome_blocks.len() * BLOCK_RAYS, &mut spare.windows());
-                    outcomes_left.copy_from_slice(&spare.outcomes[..width]);
-                    for (left, spare) in [x.1, y.1, z.1, dx.1, dy.1, dz.1]
-                        .into_iter()
-                        .zip(&spare.columns)
-                    {
-                        left.copy_from_slice(&spare[..width]);
-                    }
+                    let mut left = [x.1, y.1, z.1, dx.1, dy.1, dz.1];
+                    let mut finish = |id: usize, traced: Traced| {
+                        outcomes_left[id] = traced.outcome;
+                        store_ray(&mut left, id, traced.ray);
+                    };
+                    let rays = rays_from(outcome_blocks.len() * BLOCK_RAYS);
+                    count +=
+                        self.trace_columns_on(isa, &mut block, rays, travel, check, &mut finish);
                 }
                 count
             })
