@@ -351,25 +351,6 @@ pub(crate) trait LaneVisitor {
 pub(crate) trait Finish {
     /// A ray's result.
     fn finish(&mut self, id: usize, traced: Traced);
-
-    /// The rays that crossed every surface: the `k`th one's number is `ids[k]`, its final
-    /// position and direction are the `k`th entries of `columns` (x, y, z, dx, dy, dz). A
-    /// caller that stores results in columns takes them a column at a time here.
-    #[inline(always)]
-    fn finish_crossed(&mut self, ids: &[u32], columns: [&[f64]; 6]) {
-        // Indexed column by column: `columns.map` stayed a call per ray, and a traced frame
-        // took 5-8 % longer. Written out rather than through `ray_at`, which computes the same:
-        // with `ray_at` here the batch trace, which never runs this default, measured 3-6 %
-        // slower in each of three alternating runs (0.0500 against 0.0471 s in the widest), for
-        // a reason in the compiled code that neither 64-byte loop nor function alignment
-        // removed.
-        let [x, y, z, dx, dy, dz] = columns;
-        for (slot, &id) in ids.iter().enumerate() {
-            let ray = Ray::from_parts([x[slot], y[slot], z[slot]], [dx[slot], dy[slot], dz[slot]]);
-            let outcome = Outcome::Ok;
-            self.finish(id as usize, Traced { outcome, ray });
-        }
-    }
 }
 
 impl<F: FnMut(usize, Traced)> Finish for F {
@@ -666,16 +647,20 @@ impl Tracer {
             );
             visit.crossed(i, &ids[..occupied], travelling, x, y);
         }
-        // The survivors to the first slots, so that the caller reads them as plain columns.
-        let count = travelling.len();
-        if travelling != Slots::first(count) {
-            pack(current, ids, travelling, count);
-        }
-        let columns = current
+        let survivors = current
             .values
             .each_ref()
-            .map(|column| &column.as_flattened()[..count]);
-        finish.finish_crossed(&ids[..count], columns);
+            .map(|column| column.as_flattened());
+        for slot in travelling.iter() {
+            let ray = ray_at(survivors, slot);
+            finish.finish(
+                ids[slot] as usize,
+                Traced {
+                    outcome: Outcome::Ok,
+                    ray,
+                },
+            );
+        }
         ray_surfaces
     }
 }
