@@ -300,7 +300,7 @@ enum LookupRays<'a> {
 /// reads: a baked frame ran 2-3 % faster than with them cleared afresh per group. The other
 /// columns stay the group's own: held here as well, they made the frame 8-9 % slower, the
 /// compiler no longer knowing them apart from each other.
-// Every column on whole cache lines, as a trace block's (a line-split vector access costs two).
+// Line-aligned, as a trace block is: no placement splits a column's vector access in two.
 #[repr(align(64))]
 pub(crate) struct LookupScratch {
     /// The interpolated channels; a lane whose ray is not placed keeps an earlier group's.

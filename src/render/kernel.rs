@@ -778,14 +778,15 @@ fn lens_ray(frame: &FrameParams, rays: LensRays, film: Vec3, pupil: Vec3) -> Obj
 
 /// Samples of one pixel that go through the lens together: the traced model runs them through
 /// the block kernels ([`Tracer::trace_group`], the same bits as one ray at a time) instead of one
-/// scalar trace per sample.
+/// scalar trace per sample. The structs that hold a group's columns are line-aligned
+/// (`repr(align(64))`), as a trace block is, so that no placement splits a vector access of a
+/// column across two cache lines.
 const SAMPLE_GROUP: usize = GROUP_RAYS;
 
 /// What [`lens_rays`] works in, kept by a thread from group to group and pixel to pixel: the
 /// film-side rays' columns, the traced model's block and the baked model's lookup columns,
 /// which every group overwrites. A fresh copy per group was a clear of 10 KB, and a traced
 /// frame ran 3 % slower.
-// Every column on whole cache lines, as a trace block's (a line-split vector access costs two).
 #[repr(align(64))]
 struct LensScratch {
     columns: [[f64; SAMPLE_GROUP]; 6],
@@ -1064,7 +1065,6 @@ fn film_point(frame: &FrameParams, p: Vec2) -> Vec3 {
 
 /// One group of a pixel's samples: film points, pupil points and weights, a column per
 /// coordinate (so the lanes' loop stores whole vectors).
-// Every column on whole cache lines, as a trace block's (a line-split vector access costs two).
 #[repr(align(64))]
 struct SampleLanes {
     film: [[f32; SAMPLE_GROUP]; 3],
@@ -1185,7 +1185,6 @@ fn march_group(
 }
 
 /// A group's [`image_span`]s, a column per value.
-// Every column on whole cache lines, as a trace block's (a line-split vector access costs two).
 #[repr(align(64))]
 struct ImageSpans {
     ends: [[f32; SAMPLE_GROUP]; 6],
@@ -1305,7 +1304,6 @@ impl ImageSpans {
 
 /// A group's [`MarchStart`]s, a column per value (a closed span's start is computed and not
 /// used).
-// Every column on whole cache lines, as a trace block's (a line-split vector access costs two).
 #[repr(align(64))]
 struct MarchStarts {
     inverse_run: [[f32; SAMPLE_GROUP]; 2],
