@@ -2,7 +2,7 @@
 
 use super::lanes::{Block, Finish, Isa, NoVisit, STRIDE};
 use super::{Apertures, Outcome, Ray, Traced, Tracer, Travel};
-use crate::pages::{Pages, resize_on};
+use crate::pages::{Pages, fence_streaming_stores, resize_on, store_streaming};
 use rayon::prelude::*;
 use std::ops::IndexMut;
 
@@ -142,6 +142,51 @@ struct BlockResults<'a> {
     columns: [&'a mut [f64; BLOCK_RAYS]; 6],
 }
 
+impl BlockResults<'_> {
+    /// Writes what `staged` holds into these windows with streaming stores.
+    fn store_streaming(&mut self, staged: &StagedResults) {
+        store_streaming(self.outcomes, &staged.outcomes);
+        for (window, column) in self.columns.iter_mut().zip(&staged.columns) {
+            store_streaming(window, column);
+        }
+    }
+}
+
+/// Batches of at least this many rays write their results through [`StagedResults`]: their
+/// results (64 bytes a ray) and rays (48) outgrow the caches, and reading each result line into
+/// the cache before writing it, as ordinary stores do, is then a third of the memory traffic.
+/// Measured on an AMD Zen 4 (1 MiB second-level cache), one core, a batch traced over and over:
+/// cooke-triplet 50k rays the same (22.6 against 22.5 ns a ray), 100k 9 % faster, 400k and 1M
+/// 8-12 %; 20k rays, whose results stay in cache, 5-14 % slower streamed.
+const STREAM_RESULTS_FROM_RAYS: usize = 1 << 16;
+
+/// A block's results gathered on the stack, where the block trace's scattered stores (a ray's
+/// result when it stops) stay in the first-level cache, then streamed to the batch's results a
+/// window at a time ([`BlockResults::store_streaming`]).
+#[repr(C, align(64))]
+struct StagedResults {
+    outcomes: [Outcome; BLOCK_RAYS],
+    /// x, y, z, dx, dy, dz.
+    columns: [[f64; BLOCK_RAYS]; 6],
+}
+
+impl StagedResults {
+    fn new() -> StagedResults {
+        StagedResults {
+            outcomes: [Outcome::Ok; BLOCK_RAYS],
+            columns: [[0.0; BLOCK_RAYS]; 6],
+        }
+    }
+
+    fn results(&mut self) -> BlockResults<'_> {
+        let [x, y, z, dx, dy, dz] = &mut self.columns;
+        BlockResults {
+            outcomes: &mut self.outcomes,
+            columns: [x, y, z, dx, dy, dz],
+        }
+    }
+}
+
 impl Finish for BlockResults<'_> {
     #[inline(always)]
     fn finish(&mut self, id: usize, traced: Traced) {
@@ -205,6 +250,8 @@ impl Tracer {
         let columns = rays.columns();
         let ended = &mut out.rays;
         let isa = Isa::detect();
+        // Elsewhere `store_streaming` is an ordinary copy, which staging would only add.
+        let streamed = cfg!(target_arch = "x86_64") && n >= STREAM_RESULTS_FROM_RAYS;
         out.ray_surfaces = out
             .outcomes
             .par_chunks_mut(CHUNK)
@@ -226,9 +273,10 @@ impl Tracer {
                 let (outcome_blocks, outcomes_left) = outcomes.as_chunks_mut::<BLOCK_RAYS>();
                 let [x, y, z, dx, dy, dz] =
                     [x, y, z, dx, dy, dz].map(|column| column.as_chunks_mut::<BLOCK_RAYS>());
+                let mut staged = streamed.then(StagedResults::new);
                 let mut count = 0;
                 for (k, outcomes) in outcome_blocks.iter_mut().enumerate() {
-                    let mut results = BlockResults {
+                    let mut windows = BlockResults {
                         outcomes,
                         columns: [
                             &mut x.0[k],
@@ -240,8 +288,31 @@ impl Tracer {
                         ],
                     };
                     let rays = rays_from(k * BLOCK_RAYS);
-                    count +=
-                        self.trace_columns_on(isa, &mut block, rays, travel, check, &mut results);
+                    count += match &mut staged {
+                        Some(staged) => {
+                            let traced = self.trace_columns_on(
+                                isa,
+                                &mut block,
+                                rays,
+                                travel,
+                                check,
+                                &mut staged.results(),
+                            );
+                            windows.store_streaming(staged);
+                            traced
+                        }
+                        None => self.trace_columns_on(
+                            isa,
+                            &mut block,
+                            rays,
+                            travel,
+                            check,
+                            &mut windows,
+                        ),
+                    };
+                }
+                if streamed {
+                    fence_streaming_stores();
                 }
                 // A chunk's last, shorter block (a batch's last chunk) writes its slices
                 // directly, bounds checked: it runs once a batch.
@@ -258,5 +329,37 @@ impl Tracer {
                 count
             })
             .sum();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::lenses::load;
+    use crate::prescription::formats::LoadOptions;
+    use crate::trace::FieldBundle;
+
+    #[test]
+    fn streamed_results_equal_single_rays() {
+        // Large enough to take the streamed path, with a short last chunk and block; traced
+        // into storage that held another batch's results, so every entry must be rewritten.
+        let system = load("dgauss-50mm", &LoadOptions::default()).unwrap().system;
+        let tracer = Tracer::new(&system.at(system.design_wavelength_nm()));
+        let bundle = FieldBundle::over_traceable_field(&tracer).unwrap();
+        let n = STREAM_RESULTS_FROM_RAYS + 1001;
+        let mut out = tracer.trace_batch(&bundle.sample(n, 1), Travel::Forward, Apertures::Checked);
+        let rays = bundle.sample(n, 2);
+        tracer.trace_batch_into(&rays, Travel::Forward, Apertures::Checked, &mut out);
+        let mut vignetted = 0;
+        for (i, ray) in rays.iter().enumerate() {
+            let single = tracer.trace(ray, Travel::Forward);
+            assert_eq!(out.outcomes[i], single.outcome, "ray {i}");
+            assert_eq!(out.rays.get(i).unwrap(), single.ray, "ray {i}");
+            vignetted += usize::from(!single.outcome.is_ok());
+        }
+        assert!(
+            vignetted > n / 10 && vignetted < n / 2,
+            "{vignetted} vignetted"
+        );
     }
 }
