@@ -1,7 +1,7 @@
 //! Rays in blocks, surface by surface, for throughput.
 //!
 //! One ray's trace is a chain of dependent square roots and divisions, so a single ray keeps
-//! the floating-point units mostly waiting. A [`Block`] holds up to 128 rays as columns
+//! the floating-point units mostly waiting. A [`Block`] holds up to 256 rays as columns
 //! (structure of arrays) and crosses one surface with all of them before the next, so the
 //! processor overlaps independent chains and the straight-line kernels below pack [`STRIDE`]
 //! rays into vector instructions. After each surface the rays that stopped are reported, and
@@ -50,44 +50,48 @@ const VIGNETTED: u64 = 2;
 /// hit point).
 const NOT_BENT: u64 = 3;
 
-/// A set of a block's slots, one bit per slot (blocks hold at most 128 rays). The block's
+/// A set of a block's slots, one bit per slot in four 64-bit words (blocks hold at most 256
+/// rays). The block's
 /// bookkeeping (which rays stopped at a surface, which holes packing fills) works on these
 /// bits a stride or a whole block at a time instead of slot by slot.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub(crate) struct Slots(u128);
+pub(crate) struct Slots([u64; 4]);
 
 impl Slots {
     /// Slots `0..n`.
     fn first(n: usize) -> Slots {
-        debug_assert!(n <= 128);
-        Slots(u128::MAX.checked_shr(128 - n as u32).unwrap_or(0))
+        debug_assert!(n <= 256);
+        Slots(std::array::from_fn(|w| {
+            let bits = n.saturating_sub(64 * w).min(64);
+            u64::MAX.checked_shr(64 - bits as u32).unwrap_or(0)
+        }))
     }
 
     pub fn contains(self, slot: usize) -> bool {
-        (self.0 >> slot) & 1 != 0
+        (self.0[slot / 64] >> (slot % 64)) & 1 != 0
     }
 
     fn len(self) -> usize {
-        self.0.count_ones() as usize
+        self.0.iter().map(|w| w.count_ones() as usize).sum()
     }
 
     fn is_empty(self) -> bool {
-        self.0 == 0
+        self.0.iter().all(|&w| w == 0)
     }
 
     fn and(self, other: Slots) -> Slots {
-        Slots(self.0 & other.0)
+        Slots(std::array::from_fn(|w| self.0[w] & other.0[w]))
     }
 
     fn without(self, other: Slots) -> Slots {
-        Slots(self.0 & !other.0)
+        Slots(std::array::from_fn(|w| self.0[w] & !other.0[w]))
     }
 
     /// The slots in increasing order.
     fn iter(self) -> SlotIter {
         SlotIter {
-            low: self.0 as u64,
-            high: (self.0 >> 64) as u64,
+            words: self.0,
+            word: 0,
         }
     }
 }
@@ -95,8 +99,9 @@ impl Slots {
 /// The slots of a [`Slots`], lowest first, found 64 bits at a time (with 128-bit scans and
 /// borrows the trace was about 3 % slower, criterion).
 struct SlotIter {
-    low: u64,
-    high: u64,
+    words: [u64; 4],
+    /// The word being scanned: the ones before it are empty.
+    word: usize,
 }
 
 impl Iterator for SlotIter {
@@ -104,16 +109,16 @@ impl Iterator for SlotIter {
 
     #[inline(always)]
     fn next(&mut self) -> Option<usize> {
-        let (bits, base) = if self.low != 0 {
-            (&mut self.low, 0)
-        } else if self.high != 0 {
-            (&mut self.high, 64)
-        } else {
-            return None;
-        };
-        let slot = base + bits.trailing_zeros() as usize;
-        *bits &= *bits - 1;
-        Some(slot)
+        while self.word < 4 {
+            let bits = &mut self.words[self.word];
+            if *bits != 0 {
+                let slot = 64 * self.word + bits.trailing_zeros() as usize;
+                *bits &= *bits - 1;
+                return Some(slot);
+            }
+            self.word += 1;
+        }
+        None
     }
 }
 
@@ -184,7 +189,7 @@ impl<const STRIDES: usize> Block<STRIDES> {
     pub const CAPACITY: usize = STRIDES * STRIDE;
 
     pub fn new() -> Block<STRIDES> {
-        const { assert!(Self::CAPACITY <= 128, "a block's slots fit one Slots") };
+        const { assert!(Self::CAPACITY <= 256, "a block's slots fit one Slots") };
         Block {
             columns: [Columns::ZERO; 2],
             ids: [[0; STRIDE]; STRIDES],
@@ -774,8 +779,8 @@ type Kernel<const STRIDES: usize> = unsafe fn(
 /// time (a vector compare and its mask).
 #[inline(always)]
 fn stopped_slots<const STRIDES: usize>(events: &[[u64; STRIDE]; STRIDES], strides: usize) -> Slots {
-    // A 64-bit word per half: into one u128, each stride's bits took a two-word shift by a
-    // variable count (see `stopped_slots_avx2`).
+    // A 64-bit word per 64 slots: into one u128, each stride's bits took a two-word shift by
+    // a variable count (see `stopped_slots_avx2`).
     let word = |strides: &[[u64; STRIDE]]| {
         let mut slots = 0u64;
         for (k, stride) in strides.iter().enumerate() {
@@ -786,8 +791,11 @@ fn stopped_slots<const STRIDES: usize>(events: &[[u64; STRIDE]; STRIDES], stride
         }
         slots
     };
-    let (low, high) = events[..strides].split_at(strides.min(64 / STRIDE));
-    Slots(u128::from(word(low)) | u128::from(word(high)) << 64)
+    let mut words = [0u64; 4];
+    for (w, chunk) in events[..strides].chunks(64 / STRIDE).enumerate() {
+        words[w] = word(chunk);
+    }
+    Slots(words)
 }
 
 /// [`stopped_slots`] with AVX2 instructions.
@@ -806,7 +814,7 @@ unsafe fn stopped_slots_avx2<const STRIDES: usize>(
     };
     const { assert!(CROSSED == 0, "a crossed ray's code is all zero bits") };
     let codes = &events.as_flattened()[..strides * STRIDE];
-    // Each 64-slot half gathered in a 64-bit register of its own, shifted by one instruction:
+    // Each 64 slots gathered in a 64-bit register of their own, shifted by one instruction:
     // into one u128, each four codes' bits took a two-word shift by a variable count and its
     // fix-up for counts past 63 (`bench trace` 2.6 % slower, medians of 21). Or-ed into an
     // array indexed by the word, the bits went through memory, each four codes waiting for the
@@ -826,8 +834,11 @@ unsafe fn stopped_slots_avx2<const STRIDES: usize>(
         }
         stopped
     };
-    let (low, high) = codes.split_at(codes.len().min(64));
-    Slots(u128::from(word(low)) | u128::from(word(high)) << 64)
+    let mut words = [0u64; 4];
+    for (w, chunk) in codes.chunks(64).enumerate() {
+        words[w] = word(chunk);
+    }
+    Slots(words)
 }
 
 /// Marks vignetted the lanes of the first `strides` strides whose hit points (`next`'s x and y)
@@ -1778,6 +1789,7 @@ mod tests {
         check::<1>();
         check::<{ crate::trace::GROUP_RAYS / STRIDE }>();
         check::<16>();
+        check::<32>();
     }
 
     /// The block trace compiled for each instruction set (the portable code is what processors
@@ -1787,8 +1799,8 @@ mod tests {
     fn every_instruction_set_traces_blocks_bit_for_bit_as_one_ray() {
         let tracer = tracer();
         for (travel, rays) in [
-            (Travel::Forward, rays(3 * 128 + 5)),
-            (Travel::Backward, backward_rays(3 * 128 + 5)),
+            (Travel::Forward, rays(3 * 256 + 5)),
+            (Travel::Backward, backward_rays(3 * 256 + 5)),
         ] {
             blocks_trace_as_one_ray(&tracer, travel, &rays);
         }
@@ -1810,7 +1822,7 @@ mod tests {
         // little, every fifth steeply (these miss a surface or are reflected totally inside an
         // element).
         let rays = |z: f64, sense: f64| -> Vec<Ray> {
-            (0..3 * 128 + 5)
+            (0..3 * 256 + 5)
                 .map(|i| {
                     let (a, r) = (i as f64 * 0.37, 9.5 * ((i % 97) as f64 / 97.0).sqrt());
                     let tilt = if i % 5 == 0 { 1.5 } else { 0.02 };
@@ -1872,7 +1884,7 @@ mod tests {
         };
         let system = LensSystem::from_prescription(prescription).unwrap();
         let tracer = Tracer::new(&system.at(550.0));
-        let rays: Vec<Ray> = (0..3 * 128 + 5)
+        let rays: Vec<Ray> = (0..3 * 256 + 5)
             .map(|i| {
                 let (a, r) = (i as f64 * 0.37, 8.5 * ((i % 97) as f64 / 97.0).sqrt());
                 let tilt = 1.2 * ((i % 7) as f64 / 6.0);
@@ -1918,7 +1930,7 @@ mod tests {
         let tracer = Tracer::new(&system.at(550.0));
         let grazing = Ray::new([1.0, 2.0, 0.0], [1.0, 0.0, 1e-300]).unwrap();
         let rays: Vec<Ray> = std::iter::repeat_n(grazing, 3)
-            .chain(rays(3 * 128 + 2).into_iter().map(|ray| {
+            .chain(rays(3 * 256 + 2).into_iter().map(|ray| {
                 let [x, y, _] = ray.position;
                 Ray::new([x, y, -1.0], ray.direction).unwrap()
             }))
@@ -1983,18 +1995,18 @@ mod tests {
                 // Loaded into the block, and read in place from columns (the last chunk, 5
                 // rays, is not whole strides and is copied in).
                 for ((b, chunk), from_columns) in rays
-                    .chunks(128)
+                    .chunks(256)
                     .enumerate()
                     .flat_map(|chunk| [(chunk, false), (chunk, true)])
                 {
-                    let mut block = Block::<16>::new();
+                    let mut block = Block::<32>::new();
                     let mut seen = vec![false; chunk.len()];
                     let mut finish = |id: usize, traced: Traced| {
                         assert!(!seen[id], "ray {id} reported twice");
                         seen[id] = true;
                         assert_eq!(
                             traced,
-                            single[128 * b + id],
+                            single[256 * b + id],
                             "{travel:?}, {isa:?}, ray {id}, from columns: {from_columns}"
                         );
                         outcomes.insert(traced.outcome.status());
@@ -2024,7 +2036,7 @@ mod tests {
                     assert!(seen.iter().all(|&s| s));
                     // A ray stopped at surface s (1-based) crossed s surfaces forward, n + 1 - s
                     // backward.
-                    let expected: usize = single[128 * b..128 * b + chunk.len()]
+                    let expected: usize = single[256 * b..256 * b + chunk.len()]
                         .iter()
                         .map(|t| match (t.outcome.surface(), travel) {
                             (None, _) => n,
