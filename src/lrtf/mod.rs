@@ -13,5 +13,5 @@ pub mod table;
 pub use entries::Entries;
 pub use focus::{FocusError, FocusRange};
 pub use param::{Frame, Parameterisation, Ray, Transfer};
-pub(crate) use table::LookupScratch;
 pub use table::{Corners, GpuParams, Layer, Lookup, LrtfTable, Precision, TableInfo};
+pub(crate) use table::{LOOKUP_GROUP, LookupScratch};

@@ -3,17 +3,16 @@
 //! It is the test oracle for the GPU path and the fallback where no adapter exists. Each
 //! function here has a namesake in the shader; change both together. Where the shader works one
 //! sample at a time without a loop of its own (drawing the samples, building the film-side rays,
-//! a ray's span over the layer image), the twin works on a pixel's samples side by side in vector
-//! lanes: the same operations on each, choices made by selecting instead of branching, so the
-//! values are the shader's. The one deliberate
-//! difference: the traced and baked lens functions are not f32 ports here but the library's own
+//! a ray's span over the layer image), the twin works on groups of samples, of one pixel or
+//! several, side by side in vector lanes: the same operations on each, choices made by selecting
+//! instead of branching, so the values are the shader's. The one deliberate difference: the traced and baked lens functions are not f32 ports here but the library's own
 //! f64 tracer ([`crate::trace`]) and table sampler ([`LrtfTable::lookup`]), so the CPU twin *is*
 //! the oracle the shader's ports are measured against.
 
 use super::RenderError;
 use super::chromatic::{CHANNELS, ChannelLenses, Chromatic};
 use super::gpu_types::{ChannelParams, FrameParams, LayerData, LensData, SeidelParams};
-use crate::lrtf::{Lookup, LookupScratch, LrtfTable};
+use crate::lrtf::{LOOKUP_GROUP, Lookup, LookupScratch, LrtfTable};
 use crate::model::{LensModel, SEIDEL_CONVERGED_MM, SEIDEL_INVERSE_STEPS, SEIDEL_SETTLED_MM};
 use crate::trace::{GROUP_RAYS, GroupBlock, Tracer, Travel, with_widest_isa};
 use rayon::prelude::*;
@@ -776,17 +775,21 @@ fn lens_ray(frame: &FrameParams, rays: LensRays, film: Vec3, pupil: Vec3) -> Obj
     one[0]
 }
 
-/// Samples of one pixel that go through the lens together: the traced model runs them through
-/// the block kernels ([`Tracer::trace_group`], the same bits as one ray at a time) instead of one
-/// scalar trace per sample. The structs that hold a group's columns are line-aligned
+/// Samples that go through the lens together, a run's pixels one after the other (four pixels'
+/// at 64 samples a pixel): the traced model runs them through the block kernels
+/// ([`Tracer::trace_group`], the same bits as one ray at a time) instead of one scalar trace per
+/// sample, in blocks as large as a batch's. A pixel's 64 samples alone in a group, the traced
+/// frame was 11 % slower (200 x 150 at 64 samples, dgauss-50mm, one Zen 4 core: 0.128 against
+/// 0.114 s), and at a few samples a pixel, as the viewer draws them, most lanes were empty (at 4
+/// samples 7.5x slower). The structs that hold a group's columns are line-aligned
 /// (`repr(align(64))`), as a trace block is, so that no placement splits a vector access of a
 /// column across two cache lines.
 const SAMPLE_GROUP: usize = GROUP_RAYS;
 
-/// What [`lens_rays`] works in, kept by a thread from group to group and pixel to pixel: the
+/// What [`lens_rays`] works in, kept by a thread from group to group and run to run: the
 /// film-side rays' columns, the traced model's block and the baked model's lookup columns,
-/// which every group overwrites. A fresh copy per group was a clear of 10 KB, and a traced
-/// frame ran 3 % slower.
+/// which every group overwrites. A fresh copy per group (then of a pixel's samples) was a clear
+/// of 10 KB, and a traced frame ran 3 % slower.
 #[repr(align(64))]
 struct LensScratch {
     columns: [[f64; SAMPLE_GROUP]; 6],
@@ -857,12 +860,22 @@ fn lens_rays(
                 #[inline(always)]
                 |_| film_side_rays::<false>(samples, columns, &mut [false; SAMPLE_GROUP]),
             );
-            table.lookup_columns(layer, columns, count, stop_radius, lookup, |k, looked| {
-                out[k] = match looked {
-                    Lookup::Passes(ray) => leaving(ray.origin, ray.direction),
-                    Lookup::Blocked | Lookup::OutsideDomain => blocked_ray(),
-                };
-            });
+            // A lookup takes fewer rays than a group holds: the group's columns a lookup's share
+            // at a time.
+            for first in (0..count).step_by(LOOKUP_GROUP) {
+                let share = columns.each_ref().map(|column| {
+                    *column[first..]
+                        .first_chunk::<LOOKUP_GROUP>()
+                        .expect("a group is whole lookups")
+                });
+                let n = (count - first).min(LOOKUP_GROUP);
+                table.lookup_columns(layer, &share, n, stop_radius, lookup, |k, looked| {
+                    out[first + k] = match looked {
+                        Lookup::Passes(ray) => leaving(ray.origin, ray.direction),
+                        Lookup::Blocked | Lookup::OutsideDomain => blocked_ray(),
+                    };
+                });
+            }
         }
     }
 }
@@ -1063,8 +1076,8 @@ fn film_point(frame: &FrameParams, p: Vec2) -> Vec3 {
     ]
 }
 
-/// One group of a pixel's samples: film points, pupil points and weights, a column per
-/// coordinate (so the lanes' loop stores whole vectors).
+/// One group of samples: film points, pupil points and weights, a column per coordinate (so the
+/// lanes' loop stores whole vectors).
 #[repr(align(64))]
 struct SampleLanes {
     film: [[f32; SAMPLE_GROUP]; 3],
@@ -1098,26 +1111,76 @@ impl SampleLanes {
     }
 }
 
-/// Samples `first..first + SAMPLE_GROUP` of pixel (x, y) in this dispatch's numbering, all of
-/// them side by side (the ones past the dispatch's last are computed and not used): the loop
-/// has no branches and writes only its own columns, so compiled for the widest instruction set
-/// it runs in vector lanes.
+/// Which sample of which pixel each lane of a group draws, a column per value: a run's pixels
+/// one after the other, each pixel's samples in order, so that a group spans pixels when a
+/// pixel has fewer samples than a group has lanes.
+#[repr(align(64))]
+struct LaneDraws {
+    /// The pixel's place in its run.
+    slot: [u32; SAMPLE_GROUP],
+    /// The pixel's column and row.
+    pixel: [[u32; SAMPLE_GROUP]; 2],
+    /// The sample's number among the pixel's samples of this dispatch.
+    sample: [u32; SAMPLE_GROUP],
+    /// The pixel's [`PixelScrambles`]: lens, then jitter.
+    scrambles: [[u32; SAMPLE_GROUP]; 4],
+}
+
+impl LaneDraws {
+    fn new() -> LaneDraws {
+        LaneDraws {
+            slot: [0; SAMPLE_GROUP],
+            pixel: [[0; SAMPLE_GROUP]; 2],
+            sample: [0; SAMPLE_GROUP],
+            scrambles: [[0; SAMPLE_GROUP]; 4],
+        }
+    }
+
+    /// Lanes `lanes` draw the samples numbered from `first` on of pixel `[x, y]`, the run's
+    /// pixel `slot`.
+    fn draw(
+        &mut self,
+        lanes: std::ops::Range<usize>,
+        slot: u32,
+        [x, y]: [u32; 2],
+        first: u32,
+        scrambles: &PixelScrambles,
+    ) {
+        let keys = [
+            scrambles.lens[0],
+            scrambles.lens[1],
+            scrambles.jitter[0],
+            scrambles.jitter[1],
+        ];
+        let start = lanes.start;
+        for k in lanes {
+            self.slot[k] = slot;
+            self.pixel[0][k] = x;
+            self.pixel[1][k] = y;
+            self.sample[k] = first.wrapping_add((k - start) as u32);
+            for (column, key) in self.scrambles.iter_mut().zip(keys) {
+                column[k] = key;
+            }
+        }
+    }
+}
+
+/// The samples `draws` names, all of them side by side (lanes past the group's last draw are
+/// computed and not used): the loop has no branches and writes only its own columns, so
+/// compiled for the widest instruction set it runs in vector lanes.
 #[inline(always)]
-fn sample_lanes(
-    frame: &FrameParams,
-    circles: &SamplingCircles,
-    scrambles: &PixelScrambles,
-    [x, y]: [u32; 2],
-    first: u32,
-) -> SampleLanes {
+fn sample_lanes(frame: &FrameParams, circles: &SamplingCircles, draws: &LaneDraws) -> SampleLanes {
     let mut lanes = SampleLanes::EMPTY;
     for k in 0..SAMPLE_GROUP {
-        let index = frame.sample_offset.wrapping_add(
-            first
-                .wrapping_add(k as u32)
-                .wrapping_mul(frame.sample_stride),
-        );
-        let (film, lens_u) = pixel_sample(frame, scrambles, x, y, index);
+        let index = frame
+            .sample_offset
+            .wrapping_add(draws.sample[k].wrapping_mul(frame.sample_stride));
+        let scrambles = PixelScrambles {
+            lens: [draws.scrambles[0][k], draws.scrambles[1][k]],
+            jitter: [draws.scrambles[2][k], draws.scrambles[3][k]],
+        };
+        let [x, y] = [draws.pixel[0][k], draws.pixel[1][k]];
+        let (film, lens_u) = pixel_sample(frame, &scrambles, x, y, index);
         let (pupil, weight) = pupil_sample(frame, circles, film, lens_u);
         for axis in 0..3 {
             lanes.film[axis][k] = film[axis];
@@ -1128,32 +1191,48 @@ fn sample_lanes(
     lanes
 }
 
-/// This dispatch's samples of output pixel (x, y), [`SAMPLE_GROUP`] at a time, handed to
-/// `group` in sample order with the number of lanes that hold this dispatch's samples.
+/// This dispatch's samples of the output pixels `pixels` (row-major indices), [`SAMPLE_GROUP`]
+/// at a time, handed to `group` in order (pixel by pixel, each pixel's samples in order) with
+/// each lane's pixel (its place in `pixels`) and the number of lanes that hold samples.
 fn for_sample_groups(
     frame: &FrameParams,
     lens: &LensData,
     sampling_block: u32,
-    x: u32,
-    y: u32,
-    mut group: impl FnMut(&SampleLanes, usize),
+    pixels: &[u32],
+    mut group: impl FnMut(&SampleLanes, &[u32; SAMPLE_GROUP], usize),
 ) {
     let circles = SamplingCircles::new(lens, sampling_block);
-    let scrambles = PixelScrambles::new(frame.seed, y * frame.width + x);
-    let mut first = 0;
-    while first < frame.sample_count {
-        let count = (frame.sample_count - first).min(SAMPLE_GROUP as u32) as usize;
+    let mut draws = LaneDraws::new();
+    let mut drawn = |draws: &LaneDraws, count: usize| {
         let lanes = with_widest_isa(
             #[inline(always)]
-            |_| sample_lanes(frame, &circles, &scrambles, [x, y], first),
+            |_| sample_lanes(frame, &circles, draws),
         );
-        group(&lanes, count);
-        first += count as u32;
+        group(&lanes, &draws.slot, count);
+    };
+    let mut filled = 0;
+    for (slot, &pixel) in (0u32..).zip(pixels) {
+        let xy = [pixel % frame.width, pixel / frame.width];
+        let scrambles = PixelScrambles::new(frame.seed, pixel);
+        let mut first = 0;
+        while first < frame.sample_count {
+            let count = (frame.sample_count - first).min((SAMPLE_GROUP - filled) as u32);
+            let lanes = filled..filled + count as usize;
+            draws.draw(lanes.clone(), slot, xy, first, &scrambles);
+            (filled, first) = (lanes.end, first + count);
+            if filled == SAMPLE_GROUP {
+                drawn(&draws, filled);
+                filled = 0;
+            }
+        }
+    }
+    if filled > 0 {
+        drawn(&draws, filled);
     }
 }
 
-/// Hands `add` each sample's weight and the colour its object ray meets in the layers, in
-/// sample order (samples whose ray meets nothing are skipped). The rays' spans over the layer
+/// Hands `add` each sample's lane, its weight and the colour its object ray meets in the layers,
+/// in lane order (samples whose ray meets nothing are skipped). The rays' spans over the layer
 /// image are set up side by side in vector lanes, then each is marched; all of it compiled for
 /// the widest instruction set, which the march's scalar code gains from too (three-operand
 /// forms, cheaper conversions).
@@ -1163,7 +1242,7 @@ fn march_group(
     object: &[ObjectRay; SAMPLE_GROUP],
     count: usize,
     weight: &[f32],
-    mut add: impl FnMut(f32, Vec3),
+    mut add: impl FnMut(usize, f32, Vec3),
 ) {
     with_widest_isa(
         #[inline(always)]
@@ -1177,7 +1256,7 @@ fn march_group(
                     && let Some(layer) = march(frame, layers, &segment, starts.get(k, &segment))
                 {
                     let c = layers.colours[layer as usize];
-                    add(w, [c[0], c[1], c[2]]);
+                    add(k, w, [c[0], c[1], c[2]]);
                 }
             }
         },
@@ -1363,26 +1442,25 @@ impl MarchStarts {
     }
 }
 
-/// Weighted radiance summed over this dispatch's samples for output pixel (x, y): the body of
-/// the shader's `render` entry point (which takes the samples one at a time; the sums are the
-/// same, added in the same order).
-fn render_pixel(
+/// Weighted radiance summed over this dispatch's samples into `sums[i]` for output pixel
+/// `pixels[i]`: the body of the shader's `render` entry point (which takes a pixel's samples one
+/// at a time; each pixel's sum is the same, added in the same order).
+fn render_pixels(
     frame: &FrameParams,
     layers: &LayerData,
     lens: &LensData,
     rays: LensRays,
     scratch: &mut LensScratch,
-    [x, y]: [u32; 2],
-) -> Vec3 {
-    let mut sum = [0.0f32; 3];
+    pixels: &[u32],
+    sums: &mut [Vec3],
+) {
     let mut object = [blocked_ray(); SAMPLE_GROUP];
     for_sample_groups(
         frame,
         lens,
         MONOCHROME_SAMPLING_BLOCK,
-        x,
-        y,
-        |samples, count| {
+        pixels,
+        |samples, slots, count| {
             lens_rays(frame, rays, samples, scratch, &mut object[..count]);
             march_group(
                 frame,
@@ -1390,15 +1468,14 @@ fn render_pixel(
                 &object,
                 count,
                 &samples.weight[..count],
-                |w, colour| {
-                    for (acc, c) in sum.iter_mut().zip(colour) {
+                |k, w, colour| {
+                    for (acc, c) in sums[slots[k] as usize].iter_mut().zip(colour) {
                         *acc += w * c;
                     }
                 },
             );
         },
     );
-    sum
 }
 
 /// The shader's `channel_lens_ray` for a group of samples: channel `channel`'s object rays in a
@@ -1422,27 +1499,28 @@ fn channel_lens_rays(
     }
 }
 
-/// The body of the shader's `render_chromatic`: each sample's film and pupil point traced once
-/// per colour channel through that channel's lens, each channel keeping its own colour (each
-/// channel's sum gets its samples in the shader's order).
-fn render_pixel_chromatic(
+/// The body of the shader's `render_chromatic` for the output pixels `pixels` into `sums`: each
+/// sample's film and pupil point traced once per colour channel through that channel's lens,
+/// each channel keeping its own colour (each pixel's channel sums get their samples in the
+/// shader's order).
+#[allow(clippy::too_many_arguments)]
+fn render_pixels_chromatic(
     frame: &FrameParams,
     layers: &LayerData,
     lens: &LensData,
     channels: &ChannelParams,
     rays: &[LensRays; CHANNELS],
     scratch: &mut LensScratch,
-    [x, y]: [u32; 2],
-) -> Vec3 {
-    let mut sum = [0.0f32; 3];
+    pixels: &[u32],
+    sums: &mut [Vec3],
+) {
     let mut object = [blocked_ray(); SAMPLE_GROUP];
     for_sample_groups(
         frame,
         lens,
         channels.sampling_block,
-        x,
-        y,
-        |samples, count| {
+        pixels,
+        |samples, slots, count| {
             for (channel, channel_rays) in rays.iter().enumerate() {
                 channel_lens_rays(
                     frame,
@@ -1459,14 +1537,13 @@ fn render_pixel_chromatic(
                     &object,
                     count,
                     &samples.weight[..count],
-                    |w, colour| {
-                        sum[channel] += w * colour[channel];
+                    |k, w, colour| {
+                        sums[slots[k] as usize][channel] += w * colour[channel];
                     },
                 );
             }
         },
     );
-    sum
 }
 
 /// The order the CPU twin draws pixels in. Each pixel's sum is its own, so no value depends on
@@ -1537,40 +1614,55 @@ fn pixels_by_film_ring(frame: &FrameParams) -> Vec<u32> {
     order
 }
 
-/// Adds `pixel(x, y)` into `radiance_sum` (one RGBA entry per output pixel, row-major), in
-/// parallel, the pixels in `order`.
+/// Output pixels rendered together, one after the other in the pixel order: a group of samples
+/// spans pixels where a pixel has fewer samples than a group has lanes, so the lens kernels and
+/// the march's lanes run on full groups but for a run's last. As many pixels as a group has
+/// lanes, so that even one sample a pixel fills groups: with 64-pixel runs a frame of one
+/// sample a pixel took 1.75x as long (4.9 against 2.8 ms, 200 x 150, dgauss-50mm, one core);
+/// from 4 samples on the same.
+const PIXEL_RUN: usize = SAMPLE_GROUP;
+
+/// Adds what `pixels(run, sums)` sums for each run of output pixels (row-major indices) into
+/// `radiance_sum` (one RGBA entry per output pixel, row-major), runs in parallel, the pixels in
+/// `order`.
 fn accumulate_pixels(
     frame: &FrameParams,
     order: PixelOrder,
     radiance_sum: &mut [[f32; 4]],
-    pixel: impl Fn(&mut LensScratch, u32, u32) -> Vec3 + Sync,
+    pixels: impl Fn(&mut LensScratch, &[u32], &mut [Vec3]) + Sync,
 ) {
-    let width = frame.width;
     let add = |out: &mut [f32; 4], s: Vec3| {
         out[0] += s[0];
         out[1] += s[1];
         out[2] += s[2];
     };
+    let run_sums = |scratch: &mut LensScratch, run: &[u32]| {
+        let mut sums = [[0.0; 3]; PIXEL_RUN];
+        pixels(scratch, run, &mut sums[..run.len()]);
+        sums
+    };
     match order {
         PixelOrder::Rows => radiance_sum
-            .par_chunks_mut(width as usize)
+            .par_chunks_mut(PIXEL_RUN)
             .enumerate()
-            .for_each(|(y, row)| {
-                let mut scratch = LensScratch::new();
-                for (x, out) in row.iter_mut().enumerate() {
-                    add(out, pixel(&mut scratch, x as u32, y as u32));
+            .for_each_init(LensScratch::new, |scratch, (run, out)| {
+                let first = (run * PIXEL_RUN) as u32;
+                let run: [u32; PIXEL_RUN] = std::array::from_fn(|k| first + k as u32);
+                let sums = run_sums(scratch, &run[..out.len()]);
+                for (out, s) in out.iter_mut().zip(sums) {
+                    add(out, s);
                 }
             }),
         PixelOrder::FilmRings => {
             let order = pixels_by_film_ring(frame);
-            let sums: Vec<Vec3> = order
-                .par_iter()
-                .map_init(LensScratch::new, |scratch, &i| {
-                    pixel(scratch, i % width, i / width)
-                })
+            let sums: Vec<[Vec3; PIXEL_RUN]> = order
+                .par_chunks(PIXEL_RUN)
+                .map_init(LensScratch::new, run_sums)
                 .collect();
-            for (&i, s) in order.iter().zip(sums) {
-                add(&mut radiance_sum[i as usize], s);
+            for (run, sums) in order.chunks(PIXEL_RUN).zip(&sums) {
+                for (&i, s) in run.iter().zip(sums) {
+                    add(&mut radiance_sum[i as usize], *s);
+                }
             }
         }
     }
@@ -1586,8 +1678,8 @@ pub fn accumulate(
     radiance_sum: &mut [[f32; 4]],
 ) {
     let order = PixelOrder::for_lenses(&[rays]);
-    accumulate_pixels(frame, order, radiance_sum, |scratch, x, y| {
-        render_pixel(frame, layers, lens, rays, scratch, [x, y])
+    accumulate_pixels(frame, order, radiance_sum, |scratch, pixels, sums| {
+        render_pixels(frame, layers, lens, rays, scratch, pixels, sums)
     });
 }
 
@@ -1602,8 +1694,8 @@ pub fn accumulate_chromatic(
     radiance_sum: &mut [[f32; 4]],
 ) {
     let order = PixelOrder::for_lenses(&rays);
-    accumulate_pixels(frame, order, radiance_sum, |scratch, x, y| {
-        render_pixel_chromatic(frame, layers, lens, channels, &rays, scratch, [x, y])
+    accumulate_pixels(frame, order, radiance_sum, |scratch, pixels, sums| {
+        render_pixels_chromatic(frame, layers, lens, channels, &rays, scratch, pixels, sums)
     });
 }
 
@@ -2022,6 +2114,75 @@ mod tests {
                     assert!(
                         (*got as f64 - want).abs() < 3e-7,
                         "{u:?}: {d:?} against {expected:?}"
+                    );
+                }
+            }
+        }
+    }
+
+    /// A pixel's sum is the same, bit for bit, whichever pixels share its groups of samples:
+    /// the traced double Gauss's pixels rendered in one run against each in a run of its own,
+    /// at sample counts that fill a group with many pixels, split a pixel across groups, or
+    /// leave a run's last group part-full, in rows and in a shuffled order.
+    #[test]
+    fn a_pixels_sum_does_not_depend_on_the_pixels_sharing_its_groups() {
+        use crate::model::{FirstOrderModels, TracedLens};
+        let system = crate::lenses::load("dgauss-50mm", &Default::default())
+            .unwrap()
+            .system;
+        let first = FirstOrderModels::of(&system, None).unwrap();
+        let film = Film::full_frame_for(24, 16);
+        let focus = Focus::ObjectDistance(2000.0);
+        let thick = Camera::new(LensModel::Thick(first.thick.clone()), film, focus).unwrap();
+        let corner = thick.film_corner_radius();
+        let traced =
+            TracedLens::fitted(&system, &first, first.f_number, thick.film_z, corner, 8).unwrap();
+        let camera = Camera::new(
+            LensModel::Traced(Box::new(traced)),
+            film,
+            Focus::FilmZ(thick.film_z),
+        )
+        .unwrap();
+        let settings = RenderSettings {
+            width: 24,
+            height: 16,
+            samples_per_pixel: 1,
+            seed: 7,
+            max_layers: 4,
+        };
+        let scene = Scene::demo();
+        let view = layer_view(&camera, &settings, scene.nearest_distance_mm().unwrap());
+        let layers = LayerData::pack(&scene.peel(view, 4)).unwrap();
+        let lens = LensData::of(&camera.model, super::super::gpu_types::TableTexels::Omitted);
+        let rays = LensRays::of(&camera.model);
+        let pixels: Vec<u32> = (0..24 * 16).collect();
+        let shuffled: Vec<u32> = (0..24 * 16).map(|i| (i * 97) % (24 * 16)).collect();
+        for samples in [1, 5, 64, 300] {
+            let frame = FrameParams {
+                sample_count: samples,
+                ..frame_params(&camera, &layers, view.tan_half, 24, 16, samples, 7)
+            };
+            let mut scratch = LensScratch::new();
+            let mut render = |run: &[u32], sums: &mut [Vec3]| {
+                render_pixels(&frame, &layers, &lens, rays, &mut scratch, run, sums)
+            };
+            let mut alone = vec![[0.0; 3]; pixels.len()];
+            for (&pixel, sum) in pixels.iter().zip(&mut alone) {
+                render(&[pixel], std::slice::from_mut(sum));
+            }
+            assert!(
+                alone.iter().any(|s| s[0] > 0.0),
+                "{samples} samples: something is seen"
+            );
+            for order in [&pixels, &shuffled] {
+                let mut together = vec![[0.0; 3]; order.len()];
+                render(order, &mut together);
+                for (&pixel, sum) in order.iter().zip(&together) {
+                    let expected = alone[pixel as usize];
+                    assert_eq!(
+                        sum.map(f32::to_bits),
+                        expected.map(f32::to_bits),
+                        "{samples} samples, pixel {pixel}"
                     );
                 }
             }

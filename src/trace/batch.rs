@@ -10,14 +10,21 @@ use std::ops::IndexMut;
 /// two to a few dozen cores on batches of a few thousand rays.
 const CHUNK: usize = 1024;
 
-/// Rays traced together by [`Tracer::trace_batch`]: 256, enough that the survivors of a block
-/// fill whole vector strides after the edge rays of the field have been vignetted, and that a
-/// block's cost per surface besides its rays' work (its kernel call and bookkeeping, about 100
-/// cycles) is spread over many rays. Against 128-ray blocks, 1M rays on a Zen 4 (32 KiB
-/// first-level cache, which the block's two states, 24 KiB, and a streamed batch's staged
-/// results, 16 KiB, together pass): double Gauss 3-4 % faster, singlet 10 %, asph-50mm-f1.8 6 %,
-/// tessar 2 %, telephoto and wide 1 %, triplet the same.
-type BatchBlock = Block<{ 256 / STRIDE }>;
+/// Rays traced together, by [`Tracer::trace_batch`] a block at a time and by the renderer's CPU
+/// twin a group of samples at a time ([`Tracer::trace_group`]): 256, enough that the survivors
+/// of a block fill whole vector strides after the edge rays of the field have been vignetted,
+/// and that a block's cost per surface besides its rays' work (its kernel call and bookkeeping,
+/// about 100 cycles) is spread over many rays. Against 128-ray blocks, 1M rays on a Zen 4
+/// (32 KiB first-level cache, which the block's two states, 24 KiB, and a streamed batch's
+/// staged results, 16 KiB, together pass): double Gauss 3-4 % faster, singlet 10 %,
+/// asph-50mm-f1.8 6 %, tessar 2 %, telephoto and wide 1 %, triplet the same.
+pub(crate) const GROUP_RAYS: usize = 256;
+
+/// The block [`Tracer::trace_batch`] and [`Tracer::trace_group`] trace in: a caller that traces
+/// group after group keeps one and passes it each time, since clearing a fresh block per group
+/// was 2 % of a traced frame's profile. What a trace leaves in it does not change the next
+/// one's results.
+pub(crate) type GroupBlock = Block<{ GROUP_RAYS / STRIDE }>;
 
 /// Rays stored as six columns (position x, y, z and direction x, y, z). Built only from
 /// [`Ray`]s, so every entry is finite with a unit direction.
@@ -123,27 +130,14 @@ pub struct BatchTrace {
     pub ray_surfaces: u64,
 }
 
-/// Most rays [`Tracer::trace_group`] takes: blocks this large keep the per-surface cost of a
-/// block (its kernel call, its bookkeeping) small against the rays' arithmetic; with 16 rays a
-/// pixel's traced samples rendered about a quarter slower.
-pub(crate) const GROUP_RAYS: usize = 64;
-
-/// The block [`Tracer::trace_group`] traces in: a caller that traces group after group keeps
-/// one and passes it each time, since clearing a fresh block per group was 2 % of a traced
-/// frame's profile. What a trace leaves in it does not change the next one's results.
-pub(crate) type GroupBlock = Block<{ GROUP_RAYS / STRIDE }>;
-
-/// Rays in a [`BatchBlock`].
-const BLOCK_RAYS: usize = BatchBlock::CAPACITY;
-
 /// One block's share of a batch's results, as a block trace fills them: entry `id` of each
 /// window is the result of the block's ray numbered `id`. Windows of exactly a block's size let
 /// the seven stores of a ray go without a bounds check each (a ray's number is below the
 /// block's size), where slices of the chunk took seven, against lengths reloaded from the stack.
 struct BlockResults<'a> {
-    outcomes: &'a mut [Outcome; BLOCK_RAYS],
+    outcomes: &'a mut [Outcome; GROUP_RAYS],
     /// x, y, z, dx, dy, dz.
-    columns: [&'a mut [f64; BLOCK_RAYS]; 6],
+    columns: [&'a mut [f64; GROUP_RAYS]; 6],
 }
 
 impl BlockResults<'_> {
@@ -169,16 +163,16 @@ const STREAM_RESULTS_FROM_RAYS: usize = 1 << 16;
 /// window at a time ([`BlockResults::store_streaming`]).
 #[repr(C, align(64))]
 struct StagedResults {
-    outcomes: [Outcome; BLOCK_RAYS],
+    outcomes: [Outcome; GROUP_RAYS],
     /// x, y, z, dx, dy, dz.
-    columns: [[f64; BLOCK_RAYS]; 6],
+    columns: [[f64; GROUP_RAYS]; 6],
 }
 
 impl StagedResults {
     fn new() -> StagedResults {
         StagedResults {
-            outcomes: [Outcome::Ok; BLOCK_RAYS],
-            columns: [[0.0; BLOCK_RAYS]; 6],
+            outcomes: [Outcome::Ok; GROUP_RAYS],
+            columns: [[0.0; GROUP_RAYS]; 6],
         }
     }
 
@@ -194,7 +188,7 @@ impl StagedResults {
 impl Finish for BlockResults<'_> {
     #[inline(always)]
     fn finish(&mut self, id: usize, traced: Traced) {
-        let j = id % BLOCK_RAYS;
+        let j = id % GROUP_RAYS;
         self.outcomes[j] = traced.outcome;
         store_ray(&mut self.columns, j, traced.ray);
     }
@@ -270,19 +264,19 @@ impl Tracer {
             // a trace leaves in them does not change the next one's results): made afresh per
             // chunk, 43 KiB cleared per 1,024 rays, the trace was 1.5-4 % slower.
             .map_init(
-                || (BatchBlock::new(), streamed.then(StagedResults::new)),
+                || (GroupBlock::new(), streamed.then(StagedResults::new)),
                 |(block, staged), (chunk, ((((((outcomes, x), y), z), dx), dy), dz))| {
                     let start = chunk * CHUNK;
                     let chunk_len = outcomes.len();
                     let rays_from = |first: usize| {
-                        let rays = start + first..start + first + BLOCK_RAYS.min(chunk_len - first);
+                        let rays = start + first..start + first + GROUP_RAYS.min(chunk_len - first);
                         columns.map(|column| &column[rays.clone()])
                     };
-                    let (outcome_blocks, outcomes_left) = outcomes.as_chunks_mut::<BLOCK_RAYS>();
+                    let (outcome_blocks, outcomes_left) = outcomes.as_chunks_mut::<GROUP_RAYS>();
                     let [x, y, z, dx, dy, dz] =
-                        [x, y, z, dx, dy, dz].map(|column| column.as_chunks_mut::<BLOCK_RAYS>());
+                        [x, y, z, dx, dy, dz].map(|column| column.as_chunks_mut::<GROUP_RAYS>());
                     let mut trace_block = |k: usize, results: &mut BlockResults<'_>| {
-                        let rays = rays_from(k * BLOCK_RAYS);
+                        let rays = rays_from(k * GROUP_RAYS);
                         self.trace_columns_on(isa, block, rays, travel, check, results)
                     };
                     let mut count = 0;
@@ -318,7 +312,7 @@ impl Tracer {
                             outcomes_left[id] = traced.outcome;
                             store_ray(&mut left, id, traced.ray);
                         };
-                        let rays = rays_from(outcome_blocks.len() * BLOCK_RAYS);
+                        let rays = rays_from(outcome_blocks.len() * GROUP_RAYS);
                         count +=
                             self.trace_columns_on(isa, block, rays, travel, check, &mut finish);
                     }
