@@ -787,12 +787,14 @@ fn lens_ray(frame: &FrameParams, rays: LensRays, film: Vec3, pupil: Vec3) -> Obj
 const SAMPLE_GROUP: usize = GROUP_RAYS;
 
 /// What [`lens_rays`] works in, kept by a thread from group to group and run to run: the
-/// film-side rays' columns, the traced model's block and the baked model's lookup columns,
-/// which every group overwrites. A fresh copy per group (then of a pixel's samples) was a clear
-/// of 10 KB, and a traced frame ran 3 % slower.
+/// film-side rays' columns (a group's for the traced model, a lookup's share for the baked one),
+/// the traced model's block and the baked model's lookup columns, which every group overwrites.
+/// A fresh copy per group (then of a pixel's samples) was a clear of 10 KB, and a traced frame
+/// ran 3 % slower.
 #[repr(align(64))]
 struct LensScratch {
     columns: [[f64; SAMPLE_GROUP]; 6],
+    share: [[f64; LOOKUP_GROUP]; 6],
     block: GroupBlock,
     lookup: LookupScratch,
 }
@@ -801,6 +803,7 @@ impl LensScratch {
     fn new() -> LensScratch {
         LensScratch {
             columns: [[0.0; SAMPLE_GROUP]; 6],
+            share: [[0.0; LOOKUP_GROUP]; 6],
             block: GroupBlock::new(),
             lookup: LookupScratch::new(),
         }
@@ -818,6 +821,7 @@ fn lens_rays(
 ) {
     let LensScratch {
         columns,
+        share,
         block,
         lookup,
     } = scratch;
@@ -838,7 +842,7 @@ fn lens_rays(
             let mut built = [false; SAMPLE_GROUP];
             with_widest_isa(
                 #[inline(always)]
-                |_| film_side_rays::<true>(samples, columns, &mut built),
+                |_| film_side_rays::<true, SAMPLE_GROUP>(samples, 0, columns, &mut built),
             );
             out.fill(blocked_ray());
             let chosen = &built[..count];
@@ -853,23 +857,22 @@ fn lens_rays(
             stop_radius,
             layer,
         } => {
-            // Looked up together, so the table reads of the whole group overlap. A ray that
-            // cannot be built has no direction, which no table holds (it falls outside). A
+            // A lookup takes fewer rays than a group holds: the group a lookup's share at a
+            // time, each share's rays looked up together, so their table reads overlap (its
+            // film-side rays built straight into the share's columns: built for the whole
+            // group and copied a share at a time, the copies were 4 % of a baked frame). A ray
+            // that cannot be built has no direction, which no table holds (it falls outside). A
             // lookup reads only the line of a ray, so the directions are not made unit.
-            with_widest_isa(
-                #[inline(always)]
-                |_| film_side_rays::<false>(samples, columns, &mut [false; SAMPLE_GROUP]),
-            );
-            // A lookup takes fewer rays than a group holds: the group's columns a lookup's share
-            // at a time.
             for first in (0..count).step_by(LOOKUP_GROUP) {
-                let share = columns.each_ref().map(|column| {
-                    *column[first..]
-                        .first_chunk::<LOOKUP_GROUP>()
-                        .expect("a group is whole lookups")
-                });
+                with_widest_isa(
+                    #[inline(always)]
+                    |_| {
+                        let unused = &mut [false; LOOKUP_GROUP];
+                        film_side_rays::<false, LOOKUP_GROUP>(samples, first, share, unused)
+                    },
+                );
                 let n = (count - first).min(LOOKUP_GROUP);
-                table.lookup_columns(layer, &share, n, stop_radius, lookup, |k, looked| {
+                table.lookup_columns(layer, share, n, stop_radius, lookup, |k, looked| {
                     out[first + k] = match looked {
                         Lookup::Passes(ray) => leaving(ray.origin, ray.direction),
                         Lookup::Blocked | Lookup::OutsideDomain => blocked_ray(),
@@ -880,23 +883,29 @@ fn lens_rays(
     }
 }
 
-/// The f64 film-side rays of all lanes of `samples` (from the film point towards the pupil
-/// point, the direction made unit when `UNIT`) into `columns`, a column per coordinate (x, y, z,
-/// dx, dy, dz), and whether each could be built into `built`: with `UNIT`, what
+/// The f64 film-side rays of lanes `first..first + N` of `samples` (from the film point towards
+/// the pupil point, the direction made unit when `UNIT`) into `columns`, a column per coordinate
+/// (x, y, z, dx, dy, dz), and whether each could be built into `built`: with `UNIT`, what
 /// [`crate::trace::Ray::new`] makes of them, bit for bit, side by side in vector lanes. From f32
 /// points a direction's squared length can neither overflow nor underflow f64, so `Ray::new`
 /// divides by the length, as here; it refuses only non-finite values and a zero direction.
 /// Written into the caller's columns: returned by value, they were copied once more.
 #[inline(always)]
-fn film_side_rays<const UNIT: bool>(
+fn film_side_rays<const UNIT: bool, const N: usize>(
     samples: &SampleLanes,
-    columns: &mut [[f64; SAMPLE_GROUP]; 6],
-    built: &mut [bool; SAMPLE_GROUP],
+    first: usize,
+    columns: &mut [[f64; N]; 6],
+    built: &mut [bool; N],
 ) {
-    for k in 0..SAMPLE_GROUP {
-        // Written out: through `array::map` over the axes the compiler kept a call in the loop.
-        let [fx, fy, fz] = &samples.film;
-        let [px, py, pz] = &samples.pupil;
+    let [fx, fy, fz] = samples
+        .film
+        .each_ref()
+        .map(|column| lanes::<N>(column, first));
+    let [px, py, pz] = samples
+        .pupil
+        .each_ref()
+        .map(|column| lanes::<N>(column, first));
+    for k in 0..N {
         let position = [fx[k], fy[k], fz[k]].map(f64::from);
         let d = [px[k] - fx[k], py[k] - fy[k], pz[k] - fz[k]].map(f64::from);
         let length = crate::trace::dot(d, d).sqrt();
@@ -910,6 +919,14 @@ fn film_side_rays<const UNIT: bool>(
             columns[3 + axis][k] = if UNIT { d[axis] / length } else { d[axis] };
         }
     }
+}
+
+/// Lanes `first..first + N` of a group's column.
+#[inline(always)]
+fn lanes<const N: usize>(column: &[f32; SAMPLE_GROUP], first: usize) -> &[f32; N] {
+    column[first..]
+        .first_chunk::<N>()
+        .expect("the lanes lie in the group")
 }
 
 /// The kernel's lens function alone: the object-space ray (a point on it, and the direction the
@@ -2242,12 +2259,12 @@ mod tests {
             }
         };
         let (mut columns, mut built) = ([[0.0; SAMPLE_GROUP]; 6], [false; SAMPLE_GROUP]);
-        film_side_rays::<true>(&samples, &mut columns, &mut built);
+        film_side_rays::<true, SAMPLE_GROUP>(&samples, 0, &mut columns, &mut built);
         check(&columns, &built);
         let (mut columns, mut built) = ([[0.0; SAMPLE_GROUP]; 6], [false; SAMPLE_GROUP]);
         with_widest_isa(
             #[inline(always)]
-            |_| film_side_rays::<true>(&samples, &mut columns, &mut built),
+            |_| film_side_rays::<true, SAMPLE_GROUP>(&samples, 0, &mut columns, &mut built),
         );
         check(&columns, &built);
         assert_eq!(built.iter().filter(|&&b| !b).count(), 3, "lanes 0, 1 and 2");
