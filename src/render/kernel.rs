@@ -5,9 +5,10 @@
 //! sample at a time without a loop of its own (drawing the samples, building the film-side rays,
 //! a ray's span over the layer image), the twin works on groups of samples, of one pixel or
 //! several, side by side in vector lanes: the same operations on each, choices made by selecting
-//! instead of branching, so the values are the shader's. The one deliberate difference: the traced and baked lens functions are not f32 ports here but the library's own
-//! f64 tracer ([`crate::trace`]) and table sampler ([`LrtfTable::lookup`]), so the CPU twin *is*
-//! the oracle the shader's ports are measured against.
+//! instead of branching, so the values are the shader's. The one deliberate difference: the
+//! traced and baked lens functions are not f32 ports here but the library's own f64 tracer
+//! ([`crate::trace`]) and table sampler ([`LrtfTable::lookup`]), so the CPU twin *is* the oracle
+//! the shader's ports are measured against.
 
 use super::RenderError;
 use super::chromatic::{CHANNELS, ChannelLenses, Chromatic};
@@ -430,8 +431,8 @@ impl Segment {
 
 /// The ray's stretch between the near and far depth clipped to the layer image, and whether
 /// anything is left of it (the ray is valid, travels towards the scene and crosses the image):
-/// the first part of the segment a ray marches, without branches, so a group's rays get theirs side by
-/// side in vector lanes.
+/// the first part of the segment a ray marches, without branches, so a group's rays get theirs
+/// side by side in vector lanes.
 #[inline(always)]
 fn image_span(frame: &FrameParams, ray: &ObjectRay) -> (Segment, bool) {
     let a = project(frame, ray, frame.near_depth);
@@ -775,8 +776,8 @@ fn lens_ray(frame: &FrameParams, rays: LensRays, film: Vec3, pupil: Vec3) -> Obj
     one[0]
 }
 
-/// Samples that go through the lens together, a run's pixels one after the other (four pixels'
-/// at 64 samples a pixel): the traced model runs them through the block kernels
+/// Samples that go through the lens together, a run's pixels one after the other (four pixels
+/// to a group at 64 samples a pixel): the traced model runs them through the block kernels
 /// ([`Tracer::trace_group`], the same bits as one ray at a time) instead of one scalar trace per
 /// sample, in blocks as large as a batch's. A pixel's 64 samples alone in a group, the traced
 /// frame was 11 % slower (200 x 150 at 64 samples, dgauss-50mm, one Zen 4 core: 0.128 against
