@@ -2269,5 +2269,20 @@ mod tests {
         );
         check(&columns, &built);
         assert_eq!(built.iter().filter(|&&b| !b).count(), 3, "lanes 0, 1 and 2");
+        // A lookup's share of the lanes, as the baked model builds them (directions not made
+        // unit), holds the same rays as those lanes of the whole group.
+        let (mut whole, mut whole_built) = ([[0.0; SAMPLE_GROUP]; 6], [false; SAMPLE_GROUP]);
+        film_side_rays::<false, SAMPLE_GROUP>(&samples, 0, &mut whole, &mut whole_built);
+        for first in (0..SAMPLE_GROUP).step_by(LOOKUP_GROUP) {
+            let (mut share, mut built) = ([[0.0; LOOKUP_GROUP]; 6], [false; LOOKUP_GROUP]);
+            film_side_rays::<false, LOOKUP_GROUP>(&samples, first, &mut share, &mut built);
+            for k in 0..LOOKUP_GROUP {
+                assert_eq!(built[k], whole_built[first + k], "lane {}", first + k);
+                for axis in 0..6 {
+                    let (lane, expected) = (share[axis][k], whole[axis][first + k]);
+                    assert_eq!(lane.to_bits(), expected.to_bits(), "lane {}", first + k);
+                }
+            }
+        }
     }
 }
