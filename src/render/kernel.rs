@@ -1773,7 +1773,7 @@ mod tests {
             (segment, start)
         })
     }
-    use crate::model::ParaxialLens;
+    use crate::model::{ModelKind, ParaxialLens};
     use crate::render::camera::{Camera, Film, Focus};
     use crate::render::gpu_types::frame_params;
     use crate::render::layers::{LayeredDepthImage, Surfel, View};
@@ -2169,39 +2169,30 @@ mod tests {
         }
     }
 
+    /// The demo scene through dgauss-50mm's `kind` model, `width` x `height`, focused at 2 m,
+    /// as a render job prepares it: the camera, the packed layers and the view's half-field
+    /// tangents.
+    fn dgauss_demo(kind: ModelKind, width: u32, height: u32) -> (Camera, LayerData, [f64; 2]) {
+        use crate::job::{BackendChoice, ModelChoice, RenderJob, RenderLens};
+        let lens = crate::lenses::load("dgauss-50mm", &Default::default()).unwrap();
+        let mut job = RenderJob::new(RenderLens::Real(Box::new(lens)));
+        job.model = ModelChoice::Model(kind);
+        job.backend = BackendChoice::Cpu;
+        job.settings.width = width;
+        job.settings.height = height;
+        job.settings.max_layers = 4;
+        let prepared = job.prepare(&|_| {}).unwrap();
+        let layers = LayerData::pack(&prepared.layers).unwrap();
+        (prepared.camera, layers, prepared.layers.view.tan_half)
+    }
+
     /// A pixel's sum is the same, bit for bit, whichever pixels share its groups of samples:
     /// the traced double Gauss's pixels rendered in one run against each in a run of its own,
     /// at sample counts that fill a group with many pixels, split a pixel across groups, or
     /// leave a run's last group part-full, in rows and in a shuffled order.
     #[test]
     fn a_pixels_sum_does_not_depend_on_the_pixels_sharing_its_groups() {
-        use crate::model::{FirstOrderModels, TracedLens};
-        let system = crate::lenses::load("dgauss-50mm", &Default::default())
-            .unwrap()
-            .system;
-        let first = FirstOrderModels::of(&system, None).unwrap();
-        let film = Film::full_frame_for(24, 16);
-        let focus = Focus::ObjectDistance(2000.0);
-        let thick = Camera::new(LensModel::Thick(first.thick.clone()), film, focus).unwrap();
-        let corner = thick.film_corner_radius();
-        let traced =
-            TracedLens::fitted(&system, &first, first.f_number, thick.film_z, corner, 8).unwrap();
-        let camera = Camera::new(
-            LensModel::Traced(Box::new(traced)),
-            film,
-            Focus::FilmZ(thick.film_z),
-        )
-        .unwrap();
-        let settings = RenderSettings {
-            width: 24,
-            height: 16,
-            samples_per_pixel: 1,
-            seed: 7,
-            max_layers: 4,
-        };
-        let scene = Scene::demo();
-        let view = layer_view(&camera, &settings, scene.nearest_distance_mm().unwrap());
-        let layers = LayerData::pack(&scene.peel(view, 4)).unwrap();
+        let (camera, layers, tan_half) = dgauss_demo(ModelKind::Traced, 24, 16);
         let lens = LensData::of(&camera.model, super::super::gpu_types::TableTexels::Omitted);
         let rays = LensRays::of(&camera.model);
         let pixels: Vec<u32> = (0..24 * 16).collect();
@@ -2209,7 +2200,7 @@ mod tests {
         for samples in [1, 5, 64, 300] {
             let frame = FrameParams {
                 sample_count: samples,
-                ..frame_params(&camera, &layers, view.tan_half, 24, 16, samples, 7)
+                ..frame_params(&camera, &layers, tan_half, 24, 16, samples, 7)
             };
             let mut scratch = LensScratch::new();
             let mut render = |run: &[u32], sums: &mut [Vec3]| {
@@ -2280,29 +2271,17 @@ mod tests {
 
     /// The Seidel model's rays in vector lanes are the shader's one-sample loop's, bit for bit,
     /// compiled for the baseline and the widest instruction set, for full and part-full groups:
-    /// film points over a full frame through pupil points far outside the pupil, so some fixed
-    /// points settle in a step or two, some take many and some never settle; and a lane with a
-    /// NaN film point and one whose ray never leaves the film plane.
+    /// film points over a full frame through pupil points far outside the pupil, on the lens's
+    /// sums and on aberrations 30 times as strong, so lanes stop at different steps and some
+    /// never settle; and a lane with a NaN film point and one whose ray never leaves the film
+    /// plane.
     #[test]
     fn seidel_rays_in_lanes_are_the_one_sample_loops_bit_for_bit() {
-        use crate::model::{FirstOrderModels, SeidelLens};
-        let system = crate::lenses::load("dgauss-50mm", &Default::default())
-            .unwrap()
-            .system;
-        let first = FirstOrderModels::of(&system, None).unwrap();
-        let seidel = SeidelLens::in_focus(&system, &first, Some(2000.0)).unwrap();
-        let film_z = seidel.image_z;
-        let camera = Camera::new(
-            LensModel::Seidel(Box::new(seidel)),
-            Film::full_frame_for(96, 64),
-            Focus::FilmZ(film_z),
-        )
-        .unwrap();
+        let (camera, layers, tan_half) = dgauss_demo(ModelKind::Seidel, 96, 64);
         let LensRays::Seidel(params) = LensRays::of(&camera.model) else {
             panic!("a Seidel camera has Seidel rays");
         };
-        let (layers, _) = demo_frame(96, 64, 2);
-        let frame = frame_params(&camera, &layers, [0.4, 0.3], 96, 64, 1, 1);
+        let frame = frame_params(&camera, &layers, tan_half, 96, 64, 1, 1);
         let mut samples = SampleLanes::EMPTY;
         for k in 0..SAMPLE_GROUP {
             let u = |a: f32| (a * k as f32).fract() - 0.5;
