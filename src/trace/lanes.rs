@@ -1655,7 +1655,7 @@ mod tests {
     use super::*;
     use crate::prescription::{Medium, Prescription, Provenance, Shape, StopShape, Surface};
     use crate::system::LensSystem;
-    use crate::trace::{Apertures, RayBatch};
+    use crate::trace::{Apertures, GROUP_RAYS, GroupBlock, RayBatch};
 
     /// Every instruction set this processor runs, the portable one included.
     fn runnable() -> Vec<Isa> {
@@ -1829,7 +1829,7 @@ mod tests {
         }
         check::<1>();
         check::<16>();
-        check::<{ crate::trace::GROUP_RAYS / STRIDE }>();
+        check::<{ GROUP_RAYS / STRIDE }>();
     }
 
     /// The block trace compiled for each instruction set (the portable code is what processors
@@ -1839,8 +1839,8 @@ mod tests {
     fn every_instruction_set_traces_blocks_bit_for_bit_as_one_ray() {
         let tracer = tracer();
         for (travel, rays) in [
-            (Travel::Forward, rays(3 * 256 + 5)),
-            (Travel::Backward, backward_rays(3 * 256 + 5)),
+            (Travel::Forward, rays(3 * GROUP_RAYS + 5)),
+            (Travel::Backward, backward_rays(3 * GROUP_RAYS + 5)),
         ] {
             blocks_trace_as_one_ray(&tracer, travel, &rays);
         }
@@ -1862,7 +1862,7 @@ mod tests {
         // little, every fifth steeply (these miss a surface or are reflected totally inside an
         // element).
         let rays = |z: f64, sense: f64| -> Vec<Ray> {
-            (0..3 * 256 + 5)
+            (0..3 * GROUP_RAYS + 5)
                 .map(|i| {
                     let (a, r) = (i as f64 * 0.37, 9.5 * ((i % 97) as f64 / 97.0).sqrt());
                     let tilt = if i % 5 == 0 { 1.5 } else { 0.02 };
@@ -1924,7 +1924,7 @@ mod tests {
         };
         let system = LensSystem::from_prescription(prescription).unwrap();
         let tracer = Tracer::new(&system.at(550.0));
-        let rays: Vec<Ray> = (0..3 * 256 + 5)
+        let rays: Vec<Ray> = (0..3 * GROUP_RAYS + 5)
             .map(|i| {
                 let (a, r) = (i as f64 * 0.37, 8.5 * ((i % 97) as f64 / 97.0).sqrt());
                 let tilt = 1.2 * ((i % 7) as f64 / 6.0);
@@ -1970,7 +1970,7 @@ mod tests {
         let tracer = Tracer::new(&system.at(550.0));
         let grazing = Ray::new([1.0, 2.0, 0.0], [1.0, 0.0, 1e-300]).unwrap();
         let rays: Vec<Ray> = std::iter::repeat_n(grazing, 3)
-            .chain(rays(3 * 256 + 2).into_iter().map(|ray| {
+            .chain(rays(3 * GROUP_RAYS + 2).into_iter().map(|ray| {
                 let [x, y, _] = ray.position;
                 Ray::new([x, y, -1.0], ray.direction).unwrap()
             }))
@@ -2035,18 +2035,18 @@ mod tests {
                 // Loaded into the block, and read in place from columns (the last chunk, 5
                 // rays, is not whole strides and is copied in).
                 for ((b, chunk), from_columns) in rays
-                    .chunks(256)
+                    .chunks(GROUP_RAYS)
                     .enumerate()
                     .flat_map(|chunk| [(chunk, false), (chunk, true)])
                 {
-                    let mut block = Block::<32>::new();
+                    let mut block = GroupBlock::new();
                     let mut seen = vec![false; chunk.len()];
                     let mut finish = |id: usize, traced: Traced| {
                         assert!(!seen[id], "ray {id} reported twice");
                         seen[id] = true;
                         assert_eq!(
                             traced,
-                            single[256 * b + id],
+                            single[GROUP_RAYS * b + id],
                             "{travel:?}, {isa:?}, ray {id}, from columns: {from_columns}"
                         );
                         outcomes.insert(traced.outcome.status());
@@ -2076,7 +2076,7 @@ mod tests {
                     assert!(seen.iter().all(|&s| s));
                     // A ray stopped at surface s (1-based) crossed s surfaces forward, n + 1 - s
                     // backward.
-                    let expected: usize = single[256 * b..256 * b + chunk.len()]
+                    let expected: usize = single[GROUP_RAYS * b..GROUP_RAYS * b + chunk.len()]
                         .iter()
                         .map(|t| match (t.outcome.surface(), travel) {
                             (None, _) => n,
@@ -2099,7 +2099,6 @@ mod tests {
     /// and other lanes went through before.
     #[test]
     fn a_group_from_columns_traces_the_chosen_lanes_as_one_ray() {
-        use crate::trace::{GROUP_RAYS, GroupBlock};
         let tracer = tracer();
         let rays = rays(2 * GROUP_RAYS);
         let mut block = GroupBlock::new();
