@@ -1162,7 +1162,9 @@ impl SampleLanes {
 
 /// Which sample of which pixel each lane of a group draws, a column per value: a run's pixels
 /// one after the other, each pixel's samples in order, so that a group spans pixels when a
-/// pixel has fewer samples than a group has lanes.
+/// pixel has fewer samples than a group has lanes. A pixel's column, row and scrambles are
+/// worked out once for the pixel and copied into its lanes, rather than found from its index in
+/// every lane (a division and five hashes a sample).
 #[repr(align(64))]
 struct LaneDraws {
     /// The pixel's place in its run.
