@@ -1356,7 +1356,10 @@ fn closest_focus_approaches_the_front_focal_plane() {
         };
         let error = bake(&system, &request, &|_| {}).unwrap_err();
         assert!(
-            matches!(error, BakeError::Paraxial(_) | BakeError::FilmPlane { .. }),
+            matches!(
+                error,
+                BakeError::Paraxial(_) | BakeError::InsideFrontFocalLength { .. }
+            ),
             "focus {distance}: {error}"
         );
     }

@@ -8,9 +8,12 @@ mod common;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-use lensbake::lrtf::bake::{BakeRequest, FilmPointRays, bake, first_order, rear_search_radius};
+use lensbake::lrtf::bake::{
+    BakeError, BakeRequest, FilmPointRays, bake, first_order, rear_search_radius,
+};
 use lensbake::lrtf::measure::table_error_focused;
 use lensbake::lrtf::{FocusError, LrtfTable, Ray};
+use lensbake::prescription::{Medium, Prescription, Provenance, Shape, StopShape, Surface};
 use lensbake::pupil::RearTest;
 use lensbake::system::LensSystem;
 use lensbake::trace::Tracer;
@@ -400,12 +403,48 @@ fn focus_outside_a_range_is_a_typed_error() {
         },
         &|_| {},
     );
+    let Err(BakeError::InsideFrontFocalLength {
+        distance_mm,
+        front_focal_mm,
+    }) = virtual_near
+    else {
+        panic!("{virtual_near:?}");
+    };
+    let design = telephoto.at(telephoto.design_wavelength_nm());
+    let first = first_order(&design, None).unwrap().first_order;
+    assert_eq!((distance_mm, front_focal_mm), (300.0, -first.z_front_focal));
+    assert!(front_focal_mm > 300.0, "{front_focal_mm}");
+    // A lens whose rear focal point lies inside it: a plano-convex rod (R 10 mm, n 1.5, 40 mm
+    // long, flat back) brings an axial beam to focus 30 mm in, and the flat back images that
+    // point 10 / 1.5 mm in front of itself, at z = 40 - 6.667 mm, even for an object at infinity.
+    let rod = LensSystem::from_prescription(Prescription {
+        provenance: Provenance::default(),
+        object_medium: Medium::Air,
+        surfaces: vec![
+            Surface {
+                stop: Some(StopShape::Circle),
+                ..Surface::open(Shape::from_radius(10.0), 40.0, Medium::Index(1.5), 4.0)
+            },
+            Surface::open(Shape::Plane, 10.0, Medium::Air, 4.0),
+        ],
+    })
+    .unwrap();
+    let error = bake(&rod, &BakeRequest::default(), &|_| {}).unwrap_err();
+    let BakeError::FilmPlane {
+        focus,
+        film_z,
+        rear_z,
+    } = &error
+    else {
+        panic!("{error:?}");
+    };
+    assert_eq!((focus.as_str(), *rear_z), ("infinity", 40.0));
+    assert!((film_z - (40.0 - 10.0 / 1.5)).abs() < 1e-12, "{film_z}");
     assert!(
-        matches!(
-            virtual_near,
-            Err(lensbake::lrtf::bake::BakeError::FilmPlane { .. })
-        ),
-        "{virtual_near:?}"
+        error
+            .to_string()
+            .starts_with("cannot focus at infinity: its image plane z = 33.333333 mm"),
+        "{error}"
     );
 }
 

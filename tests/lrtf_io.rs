@@ -120,6 +120,25 @@ fn write_then_read_round_trips_exactly_in_both_precisions() {
     }
 }
 
+/// A table its reader would refuse (here a film of radius 0) is not written: neither into a
+/// new folder nor over a table already there.
+#[test]
+fn a_table_that_could_not_be_read_back_is_not_written() {
+    let lens = singlet(50.0);
+    let mut unreadable = synthetic_table(Precision::F32);
+    unreadable.layers[0].frame.max_film_radius = 0.0;
+    let dir = temp_dir("unreadable");
+    let error = write_table(&unreadable, "singlet", &lens, &dir).unwrap_err();
+    assert!(matches!(error, TableError::Unreadable { .. }), "{error:?}");
+    assert!(error.to_string().contains("max_film_radius = 0"), "{error}");
+    assert!(!dir.exists());
+    let table = synthetic_table(Precision::F32);
+    write_table(&table, "singlet", &lens, &dir).unwrap();
+    assert!(write_table(&unreadable, "singlet", &lens, &dir).is_err());
+    assert_eq!(read_table(&dir, Some(&lens)).unwrap(), table);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 #[test]
 fn a_table_of_another_prescription_is_refused_with_a_rebake_hint() {
     let dir = temp_dir("stale");

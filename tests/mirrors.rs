@@ -395,6 +395,39 @@ fn the_lane_path_traces_mirrors_bit_for_bit_as_the_one_ray_path() {
     );
 }
 
+/// Every chief ray of an obscured lens runs through the obscuration's shadow, so the film a
+/// table covers by default is the one the same lens without the obscuration covers (a film of
+/// radius 0 before, written as a table no reader would load); the table reads back.
+#[test]
+fn an_obscured_lens_bakes_the_film_its_clear_twin_covers() {
+    let obscured = reflex();
+    let mut prescription = obscured.prescription.clone();
+    for surface in &mut prescription.surfaces {
+        surface.obscuration = None;
+    }
+    let clear = LensSystem::from_prescription(prescription).unwrap();
+    let request = BakeRequest {
+        resolution: [4; 3],
+        ..BakeRequest::default()
+    };
+    let film_radius = |lens: &LensSystem| {
+        bake(lens, &request, &|_| {}).unwrap().layers[0]
+            .frame
+            .max_film_radius
+    };
+    let radius = film_radius(&obscured);
+    assert_eq!(radius, film_radius(&clear));
+    // The file's largest field is a paraxial image height of 21 mm; its chief ray passes.
+    assert!(radius > 21.0, "{radius}");
+    let table = bake(&obscured, &request, &|_| {}).unwrap();
+    let dir = std::env::temp_dir().join(format!("lensbake-mirrors-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    lensbake::lrtf::io::write_table(&table, "reflex", &obscured.prescription, &dir).unwrap();
+    let read = lensbake::lrtf::io::read_table(&dir, Some(&obscured.prescription));
+    std::fs::remove_dir_all(&dir).unwrap();
+    assert_eq!(read.unwrap().layers[0].frame.max_film_radius, radius);
+}
+
 #[test]
 fn an_odd_number_of_mirrors_is_analysed_but_not_rendered_or_baked() {
     let lens = concave_mirror(-1.0);

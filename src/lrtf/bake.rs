@@ -85,8 +85,24 @@ pub enum BakeError {
     WavelengthCount(usize),
     #[error("no ray from the film at radius {film_radius} mm passes the lens")]
     NothingPasses { film_radius: f64 },
-    #[error("film plane z = {film_z} mm is not behind the last vertex (z = {rear_z} mm)")]
-    FilmPlane { film_z: f64, rear_z: f64 },
+    #[error(
+        "cannot focus at {} mm: the object must lie beyond the front focal point \
+         ({front_focal_mm:.3} mm in front of the first vertex)",
+        crate::limits::short(*.distance_mm)
+    )]
+    InsideFrontFocalLength {
+        distance_mm: f64,
+        front_focal_mm: f64,
+    },
+    #[error(
+        "cannot focus at {focus}: its image plane z = {film_z:.6} mm is not behind the last \
+         vertex (z = {rear_z:.6} mm)"
+    )]
+    FilmPlane {
+        focus: String,
+        film_z: f64,
+        rear_z: f64,
+    },
     #[error(
         "an odd number of mirrors sends the light back towards the object side; a table needs a \
          lens that images behind its last surface"
@@ -240,8 +256,12 @@ pub fn rear_search_radius(system: &SystemAt) -> f64 {
 
 /// The real chief ray's film radius at the largest traceable field: the largest film radius
 /// whose meridional ray through the stop centre still passes (bisection on the film radius; the
-/// chief ray itself by bisection on its rear-plane crossing).
+/// chief ray itself by bisection on its rear-plane crossing). Central obscurations are set
+/// aside, as for the traceable field ([`crate::trace::traceable_field_deg`]): every chief
+/// ray of an obscured lens runs through the shadow, which would leave no film at all.
 pub fn chief_ray_film_radius(tracer: &Tracer, system: &SystemAt, film_z: f64) -> f64 {
+    let clear = tracer.unobscured();
+    let tracer = clear.as_ref();
     let rear_z = system.last_vertex_z();
     let search = rear_search_radius(system);
     let stop = tracer.stop_surface();
@@ -321,6 +341,24 @@ pub fn first_order(system: &SystemAt, focus_mm: Option<f64>) -> Result<Paraxial,
             ..ParaxialOptions::default()
         },
     )
+}
+
+/// Why an object `distance` mm away (None: infinity) has no film plane behind the lens: it lies
+/// inside the front focal length, so its image is virtual, or the image still falls inside the
+/// lens (a rear focal point in front of the last vertex).
+fn no_film_plane(distance: Option<f64>, film_z: f64, rear_z: f64, first: &Paraxial) -> BakeError {
+    let front_focal_mm = -first.first_order.z_front_focal;
+    match distance {
+        Some(distance_mm) if distance_mm <= front_focal_mm => BakeError::InsideFrontFocalLength {
+            distance_mm,
+            front_focal_mm,
+        },
+        _ => BakeError::FilmPlane {
+            focus: distance_text(distance),
+            film_z,
+            rear_z,
+        },
+    }
 }
 
 /// Refuses a table over the node limit or larger than the memory available, before the bake
@@ -413,9 +451,10 @@ impl<'a> BakePlan<'a> {
         // plane. The far focus's is the table's reference plane; the near focus's lies behind it.
         let film_z = [first.z_image, first_order(&design, near_mm)?.z_image];
         let rear_z = design.last_vertex_z();
-        // A focus inside the front focal length images virtually, in front of the film side.
-        if let Some(&z) = film_z.iter().find(|&&z| z <= rear_z) {
-            return Err(BakeError::FilmPlane { film_z: z, rear_z });
+        for (distance, z) in [request.focus_mm, near_mm].into_iter().zip(film_z) {
+            if z <= rear_z {
+                return Err(no_film_plane(distance, z, rear_z, &first));
+            }
         }
         // The table's first node, the film centre, needs light; one fit tells (a lens that
         // passes none was refused only once the bake's progress had begun).

@@ -154,6 +154,8 @@ pub enum TableError {
         expected: String,
         rebake: Box<Rebake>,
     },
+    #[error("{dir}: not writing a table that could not be read back: {message}")]
+    Unreadable { dir: PathBuf, message: String },
 }
 
 /// FNV-1a 64 of the prescription's canonical RON text, as 16 hex digits. Any change to a surface,
@@ -278,6 +280,14 @@ pub fn write_table(
             })
             .collect(),
     };
+    // What the reader would refuse is not written: nothing on disk claims to be a table that
+    // no lensbake can load.
+    if let Some(message) = implausible_number(&sidecar) {
+        return Err(TableError::Unreadable {
+            dir: dir.to_path_buf(),
+            message,
+        });
+    }
     sidecar.sidecar_crc32 = Some(sidecar.fields_checksum());
     let text = ron::ser::to_string_pretty(&sidecar, ron::ser::PrettyConfig::default())
         .expect("sidecar is plain data");
