@@ -93,6 +93,20 @@ fn plot_lrtf_error_writes_a_png_and_rejects_other_json() {
         "{}",
         stderr(&o)
     );
+    // A lens's name, as every other plot kind takes, is told apart from a missing file.
+    let o = lensbake(&[
+        "plot",
+        "lrtf-error",
+        "dgauss-50mm",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).starts_with("error: dgauss-50mm is a bundled lens; lrtf-error plots an LRTF"),
+        "{}",
+        stderr(&o)
+    );
 }
 
 #[test]
