@@ -13,6 +13,7 @@ use lensbake::lrtf::bake::{
 };
 use lensbake::lrtf::measure::table_error_focused;
 use lensbake::lrtf::{FocusError, LrtfTable, Ray};
+use lensbake::paraxial::CannotFocus;
 use lensbake::prescription::{Medium, Prescription, Provenance, Shape, StopShape, Surface};
 use lensbake::pupil::RearTest;
 use lensbake::system::LensSystem;
@@ -403,10 +404,10 @@ fn focus_outside_a_range_is_a_typed_error() {
         },
         &|_| {},
     );
-    let Err(BakeError::InsideFrontFocalLength {
+    let Err(BakeError::CannotFocus(CannotFocus {
         distance_mm,
         front_focal_mm,
-    }) = virtual_near
+    })) = virtual_near
     else {
         panic!("{virtual_near:?}");
     };

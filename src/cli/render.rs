@@ -310,7 +310,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
 fn say_how_to_focus(error: JobError, unasked_focus: Option<&str>) -> anyhow::Error {
     let cannot_focus = match &error {
         JobError::Model(cause) | JobError::Render(RenderError::Model(cause)) => match cause {
-            ModelError::CannotFocus { front_focal_mm, .. } => Some(*front_focal_mm),
+            ModelError::CannotFocus(refused) => Some(refused.front_focal_mm),
             _ => None,
         },
         _ => None,

@@ -16,7 +16,9 @@ use super::entries::Entries;
 use super::focus::{FocusRange, distance_text};
 use super::param::{CHANNELS, Frame, MARGIN, Parameterisation, Ray, Transfer};
 use super::table::{Layer, LrtfTable, Precision, TableInfo};
-use crate::paraxial::{Field, ObjectPosition, Paraxial, ParaxialError, ParaxialOptions};
+use crate::paraxial::{
+    CannotFocus, Field, ObjectPosition, Paraxial, ParaxialError, ParaxialOptions,
+};
 use crate::prescription::PrescriptionError;
 use crate::pupil::{
     self, FocusNodeSettings, FocusPupilTable, PupilCircle, PupilFitSettings, PupilTable, RearTest,
@@ -85,15 +87,8 @@ pub enum BakeError {
     WavelengthCount(usize),
     #[error("no ray from the film at radius {film_radius} mm passes the lens")]
     NothingPasses { film_radius: f64 },
-    #[error(
-        "cannot focus at {} mm: the object must lie beyond the front focal point \
-         ({front_focal_mm:.3} mm in front of the first vertex)",
-        crate::limits::short(*.distance_mm)
-    )]
-    InsideFrontFocalLength {
-        distance_mm: f64,
-        front_focal_mm: f64,
-    },
+    #[error(transparent)]
+    CannotFocus(CannotFocus),
     #[error(
         "cannot focus at {focus}: its image plane z = {film_z:.6} mm is not behind the last \
          vertex (z = {rear_z:.6} mm)"
@@ -349,10 +344,10 @@ pub fn first_order(system: &SystemAt, focus_mm: Option<f64>) -> Result<Paraxial,
 fn no_film_plane(distance: Option<f64>, film_z: f64, rear_z: f64, first: &Paraxial) -> BakeError {
     let front_focal_mm = -first.first_order.z_front_focal;
     match distance {
-        Some(distance_mm) if distance_mm <= front_focal_mm => BakeError::InsideFrontFocalLength {
+        Some(distance_mm) if distance_mm <= front_focal_mm => BakeError::CannotFocus(CannotFocus {
             distance_mm,
             front_focal_mm,
-        },
+        }),
         _ => BakeError::FilmPlane {
             focus: distance_text(distance),
             film_z,

@@ -31,7 +31,7 @@ pub use traced::{TracedLens, fit_effective_pupil};
 
 use crate::lrtf::bake::exact_transfer;
 use crate::lrtf::{FocusError, Lookup, LrtfTable, Ray};
-use crate::paraxial::ParaxialError;
+use crate::paraxial::{CannotFocus, ParaxialError};
 use crate::prescription::PrescriptionError;
 use serde::Serialize;
 
@@ -60,15 +60,8 @@ pub enum ModelError {
     ImageInFront,
     #[error("lens: the exit pupil is at infinity; thick and thin models need a finite one")]
     ExitPupilAtInfinity,
-    #[error(
-        "cannot focus at {} mm: the object must lie beyond the front focal point \
-         ({front_focal_mm:.3} mm in front of the first vertex)",
-        crate::limits::short(*.distance_mm)
-    )]
-    CannotFocus {
-        distance_mm: f64,
-        front_focal_mm: f64,
-    },
+    #[error(transparent)]
+    CannotFocus(CannotFocus),
     #[error(
         "cannot image the point at z = {z:.3} mm: it lies inside the front focal length \
          ({front_focal_mm:.3} mm in front of the first vertex)"

@@ -2,7 +2,7 @@
 //! thick models, and the first-order part of every other model).
 
 use super::ModelError;
-use crate::paraxial::{Field, Paraxial, ParaxialError, ParaxialOptions};
+use crate::paraxial::{CannotFocus, Field, Paraxial, ParaxialError, ParaxialOptions};
 use crate::system::{LensSystem, SystemAt};
 
 /// A lens reduced to first order: power and unit-magnification principal planes, with its pupils.
@@ -47,10 +47,10 @@ impl ParaxialLens {
     pub fn film_z_for_object(&self, distance_mm: f64) -> Result<f64, ModelError> {
         let image_distance = self
             .image_distance(self.front_principal_z + distance_mm)
-            .ok_or(ModelError::CannotFocus {
+            .ok_or(ModelError::CannotFocus(CannotFocus {
                 distance_mm,
                 front_focal_mm: self.focal_length_mm - self.front_principal_z,
-            })?;
+            }))?;
         Ok(self.rear_principal_z + image_distance)
     }
 

@@ -4,6 +4,19 @@ use super::matrix::FirstOrder;
 use super::{ObjectPosition, ParaxialError};
 use crate::system::SystemAt;
 
+/// An object nearer than the lens's front focal point, whose image is virtual: no film behind
+/// the lens catches it. The renderer's models and the bake refuse such a focus alike.
+#[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
+#[error(
+    "cannot focus at {} mm: the object must lie beyond the front focal point \
+     ({front_focal_mm:.3} mm in front of the first vertex)",
+    crate::limits::short(*.distance_mm)
+)]
+pub struct CannotFocus {
+    pub distance_mm: f64,
+    pub front_focal_mm: f64,
+}
+
 /// Absolute z of the sensor plane that images `object` sharply (paraxially).
 ///
 /// Fails when the image is at infinity (object in the front focal plane) or virtual (object

@@ -11,7 +11,7 @@ mod matrix;
 mod pupils;
 mod rays;
 
-pub use focus::{object_in_focus, sensor_z};
+pub use focus::{CannotFocus, object_in_focus, sensor_z};
 pub use matrix::{
     FirstOrder, from_vertex, paraxial_curvature, refraction, surface_power, system_matrix,
     to_vertex, transfer,
