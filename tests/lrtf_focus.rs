@@ -13,7 +13,7 @@ use lensbake::lrtf::bake::{
 };
 use lensbake::lrtf::measure::table_error_focused;
 use lensbake::lrtf::{FocusError, LrtfTable, Ray};
-use lensbake::paraxial::CannotFocus;
+use lensbake::paraxial::{CannotFocus, ImageInsideLens};
 use lensbake::prescription::{Medium, Prescription, Provenance, Shape, StopShape, Surface};
 use lensbake::pupil::RearTest;
 use lensbake::system::LensSystem;
@@ -431,15 +431,15 @@ fn focus_outside_a_range_is_a_typed_error() {
     })
     .unwrap();
     let error = bake(&rod, &BakeRequest::default(), &|_| {}).unwrap_err();
-    let BakeError::FilmPlane {
+    let BakeError::ImageInsideLens(ImageInsideLens {
         focus,
         film_z,
-        rear_z,
-    } = &error
+        last_vertex_z,
+    }) = &error
     else {
         panic!("{error:?}");
     };
-    assert_eq!((focus.as_str(), *rear_z), ("infinity", 40.0));
+    assert_eq!((focus.as_str(), *last_vertex_z), ("infinity", 40.0));
     assert!((film_z - (40.0 - 10.0 / 1.5)).abs() < 1e-12, "{film_z}");
     assert!(
         error

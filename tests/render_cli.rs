@@ -203,6 +203,42 @@ fn a_sensor_inside_the_lens_is_refused_without_blaming_a_tilt() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// A lithography lens whose rear focal point lies 197 mm inside it (EP 0770895 A2, embodiment
+/// 1) images a far object among its own surfaces: every model that follows the surfaces refuses
+/// the focus naming it, before any pupil is fitted on a plane no ray reaches (the traced model
+/// said only that no ray from the film centre passed); the thin model, which has no surfaces,
+/// renders; at the file's own object distance the traced model renders.
+#[test]
+fn a_far_focus_imaged_inside_the_lens_is_refused_by_every_model_that_traces_it() {
+    let dir = temp_dir("image-inside");
+    let out = dir.join("x.exr");
+    let lens = corpus("patent2zmx__EP0770895A2-embodiment-1.zmx");
+    for model in ["traced", "seidel", "baked"] {
+        let o = tiny_render(&lens, model, &out, &["--focus-mm", "50000"]);
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{model}: {stderr}");
+        assert!(
+            stderr.starts_with("error: cannot focus at 50000 mm: its image plane z = ")
+                && stderr.contains("is not behind the last vertex (z = 884.070000 mm)"),
+            "{model}: {stderr}"
+        );
+        assert!(!out.exists());
+    }
+    let thin = tiny_render(&lens, "thin", &out, &["--focus-mm", "50000"]);
+    assert!(
+        thin.status.success(),
+        "{}",
+        String::from_utf8_lossy(&thin.stderr)
+    );
+    let near = tiny_render(&lens, "traced", &out, &["--focus-mm", "95.002"]);
+    assert!(
+        near.status.success(),
+        "{}",
+        String::from_utf8_lossy(&near.stderr)
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 /// A lens made for a phone-sized sensor (CODE V sample 65564 via rayoptics, EFL 1.5 mm) lights a
 /// speck of a full frame: the film is the largest frame inside its image circle, so the scene
 /// fills the image; asked for, the full frame comes back with its speck.

@@ -8,10 +8,12 @@ use super::{
 };
 use crate::lenses::LoadedLens;
 use crate::lrtf::bake::{BakeProgress, chief_ray_film_radius};
+use crate::lrtf::focus::distance_text;
 use crate::model::{
-    BakedLens, FirstOrderModels, LensModel, ModelKind, PupilSampling, SeidelLens, TracedLens,
-    pupil_film_radius,
+    BakedLens, FirstOrderModels, LensModel, ModelError, ModelKind, PupilSampling, SeidelLens,
+    TracedLens, pupil_film_radius,
 };
+use crate::paraxial::{ImageInsideLens, ParaxialError};
 use crate::render::camera::{Camera, FULL_FRAME_MM, Film, Focus};
 use crate::render::chromatic::{
     CHANNELS, Chromatic, ChromaticMode, ColourSpread, default_wavelengths, wants_chromatic,
@@ -399,6 +401,11 @@ impl RenderJob {
             }
         };
         let kind = budget.as_ref().map_or(asked, |b| b.choice.model);
+        if !matches!(kind, ModelKind::Thin | ModelKind::Thick)
+            && let Some(real) = self.lens.real()
+        {
+            film_behind_lens(real, camera.film_z, focus)?;
+        }
         let chromatic = self.chromatic_decision(kind, &first_order, &camera)?;
         let wavelengths = chromatic.wavelengths_nm;
         let chosen_table = budget.as_ref().and_then(|b| b.choice.table.clone());
@@ -839,4 +846,30 @@ mod tests {
         assert_eq!(second.prepared.camera.model.kind(), ModelKind::Baked);
         std::fs::remove_dir_all(&root).unwrap();
     }
+}
+
+/// The film of a model that follows the lens's surfaces (traced, Seidel, baked) lies behind its
+/// last vertex: a focus whose image falls inside the lens is refused naming the distance (or the
+/// sensor), before a pupil is fitted on a plane no ray reaches.
+fn film_behind_lens(real: &LoadedLens, film_z: f64, focus: Focus) -> Result<(), JobError> {
+    let last_vertex_z = real
+        .system
+        .at(real.system.design_wavelength_nm())
+        .last_vertex_z();
+    if film_z > last_vertex_z {
+        return Ok(());
+    }
+    Err(match focus {
+        Focus::ObjectDistance(distance) => ModelError::ImageInsideLens(ImageInsideLens {
+            focus: distance_text(Some(distance)),
+            film_z,
+            last_vertex_z,
+        })
+        .into(),
+        Focus::FilmZ(z_sensor) => ParaxialError::SensorInsideLens {
+            z_sensor,
+            z_last_vertex: last_vertex_z,
+        }
+        .into(),
+    })
 }

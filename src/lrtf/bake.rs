@@ -17,7 +17,7 @@ use super::focus::{FocusRange, distance_text};
 use super::param::{CHANNELS, Frame, MARGIN, Parameterisation, Ray, Transfer};
 use super::table::{Layer, LrtfTable, Precision, TableInfo};
 use crate::paraxial::{
-    CannotFocus, Field, ObjectPosition, Paraxial, ParaxialError, ParaxialOptions,
+    CannotFocus, Field, ImageInsideLens, ObjectPosition, Paraxial, ParaxialError, ParaxialOptions,
 };
 use crate::prescription::PrescriptionError;
 use crate::pupil::{
@@ -89,15 +89,8 @@ pub enum BakeError {
     NothingPasses { film_radius: f64 },
     #[error(transparent)]
     CannotFocus(CannotFocus),
-    #[error(
-        "cannot focus at {focus}: its image plane z = {film_z:.6} mm is not behind the last \
-         vertex (z = {rear_z:.6} mm)"
-    )]
-    FilmPlane {
-        focus: String,
-        film_z: f64,
-        rear_z: f64,
-    },
+    #[error(transparent)]
+    ImageInsideLens(ImageInsideLens),
     #[error(
         "an odd number of mirrors sends the light back towards the object side; a table needs a \
          lens that images behind its last surface"
@@ -348,11 +341,11 @@ fn no_film_plane(distance: Option<f64>, film_z: f64, rear_z: f64, first: &Paraxi
             distance_mm,
             front_focal_mm,
         }),
-        _ => BakeError::FilmPlane {
+        _ => BakeError::ImageInsideLens(ImageInsideLens {
             focus: distance_text(distance),
             film_z,
-            rear_z,
-        },
+            last_vertex_z: rear_z,
+        }),
     }
 }
 

@@ -31,7 +31,7 @@ pub use traced::{TracedLens, fit_effective_pupil};
 
 use crate::lrtf::bake::exact_transfer;
 use crate::lrtf::{FocusError, Lookup, LrtfTable, Ray};
-use crate::paraxial::{CannotFocus, ParaxialError};
+use crate::paraxial::{CannotFocus, ImageInsideLens, ParaxialError};
 use crate::prescription::PrescriptionError;
 use serde::Serialize;
 
@@ -62,6 +62,8 @@ pub enum ModelError {
     ExitPupilAtInfinity,
     #[error(transparent)]
     CannotFocus(CannotFocus),
+    #[error(transparent)]
+    ImageInsideLens(ImageInsideLens),
     #[error(
         "cannot image the point at z = {z:.3} mm: it lies inside the front focal length \
          ({front_focal_mm:.3} mm in front of the first vertex)"

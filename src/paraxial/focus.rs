@@ -17,6 +17,20 @@ pub struct CannotFocus {
     pub front_focal_mm: f64,
 }
 
+/// An object whose paraxial image falls inside the lens, in front of its last vertex, so no
+/// film behind the lens catches it: a lens whose rear focal point lies inside it, focused on
+/// anything but near objects. `focus` names the distance ("2000 mm", "infinity").
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error(
+    "cannot focus at {focus}: its image plane z = {film_z:.6} mm is not behind the last vertex \
+     (z = {last_vertex_z:.6} mm)"
+)]
+pub struct ImageInsideLens {
+    pub focus: String,
+    pub film_z: f64,
+    pub last_vertex_z: f64,
+}
+
 /// Absolute z of the sensor plane that images `object` sharply (paraxially).
 ///
 /// Fails when the image is at infinity (object in the front focal plane) or virtual (object

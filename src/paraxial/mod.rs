@@ -11,7 +11,7 @@ mod matrix;
 mod pupils;
 mod rays;
 
-pub use focus::{CannotFocus, object_in_focus, sensor_z};
+pub use focus::{CannotFocus, ImageInsideLens, object_in_focus, sensor_z};
 pub use matrix::{
     FirstOrder, from_vertex, paraxial_curvature, refraction, surface_power, system_matrix,
     to_vertex, transfer,
@@ -108,7 +108,7 @@ pub enum ParaxialError {
     )]
     VirtualImage { z_image: f64, z_last_vertex: f64 },
     #[error(
-        "the sensor at z = {z_sensor} mm is not behind the last vertex (z = {z_last_vertex} mm)"
+        "the sensor at z = {z_sensor} mm is not behind the last vertex (z = {z_last_vertex:.6} mm)"
     )]
     SensorInsideLens { z_sensor: f64, z_last_vertex: f64 },
     #[error(
