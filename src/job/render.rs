@@ -810,6 +810,32 @@ fn focus_plane(
     })
 }
 
+/// The film of a model that follows the lens's surfaces (traced, Seidel, baked) lies behind its
+/// last vertex: a focus whose image falls inside the lens is refused naming the distance (or the
+/// sensor), before a pupil is fitted on a plane no ray reaches.
+fn film_behind_lens(real: &LoadedLens, film_z: f64, focus: Focus) -> Result<(), JobError> {
+    let last_vertex_z = real
+        .system
+        .at(real.system.design_wavelength_nm())
+        .last_vertex_z();
+    if film_z > last_vertex_z {
+        return Ok(());
+    }
+    Err(match focus {
+        Focus::ObjectDistance(distance) => ModelError::ImageInsideLens(ImageInsideLens {
+            focus: distance_text(Some(distance)),
+            film_z,
+            last_vertex_z,
+        })
+        .into(),
+        Focus::FilmZ(z_sensor) => ParaxialError::SensorInsideLens {
+            z_sensor,
+            z_last_vertex: last_vertex_z,
+        }
+        .into(),
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -846,30 +872,4 @@ mod tests {
         assert_eq!(second.prepared.camera.model.kind(), ModelKind::Baked);
         std::fs::remove_dir_all(&root).unwrap();
     }
-}
-
-/// The film of a model that follows the lens's surfaces (traced, Seidel, baked) lies behind its
-/// last vertex: a focus whose image falls inside the lens is refused naming the distance (or the
-/// sensor), before a pupil is fitted on a plane no ray reaches.
-fn film_behind_lens(real: &LoadedLens, film_z: f64, focus: Focus) -> Result<(), JobError> {
-    let last_vertex_z = real
-        .system
-        .at(real.system.design_wavelength_nm())
-        .last_vertex_z();
-    if film_z > last_vertex_z {
-        return Ok(());
-    }
-    Err(match focus {
-        Focus::ObjectDistance(distance) => ModelError::ImageInsideLens(ImageInsideLens {
-            focus: distance_text(Some(distance)),
-            film_z,
-            last_vertex_z,
-        })
-        .into(),
-        Focus::FilmZ(z_sensor) => ParaxialError::SensorInsideLens {
-            z_sensor,
-            z_last_vertex: last_vertex_z,
-        }
-        .into(),
-    })
 }
