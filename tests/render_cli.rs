@@ -203,8 +203,8 @@ fn a_sensor_inside_the_lens_is_refused_without_blaming_a_tilt() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
-/// A lithography lens whose rear focal point lies 197 mm inside it (EP 0770895 A2, embodiment
-/// 1) images a far object among its own surfaces: every model that follows the surfaces refuses
+/// A lithography lens whose rear focal point lies 197 mm inside it (embodiment 1 of EP 0770895
+/// A2) images a far object among its own surfaces: every model that follows the surfaces refuses
 /// the focus naming it, before any pupil is fitted on a plane no ray reaches (the traced model
 /// said only that no ray from the film centre passed); the thin model, which has no surfaces,
 /// renders; at the file's own object distance the traced model renders.
