@@ -428,6 +428,48 @@ fn an_obscured_lens_bakes_the_film_its_clear_twin_covers() {
     assert_eq!(read.unwrap().layers[0].frame.max_film_radius, radius);
 }
 
+/// The catadioptric HoO-V2C18Ex27 with a tenth-power term of 360 on its aspheric surface 3 (a
+/// case the command fuzzer made): light still reaches the film centre, but no chief ray from
+/// any film point passes the lens. The bake and the trade-off refuse it before any work, where
+/// the bake had traced its table and then failed to write it (and before that wrote a table of
+/// film radius 0).
+#[test]
+fn a_lens_no_chief_ray_passes_is_refused_before_the_bake() {
+    let text = std::fs::read_to_string(corpus("rayoptics__HoO-V2C18Ex27.zmx")).unwrap();
+    let at = text.find("SURF 3").unwrap();
+    let (head, tail) = text.split_at(at);
+    let text = format!("{head}{}", tail.replacen("PARM 5 0", "PARM 5 360", 1));
+    let loaded = read_str(&text, None, Format::Zemax, &LoadOptions::default()).unwrap();
+    let lens = LensSystem::new(loaded.prescription, &loaded.map).unwrap();
+    let request = BakeRequest {
+        resolution: [4; 3],
+        ..BakeRequest::default()
+    };
+    let refused = lensbake::lrtf::bake::BakePlan::new(&lens, &request);
+    assert!(
+        matches!(refused, Err(BakeError::NoChiefRay { .. })),
+        "{:?}",
+        refused.err()
+    );
+    let domain = lensbake::tradeoff::Domain::of(&lens, &Default::default());
+    assert!(
+        domain.as_ref().is_err_and(|e| e
+            .to_string()
+            .starts_with("no chief ray from the film plane")),
+        "{:?}",
+        domain.err()
+    );
+    // An explicit film radius of 0 is refused as such.
+    let zero = BakeRequest {
+        max_film_radius: Some(0.0),
+        ..request
+    };
+    assert!(matches!(
+        lensbake::lrtf::bake::BakePlan::new(&reflex(), &zero),
+        Err(BakeError::FilmRadius(_))
+    ));
+}
+
 #[test]
 fn an_odd_number_of_mirrors_is_analysed_but_not_rendered_or_baked() {
     let lens = concave_mirror(-1.0);

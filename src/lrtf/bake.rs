@@ -87,6 +87,13 @@ pub enum BakeError {
     WavelengthCount(usize),
     #[error("no ray from the film at radius {film_radius} mm passes the lens")]
     NothingPasses { film_radius: f64 },
+    #[error(
+        "no chief ray from the film plane (z = {film_z:.6} mm) passes the lens: a table would \
+         cover no film"
+    )]
+    NoChiefRay { film_z: f64 },
+    #[error("the film radius a table covers must be positive, got {0} mm")]
+    FilmRadius(f64),
     #[error(transparent)]
     CannotFocus(CannotFocus),
     #[error(transparent)]
@@ -375,16 +382,15 @@ pub struct BakePlan<'a> {
     system: &'a LensSystem,
     request: &'a BakeRequest,
     wavelengths: Vec<f64>,
-    design: SystemAt,
     first: Paraxial,
     near_mm: Option<f64>,
     f_number: f64,
     stop_semi_aperture: f64,
     /// The design wavelength's image planes of the far and near focus.
     film_z: [f64; 2],
+    /// The film radius covered on every film plane of the range.
+    max_film_radius: f64,
     rear_z: f64,
-    /// The lens stopped down, at the design wavelength.
-    design_tracer: Tracer,
 }
 
 impl<'a> BakePlan<'a> {
@@ -453,18 +459,29 @@ impl<'a> BakePlan<'a> {
         if centre.is_none_or(|circle| circle.radius <= 0.0) {
             return Err(BakeError::NothingPasses { film_radius: 0.0 });
         }
+        // The near focus magnifies: the widest of the range's film planes is the one covered.
+        let max_film_radius = match request.max_film_radius {
+            Some(radius) if radius > 0.0 => radius,
+            Some(radius) => return Err(BakeError::FilmRadius(radius)),
+            None => film_z
+                .map(|z| chief_ray_film_radius(&design_tracer, &design, z))
+                .into_iter()
+                .fold(0.0, f64::max),
+        };
+        if max_film_radius <= 0.0 {
+            return Err(BakeError::NoChiefRay { film_z: film_z[0] });
+        }
         Ok(BakePlan {
             system,
             request,
             wavelengths,
-            design,
             first,
             near_mm,
             f_number,
             stop_semi_aperture,
             film_z,
+            max_film_radius,
             rear_z,
-            design_tracer,
         })
     }
 
@@ -474,22 +491,14 @@ impl<'a> BakePlan<'a> {
             system,
             request,
             wavelengths,
-            design,
             first,
             near_mm,
             f_number,
             stop_semi_aperture,
             film_z,
+            max_film_radius,
             rear_z,
-            design_tracer,
         } = self;
-        // The film radius asked for on every film plane of the range; the near focus magnifies.
-        let max_film_radius = request.max_film_radius.unwrap_or_else(|| {
-            film_z
-                .map(|z| chief_ray_film_radius(&design_tracer, &design, z))
-                .into_iter()
-                .fold(0.0, f64::max)
-        });
         let nodes_per_layer: usize = request.resolution.iter().product();
         let total = nodes_per_layer * wavelengths.len();
         let done = AtomicUsize::new(0);

@@ -142,6 +142,12 @@ impl Domain {
         }
         let stopped = stopped_down(&at, first.f_number / f_number);
         let full = chief_ray_film_radius(&Tracer::new(&stopped), &at, first.z_image);
+        if full <= 0.0 {
+            return Err(BakeError::NoChiefRay {
+                film_z: first.z_image,
+            }
+            .into());
+        }
         let film_radius = full * req.film_fraction;
         Ok(Domain {
             film_z: first.z_image,
