@@ -213,8 +213,30 @@ fn a_far_focus_imaged_inside_the_lens_is_refused_by_every_model_that_traces_it()
     let dir = temp_dir("image-inside");
     let out = dir.join("x.exr");
     let lens = corpus("patent2zmx__EP0770895A2-embodiment-1.zmx");
-    for model in ["traced", "seidel", "baked"] {
-        let o = tiny_render(&lens, model, &out, &["--focus-mm", "50000"]);
+    let budget = [
+        "render",
+        "--lens",
+        &lens,
+        "--error-budget-px",
+        "1",
+        "--backend",
+        "cpu",
+        "--width",
+        "32",
+        "--height",
+        "24",
+        "--focus-mm",
+        "50000",
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    // A budget measures every model against the exact trace, so it is refused the same way.
+    for model in ["traced", "seidel", "baked", "budget"] {
+        let o = if model == "budget" {
+            lensbake(&budget)
+        } else {
+            tiny_render(&lens, model, &out, &["--focus-mm", "50000"])
+        };
         let stderr = String::from_utf8_lossy(&o.stderr);
         assert_eq!(o.status.code(), Some(2), "{model}: {stderr}");
         assert!(

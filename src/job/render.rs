@@ -385,6 +385,13 @@ impl RenderJob {
         let (focus, film, focus_plane) =
             self.place_film(&model, film, &source, &first_order, f_number, asked)?;
         let camera = Camera::new(model, film, focus)?;
+        // A budget measures every model against the exact trace (`asked`), which needs the film
+        // behind the lens as much as a traced render does.
+        if !matches!(asked, ModelKind::Thin | ModelKind::Thick)
+            && let Some(real) = self.lens.real()
+        {
+            film_behind_lens(real, camera.film_z, focus)?;
+        }
         // An ideal lens under a budget was refused above: it has nothing to trace.
         let budget = match (self.model, self.lens.real()) {
             (ModelChoice::Model(_), _) | (_, None) => None,
@@ -401,11 +408,6 @@ impl RenderJob {
             }
         };
         let kind = budget.as_ref().map_or(asked, |b| b.choice.model);
-        if !matches!(kind, ModelKind::Thin | ModelKind::Thick)
-            && let Some(real) = self.lens.real()
-        {
-            film_behind_lens(real, camera.film_z, focus)?;
-        }
         let chromatic = self.chromatic_decision(kind, &first_order, &camera)?;
         let wavelengths = chromatic.wavelengths_nm;
         let chosen_table = budget.as_ref().and_then(|b| b.choice.table.clone());
