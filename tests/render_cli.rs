@@ -65,12 +65,16 @@ fn corpus(file: &str) -> String {
 
 /// A tiny CPU render of `lens` with `model` to `out`; the output whether it succeeded or not.
 fn tiny_render(lens: &str, model: &str, out: &Path, extra: &[&str]) -> Output {
+    tiny_render_choosing(lens, out, &[&["--model", model], extra].concat())
+}
+
+/// A tiny CPU render of `lens` to `out` whose model `choice` picks (`--model M` or
+/// `--error-budget-px B`, with any other options).
+fn tiny_render_choosing(lens: &str, out: &Path, choice: &[&str]) -> Output {
     let mut args = vec![
         "render",
         "--lens",
         lens,
-        "--model",
-        model,
         "--backend",
         "cpu",
         "--width",
@@ -82,7 +86,7 @@ fn tiny_render(lens: &str, model: &str, out: &Path, extra: &[&str]) -> Output {
         "--out",
         out.to_str().unwrap(),
     ];
-    args.extend_from_slice(extra);
+    args.extend_from_slice(choice);
     lensbake(&args)
 }
 
@@ -213,30 +217,17 @@ fn a_far_focus_imaged_inside_the_lens_is_refused_by_every_model_that_traces_it()
     let dir = temp_dir("image-inside");
     let out = dir.join("x.exr");
     let lens = corpus("patent2zmx__EP0770895A2-embodiment-1.zmx");
-    let budget = [
-        "render",
-        "--lens",
-        &lens,
-        "--error-budget-px",
-        "1",
-        "--backend",
-        "cpu",
-        "--width",
-        "32",
-        "--height",
-        "24",
-        "--focus-mm",
-        "50000",
-        "--out",
-        out.to_str().unwrap(),
-    ];
     // A budget measures every model against the exact trace, so it is refused the same way.
     for model in ["traced", "seidel", "baked", "budget"] {
-        let o = if model == "budget" {
-            lensbake(&budget)
-        } else {
-            tiny_render(&lens, model, &out, &["--focus-mm", "50000"])
+        let choice = match model {
+            "budget" => ["--error-budget-px", "1"],
+            _ => ["--model", model],
         };
+        let o = tiny_render_choosing(
+            &lens,
+            &out,
+            &[&choice[..], &["--focus-mm", "50000"]].concat(),
+        );
         let stderr = String::from_utf8_lossy(&o.stderr);
         assert_eq!(o.status.code(), Some(2), "{model}: {stderr}");
         assert!(
