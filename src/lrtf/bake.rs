@@ -272,29 +272,30 @@ pub fn chief_ray_film_radius(tracer: &Tracer, system: &SystemAt, film_z: f64) ->
     };
     let chief_passes = |film_radius: f64| {
         // Bisection needs a sign change of the stop height between two traceable rear points;
-        // scan the rear disk for the first such pair.
+        // scan the rear disk for such pairs. With apertures ignored the height can turn back
+        // towards the rim (rays far outside the clear apertures), which makes sign changes that
+        // no passing ray lies in: each pair is tried, and the chief ray is the one that passes.
         let samples: Vec<(f64, f64)> = (0..=64)
             .filter_map(|k| {
                 let x = -search + 2.0 * search * k as f64 / 64.0;
                 stop_height(film_radius, x).map(|h| (x, h))
             })
             .collect();
-        let Some(pair) = samples
+        samples
             .windows(2)
-            .find(|w| w[0].1.signum() != w[1].1.signum())
-        else {
-            return false;
-        };
-        let (mut lo, mut hi, h_lo) = (pair[0].0, pair[1].0, pair[0].1);
-        for _ in 0..60 {
-            let mid = 0.5 * (lo + hi);
-            match stop_height(film_radius, mid) {
-                Some(h) if h.signum() == h_lo.signum() => lo = mid,
-                Some(_) => hi = mid,
-                None => return false,
-            }
-        }
-        passes_from_film(tracer, film_radius, film_z, rear_z, [0.5 * (lo + hi), 0.0])
+            .filter(|w| w[0].1.signum() != w[1].1.signum())
+            .any(|pair| {
+                let (mut lo, mut hi, h_lo) = (pair[0].0, pair[1].0, pair[0].1);
+                for _ in 0..60 {
+                    let mid = 0.5 * (lo + hi);
+                    match stop_height(film_radius, mid) {
+                        Some(h) if h.signum() == h_lo.signum() => lo = mid,
+                        Some(_) => hi = mid,
+                        None => return false,
+                    }
+                }
+                passes_from_film(tracer, film_radius, film_z, rear_z, [0.5 * (lo + hi), 0.0])
+            })
     };
     let mut hi = search.max(1.0);
     while chief_passes(hi) && hi < 1e4 {
