@@ -34,19 +34,19 @@ def bundled_lenses(binary):
 
 def bench_render(binary, lens, size, models, out, pinned, width, height, spp):
     """One `bench render` run; returns {model: seconds} of its CPU rows."""
+    run_dir = os.path.join(out, "runs", f"{lens}-{size}")
     command = [
         binary, "bench", "render", "--lens", lens, "--models", models, "--backends", "cpu",
         "--width", str(width), "--height", str(height), "--spp", str(spp),
         "--focus-mm", str(FOCUS_MM.get(lens, DEMO_FOCUS_MM)),
         "--bake-resolution", str(size), "--table", os.path.join(out, f"table-{lens}-{size}"),
-        "--out", os.path.join(out, "runs", f"{lens}-{size}"),
+        "--out", run_dir,
     ]
     env = dict(os.environ)
     if pinned:
         env["RAYON_NUM_THREADS"] = "1"
         if shutil.which("taskset"):
             command = ["taskset", "-c", "0"] + command
-    run_dir = os.path.join(out, "runs", f"{lens}-{size}")
     shutil.rmtree(run_dir, ignore_errors=True)
     done = subprocess.run(command, env=env, capture_output=True, text=True)
     if done.returncode != 0:

@@ -418,15 +418,16 @@ pub fn run(command: LrtfCommand) -> anyhow::Result<()> {
 /// measurement sweep.
 pub fn plot_error(measurements: &Path, out: &Path) -> anyhow::Result<()> {
     let name = measurements.display();
-    let text = lensbake::limits::read_input_text(measurements).with_context(|| {
-        match lensbake::lenses::find(&name.to_string()) {
-            Some(_) if !measurements.exists() => format!(
-                "{name} is a bundled lens; lrtf-error plots an LRTF measurement table (the \
+    let text =
+        lensbake::limits::read_input_text(measurements).with_context(|| {
+            match measurements.to_str().and_then(lensbake::lenses::find) {
+                Some(_) if !measurements.exists() => format!(
+                    "{name} is a bundled lens; lrtf-error plots an LRTF measurement table (the \
                  lrtf-error.json the lrtf_sweep example writes), not a lens"
-            ),
-            _ => format!("reading {name}"),
-        }
-    })?;
+                ),
+                _ => format!("reading {name}"),
+            }
+        })?;
     let rows: Vec<SweepRow> = serde_json::from_str(&text).with_context(|| {
         format!(
             "{}: not an LRTF measurement table (the lrtf-error.json the lrtf_sweep example writes)",

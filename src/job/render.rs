@@ -13,7 +13,7 @@ use crate::model::{
     BakedLens, FirstOrderModels, LensModel, ModelError, ModelKind, PupilSampling, SeidelLens,
     TracedLens, pupil_film_radius,
 };
-use crate::paraxial::{ImageInsideLens, ParaxialError};
+use crate::paraxial::{FirstOrder, ImageInsideLens, ParaxialError};
 use crate::render::camera::{Camera, FULL_FRAME_MM, Film, Focus};
 use crate::render::chromatic::{
     CHANNELS, Chromatic, ChromaticMode, ColourSpread, default_wavelengths, wants_chromatic,
@@ -816,13 +816,11 @@ fn focus_plane(
 /// last vertex: a focus whose image falls inside the lens is refused naming the distance (or the
 /// sensor), before a pupil is fitted on a plane no ray reaches.
 fn film_behind_lens(real: &LoadedLens, film_z: f64, focus: Focus) -> Result<(), JobError> {
-    let last_vertex_z = real
-        .system
-        .at(real.system.design_wavelength_nm())
-        .last_vertex_z();
-    if film_z > last_vertex_z {
+    let first = FirstOrder::of(&real.system.at(real.system.design_wavelength_nm()))?;
+    if first.ahead_of_last_vertex(film_z) {
         return Ok(());
     }
+    let last_vertex_z = first.z_last_vertex;
     Err(match focus {
         Focus::ObjectDistance(distance) => ModelError::ImageInsideLens(ImageInsideLens {
             focus: distance_text(Some(distance)),

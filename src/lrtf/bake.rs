@@ -447,7 +447,7 @@ impl<'a> BakePlan<'a> {
         let film_z = [first.z_image, first_order(&design, near_mm)?.z_image];
         let rear_z = design.last_vertex_z();
         for (distance, z) in [request.focus_mm, near_mm].into_iter().zip(film_z) {
-            if z <= rear_z {
+            if !first.first_order.ahead_of_last_vertex(z) {
                 return Err(no_film_plane(distance, z, rear_z, &first));
             }
         }
