@@ -1,5 +1,6 @@
 //! The LRTF shader parses and validates with naga (no GPU needed), and its uniform block has the
 //! layout of the Rust struct that fills it.
+#![cfg(feature = "render")]
 
 mod common;
 

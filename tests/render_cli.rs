@@ -2,6 +2,7 @@
 //! focus and the errors for bad sensor settings (exit code 2); the Seidel model; and
 //! `--error-budget-px`, which picks the cheapest model within a budget of this render's pixels
 //! and says what it predicted and measured.
+#![cfg(feature = "cli")]
 
 mod common;
 

@@ -14,4 +14,5 @@ pub use entries::Entries;
 pub use focus::{FocusError, FocusRange};
 pub use param::{Frame, Parameterisation, Ray, Transfer};
 pub use table::{Corners, GpuParams, Layer, Lookup, LrtfTable, Precision, TableInfo};
+#[cfg(feature = "render")]
 pub(crate) use table::{LOOKUP_GROUP, LookupScratch};

@@ -290,6 +290,7 @@ fn ray_of(columns: &[[f64; LOOKUP_GROUP]; 6], k: usize) -> Ray {
 #[derive(Clone, Copy)]
 enum LookupRays<'a> {
     Rays(&'a [Ray]),
+    #[cfg(feature = "render")]
     Columns {
         columns: &'a [[f64; LOOKUP_GROUP]; 6],
         count: usize,
@@ -360,6 +361,7 @@ impl<P: Place> LaneLookup<'_, P> {
                         });
                     }
                 }
+                #[cfg(feature = "render")]
                 LookupRays::Columns { columns, count } => {
                     self.group(isa, columns, count, scratch, emit)
                 }
@@ -516,6 +518,7 @@ impl LrtfTable {
     ///
     /// # Panics
     /// When `count` is above [`LOOKUP_GROUP`].
+    #[cfg(feature = "render")]
     pub(crate) fn lookup_columns(
         &self,
         layer: usize,
