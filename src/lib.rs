@@ -148,6 +148,8 @@
 //! ```
 
 pub mod analysis;
+#[cfg(feature = "export")]
+pub mod export;
 pub mod glass;
 #[cfg(feature = "render")]
 pub mod job;

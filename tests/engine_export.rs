@@ -1,0 +1,328 @@
+//! `lensbake export`, checked by programs lensbake did not write: every exported shader compiled
+//! by an independent compiler, and the exported GLSL sampler run by an independent consumer
+//! (tools/engine_consumer.py: moderngl on Mesa's llvmpipe) on baked tables of every kind, ray
+//! by ray against lensbake's own lookup. Outside CI a missing tool skips its check; with
+//! CI=true (.ci/engines.sh installs them) it fails.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use lensbake::export::{Language, Shader, export_shader};
+use lensbake::lrtf::io::read_table;
+use lensbake::lrtf::table::{LRTF_BLOCKED, LRTF_OUTSIDE, LRTF_PASSES};
+use lensbake::lrtf::{Lookup, LrtfTable, Ray};
+
+fn in_ci() -> bool {
+    std::env::var("CI").as_deref() == Ok("true")
+}
+
+/// `program` if it runs here; None (the check skipped) outside CI, a failure in CI.
+fn available(program: &str, probe: &[&str], test: &str) -> Option<String> {
+    let runs = Command::new(program)
+        .args(probe)
+        .output()
+        .is_ok_and(|o| o.status.success());
+    match (runs, in_ci()) {
+        (true, _) => Some(program.to_string()),
+        (false, false) => {
+            eprintln!("SKIPPED {test}: `{program}` is missing (.ci/engines.sh installs it)");
+            None
+        }
+        (false, true) => panic!("{test}: `{program}` is missing in CI"),
+    }
+}
+
+/// The Python with moderngl the consumer runs under: $LENSBAKE_ENGINE_PYTHON, else python3.
+fn consumer_python(test: &str) -> Option<String> {
+    let python = std::env::var("LENSBAKE_ENGINE_PYTHON").unwrap_or_else(|_| "python3".into());
+    available(&python, &["-c", "import moderngl"], test)
+}
+
+fn run_ok(command: &mut Command) -> String {
+    let described = format!("{command:?}");
+    let out = common::finished(command, None);
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(out.status.success(), "{described} failed:\n{text}");
+    text
+}
+
+fn entry_points(shader: Shader) -> Vec<String> {
+    naga::front::wgsl::parse_str(shader.wgsl())
+        .expect("the assembled WGSL parses")
+        .entry_points
+        .iter()
+        .map(|e| e.name.clone())
+        .collect()
+}
+
+#[test]
+fn every_shader_exports_in_every_language() {
+    for shader in Shader::ALL {
+        for language in Language::ALL {
+            let exported = export_shader(shader, language, None)
+                .unwrap_or_else(|e| panic!("{} {}: {e}", shader.name(), language.name()));
+            assert_eq!(exported.entry_point, entry_points(shader)[0]);
+            if language == Language::Spirv {
+                assert_eq!(exported.bytes[..4], 0x0723_0203u32.to_le_bytes());
+                continue;
+            }
+            let text = String::from_utf8(exported.bytes).expect("text");
+            let version = format!(
+                "format_version {}",
+                lensbake::lrtf::io::FORMAT_VERSION
+            );
+            assert!(text.contains(&version), "{} {}", shader.name(), language.name());
+            // GLSL calls its one entry point main.
+            let entry = match language {
+                Language::Glsl => "void main()",
+                _ => &exported.entry_point,
+            };
+            assert!(text.contains(entry), "{} {}", shader.name(), language.name());
+        }
+    }
+    let refused = export_shader(Shader::Sampler, Language::Glsl, Some("render")).unwrap_err();
+    assert!(refused.to_string().contains("lrtf_sample_rays"), "{refused}");
+}
+
+#[test]
+fn exported_sampler_checks_the_table_format_version() {
+    // The version test sits in the shader itself, in every language.
+    for language in [Language::Glsl, Language::Hlsl, Language::Msl] {
+        let text = String::from_utf8(export_shader(Shader::Sampler, language, None).unwrap().bytes)
+            .unwrap();
+        assert!(text.contains("format_version"), "{}", language.name());
+    }
+}
+
+/// glslangValidator (GLSL, and HLSL through its HLSL front end), spirv-val, and spirv-cross
+/// translating the SPIR-V to HLSL and MSL. MSL has no independent compiler here (Apple's is
+/// macOS-only); WGSL's only other compiler at hand is wgpu's, which the renderer tests run.
+#[test]
+fn independent_compilers_accept_every_export() {
+    let test = "independent_compilers_accept_every_export";
+    let Some(glslang) = available("glslangValidator", &["--version"], test) else {
+        return;
+    };
+    let Some(spirv_val) = available("spirv-val", &["--version"], test) else {
+        return;
+    };
+    let Some(spirv_cross) = available("spirv-cross", &["--help"], test) else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    for shader in Shader::ALL {
+        for entry in entry_points(shader) {
+            let path = |language: Language| {
+                dir.path()
+                    .join(format!("{}-{entry}.{}", shader.name(), language.extension()))
+            };
+            let write = |language: Language| {
+                let exported = export_shader(shader, language, Some(&entry)).unwrap();
+                std::fs::write(path(language), exported.bytes).unwrap();
+                path(language)
+            };
+            run_ok(Command::new(&glslang).arg(write(Language::Glsl)));
+            // glslang's HLSL front end compiles to SPIR-V, which spirv-val then checks too.
+            let from_hlsl = dir.path().join(format!("{}-{entry}-hlsl.spv", shader.name()));
+            run_ok(
+                Command::new(&glslang)
+                    .args(["-V", "-D", "-S", "comp", "-e", &entry, "-o"])
+                    .arg(&from_hlsl)
+                    .arg(write(Language::Hlsl)),
+            );
+            run_ok(Command::new(&spirv_val).arg(&from_hlsl));
+            let spv = write(Language::Spirv);
+            run_ok(Command::new(&spirv_val).arg(&spv));
+            run_ok(Command::new(&spirv_cross).arg(&spv).args(["--hlsl", "--shader-model", "51"]));
+            run_ok(Command::new(&spirv_cross).arg(&spv).args(["--msl"]));
+        }
+    }
+}
+
+/// Status code of the shader's `LrtfResult` for a CPU lookup.
+fn status_of(lookup: &Lookup) -> u32 {
+    match lookup {
+        Lookup::Passes(_) => LRTF_PASSES,
+        Lookup::Blocked => LRTF_BLOCKED,
+        Lookup::OutsideDomain => LRTF_OUTSIDE,
+    }
+}
+
+/// A deterministic uniform number in [0, 1).
+struct Lcg(u64);
+
+impl Lcg {
+    fn next(&mut self) -> f64 {
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (self.0 >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
+/// `per_layer` film-side rays for each layer, starting on the film plane `film_z`: film radii
+/// over the whole domain and 8 % beyond it (a third of them within 2 % of its edge), aimed at
+/// rear-plane points out to 1.2 times the layer's coordinate pupil circle (a third of them
+/// within 3 % of it). Each ray as the shader reads it: (origin, layer), (direction, block).
+fn rays_for(table: &LrtfTable, film_z: f64, per_layer: usize, block: u32) -> Vec<[f32; 8]> {
+    let mut random = Lcg(56);
+    let mut rays = Vec::new();
+    for (layer_index, layer) in table.layers.iter().enumerate() {
+        let frame = &layer.frame;
+        for k in 0..per_layer {
+            let mut edge = |centre: f64, spread: f64, wide: f64| {
+                if k % 3 == 0 {
+                    centre + spread * (2.0 * random.next() - 1.0)
+                } else {
+                    wide * random.next()
+                }
+            };
+            let film_radius = frame.max_film_radius * edge(1.0, 0.02, 1.08);
+            let pupil_scale = edge(1.0, 0.03, 1.2);
+            let azimuth = std::f64::consts::TAU * random.next();
+            let angle = std::f64::consts::TAU * random.next();
+            let circle = layer.pupil.circle_at(film_radius.min(frame.max_film_radius));
+            let (c, s) = (azimuth.cos(), azimuth.sin());
+            let local = [
+                circle.centre_x + pupil_scale * circle.radius * angle.cos(),
+                pupil_scale * circle.radius * angle.sin(),
+            ];
+            let origin = [film_radius * c, film_radius * s, film_z];
+            let target = [
+                c * local[0] - s * local[1],
+                s * local[0] + c * local[1],
+                frame.rear_plane_z,
+            ];
+            let d: Vec<f64> = (0..3).map(|i| target[i] - origin[i]).collect();
+            let norm = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+            rays.push([
+                origin[0] as f32,
+                origin[1] as f32,
+                origin[2] as f32,
+                layer_index as f32,
+                (d[0] / norm) as f32,
+                (d[1] / norm) as f32,
+                (d[2] / norm) as f32,
+                block as f32,
+            ]);
+        }
+    }
+    rays
+}
+
+fn floats_to_bytes(values: &[[f32; 8]]) -> Vec<u8> {
+    values
+        .iter()
+        .flatten()
+        .flat_map(|v| v.to_le_bytes())
+        .collect()
+}
+
+/// One table kind through the documented steps (docs/engines.md): bake, export the GLSL
+/// sampler and the binding, run the consumer, compare every ray with `LrtfTable::lookup`.
+fn consumer_matches(kind: &str, bake: &[&str], binding: &[&str]) {
+    let test = format!("consumer_matches_{kind}");
+    let Some(python) = consumer_python(&test) else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let path = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let (table_dir, shader, binding_dir) = (path("table"), path("lrtf_sample.comp"), path("binding"));
+    let lensbake = env!("CARGO_BIN_EXE_lensbake");
+    run_ok(Command::new(lensbake).args(["bake", "dgauss-50mm", "--resolution", "24", "--out", &table_dir]).args(bake));
+    run_ok(Command::new(lensbake).args(["export", "shader", "--lang", "glsl", "--out", &shader]));
+    run_ok(Command::new(lensbake).args(["export", "binding", &table_dir, "--out", &binding_dir]).args(binding));
+    let table = read_table(Path::new(&table_dir), None).unwrap();
+    let description: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(path("binding/binding.json")).unwrap()).unwrap();
+    let film_z = description["film_z_mm"].as_f64().unwrap();
+    let stop_radius = description["stop_radius_mm"].as_f64().unwrap();
+    let block = description["sampling_block"].as_u64().unwrap() as u32;
+    let per_layer = 12_000_usize.div_ceil(table.layers.len());
+    let rays = rays_for(&table, film_z, per_layer, block);
+    std::fs::write(path("rays.f32"), floats_to_bytes(&rays)).unwrap();
+    let consumer = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tools/engine_consumer.py");
+    let said = run_ok(
+        Command::new(&python)
+            .arg(consumer)
+            .args([&shader, &binding_dir, &path("rays.f32"), &path("out.f32")]),
+    );
+    let out: Vec<f32> = std::fs::read(path("out.f32"))
+        .unwrap()
+        .chunks_exact(4)
+        .map(|b| f32::from_le_bytes(b.try_into().unwrap()))
+        .collect();
+    assert_eq!(out.len(), 12 * rays.len(), "{said}");
+
+    let mut counts = [0usize; 3];
+    let (mut worst_position, mut worst_direction, mut worst_circle) = (0.0f64, 0.0f64, 0.0f64);
+    let mut near_edge = 0;
+    for (k, ray) in rays.iter().enumerate() {
+        let layer = ray[3] as usize;
+        let cpu_ray = Ray {
+            origin: [ray[0] as f64, ray[1] as f64, ray[2] as f64],
+            direction: [ray[4] as f64, ray[5] as f64, ray[6] as f64],
+        };
+        let lookup = table.lookup(layer, &cpu_ray, stop_radius);
+        let gl = &out[12 * k..12 * k + 12];
+        let status = status_of(&lookup);
+        assert_eq!(
+            gl[3] as u32, status,
+            "{kind}: ray {k} {cpu_ray:?} (layer {layer}): GL status {} against lensbake's {lookup:?}",
+            gl[3]
+        );
+        counts[status as usize] += 1;
+        let film_radius = cpu_ray.origin[0].hypot(cpu_ray.origin[1]);
+        if (film_radius / table.layers[layer].frame.max_film_radius - 1.0).abs() < 0.02 {
+            near_edge += 1;
+        }
+        if let Lookup::Passes(exit) = lookup {
+            for i in 0..3 {
+                worst_position = worst_position.max((gl[i] as f64 - exit.origin[i]).abs());
+                worst_direction = worst_direction.max((gl[4 + i] as f64 - exit.direction[i]).abs());
+            }
+        }
+        let circle = table.layers[0].sampling.circle_at(film_radius, film_z);
+        worst_circle = worst_circle
+            .max((gl[8] as f64 - circle.centre_x).abs())
+            .max((gl[9] as f64 - circle.radius).abs());
+    }
+    eprintln!(
+        "{kind}: {} rays ({} pass, {} blocked, {} outside; {near_edge} within 2 % of the film edge): \
+         worst position {worst_position:.2e} mm, direction {worst_direction:.2e}, sampling circle \
+         {worst_circle:.2e} mm; {said}",
+        rays.len(),
+        counts[0],
+        counts[1],
+        counts[2]
+    );
+    assert!(rays.len() >= 10_000);
+    // Every outcome represented, and a quarter of the rays at the film's edge.
+    assert!(counts.iter().all(|&c| c >= rays.len() / 50), "{kind}: {counts:?}");
+    assert!(near_edge >= rays.len() / 4, "{kind}: {near_edge} rays near the edge");
+    assert!(worst_position <= 1e-4, "{kind}: position off by {worst_position} mm");
+    assert!(worst_direction <= 2e-6, "{kind}: direction off by {worst_direction}");
+    assert!(worst_circle <= 1e-4, "{kind}: sampling circle off by {worst_circle} mm");
+}
+
+#[test]
+fn consumer_matches_a_monochrome_table() {
+    consumer_matches("monochrome", &[], &[]);
+}
+
+#[test]
+fn consumer_matches_a_chromatic_table() {
+    consumer_matches("chromatic", &["--wavelengths-nm", "656.27,587.56,486.13"], &[]);
+}
+
+#[test]
+fn consumer_matches_a_focus_range_table() {
+    consumer_matches("focus range", &["--focus-mm", "inf..1000"], &["--focus-mm", "2000"]);
+}
