@@ -326,3 +326,79 @@ fn consumer_matches_a_chromatic_table() {
 fn consumer_matches_a_focus_range_table() {
     consumer_matches("focus range", &["--focus-mm", "inf..1000"], &["--focus-mm", "2000"]);
 }
+
+/// The fenced block after `marker` in docs/engines.md.
+fn docs_block(docs: &str, marker: &str) -> String {
+    let after = &docs[docs.find(marker).unwrap_or_else(|| panic!("{marker} is in the docs"))..];
+    let start = after.find("```").unwrap();
+    let body = &after[start..];
+    let body = &body[body.find('\n').unwrap() + 1..];
+    body[..body.find("```").unwrap()].to_string()
+}
+
+/// docs/engines.md's steps, run as written (lensbake and python3 on PATH, in a fresh directory
+/// holding tools/), give the agreement it states and the uniform values it prints.
+#[test]
+fn docs_engines_steps_run_as_written() {
+    let test = "docs_engines_steps_run_as_written";
+    let Some(python) = consumer_python(test) else {
+        return;
+    };
+    let docs = std::fs::read_to_string(
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("docs/engines.md"),
+    )
+    .unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let bin = dir.path().join("bin");
+    std::fs::create_dir(&bin).unwrap();
+    std::os::unix::fs::symlink(env!("CARGO_BIN_EXE_lensbake"), bin.join("lensbake")).unwrap();
+    // A wrapper, not a link: a virtual environment's Python finds its packages from the path it
+    // was started by.
+    let wrapper = bin.join("python3");
+    std::fs::write(&wrapper, format!("#!/bin/sh\nexec '{python}' \"$@\"\n")).unwrap();
+    std::fs::set_permissions(&wrapper, std::os::unix::fs::PermissionsExt::from_mode(0o755))
+        .unwrap();
+    std::os::unix::fs::symlink(
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tools"),
+        dir.path().join("tools"),
+    )
+    .unwrap();
+    let path = format!(
+        "{}:{}",
+        bin.display(),
+        std::env::var("PATH").unwrap_or_default()
+    );
+    run_ok(
+        Command::new("bash")
+            .args(["-e", "-c", &docs_block(&docs, "<!-- tested: steps -->")])
+            .current_dir(dir.path())
+            .env("PATH", path),
+    );
+    let read = |name: &str| -> serde_json::Value {
+        serde_json::from_slice(&std::fs::read(dir.path().join("engine").join(name)).unwrap())
+            .unwrap()
+    };
+    let (gl, lensbake) = (read("gl.json"), read("lensbake.json"));
+    let (gl, lensbake) = (gl.as_array().unwrap(), lensbake.as_array().unwrap());
+    assert_eq!(gl.len(), lensbake.len());
+    let mut statuses = Vec::new();
+    for (ours, theirs) in gl.iter().zip(lensbake) {
+        assert_eq!(ours["status"], theirs["status"]);
+        statuses.push(theirs["status"].as_str().unwrap().to_string());
+        if theirs["status"] == "ok" {
+            for (key, tolerance) in [("position", 1e-4), ("direction", 2e-6)] {
+                let (a, b) = (common::vec3(&ours[key]), common::vec3(&theirs[key]));
+                for i in 0..3 {
+                    assert!((a[i] - b[i]).abs() <= tolerance, "{key}: {a:?} against {b:?}");
+                }
+            }
+        }
+    }
+    // The example shows every outcome.
+    for status in ["ok", "vignetted", "missed"] {
+        assert!(statuses.iter().any(|s| s == status), "{statuses:?}");
+    }
+    let printed: serde_json::Value =
+        serde_json::from_str(&docs_block(&docs, "<!-- tested: params -->")).unwrap();
+    assert_eq!(printed, read("binding/binding.json")["params"]);
+}
