@@ -29,7 +29,8 @@ pub use batch::{BatchTrace, RayBatch};
 pub(crate) use batch::{GROUP_RAYS, GroupBlock};
 pub use bundle::FieldBundle;
 #[cfg(feature = "render")]
-pub(crate) use intersect::{ASPHERE_MAX_STEPS, dot};
+pub(crate) use intersect::ASPHERE_MAX_STEPS;
+pub(crate) use intersect::dot;
 pub(crate) use lanes::{Isa, LANES, LaneVisitor, NoVisit, Slots, with_widest_isa};
 
 use crate::paraxial::Pupil;
