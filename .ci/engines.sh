@@ -8,7 +8,9 @@ command -v glslangValidator >/dev/null 2>&1 || engine_missing+=(glslang-tools)
 command -v spirv-val >/dev/null 2>&1 || engine_missing+=(spirv-tools)
 command -v spirv-cross >/dev/null 2>&1 || engine_missing+=(spirv-cross)
 python3 -m venv --help >/dev/null 2>&1 || engine_missing+=(python3-venv)
+# moderngl's context library opens libEGL and libGL (found through ldconfig); Mesa drives them.
 ldconfig -p | grep -q 'libEGL_mesa.so.0' || engine_missing+=(libegl-mesa0 libegl1 libgl1-mesa-dri)
+ldconfig -p | grep -q 'libGL.so.1' || engine_missing+=(libgl1)
 if [ "${#engine_missing[@]}" -gt 0 ]; then
   export DEBIAN_FRONTEND=noninteractive
   engine_sudo=""

@@ -160,7 +160,10 @@ pub enum ResourceKind {
 /// Every bound resource of `module` in (group, binding) order with its kind and its index
 /// within that kind: the GLSL `layout(binding = ...)` and the MSL `[[buffer(...)]]` /
 /// `[[texture(...)]]` (MSL numbers uniform and storage buffers in one space).
-pub fn resource_slots(module: &Module, language: Language) -> Vec<(ResourceBinding, ResourceKind, u8)> {
+pub fn resource_slots(
+    module: &Module,
+    language: Language,
+) -> Vec<(ResourceBinding, ResourceKind, u8)> {
     let mut bound: Vec<(ResourceBinding, ResourceKind)> = module
         .global_variables
         .iter()
@@ -222,7 +225,11 @@ pub fn export_shader(
     };
     let module = naga::front::wgsl::parse_str(source)
         .map_err(|e| naga_error("parse the WGSL")(e.emit_to_string(source)))?;
-    let names: Vec<&str> = module.entry_points.iter().map(|e| e.name.as_str()).collect();
+    let names: Vec<&str> = module
+        .entry_points
+        .iter()
+        .map(|e| e.name.as_str())
+        .collect();
     let entry = match entry_point {
         Some(asked) if !names.contains(&asked) => {
             return Err(ExportError::NoEntryPoint {
@@ -234,12 +241,6 @@ pub fn export_shader(
         Some(asked) => asked.to_string(),
         None => names.first().copied().unwrap_or_default().to_string(),
     };
-    if language == Language::Wgsl {
-        return Ok(Exported {
-            bytes: format!("{}{source}", banner(shader, "//")).into_bytes(),
-            entry_point: entry,
-        });
-    }
     let info = Validator::new(ValidationFlags::all(), Capabilities::default())
         .validate(&module)
         .map_err(|e| naga_error("validate the module")(e.emit_to_string(source)))?;
@@ -302,7 +303,10 @@ pub fn export_shader(
             let sizes = slots
                 .iter()
                 .filter(|(_, kind, _)| {
-                    matches!(kind, ResourceKind::UniformBuffer | ResourceKind::StorageBuffer)
+                    matches!(
+                        kind,
+                        ResourceKind::UniformBuffer | ResourceKind::StorageBuffer
+                    )
                 })
                 .count() as u8;
             let options = back::msl::Options {
@@ -335,7 +339,7 @@ pub fn export_shader(
                 .map_err(|e| naga_error("write SPIR-V")(e.to_string()))?;
             words.iter().flat_map(|w| w.to_le_bytes()).collect()
         }
-        Language::Wgsl => unreachable!("returned above"),
+        Language::Wgsl => format!("{}{source}", banner(shader, "//")).into_bytes(),
     };
     Ok(Exported {
         bytes,

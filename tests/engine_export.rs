@@ -73,29 +73,43 @@ fn every_shader_exports_in_every_language() {
                 continue;
             }
             let text = String::from_utf8(exported.bytes).expect("text");
-            let version = format!(
-                "format_version {}",
-                lensbake::lrtf::io::FORMAT_VERSION
+            let version = format!("format_version {}", lensbake::lrtf::io::FORMAT_VERSION);
+            assert!(
+                text.contains(&version),
+                "{} {}",
+                shader.name(),
+                language.name()
             );
-            assert!(text.contains(&version), "{} {}", shader.name(), language.name());
             // GLSL calls its one entry point main.
             let entry = match language {
                 Language::Glsl => "void main()",
                 _ => &exported.entry_point,
             };
-            assert!(text.contains(entry), "{} {}", shader.name(), language.name());
+            assert!(
+                text.contains(entry),
+                "{} {}",
+                shader.name(),
+                language.name()
+            );
         }
     }
     let refused = export_shader(Shader::Sampler, Language::Glsl, Some("render")).unwrap_err();
-    assert!(refused.to_string().contains("lrtf_sample_rays"), "{refused}");
+    assert!(
+        refused.to_string().contains("lrtf_sample_rays"),
+        "{refused}"
+    );
 }
 
 #[test]
 fn exported_sampler_checks_the_table_format_version() {
     // The version test sits in the shader itself, in every language.
     for language in [Language::Glsl, Language::Hlsl, Language::Msl] {
-        let text = String::from_utf8(export_shader(Shader::Sampler, language, None).unwrap().bytes)
-            .unwrap();
+        let text = String::from_utf8(
+            export_shader(Shader::Sampler, language, None)
+                .unwrap()
+                .bytes,
+        )
+        .unwrap();
         assert!(text.contains("format_version"), "{}", language.name());
     }
 }
@@ -119,8 +133,11 @@ fn independent_compilers_accept_every_export() {
     for shader in Shader::ALL {
         for entry in entry_points(shader) {
             let path = |language: Language| {
-                dir.path()
-                    .join(format!("{}-{entry}.{}", shader.name(), language.extension()))
+                dir.path().join(format!(
+                    "{}-{entry}.{}",
+                    shader.name(),
+                    language.extension()
+                ))
             };
             let write = |language: Language| {
                 let exported = export_shader(shader, language, Some(&entry)).unwrap();
@@ -129,7 +146,9 @@ fn independent_compilers_accept_every_export() {
             };
             run_ok(Command::new(&glslang).arg(write(Language::Glsl)));
             // glslang's HLSL front end compiles to SPIR-V, which spirv-val then checks too.
-            let from_hlsl = dir.path().join(format!("{}-{entry}-hlsl.spv", shader.name()));
+            let from_hlsl = dir
+                .path()
+                .join(format!("{}-{entry}-hlsl.spv", shader.name()));
             run_ok(
                 Command::new(&glslang)
                     .args(["-V", "-D", "-S", "comp", "-e", &entry, "-o"])
@@ -139,7 +158,11 @@ fn independent_compilers_accept_every_export() {
             run_ok(Command::new(&spirv_val).arg(&from_hlsl));
             let spv = write(Language::Spirv);
             run_ok(Command::new(&spirv_val).arg(&spv));
-            run_ok(Command::new(&spirv_cross).arg(&spv).args(["--hlsl", "--shader-model", "51"]));
+            run_ok(
+                Command::new(&spirv_cross)
+                    .arg(&spv)
+                    .args(["--hlsl", "--shader-model", "51"]),
+            );
             run_ok(Command::new(&spirv_cross).arg(&spv).args(["--msl"]));
         }
     }
@@ -188,7 +211,9 @@ fn rays_for(table: &LrtfTable, film_z: f64, per_layer: usize, block: u32) -> Vec
             let pupil_scale = edge(1.0, 0.03, 1.2);
             let azimuth = std::f64::consts::TAU * random.next();
             let angle = std::f64::consts::TAU * random.next();
-            let circle = layer.pupil.circle_at(film_radius.min(frame.max_film_radius));
+            let circle = layer
+                .pupil
+                .circle_at(film_radius.min(frame.max_film_radius));
             let (c, s) = (azimuth.cos(), azimuth.sin());
             let local = [
                 circle.centre_x + pupil_scale * circle.radius * angle.cos(),
@@ -234,11 +259,27 @@ fn consumer_matches(kind: &str, bake: &[&str], binding: &[&str]) {
     };
     let dir = tempfile::tempdir().unwrap();
     let path = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
-    let (table_dir, shader, binding_dir) = (path("table"), path("lrtf_sample.comp"), path("binding"));
+    let (table_dir, shader, binding_dir) =
+        (path("table"), path("lrtf_sample.comp"), path("binding"));
     let lensbake = env!("CARGO_BIN_EXE_lensbake");
-    run_ok(Command::new(lensbake).args(["bake", "dgauss-50mm", "--resolution", "24", "--out", &table_dir]).args(bake));
+    run_ok(
+        Command::new(lensbake)
+            .args([
+                "bake",
+                "dgauss-50mm",
+                "--resolution",
+                "24",
+                "--out",
+                &table_dir,
+            ])
+            .args(bake),
+    );
     run_ok(Command::new(lensbake).args(["export", "shader", "--lang", "glsl", "--out", &shader]));
-    run_ok(Command::new(lensbake).args(["export", "binding", &table_dir, "--out", &binding_dir]).args(binding));
+    run_ok(
+        Command::new(lensbake)
+            .args(["export", "binding", &table_dir, "--out", &binding_dir])
+            .args(binding),
+    );
     let table = read_table(Path::new(&table_dir), None).unwrap();
     let description: serde_json::Value =
         serde_json::from_slice(&std::fs::read(path("binding/binding.json")).unwrap()).unwrap();
@@ -249,11 +290,12 @@ fn consumer_matches(kind: &str, bake: &[&str], binding: &[&str]) {
     let rays = rays_for(&table, film_z, per_layer, block);
     std::fs::write(path("rays.f32"), floats_to_bytes(&rays)).unwrap();
     let consumer = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tools/engine_consumer.py");
-    let said = run_ok(
-        Command::new(&python)
-            .arg(consumer)
-            .args([&shader, &binding_dir, &path("rays.f32"), &path("out.f32")]),
-    );
+    let said = run_ok(Command::new(&python).arg(consumer).args([
+        &shader,
+        &binding_dir,
+        &path("rays.f32"),
+        &path("out.f32"),
+    ]));
     let out: Vec<f32> = std::fs::read(path("out.f32"))
         .unwrap()
         .chunks_exact(4)
@@ -305,11 +347,26 @@ fn consumer_matches(kind: &str, bake: &[&str], binding: &[&str]) {
     );
     assert!(rays.len() >= 10_000);
     // Every outcome represented, and a quarter of the rays at the film's edge.
-    assert!(counts.iter().all(|&c| c >= rays.len() / 50), "{kind}: {counts:?}");
-    assert!(near_edge >= rays.len() / 4, "{kind}: {near_edge} rays near the edge");
-    assert!(worst_position <= 1e-4, "{kind}: position off by {worst_position} mm");
-    assert!(worst_direction <= 2e-6, "{kind}: direction off by {worst_direction}");
-    assert!(worst_circle <= 1e-4, "{kind}: sampling circle off by {worst_circle} mm");
+    assert!(
+        counts.iter().all(|&c| c >= rays.len() / 50),
+        "{kind}: {counts:?}"
+    );
+    assert!(
+        near_edge >= rays.len() / 4,
+        "{kind}: {near_edge} rays near the edge"
+    );
+    assert!(
+        worst_position <= 1e-4,
+        "{kind}: position off by {worst_position} mm"
+    );
+    assert!(
+        worst_direction <= 2e-6,
+        "{kind}: direction off by {worst_direction}"
+    );
+    assert!(
+        worst_circle <= 1e-4,
+        "{kind}: sampling circle off by {worst_circle} mm"
+    );
 }
 
 #[test]
@@ -319,17 +376,27 @@ fn consumer_matches_a_monochrome_table() {
 
 #[test]
 fn consumer_matches_a_chromatic_table() {
-    consumer_matches("chromatic", &["--wavelengths-nm", "656.27,587.56,486.13"], &[]);
+    consumer_matches(
+        "chromatic",
+        &["--wavelengths-nm", "656.27,587.56,486.13"],
+        &[],
+    );
 }
 
 #[test]
 fn consumer_matches_a_focus_range_table() {
-    consumer_matches("focus range", &["--focus-mm", "inf..1000"], &["--focus-mm", "2000"]);
+    consumer_matches(
+        "focus range",
+        &["--focus-mm", "inf..1000"],
+        &["--focus-mm", "2000"],
+    );
 }
 
 /// The fenced block after `marker` in docs/engines.md.
 fn docs_block(docs: &str, marker: &str) -> String {
-    let after = &docs[docs.find(marker).unwrap_or_else(|| panic!("{marker} is in the docs"))..];
+    let after = &docs[docs
+        .find(marker)
+        .unwrap_or_else(|| panic!("{marker} is in the docs"))..];
     let start = after.find("```").unwrap();
     let body = &after[start..];
     let body = &body[body.find('\n').unwrap() + 1..];
@@ -344,10 +411,9 @@ fn docs_engines_steps_run_as_written() {
     let Some(python) = consumer_python(test) else {
         return;
     };
-    let docs = std::fs::read_to_string(
-        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("docs/engines.md"),
-    )
-    .unwrap();
+    let docs =
+        std::fs::read_to_string(PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("docs/engines.md"))
+            .unwrap();
     let dir = tempfile::tempdir().unwrap();
     let bin = dir.path().join("bin");
     std::fs::create_dir(&bin).unwrap();
@@ -356,8 +422,11 @@ fn docs_engines_steps_run_as_written() {
     // was started by.
     let wrapper = bin.join("python3");
     std::fs::write(&wrapper, format!("#!/bin/sh\nexec '{python}' \"$@\"\n")).unwrap();
-    std::fs::set_permissions(&wrapper, std::os::unix::fs::PermissionsExt::from_mode(0o755))
-        .unwrap();
+    std::fs::set_permissions(
+        &wrapper,
+        std::os::unix::fs::PermissionsExt::from_mode(0o755),
+    )
+    .unwrap();
     std::os::unix::fs::symlink(
         PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tools"),
         dir.path().join("tools"),
@@ -389,7 +458,10 @@ fn docs_engines_steps_run_as_written() {
             for (key, tolerance) in [("position", 1e-4), ("direction", 2e-6)] {
                 let (a, b) = (common::vec3(&ours[key]), common::vec3(&theirs[key]));
                 for i in 0..3 {
-                    assert!((a[i] - b[i]).abs() <= tolerance, "{key}: {a:?} against {b:?}");
+                    assert!(
+                        (a[i] - b[i]).abs() <= tolerance,
+                        "{key}: {a:?} against {b:?}"
+                    );
                 }
             }
         }

@@ -242,7 +242,11 @@ fn channels_are_named_by_layer_and_format_4_tables_still_read() {
         "--out",
         dir.to_str().unwrap(),
     ]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let fresh = read_table(&dir, None).unwrap();
     let old = read_table(&common::test_data("lrtf-format-4"), None).unwrap();
     assert_eq!(old, fresh);

@@ -6,18 +6,16 @@
 
 mod common;
 
-use std::mem::offset_of;
 use std::path::PathBuf;
 use std::process::Command;
 
 use lensbake::lrtf::GpuParams;
-use lensbake::lrtf::io::{
-    FORMAT_VERSION, OLDEST_READ_FORMAT_VERSION, read_sidecar, write_table,
-};
+use lensbake::lrtf::io::{FORMAT_VERSION, OLDEST_READ_FORMAT_VERSION, read_sidecar, write_table};
 use lensbake::lrtf::param::{
     CHANNEL_NAMES, CHANNELS, PARAMETERISATION_PUPIL_PLANES, PARAMETERISATION_SPHERICAL,
 };
 use lensbake::lrtf::table::{LRTF_BLOCKED, LRTF_OUTSIDE, LRTF_PASSES, LRTF_VERSION_MISMATCH};
+use lensbake::render::wgsl::lrtf_sample_shader;
 
 fn repo(path: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(path)
@@ -113,30 +111,22 @@ fn the_c_header_states_lensbakes_layout() {
         format!("size {}", std::mem::size_of::<GpuParams>()),
         format!("circle {}", std::mem::size_of::<[f32; 2]>()),
     ]);
-    macro_rules! offsets {
-        ($($field:ident),*) => {
-            $(expected.push(format!(
-                "{} {}",
-                stringify!($field),
-                offset_of!(GpuParams, $field)
-            ));)*
-        };
-    }
-    offsets!(
-        rear_plane_z,
-        film_plane_z,
-        max_film_radius,
-        max_rear_radius,
-        max_polar_angle,
-        stop_radius_sq,
-        parameterisation,
-        pupil_count,
-        dims,
-        format_version,
-        sampling_max_film_radius,
-        sampling_count,
-        focus_count,
-        focus_coordinate
+    // The uniform block member by member as naga lays out the shader's struct (whose layout
+    // tests/lrtf_wgsl.rs ties to the Rust one).
+    let module = naga::front::wgsl::parse_str(lrtf_sample_shader()).unwrap();
+    let params = module
+        .types
+        .iter()
+        .find(|(_, t)| t.name.as_deref() == Some("LrtfParams"))
+        .expect("the sampler declares LrtfParams");
+    let naga::TypeInner::Struct { members, span } = &params.1.inner else {
+        panic!("LrtfParams is a struct");
+    };
+    assert_eq!(*span as usize, std::mem::size_of::<GpuParams>());
+    expected.extend(
+        members
+            .iter()
+            .map(|m| format!("{} {}", m.name.as_deref().unwrap_or("?"), m.offset)),
     );
     // Node (2, 3, 4) of layer 1 in 3 x 4 x 5 layers: x fastest, then y, then z, layers along z.
     expected.push(format!("node {}", 2 + 3 * (3 + 4 * (4 + 5))));
@@ -171,7 +161,13 @@ fn sidecars_of_every_kind_follow_the_json_schema() {
         };
         let table = lensbake::bake(&lens.system, &request, &|_| ()).unwrap();
         let table_dir = dir.path().join(name);
-        write_table(&table, "cooke-triplet", &lens.system.prescription, &table_dir).unwrap();
+        write_table(
+            &table,
+            "cooke-triplet",
+            &lens.system.prescription,
+            &table_dir,
+        )
+        .unwrap();
         documents.push(serde_json::to_value(read_sidecar(&table_dir).unwrap()).unwrap());
     }
     // A field that is not lensbake's must fail, or the check proves nothing.

@@ -81,8 +81,7 @@ impl LrtfTable {
         let spherical = self.info.parameterisation == Parameterisation::Spherical;
         for (k, layer) in self.layers.iter().enumerate().skip(1) {
             let (a, b) = (&first.frame, &layer.frame);
-            let differs = if a.rear_plane_z != b.rear_plane_z || a.film_plane_z != b.film_plane_z
-            {
+            let differs = if a.rear_plane_z != b.rear_plane_z || a.film_plane_z != b.film_plane_z {
                 Some("film and rear planes")
             } else if a.max_film_radius != b.max_film_radius {
                 Some("film radius")

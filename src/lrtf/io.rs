@@ -237,7 +237,10 @@ pub fn write_table(
                         Precision::F32 => FlatSamples::F32(values.collect()),
                         Precision::F16 => FlatSamples::F16(values.map(f16::from_f32).collect()),
                     };
-                    AnyChannel::new(channel_name(&layer_name(k), c, FORMAT_VERSION).as_str(), samples)
+                    AnyChannel::new(
+                        channel_name(&layer_name(k), c, FORMAT_VERSION).as_str(),
+                        samples,
+                    )
                 })
                 .collect::<Vec<_>>();
             exr::image::Layer::new(
