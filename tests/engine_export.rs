@@ -10,8 +10,8 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use lensbake::export::{Language, Shader, export_shader};
-use lensbake::lrtf::io::read_table;
-use lensbake::lrtf::table::{LRTF_BLOCKED, LRTF_OUTSIDE, LRTF_PASSES};
+use lensbake::lrtf::io::{FORMAT_VERSION, read_table};
+use lensbake::lrtf::table::{LRTF_BLOCKED, LRTF_OUTSIDE, LRTF_PASSES, LRTF_VERSION_MISMATCH};
 use lensbake::lrtf::{Lookup, LrtfTable, Ray};
 
 fn in_ci() -> bool {
@@ -98,20 +98,6 @@ fn every_shader_exports_in_every_language() {
         refused.to_string().contains("lrtf_sample_rays"),
         "{refused}"
     );
-}
-
-#[test]
-fn exported_sampler_checks_the_table_format_version() {
-    // The version test sits in the shader itself, in every language.
-    for language in [Language::Glsl, Language::Hlsl, Language::Msl] {
-        let text = String::from_utf8(
-            export_shader(Shader::Sampler, language, None)
-                .unwrap()
-                .bytes,
-        )
-        .unwrap();
-        assert!(text.contains("format_version"), "{}", language.name());
-    }
 }
 
 /// glslangValidator (GLSL, and HLSL through its HLSL front end), spirv-val, and spirv-cross
@@ -367,6 +353,28 @@ fn consumer_matches(kind: &str, bake: &[&str], binding: &[&str]) {
         worst_circle <= 1e-4,
         "{kind}: sampling circle off by {worst_circle} mm"
     );
+
+    // The same shader bound to a uniform block of another table format refuses every ray.
+    let params = path("binding/lrtf_params.bin");
+    let mut block = std::fs::read(&params).unwrap();
+    let at = std::mem::offset_of!(lensbake::lrtf::GpuParams, format_version);
+    block[at..at + 4].copy_from_slice(&(FORMAT_VERSION - 1).to_le_bytes());
+    std::fs::write(&params, block).unwrap();
+    run_ok(
+        Command::new(&python)
+            .arg(PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tools/engine_consumer.py"))
+            .args([&shader, &binding_dir, &path("rays.f32"), &path("out.f32")]),
+    );
+    let refused = std::fs::read(path("out.f32")).unwrap();
+    for k in 0..rays.len() {
+        let status = &refused[48 * k + 12..48 * k + 16];
+        assert_eq!(
+            f32::from_le_bytes(status.try_into().unwrap()) as u32,
+            LRTF_VERSION_MISMATCH,
+            "{kind}: ray {k} under a block of format {}",
+            FORMAT_VERSION - 1
+        );
+    }
 }
 
 #[test]
