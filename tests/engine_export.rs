@@ -482,3 +482,56 @@ fn docs_engines_steps_run_as_written() {
         serde_json::from_str(&docs_block(&docs, "<!-- tested: params -->")).unwrap();
     assert_eq!(printed, read("binding/binding.json")["params"]);
 }
+
+/// Bad requests end in one `error:` line naming what is wrong, exit code 2, and no output.
+#[test]
+fn export_refusals_are_one_error_line_and_write_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let table = dir.path().join("table");
+    let out = dir.path().join("out");
+    let (table, out) = (table.to_str().unwrap(), out.to_str().unwrap());
+    let baked = common::lensbake(&["bake", "cooke-triplet", "--resolution", "4", "--out", table]);
+    assert!(baked.status.success());
+    for (args, says) in [
+        (
+            vec!["export", "shader", "--lang", "spirv"],
+            "name a file with --out",
+        ),
+        (
+            vec![
+                "export", "shader", "--lang", "glsl", "--entry", "main", "--out", out,
+            ],
+            "has no entry point `main` (it has: lrtf_sample_rays)",
+        ),
+        (
+            vec!["export", "binding", table, "--f-number", "1", "--out", out],
+            "f-number 1 is faster than the table's",
+        ),
+        (
+            vec![
+                "export",
+                "binding",
+                table,
+                "--focus-mm",
+                "500",
+                "--out",
+                out,
+            ],
+            "500",
+        ),
+        (
+            vec!["export", "binding", "no-such-table", "--out", out],
+            "no-such-table/lrtf.ron",
+        ),
+    ] {
+        let run = common::lensbake(&args);
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert_eq!(run.status.code(), Some(2), "{args:?}: {stderr}");
+        let first = stderr.lines().next().unwrap_or_default();
+        assert!(
+            first.starts_with("error: ") && first.contains(says),
+            "{args:?}: {stderr}"
+        );
+        assert!(!Path::new(out).exists(), "{args:?} wrote {out}");
+    }
+}
