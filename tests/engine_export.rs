@@ -534,6 +534,10 @@ fn export_refusals_are_one_error_line_and_write_nothing() {
             vec!["export", "binding", "no-such-table", "--out", out],
             "no-such-table/lrtf.ron",
         ),
+        (
+            vec!["export", "lens", "no-such-lens", "--out", out],
+            "`no-such-lens` is neither a lens file nor a bundled lens",
+        ),
     ] {
         let run = common::lensbake(&args);
         let stderr = String::from_utf8_lossy(&run.stderr);
@@ -544,5 +548,127 @@ fn export_refusals_are_one_error_line_and_write_nothing() {
             "{args:?}: {stderr}"
         );
         assert!(!Path::new(out).exists(), "{args:?} wrote {out}");
+    }
+}
+
+/// The exported GLSL trace run by the consumer on lenses packed by `export lens` traces as
+/// lensbake's own wgpu trace does (which tests/shader_twins.rs holds to the f64 tracer): the
+/// same status and stopping surface per ray, the same rays to f32 precision. Lenses: spheres
+/// (double Gauss), even aspheres, mirrors with a central obscuration (reflex), an odd asphere.
+#[test]
+fn consumer_traces_like_lensbakes_gpu_trace() {
+    let test = "consumer_traces_like_lensbakes_gpu_trace";
+    let Some(python) = consumer_python(test) else {
+        return;
+    };
+    let Some(gpu) = common::gpu_or_skip(test) else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let path = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let lensbake = env!("CARGO_BIN_EXE_lensbake");
+    let shader = path("trace.comp");
+    run_ok(Command::new(lensbake).args([
+        "export", "shader", "--shader", "trace", "--lang", "glsl", "--out", &shader,
+    ]));
+    let odd_asphere = common::test_data("odd_asphere_singlet.zmx");
+    let lenses = [
+        "dgauss-50mm",
+        "asph-50mm-f1.8",
+        "reflex-1000mm-f7.5",
+        odd_asphere.to_str().unwrap(),
+    ];
+    for (k, lens) in lenses.into_iter().enumerate() {
+        let packed = path(&format!("lens-{k}"));
+        run_ok(Command::new(lensbake).args(["export", "lens", lens, "--out", &packed]));
+        let loaded = lensbake::load_lens(lens, &Default::default()).unwrap();
+        let at = loaded.system.at(loaded.system.design_wavelength_nm());
+        let (params, surfaces) = lensbake::render::gpu_types::lens_surfaces(&at);
+        // Film-side rays from 20 mm behind the last surface to points of its vertex plane out
+        // to 1.3 times its semi-aperture, so some pass, some are vignetted and some miss.
+        let last = at.surfaces.last().unwrap();
+        let reach = 1.3 * last.semi_aperture;
+        let mut random = Lcg(k as u64 + 1);
+        let mut disc = || {
+            let (r, a) = (
+                reach * random.next().sqrt(),
+                std::f64::consts::TAU * random.next(),
+            );
+            [r * a.cos(), r * a.sin()]
+        };
+        let rays: Vec<[[f32; 3]; 2]> = (0..40_000)
+            .map(|_| {
+                let (from, to) = (disc(), disc());
+                let origin = [from[0], from[1], last.vertex_z + 20.0];
+                let d = [to[0] - from[0], to[1] - from[1], -20.0];
+                let norm = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+                [origin.map(|v| v as f32), d.map(|v| (v / norm) as f32)]
+            })
+            .collect();
+        let input: Vec<[f32; 8]> = rays
+            .iter()
+            .map(|[o, d]| [o[0], o[1], o[2], 0.0, d[0], d[1], d[2], 0.0])
+            .collect();
+        std::fs::write(path("trace-rays.f32"), floats_to_bytes(&input)).unwrap();
+        run_ok(
+            Command::new(&python).args([
+                PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+                    .join("tools/engine_consumer.py")
+                    .to_str()
+                    .unwrap(),
+                &shader,
+                &packed,
+                &path("trace-rays.f32"),
+                &path("trace-out.f32"),
+            ]),
+        );
+        let gl: Vec<f32> = std::fs::read(path("trace-out.f32"))
+            .unwrap()
+            .chunks_exact(4)
+            .map(|b| f32::from_le_bytes(b.try_into().unwrap()))
+            .collect();
+        let own = gpu.trace_rays(&params, &surfaces, &rays).unwrap();
+        assert_eq!(gl.len(), 8 * own.len());
+        let mut passing = 0;
+        // f32 precision at the lens's size: 1e-4 mm, or 16 units in the last place of its
+        // largest coordinate where that is more (the reflex lens spans hundreds of mm).
+        let size = at
+            .surfaces
+            .iter()
+            .map(|s| s.vertex_z.abs().max(s.semi_aperture))
+            .fold(0.0f64, f64::max);
+        let position_tolerance = 1e-4f32.max(16.0 * f32::EPSILON * size as f32);
+        let (mut worst_position, mut worst_direction) = (0.0f32, 0.0f32);
+        for (i, [head, tail]) in own.iter().enumerate() {
+            let theirs = &gl[8 * i..8 * i + 8];
+            assert_eq!(
+                (theirs[3], theirs[7]),
+                (head[3], tail[3]),
+                "{lens}: ray {i} {:?}: GL (status, surface) against wgpu's",
+                rays[i]
+            );
+            if head[3] as u32 == 0 {
+                passing += 1;
+                for c in 0..3 {
+                    worst_position = worst_position.max((theirs[c] - head[c]).abs());
+                    worst_direction = worst_direction.max((theirs[4 + c] - tail[c]).abs());
+                }
+            }
+        }
+        eprintln!(
+            "{lens}: {passing} of {} rays pass; worst position {worst_position:.2e} mm (allowed \
+             {position_tolerance:.1e}), direction {worst_direction:.2e}",
+            rays.len()
+        );
+        // The reflex lens's obscured annulus passes the fewest (about 0.5 %).
+        assert!(passing >= 100 && passing < rays.len(), "{lens}: {passing}");
+        assert!(
+            worst_position <= position_tolerance,
+            "{lens}: position off by {worst_position} mm"
+        );
+        assert!(
+            worst_direction <= 2e-6,
+            "{lens}: direction off by {worst_direction}"
+        );
     }
 }

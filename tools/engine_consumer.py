@@ -5,7 +5,10 @@ through a headless EGL context, via moderngl) with a table bound as docs/engines
     engine_consumer.py SHADER.comp BINDING_DIR RAYS OUT
 
 SHADER.comp is `lensbake export shader --lang glsl` (entry point lrtf_sample_rays), BINDING_DIR
-is `lensbake export binding`. Rays come in one of two forms:
+is `lensbake export binding`. Or SHADER.comp is `lensbake export shader --shader trace --lang
+glsl` (trace_lens_rays) and BINDING_DIR `lensbake export lens`; RAYS.f32 then holds 8 f32 per
+ray (origin, 0, direction, 0) and OUT.f32 receives 8 (exit origin, status, direction, the
+surface that stopped the ray). For the sampler, rays come in one of two forms:
 - RAYS.json as `lensbake lrtf eval` reads them ([{"origin": [x, y, z], "direction": [dx, dy,
   dz]}], layer 0); OUT.json then holds what `lrtf eval --json` prints for them (status "ok",
   "vignetted" or "missed", position, direction).
@@ -28,6 +31,8 @@ import moderngl
 
 RAY_FLOATS_IN = 8
 RAY_FLOATS_OUT = 12
+# The trace harness writes (origin, status) and (direction, surface) per ray.
+TRACE_FLOATS_OUT = 8
 WORKGROUP = 64
 # LrtfResult::status codes (LRTF_PASSES, LRTF_BLOCKED, LRTF_OUTSIDE) as `lrtf eval` names them.
 STATUS_NAMES = {0: "ok", 1: "vignetted", 2: "missed"}
@@ -59,20 +64,52 @@ def json_from_output(output, rays):
     return json.dumps(results, indent=1) + "\n"
 
 
+def read_file(directory, name):
+    with open(os.path.join(directory, name), "rb") as f:
+        return f.read()
+
+
+def bind_table(ctx, directory, description):
+    """The sampler's resources (docs/engines.md, Bindings); returns what must stay alive."""
+    data = {name: read_file(directory, file) for name, file in description["files"].items()}
+    size = tuple(description["texture_size"])
+    alive = []
+    for unit, name in enumerate(["transfer", "aux"]):
+        texture = ctx.texture3d(size, 4, data[name], dtype="f4")
+        # texelFetch reads a level of a complete texture: without mipmaps the default
+        # minification filter (which uses them) would leave it incomplete and read zeros.
+        texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        texture.use(location=unit)
+        alive.append(texture)
+    params = ctx.buffer(data["params"])
+    pupil = ctx.buffer(data["pupil"])
+    params.bind_to_uniform_block(0)
+    pupil.bind_to_storage_buffer(0)
+    return alive + [params, pupil]
+
+
+def bind_lens(ctx, directory, description):
+    """The trace's resources: surfaces (SSBO 0) and LensParams (UBO 0)."""
+    surfaces = ctx.buffer(read_file(directory, description["files"]["surfaces"]))
+    params = ctx.buffer(read_file(directory, description["files"]["params"]))
+    surfaces.bind_to_storage_buffer(0)
+    params.bind_to_uniform_block(0)
+    return [surfaces, params]
+
+
 def main():
     shader_path, binding_dir, rays_path, out_path = sys.argv[1:5]
-    with open(os.path.join(binding_dir, "binding.json")) as f:
-        binding = json.load(f)
-
-    def data(name):
-        with open(os.path.join(binding_dir, binding["files"][name]), "rb") as f:
-            return f.read()
+    # A table's binding (export binding) or a lens's (export lens, for --shader trace).
+    tracing = os.path.exists(os.path.join(binding_dir, "lens.json"))
+    with open(os.path.join(binding_dir, "lens.json" if tracing else "binding.json")) as f:
+        description = json.load(f)
+    floats_out = TRACE_FLOATS_OUT if tracing else RAY_FLOATS_OUT
 
     with open(shader_path) as f:
         source = f.read()
     as_json = rays_path.endswith(".json")
     if as_json:
-        rays = rays_from_json(rays_path, binding["sampling_block"])
+        rays = rays_from_json(rays_path, description["sampling_block"])
     else:
         with open(rays_path, "rb") as f:
             rays = f.read()
@@ -80,21 +117,10 @@ def main():
 
     ctx = moderngl.create_context(standalone=True, backend="egl")
     program = ctx.compute_shader(source)
-    size = tuple(binding["texture_size"])
-    textures = []
-    for unit, name in enumerate(["transfer", "aux"]):
-        texture = ctx.texture3d(size, 4, data(name), dtype="f4")
-        # texelFetch reads a level of a complete texture: without mipmaps the default
-        # minification filter (which uses them) would leave it incomplete and read zeros.
-        texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        texture.use(location=unit)
-        textures.append(texture)
-    params = ctx.buffer(data("params"))
-    pupil = ctx.buffer(data("pupil"))
+    bind = bind_lens if tracing else bind_table
+    alive = bind(ctx, binding_dir, description)
     rays_in = ctx.buffer(rays)
-    rays_out = ctx.buffer(reserve=count * 4 * RAY_FLOATS_OUT)
-    params.bind_to_uniform_block(0)
-    pupil.bind_to_storage_buffer(0)
+    rays_out = ctx.buffer(reserve=count * 4 * floats_out)
     rays_in.bind_to_storage_buffer(1)
     rays_out.bind_to_storage_buffer(2)
     program.run(group_x=(count + WORKGROUP - 1) // WORKGROUP)
@@ -105,7 +131,7 @@ def main():
             output = json_from_output(output, f.read()).encode()
     with open(out_path, "wb") as f:
         f.write(output)
-    print(f"{count} rays through {ctx.info['GL_RENDERER']}")
+    print(f"{count} rays through {ctx.info['GL_RENDERER']} ({len(alive)} resources bound)")
 
 
 if __name__ == "__main__":

@@ -8,7 +8,9 @@ use clap::{Args, Subcommand};
 use lensbake::export::{Language, Shader, export_shader};
 use lensbake::lrtf::io::{FORMAT_VERSION, read_table};
 use lensbake::output::{publish_dir, write_bytes};
+use lensbake::render::gpu_types::{LensSurface, lens_surfaces};
 
+use super::lens::LensArgs;
 use super::lrtf::{FocusArg, parse_focus};
 
 #[derive(Subcommand, Debug)]
@@ -19,6 +21,9 @@ pub enum ExportCommand {
     /// A baked table packed for the exported sampler: its two textures, pupil circles and
     /// uniform block as raw little-endian files, described by binding.json.
     Binding(BindingArgs),
+    /// A lens packed for the exported trace (`--shader trace`): its surfaces and uniform block
+    /// at one wavelength as raw little-endian files, described by lens.json.
+    Lens(LensExportArgs),
 }
 
 #[derive(Args, Debug)]
@@ -54,10 +59,23 @@ pub struct BindingArgs {
     focus_mm: Option<FocusArg>,
 }
 
+#[derive(Args, Debug)]
+pub struct LensExportArgs {
+    #[command(flatten)]
+    lens: LensArgs,
+    /// Output directory (replaced as a whole).
+    #[arg(long)]
+    out: PathBuf,
+    /// Wavelength the media's indices are taken at (default: the lens's design wavelength).
+    #[arg(long)]
+    wavelength_nm: Option<f64>,
+}
+
 pub fn run(command: ExportCommand) -> anyhow::Result<()> {
     match command {
         ExportCommand::Shader(args) => run_shader(args),
         ExportCommand::Binding(args) => run_binding(args),
+        ExportCommand::Lens(args) => run_lens(args),
     }
 }
 
@@ -162,6 +180,41 @@ fn run_binding(args: BindingArgs) -> anyhow::Result<()> {
         binding.texture_size[1],
         binding.texture_size[2],
         binding.pupil.len()
+    );
+    Ok(())
+}
+
+fn run_lens(args: LensExportArgs) -> anyhow::Result<()> {
+    let lens = args.lens.load()?;
+    let wavelength_nm = args
+        .wavelength_nm
+        .unwrap_or_else(|| lens.system.design_wavelength_nm());
+    let at = lens.system.at_checked(wavelength_nm)?;
+    let (params, surfaces) = lens_surfaces(&at);
+    let description = serde_json::json!({
+        "lens": args.lens.lens,
+        "wavelength_nm": wavelength_nm,
+        "surface_count": params.surface_count,
+        "surface_bytes": std::mem::size_of::<LensSurface>(),
+        "files": {
+            "params": "lens_params.bin",
+            "surfaces": "lens_surfaces.bin",
+        },
+    });
+    let json = serde_json::to_string_pretty(&description)? + "\n";
+    publish_dir(&args.out, |dir| -> anyhow::Result<()> {
+        write_bytes(&dir.join("lens.json"), json.as_bytes())?;
+        write_bytes(&dir.join("lens_params.bin"), bytemuck::bytes_of(&params))?;
+        write_bytes(
+            &dir.join("lens_surfaces.bin"),
+            bytemuck::cast_slice(&surfaces),
+        )?;
+        Ok(())
+    })?;
+    note!(
+        "wrote {} ({} surfaces at {wavelength_nm} nm)",
+        args.out.display(),
+        params.surface_count
     );
     Ok(())
 }
