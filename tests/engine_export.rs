@@ -1,8 +1,9 @@
 //! `lensbake export`, checked by programs lensbake did not write: every exported shader compiled
-//! by an independent compiler, and the exported GLSL sampler run by an independent consumer
-//! (tools/engine_consumer.py: moderngl on Mesa's llvmpipe) on baked tables of every kind, ray
-//! by ray against lensbake's own lookup. Outside CI a missing tool skips its check; with
-//! CI=true (.ci/engines.sh installs them) it fails.
+//! by an independent compiler, and the exported GLSL sampler and trace run by an independent
+//! consumer (tools/engine_consumer.py: moderngl on Mesa's llvmpipe), ray by ray against
+//! lensbake's own table lookup on baked tables of every kind and against its own GPU trace.
+//! Outside CI a missing tool skips its check; with CI=true (.ci/engines.sh installs them) it
+//! fails.
 
 mod common;
 
@@ -236,6 +237,29 @@ fn floats_to_bytes(values: &[[f32; 8]]) -> Vec<u8> {
         .collect()
 }
 
+/// Runs tools/engine_consumer.py on `shader` bound to `binding` with the rays of the file
+/// `rays`; returns the floats it wrote to `out` and what it said.
+fn run_consumer(
+    python: &str,
+    shader: &str,
+    binding: &str,
+    rays: &str,
+    out: &str,
+) -> (Vec<f32>, String) {
+    let consumer = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tools/engine_consumer.py");
+    let said = run_ok(
+        Command::new(python)
+            .arg(consumer)
+            .args([shader, binding, rays, out]),
+    );
+    let floats = std::fs::read(out)
+        .unwrap()
+        .chunks_exact(4)
+        .map(|b| f32::from_le_bytes(b.try_into().unwrap()))
+        .collect();
+    (floats, said)
+}
+
 /// One table kind through the documented steps (docs/engines.md): bake, export the GLSL
 /// sampler and the binding, run the consumer, compare every ray with `LrtfTable::lookup`.
 fn consumer_matches(kind: &str, bake: &[&str], binding: &[&str]) {
@@ -275,18 +299,13 @@ fn consumer_matches(kind: &str, bake: &[&str], binding: &[&str]) {
     let per_layer = 12_000_usize.div_ceil(table.layers.len());
     let rays = rays_for(&table, film_z, per_layer, block);
     std::fs::write(path("rays.f32"), floats_to_bytes(&rays)).unwrap();
-    let consumer = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tools/engine_consumer.py");
-    let said = run_ok(Command::new(&python).arg(consumer).args([
+    let (out, said) = run_consumer(
+        &python,
         &shader,
         &binding_dir,
         &path("rays.f32"),
         &path("out.f32"),
-    ]));
-    let out: Vec<f32> = std::fs::read(path("out.f32"))
-        .unwrap()
-        .chunks_exact(4)
-        .map(|b| f32::from_le_bytes(b.try_into().unwrap()))
-        .collect();
+    );
     assert_eq!(out.len(), 12 * rays.len(), "{said}");
 
     let mut counts = [0usize; 3];
@@ -366,16 +385,16 @@ fn consumer_matches(kind: &str, bake: &[&str], binding: &[&str]) {
     let at = std::mem::offset_of!(lensbake::lrtf::GpuParams, format_version);
     block[at..at + 4].copy_from_slice(&(FORMAT_VERSION - 1).to_le_bytes());
     std::fs::write(&params, block).unwrap();
-    run_ok(
-        Command::new(&python)
-            .arg(PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tools/engine_consumer.py"))
-            .args([&shader, &binding_dir, &path("rays.f32"), &path("out.f32")]),
+    let (refused, _) = run_consumer(
+        &python,
+        &shader,
+        &binding_dir,
+        &path("rays.f32"),
+        &path("out.f32"),
     );
-    let refused = std::fs::read(path("out.f32")).unwrap();
     for k in 0..rays.len() {
-        let status = &refused[48 * k + 12..48 * k + 16];
         assert_eq!(
-            f32::from_le_bytes(status.try_into().unwrap()) as u32,
+            refused[12 * k + 3] as u32,
             LRTF_VERSION_MISMATCH,
             "{kind}: ray {k} under a block of format {}",
             FORMAT_VERSION - 1
@@ -610,23 +629,13 @@ fn consumer_traces_like_lensbakes_gpu_trace() {
             .map(|[o, d]| [o[0], o[1], o[2], 0.0, d[0], d[1], d[2], 0.0])
             .collect();
         std::fs::write(path("trace-rays.f32"), floats_to_bytes(&input)).unwrap();
-        run_ok(
-            Command::new(&python).args([
-                PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-                    .join("tools/engine_consumer.py")
-                    .to_str()
-                    .unwrap(),
-                &shader,
-                &packed,
-                &path("trace-rays.f32"),
-                &path("trace-out.f32"),
-            ]),
+        let (gl, _) = run_consumer(
+            &python,
+            &shader,
+            &packed,
+            &path("trace-rays.f32"),
+            &path("trace-out.f32"),
         );
-        let gl: Vec<f32> = std::fs::read(path("trace-out.f32"))
-            .unwrap()
-            .chunks_exact(4)
-            .map(|b| f32::from_le_bytes(b.try_into().unwrap()))
-            .collect();
         let own = gpu.trace_rays(&params, &surfaces, &rays).unwrap();
         assert_eq!(gl.len(), 8 * own.len());
         let mut passing = 0;
