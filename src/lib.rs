@@ -153,6 +153,8 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod analysis;
+#[cfg(feature = "export")]
+pub mod export;
 pub mod glass;
 #[cfg(feature = "render")]
 pub mod job;

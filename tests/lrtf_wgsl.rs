@@ -49,6 +49,7 @@ fn uniform_block_matches_the_rust_struct() {
             parameterisation,
             pupil_count,
             dims,
+            format_version,
             sampling_max_film_radius,
             sampling_count,
             focus_count,
