@@ -13,5 +13,7 @@ pub mod table;
 pub use entries::Entries;
 pub use focus::{FocusError, FocusRange};
 pub use param::{Frame, Parameterisation, Ray, Transfer};
-pub use table::{Corners, GpuParams, Layer, Lookup, LrtfTable, Precision, TableInfo};
+pub use table::{
+    Corners, FocusedTable, GpuParams, Layer, Lookup, LookupError, LrtfTable, Precision, TableInfo,
+};
 pub(crate) use table::{LOOKUP_GROUP, LookupScratch};
