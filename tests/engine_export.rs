@@ -4,6 +4,7 @@
 //! lensbake's own table lookup on baked tables of every kind and against its own GPU trace.
 //! Outside CI a missing tool skips its check; with CI=true (.ci/engines.sh installs them) it
 //! fails.
+#![cfg(feature = "cli")]
 
 mod common;
 
@@ -317,7 +318,7 @@ fn consumer_matches(kind: &str, bake: &[&str], binding: &[&str]) {
             origin: [ray[0] as f64, ray[1] as f64, ray[2] as f64],
             direction: [ray[4] as f64, ray[5] as f64, ray[6] as f64],
         };
-        let lookup = table.lookup(layer, &cpu_ray, stop_radius);
+        let lookup = table.lookup_layer(layer, &cpu_ray, stop_radius);
         let gl = &out[12 * k..12 * k + 12];
         let status = status_of(&lookup);
         assert_eq!(

@@ -34,7 +34,7 @@ fn range_table(system: &LensSystem) -> LrtfTable {
         focus_near_mm: Some(1000.0),
         ..BakeRequest::default()
     };
-    bake(system, &request, &|_| {}).expect("the range bakes")
+    bake(system, &request).expect("the range bakes")
 }
 
 /// Film planes strictly between the sampling pupil's focus nodes (none on a node).
@@ -79,7 +79,6 @@ fn range_lookups_between_focus_nodes_match_the_exact_trace_like_a_single_focus_t
                 max_film_radius: Some(table.layers[0].sampling.max_film_radius()),
                 ..BakeRequest::default()
             },
-            &|_| {},
         )
         .unwrap();
         let efl = first_order(&design, Some(distance))
@@ -343,7 +342,6 @@ fn focus_outside_a_range_is_a_typed_error() {
             focus_near_mm: Some(1500.0),
             ..BakeRequest::default()
         },
-        &|_| {},
     )
     .unwrap();
     let focus = &table.info.focus;
@@ -371,7 +369,6 @@ fn focus_outside_a_range_is_a_typed_error() {
             focus_near_mm: Some(2000.0),
             ..BakeRequest::default()
         },
-        &|_| {},
     );
     assert!(reversed.is_err());
     // A table is focused on a real object: a virtual one (behind surface 1), which the
@@ -383,7 +380,6 @@ fn focus_outside_a_range_is_a_typed_error() {
             focus_mm: Some(-100.0),
             ..BakeRequest::default()
         },
-        &|_| {},
     );
     assert!(
         virtual_object
@@ -403,7 +399,6 @@ fn focus_outside_a_range_is_a_typed_error() {
             focus_near_mm: Some(300.0),
             ..BakeRequest::default()
         },
-        &|_| {},
     );
     let Err(BakeError::CannotFocus(CannotFocus {
         distance_mm,
@@ -431,7 +426,7 @@ fn focus_outside_a_range_is_a_typed_error() {
         ],
     })
     .unwrap();
-    let error = bake(&rod, &BakeRequest::default(), &|_| {}).unwrap_err();
+    let error = bake(&rod, &BakeRequest::default()).unwrap_err();
     let BakeError::ImageInsideLens(ImageInsideLens {
         focus,
         film_z,

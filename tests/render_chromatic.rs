@@ -124,7 +124,7 @@ fn landscape_cameras(
         wavelengths_nm: RGB_NM.to_vec(),
         ..BakeRequest::default()
     };
-    let table: LrtfTable = bake(&lens, &request, &|_| {}).unwrap();
+    let table: LrtfTable = bake(&lens, &request).unwrap();
     let baked = BakedLens::new(table, &first, first.f_number)
         .unwrap()
         .with_wavelength(DESIGN_NM)

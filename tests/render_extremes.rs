@@ -111,7 +111,7 @@ fn cameras(case: &Extreme, resolution: usize) -> Vec<Camera> {
         },
         ..BakeRequest::default()
     };
-    let table = bake(&case.system, &request, &|_| {}).unwrap();
+    let table = bake(&case.system, &request).unwrap();
     let radius = table.layers[0].frame.max_film_radius;
     let film = Film {
         width_mm: 2.0 * radius * width / width.hypot(height),

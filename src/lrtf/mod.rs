@@ -15,6 +15,8 @@ pub use binding::{BindingError, EngineBinding};
 pub use entries::Entries;
 pub use focus::{FocusError, FocusRange};
 pub use param::{Frame, Parameterisation, Ray, Transfer};
-pub use table::{Corners, GpuParams, Layer, Lookup, LrtfTable, Precision, TableInfo};
+pub use table::{
+    Corners, FocusedTable, GpuParams, Layer, Lookup, LookupError, LrtfTable, Precision, TableInfo,
+};
 #[cfg(feature = "render")]
 pub(crate) use table::{LOOKUP_GROUP, LookupScratch};

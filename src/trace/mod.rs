@@ -44,7 +44,8 @@ use intersect::{AsphereTerms, Profile};
 /// A point or direction in the lens frame (mm; z along the axis, origin at surface 1's vertex).
 pub type Vec3 = [f64; 3];
 
-/// A ray: a finite position and a unit direction, both in the lens frame.
+/// A ray: a finite position and a unit direction, both in the lens frame. The crate's public
+/// ray ([`crate::Ray`]); [`crate::lrtf::Ray`] is the sampler's unchecked form of it.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Ray {
     position: Vec3,

@@ -560,7 +560,7 @@ pub fn dgauss_cameras(
         )),
         ..BakeRequest::default()
     };
-    let table = bake(&lens.system, &request, &|_| {}).unwrap();
+    let table = bake(&lens.system, &request).unwrap();
     let pupil = table.layers[0].pupil.clone();
     let baked = BakedLens::new(table, &first, first.f_number).unwrap();
     let film_z = baked.film_z();
