@@ -65,7 +65,7 @@ impl LrtfTable {
     /// # use lensbake::lrtf::bake::{bake, BakeRequest};
     /// # let lens = lensbake::load_lens("cooke-triplet", &Default::default()).unwrap();
     /// # let request = BakeRequest { resolution: [8, 8, 8], ..BakeRequest::default() };
-    /// # let table = bake(&lens.system, &request, &|_| ()).unwrap();
+    /// # let table = bake(&lens.system, &request).unwrap();
     /// let stop = table.stop_radius(0, table.info.f_number).unwrap();
     /// let binding = table.engine_binding(stop, table.layers[0].frame.film_plane_z).unwrap();
     /// assert_eq!(binding.texture_size, [8, 8, 8]);
