@@ -134,45 +134,64 @@ struct Tiles {
     columns: usize,
     rows: usize,
     reach: Vec<f32>,
+    nearest: Vec<f32>,
 }
 
 impl Tiles {
     fn of(sources: &[Option<Source>], width: usize, height: usize) -> Tiles {
         let (columns, rows) = (width.div_ceil(TILE), height.div_ceil(TILE));
         let mut reach = vec![0.0f32; columns * rows];
+        let mut nearest = vec![f32::INFINITY; columns * rows];
         for (i, source) in sources.iter().enumerate() {
             if let Some(s) = source {
                 let tile = (i / width / TILE) * columns + (i % width) / TILE;
                 reach[tile] = reach[tile].max(s.spread.support);
+                nearest[tile] = nearest[tile].min(s.depth);
             }
         }
-        // Any pixel within its reach of an output pixel must be seen from that pixel's tile.
-        let widest = reach.iter().copied().fold(0.0f32, f32::max);
-        let span = (widest / TILE as f32).ceil() as usize;
-        let dilated = (0..columns * rows)
-            .map(|t| {
-                let (tx, ty) = (t % columns, t / columns);
-                let mut most = 0.0f32;
-                for y in ty.saturating_sub(span)..(ty + span + 1).min(rows) {
-                    for x in tx.saturating_sub(span)..(tx + span + 1).min(columns) {
-                        most = most.max(reach[y * columns + x]);
-                    }
+        // Each tile hands its reach and nearest depth to every tile its pixels can reach (as
+        // many tiles as its own reach spans: the seed's 3 x 3 misses spots wider than a tile,
+        // and one span for all would send the widest spot's reach over the whole frame).
+        let mut dilated = vec![0.0f32; columns * rows];
+        let mut dilated_nearest = vec![f32::INFINITY; columns * rows];
+        for t in 0..columns * rows {
+            if reach[t] <= 0.0 {
+                continue;
+            }
+            let (tx, ty) = (t % columns, t / columns);
+            let span = (reach[t] / TILE as f32).ceil() as usize;
+            for y in ty.saturating_sub(span)..(ty + span + 1).min(rows) {
+                for x in tx.saturating_sub(span)..(tx + span + 1).min(columns) {
+                    let to = y * columns + x;
+                    dilated[to] = dilated[to].max(reach[t]);
+                    dilated_nearest[to] = dilated_nearest[to].min(nearest[t]);
                 }
-                most
-            })
-            .collect();
+            }
+        }
         Tiles {
             columns,
             rows,
             reach: dilated,
+            nearest: dilated_nearest,
         }
     }
 
-    fn reach_at(&self, p: [f64; 2]) -> f32 {
+    /// The dilated reach and nearest depth of the tile holding `p`.
+    fn at(&self, p: [f64; 2]) -> (f32, f32) {
         let tx = (p[0].max(0.0) as usize / TILE).min(self.columns - 1);
         let ty = (p[1].max(0.0) as usize / TILE).min(self.rows - 1);
-        self.reach[ty * self.columns + tx]
+        let t = ty * self.columns + tx;
+        (self.reach[t], self.nearest[t])
     }
+}
+
+/// Which taps a gather pass keeps.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Pass {
+    /// The centre's own surface and what lies behind it within the centre's reach.
+    Own,
+    /// Nearer, wider-spread surfaces seen partly over the centre.
+    Front,
 }
 
 /// A small integer hash (for each output pixel's ring rotation).
@@ -235,16 +254,18 @@ pub fn postfx(
 
     let gather = |x: u32, y: u32| -> ([f32; 3], f32) {
         let p = map.at(x, y);
-        let reach = tiles.reach_at(p);
+        let (tile_reach, tile_nearest) = tiles.at(p);
+        if tile_reach <= 0.0 {
+            return ([0.0; 3], 0.0);
+        }
         let centre = {
             let (cx, cy) = (p[0].round(), p[1].round());
             (cx >= 0.0 && cy >= 0.0 && (cx as usize) < lw && (cy as usize) < lh)
                 .then(|| sources[cy as usize * lw + cx as usize])
                 .flatten()
         };
-        if reach <= 0.0 {
-            return ([0.0; 3], 0.0);
-        }
+        let (centre_depth, centre_reach) =
+            centre.map_or((f32::INFINITY, 0.0), |c| (c.depth, c.spread.support));
         // Every tap lies at a random point of its own patch (a stratified estimate of the
         // patch's integral): fixed ring radii would see some pixels' offsets and never others.
         let mut state = hash(x.wrapping_mul(0x9e37_79b9) ^ y);
@@ -252,25 +273,21 @@ pub fn postfx(
             state = hash(state);
             state as f32 * (1.0 / 4_294_967_296.0)
         };
-        let (mut front_sum, mut back_sum) = ([0.0f32; 3], [0.0f32; 3]);
-        let mut coverage = 0.0f32;
-        let (centre_depth, centre_reach) =
-            centre.map_or((f32::INFINITY, 0.0), |c| (c.depth, c.spread.support));
-        let mut tap = |offset: [f32; 2], area: f32, level: usize| {
+        let (mut sums, mut coverage) = ([[0.0f32; 3]; 2], 0.0f32);
+        let mut tap = |pass: Pass, offset: [f32; 2], area: f32, level: usize| {
             // `offset`: tap from the output pixel, pinhole pixels, +y up.
             let at = [p[0] as f32 + offset[0], p[1] as f32 - offset[1] / aspect];
             let (sx, sy) = (at[0].round(), at[1].round());
             if sx < 0.0 || sy < 0.0 || sx as usize >= lw || sy as usize >= lh {
                 return;
             }
-            let Some(source) = sources[sy as usize * lw + sx as usize] else {
+            let index = sy as usize * lw + sx as usize;
+            let Some(source) = sources[index] else {
                 return;
             };
-            let reach = source.spread.support;
-            let nearer = source.depth < centre_depth;
-            let other_layer = reach > centre_reach + LAYER_REACH_STEP;
-            let distance = offset[0].hypot(offset[1]);
-            if !nearer && other_layer && distance > centre_reach {
+            let in_front = source.depth < centre_depth
+                && (centre.is_none() || source.spread.support > centre_reach + LAYER_REACH_STEP);
+            if in_front != (pass == Pass::Front) {
                 return;
             }
             let w = kernels.weight(&source.spread, [-offset[0], -offset[1]], area) * area;
@@ -281,40 +298,40 @@ pub fn postfx(
             // pixel's edges that the nearest-pixel spread lookup has already cut (an object
             // would lose a half-pixel rim of light).
             let c = match level {
-                0 => pyramid.levels[0].2[sy as usize * lw + sx as usize],
+                0 => pyramid.levels[0].2[index],
                 _ => pyramid.at(level, at),
             };
-            let sum = if nearer && (other_layer || centre.is_none()) {
+            if in_front {
                 coverage += w / source.spread.flux;
-                &mut front_sum
-            } else {
-                &mut back_sum
-            };
+            }
+            let sum = &mut sums[in_front as usize];
             for k in 0..3 {
                 sum[k] += w * c[k];
             }
         };
-        let reach_pixels = reach + 0.5;
-        let spacing = if std::f32::consts::PI * reach_pixels * reach_pixels <= DENSE_PIXELS {
-            // Every pixel centre within reach, each standing for itself.
-            let (cx, cy) = (p[0].round() as f32, p[1].round() as f32);
-            let from = [cx - p[0] as f32, (p[1] as f32 - cy) * aspect];
-            let span = reach_pixels.ceil() as i32;
-            for dy in -span..=span {
-                for dx in -span..=span {
-                    let offset = [from[0] + dx as f32, from[1] - dy as f32 * aspect];
-                    if offset[0].hypot(offset[1]) <= reach_pixels {
-                        tap(offset, 1.0, 0);
+        // One disc of taps: every pixel where that is cheap, else rings of random taps.
+        let mut disc = |pass: Pass, reach: f32| -> f32 {
+            let reach_pixels = reach + 0.5;
+            if std::f32::consts::PI * reach_pixels * reach_pixels <= DENSE_PIXELS {
+                let (cx, cy) = (p[0].round() as f32, p[1].round() as f32);
+                let from = [cx - p[0] as f32, (p[1] as f32 - cy) * aspect];
+                let span = reach_pixels.ceil() as i32;
+                for dy in -span..=span {
+                    for dx in -span..=span {
+                        let offset = [from[0] + dx as f32, from[1] - dy as f32 * aspect];
+                        if offset[0].hypot(offset[1]) <= reach_pixels {
+                            tap(pass, offset, 1.0, 0);
+                        }
                     }
                 }
+                return 1.0;
             }
-            1.0
-        } else {
             let (rings, spacing) = spacing_of(reach);
             // Each tap stands for an equal patch: a ring i of 8i taps covers the annulus
-            // (i -+ 1/2) spacing, the centre tap the disc of half a spacing.
+            // (i -+ 1/2) spacing, the centre tap the disc of half a spacing; it reads the
+            // pyramid level whose texel is at least that patch.
             let area = std::f32::consts::FRAC_PI_4 * spacing * spacing;
-            let level = (area.sqrt().max(1.0).log2().floor()) as usize;
+            let level = area.sqrt().max(1.0).log2().ceil() as usize;
             for ring in 0..=rings {
                 let count = (8 * ring).max(1);
                 let inner = (ring as f32 - 0.5).max(0.0) * spacing;
@@ -324,14 +341,28 @@ pub fn postfx(
                         (inner * inner + uniform() * (outer * outer - inner * inner)).sqrt();
                     let angle = std::f32::consts::TAU * (k as f32 + uniform()) / count as f32;
                     let (s, c) = angle.sin_cos();
-                    tap([radius * c, radius * s], area, level);
+                    tap(pass, [radius * c, radius * s], area, level);
                 }
             }
             spacing
         };
+        // The centre's own layer gathers over its own reach only: farther surfaces beyond it
+        // are hidden by the centre's surface, and a sharp centre stays sharp beside a blurred
+        // foreground.
+        let own_spacing = match centre {
+            Some(_) => disc(Pass::Own, centre_reach),
+            None => 0.0,
+        };
+        // The tiles' nearest depth says whether anything nearer can spread over this pixel.
+        let front_spacing = if tile_nearest < centre_depth {
+            disc(Pass::Front, tile_reach)
+        } else {
+            0.0
+        };
         let behind = 1.0 - coverage.min(1.0);
-        let out = std::array::from_fn(|k| front_sum[k] + behind * back_sum[k]);
-        (out, spacing)
+        let [own, front] = sums;
+        let out = std::array::from_fn(|k| front[k] + behind * own[k]);
+        (out, own_spacing.max(front_spacing))
     };
     let (w, h) = (width as usize, height as usize);
     let gathered: Vec<([f32; 3], f32)> = (0..w * h)
