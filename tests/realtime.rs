@@ -2,6 +2,9 @@
 //! spots the image-based ray tracer renders through the traced model (backward, film to scene:
 //! an independent path from the kernels' forward trace).
 
+mod common;
+
+use common::lensbake;
 use lensbake::lenses::{self, LoadedLens};
 use lensbake::model::{FirstOrderModels, LensModel, TracedLens};
 use lensbake::prescription::formats::LoadOptions;
@@ -231,4 +234,66 @@ fn the_reflex_lens_kernel_is_a_ring() {
     );
     // A true ring: dark again outside the rim.
     assert!(profile[40] < 0.2 * rim, "{profile:?}");
+}
+
+/// `render --model postfx` writes an image and says what the kernels and the filter cost; where
+/// postfx has no path yet (the GPU, the viewer, a chromatic render) it is one clear error line
+/// and exit code 2, and nothing is written.
+#[test]
+fn the_cli_renders_postfx_and_refuses_what_it_cannot_do_yet() {
+    let dir = std::env::temp_dir().join(format!("lensbake-realtime-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = dir.join("postfx.exr");
+    let out_text = out.to_str().unwrap();
+    let base = [
+        "render",
+        "--lens",
+        "dgauss-50mm",
+        "--model",
+        "postfx",
+        "--width",
+        "80",
+        "--height",
+        "60",
+        "--out",
+        out_text,
+    ];
+    let ok = lensbake(&[&base[..], &["--backend", "cpu"]].concat());
+    let said = String::from_utf8_lossy(&ok.stdout);
+    assert_eq!(
+        ok.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&ok.stderr)
+    );
+    assert!(
+        said.contains("postfx: 192 lens kernels") && said.contains("model postfx"),
+        "{said}"
+    );
+    assert!(out.exists());
+    std::fs::remove_file(&out).unwrap();
+    for (extra, message) in [
+        (
+            &["--backend", "gpu"][..],
+            "error: the postfx model runs on the CPU only",
+        ),
+        (
+            &["--backend", "cpu", "--chromatic", "on"][..],
+            "error: chromatic on: the postfx",
+        ),
+    ] {
+        let refused = lensbake(&[&base[..], extra].concat());
+        let stderr = String::from_utf8_lossy(&refused.stderr);
+        assert_eq!(refused.status.code(), Some(2), "{extra:?}: {stderr}");
+        assert!(stderr.starts_with(message), "{extra:?}: {stderr}");
+        assert!(!out.exists(), "{extra:?} wrote an image");
+    }
+    let view = lensbake(&["view", "--lens", "dgauss-50mm", "--model", "postfx"]);
+    let stderr = String::from_utf8_lossy(&view.stderr);
+    assert_eq!(view.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.starts_with("error: --model postfx: the viewer"),
+        "{stderr}"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
 }
