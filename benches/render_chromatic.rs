@@ -51,7 +51,7 @@ fn cameras() -> Vec<(&'static str, Camera, Camera)> {
         wavelengths_nm: default_wavelengths(&lens).to_vec(),
         ..BakeRequest::default()
     };
-    let table = bake(&lens, &request, &|_| {}).expect("table");
+    let table = bake(&lens, &request).expect("table");
     let baked = BakedLens::new(table, &first, first.f_number)
         .and_then(|b| b.with_wavelength(lens.design_wavelength_nm()))
         .expect("baked lens");

@@ -59,7 +59,7 @@ fn bench_models(c: &mut Criterion) {
             max_film_radius: Some((film.width_mm / 2.0).hypot(film.height_mm / 2.0)),
             ..BakeRequest::default()
         };
-        let table = bake(&lens, &request, &|_| {}).expect("table");
+        let table = bake(&lens, &request).expect("table");
         let pupil = table.layers[0].pupil.clone();
         let baked = BakedLens::new(table, &first, first.f_number).expect("baked lens");
         let film_z = baked.film_z();

@@ -34,7 +34,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 resolution: [n, n, n],
                 ..BakeRequest::default()
             };
-            let table = bake(&lens.system, &request, &|_| {})?;
+            let table = bake(&lens.system, &request)?;
             for corners in [Corners::All, Corners::ValidOnly] {
                 let e = table_error_from(&table, 0, &tracer, efl, 1920.0, 20_000, 0x5eed, corners);
                 md += &format!(

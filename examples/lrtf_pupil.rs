@@ -17,7 +17,6 @@ fn main() {
             resolution: [64, 2, 2],
             ..BakeRequest::default()
         },
-        &|_| {},
     )
     .unwrap();
     let l = &table.layers[0];

@@ -39,7 +39,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     ..BakeRequest::default()
                 };
                 let start = std::time::Instant::now();
-                let table = bake(&system, &request, &|_| {})?;
+                let table = bake(&system, &request)?;
                 let bake_seconds = start.elapsed().as_secs_f64();
                 for precision in [Precision::F32, Precision::F16] {
                     let t = table.to_precision(precision);

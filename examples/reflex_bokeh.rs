@@ -35,7 +35,7 @@ pub fn highlight_frames(
         max_film_radius: Some(0.75 * film_mm),
         ..BakeRequest::default()
     };
-    let table = bake(&system, &request, &|_| {})?;
+    let table = bake(&system, &request)?;
     let pupil = table.layers[0].pupil.clone();
     let baked = BakedLens::new(table, &first, first.f_number)?;
     let film_z = baked.film_z();

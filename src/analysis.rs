@@ -139,12 +139,22 @@ impl AnalyzeOptions {
     }
 }
 
-/// Analyses `system` under `options`; `lens` names it in the report.
-pub fn analyze(
-    lens: &str,
-    system: &LensSystem,
-    options: &AnalyzeOptions,
-) -> Result<Analysis, AnalysisError> {
+/// Analyses `system` under `options` ([`AnalyzeOptions::default`]: the lens's own design
+/// conditions). The report's `lens` is the prescription's title; set the field to name the lens
+/// otherwise (the command line puts the file or bundled name there).
+///
+/// ```
+/// use lensbake::{AnalyzeOptions, LoadOptions, analyze, load_lens};
+///
+/// let lens = load_lens("cooke-triplet", &LoadOptions::default())?;
+/// let wide_open = analyze(&lens.system, &AnalyzeOptions::default())?;
+/// let stopped = analyze(&lens.system, &AnalyzeOptions { epd_mm: Some(5.0), ..Default::default() })?;
+/// // EFL does not depend on the aperture; the f-number is EFL / EPD.
+/// assert_eq!(wide_open.first_order.efl, stopped.first_order.efl);
+/// assert!((stopped.first_order.f_number - stopped.first_order.efl / 5.0).abs() < 1e-12);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn analyze(system: &LensSystem, options: &AnalyzeOptions) -> Result<Analysis, AnalysisError> {
     // A pupil that is not a positive number is the paraxial module's error; the limit bounds
     // the sizes it would accept.
     if let Some(epd) = options.epd_mm.filter(|epd| epd.is_finite() && *epd > 0.0) {
@@ -169,7 +179,7 @@ pub fn analyze(
     }
     let f = &paraxial.first_order;
     let analysis = Analysis {
-        lens: lens.to_string(),
+        lens: system.prescription.provenance.title.clone(),
         conditions,
         wavelength_nm,
         field_deg: paraxial.field_angle_deg,

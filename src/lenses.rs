@@ -172,3 +172,65 @@ pub fn load(spec: &str, options: &LoadOptions) -> Result<LoadedLens, LensError> 
     let system = LensSystem::new(source.loaded.prescription.clone(), &source.loaded.map)?;
     Ok(LoadedLens { source, system })
 }
+
+/// Why a lens could not be written.
+#[derive(Debug, thiserror::Error)]
+pub enum WriteLensError {
+    #[error("{}: the output must be a .ron, .zmx or .dat (pbrt) file", .0.display())]
+    Format(PathBuf),
+    #[error("cannot write {} as {what}", path.display())]
+    Cannot {
+        path: PathBuf,
+        what: &'static str,
+        #[source]
+        problem: Problem,
+    },
+    #[error(transparent)]
+    Output(#[from] crate::output::OutputError),
+    #[error(transparent)]
+    Prescription(#[from] PrescriptionError),
+}
+
+/// Writes `system` to `path` in the format its extension names: lensbake RON (`.ron`), Zemax
+/// (`.zmx`: the conditions the lens is analysed under become its aperture and fields, since a
+/// Zemax file holds no claims) or pbrt (`.dat`: one index per medium, at the design
+/// wavelength). Returns the format written.
+///
+/// ```
+/// use lensbake::lenses::write_lens;
+/// use lensbake::{LoadOptions, load_lens};
+///
+/// let lens = load_lens("cooke-triplet", &LoadOptions::default())?;
+/// let path = std::env::temp_dir().join(format!("lensbake-doc-{}.zmx", std::process::id()));
+/// write_lens(&lens.system, &path)?;
+/// let back = load_lens(path.to_str().unwrap(), &LoadOptions::default())?;
+/// assert_eq!(back.system.prescription.surfaces.len(), 6);
+/// std::fs::remove_file(&path)?;
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn write_lens(system: &LensSystem, path: &Path) -> Result<Format, WriteLensError> {
+    use crate::prescription::formats::{write_pbrt, write_ron_file, write_zemax};
+    let cannot = |what| {
+        move |problem| WriteLensError::Cannot {
+            path: path.to_path_buf(),
+            what,
+            problem,
+        }
+    };
+    let format = Format::from_path(path).ok();
+    match format {
+        Some(Format::Zemax) => {
+            let stated = crate::analysis::stated_as_analysed(system);
+            let text = write_zemax(&stated).map_err(cannot("a Zemax file"))?;
+            crate::output::write_bytes(path, text.as_bytes())?;
+        }
+        Some(Format::Pbrt) => {
+            let nm = system.design_wavelength_nm();
+            let text = write_pbrt(&system.prescription, nm).map_err(cannot("a pbrt lens file"))?;
+            crate::output::write_bytes(path, text.as_bytes())?;
+        }
+        Some(Format::Ron) => write_ron_file(path, &system.prescription)?,
+        _ => return Err(WriteLensError::Format(path.to_path_buf())),
+    }
+    Ok(format.expect("written formats are named"))
+}

@@ -16,7 +16,7 @@
 //! use lensbake::{AnalyzeOptions, LoadOptions, analyze, load_lens};
 //!
 //! let lens = load_lens("dgauss-50mm", &LoadOptions::default())?;
-//! let report = analyze("dgauss-50mm", &lens.system, &AnalyzeOptions::default())?;
+//! let report = analyze(&lens.system, &AnalyzeOptions::default())?;
 //! // A 50 mm double Gauss: its focal length is 50 mm to within a millimetre.
 //! assert!((report.first_order.efl - 50.0).abs() < 1.0);
 //! # Ok::<(), Box<dyn std::error::Error>>(())
@@ -43,7 +43,8 @@
 //!
 //! # Trace rays
 //!
-//! One ray, and the same ray in a batch (16 lanes at a time, bit-identical to the one-ray path):
+//! [`Ray`] is the crate's one public ray (checked finite, direction normalised). One ray, and
+//! the same ray in a batch (16 lanes at a time, bit-identical to the one-ray path):
 //!
 //! ```
 //! use lensbake::{Apertures, LoadOptions, Outcome, Ray, RayBatch, Tracer, Travel, load_lens};
@@ -74,12 +75,55 @@
 //!
 //! let lens = load_lens("dgauss-50mm", &LoadOptions::default())?;
 //! let request = BakeRequest { resolution: [8; 3], ..BakeRequest::default() };
-//! let table = bake(&lens.system, &request, &|_progress| {})?;
+//! let table = bake(&lens.system, &request)?;
 //! let dir = std::env::temp_dir().join(format!("lensbake-doc-table-{}", std::process::id()));
 //! write_table(&table, "dgauss-50mm", &lens.system.prescription, &dir)?;
 //! let read = read_table(&dir, Some(&lens.system.prescription))?;
 //! assert_eq!(read.info.resolution, [8; 3]);
 //! std::fs::remove_dir_all(&dir)?;
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+//!
+//! # Look rays up in a table
+//!
+//! A film-side ray (travelling -z, towards the lens) goes in with the focus (object distance, mm;
+//! None: the table's own) and the f-number (None: as baked); out comes where it leaves the
+//! front of the lens, or why it does not. [`LrtfTable::focused`] checks focus and f-number
+//! once for many rays:
+//!
+//! ```
+//! use lensbake::{BakeRequest, LoadOptions, Lookup, Ray, bake, load_lens};
+//!
+//! let lens = load_lens("dgauss-50mm", &LoadOptions::default())?;
+//! let request = BakeRequest { resolution: [16; 3], focus_mm: Some(2000.0), ..Default::default() };
+//! let table = bake(&lens.system, &request)?;
+//! let at = table.focused(Some(2000.0), Some(2.8))?;
+//! let ray = Ray::new([1.0, 2.0, at.film_z()], [0.0, -0.05, -1.0])?;
+//! match at.lookup(&ray) {
+//!     Lookup::Passes(_) => assert!(at.lookup(&ray).passed().unwrap().direction()[2] < 0.0),
+//!     Lookup::Blocked | Lookup::OutsideDomain => unreachable!("a near-axial ray passes"),
+//! }
+//! // One ray through the shorthand, the same answer.
+//! assert_eq!(table.lookup(&ray, Some(2000.0), Some(2.8))?, at.lookup(&ray));
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+//!
+//! # Wave optics
+//!
+//! Wavefront, MTF and PSF of one field point take [`WaveOptions`] (field, aperture, spectrum,
+//! sampling, defocus; every field defaults):
+//!
+//! ```
+//! use lensbake::{LoadOptions, WaveOptions, load_lens, mtf, psf, wavefront};
+//!
+//! let lens = load_lens("cooke-triplet", &LoadOptions::default())?;
+//! let options = WaveOptions { field_deg: 5.0, ..WaveOptions::default() };
+//! let map = wavefront(&lens.system, &options)?;
+//! assert!(map.stats().rms_waves > 0.0);
+//! let curve = mtf(&lens.system, &options, &[])?; // 41 frequencies up to the cutoff
+//! assert_eq!(curve.frequencies_per_mm.len(), 41);
+//! let spot = psf(&lens.system, &options)?;
+//! assert!(spot.peak() <= 1.0 + 1e-9);
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 //!
@@ -98,8 +142,8 @@
 //! assert_eq!(thick.kind(), "thick".parse::<ModelKind>()?);
 //! // A film-side ray from the axial image of infinity leaves parallel to the axis.
 //! let film_z = first.thick.rear_principal_z + first.thick.focal_length_mm;
-//! let ray = lensbake::lrtf::Ray { origin: [0.0, 0.0, film_z], direction: [0.0, 0.01, -1.0] };
-//! let out = thick.scene_ray(&ray, film_z).expect("a first-order model passes every ray");
+//! let ray = lensbake::Ray::new([0.0, 0.0, film_z], [0.0, 0.01, -1.0])?;
+//! let out = thick.scene_ray(&ray.into(), film_z).expect("a first-order model passes every ray");
 //! assert!(out.direction[0].abs() < 1e-12 && out.direction[1].abs() < 1e-12);
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
@@ -147,7 +191,14 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+// `!(x > 0.0)` is this crate's way of refusing NaN together with the values out of range: a NaN
+// fails every comparison, so the negated test is true for it. The partial_cmp spelling clippy
+// suggests says the same thing at three times the length.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 pub mod analysis;
+#[cfg(feature = "export")]
+pub mod export;
 pub mod glass;
 #[cfg(feature = "render")]
 pub mod job;
@@ -181,9 +232,9 @@ pub use analysis::{Analysis, AnalyzeOptions, analyze};
 #[cfg(feature = "render")]
 pub use job::{JobError, RenderJob, RenderLens, Rendered};
 pub use lenses::{LoadedLens, load as load_lens};
-pub use lrtf::LrtfTable;
-pub use lrtf::bake::{BakeRequest, bake};
+pub use lrtf::bake::{BakeRequest, bake, bake_with_progress};
 pub use lrtf::io::{read_table, write_table};
+pub use lrtf::{FocusedTable, Lookup, LookupError, LrtfTable};
 pub use model::{LensModel, ModelKind};
 pub use prescription::formats::LoadOptions;
 pub use system::{LensSystem, SystemAt};
@@ -192,3 +243,5 @@ pub use trace::{Apertures, Outcome, Ray, RayBatch, Tracer, Travel};
 pub use tradeoff::choose::{Choice, choose_model};
 #[cfg(feature = "render")]
 pub use tradeoff::{SceneRequirements, tradeoff};
+pub use wave::lens::{mtf, psf, wavefront};
+pub use wave::{Mtf, Psf, WaveError, WaveOptions, WavefrontMap};

@@ -1,4 +1,5 @@
 //! The "real" block of `lensbake analyze --json`: distortion and LSA of the oracle lenses.
+#![cfg(feature = "cli")]
 
 mod common;
 
@@ -42,7 +43,7 @@ fn real_block_matches_oracle_quick_reference() {
             epd_mm: Some(epd),
             ..AnalyzeOptions::default()
         };
-        let library = analyze(name, &system, &options).unwrap().real;
+        let library = analyze(&system, &options).unwrap().real;
         assert!(library.notes.is_empty(), "{name}: {:?}", library.notes);
         assert_eq!(*real, serde_json::to_value(&library).unwrap());
 

@@ -1,6 +1,7 @@
 //! One set of design conditions per lens (docs/conditions.md): `analyze`, every plot and the
 //! report header use the same fields and aperture; the file's conditions, the source's claims
 //! and the rule come in that order; flags override all three everywhere alike.
+#![cfg(feature = "plot")]
 
 use lensbake::analysis::{
     AnalysisError, AnalyzeOptions, ConditionOverrides, DesignConditions, FileDefaults, FocusFrom,
@@ -74,7 +75,7 @@ fn header_row<'a>(readme: &'a str, name: &str) -> &'a str {
 fn analyze_every_plot_and_the_report_header_use_one_field() {
     let lens = "dgauss-50mm";
     let system = system(lens);
-    let analysis = analyze(lens, &system, &AnalyzeOptions::default()).unwrap();
+    let analysis = analyze(&system, &AnalyzeOptions::default()).unwrap();
     // The pbrt file's title says "22deg HFOV"; the bundled RON carries that claim.
     assert_eq!(analysis.field_deg, 22.0);
     assert_eq!(analysis.conditions.field_from, Origin::Source);
@@ -102,7 +103,6 @@ fn flags_override_the_analysis_the_plots_and_the_report_alike() {
     let lens = "codev-dgauss-f2";
     let system = system(lens);
     let analysis = analyze(
-        lens,
         &system,
         &AnalyzeOptions {
             field_deg: Some(5.0),
@@ -166,7 +166,7 @@ fn a_code_v_file_with_fields_0_10_14_is_analysed_at_14_degrees_and_its_epd() {
     assert_eq!(unstated.object_from, Origin::Rule);
     assert_eq!(conditions.reference_nm, 587.6);
     assert_eq!(conditions.wavelengths_nm, [486.1, 587.6, 656.3]);
-    let analysis = analyze("ag_dblgauss", &system, &AnalyzeOptions::default()).unwrap();
+    let analysis = analyze(&system, &AnalyzeOptions::default()).unwrap();
     assert!((analysis.field_deg - 14.0).abs() < 1e-6);
     // The bundled RON of the same file states the same conditions.
     let bundled = resolve(

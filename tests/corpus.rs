@@ -255,7 +255,7 @@ fn first_order_data_and_seidel_sums_match_rayoptics() {
         };
         let compared_sums = if max_field > 0.0 { 5 } else { 1 };
         // EPD, object distance and F-number come from the file's own conditions.
-        let a = analyze(name, &system, &options).unwrap();
+        let a = analyze(&system, &options).unwrap();
         let f = &a.first_order;
         let peer_number = |what: &str| {
             let value = peer[what].as_f64().unwrap();
@@ -356,7 +356,7 @@ fn the_248_nm_lithography_lens_matches_optiland() {
         wavelength_nm: Some(248.0),
         ..AnalyzeOptions::default()
     };
-    let f = analyze(name, &system, &options).unwrap().first_order;
+    let f = analyze(&system, &options).unwrap().first_order;
     for (what, ours, theirs) in [
         ("efl", f.efl, 494.02032877703374),
         ("epd", f.entrance_pupil.diameter, 144.2817760378819),

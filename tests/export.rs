@@ -70,8 +70,8 @@ fn assert_same_first_order(a: &LensSystem, b: &LensSystem, nm: f64, what: &str) 
         field_deg: Some(5.0),
         ..AnalyzeOptions::default()
     };
-    let x = analyze(what, a, &options).unwrap();
-    let y = analyze(what, b, &options).unwrap();
+    let x = analyze(a, &options).unwrap();
+    let y = analyze(b, &options).unwrap();
     let (f, g) = (&x.first_order, &y.first_order);
     for (name, p, q) in [
         ("efl", f.efl, g.efl),
@@ -242,7 +242,7 @@ fn mirrors_and_obscurations_go_to_zemax_and_are_refused_by_pbrt() {
         assert_eq!(a.obscuration, b.obscuration);
     }
     let efl = |s: &LensSystem| {
-        analyze("reflex", s, &AnalyzeOptions::default())
+        analyze(s, &AnalyzeOptions::default())
             .unwrap()
             .first_order
             .efl

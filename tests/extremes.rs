@@ -74,7 +74,7 @@ fn analyze_finite(
     system: &LensSystem,
     options: &AnalyzeOptions,
 ) -> lensbake::analysis::Analysis {
-    let analysis = analyze(name, system, options)
+    let analysis = analyze(system, options)
         .unwrap_or_else(|e| panic!("{name} {options:?}: analyze failed: {e}"));
     let json = serde_json::to_value(&analysis).expect("analysis serialises");
     assert_json_finite(&json, name);
@@ -162,7 +162,7 @@ fn lenses_with_catalogue_glasses_analyse_and_trace_at_380_and_780_nm() {
             wavelengths_nm: vec![780.0, D_LINE_NM, 380.0],
             ..BakeRequest::default()
         };
-        let table = bake(&system, &request, &|_| {}).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let table = bake(&system, &request).unwrap_or_else(|e| panic!("{name}: {e}"));
         assert_table_finite(&table, name);
     }
 }
@@ -177,7 +177,7 @@ fn baking_beyond_a_glass_formula_is_refused() {
             wavelengths_nm: vec![nm],
             ..BakeRequest::default()
         };
-        let result = bake(&bundled(name), &request, &|_| {});
+        let result = bake(&bundled(name), &request);
         assert!(
             matches!(result, Err(BakeError::Wavelength(_))),
             "{name} baked at {nm} nm"
@@ -201,7 +201,6 @@ fn a_wavelength_beyond_a_glass_formula_is_a_typed_error_naming_the_surface() {
     for (name, nm, surface) in cases {
         let system = bundled(name);
         let error = analyze(
-            name,
             &system,
             &AnalyzeOptions {
                 wavelength_nm: Some(nm),
@@ -311,7 +310,7 @@ fn assert_lookup_matches_trace(
     assert!(passes, "{what}: the exact trace is blocked");
     let exact = exact.expect("a passing ray has a transfer");
     let stop = table.layers[0].stop_semi_aperture;
-    let Lookup::Passes(looked) = table.lookup(0, ray, stop) else {
+    let Lookup::Passes(looked) = table.lookup_layer(0, ray, stop) else {
         panic!("{what}: the table blocks a ray the lens passes");
     };
     assert!(
@@ -367,7 +366,7 @@ fn stopped_far_down_the_pupil_still_holds_the_axial_ray() {
             f_number: Some(f_number),
             ..BakeRequest::default()
         };
-        let table = bake(&system, &request, &|_| {}).unwrap_or_else(|e| panic!("{what}: {e}"));
+        let table = bake(&system, &request).unwrap_or_else(|e| panic!("{what}: {e}"));
         assert_table_finite(&table, &what);
         let layer = &table.layers[0];
         let axial = layer.pupil.circle_at(0.0);
@@ -528,7 +527,7 @@ fn f095_aspheric_singlet_focuses_every_axial_ray_and_types_the_rest() {
         ..BakeRequest::default()
     };
     for (form, system) in [("conic", &conic), ("even asphere", &asphere)] {
-        let table = bake(system, &request, &|_| {}).unwrap_or_else(|e| panic!("{form}: {e}"));
+        let table = bake(system, &request).unwrap_or_else(|e| panic!("{form}: {e}"));
         assert_table_finite(&table, form);
         common::assert_close(
             table.info.f_number,
@@ -691,7 +690,6 @@ fn fisheye_at_its_largest_traceable_field() {
             resolution: [12, 12, 12],
             ..BakeRequest::default()
         },
-        &|_| {},
     )
     .unwrap();
     assert_table_finite(&table, "fisheye table");
@@ -748,7 +746,6 @@ fn long_telephoto_is_shorter_than_its_focal_length_and_traces_to_its_paraxial_fo
             resolution: [12, 12, 12],
             ..BakeRequest::default()
         },
-        &|_| {},
     )
     .unwrap();
     assert_table_finite(&table, "telephoto table");
@@ -1001,7 +998,6 @@ fn lrtf_lookups_on_and_next_to_the_axis() {
                 resolution: [16, 16, 16],
                 ..BakeRequest::default()
             },
-            &|_| {},
         )
         .unwrap();
         assert_table_finite(&table, parameterisation.name());
@@ -1019,7 +1015,7 @@ fn lrtf_lookups_on_and_next_to_the_axis() {
                 let ray = film_ray(&table, [r, 0.0], rear);
                 let what = format!("{} r = {r} rear {rear:?}", parameterisation.name());
                 assert_lookup_matches_trace(&table, &tracer, &ray, allowed_mrad, &what);
-                let Lookup::Passes(looked) = table.lookup(0, &ray, stop) else {
+                let Lookup::Passes(looked) = table.lookup_layer(0, &ray, stop) else {
                     unreachable!("checked above")
                 };
                 answers.push(looked);
@@ -1173,7 +1169,6 @@ fn apertures_from_a_pinhole_to_a_hemisphere() {
     }
     for epd in [0.0, -1.0, f64::NAN, f64::INFINITY] {
         let error = analyze(
-            "dgauss-50mm",
             &system,
             &AnalyzeOptions {
                 epd_mm: Some(epd),
@@ -1311,7 +1306,6 @@ fn closest_focus_approaches_the_front_focal_plane() {
         Err(ParaxialError::ObjectAtFrontFocalPlane)
     );
     let error = analyze(
-        "dgauss-50mm",
         &system,
         &AnalyzeOptions {
             object_distance_mm: Some(front_focus_distance),
@@ -1354,7 +1348,7 @@ fn closest_focus_approaches_the_front_focal_plane() {
             focus_mm: Some(distance),
             ..BakeRequest::default()
         };
-        let error = bake(&system, &request, &|_| {}).unwrap_err();
+        let error = bake(&system, &request).unwrap_err();
         assert!(
             matches!(error, BakeError::Paraxial(_) | BakeError::CannotFocus(_)),
             "focus {distance}: {error}"
@@ -1368,7 +1362,6 @@ fn closest_focus_approaches_the_front_focal_plane() {
             focus_mm: Some(near),
             ..BakeRequest::default()
         },
-        &|_| {},
     )
     .unwrap();
     assert_table_finite(&table, "closest focus");
@@ -1455,7 +1448,7 @@ fn an_aspheric_stop_stopped_far_down_still_bakes_its_field() {
         ..BakeRequest::default()
     };
     let system = common::f095_singlet(true);
-    let table = bake(&system, &request, &|_| {}).unwrap();
+    let table = bake(&system, &request).unwrap();
     assert!(
         table.layers[0].frame.max_film_radius > 59.0,
         "{:?}",
@@ -1508,7 +1501,7 @@ fn a_lens_of_negative_focal_length_is_analysed_and_refused_by_name_for_models_an
         resolution: [4, 4, 4],
         ..BakeRequest::default()
     };
-    match bake(&system, &request, &|_| {}) {
+    match bake(&system, &request) {
         Err(BakeError::Paraxial(e)) => assert!(diverging(&e), "{e}"),
         other => panic!("{:?}", other.map(|_| "a table")),
     }

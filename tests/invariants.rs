@@ -351,7 +351,7 @@ fn baked_pupil_density_integrates_to_one() {
         f_number: Some(4.0),
         ..BakeRequest::default()
     };
-    let table = bake(&system, &request, &|_| {}).unwrap();
+    let table = bake(&system, &request).unwrap();
     let pupil = &table.layers[0].pupil;
     for k in 0..=21 {
         let film_radius = pupil.max_film_radius * k as f64 / 21.0;

@@ -1,5 +1,6 @@
 //! The baked table against the exact trace on held-out rays (the renderer's distribution, drawn
 //! with a seed the bake never saw), for the pbrt 50 mm double Gauss of the oracle data.
+#![cfg(feature = "render")]
 
 mod common;
 
@@ -29,7 +30,7 @@ fn pupil_planes_table_matches_the_exact_trace_within_measured_bounds() {
         precision: Precision::F32,
         ..BakeRequest::default()
     };
-    let table = bake(&system, &request, &|_| {}).unwrap();
+    let table = bake(&system, &request).unwrap();
     let e = table_error(&table, 0, &tracer, efl, 1920.0, 4000, 0xfeed);
     eprintln!("{e:?}");
     // Measured at 32^3 on 20k rays (docs/lrtf.md): direction p99 0.027 mrad, max 0.05 mrad;
@@ -47,7 +48,6 @@ fn pupil_planes_table_matches_the_exact_trace_within_measured_bounds() {
             parameterisation: Parameterisation::Spherical,
             ..request
         },
-        &|_| {},
     )
     .unwrap();
     let s = table_error(&spherical, 0, &tracer, efl, 1920.0, 4000, 0xfeed);
@@ -75,7 +75,7 @@ fn default_double_gauss_table_meets_the_issue_targets() {
     let efl = first_order(&design, None).unwrap().first_order.efl;
     let request = BakeRequest::default();
     assert_eq!(request.resolution, [128, 128, 128]);
-    let table = bake(&system, &request, &|_| {}).unwrap();
+    let table = bake(&system, &request).unwrap();
     let rays = 20_000;
     let e = table_error(&table, 0, &tracer, efl, 1920.0, rays, 0xfeed);
     eprintln!("default: {e:?}");
@@ -106,7 +106,6 @@ fn default_double_gauss_table_meets_the_issue_targets() {
             parameterisation: Parameterisation::Spherical,
             ..request
         },
-        &|_| {},
     )
     .unwrap();
     let s = table_error(&spherical, 0, &tracer, efl, 1920.0, rays, 0xfeed);
@@ -146,7 +145,7 @@ fn small_table(system: &LensSystem, parameterisation: Parameterisation) -> LrtfT
         resolution: [16, 16, 16],
         ..BakeRequest::default()
     };
-    bake(system, &request, &|_| {}).unwrap()
+    bake(system, &request).unwrap()
 }
 
 /// The renderer looks rays up in groups (table reads overlapping); each ray's outcome must be
@@ -171,7 +170,10 @@ fn group_lookups_are_single_lookups() {
         let stop = table.stop_radius(0, table.info.f_number).unwrap();
         let mut grouped = vec![Lookup::Blocked; rays.len()];
         table.lookup_group(0, &rays, stop, &mut grouped);
-        let single: Vec<Lookup> = rays.iter().map(|r| table.lookup(0, r, stop)).collect();
+        let single: Vec<Lookup> = rays
+            .iter()
+            .map(|r| table.lookup_layer(0, r, stop))
+            .collect();
         assert_eq!(grouped, single, "{parameterisation:?}");
         let count = |f: fn(&Lookup) -> bool| single.iter().filter(|l| f(l)).count();
         let counts = [

@@ -1,5 +1,6 @@
 //! The LRTF commands end to end: `plot lrtf-error` draws exactly the measured numbers, and
 //! `lrtf eval --lens` refuses a table baked from another prescription.
+#![cfg(feature = "cli")]
 
 mod common;
 
@@ -181,7 +182,6 @@ fn bake_defaults_to_the_files_aperture_and_object_distance() {
     let options = lensbake::prescription::formats::LoadOptions::default();
     let loaded = lensbake::lenses::load(lens.to_str().unwrap(), &options).unwrap();
     let efl = lensbake::analysis::analyze(
-        "stated",
         &loaded.system,
         &lensbake::analysis::AnalyzeOptions::default(),
     )

@@ -2,6 +2,7 @@
 //! the pupil's focus nodes against the exact trace, the sampling pupil's conservativeness and
 //! density there, and the command line (bake a range, show it, evaluate and render inside it,
 //! refuse outside it).
+#![cfg(feature = "cli")]
 
 mod common;
 
@@ -33,7 +34,7 @@ fn range_table(system: &LensSystem) -> LrtfTable {
         focus_near_mm: Some(1000.0),
         ..BakeRequest::default()
     };
-    bake(system, &request, &|_| {}).expect("the range bakes")
+    bake(system, &request).expect("the range bakes")
 }
 
 /// Film planes strictly between the sampling pupil's focus nodes (none on a node).
@@ -78,7 +79,6 @@ fn range_lookups_between_focus_nodes_match_the_exact_trace_like_a_single_focus_t
                 max_film_radius: Some(table.layers[0].sampling.max_film_radius()),
                 ..BakeRequest::default()
             },
-            &|_| {},
         )
         .unwrap();
         let efl = first_order(&design, Some(distance))
@@ -342,7 +342,6 @@ fn focus_outside_a_range_is_a_typed_error() {
             focus_near_mm: Some(1500.0),
             ..BakeRequest::default()
         },
-        &|_| {},
     )
     .unwrap();
     let focus = &table.info.focus;
@@ -370,7 +369,6 @@ fn focus_outside_a_range_is_a_typed_error() {
             focus_near_mm: Some(2000.0),
             ..BakeRequest::default()
         },
-        &|_| {},
     );
     assert!(reversed.is_err());
     // A table is focused on a real object: a virtual one (behind surface 1), which the
@@ -382,7 +380,6 @@ fn focus_outside_a_range_is_a_typed_error() {
             focus_mm: Some(-100.0),
             ..BakeRequest::default()
         },
-        &|_| {},
     );
     assert!(
         virtual_object
@@ -402,7 +399,6 @@ fn focus_outside_a_range_is_a_typed_error() {
             focus_near_mm: Some(300.0),
             ..BakeRequest::default()
         },
-        &|_| {},
     );
     let Err(BakeError::CannotFocus(CannotFocus {
         distance_mm,
@@ -430,7 +426,7 @@ fn focus_outside_a_range_is_a_typed_error() {
         ],
     })
     .unwrap();
-    let error = bake(&rod, &BakeRequest::default(), &|_| {}).unwrap_err();
+    let error = bake(&rod, &BakeRequest::default()).unwrap_err();
     let BakeError::ImageInsideLens(ImageInsideLens {
         focus,
         film_z,

@@ -333,7 +333,6 @@ fn analysis_of_a_dispersive_lens_system_matches_the_oracle() {
     let system = LensSystem::from_prescription(prescription).expect("valid");
     assert!(system.disperses());
     let analysis = analyze(
-        "optiland_cooke_triplet",
         &system,
         &AnalyzeOptions {
             wavelength_nm: Some(oracle.wavelength_nm()),

@@ -54,7 +54,7 @@ fn assert_same_lens(a: &Loaded, b: &Loaded) {
     }
     let analysed = |l: &Loaded| {
         let system = LensSystem::new(l.prescription.clone(), &l.map).unwrap();
-        analyze("lens", &system, &AnalyzeOptions::default()).unwrap()
+        analyze(&system, &AnalyzeOptions::default()).unwrap()
     };
     let (x, y) = (analysed(a), analysed(b));
     assert!((x.first_order.efl - y.first_order.efl).abs() < 1e-12 * x.first_order.efl.abs());

@@ -355,7 +355,7 @@ fn the_files_conditions_are_stored_and_become_the_analysis_defaults() {
     assert_eq!(conditions.primary, Some(1));
 
     let system = LensSystem::new(loaded.prescription, &loaded.map).unwrap();
-    let a = analyze("singlet", &system, &AnalyzeOptions::default()).unwrap();
+    let a = analyze(&system, &AnalyzeOptions::default()).unwrap();
     // 0.5875618 µm in nm, to the rounding of the unit change.
     assert!(
         (a.wavelength_nm - 587.5618).abs() < 1e-9,
@@ -370,7 +370,7 @@ fn the_files_conditions_are_stored_and_become_the_analysis_defaults() {
         epd_mm: Some(4.0),
         ..AnalyzeOptions::default()
     };
-    let a = analyze("singlet", &system, &flagged).unwrap();
+    let a = analyze(&system, &flagged).unwrap();
     assert!((a.first_order.entrance_pupil.diameter - 4.0).abs() < 1e-12);
 }
 
@@ -387,7 +387,7 @@ fn finite_objects_numerical_apertures_and_object_heights() {
     let conditions = loaded.prescription.provenance.conditions.clone().unwrap();
     assert_eq!(conditions.object_distance_mm, Some(100.0));
     let system = LensSystem::new(loaded.prescription, &loaded.map).unwrap();
-    let a = analyze("relay", &system, &AnalyzeOptions::default()).unwrap();
+    let a = analyze(&system, &AnalyzeOptions::default()).unwrap();
     assert_eq!(a.object_distance_mm, Some(100.0));
     assert_eq!(a.first_order.object_height, Some(3.0));
     // The marginal ray leaves the axial object point at slope tan(asin(NA)).
@@ -402,7 +402,7 @@ fn finite_objects_numerical_apertures_and_object_heights() {
     let text = singlet("", "  DIAM 6 0 0 0 1 \"\"\n", "").replace("ENPD 10", "FNUM 8 0");
     let loaded = read(&text).unwrap();
     let system = LensSystem::new(loaded.prescription, &loaded.map).unwrap();
-    let a = analyze("f8", &system, &AnalyzeOptions::default()).unwrap();
+    let a = analyze(&system, &AnalyzeOptions::default()).unwrap();
     assert!(
         (a.first_order.f_number - 8.0).abs() < 1e-12,
         "{}",
@@ -522,7 +522,7 @@ fn codev_continuation_lines_model_glasses_and_the_default_stop() {
 
     // YIM: paraxial image height 4 mm at infinity is the angle whose chief ray lands there.
     let system = LensSystem::new(loaded.prescription, &loaded.map).unwrap();
-    let a = analyze("yim", &system, &AnalyzeOptions::default()).unwrap();
+    let a = analyze(&system, &AnalyzeOptions::default()).unwrap();
     assert!(
         (a.first_order.image_height.abs() - 4.0).abs() < 1e-9,
         "{}",
@@ -749,7 +749,7 @@ fn codev_f_number_and_image_heights_of_a_finite_object() {
     let conditions = loaded.prescription.provenance.conditions.clone().unwrap();
     assert_eq!(conditions.aperture, Some(ApertureSpec::WorkingFNumber(5.0)));
     let system = LensSystem::new(loaded.prescription, &loaded.map).unwrap();
-    let a = analyze("finite", &system, &AnalyzeOptions::default()).unwrap();
+    let a = analyze(&system, &AnalyzeOptions::default()).unwrap();
     assert!(
         (a.first_order.working_f_number - 5.0).abs() < 1e-12,
         "{}",

@@ -4,6 +4,7 @@
 //! every focus mode works for every lens model; the effective pupil stays conservative off the
 //! film plane. tests/render.rs runs its GPU-vs-CPU, IBRT-vs-reference and baked-vs-traced
 //! comparisons on a tilted sensor too.
+#![cfg(feature = "render")]
 
 mod common;
 
@@ -677,7 +678,7 @@ fn every_focus_mode_places_the_sensor_where_every_model_renders_the_point_sharp(
                             )),
                             ..BakeRequest::default()
                         };
-                        let table = bake(&lens.system, &request, &|_| {}).unwrap();
+                        let table = bake(&lens.system, &request).unwrap();
                         let baked = BakedLens::new(table, &first, first.f_number).unwrap();
                         // The table's film plane is where the focus mode put the sensor.
                         assert!(

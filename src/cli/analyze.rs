@@ -54,11 +54,12 @@ pub fn run(args: AnalyzeArgs) -> anyhow::Result<()> {
         },
         ray_aiming: args.ray_aiming.map(Into::into),
     };
-    let analysis = analyze(&name, &lens.system, &options).map_err(|error| match error {
+    let mut analysis = analyze(&lens.system, &options).map_err(|error| match error {
         // Located in the file already.
         AnalysisError::Stated { .. } => anyhow::Error::new(error),
         other => anyhow::Error::new(other).context(format!("analysing {}", lens.source.origin)),
     })?;
+    analysis.lens = name;
     if args.json {
         say!("{}", serde_json::to_string_pretty(&analysis)?);
     } else {

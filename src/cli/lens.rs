@@ -1,15 +1,13 @@
 //! `lensbake lens ...`: check, convert and list lens prescriptions.
 
-use anyhow::{Context, bail};
+use anyhow::Context;
 use clap::builder::{PossibleValuesParser, TypedValueParser};
 use clap::{Args, Subcommand};
-use lensbake::analysis::{AnalysisError, ConditionOverrides, DesignConditions, stated_as_analysed};
+use lensbake::analysis::{AnalysisError, ConditionOverrides, DesignConditions};
 use lensbake::job::RenderLens;
 use lensbake::lenses::{self, BUNDLED, LensError, LensSource, LoadedLens};
 use lensbake::model::ModelKind;
-use lensbake::prescription::formats::{
-    Format, LoadOptions, PbrtThickness, read_str, write_pbrt, write_ron_file, write_zemax,
-};
+use lensbake::prescription::formats::{Format, LoadOptions, PbrtThickness, read_str};
 use lensbake::prescription::formats::{OutlineShape, PlacedLens};
 use lensbake::prescription::{DEFAULT_WAVELENGTH_NM, Location, PrescriptionError, Problem, Shape};
 use lensbake::system::LensSystem;
@@ -243,34 +241,16 @@ pub fn run(command: LensCommand) -> anyhow::Result<()> {
 }
 
 fn convert(input: &LensArgs, output: &Path, indices_at_nm: Option<f64>) -> anyhow::Result<()> {
-    let format = Format::from_path(output).ok();
-    if !matches!(format, Some(Format::Ron | Format::Zemax | Format::Pbrt)) {
-        bail!(
-            "{}: the output must be a .ron, .zmx or .dat (pbrt) file",
-            output.display()
-        );
-    }
     let mut lens = input.load()?;
     if let Some(nm) = indices_at_nm {
         lens.system = at_constant_indices(&lens, nm)?;
     }
     let p = &lens.system.prescription;
-    let cannot = |what: &str| format!("cannot write {} as {what}", output.display());
-    match format {
-        Some(Format::Zemax) => {
-            // A Zemax file holds no claims and no working f-number: the conditions lensbake
-            // analyses the lens under are written as an aperture and fields it holds.
-            let stated = stated_as_analysed(&lens.system);
-            let text = write_zemax(&stated).with_context(|| cannot("a Zemax file"))?;
-            lensbake::output::write_bytes(output, text.as_bytes())?;
-        }
-        Some(Format::Pbrt) => {
-            let nm = lens.system.design_wavelength_nm();
-            let text = write_pbrt(p, nm).with_context(|| cannot("a pbrt lens file"))?;
-            lensbake::output::write_bytes(output, text.as_bytes())?;
-            note!("pbrt holds one index per medium: written at {nm} nm");
-        }
-        _ => write_ron_file(output, p)?,
+    if lenses::write_lens(&lens.system, output)? == Format::Pbrt {
+        note!(
+            "pbrt holds one index per medium: written at {} nm",
+            lens.system.design_wavelength_nm()
+        );
     }
     note_reading(&lens.source);
     say!(

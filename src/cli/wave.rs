@@ -4,12 +4,10 @@ use super::lens::{AimingArg, ReadArgs};
 use anyhow::{Context, bail};
 use clap::Args;
 use lensbake::glass::D_LINE_NM;
-use lensbake::paraxial::FirstOrder;
-use lensbake::prescription::RayAiming;
 use lensbake::system::LensSystem;
 use lensbake::wave::{
-    FieldTrace, PupilTrace, Sampling, Spectrum, WaveLens, ZernikeOrdering, fft_assumptions,
-    frequencies_to, huygens_psf, psf, zernike_fit,
+    DEFAULT_MTF_FREQUENCIES, FieldTrace, PupilTrace, Sampling, Spectrum, WaveLens, WaveOptions,
+    ZernikeOrdering, fft_assumptions, frequencies_to, huygens_psf, psf, zernike_fit,
 };
 use lensbake::{lenses, limits};
 use serde_json::json;
@@ -115,13 +113,9 @@ enum Subject {
 struct Setup {
     name: String,
     subject: Subject,
-    epd_mm: Option<f64>,
-    f_number: Option<f64>,
+    options: WaveOptions,
     spectrum: Spectrum,
     sampling: Sampling,
-    field_deg: f64,
-    object_distance_mm: Option<f64>,
-    ray_aiming: Option<RayAiming>,
 }
 
 impl Setup {
@@ -179,42 +173,40 @@ impl Setup {
                 )
             }
         };
-        let default_nm = match &subject {
-            Subject::Real { system, .. } => system.design_wavelength_nm(),
-            Subject::Ideal { .. } => D_LINE_NM,
-        };
-        let wavelengths = if args.wavelength_nm.is_empty() {
-            vec![default_nm]
-        } else {
-            args.wavelength_nm.clone()
-        };
-        let weights = if args.weight.is_empty() {
-            vec![1.0; wavelengths.len()]
-        } else if args.weight.len() == wavelengths.len() {
-            args.weight.clone()
-        } else {
+        if !args.weight.is_empty() && args.weight.len() != args.wavelength_nm.len().max(1) {
             bail!(
                 "--weight given {} times for {} wavelengths: give one per --wavelength-nm",
                 args.weight.len(),
-                wavelengths.len()
+                args.wavelength_nm.len().max(1)
             );
-        };
-        let spectrum = Spectrum::new(wavelengths, weights, 0)?;
-        let sampling = Sampling {
-            samples: args.samples,
-            grid: args.grid,
         }
-        .checked()?;
+        let options = WaveOptions {
+            field_deg: args.field_deg,
+            wavelengths_nm: args.wavelength_nm.clone(),
+            weights: args.weight.clone(),
+            epd_mm: args.epd_mm,
+            f_number: args.f_number,
+            object_distance_mm,
+            ray_aiming: args.ray_aiming.map(Into::into),
+            sampling: Sampling {
+                samples: args.samples,
+                grid: args.grid,
+            },
+            defocus_mm: 0.0,
+        };
+        let spectrum = match &subject {
+            Subject::Real { system, .. } => options.spectrum(system)?,
+            Subject::Ideal { .. } => {
+                Spectrum::or_default(&options.wavelengths_nm, &options.weights, D_LINE_NM)?
+            }
+        };
+        let sampling = options.sampling.checked()?;
         Ok(Setup {
             name,
             subject,
-            epd_mm: args.epd_mm,
-            f_number: args.f_number,
+            options,
             spectrum,
             sampling,
-            field_deg: args.field_deg,
-            object_distance_mm,
-            ray_aiming: args.ray_aiming.map(Into::into),
         })
     }
 
@@ -222,44 +214,27 @@ impl Setup {
         Ok(match &self.subject {
             Subject::Ideal { efl_mm } => WaveLens::Ideal {
                 efl_mm: *efl_mm,
-                f_number: match (self.f_number, self.epd_mm) {
+                f_number: match (self.options.f_number, self.options.epd_mm) {
                     (Some(n), _) => n,
                     (None, Some(epd)) => efl_mm / epd,
                     (None, None) => IDEAL_F_NUMBER,
                 },
             },
-            Subject::Real { name, system } => {
-                let epd_mm = match self.f_number {
-                    Some(n) => {
-                        let at = system.at_checked(self.spectrum.reference_nm())?;
-                        let efl = FirstOrder::of(&at)
-                            .with_context(|| format!("{name}: no focal length"))?
-                            .efl;
-                        Some(efl.abs() / n)
-                    }
-                    None => self.epd_mm,
-                };
-                WaveLens::Real {
-                    system,
-                    epd_mm,
-                    object_distance_mm: self.object_distance_mm,
-                    ray_aiming: self.ray_aiming.unwrap_or_else(|| {
-                        system
-                            .prescription
-                            .provenance
-                            .conditions
-                            .as_ref()
-                            .and_then(|c| c.ray_aiming)
-                            .unwrap_or_default()
-                    }),
-                }
-            }
+            Subject::Real { name, system } => self
+                .options
+                .lens(system)
+                .with_context(|| format!("{name}: the beam"))?,
         })
     }
 
     fn trace(&self) -> anyhow::Result<FieldTrace> {
-        FieldTrace::new(&self.lens()?, self.field_deg, &self.spectrum, self.sampling)
-            .with_context(|| format!("{} at {}°", self.name, self.field_deg))
+        FieldTrace::new(
+            &self.lens()?,
+            self.options.field_deg,
+            &self.spectrum,
+            self.sampling,
+        )
+        .with_context(|| format!("{} at {}°", self.name, self.options.field_deg))
     }
 
     fn monochromatic(&self, command: &str) -> anyhow::Result<PupilTrace> {
@@ -288,7 +263,7 @@ pub fn run_wavefront(args: WavefrontArgs) -> anyhow::Result<()> {
     if args.json {
         let value = json!({
             "lens": setup.name,
-            "field_deg": setup.field_deg,
+            "field_deg": setup.options.field_deg,
             "wavelength_nm": map.wavelength_nm,
             "sampling": setup.sampling,
             "rms_waves": stats.rms_waves,
@@ -309,7 +284,7 @@ pub fn run_wavefront(args: WavefrontArgs) -> anyhow::Result<()> {
     say!(
         "{}  field {}°  {} nm  ({} x {} pupil samples, {} transmitted)",
         setup.name,
-        setup.field_deg,
+        setup.options.field_deg,
         map.wavelength_nm,
         map.samples,
         map.samples,
@@ -345,9 +320,6 @@ fn print_assumptions(assumptions: &[lensbake::wave::FftAssumption]) {
     }
 }
 
-/// Frequencies of the default MTF table.
-const DEFAULT_FREQUENCY_COUNT: usize = 41;
-
 pub fn run_mtf(args: MtfArgs) -> anyhow::Result<()> {
     let setup = Setup::new(&args.wave)?;
     if !args.defocus_mm.is_finite() {
@@ -363,7 +335,7 @@ pub fn run_mtf(args: MtfArgs) -> anyhow::Result<()> {
     }
     let trace = setup.trace()?;
     let frequencies = if args.frequency.is_empty() {
-        frequencies_to(trace.reference().cutoff_per_mm, DEFAULT_FREQUENCY_COUNT)
+        frequencies_to(trace.reference().cutoff_per_mm, DEFAULT_MTF_FREQUENCIES)
     } else {
         args.frequency.clone()
     };
@@ -374,7 +346,7 @@ pub fn run_mtf(args: MtfArgs) -> anyhow::Result<()> {
     if args.json {
         let value = json!({
             "lens": setup.name,
-            "field_deg": setup.field_deg,
+            "field_deg": setup.options.field_deg,
             "wavelengths_nm": setup.spectrum.wavelengths_nm,
             "weights": setup.spectrum.weights,
             "defocus_mm": args.defocus_mm,
@@ -393,7 +365,7 @@ pub fn run_mtf(args: MtfArgs) -> anyhow::Result<()> {
     say!(
         "{}  field {}°  cutoff {:.1} cycles/mm",
         setup.name,
-        setup.field_deg,
+        setup.options.field_deg,
         mtf.cutoff_per_mm
     );
     say!("  cycles/mm  tangential  sagittal  diffraction limit");

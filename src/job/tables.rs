@@ -3,7 +3,7 @@
 
 use super::JobError;
 use crate::lenses::LoadedLens;
-use crate::lrtf::bake::{BakeProgress, BakeRequest, bake};
+use crate::lrtf::bake::{BakeProgress, BakeRequest, bake_with_progress};
 use crate::lrtf::io::{SIDECAR_FILE, prescription_hash, read_sidecar, read_table, write_table};
 use crate::lrtf::{LrtfTable, Precision};
 use crate::model::WAVELENGTH_MATCH_NM;
@@ -117,7 +117,7 @@ pub fn load_or_bake(
         wavelengths_nm: fallback.wavelengths_nm.clone(),
         ..BakeRequest::default()
     };
-    let table = bake(&lens.system, &request, progress)?;
+    let table = bake_with_progress(&lens.system, &request, progress)?;
     write_table(&table, &lens.source.origin.name(), prescription, dir)?;
     Ok((table, true))
 }

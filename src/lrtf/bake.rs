@@ -584,8 +584,23 @@ impl<'a> BakePlan<'a> {
     }
 }
 
-/// Bakes a table; `progress` is called from worker threads as nodes complete.
-pub fn bake(
+/// Bakes the table `request` asks for (every field has a default: [`BakeRequest::default`] is
+/// a 128³ f32 table of the design wavelength, wide open, focused at infinity).
+///
+/// ```
+/// use lensbake::{BakeRequest, LoadOptions, bake, load_lens};
+///
+/// let lens = load_lens("dgauss-50mm", &LoadOptions::default())?;
+/// let table = bake(&lens.system, &BakeRequest { resolution: [8; 3], ..BakeRequest::default() })?;
+/// assert_eq!(table.layers.len(), 1);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn bake(system: &LensSystem, request: &BakeRequest) -> Result<LrtfTable, BakeError> {
+    bake_with_progress(system, request, &|_| {})
+}
+
+/// [`bake`], calling `progress` from worker threads as nodes complete (for a progress bar).
+pub fn bake_with_progress(
     system: &LensSystem,
     request: &BakeRequest,
     progress: &(dyn Fn(BakeProgress) + Sync),
@@ -850,7 +865,7 @@ mod tests {
                 resolution: [9, 11, 7],
                 ..BakeRequest::default()
             };
-            let table = bake(&system, &request, &|_| {}).unwrap();
+            let table = bake(&system, &request).unwrap();
             let layer = &table.layers[0];
             let at = stopped_down(&system, layer.wavelength_nm, layer.stop_semi_aperture);
             let tracer = Tracer::new(&at);

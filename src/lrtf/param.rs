@@ -94,11 +94,22 @@ impl Located {
     };
 }
 
-/// A ray in the lens frame (mm), direction unit length.
+/// The sampler's ray in the lens frame (mm), direction unit length: plain fields, unchecked,
+/// for the renderer's inner loops. Everywhere else the crate's ray is [`crate::Ray`] (checked
+/// finite, direction normalised), which converts into this one.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Ray {
     pub origin: [f64; 3],
     pub direction: [f64; 3],
+}
+
+impl From<crate::trace::Ray> for Ray {
+    fn from(ray: crate::trace::Ray) -> Ray {
+        Ray {
+            origin: ray.position(),
+            direction: ray.direction(),
+        }
+    }
 }
 
 /// The exact values one table entry stores, in the canonical frame.

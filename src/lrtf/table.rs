@@ -4,7 +4,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::entries::{CellColumns, Entries};
-use super::focus::FocusRange;
+use super::focus::{FocusError, FocusRange};
 use super::param::{
     CHANNELS, Frame, Located, MARGIN, Parameterisation, Ray, film_radius_of, locate_pupil_planes,
     to_lens_frame,
@@ -100,7 +100,8 @@ pub struct GpuParams {
     /// Circles of the coordinate pupil, at the head of the pupil buffer.
     pub pupil_count: u32,
     pub dims: [u32; 3],
-    pub pad: u32,
+    /// [`super::io::FORMAT_VERSION`]: the shader refuses a block filled for another format.
+    pub format_version: u32,
     /// Film radius of the sampling pupil's last circle per focus node.
     pub sampling_max_film_radius: f32,
     /// Circles per focus node of the sampling pupil, after the coordinate pupil in the buffer.
@@ -114,6 +115,10 @@ pub struct GpuParams {
 pub const LRTF_PASSES: u32 = 0;
 pub const LRTF_BLOCKED: u32 = 1;
 pub const LRTF_OUTSIDE: u32 = 2;
+/// The shader's status when `LrtfParams::format_version` is not the format it was compiled for
+/// (an exported sampler bound to a table of another lensbake); the CPU reads the files and
+/// refuses such a table when loading it instead.
+pub const LRTF_VERSION_MISMATCH: u32 = 3;
 
 /// What the table says about one film-side ray.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -125,6 +130,75 @@ pub enum Lookup {
     /// The ray falls outside what the table covers (film radius beyond its domain, or it never
     /// reaches the rear plane).
     OutsideDomain,
+}
+
+impl Lookup {
+    /// The outgoing ray when the ray passes, as the crate's checked [`crate::Ray`].
+    pub fn passed(&self) -> Option<crate::trace::Ray> {
+        match self {
+            Lookup::Passes(ray) => crate::trace::Ray::new(ray.origin, ray.direction).ok(),
+            Lookup::Blocked | Lookup::OutsideDomain => None,
+        }
+    }
+}
+
+/// Why a table cannot answer for a focus or an f-number.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum LookupError {
+    #[error(transparent)]
+    Focus(#[from] FocusError),
+    #[error("f-number {asked} is faster than the table serves (baked at f/{baked:.3})")]
+    FNumber { asked: f64, baked: f64 },
+    #[error("layer {asked} does not exist: the table has {layers} (one per wavelength)")]
+    Layer { asked: usize, layers: usize },
+}
+
+/// A table at one focus, f-number and wavelength layer ([`LrtfTable::focused`]): the film
+/// plane and stop radius worked out once, for looking up many rays.
+#[derive(Clone, Copy, Debug)]
+pub struct FocusedTable<'a> {
+    table: &'a LrtfTable,
+    layer: usize,
+    film_z: f64,
+    stop_radius: f64,
+}
+
+impl FocusedTable<'_> {
+    /// The same focus and f-number in layer `layer` (wavelength `table.layers[layer]`).
+    pub fn layer(self, layer: usize) -> Result<Self, LookupError> {
+        let layers = self.table.layers.len();
+        if layer >= layers {
+            return Err(LookupError::Layer {
+                asked: layer,
+                layers,
+            });
+        }
+        // Every layer is baked at the same f-number, so the stop scales alike.
+        let stop_radius = self.stop_radius / self.table.layers[self.layer].stop_semi_aperture
+            * self.table.layers[layer].stop_semi_aperture;
+        Ok(FocusedTable {
+            layer,
+            stop_radius,
+            ..self
+        })
+    }
+
+    /// z of the film plane in focus (lens frame, mm): film-side rays start on it.
+    pub fn film_z(&self) -> f64 {
+        self.film_z
+    }
+
+    /// Wavelength of the layer looked up, nm.
+    pub fn wavelength_nm(&self) -> f64 {
+        self.table.layers[self.layer].wavelength_nm
+    }
+
+    /// What the table says about `ray` (film side, travelling -z); a ray crossing the film
+    /// plane beyond the film the table covers is [`Lookup::OutsideDomain`].
+    pub fn lookup(&self, ray: &crate::trace::Ray) -> Lookup {
+        self.table
+            .lookup_focused(self.layer, &(*ray).into(), self.stop_radius, self.film_z)
+    }
 }
 
 /// Which corners of the enclosing cell the transfer values are interpolated from.
@@ -290,6 +364,7 @@ fn ray_of(columns: &[[f64; LOOKUP_GROUP]; 6], k: usize) -> Ray {
 #[derive(Clone, Copy)]
 enum LookupRays<'a> {
     Rays(&'a [Ray]),
+    #[cfg(feature = "render")]
     Columns {
         columns: &'a [[f64; LOOKUP_GROUP]; 6],
         count: usize,
@@ -360,6 +435,7 @@ impl<P: Place> LaneLookup<'_, P> {
                         });
                     }
                 }
+                #[cfg(feature = "render")]
                 LookupRays::Columns { columns, count } => {
                     self.group(isa, columns, count, scratch, emit)
                 }
@@ -488,13 +564,72 @@ impl LrtfTable {
         self.info.parameterisation.locate(&l.frame, &l.pupil, ray)
     }
 
+    /// The outgoing ray for a film-side ray travelling -z, with the lens focused at `focus_mm`
+    /// (object distance in front of surface 1; None: the table's far focus, infinity unless it
+    /// was baked for a finite distance) and stopped down to `f_number` (None: as baked). The
+    /// first layer answers (the only one of a one-wavelength table); [`LrtfTable::focused`]
+    /// checks the focus and the f-number once for many rays and picks other layers.
+    ///
+    /// ```
+    /// use lensbake::{BakeRequest, LoadOptions, Lookup, Ray, bake, load_lens};
+    ///
+    /// let lens = load_lens("dgauss-50mm", &LoadOptions::default())?;
+    /// let table = bake(&lens.system, &BakeRequest { resolution: [16; 3], ..Default::default() })?;
+    /// let film_z = table.focused(None, None)?.film_z();
+    /// // From the centre of the film straight towards the lens: out along the axis.
+    /// let ray = Ray::new([0.0, 0.0, film_z], [0.0, 0.0, -1.0])?;
+    /// let Lookup::Passes(out) = table.lookup(&ray, None, Some(4.0))? else { panic!() };
+    /// assert!(out.direction[0].abs() < 1e-6 && out.direction[2] < -0.999_999);
+    /// // Faster than the table was baked for: refused, not guessed.
+    /// assert!(table.lookup(&ray, None, Some(0.5)).is_err());
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn lookup(
+        &self,
+        ray: &crate::trace::Ray,
+        focus_mm: Option<f64>,
+        f_number: Option<f64>,
+    ) -> Result<Lookup, LookupError> {
+        Ok(self.focused(focus_mm, f_number)?.lookup(ray))
+    }
+
+    /// The first layer focused at `focus_mm` and stopped down to `f_number` (both as in
+    /// [`LrtfTable::lookup`]), checked against what the table serves.
+    pub fn focused(
+        &self,
+        focus_mm: Option<f64>,
+        f_number: Option<f64>,
+    ) -> Result<FocusedTable<'_>, LookupError> {
+        let film_z = self
+            .info
+            .focus
+            .film_z_for(focus_mm.or(self.info.focus.far_mm))?;
+        let f_number = f_number.unwrap_or(self.info.f_number);
+        if !f_number.is_finite() {
+            return Err(LookupError::FNumber {
+                asked: f_number,
+                baked: self.info.f_number,
+            });
+        }
+        let stop_radius = self.stop_radius(0, f_number).ok_or(LookupError::FNumber {
+            asked: f_number,
+            baked: self.info.f_number,
+        })?;
+        Ok(FocusedTable {
+            table: self,
+            layer: 0,
+            film_z,
+            stop_radius,
+        })
+    }
+
     /// The outgoing ray for a film-side ray travelling -z, through a stop of radius
     /// `stop_radius` (from [`LrtfTable::stop_radius`]). This is exactly what the shader does.
-    pub fn lookup(&self, layer: usize, ray: &Ray, stop_radius: f64) -> Lookup {
+    pub fn lookup_layer(&self, layer: usize, ray: &Ray, stop_radius: f64) -> Lookup {
         self.lookup_from(layer, ray, stop_radius, Corners::All)
     }
 
-    /// [`LrtfTable::lookup`] of every ray in `rays` into `out` (same length), the same values
+    /// [`LrtfTable::lookup_layer`] of every ray in `rays` into `out` (same length), the same values
     /// as one at a time.
     pub fn lookup_group(&self, layer: usize, rays: &[Ray], stop_radius: f64, out: &mut [Lookup]) {
         assert_eq!(rays.len(), out.len(), "one lookup per ray");
@@ -516,6 +651,7 @@ impl LrtfTable {
     ///
     /// # Panics
     /// When `count` is above [`LOOKUP_GROUP`].
+    #[cfg(feature = "render")]
     pub(crate) fn lookup_columns(
         &self,
         layer: usize,
@@ -536,7 +672,7 @@ impl LrtfTable {
         );
     }
 
-    /// [`LrtfTable::lookup`] for a render focused on the film plane `film_z`: the table's domain
+    /// [`LrtfTable::lookup_layer`] for a render focused on the film plane `film_z`: the table's domain
     /// on that plane ends at the film radius it was baked for, so a ray crossing the plane
     /// farther out is outside the domain (the transfer itself does not depend on the plane).
     pub fn lookup_focused(&self, layer: usize, ray: &Ray, stop_radius: f64, film_z: f64) -> Lookup {
@@ -551,10 +687,10 @@ impl LrtfTable {
         if !on_film {
             return Lookup::OutsideDomain;
         }
-        self.lookup(layer, ray, stop_radius)
+        self.lookup_layer(layer, ray, stop_radius)
     }
 
-    /// [`LrtfTable::lookup`] with the transfer values interpolated from `corners` (for
+    /// [`LrtfTable::lookup_layer`] with the transfer values interpolated from `corners` (for
     /// measuring the alternative; the shader implements [`Corners::All`]).
     pub fn lookup_from(
         &self,
@@ -622,7 +758,7 @@ impl LrtfTable {
             parameterisation: self.info.parameterisation.shader_id(),
             pupil_count: l.pupil.circles.len() as u32,
             dims: [n0 as u32, n1 as u32, n2 as u32],
-            pad: 0,
+            format_version: super::io::FORMAT_VERSION,
             sampling_max_film_radius: l.sampling.max_film_radius() as f32,
             sampling_count: l.sampling.nodes.first().map_or(0, |n| n.circles.len()) as u32,
             focus_count: l.sampling.nodes.len() as u32,

@@ -250,10 +250,12 @@ impl LensModel {
             LensModel::Seidel(lens) => lens
                 .object_ray(ray.origin, towards(ray.origin))
                 .map(scene_ray_of),
-            LensModel::Baked(lens) => match lens.table.lookup(lens.layer, ray, lens.stop_radius) {
-                Lookup::Passes(out) => Some(out),
-                Lookup::Blocked | Lookup::OutsideDomain => None,
-            },
+            LensModel::Baked(lens) => {
+                match lens.table.lookup_layer(lens.layer, ray, lens.stop_radius) {
+                    Lookup::Passes(out) => Some(out),
+                    Lookup::Blocked | Lookup::OutsideDomain => None,
+                }
+            }
             LensModel::Traced(lens) => match exact_transfer(&lens.tracer, ray) {
                 (Some(t), true) => Some(Ray {
                     origin: t.exit_point,

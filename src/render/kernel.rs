@@ -7,7 +7,7 @@
 //! several, side by side in vector lanes: the same operations on each, choices made by selecting
 //! instead of branching, so the values are the shader's. The one deliberate difference: the
 //! traced and baked lens functions are not f32 ports here but the library's own f64 tracer
-//! ([`crate::trace`]) and table sampler ([`LrtfTable::lookup`]), so the CPU twin *is* the oracle
+//! ([`crate::trace`]) and table sampler ([`LrtfTable::lookup_layer`]), so the CPU twin *is* the oracle
 //! the shader's ports are measured against.
 
 use super::RenderError;

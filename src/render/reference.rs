@@ -45,7 +45,7 @@ fn baked_object_ray(
         origin: film,
         direction: towards.map(|v| v / length),
     };
-    match lens.table.lookup(layer, &ray, lens.stop_radius) {
+    match lens.table.lookup_layer(layer, &ray, lens.stop_radius) {
         Lookup::Passes(out) => Some((out.origin, out.direction.map(|v| -v))),
         Lookup::Blocked | Lookup::OutsideDomain => None,
     }

@@ -270,7 +270,7 @@ pub fn figure(
     match kind {
         PlotKind::Layout => Ok(Figure::Layout(layout_plot(lens, system, options)?)),
         PlotKind::Seidel => {
-            let analysis = analyze(lens, system, &options.analyze_options())?;
+            let analysis = analyze(system, &options.analyze_options())?;
             Ok(Figure::Seidel(SeidelPlot {
                 lens: lens.to_string(),
                 wavelength_nm: analysis.wavelength_nm,

@@ -61,7 +61,7 @@ fn fill_report(
     directory: &Path,
 ) -> Result<Written, ReportError> {
     let mut page = Page::for_lens(lens, system);
-    match crate::analysis::analyze(lens, system, &options.analyze_options()) {
+    match crate::analysis::analyze(system, &options.analyze_options()) {
         Ok(analysis) => {
             page.tables
                 .insert(0, conditions_table(&analysis.conditions));

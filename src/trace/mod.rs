@@ -26,10 +26,13 @@ pub use aim::{
     AimError, RaySource, StopAim, aim_at_stop, traceable_field_deg, traceable_field_deg_from,
 };
 pub use batch::{BatchTrace, RayBatch};
+#[cfg(any(test, feature = "render"))]
 pub(crate) use batch::{GROUP_RAYS, GroupBlock};
 pub use bundle::FieldBundle;
+pub(crate) use bundle::UnitDraws;
 #[cfg(feature = "render")]
-pub(crate) use intersect::{ASPHERE_MAX_STEPS, dot};
+pub(crate) use intersect::ASPHERE_MAX_STEPS;
+pub(crate) use intersect::dot;
 pub(crate) use lanes::{Isa, LANES, LaneVisitor, NoVisit, Slots, with_widest_isa};
 
 use crate::paraxial::Pupil;
@@ -41,7 +44,8 @@ use intersect::{AsphereTerms, Profile};
 /// A point or direction in the lens frame (mm; z along the axis, origin at surface 1's vertex).
 pub type Vec3 = [f64; 3];
 
-/// A ray: a finite position and a unit direction, both in the lens frame.
+/// A ray: a finite position and a unit direction, both in the lens frame. The crate's public
+/// ray ([`crate::Ray`]); [`crate::lrtf::Ray`] is the sampler's unchecked form of it.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Ray {
     position: Vec3,

@@ -420,7 +420,6 @@ pub fn bake_timed(
     let table = bake(
         system,
         &domain.bake_request(resolution, Precision::F32, wavelengths_nm),
-        &|_| {},
     )?;
     Ok((table, started.elapsed().as_secs_f64()))
 }

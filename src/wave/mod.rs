@@ -20,12 +20,14 @@
 
 mod fft;
 mod huygens;
+pub mod lens;
 mod mtf;
 mod pupil;
 mod zernike;
 
 pub use fft::{Psf, polychromatic_psf, psf};
 pub use huygens::{FftAssumption, fft_assumptions, huygens_psf};
+pub use lens::{DEFAULT_MTF_FREQUENCIES, WaveOptions};
 pub use mtf::{
     FieldTrace, Mtf, MtfAcrossField, MtfAtField, Spectrum, ThroughFocus, diffraction_limited_mtf,
     frequencies_to, mtf_across_field,
@@ -117,6 +119,14 @@ pub enum WaveError {
     NotPositive { what: &'static str, value: f64 },
     #[error("{what} must be finite; got {}", crate::limits::short(*.value))]
     NotFinite { what: &'static str, value: f64 },
+    #[error("field {field_deg}° must be an angle below 90 degrees")]
+    Field { field_deg: f64 },
+    #[error("give the beam as an f-number or as an entrance-pupil diameter, not both")]
+    PupilTwice,
+    #[error("a wavefront is of one wavelength; {count} were given (the MTF and PSF take several)")]
+    Polychromatic { count: usize },
+    #[error("frequency {value} cycles/mm must be zero or positive")]
+    Frequency { value: f64 },
     #[error("polychromatic analysis needs at least one wavelength with a positive weight")]
     NoWeights,
     #[error("a Zernike fit needs at least {terms} pupil samples; the pupil has {valid}")]

@@ -24,6 +24,26 @@ impl Spectrum {
         }
     }
 
+    /// `wavelengths_nm` (empty: `default_nm` alone) weighted by `weights` (empty: all 1), the
+    /// first the reference, checked as [`Spectrum::new`] does.
+    pub fn or_default(
+        wavelengths_nm: &[f64],
+        weights: &[f64],
+        default_nm: f64,
+    ) -> Result<Spectrum, WaveError> {
+        let wavelengths = if wavelengths_nm.is_empty() {
+            vec![default_nm]
+        } else {
+            wavelengths_nm.to_vec()
+        };
+        let weights = if weights.is_empty() {
+            vec![1.0; wavelengths.len()]
+        } else {
+            weights.to_vec()
+        };
+        Spectrum::new(wavelengths, weights, 0)
+    }
+
     /// Checks the weights (finite, not negative, one above zero) and the lengths.
     pub fn new(
         wavelengths_nm: Vec<f64>,
