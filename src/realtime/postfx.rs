@@ -277,7 +277,9 @@ pub fn postfx(
         let mut tap = |pass: Pass, offset: [f32; 2], area: f32, level: usize| {
             // `offset`: tap from the output pixel, pinhole pixels, +y up.
             let at = [p[0] as f32 + offset[0], p[1] as f32 - offset[1] / aspect];
-            let (sx, sy) = (at[0].round(), at[1].round());
+            // Nearest pixel by truncation of the shifted coordinate (libm's round is a call
+            // per tap); left of or above the layer is out.
+            let (sx, sy) = (at[0] + 0.5, at[1] + 0.5);
             if sx < 0.0 || sy < 0.0 || sx as usize >= lw || sy as usize >= lh {
                 return;
             }
@@ -319,7 +321,9 @@ pub fn postfx(
                 for dy in -span..=span {
                     for dx in -span..=span {
                         let offset = [from[0] + dx as f32, from[1] - dy as f32 * aspect];
-                        if offset[0].hypot(offset[1]) <= reach_pixels {
+                        if offset[0] * offset[0] + offset[1] * offset[1]
+                            <= reach_pixels * reach_pixels
+                        {
                             tap(pass, offset, 1.0, 0);
                         }
                     }
