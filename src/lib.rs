@@ -214,6 +214,8 @@ pub mod plot;
 pub mod prescription;
 pub mod pupil;
 #[cfg(feature = "render")]
+pub mod realtime;
+#[cfg(feature = "render")]
 pub mod render;
 #[cfg(feature = "plot")]
 pub mod report;

@@ -525,7 +525,12 @@ mod tests {
         std::os::unix::fs::symlink(&target, &link).unwrap();
         let error = write_bytes(&link, b"new").unwrap_err();
         assert!(error.to_string().contains("symbolic link"), "{error}");
-        assert!(std::fs::symlink_metadata(&link).unwrap().file_type().is_symlink());
+        assert!(
+            std::fs::symlink_metadata(&link)
+                .unwrap()
+                .file_type()
+                .is_symlink()
+        );
         let linked_dir = dir.join("linked-dir");
         std::os::unix::fs::symlink(&dir, &linked_dir).unwrap();
         let published = publish_dir(&linked_dir, |_| Ok::<(), OutputError>(()));

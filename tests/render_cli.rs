@@ -692,13 +692,21 @@ fn the_demo_page_is_the_same_on_every_run() {
             "--out",
             out.to_str().unwrap(),
         ]);
-        assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+        assert_eq!(
+            o.status.code(),
+            Some(0),
+            "{}",
+            String::from_utf8_lossy(&o.stderr)
+        );
         out
     };
     let (first, second) = (run("a"), run("b"));
     for file in ["README.md", "traced.png", "baked.png", "error-map.png"] {
         let read = |dir: &Path| std::fs::read(dir.join(file)).unwrap();
-        assert!(read(&first) == read(&second), "{file} differs between two runs");
+        assert!(
+            read(&first) == read(&second),
+            "{file} differs between two runs"
+        );
     }
     assert!(first.join("timings.json").is_file());
     // In a git checkout (not in a packaged crate, which has no .git).

@@ -13,6 +13,7 @@ use lensbake::job::tables::DEFAULT_TABLES_ROOT;
 use lensbake::job::{RenderLens, TracedAndBaked, default_table_dir};
 use lensbake::limits;
 use lensbake::model::ModelKind;
+use lensbake::realtime::{KernelSettings, LensKernels, postfx};
 use lensbake::render::camera::{Camera, Film};
 use lensbake::render::gpu::GpuRenderer;
 use lensbake::render::image::RgbImage;
@@ -181,10 +182,10 @@ fn measure(args: &RenderBenchArgs, base: RenderSettings) -> anyhow::Result<()> {
         None,
         &|_| {},
     )?;
-    let mut cameras: Vec<(String, Camera)> = Vec::new();
+    let mut cameras: Vec<(ModelKind, Camera)> = Vec::new();
     for &kind in &args.models {
         let camera = matched.camera(kind, real, &first_order, film, args.focus_mm)?;
-        cameras.push((kind.name().to_string(), camera));
+        cameras.push((kind, camera));
     }
     let gpu = if args.backends.iter().any(|b| b == "gpu") {
         Some(GpuRenderer::new()?)
@@ -209,6 +210,30 @@ fn measure(args: &RenderBenchArgs, base: RenderSettings) -> anyhow::Result<()> {
         layer_view(reference_camera, &base, nearest),
         base.max_layers,
     );
+    // The post-process's kernels are traced once for the frame (per lens, focus and depth
+    // range, not per frame): timed apart from its frames.
+    let kernels = match args.models.contains(&ModelKind::Postfx) {
+        true => {
+            let [near, far] = ldi
+                .depth_range()
+                .map(|r| r.map(f64::from))
+                .unwrap_or([1.0, 1.0]);
+            let started = Instant::now();
+            let kernels = LensKernels::trace(
+                reference_camera,
+                &ldi.view,
+                [near, far],
+                &KernelSettings::default(),
+            )?;
+            say!(
+                "postfx lens kernels: {} traced in {:.2} s",
+                kernels.kernels.len(),
+                started.elapsed().as_secs_f64()
+            );
+            Some(kernels)
+        }
+        false => None,
+    };
     let frame = Frame {
         lens: real.source.origin.name(),
         width: args.width,
@@ -245,10 +270,23 @@ fn measure(args: &RenderBenchArgs, base: RenderSettings) -> anyhow::Result<()> {
             },
         )?;
         for (backend, backend_name) in &backends {
-            for (model, camera) in &cameras {
+            for (kind, camera) in &cameras {
+                let model = kind.name().to_string();
+                let image_of = || -> anyhow::Result<RgbImage> {
+                    Ok(match (kind, &kernels) {
+                        (ModelKind::Postfx, Some(kernels)) => {
+                            postfx(camera, &ldi, kernels, settings.width, settings.height)?
+                        }
+                        _ => render_layers(camera, &ldi, &settings, *backend, gpu.as_ref())?,
+                    })
+                };
+                // postfx has a CPU path only so far.
+                if *kind == ModelKind::Postfx && *backend != Backend::Cpu {
+                    continue;
+                }
                 let bar = stage(&format!("{model} on {backend_name}, {spp} spp"));
                 let started = Instant::now();
-                let image = render_layers(camera, &ldi, &settings, *backend, gpu.as_ref())?;
+                let image = image_of()?;
                 let seconds = started.elapsed().as_secs_f64();
                 bar.finish_and_clear();
                 let db = psnr(&image, &reference);

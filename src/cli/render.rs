@@ -37,7 +37,8 @@ pub struct RenderArgs {
     #[command(flatten)]
     read: ReadArgs,
     /// Lens model: thin and thick from the paraxial data, seidel (thick plus third-order
-    /// aberration), traced (the exact trace in the kernel), baked (an LRTF table lookup).
+    /// aberration), traced (the exact trace in the kernel), baked (an LRTF table lookup),
+    /// postfx (the real-time gather post-process with kernels traced through the lens; CPU).
     #[arg(long, default_value = "traced", value_parser = super::lens::model_parser())]
     model: ModelKind,
     /// Table directory for `--model baked`; default: the first table under tables/<lens>/ whose
@@ -286,10 +287,21 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     write_png(image, 1.0, &png)?;
     let camera = &rendered.prepared.camera;
     let peel = &rendered.prepared.peel;
+    if let Some((kernels, traced_in)) = &rendered.prepared.kernels {
+        say!(
+            "postfx: {} lens kernels ({} depths x {} field radii) traced in {:.1} ms, filtered \
+             in {:.1} ms",
+            kernels.kernels.len(),
+            kernels.inverse_depths.len(),
+            kernels.field_tangents.len(),
+            traced_in.as_secs_f64() * 1e3,
+            rendered.trace_time.as_secs_f64() * 1e3
+        );
+    }
     say!(
         "model {}, film centre at z = {:.3} mm, tilt ({:.3}, {:.3}) deg, {} layers ({}x{}), {} \
          spp: peel {:.1} ms, trace {:.1} ms",
-        camera.model.name(),
+        rendered.prepared.kind(),
         camera.film_z,
         camera.film.tilt_deg[0],
         camera.film.tilt_deg[1],
@@ -410,6 +422,9 @@ fn print_decisions(job: &RenderJob, rendered: &Rendered) {
     let why = match chromatic.reason {
         ChromaticReason::Off => None,
         ChromaticReason::SeidelModel => Some("the Seidel model is monochrome".to_string()),
+        ChromaticReason::PostfxModel => {
+            Some("the postfx model's lens kernels are monochrome".to_string())
+        }
         ChromaticReason::IdealLens => Some("ideal lens".to_string()),
         ChromaticReason::Spread {
             lateral_px,

@@ -27,7 +27,7 @@ pub struct ViewArgs {
     #[arg(long, default_value = "demo")]
     scene: String,
     /// Lens model: thin, thick, seidel, traced or baked (a table is baked on a worker thread
-    /// when none covers the view; the traced model is shown meanwhile).
+    /// when none covers the view; the traced model is shown meanwhile); not postfx yet.
     #[arg(long, default_value = "traced", value_parser = super::lens::model_parser())]
     model: ModelKind,
     #[arg(long, default_value_t = 800)]
@@ -81,6 +81,12 @@ pub struct ViewArgs {
 }
 
 pub fn run(args: ViewArgs) -> anyhow::Result<()> {
+    if args.model == ModelKind::Postfx {
+        anyhow::bail!(
+            "--model postfx: the viewer accumulates sample passes and postfx has none; render it \
+             with `lensbake render --model postfx`"
+        );
+    }
     // The script is read and parsed whole before anything renders.
     let script = match &args.script {
         Some(path) => {

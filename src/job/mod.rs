@@ -66,6 +66,16 @@ pub enum JobError {
     IdealDoesNotDisperse,
     #[error("a traced twin needs the baked model of a real lens")]
     NoTracedTwin,
+    #[error(
+        "chromatic on: the postfx model's lens kernels are traced at the design wavelength only; \
+         use chromatic off or the traced or baked model (--chromatic off, --model)"
+    )]
+    PostfxIsMonochrome,
+    #[error(
+        "the postfx model runs on the CPU only so far (its WGSL twin is not written yet); use \
+         --backend cpu or auto"
+    )]
+    PostfxOnGpu,
 }
 
 /// The lens a job renders through: an ideal thin lens of a focal length, or a real prescription.
@@ -242,7 +252,8 @@ impl TracedAndBaked {
                 let seidel = SeidelLens::in_focus(&real.system, first_order, Some(focus_mm))?;
                 Camera::new(LensModel::Seidel(Box::new(seidel)), film, focus)?
             }
-            ModelKind::Traced => self.traced.clone(),
+            // The post-process filters with spots traced through the traced camera.
+            ModelKind::Traced | ModelKind::Postfx => self.traced.clone(),
             ModelKind::Baked => self.baked.clone(),
         })
     }

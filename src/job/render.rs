@@ -14,6 +14,7 @@ use crate::model::{
     TracedLens, pupil_film_radius,
 };
 use crate::paraxial::{FirstOrder, ImageInsideLens, ParaxialError};
+use crate::realtime::{KernelSettings, LensKernels, postfx};
 use crate::render::camera::{Camera, FULL_FRAME_MM, Film, Focus};
 use crate::render::chromatic::{
     CHANNELS, Chromatic, ChromaticMode, ColourSpread, default_wavelengths, wants_chromatic,
@@ -209,6 +210,8 @@ pub enum ChromaticReason {
     Off,
     /// The Seidel model is monochrome.
     SeidelModel,
+    /// The postfx model's kernels are traced at the design wavelength.
+    PostfxModel,
     /// An ideal lens has no glass.
     IdealLens,
     /// The lens's colour spread on this film, in output pixels.
@@ -285,6 +288,19 @@ pub struct PreparedRender {
     pub chromatic: ChromaticDecision,
     pub table: Option<TableUse>,
     pub peel: PeelReport,
+    /// For the postfx model: the lens kernels traced for this camera and these layers, and how
+    /// long they took (a cost paid once per lens, focus and depth range, not per frame).
+    pub kernels: Option<(LensKernels, Duration)>,
+}
+
+impl PreparedRender {
+    /// The model that renders: the camera's, or postfx where the job traced lens kernels.
+    pub fn kind(&self) -> ModelKind {
+        match self.kernels {
+            Some(_) => ModelKind::Postfx,
+            None => self.camera.model.kind(),
+        }
+    }
 }
 
 enum SceneSource {
@@ -339,13 +355,22 @@ impl RenderJob {
             Some(_) => Backend::Gpu,
             None => Backend::Cpu,
         };
-        let image = render_layers(
-            &prepared.camera,
-            &prepared.layers,
-            &self.settings,
-            kernel,
-            gpu.as_ref(),
-        )?;
+        let image = match &prepared.kernels {
+            Some((kernels, _)) => postfx(
+                &prepared.camera,
+                &prepared.layers,
+                kernels,
+                self.settings.width,
+                self.settings.height,
+            )?,
+            None => render_layers(
+                &prepared.camera,
+                &prepared.layers,
+                &self.settings,
+                kernel,
+                gpu.as_ref(),
+            )?,
+        };
         Ok(Rendered {
             image,
             prepared,
@@ -421,7 +446,7 @@ impl RenderJob {
                 None,
             ),
             (_, RenderLens::Ideal { .. }) => return Err(JobError::IdealHasNoSurfaces),
-            (ModelKind::Traced, RenderLens::Real(real)) => {
+            (ModelKind::Traced | ModelKind::Postfx, RenderLens::Real(real)) => {
                 let traced = TracedLens::fitted(
                     &real.system,
                     &first_order,
@@ -489,6 +514,20 @@ impl RenderJob {
             },
             time: peel_time,
         };
+        let kernels = match kind {
+            ModelKind::Postfx => {
+                let started = Instant::now();
+                let [near, far] = ldi.depth_range().ok_or(RenderError::EmptyScene)?;
+                let kernels = LensKernels::trace(
+                    &camera,
+                    &ldi.view,
+                    [near as f64, far as f64],
+                    &KernelSettings::default(),
+                )?;
+                Some((kernels, started.elapsed()))
+            }
+            _ => None,
+        };
         Ok(PreparedRender {
             camera,
             film_size,
@@ -499,6 +538,7 @@ impl RenderJob {
             chromatic,
             table,
             peel,
+            kernels,
         })
     }
 
@@ -631,6 +671,12 @@ impl RenderJob {
             (_, ChromaticMode::Auto) if kind == ModelKind::Seidel => {
                 return off(ChromaticReason::SeidelModel);
             }
+            (_, ChromaticMode::On) if kind == ModelKind::Postfx => {
+                return Err(JobError::PostfxIsMonochrome);
+            }
+            (_, ChromaticMode::Auto) if kind == ModelKind::Postfx => {
+                return off(ChromaticReason::PostfxModel);
+            }
             (RenderLens::Ideal { .. }, ChromaticMode::On) => {
                 return Err(JobError::IdealDoesNotDisperse);
             }
@@ -722,7 +768,16 @@ impl RenderJob {
 
     /// The GPU renderer the backend choice asks for, and what was used.
     pub fn renderer(&self) -> Result<(Option<GpuRenderer>, BackendUsed), JobError> {
+        let postfx = self.model == ModelChoice::Model(ModelKind::Postfx);
+        if postfx && self.backend == BackendChoice::Gpu {
+            return Err(JobError::PostfxOnGpu);
+        }
         let gpu = match self.backend {
+            _ if postfx => {
+                let gpu_unavailable = (self.backend == BackendChoice::Auto)
+                    .then(|| "the postfx model has no GPU twin yet".to_string());
+                return Ok((None, BackendUsed::Cpu { gpu_unavailable }));
+            }
             BackendChoice::Cpu => {
                 return Ok((
                     None,

@@ -105,7 +105,6 @@ pub fn renderer_rays(
         .collect()
 }
 
-
 /// Angle between unit vectors, accurate for tiny angles.
 pub fn angle_between(a: [f64; 3], b: [f64; 3]) -> f64 {
     let (a, b) = (DVec3::from(a), DVec3::from(b));

@@ -125,18 +125,23 @@ pub enum ModelKind {
     Baked,
     /// The exact sequential trace through every surface.
     Traced,
+    /// The real-time tier: the gather post-process over the pinhole image, its taps weighted by
+    /// the lens's defocus spots traced through the exact lens (`crate::realtime`). Its camera
+    /// holds the traced model the spots come from.
+    Postfx,
 }
 
 impl ModelKind {
-    pub const ALL: [ModelKind; 5] = [
+    pub const ALL: [ModelKind; 6] = [
         ModelKind::Thin,
         ModelKind::Thick,
         ModelKind::Seidel,
         ModelKind::Baked,
         ModelKind::Traced,
+        ModelKind::Postfx,
     ];
     /// Every model's name, in the order of [`ModelKind::ALL`] (for help text and messages).
-    pub const NAMES: [&'static str; 5] = ["thin", "thick", "seidel", "baked", "traced"];
+    pub const NAMES: [&'static str; 6] = ["thin", "thick", "seidel", "baked", "traced", "postfx"];
 
     pub fn name(self) -> &'static str {
         Self::NAMES[self as usize]
@@ -145,7 +150,10 @@ impl ModelKind {
     /// Whether the model needs the lens's surfaces (a traced or baked model of an ideal lens
     /// does not exist).
     pub fn needs_surfaces(self) -> bool {
-        matches!(self, ModelKind::Traced | ModelKind::Baked)
+        matches!(
+            self,
+            ModelKind::Traced | ModelKind::Baked | ModelKind::Postfx
+        )
     }
 }
 
@@ -308,7 +316,9 @@ mod tests {
             assert_eq!(kind.name().parse::<ModelKind>().unwrap(), kind);
         }
         let err = "pinhole".parse::<ModelKind>().unwrap_err().to_string();
-        assert!(err.contains("pinhole") && err.contains("thin, thick, seidel, baked, traced"));
+        assert!(
+            err.contains("pinhole") && err.contains("thin, thick, seidel, baked, traced, postfx")
+        );
     }
 
     #[test]

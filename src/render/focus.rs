@@ -209,7 +209,10 @@ pub fn spot_rms_on_sensor(
         .collect();
     let count = hits.len() as f64;
     let mean = hits.iter().sum::<DVec3>() / count;
-    let squared = hits.iter().map(|h| (*h - mean).length_squared()).sum::<f64>();
+    let squared = hits
+        .iter()
+        .map(|h| (*h - mean).length_squared())
+        .sum::<f64>();
     Ok((squared / count).sqrt())
 }
 

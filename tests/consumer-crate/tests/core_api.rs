@@ -25,7 +25,10 @@ fn trace_through_the_root() {
     batch.push(Ray::new([0.0, 400.0, -10.0], [0.0, 0.0, 1.0]).unwrap());
     let traced = tracer.trace_batch(&batch, Travel::Forward, Apertures::Checked);
     assert_eq!(traced.rays.get(0), Some(one.ray));
-    assert!(!traced.outcomes[1].is_ok(), "a ray 400 mm off axis misses the lens");
+    assert!(
+        !traced.outcomes[1].is_ok(),
+        "a ray 400 mm off axis misses the lens"
+    );
 
     // A near-axial ray parallel to the axis crosses it at the rear focal point (paraxially):
     // its height over its slope after the lens is the distance to that crossing.
@@ -60,7 +63,10 @@ fn bake_write_read_and_look_up_through_the_root() {
     let focused = read.focused(Some(2000.0), None).unwrap();
     let film_z = focused.film_z();
     let ray = Ray::new([0.5, 1.0, film_z], [0.0, -0.02, -1.0]).unwrap();
-    let looked_up = focused.lookup(&ray).passed().expect("a near-axial ray passes");
+    let looked_up = focused
+        .lookup(&ray)
+        .passed()
+        .expect("a near-axial ray passes");
 
     let tracer = Tracer::new(&lens.system.at(lens.system.design_wavelength_nm()));
     let exact = tracer.trace(ray, Travel::Backward);

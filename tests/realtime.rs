@@ -1,0 +1,299 @@
+//! The real-time tier against the exact lens: lens kernels and `postfx` on point emitters, whose
+//! spots the image-based ray tracer renders through the traced model (backward, film to scene:
+//! an independent path from the kernels' forward trace).
+
+mod common;
+
+use common::lensbake;
+use lensbake::lenses::{self, LoadedLens};
+use lensbake::model::{FirstOrderModels, LensModel, TracedLens};
+use lensbake::prescription::formats::LoadOptions;
+use lensbake::realtime::{KernelSettings, LensKernels, postfx};
+use lensbake::render::camera::{Camera, Film, Focus};
+use lensbake::render::image::RgbImage;
+use lensbake::render::layers::{LayeredDepthImage, View};
+use lensbake::render::scene::{Outline, Panel, Scene, Texture};
+use lensbake::render::{Backend, RenderSettings, layer_view, render_layers};
+
+/// The traced model of bundled lens `name`, wide open, on a full-frame film of `width` x
+/// `height` pixels focused at `focus_mm`.
+fn traced_camera(name: &str, width: u32, height: u32, focus_mm: f64) -> Camera {
+    let lens: LoadedLens = lenses::load(name, &LoadOptions::default()).unwrap();
+    let first_order = FirstOrderModels::of(&lens.system, None).unwrap();
+    let film = Film::full_frame_for(width, height);
+    let thick = Camera::new(
+        LensModel::Thick(first_order.thick.clone()),
+        film,
+        Focus::ObjectDistance(focus_mm),
+    )
+    .unwrap();
+    let traced = TracedLens::fitted(
+        &lens.system,
+        &first_order,
+        first_order.f_number,
+        thick.film_z,
+        thick.film_corner_radius(),
+        32,
+    )
+    .unwrap();
+    Camera::new(
+        LensModel::Traced(Box::new(traced)),
+        film,
+        Focus::FilmZ(thick.film_z),
+    )
+    .unwrap()
+}
+
+/// A square emitter `distance_mm` in front of the lens covering exactly the `side` x `side`
+/// pinhole pixels of `view` from (column, row), so that the pinhole image holds all its light.
+fn pixel_square(
+    view: &View,
+    eye_z: f64,
+    distance_mm: f64,
+    column: u32,
+    row: u32,
+    side: u32,
+) -> Panel {
+    let depth = eye_z + distance_mm;
+    let edge_x = |c: u32| view.tan_half[0] * (2.0 * c as f64 / view.width as f64 - 1.0) * depth;
+    let edge_y = |r: u32| view.tan_half[1] * (1.0 - 2.0 * r as f64 / view.height as f64) * depth;
+    Panel {
+        distance_mm,
+        outline: Outline::Rect {
+            min: [edge_x(column), edge_y(row + side)],
+            max: [edge_x(column + side), edge_y(row)],
+        },
+        texture: Texture::Solid([1.0; 3]),
+    }
+}
+
+/// Flux (sum), centroid and RMS radius about it (pixels) of one channel of `image` in the
+/// window of half-side `half` around `centre`.
+fn spot_moments(image: &RgbImage, centre: [f64; 2], half: f64) -> (f64, [f64; 2], f64) {
+    let (mut flux, mut mx, mut my) = (0.0, 0.0, 0.0);
+    let inside = |x: u32, y: u32| {
+        (x as f64 + 0.5 - centre[0]).abs() <= half && (y as f64 + 0.5 - centre[1]).abs() <= half
+    };
+    for y in 0..image.height {
+        for x in 0..image.width {
+            if inside(x, y) {
+                let v = image.pixel(x, y)[1] as f64;
+                flux += v;
+                mx += v * (x as f64 + 0.5);
+                my += v * (y as f64 + 0.5);
+            }
+        }
+    }
+    let c = [mx / flux, my / flux];
+    let mut r2 = 0.0;
+    for y in 0..image.height {
+        for x in 0..image.width {
+            if inside(x, y) {
+                let v = image.pixel(x, y)[1] as f64;
+                r2 += v * ((x as f64 + 0.5 - c[0]).powi(2) + (y as f64 + 0.5 - c[1]).powi(2));
+            }
+        }
+    }
+    (flux, c, (r2 / flux).sqrt())
+}
+
+struct EmitterRun {
+    camera: Camera,
+    ldi: LayeredDepthImage,
+    settings: RenderSettings,
+}
+
+/// Emitters of `side` pinhole pixels at `distance_mm`, one at each of `pixels` (output pixel
+/// coordinates), peeled for `camera`.
+fn emitters(
+    camera: Camera,
+    settings: RenderSettings,
+    distance_mm: f64,
+    pixels: &[[f64; 2]],
+    side: u32,
+) -> EmitterRun {
+    let view = layer_view(&camera, &settings, camera.eye_z() + distance_mm);
+    let eye_z = camera.eye_z();
+    let panels = pixels
+        .iter()
+        .map(|&[x, y]| {
+            let film = camera.film_point(settings.width, settings.height, x, y);
+            let t = camera.chief_ray_tangents(film);
+            let column = ((t[0] / view.tan_half[0] + 1.0) * 0.5 * view.width as f64).round() as u32;
+            let row = ((1.0 - t[1] / view.tan_half[1]) * 0.5 * view.height as f64).round() as u32;
+            pixel_square(
+                &view,
+                eye_z,
+                distance_mm,
+                column - side / 2,
+                row - side / 2,
+                side,
+            )
+        })
+        .collect();
+    let ldi = Scene { panels }.peel(view, 2);
+    EmitterRun {
+        camera,
+        ldi,
+        settings,
+    }
+}
+
+/// The traced image-based ray tracer's spot of each emitter against `postfx`'s: flux within 1 %,
+/// RMS radius within 5 %, centroid within half a pixel.
+#[test]
+fn a_point_emitter_through_postfx_matches_the_traced_lens_at_three_field_positions() {
+    let settings = RenderSettings {
+        width: 144,
+        height: 96,
+        samples_per_pixel: 1024,
+        seed: 7,
+        max_layers: 2,
+    };
+    let camera = traced_camera("dgauss-50mm", settings.width, settings.height, 2000.0);
+    // On the axis, a third of the way out along x, and far out on the diagonal (cat's eye).
+    let spots = [[72.0, 48.0], [100.0, 48.0], [125.0, 86.0]];
+    let run = emitters(camera, settings, 350.0, &spots, 4);
+    let traced = render_layers(&run.camera, &run.ldi, &run.settings, Backend::Cpu, None).unwrap();
+    // Kernel depth nodes that do not fall on the emitters' depth: the test sees interpolation.
+    let near = run.ldi.depth_range().unwrap()[0] as f64;
+    let range = [near * 0.93, near * 1.6];
+    let kernels = LensKernels::trace(
+        &run.camera,
+        &run.ldi.view,
+        range,
+        &KernelSettings::default(),
+    )
+    .unwrap();
+    let filtered = postfx(
+        &run.camera,
+        &run.ldi,
+        &kernels,
+        settings.width,
+        settings.height,
+    )
+    .unwrap();
+    let mut fluxes = Vec::new();
+    for spot in spots {
+        let (flux, centroid, rms) = spot_moments(&traced, spot, 14.0);
+        let (got_flux, got_centroid, got_rms) = spot_moments(&filtered, spot, 14.0);
+        let shift = (got_centroid[0] - centroid[0]).hypot(got_centroid[1] - centroid[1]);
+        let report = format!(
+            "spot at {spot:?}: traced flux {flux:.4}, RMS {rms:.3} px, centroid {centroid:.3?}; \
+             postfx {got_flux:.4}, {got_rms:.3} px, {got_centroid:.3?}"
+        );
+        eprintln!("{report}");
+        assert!((got_flux / flux - 1.0).abs() < 0.01, "{report}");
+        assert!((got_rms / rms - 1.0).abs() < 0.05, "{report}");
+        assert!(shift < 0.5, "{report}");
+        fluxes.push(flux);
+    }
+    // The test means something: the field positions differ in vignetting by far more than 1 %.
+    assert!(fluxes[2] < 0.8 * fluxes[0], "{fluxes:?}");
+}
+
+/// A mirror lens's central obscuration leaves a hole in its defocus spot: the kernel of a
+/// defocused point on the axis is a ring, dark in the middle.
+#[test]
+fn the_reflex_lens_kernel_is_a_ring() {
+    let settings = RenderSettings {
+        width: 144,
+        height: 96,
+        samples_per_pixel: 1,
+        seed: 1,
+        max_layers: 1,
+    };
+    let camera = traced_camera(
+        "reflex-1000mm-f7.5",
+        settings.width,
+        settings.height,
+        30_000.0,
+    );
+    let view = layer_view(&camera, &settings, 10_000.0);
+    let depth = 15_000.0;
+    let kernels =
+        LensKernels::trace(&camera, &view, [depth, depth], &KernelSettings::default()).unwrap();
+    let spread = kernels.spread(depth, [0.0, 0.0]);
+    let profile: Vec<f32> = (0..=40)
+        .map(|i| kernels.weight(&spread, [0.5 * i as f32, 0.0], 1.0))
+        .collect();
+    let (rim_at, rim) =
+        profile.iter().enumerate().fold(
+            (0, 0.0f32),
+            |best, (i, &v)| if v > best.1 { (i, v) } else { best },
+        );
+    assert!(
+        rim_at > 4,
+        "the brightest part is {} px from the centre: {profile:?}",
+        rim_at / 2
+    );
+    assert!(
+        profile[0] < 0.2 * rim,
+        "centre {} against rim {rim}: {profile:?}",
+        profile[0]
+    );
+    // A true ring: dark again outside the rim.
+    assert!(profile[40] < 0.2 * rim, "{profile:?}");
+}
+
+/// `render --model postfx` writes an image and says what the kernels and the filter cost; where
+/// postfx has no path yet (the GPU, the viewer, a chromatic render) it is one clear error line
+/// and exit code 2, and nothing is written.
+#[test]
+fn the_cli_renders_postfx_and_refuses_what_it_cannot_do_yet() {
+    let dir = std::env::temp_dir().join(format!("lensbake-realtime-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = dir.join("postfx.exr");
+    let out_text = out.to_str().unwrap();
+    let base = [
+        "render",
+        "--lens",
+        "dgauss-50mm",
+        "--model",
+        "postfx",
+        "--width",
+        "80",
+        "--height",
+        "60",
+        "--out",
+        out_text,
+    ];
+    let ok = lensbake(&[&base[..], &["--backend", "cpu"]].concat());
+    let said = String::from_utf8_lossy(&ok.stdout);
+    assert_eq!(
+        ok.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&ok.stderr)
+    );
+    assert!(
+        said.contains("postfx: 192 lens kernels") && said.contains("model postfx"),
+        "{said}"
+    );
+    assert!(out.exists());
+    std::fs::remove_file(&out).unwrap();
+    for (extra, message) in [
+        (
+            &["--backend", "gpu"][..],
+            "error: the postfx model runs on the CPU only",
+        ),
+        (
+            &["--backend", "cpu", "--chromatic", "on"][..],
+            "error: chromatic on: the postfx",
+        ),
+    ] {
+        let refused = lensbake(&[&base[..], extra].concat());
+        let stderr = String::from_utf8_lossy(&refused.stderr);
+        assert_eq!(refused.status.code(), Some(2), "{extra:?}: {stderr}");
+        assert!(stderr.starts_with(message), "{extra:?}: {stderr}");
+        assert!(!out.exists(), "{extra:?} wrote an image");
+    }
+    let view = lensbake(&["view", "--lens", "dgauss-50mm", "--model", "postfx"]);
+    let stderr = String::from_utf8_lossy(&view.stderr);
+    assert_eq!(view.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.starts_with("error: --model postfx: the viewer"),
+        "{stderr}"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
