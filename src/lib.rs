@@ -191,7 +191,14 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+// `!(x > 0.0)` is this crate's way of refusing NaN together with the values out of range: a NaN
+// fails every comparison, so the negated test is true for it. The partial_cmp spelling clippy
+// suggests says the same thing at three times the length.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 pub mod analysis;
+#[cfg(feature = "export")]
+pub mod export;
 pub mod glass;
 #[cfg(feature = "render")]
 pub mod job;

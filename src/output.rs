@@ -94,6 +94,50 @@ fn check_folder(path: &Path, dir: &Path) -> Result<(), OutputError> {
     })
 }
 
+/// Refuses a destination that replacing would surprise its owner: a symbolic link (the rename
+/// would replace the link, not the file it names), a file marked read-only (a rename ignores that
+/// mark, and root ignores every permission), anything that is not a plain file or folder of the
+/// kind asked for, and a destination among the system's device and kernel folders, where root
+/// could otherwise create files (`/dev/full.png`).
+fn check_destination(path: &Path, kind: Temporary) -> Result<(), OutputError> {
+    let refuse = |reason: String| OutputError::Refused {
+        path: path.to_path_buf(),
+        reason,
+    };
+    if let Ok(meta) = std::fs::symlink_metadata(path) {
+        let kind_matches = match kind {
+            Temporary::File => meta.is_file(),
+            Temporary::Directory => meta.is_dir(),
+        };
+        if meta.file_type().is_symlink() {
+            return Err(refuse(
+                "it is a symbolic link; remove it or name the file it points to".into(),
+            ));
+        }
+        if !kind_matches {
+            return Err(refuse(match kind {
+                Temporary::File => "it is not a plain file".into(),
+                Temporary::Directory => "it is not a directory".into(),
+            }));
+        }
+        if meta.permissions().readonly() {
+            return Err(refuse(
+                "it is read-only; make it writable first if it may be replaced".into(),
+            ));
+        }
+    }
+    let folder = std::fs::canonicalize(parent_of(path)).unwrap_or_default();
+    if let Some(system) = ["/dev", "/proc", "/sys"]
+        .iter()
+        .find(|system| folder.starts_with(system))
+    {
+        return Err(refuse(format!(
+            "{system} holds the system's devices and kernel state, not output files"
+        )));
+    }
+    Ok(())
+}
+
 /// The directory holding `path` ("." for a bare file name).
 fn parent_of(path: &Path) -> &Path {
     match path.parent() {
@@ -195,6 +239,7 @@ pub fn write_file(
     let dir = parent_of(path);
     let name = name_of(path)?;
     check_folder(path, dir)?;
+    check_destination(path, Temporary::File)?;
     remove_abandoned(dir, &name);
     let temp =
         temporary(&name, Temporary::File, |b| b.tempfile_in(dir)).map_err(OutputError::io(path))?;
@@ -230,13 +275,7 @@ pub fn publish_dir<T, E: From<OutputError>>(
 ) -> Result<T, E> {
     let parent = parent_of(dest);
     let name = name_of(dest)?;
-    if dest.exists() && !dest.is_dir() {
-        return Err(OutputError::Refused {
-            path: dest.to_path_buf(),
-            reason: "it is not a directory".into(),
-        }
-        .into());
-    }
+    check_destination(dest, Temporary::Directory)?;
     std::fs::create_dir_all(parent).map_err(OutputError::io(parent))?;
     remove_abandoned(parent, &name);
     let staging = temporary(&name, Temporary::Directory, |b| b.tempdir_in(parent))
@@ -473,5 +512,42 @@ mod tests {
         );
         assert_eq!(names(&dir), ["thesis.tex"]);
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_link_or_a_read_only_file_is_not_replaced() {
+        use std::os::unix::fs::PermissionsExt;
+        let dir = scratch("guarded");
+        let target = dir.join("target.txt");
+        std::fs::write(&target, b"the user's file").unwrap();
+        let link = dir.join("link.png");
+        std::os::unix::fs::symlink(&target, &link).unwrap();
+        let error = write_bytes(&link, b"new").unwrap_err();
+        assert!(error.to_string().contains("symbolic link"), "{error}");
+        assert!(std::fs::symlink_metadata(&link).unwrap().file_type().is_symlink());
+        let linked_dir = dir.join("linked-dir");
+        std::os::unix::fs::symlink(&dir, &linked_dir).unwrap();
+        let published = publish_dir(&linked_dir, |_| Ok::<(), OutputError>(()));
+        assert!(published.unwrap_err().to_string().contains("symbolic link"));
+
+        std::fs::set_permissions(&target, std::fs::Permissions::from_mode(0o444)).unwrap();
+        let error = write_bytes(&target, b"new").unwrap_err();
+        assert!(error.to_string().contains("read-only"), "{error}");
+        assert_eq!(std::fs::read(&target).unwrap(), b"the user's file");
+        std::fs::set_permissions(&target, std::fs::Permissions::from_mode(0o644)).unwrap();
+        write_bytes(&target, b"new").unwrap();
+        assert_eq!(std::fs::read(&target).unwrap(), b"new");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn nothing_is_written_among_the_system_devices() {
+        if !Path::new("/dev").is_dir() {
+            return;
+        }
+        let error = write_bytes(Path::new("/dev/lensbake-test-output.png"), b"x").unwrap_err();
+        assert!(error.to_string().contains("devices"), "{error}");
+        assert!(!Path::new("/dev/lensbake-test-output.png").exists());
     }
 }

@@ -1,5 +1,6 @@
 //! `lensbake analyze` end to end: the JSON shape issue 3 specifies, its numbers against the
 //! oracle, the text report, and exit status 2 with `error:` on bad input.
+#![cfg(feature = "cli")]
 
 mod common;
 

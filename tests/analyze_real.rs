@@ -1,4 +1,5 @@
 //! The "real" block of `lensbake analyze --json`: distortion and LSA of the oracle lenses.
+#![cfg(feature = "cli")]
 
 mod common;
 

@@ -1,5 +1,6 @@
 //! `lensbake bench render` as a user runs it: one row per model, backend and sample count, each
 //! measured against the exact reference, accumulating across runs of the same frame.
+#![cfg(feature = "cli")]
 
 mod common;
 

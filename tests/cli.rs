@@ -1,4 +1,5 @@
 //! The `lensbake lens` commands as a user runs them: exit codes, stdout, stderr.
+#![cfg(feature = "cli")]
 
 mod common;
 

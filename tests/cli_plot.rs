@@ -1,4 +1,5 @@
 //! `lensbake plot` and `lensbake report` end to end: exit codes, files, report contents.
+#![cfg(feature = "cli")]
 
 mod common;
 

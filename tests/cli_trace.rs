@@ -1,4 +1,5 @@
 //! The `lensbake trace` and `lensbake bench trace` commands, end to end.
+#![cfg(feature = "cli")]
 
 mod common;
 

@@ -1,5 +1,6 @@
 //! `lensbake wavefront`, `mtf` and `psf` end to end: JSON keys, the ideal lens's diffraction
 //! limit, written images, and one `error:` line with exit code 2 for bad input.
+#![cfg(feature = "cli")]
 
 mod common;
 

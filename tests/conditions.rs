@@ -1,6 +1,7 @@
 //! One set of design conditions per lens (docs/conditions.md): `analyze`, every plot and the
 //! report header use the same fields and aperture; the file's conditions, the source's claims
 //! and the rule come in that order; flags override all three everywhere alike.
+#![cfg(feature = "plot")]
 
 use lensbake::analysis::{
     AnalysisError, AnalyzeOptions, ConditionOverrides, DesignConditions, FileDefaults, FocusFrom,

@@ -1,4 +1,5 @@
 //! `lensbake glass list` and `lensbake glass show` as a user runs them.
+#![cfg(feature = "cli")]
 
 mod common;
 
@@ -73,4 +74,16 @@ fn errors_print_control_characters_escaped() {
         stderr.contains("N-BK7\\u{1b}[31m\\r\\nerror: forged"),
         "{stderr:?}"
     );
+}
+
+/// The name's tolerance (case, dashes, a maker suffix) is for spelling: a name carrying a control
+/// character is no glass, although its letters alone would spell one.
+#[test]
+fn a_name_with_control_characters_is_no_glass() {
+    for name in ["N-BK7\u{7}", "N-\u{1b}BK7", "N-BK7\t"] {
+        let output = lensbake(&["glass", "show", name]);
+        assert_eq!(output.status.code(), Some(2), "{name:?}");
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert!(stderr.starts_with("error: unknown glass"), "{stderr}");
+    }
 }

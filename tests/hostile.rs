@@ -2,6 +2,7 @@
 //! or the lens, missing files, directories where files belong, garbage RON, failed and
 //! interrupted writes, and a bounded-time fuzz run over mutated tables. Every case must end in a
 //! typed error or a usable table, never a panic, and a failed write must leave nothing behind.
+#![cfg(feature = "cli")]
 
 mod common;
 

@@ -2,6 +2,7 @@
 //! perfect thin lens: its focal length and the thin-lens conjugates, zero Seidel sums, real rays
 //! that meet in one point at any height and slope, both trace paths alike; and the Zemax reader,
 //! the writers and the analyses that cannot take one.
+#![cfg(feature = "cli")]
 
 mod common;
 

@@ -1,5 +1,6 @@
 //! The baked table against the exact trace on held-out rays (the renderer's distribution, drawn
 //! with a seed the bake never saw), for the pbrt 50 mm double Gauss of the oracle data.
+#![cfg(feature = "render")]
 
 mod common;
 

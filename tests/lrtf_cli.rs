@@ -1,5 +1,6 @@
 //! The LRTF commands end to end: `plot lrtf-error` draws exactly the measured numbers, and
 //! `lrtf eval --lens` refuses a table baked from another prescription.
+#![cfg(feature = "cli")]
 
 mod common;
 

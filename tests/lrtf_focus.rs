@@ -2,6 +2,7 @@
 //! the pupil's focus nodes against the exact trace, the sampling pupil's conservativeness and
 //! density there, and the command line (bake a range, show it, evaluate and render inside it,
 //! refuse outside it).
+#![cfg(feature = "cli")]
 
 mod common;
 

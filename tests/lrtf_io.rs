@@ -227,3 +227,33 @@ fn truncated_corrupted_and_mismatched_files_give_errors_not_panics() {
     assert!(matches!(error, TableError::Sidecar { .. }), "{error:?}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// Channel names carry their layer (`wl0.exit.x`, format 5), and a format-4 table (bare
+/// `exit.x` in the part `wl0`; tests/data/lrtf-format-4 was baked by the lensbake before the
+/// change with the same command) still reads, to the same table.
+#[test]
+fn channels_are_named_by_layer_and_format_4_tables_still_read() {
+    let dir = temp_dir("format-5");
+    let out = common::lensbake(&[
+        "bake",
+        "cooke-triplet",
+        "--resolution",
+        "4",
+        "--out",
+        dir.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let fresh = read_table(&dir, None).unwrap();
+    let old = read_table(&common::test_data("lrtf-format-4"), None).unwrap();
+    assert_eq!(old, fresh);
+    let data = std::fs::read(dir.join(DATA_FILE)).unwrap();
+    let names_channel = |name: &str| data.windows(name.len()).any(|w| w == name.as_bytes());
+    for channel in lensbake::lrtf::param::CHANNEL_NAMES {
+        assert!(names_channel(&format!("wl0.{channel}\0")), "{channel}");
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}

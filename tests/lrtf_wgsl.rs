@@ -1,5 +1,6 @@
 //! The LRTF shader parses and validates with naga (no GPU needed), and its uniform block has the
 //! layout of the Rust struct that fills it.
+#![cfg(feature = "render")]
 
 mod common;
 
@@ -48,6 +49,7 @@ fn uniform_block_matches_the_rust_struct() {
             parameterisation,
             pupil_count,
             dims,
+            format_version,
             sampling_max_film_radius,
             sampling_count,
             focus_count,

@@ -2,6 +2,7 @@
 //! identities that hold for reflecting surfaces (the mirror equation, a paraboloid's perfect axial
 //! focus, a fold mirror that only turns the lens round), real rays against third-order sums, and
 //! the readers' mirror and obscuration keywords.
+#![cfg(feature = "render")]
 
 mod common;
 

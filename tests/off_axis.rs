@@ -1,5 +1,6 @@
 //! Lenses placed off one common axis (tilted mirrors, decentred lenses, tilted image planes):
 //! refused by the readers with the lens as placed, and traced exactly in three dimensions.
+#![cfg(feature = "cli")]
 
 mod common;
 

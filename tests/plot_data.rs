@@ -1,6 +1,7 @@
 //! The real-ray plots carry the data a designer expects: checked on the figures `lensbake plot`
 //! draws for bundled lenses, at the identities that hold whatever the design (chief ray and axis
 //! are aberration-free references) and against the lens's own reported numbers.
+#![cfg(feature = "plot")]
 
 use lensbake::lenses::BUNDLED;
 use lensbake::plot::{Format, render};

@@ -1,6 +1,7 @@
 //! The plots and wave figures of a finite object trace it where it is: against an analytic relay
 //! that images its object point without aberration, and against the oracle's rays from the
 //! Cooke triplet's object points 1000 mm out.
+#![cfg(feature = "plot")]
 
 mod common;
 

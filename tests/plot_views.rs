@@ -1,6 +1,7 @@
 //! The plot views draw the data they are given: checked on the drawn-data summary, the PNG
 //! pixels and the SVG text. Data comes from the Cooke triplet truth file so the views are
 //! exercised at realistic scales.
+#![cfg(feature = "plot")]
 
 mod common;
 

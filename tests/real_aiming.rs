@@ -2,6 +2,7 @@
 //! of the stop, scaled to the radius the axial beam fills there. Checked against optiland's
 //! iterative aiming (tests/data/real_aiming_peer.json, tools/real_aiming_peer.py) on a corpus
 //! lens that asks for it, and for what the file's RAIM line and the flags choose.
+#![cfg(feature = "plot")]
 
 mod common;
 

@@ -1,6 +1,7 @@
 //! A catadioptric lens bakes and renders, and its out-of-focus highlights are rings: the
 //! secondary mirror's shadow takes the centre out of every beam, which the exact trace and the
 //! baked table both show and no paraxial (thin) model can.
+#![cfg(feature = "render")]
 
 use lensbake::render::RenderSettings;
 use lensbake::render::image::RgbImage;

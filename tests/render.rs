@@ -1,5 +1,6 @@
 //! Renderer tests: WGSL validity and layout, GPU against its CPU twin, and analytic checks of the
 //! thin-lens render (circle of confusion, partial occlusion at an out-of-focus edge).
+#![cfg(feature = "render")]
 
 mod common;
 

@@ -1,6 +1,7 @@
 //! Chromatic rendering: each colour channel traced at its own wavelength. Analytic and exact-trace
 //! checks of axial and lateral colour, the reduction to the monochrome render, the conservative
 //! common pupil, and GPU against its CPU twin.
+#![cfg(feature = "cli")]
 
 mod common;
 

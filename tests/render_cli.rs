@@ -2,6 +2,7 @@
 //! focus and the errors for bad sensor settings (exit code 2); the Seidel model; and
 //! `--error-budget-px`, which picks the cheapest model within a budget of this render's pixels
 //! and says what it predicted and measured.
+#![cfg(feature = "cli")]
 
 mod common;
 
@@ -666,4 +667,47 @@ fn render_defaults_to_the_files_stated_conditions() {
     assert!(!said.contains("lens file:"), "{said}");
     assert!(said.contains("R/G/B at 640.0/550.0/460.0 nm"), "{said}");
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `lensbake demo` twice gives the same page and images: what it commits under notebooks-out/
+/// holds nothing that changes from run to run (the stage timings go to timings.json, which git
+/// ignores), so a fresh clone stays clean after the Quick start's first command.
+#[test]
+fn the_demo_page_is_the_same_on_every_run() {
+    let dir = temp_dir("demo-twice");
+    let run = |out: &str| {
+        let out = dir.join(out);
+        let o = lensbake(&[
+            "demo",
+            "--width",
+            "24",
+            "--height",
+            "16",
+            "--spp",
+            "2",
+            "--bake-resolution",
+            "6",
+            "--backend",
+            "cpu",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+        out
+    };
+    let (first, second) = (run("a"), run("b"));
+    for file in ["README.md", "traced.png", "baked.png", "error-map.png"] {
+        let read = |dir: &Path| std::fs::read(dir.join(file)).unwrap();
+        assert!(read(&first) == read(&second), "{file} differs between two runs");
+    }
+    assert!(first.join("timings.json").is_file());
+    // In a git checkout (not in a packaged crate, which has no .git).
+    if Path::new(".git").exists() {
+        let ignored = std::process::Command::new("git")
+            .args(["check-ignore", "-q", "notebooks-out/demo/timings.json"])
+            .status()
+            .expect("git runs");
+        assert!(ignored.success(), "git must ignore the demo's timings.json");
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -4,6 +4,7 @@
 //! and non-negative, and each case shows something physics predicts: the fisheye's corners fall
 //! dark, in-focus edges stay sharp while out-of-focus ones blur, a perfect f/0.95 singlet stays
 //! perfect. One GPU case runs the fisheye's 75-degree rays through the shader.
+#![cfg(feature = "render")]
 
 mod common;
 

@@ -4,6 +4,7 @@
 //! every focus mode works for every lens model; the effective pupil stays conservative off the
 //! film plane. tests/render.rs runs its GPU-vs-CPU, IBRT-vs-reference and baked-vs-traced
 //! comparisons on a tilted sensor too.
+#![cfg(feature = "render")]
 
 mod common;
 

@@ -1,5 +1,6 @@
 //! Mesh scenes: glTF loading, depth peeling by rasterisation (GPU against its CPU twin, meshes
 //! against the exact panel path), umbra peeling, and rendering a glTF scene.
+#![cfg(feature = "cli")]
 
 mod common;
 

@@ -2,6 +2,7 @@
 //! struct the lens trace shares with Rust has the Rust layout, and the shader's lens trace gives
 //! the f64 tracer's outcome, surface, direction and position ray by ray for every surface kind
 //! and every outcome.
+#![cfg(feature = "render")]
 
 mod common;
 

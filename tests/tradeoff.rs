@@ -1,4 +1,5 @@
 //! The trade-off measurement and the error-budget choice on the bundled double Gauss.
+#![cfg(feature = "cli")]
 
 mod common;
 

@@ -7,6 +7,7 @@
 //! traced renders of identical samples; scripts run, and a bad one gives one `error:` line naming
 //! file and line with exit code 2; a windowed scripted run under Xvfb exits 0 and writes its
 //! screenshots.
+#![cfg(feature = "cli")]
 
 mod common;
 

@@ -98,7 +98,7 @@ pub struct FocusArg {
 
 impl FocusArg {
     /// The single distance, or an error naming the range where one focus is needed.
-    fn single(self, what: &str) -> anyhow::Result<Option<f64>> {
+    pub(super) fn single(self, what: &str) -> anyhow::Result<Option<f64>> {
         if self.far_mm != self.near_mm {
             bail!("{what} takes one focus distance, not a range");
         }
@@ -121,7 +121,7 @@ impl FocusArg {
 }
 
 /// Parses `D`, `A..B` or `A,B` (mm, `inf` for infinity); the farther distance becomes the far end.
-fn parse_focus(text: &str) -> Result<FocusArg, String> {
+pub(super) fn parse_focus(text: &str) -> Result<FocusArg, String> {
     let distance = |part: &str| -> Result<Option<f64>, String> {
         let part = part.trim();
         if part.eq_ignore_ascii_case("inf") || part.eq_ignore_ascii_case("infinity") {

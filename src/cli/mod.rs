@@ -25,6 +25,7 @@ mod analyze;
 mod bench;
 mod bench_render;
 mod demo;
+mod export;
 mod glass;
 mod lens;
 mod lrtf;
@@ -71,6 +72,10 @@ pub enum Command {
     Report(plot::ReportArgs),
     /// Bake a lens ray transfer function table and its effective-pupil bounds.
     Bake(lrtf::BakeArgs),
+    /// Take a lens into another engine: the sampler, lens trace and renderer as GLSL, HLSL,
+    /// MSL, SPIR-V or WGSL, and a baked table packed for the sampler (docs/engines.md).
+    #[command(subcommand)]
+    Export(export::ExportCommand),
     /// Evaluate or describe baked LRTF tables.
     #[command(subcommand)]
     Lrtf(lrtf::LrtfCommand),
@@ -102,6 +107,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Plot(args) => plot::run_plot(args),
         Command::Report(args) => plot::run_report(args),
         Command::Bake(args) => lrtf::run_bake(args),
+        Command::Export(command) => export::run(command),
         Command::Lrtf(command) => lrtf::run(command),
         Command::Trace(args) => trace::run(args),
         Command::Bench(command) => bench::run(command),

@@ -231,8 +231,15 @@ pub fn lookup(name: &str) -> Result<&'static CatalogGlass, Problem> {
 /// Finds a glass by name, tolerant of case, dashes and a maker suffix. A maker suffix must match
 /// the glass's catalogue, so "SK16_SCHOTT" never resolves to HIKARI SK16. Among glasses of one
 /// name, a current glass wins over a withdrawn 1980 one, then the first catalogue of `preferred`
-/// (case-insensitive) that holds one, then [`CATALOGUES`] order.
+/// (case-insensitive) that holds one, then [`CATALOGUES`] order. A name holding a control
+/// character names no glass: the key's tolerance is for spelling, not for bytes a terminal acts on.
 pub fn lookup_in(name: &str, preferred: &[String]) -> Result<&'static CatalogGlass, Problem> {
+    if name.chars().any(char::is_control) {
+        return Err(Problem::UnknownGlass {
+            name: name.to_string(),
+            suggestions: Vec::new(),
+        });
+    }
     let wanted = glass_key(name);
     let preference = |g: &CatalogGlass| {
         preferred

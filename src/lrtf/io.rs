@@ -30,7 +30,12 @@ use crate::pupil::{FocusPupilTable, PupilTable};
 /// carries its sampling pupil over film radius and focus (two changes made apart, each once
 /// called version 2, so a version-2 file of either kind is refused).
 /// 4: the sidecar also records a CRC-32 of its own fields.
-pub const FORMAT_VERSION: u32 = 4;
+/// 5: channel names carry their wavelength layer (`wl0.exit.x`, OpenEXR's `layer.channel`
+/// naming), so EXR tools list the layers docs/lrtf.md and lensbake_table.h name; version 4
+/// (bare `exit.x` in the part named `wl0`) still reads.
+pub const FORMAT_VERSION: u32 = 5;
+/// The oldest format [`read_table`] reads.
+pub const OLDEST_READ_FORMAT_VERSION: u32 = 4;
 pub const SIDECAR_FILE: &str = "lrtf.ron";
 pub const DATA_FILE: &str = "lrtf.exr";
 
@@ -161,13 +166,14 @@ pub enum TableError {
 /// FNV-1a 64 of the prescription's canonical RON text, as 16 hex digits. Any change to a surface,
 /// medium, aperture or stop changes it.
 pub fn prescription_hash(prescription: &Prescription) -> String {
-    let text = ron::to_string(prescription).unwrap_or_default();
-    let mut hash: u64 = 0xcbf2_9ce4_8422_2325;
-    for byte in text.bytes() {
-        hash ^= byte as u64;
-        hash = hash.wrapping_mul(0x0100_0000_01b3);
-    }
-    format!("{hash:016x}")
+    fnv1a_hex(&ron::to_string(prescription).unwrap_or_default())
+}
+
+fn fnv1a_hex(text: &str) -> String {
+    use std::hash::Hasher;
+    let mut hasher = fnv::FnvHasher::default();
+    hasher.write(text.as_bytes());
+    format!("{:016x}", hasher.finish())
 }
 
 /// CRC-32 (IEEE 802.3, the checksum of zlib and PNG) of a data file's bytes, as 8 hex digits.
@@ -232,7 +238,10 @@ pub fn write_table(
                         Precision::F32 => FlatSamples::F32(values.collect()),
                         Precision::F16 => FlatSamples::F16(values.map(f16::from_f32).collect()),
                     };
-                    AnyChannel::new(CHANNEL_NAMES[c], samples)
+                    AnyChannel::new(
+                        channel_name(&layer_name(k), c, FORMAT_VERSION).as_str(),
+                        samples,
+                    )
                 })
                 .collect::<Vec<_>>();
             exr::image::Layer::new(
@@ -321,6 +330,16 @@ pub fn write_table(
 
 fn layer_name(k: usize) -> String {
     format!("wl{k}")
+}
+
+/// The EXR name of channel `channel` (an index of [`CHANNEL_NAMES`]) of the layer `exr_layer`
+/// in files of format `format_version`.
+pub fn channel_name(exr_layer: &str, channel: usize, format_version: u32) -> String {
+    if format_version >= 5 {
+        format!("{exr_layer}.{}", CHANNEL_NAMES[channel])
+    } else {
+        CHANNEL_NAMES[channel].to_string()
+    }
 }
 
 /// Reads the sidecar alone (for `lrtf info`), checking nothing but its syntax.
@@ -518,7 +537,7 @@ pub fn read_table(
         expected,
         rebake: rebake(),
     };
-    if sidecar.format_version != FORMAT_VERSION {
+    if !(OLDEST_READ_FORMAT_VERSION..=FORMAT_VERSION).contains(&sidecar.format_version) {
         return Err(version_error(
             "format version",
             sidecar.format_version,
@@ -653,12 +672,13 @@ pub fn read_table(
             )));
         }
         let mut entries = vec![[0.0f32; CHANNELS]; n0 * n1 * n2];
-        for (c, name) in CHANNEL_NAMES.iter().enumerate() {
+        for c in 0..CHANNELS {
+            let name = channel_name(&info.exr_layer, c, sidecar.format_version);
             let channel = exr_layer
                 .channel_data
                 .list
                 .iter()
-                .find(|ch| ch.name.to_string() == *name)
+                .find(|ch| ch.name.to_string() == name)
                 .ok_or_else(|| {
                     data_error(format!("layer {} lacks channel {name}", info.exr_layer))
                 })?;
@@ -697,4 +717,20 @@ pub fn read_table(
         info: sidecar.info,
         layers,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    /// The hash is FNV-1a 64 as its authors define it (their test vectors), so tables baked
+    /// before it came from the fnv crate keep their hashes.
+    #[test]
+    fn the_hash_is_fnv_1a_64() {
+        for (text, hash) in [
+            ("", "cbf29ce484222325"),
+            ("a", "af63dc4c8601ec8c"),
+            ("foobar", "85944171f73967e8"),
+        ] {
+            assert_eq!(super::fnv1a_hex(text), hash, "{text:?}");
+        }
+    }
 }

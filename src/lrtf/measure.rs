@@ -2,6 +2,7 @@
 //! drawn the way a renderer draws them (film point uniform over the film disk, rear point uniform
 //! over that film radius's effective-pupil circle), and how tight the pupil bound is.
 
+use glam::DVec3;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -9,7 +10,7 @@ use super::bake::exact_transfer;
 use super::param::Ray;
 use super::table::{Corners, Lookup, LrtfTable};
 use crate::pupil::PupilTable;
-use crate::trace::Tracer;
+use crate::trace::{Tracer, UnitDraws};
 
 /// Median, 99th percentile and maximum of a sample.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -70,25 +71,6 @@ pub struct SweepRow {
 /// Issue 6's accuracy target: p99 image error below this many pixels of a 1920-pixel frame.
 pub const IMAGE_ERROR_TARGET_PX: f64 = 0.5;
 
-/// A small deterministic generator (SplitMix64), so measurements repeat exactly.
-#[derive(Clone, Debug)]
-pub struct SplitMix(u64);
-
-impl SplitMix {
-    pub fn new(seed: u64) -> SplitMix {
-        SplitMix(seed)
-    }
-
-    pub fn next_f64(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^= z >> 31;
-        (z >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
-
 /// Pixel pitch (mm) of a 3:2 frame `pixels` wide inscribed in the image circle of `film_radius`.
 pub fn pixel_pitch(film_radius: f64, pixels: f64) -> f64 {
     2.0 * film_radius * 3.0 / 13f64.sqrt() / pixels
@@ -103,12 +85,12 @@ pub fn renderer_rays(
     count: usize,
     seed: u64,
 ) -> Vec<Ray> {
-    let mut rng = SplitMix::new(seed);
+    let mut rng = UnitDraws::new(seed);
     (0..count)
         .map(|_| {
-            let film_radius = max_film_radius * rng.next_f64().sqrt();
-            let azimuth = std::f64::consts::TAU * rng.next_f64();
-            let sample = pupil.sample(film_radius, [rng.next_f64(), rng.next_f64()]);
+            let film_radius = max_film_radius * rng.next().sqrt();
+            let azimuth = std::f64::consts::TAU * rng.next();
+            let sample = pupil.sample(film_radius, [rng.next(), rng.next()]);
             let (c, s) = (azimuth.cos(), azimuth.sin());
             let rotate = |p: [f64; 2]| [c * p[0] - s * p[1], s * p[0] + c * p[1]];
             let film = rotate([film_radius, 0.0]);
@@ -123,33 +105,18 @@ pub fn renderer_rays(
         .collect()
 }
 
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
 
 /// Angle between unit vectors, accurate for tiny angles.
 pub fn angle_between(a: [f64; 3], b: [f64; 3]) -> f64 {
-    let c = cross(a, b);
-    dot(c, c).sqrt().atan2(dot(a, b))
+    let (a, b) = (DVec3::from(a), DVec3::from(b));
+    a.cross(b).length().atan2(a.dot(b))
 }
 
 /// Distance from `point` to the line through `origin` along unit `direction`.
 pub fn distance_to_line(point: [f64; 3], origin: [f64; 3], direction: [f64; 3]) -> f64 {
-    let v = [
-        point[0] - origin[0],
-        point[1] - origin[1],
-        point[2] - origin[2],
-    ];
-    let c = cross(v, direction);
-    dot(c, c).sqrt()
+    (DVec3::from(point) - DVec3::from(origin))
+        .cross(DVec3::from(direction))
+        .length()
 }
 
 /// Table layer `layer` against `tracer` (the same lens and wavelength, stop as baked) over
@@ -325,9 +292,9 @@ pub fn pupil_tightness(
         .collect();
     let trial = |method: usize, i: usize| -> (bool, bool) {
         let mut rng =
-            SplitMix::new(seed ^ (i as u64).wrapping_mul(0x2545_f491_4f6c_dd1d) ^ method as u64);
-        let r = max_r * rng.next_f64().sqrt();
-        let u = [rng.next_f64(), rng.next_f64()];
+            UnitDraws::new(seed ^ (i as u64).wrapping_mul(0x2545_f491_4f6c_dd1d) ^ method as u64);
+        let r = max_r * rng.next().sqrt();
+        let u = [rng.next(), rng.next()];
         match method {
             0 => {
                 let d = crate::pupil::concentric_disk(u);
@@ -349,7 +316,7 @@ pub fn pupil_tightness(
             _ => {
                 let s = pupil.sample(r, u);
                 // A passing point just outside the circle shows a non-conservative bound.
-                let d = crate::pupil::concentric_disk([rng.next_f64(), rng.next_f64()]);
+                let d = crate::pupil::concentric_disk([rng.next(), rng.next()]);
                 let probe = [
                     d[0] * rear_semi_aperture * 1.2,
                     d[1] * rear_semi_aperture * 1.2,

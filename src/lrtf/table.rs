@@ -100,7 +100,8 @@ pub struct GpuParams {
     /// Circles of the coordinate pupil, at the head of the pupil buffer.
     pub pupil_count: u32,
     pub dims: [u32; 3],
-    pub pad: u32,
+    /// [`super::io::FORMAT_VERSION`]: the shader refuses a block filled for another format.
+    pub format_version: u32,
     /// Film radius of the sampling pupil's last circle per focus node.
     pub sampling_max_film_radius: f32,
     /// Circles per focus node of the sampling pupil, after the coordinate pupil in the buffer.
@@ -114,6 +115,10 @@ pub struct GpuParams {
 pub const LRTF_PASSES: u32 = 0;
 pub const LRTF_BLOCKED: u32 = 1;
 pub const LRTF_OUTSIDE: u32 = 2;
+/// The shader's status when `LrtfParams::format_version` is not the format it was compiled for
+/// (an exported sampler bound to a table of another lensbake); the CPU reads the files and
+/// refuses such a table when loading it instead.
+pub const LRTF_VERSION_MISMATCH: u32 = 3;
 
 /// What the table says about one film-side ray.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -359,6 +364,7 @@ fn ray_of(columns: &[[f64; LOOKUP_GROUP]; 6], k: usize) -> Ray {
 #[derive(Clone, Copy)]
 enum LookupRays<'a> {
     Rays(&'a [Ray]),
+    #[cfg(feature = "render")]
     Columns {
         columns: &'a [[f64; LOOKUP_GROUP]; 6],
         count: usize,
@@ -429,6 +435,7 @@ impl<P: Place> LaneLookup<'_, P> {
                         });
                     }
                 }
+                #[cfg(feature = "render")]
                 LookupRays::Columns { columns, count } => {
                     self.group(isa, columns, count, scratch, emit)
                 }
@@ -644,6 +651,7 @@ impl LrtfTable {
     ///
     /// # Panics
     /// When `count` is above [`LOOKUP_GROUP`].
+    #[cfg(feature = "render")]
     pub(crate) fn lookup_columns(
         &self,
         layer: usize,
@@ -750,7 +758,7 @@ impl LrtfTable {
             parameterisation: self.info.parameterisation.shader_id(),
             pupil_count: l.pupil.circles.len() as u32,
             dims: [n0 as u32, n1 as u32, n2 as u32],
-            pad: 0,
+            format_version: super::io::FORMAT_VERSION,
             sampling_max_film_radius: l.sampling.max_film_radius() as f32,
             sampling_count: l.sampling.nodes.first().map_or(0, |n| n.circles.len()) as u32,
             focus_count: l.sampling.nodes.len() as u32,

@@ -12,6 +12,7 @@ use super::camera::{Camera, Film, FilmAxes, MAX_TILT_DEG};
 use super::layers::{LayeredDepthImage, View};
 use crate::model::{ParaxialLens, TracedLens};
 use crate::trace::{Ray, Travel};
+use glam::DVec3;
 use nalgebra::{Matrix3, Vector3};
 
 /// Where the sensor sits: the lens-frame z of its centre and its tilt (see [`Film::tilt_deg`]).
@@ -77,41 +78,22 @@ pub fn film_z_for_pixel(
     Ok(film_z_through(&camera.film, image))
 }
 
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn norm(a: [f64; 3]) -> f64 {
-    dot(a, a).sqrt()
-}
-
 /// The sensor placement (shift of `film` kept) whose plane passes through three image points.
 pub fn placement_through(
     film: &Film,
     points: [[f64; 3]; 3],
 ) -> Result<SensorPlacement, RenderError> {
-    let (a, b) = (sub(points[1], points[0]), sub(points[2], points[0]));
-    let normal = cross(a, b);
+    let [p0, p1, p2] = points.map(DVec3::from);
+    let (a, b) = (p1 - p0, p2 - p0);
+    let normal = a.cross(b);
     // The sine of the smallest angle of the triangle the points span, near zero when collinear.
-    let spread = norm(normal) / (norm(a) * norm(b)).max(f64::MIN_POSITIVE);
+    let spread = normal.length() / (a.length() * b.length()).max(f64::MIN_POSITIVE);
     if spread.is_nan() || spread <= 1e-9 {
         return Err(RenderError::InvalidSetting(
             "the three focus points lie on one line: they fix no plane".into(),
         ));
     }
-    let tilt_deg = FilmAxes::tilt_deg_for_normal(normal);
+    let tilt_deg = FilmAxes::tilt_deg_for_normal(normal.to_array());
     if !(tilt_deg.iter().all(|t| t.abs() <= MAX_TILT_DEG)) {
         return Err(RenderError::InvalidSetting(format!(
             "the plane through the focus points needs a sensor tilt of ({:.2}, {:.2}) degrees, \
@@ -164,7 +146,8 @@ fn image_bundle(lens: &TracedLens, object: [f64; 3]) -> Result<Vec<Ray>, RenderE
             if target[0].hypot(target[1]) > reach {
                 continue;
             }
-            let Ok(ray) = Ray::new(object, sub(target, object)) else {
+            let direction = DVec3::from(target) - DVec3::from(object);
+            let Ok(ray) = Ray::new(object, direction.to_array()) else {
                 continue;
             };
             let traced = lens.tracer.trace(ray, Travel::Forward);
@@ -214,22 +197,19 @@ pub fn spot_rms_on_sensor(
     object: [f64; 3],
 ) -> Result<f64, RenderError> {
     let rays = image_bundle(lens, object)?;
-    let normal = FilmAxes::of(placement.tilt_deg).normal;
-    let centre = [film.shift_mm[0], film.shift_mm[1], placement.film_z];
-    let hits: Vec<[f64; 3]> = rays
+    let normal = DVec3::from(FilmAxes::of(placement.tilt_deg).normal);
+    let centre = DVec3::new(film.shift_mm[0], film.shift_mm[1], placement.film_z);
+    let hits: Vec<DVec3> = rays
         .iter()
         .map(|ray| {
-            let (o, d) = (ray.position(), ray.direction());
-            let t = dot(normal, sub(centre, o)) / dot(normal, d);
-            [o[0] + t * d[0], o[1] + t * d[1], o[2] + t * d[2]]
+            let (o, d) = (DVec3::from(ray.position()), DVec3::from(ray.direction()));
+            let t = normal.dot(centre - o) / normal.dot(d);
+            o + t * d
         })
         .collect();
     let count = hits.len() as f64;
-    let mean: [f64; 3] = std::array::from_fn(|c| hits.iter().map(|h| h[c]).sum::<f64>() / count);
-    let squared = hits
-        .iter()
-        .map(|h| dot(sub(*h, mean), sub(*h, mean)))
-        .sum::<f64>();
+    let mean = hits.iter().sum::<DVec3>() / count;
+    let squared = hits.iter().map(|h| (*h - mean).length_squared()).sum::<f64>();
     Ok((squared / count).sqrt())
 }
 
@@ -288,7 +268,7 @@ mod tests {
         // sensor plane too.
         for (x, y) in [(0.0, 0.0), (-150.0, 120.0), (200.0, 35.0), (60.0, -110.0)] {
             let image = lens.image_of(on_object_plane(x, y)).unwrap();
-            let off = dot(n, sub(image, centre));
+            let off = DVec3::from(n).dot(DVec3::from(image) - DVec3::from(centre));
             assert!(
                 off.abs() < 1e-9,
                 "({x}, {y}) images {off} mm off the sensor"
@@ -305,20 +285,20 @@ mod tests {
         let objects =
             [[-80.0, -40.0], [90.0, -30.0], [10.0, 70.0]].map(|[x, y]| on_object_plane(x, y));
         let placement = paraxial_focus_plane(&lens, &film(), objects).unwrap();
-        let object_normal = [2.5, -1.2, 1.0];
-        let object_line = [
-            object_normal[0],
-            object_normal[1],
-            dot(object_normal, objects[0]) - object_normal[2] * lens.front_principal_z,
-        ];
-        let n = FilmAxes::of(placement.tilt_deg).normal;
-        let centre = [1.0, -0.5, placement.film_z];
-        let sensor_line = [n[0], n[1], dot(n, centre) - n[2] * lens.rear_principal_z];
+        let object_normal = DVec3::new(2.5, -1.2, 1.0);
+        let object_line = DVec3::new(
+            object_normal.x,
+            object_normal.y,
+            object_normal.dot(DVec3::from(objects[0])) - object_normal.z * lens.front_principal_z,
+        );
+        let n = DVec3::from(FilmAxes::of(placement.tilt_deg).normal);
+        let centre = DVec3::new(1.0, -0.5, placement.film_z);
+        let sensor_line = DVec3::new(n.x, n.y, n.dot(centre) - n.z * lens.rear_principal_z);
         // a x + b y = c for both: the coefficient vectors are parallel.
-        let c = cross(object_line, sensor_line);
-        let scale = norm(object_line) * norm(sensor_line);
+        let c = object_line.cross(sensor_line);
+        let scale = object_line.length() * sensor_line.length();
         assert!(
-            norm(c) < 1e-12 * scale,
+            c.length() < 1e-12 * scale,
             "hinge lines differ: {object_line:?} vs {sensor_line:?}"
         );
     }

@@ -5,7 +5,7 @@ use super::RenderError;
 use super::camera::Camera;
 use super::chromatic::{CHANNELS, ChannelLenses, Chromatic, PUPIL_EDGE_TOLERANCE};
 use super::layers::LayeredDepthImage;
-use crate::lrtf::{GpuParams, Layer, Parameterisation};
+use crate::lrtf::{GpuParams, Parameterisation};
 use crate::model::{LensModel, SeidelLens};
 use bytemuck::{Pod, Zeroable};
 
@@ -325,16 +325,6 @@ pub enum TableTexels {
     Omitted,
 }
 
-/// Appends `layer`'s entries to the shader's two RGBA textures, in the file's row-major order.
-fn append_texels(layer: &Layer, transfer: &mut Vec<[f32; 4]>, aux: &mut Vec<[f32; 4]>) {
-    transfer.reserve(layer.entries.len());
-    aux.reserve(layer.entries.len());
-    for e in layer.entries.row_major() {
-        transfer.push([e[0], e[1], e[2], e[3]]);
-        aux.push([e[4], e[5], e[6], e[7]]);
-    }
-}
-
 impl LensData {
     pub fn of(model: &LensModel, texels: TableTexels) -> LensData {
         let sampling = model.pupil_sampling();
@@ -354,7 +344,7 @@ impl LensData {
             parameterisation: 1,
             pupil_count: pupil.len() as u32,
             dims: [2, 2, 2],
-            pad: 0,
+            format_version: crate::lrtf::io::FORMAT_VERSION,
             // The same circles sample lens points: one focus node.
             sampling_max_film_radius: sampling.circles.max_film_radius as f32,
             sampling_count: pupil.len() as u32,
@@ -374,7 +364,7 @@ impl LensData {
                     .gpu_params(lens.layer, lens.stop_radius, lens.film_z());
                 let (mut transfer, mut aux) = (Vec::new(), Vec::new());
                 if texels == TableTexels::Packed {
-                    append_texels(&lens.table.layers[lens.layer], &mut transfer, &mut aux);
+                    lens.table.layers[lens.layer].append_texels(&mut transfer, &mut aux);
                 }
                 LensData {
                     params,
@@ -632,7 +622,7 @@ impl LensData {
                 for &k in layers {
                     let layer = &table.layers[k];
                     if texels == TableTexels::Packed {
-                        append_texels(layer, &mut lens.transfer, &mut lens.aux);
+                        layer.append_texels(&mut lens.transfer, &mut lens.aux);
                     }
                     lens.pupil.extend(
                         layer

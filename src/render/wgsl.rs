@@ -102,6 +102,11 @@ pub const SHARED_CONSTANTS: &[(&str, WgslValue)] = {
         ("LRTF_PASSES", U32(lrtf_table::LRTF_PASSES)),
         ("LRTF_BLOCKED", U32(lrtf_table::LRTF_BLOCKED)),
         ("LRTF_OUTSIDE", U32(lrtf_table::LRTF_OUTSIDE)),
+        (
+            "LRTF_VERSION_MISMATCH",
+            U32(lrtf_table::LRTF_VERSION_MISMATCH),
+        ),
+        ("LRTF_FORMAT_VERSION", U32(crate::lrtf::io::FORMAT_VERSION)),
         // The Seidel model's inverse map (model::seidel; f32 on the GPU, as in the CPU twin).
         ("SEIDEL_INVERSE_STEPS", U32(model::SEIDEL_INVERSE_STEPS)),
         (
@@ -140,6 +145,7 @@ fn assemble(sources: &[&str]) -> String {
 }
 
 const LRTF_SAMPLE: &str = include_str!("../lrtf/lrtf_sample.wgsl");
+const LRTF_SAMPLE_HARNESS: &str = include_str!("../lrtf/lrtf_sample_harness.wgsl");
 const LENS_TRACE: &str = include_str!("shaders/lens_trace.wgsl");
 const LENS_TRACE_HARNESS: &str = include_str!("shaders/lens_trace_harness.wgsl");
 const IBRT: &str = include_str!("shaders/ibrt.wgsl");
@@ -151,6 +157,8 @@ static IBRT_MODULE: LazyLock<String> =
 static LENS_TRACE_MODULE: LazyLock<String> =
     LazyLock::new(|| assemble(&[LENS_TRACE, LENS_TRACE_HARNESS]));
 static LRTF_SAMPLE_MODULE: LazyLock<String> = LazyLock::new(|| assemble(&[LRTF_SAMPLE]));
+static LRTF_SAMPLE_RAYS_MODULE: LazyLock<String> =
+    LazyLock::new(|| assemble(&[LRTF_SAMPLE, LRTF_SAMPLE_HARNESS]));
 static PEEL_MODULE: LazyLock<String> = LazyLock::new(|| assemble(&[PEEL]));
 
 /// The renderer: the LRTF sampler (group 0), the IBRT kernel (group 1), the lens trace (group
@@ -170,17 +178,25 @@ pub fn lrtf_sample_shader() -> &'static str {
     &LRTF_SAMPLE_MODULE
 }
 
+/// The LRTF sampler with the entry point `lrtf_sample_rays` (group 1), which looks rays up one
+/// per invocation: the module `lensbake export shader` writes for engines and the exported-code
+/// tests run.
+pub fn lrtf_sample_rays_shader() -> &'static str {
+    &LRTF_SAMPLE_RAYS_MODULE
+}
+
 /// The depth peeler (`peel.wgsl`).
 pub fn peel_shader() -> &'static str {
     &PEEL_MODULE
 }
 
 /// Every assembled module by name, for validation.
-pub fn modules() -> [(&'static str, &'static str); 4] {
+pub fn modules() -> [(&'static str, &'static str); 5] {
     [
         ("ibrt", ibrt_shader()),
         ("lens_trace", lens_trace_shader()),
         ("lrtf_sample", lrtf_sample_shader()),
+        ("lrtf_sample_rays", lrtf_sample_rays_shader()),
         ("peel", peel_shader()),
     ]
 }

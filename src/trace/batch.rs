@@ -1,6 +1,6 @@
 //! Many rays at once: a structure-of-arrays batch traced in parallel with rayon.
 
-use super::lanes::{Block, Finish, Isa, NoVisit, STRIDE};
+use super::lanes::{Block, Finish, Isa, STRIDE};
 use super::{Apertures, Outcome, Ray, Traced, Tracer, Travel};
 use crate::pages::{Pages, fence_streaming_stores, resize_on, store_streaming};
 use rayon::prelude::*;
@@ -258,6 +258,7 @@ impl Tracer {
     /// for bit what [`Tracer::trace`] gives. For callers that make their rays a few dozen at a
     /// time, side by side (the renderer's samples of one pixel); the rays go from their columns
     /// into `block`'s without being assembled one by one in between.
+    #[cfg(any(test, feature = "render"))]
     pub(crate) fn trace_group(
         &self,
         block: &mut GroupBlock,
@@ -267,7 +268,7 @@ impl Tracer {
         mut finish: impl FnMut(usize, Traced),
     ) {
         block.load_chosen(columns, chosen);
-        self.trace_block(block, travel, true, &mut NoVisit, &mut finish);
+        self.trace_block(block, travel, true, &mut super::lanes::NoVisit, &mut finish);
     }
 
     /// Traces every ray of `rays` on the current rayon thread pool.

@@ -240,6 +240,7 @@ impl<const STRIDES: usize> Block<STRIDES> {
 
     /// Loads the rays of a group in columns (x, y, z, dx, dy, dz) whose lanes `chosen` marks
     /// (at most [`Block::CAPACITY`] of them), each numbered by its lane.
+    #[cfg(any(test, feature = "render"))]
     pub fn load_chosen<const G: usize>(&mut self, columns: &[[f64; G]; 6], chosen: &[bool]) {
         let mut slot = 0;
         for (lane, _) in chosen.iter().enumerate().filter(|(_, chosen)| **chosen) {

@@ -26,8 +26,10 @@ pub use aim::{
     AimError, RaySource, StopAim, aim_at_stop, traceable_field_deg, traceable_field_deg_from,
 };
 pub use batch::{BatchTrace, RayBatch};
+#[cfg(any(test, feature = "render"))]
 pub(crate) use batch::{GROUP_RAYS, GroupBlock};
 pub use bundle::FieldBundle;
+pub(crate) use bundle::UnitDraws;
 #[cfg(feature = "render")]
 pub(crate) use intersect::ASPHERE_MAX_STEPS;
 pub(crate) use intersect::dot;

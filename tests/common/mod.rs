@@ -97,6 +97,7 @@ pub fn finished(command: &mut std::process::Command, stdin: Option<&str>) -> std
         .unwrap_or_else(|| panic!("{described} ran past {COMMAND_TIMEOUT:?}: it hangs"))
 }
 
+#[cfg(feature = "cli")]
 /// This build's `lensbake` binary with `args`, run from the test's working directory (the
 /// crate's root), within [`COMMAND_TIMEOUT`].
 pub fn lensbake(args: &[&str]) -> std::process::Output {
@@ -106,6 +107,7 @@ pub fn lensbake(args: &[&str]) -> std::process::Output {
     )
 }
 
+#[cfg(feature = "cli")]
 /// `lensbake bake LENS --resolution 4 --out TABLE` with `extra` options: a table small enough
 /// for a command-line test.
 pub fn bake_small(
@@ -423,6 +425,7 @@ pub fn vec3(v: &Value) -> [f64; 3] {
     [num(&a[0]), num(&a[1]), num(&a[2])]
 }
 
+#[cfg(feature = "render")]
 /// The GPU renderer, or None outside CI when this machine has no adapter. In CI a missing
 /// adapter is a failure: CI installs lavapipe precisely so these tests run.
 pub fn gpu_or_skip(test: &str) -> Option<lensbake::render::gpu::GpuRenderer> {
@@ -520,6 +523,7 @@ pub fn dgauss() -> (
     (lens, first)
 }
 
+#[cfg(feature = "render")]
 /// Traced and baked cameras for the double Gauss wide open, a full-frame sensor tilted by
 /// `tilt_deg` centred on the 2 m focus (the demo scene's chart): a 32^3 table baked for that
 /// focus and for the film radii the sensor's rays cross its film plane at (small so the tests
@@ -568,6 +572,7 @@ pub fn dgauss_cameras(
     )
 }
 
+#[cfg(feature = "render")]
 /// How many channels of two renders differ beyond f32 rounding (1e-3 relative), and the mean
 /// absolute difference over the other channels.
 pub fn channel_differences(
