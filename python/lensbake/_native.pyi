@@ -58,48 +58,13 @@ class Lens:
         npt.NDArray[np.uint8],
         npt.NDArray[np.uint32],
     ]: ...
-    def wavefront(
-        self,
-        *,
-        field_deg: float = 0.0,
-        wavelength_nm: Optional[float] = None,
-        f_number: Optional[float] = None,
-        epd_mm: Optional[float] = None,
-        object_distance_mm: Optional[float] = None,
-        ray_aiming: Optional[str] = None,
-        samples: int = 64,
-        grid: int = 256,
-        defocus_mm: float = 0.0,
-    ) -> dict[str, Any]: ...
+    # The wave options of wavefront, mtf and psf: field_deg, wavelengths_nm, weights, f_number,
+    # epd_mm, object_distance_mm, ray_aiming, samples, grid, defocus_mm (help(lensbake.Lens)).
+    def wavefront(self, **options: Any) -> dict[str, Any]: ...
     def mtf(
-        self,
-        frequencies_per_mm: Optional[Sequence[float]] = None,
-        *,
-        field_deg: float = 0.0,
-        wavelengths_nm: Optional[Sequence[float]] = None,
-        weights: Optional[Sequence[float]] = None,
-        f_number: Optional[float] = None,
-        epd_mm: Optional[float] = None,
-        object_distance_mm: Optional[float] = None,
-        ray_aiming: Optional[str] = None,
-        samples: int = 64,
-        grid: int = 256,
-        defocus_mm: float = 0.0,
+        self, frequencies_per_mm: Optional[Sequence[float]] = None, **options: Any
     ) -> dict[str, Any]: ...
-    def psf(
-        self,
-        *,
-        field_deg: float = 0.0,
-        wavelengths_nm: Optional[Sequence[float]] = None,
-        weights: Optional[Sequence[float]] = None,
-        f_number: Optional[float] = None,
-        epd_mm: Optional[float] = None,
-        object_distance_mm: Optional[float] = None,
-        ray_aiming: Optional[str] = None,
-        samples: int = 64,
-        grid: int = 256,
-        defocus_mm: float = 0.0,
-    ) -> Tuple[npt.NDArray[np.float64], Tuple[float, float]]: ...
+    def psf(self, **options: Any) -> Tuple[npt.NDArray[np.float64], Tuple[float, float]]: ...
 
 class Table:
     """A baked lens ray transfer function table (`bake`, `Table.read`)."""

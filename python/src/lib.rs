@@ -14,14 +14,13 @@ use lensbake::paraxial::StopChoice;
 use lensbake::prescription::formats::{Format, LoadOptions};
 use lensbake::prescription::{Prescription, RayAiming};
 use lensbake::trace::check_start;
-use lensbake::wave::Sampling;
 use lensbake::{
     Apertures, BakeRequest, Lookup, LrtfTable, ModelKind, Outcome, Ray, RayBatch, RenderJob,
     RenderLens, SceneRequirements, Tracer, Travel, WaveOptions,
 };
 use numpy::ndarray::{Array1, Array2, Array3};
 use numpy::{AllowTypeChange, IntoPyArray, PyArray1, PyArray2, PyArray3, PyArrayLike2};
-use pyo3::exceptions::PyValueError;
+use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 use rayon::prelude::*;
@@ -147,6 +146,13 @@ fn n_by_3_from(count: usize, row: impl Fn(usize) -> [f64; 3] + Sync) -> Array2<f
 }
 
 /// A lens loaded and validated (`load_lens`).
+///
+/// The wave methods (`wavefront`, `mtf`, `psf`) take these keyword options: `field_deg` (half
+/// field in degrees, in the y-z plane; 0), `wavelengths_nm` (the first is the reference;
+/// default the design wavelength) with `weights` (default all 1), `f_number` or `epd_mm`
+/// (default: the stop filled), `object_distance_mm` (default infinity), `ray_aiming`
+/// ("paraxial" or "real"; default the file's), `samples` (pupil points per side, 64), `grid`
+/// (FFT grid per side, 256) and `defocus_mm` (image plane beyond the paraxial image, 0).
 #[pyclass(module = "lensbake", frozen)]
 pub struct Lens {
     lens: lensbake::LoadedLens,
@@ -178,31 +184,35 @@ fn ray_aiming(name: Option<&str>) -> PyResult<Option<RayAiming>> {
     .transpose()
 }
 
-/// The wave options of the keyword arguments every wave method takes.
-#[allow(clippy::too_many_arguments)]
-fn wave_options(
-    field_deg: f64,
-    wavelengths_nm: Option<Vec<f64>>,
-    weights: Option<Vec<f64>>,
-    f_number: Option<f64>,
-    epd_mm: Option<f64>,
-    object_distance_mm: Option<f64>,
-    ray_aiming_name: Option<&str>,
-    samples: usize,
-    grid: usize,
-    defocus_mm: f64,
-) -> PyResult<WaveOptions> {
-    Ok(WaveOptions {
-        field_deg,
-        wavelengths_nm: wavelengths_nm.unwrap_or_default(),
-        weights: weights.unwrap_or_default(),
-        epd_mm,
-        f_number,
-        object_distance_mm,
-        ray_aiming: ray_aiming(ray_aiming_name)?,
-        sampling: Sampling { samples, grid },
-        defocus_mm,
-    })
+/// The wave options (see `Lens`) from the keyword arguments of a wave method; the rest keep
+/// the library's defaults.
+fn wave_options(keywords: Option<&Bound<'_, PyDict>>) -> PyResult<WaveOptions> {
+    let mut options = WaveOptions::default();
+    for (key, value) in keywords.into_iter().flat_map(|k| k.iter()) {
+        let key: String = key.extract()?;
+        match key.as_str() {
+            "field_deg" => options.field_deg = value.extract()?,
+            "wavelengths_nm" => options.wavelengths_nm = value.extract()?,
+            "weights" => options.weights = value.extract()?,
+            "f_number" => options.f_number = value.extract()?,
+            "epd_mm" => options.epd_mm = value.extract()?,
+            "object_distance_mm" => options.object_distance_mm = value.extract()?,
+            "ray_aiming" => {
+                options.ray_aiming = ray_aiming(value.extract::<Option<String>>()?.as_deref())?
+            }
+            "samples" => options.sampling.samples = value.extract()?,
+            "grid" => options.sampling.grid = value.extract()?,
+            "defocus_mm" => options.defocus_mm = value.extract()?,
+            other => {
+                return Err(PyTypeError::new_err(format!(
+                    "unexpected keyword argument {other:?}: the wave options are field_deg, \
+                     wavelengths_nm, weights, f_number, epd_mm, object_distance_mm, ray_aiming, \
+                     samples, grid and defocus_mm"
+                )));
+            }
+        }
+    }
+    Ok(options)
 }
 
 #[pymethods]
@@ -353,35 +363,15 @@ impl Lens {
     /// Optical path difference over the exit pupil of one field point at one wavelength, as
     /// `lensbake wavefront` measures it: a dict with `opd_waves` (samples x samples float64,
     /// rows along pupil y, piston kept, 0 where `transmitted` is False), `transmitted` (bool),
-    /// `rms_waves`, `pv_waves`, `strehl` and the reference sphere. Field in degrees, lengths in
-    /// mm; give `f_number` or `epd_mm` (default: the stop filled).
-    #[pyo3(signature = (*, field_deg=0.0, wavelength_nm=None, f_number=None, epd_mm=None, object_distance_mm=None, ray_aiming=None, samples=64, grid=256, defocus_mm=0.0))]
-    #[allow(clippy::too_many_arguments)]
+    /// `rms_waves`, `pv_waves`, `strehl` and the reference sphere. Takes the wave options
+    /// (`help(lensbake.Lens)`), with at most one wavelength.
+    #[pyo3(signature = (**options))]
     fn wavefront<'py>(
         &self,
         py: Python<'py>,
-        field_deg: f64,
-        wavelength_nm: Option<f64>,
-        f_number: Option<f64>,
-        epd_mm: Option<f64>,
-        object_distance_mm: Option<f64>,
-        ray_aiming: Option<&str>,
-        samples: usize,
-        grid: usize,
-        defocus_mm: f64,
+        options: Option<&Bound<'py, PyDict>>,
     ) -> PyResult<Bound<'py, PyDict>> {
-        let options = wave_options(
-            field_deg,
-            wavelength_nm.map(|nm| vec![nm]),
-            None,
-            f_number,
-            epd_mm,
-            object_distance_mm,
-            ray_aiming,
-            samples,
-            grid,
-            defocus_mm,
-        )?;
+        let options = wave_options(options)?;
         let system = &self.lens.system;
         let map = py
             .detach(|| lensbake::wavefront(system, &options))
@@ -412,36 +402,16 @@ impl Lens {
     /// Diffraction MTF of one field point, as `lensbake mtf --json`: a dict of float64 arrays
     /// `frequencies_per_mm`, `tangential`, `sagittal`, `diffraction_limit` and the scalar
     /// `cutoff_per_mm`. `frequencies_per_mm` (cycles/mm) defaults to 41 from 0 to the cutoff;
-    /// several `wavelengths_nm` (with `weights`, default all 1) give the polychromatic MTF.
-    #[pyo3(signature = (frequencies_per_mm=None, *, field_deg=0.0, wavelengths_nm=None, weights=None, f_number=None, epd_mm=None, object_distance_mm=None, ray_aiming=None, samples=64, grid=256, defocus_mm=0.0))]
-    #[allow(clippy::too_many_arguments)]
+    /// several `wavelengths_nm` give the polychromatic MTF. Takes the wave options
+    /// (`help(lensbake.Lens)`).
+    #[pyo3(signature = (frequencies_per_mm=None, **options))]
     fn mtf<'py>(
         &self,
         py: Python<'py>,
         frequencies_per_mm: Option<Vec<f64>>,
-        field_deg: f64,
-        wavelengths_nm: Option<Vec<f64>>,
-        weights: Option<Vec<f64>>,
-        f_number: Option<f64>,
-        epd_mm: Option<f64>,
-        object_distance_mm: Option<f64>,
-        ray_aiming: Option<&str>,
-        samples: usize,
-        grid: usize,
-        defocus_mm: f64,
+        options: Option<&Bound<'py, PyDict>>,
     ) -> PyResult<Bound<'py, PyDict>> {
-        let options = wave_options(
-            field_deg,
-            wavelengths_nm,
-            weights,
-            f_number,
-            epd_mm,
-            object_distance_mm,
-            ray_aiming,
-            samples,
-            grid,
-            defocus_mm,
-        )?;
+        let options = wave_options(options)?;
         let system = &self.lens.system;
         let frequencies = frequencies_per_mm.unwrap_or_default();
         let curve = py
@@ -464,34 +434,14 @@ impl Lens {
     /// Point spread function of one field point on the FFT grid (`grid` x `grid` float64, 1 =
     /// the aberration-free peak, rows running up from the smallest image y), as `lensbake psf`
     /// writes it; returns (intensity, pixel_mm) with pixel_mm the (x, y) pixel pitch in mm.
-    #[pyo3(signature = (*, field_deg=0.0, wavelengths_nm=None, weights=None, f_number=None, epd_mm=None, object_distance_mm=None, ray_aiming=None, samples=64, grid=256, defocus_mm=0.0))]
-    #[allow(clippy::too_many_arguments)]
+    /// Takes the wave options (`help(lensbake.Lens)`).
+    #[pyo3(signature = (**options))]
     fn psf<'py>(
         &self,
         py: Python<'py>,
-        field_deg: f64,
-        wavelengths_nm: Option<Vec<f64>>,
-        weights: Option<Vec<f64>>,
-        f_number: Option<f64>,
-        epd_mm: Option<f64>,
-        object_distance_mm: Option<f64>,
-        ray_aiming: Option<&str>,
-        samples: usize,
-        grid: usize,
-        defocus_mm: f64,
+        options: Option<&Bound<'py, PyDict>>,
     ) -> PyResult<(Bound<'py, PyArray2<f64>>, (f64, f64))> {
-        let options = wave_options(
-            field_deg,
-            wavelengths_nm,
-            weights,
-            f_number,
-            epd_mm,
-            object_distance_mm,
-            ray_aiming,
-            samples,
-            grid,
-            defocus_mm,
-        )?;
+        let options = wave_options(options)?;
         let system = &self.lens.system;
         let image = py
             .detach(|| lensbake::psf(system, &options))

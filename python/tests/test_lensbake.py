@@ -282,9 +282,15 @@ def test_psf(dgauss):
         dgauss.psf(field_deg=95.0)
 
 
-def test_wavefront_refuses_several_wavelengths_through_mtf_only(dgauss):
-    with pytest.raises(TypeError):
+def test_wave_options_are_checked(dgauss):
+    with pytest.raises(lensbake.LensbakeError, match="one wavelength"):
         dgauss.wavefront(wavelengths_nm=[500.0, 600.0])
+    with pytest.raises(TypeError, match='unexpected keyword argument "feld_deg"'):
+        dgauss.mtf(feld_deg=5.0)
+    with pytest.raises(TypeError):
+        dgauss.psf(samples="many")
+    one = dgauss.wavefront(wavelengths_nm=[486.13], field_deg=3.0)
+    assert one["wavelength_nm"] == 486.13 and one["field_deg"] == 3.0
 
 
 # -- tables ------------------------------------------------------------------------------------
