@@ -4,6 +4,7 @@
 //! lensbake's own table lookup on baked tables of every kind and against its own GPU trace.
 //! Outside CI a missing tool skips its check; with CI=true (.ci/engines.sh installs them) it
 //! fails.
+#![cfg(feature = "cli")]
 
 mod common;
 

@@ -1052,6 +1052,9 @@ fn paraboloid_slope(c: f64, r: f64) -> f64 {
     c * r
 }
 
+/// A surface's slope (dz/drho) at a height, given its curvature.
+type SlopeOf = fn(f64, f64) -> f64;
+
 #[test]
 fn nearly_flat_surfaces_behave_as_planes_plus_their_first_order_effect() {
     // Exit surface of a glass block met by parallel rays. For |R| up to 1e300 the sag and the
@@ -1060,7 +1063,7 @@ fn nearly_flat_surfaces_behave_as_planes_plus_their_first_order_effect() {
     let n = 1.5;
     let vertex = 5.0;
     for curvature in [1e-9, -1e-10, 1e-12, -1e-300] {
-        let shapes: [(&str, Shape, fn(f64, f64) -> f64); 3] = [
+        let shapes: [(&str, Shape, SlopeOf); 3] = [
             ("sphere", Shape::Sphere { curvature }, sphere_slope),
             (
                 "paraboloid",

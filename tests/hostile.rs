@@ -395,7 +395,8 @@ fn every_edited_sidecar_number_is_refused() {
 fn sidecars_that_disagree_with_the_data_or_the_lens_are_refused() {
     let original = files();
     let sidecar = &original.sidecar;
-    let cases: Vec<(&str, String, fn(&TableError) -> bool)> = vec![
+    type RefusedAs = fn(&TableError) -> bool;
+    let cases: Vec<(&str, String, RefusedAs)> = vec![
         (
             "the previous format version",
             with_field(sidecar, "format_version", "2"),

@@ -231,6 +231,7 @@ fn truncated_corrupted_and_mismatched_files_give_errors_not_panics() {
 /// Channel names carry their layer (`wl0.exit.x`, format 5), and a format-4 table (bare
 /// `exit.x` in the part `wl0`; tests/data/lrtf-format-4 was baked by the lensbake before the
 /// change with the same command) still reads, to the same table.
+#[cfg(feature = "cli")]
 #[test]
 fn channels_are_named_by_layer_and_format_4_tables_still_read() {
     let dir = temp_dir("format-5");

@@ -85,8 +85,9 @@ fn third_order_coefficient(rhos: &[f64], heights: &[f64]) -> f64 {
     for col in 0..4 {
         for row in col + 1..4 {
             let f = m[row][col] / m[col][col];
-            for k in col..5 {
-                m[row][k] -= f * m[col][k];
+            let pivot_row = m[col];
+            for (entry, pivot) in m[row].iter_mut().zip(pivot_row).skip(col) {
+                *entry -= f * pivot;
             }
         }
     }

@@ -33,7 +33,8 @@ struct Check<'a> {
 impl Check<'_> {
     fn close(&mut self, id: &str, what: &str, got: Vec3, want: Vec3, tolerance: f64) {
         let worst = (0..3).map(|k| (got[k] - want[k]).abs()).fold(0.0, f64::max);
-        if !(worst <= tolerance) {
+        // A NaN fails the comparison and is reported too.
+        if worst.is_nan() || worst > tolerance {
             self.failures.push(format!(
                 "{id}: {what}: got {got:?}, want {want:?} (off by {worst:e})"
             ));

@@ -527,13 +527,16 @@ fn check_within(
     );
 }
 
+/// A lens of one surface kind: name, lens, (outcome code, surface, fewest rays), tolerance factor.
+type SurfaceKind = (&'static str, SystemAt, Vec<(u32, usize, usize)>, f64);
+
 /// The lenses with surfaces of one kind each, what their ray sets must hold: (outcome code,
 /// 1-based surface, fewest rays), so each kind's code paths are provably run, and the factor on
 /// the tolerances. It is 1 but for the Cassegrain: a mirror turns an error in the normal into
 /// twice that in direction, and the folded path crosses its 60 mm gap three times where the
 /// refracting lenses cross theirs once (measured 1.16e-4 mm at the film-side start, 14.5 times
 /// the f32 rounding of a start 10 m away).
-fn surface_kinds() -> [(&'static str, SystemAt, Vec<(u32, usize, usize)>, f64); 6] {
+fn surface_kinds() -> [SurfaceKind; 6] {
     let (ok, vignetted, tir, missed) = (TRACE_OK, TRACE_VIGNETTED, TRACE_TIR, TRACE_MISSED);
     [
         // Stop plane, sphere, sphere.

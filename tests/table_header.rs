@@ -3,6 +3,7 @@
 //! offsets, which must be lensbake's own; sidecars of every table kind validate against the
 //! schema under Python's jsonschema (.ci/engines.sh installs it). Outside CI a missing tool
 //! skips its check; with CI=true it fails.
+#![cfg(feature = "render")]
 
 mod common;
 

@@ -183,12 +183,12 @@ proptest! {
         let backward = tracer.trace(reversed, Travel::Backward);
         prop_assert_eq!(backward.outcome, Outcome::Ok);
         let end = backward.ray;
-        for k in 0..3 {
-            prop_assert!((end.direction()[k] + d[k]).abs() < 1e-12);
+        for (back, forth) in end.direction().into_iter().zip(d) {
+            prop_assert!((back + forth).abs() < 1e-12);
         }
         let at_start = end.point_at_z(start_z).unwrap();
-        for k in 0..3 {
-            prop_assert!((at_start[k] - start.position()[k]).abs() < 1e-9);
+        for (back, forth) in at_start.into_iter().zip(start.position()) {
+            prop_assert!((back - forth).abs() < 1e-9);
         }
     }
 }

@@ -848,8 +848,8 @@ mod tests {
         let d = unit([0.1, 0.2, 1.0]);
         let flat = plane(p, d, 1.0).unwrap();
         let hit = sphere(p, d, 1e-15, 1.0).unwrap();
-        for k in 0..3 {
-            assert!((hit.point[k] - flat[k]).abs() < 1e-12);
+        for (on_sphere, on_plane) in hit.point.into_iter().zip(flat) {
+            assert!((on_sphere - on_plane).abs() < 1e-12);
         }
     }
 
