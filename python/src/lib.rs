@@ -145,6 +145,9 @@ fn n_by_3_from(count: usize, row: impl Fn(usize) -> [f64; 3] + Sync) -> Array2<f
     Array2::from_shape_vec((count, 3), values).expect("three values per row")
 }
 
+/// A PSF's intensity grid and its (x, y) pixel pitch in mm.
+type PsfImage<'py> = (Bound<'py, PyArray2<f64>>, (f64, f64));
+
 /// A lens loaded and validated (`load_lens`).
 ///
 /// The wave methods (`wavefront`, `mtf`, `psf`) take these keyword options: `field_deg` (half
@@ -440,7 +443,7 @@ impl Lens {
         &self,
         py: Python<'py>,
         options: Option<&Bound<'py, PyDict>>,
-    ) -> PyResult<(Bound<'py, PyArray2<f64>>, (f64, f64))> {
+    ) -> PyResult<PsfImage<'py>> {
         let options = wave_options(options)?;
         let system = &self.lens.system;
         let image = py
