@@ -55,6 +55,51 @@ impl RayBatch {
         }
     }
 
+    /// The rays `make(0)`, `make(1)`, .. `make(n - 1)`, made on the current rayon thread pool
+    /// and stored in that order; when any is refused, one refusal (not necessarily the
+    /// lowest index's) is returned instead. For building large batches from arrays.
+    ///
+    /// ```
+    /// use lensbake::{Ray, RayBatch};
+    ///
+    /// let heights = [0.0, 1.0, 2.0];
+    /// let batch = RayBatch::try_from_fn(3, |k| Ray::new([0.0, heights[k], -5.0], [0.0, 0.0, 2.0]))?;
+    /// assert_eq!(batch.get(2), Some(Ray::new([0.0, 2.0, -5.0], [0.0, 0.0, 1.0])?));
+    /// assert!(RayBatch::try_from_fn(3, |k| Ray::new([0.0, 0.0, -5.0], [0.0, 0.0, k as f64])).is_err());
+    /// # Ok::<(), lensbake::trace::RayError>(())
+    /// ```
+    pub fn try_from_fn<E: Send>(
+        n: usize,
+        make: impl Fn(usize) -> Result<Ray, E> + Sync,
+    ) -> Result<RayBatch, E> {
+        let mut batch = RayBatch::new();
+        batch.resize(n);
+        let RayBatch {
+            x,
+            y,
+            z,
+            dx,
+            dy,
+            dz,
+        } = &mut batch;
+        x.par_chunks_mut(CHUNK)
+            .zip(y.par_chunks_mut(CHUNK))
+            .zip(z.par_chunks_mut(CHUNK))
+            .zip(dx.par_chunks_mut(CHUNK))
+            .zip(dy.par_chunks_mut(CHUNK))
+            .zip(dz.par_chunks_mut(CHUNK))
+            .enumerate()
+            .try_for_each(|(chunk, (((((x, y), z), dx), dy), dz))| {
+                for i in 0..x.len() {
+                    let ray = make(chunk * CHUNK + i)?;
+                    [x[i], y[i], z[i]] = ray.position;
+                    [dx[i], dy[i], dz[i]] = ray.direction;
+                }
+                Ok(())
+            })?;
+        Ok(batch)
+    }
+
     pub fn push(&mut self, ray: Ray) {
         let (p, d) = (ray.position, ray.direction);
         self.x.push(p[0]);
