@@ -1,6 +1,7 @@
 //! The real-time tier against the exact lens: lens kernels and `postfx` on point emitters, whose
 //! spots the image-based ray tracer renders through the traced model (backward, film to scene:
 //! an independent path from the kernels' forward trace).
+#![cfg(feature = "cli")]
 
 mod common;
 
