@@ -6,9 +6,10 @@ use lensbake::{
     WaveOptions, analyze, bake, load_lens, mtf, read_table, write_table,
 };
 
-/// The double Gauss's first-order data, an axial ray traced one at a time and in a batch, and
-/// the marginal ray's focus agreeing with the paraxial back focus to the lens's spherical
-/// aberration (under a millimetre at f/2).
+/// The double Gauss's first-order data, a near-axial ray traced one at a time and in a batch,
+/// and that ray's focus agreeing with the paraxial rear focal point to the lens's spherical
+/// aberration at 1 mm of its 12.5 mm semi-aperture (the aberration falls as the height squared:
+/// 0.0022 mm measured).
 #[test]
 fn trace_through_the_root() {
     let lens = load_lens("dgauss-50mm", &LoadOptions::default()).unwrap();
@@ -38,14 +39,16 @@ fn trace_through_the_root() {
     let crossing_z = z - y * dz / dy;
     let rear_focus_z = first.z_rear_focal;
     assert!(
-        (crossing_z - rear_focus_z).abs() < 0.05,
+        (crossing_z - rear_focus_z).abs() < 0.01,
         "a 1 mm ray crosses the axis at z = {crossing_z}, the rear focal point is at {rear_focus_z}"
     );
 }
 
 /// A table baked, written and read back looks a film-side ray up the way the exact trace
-/// carries it, to the table's accuracy at 16^3 (well under a tenth of a millimetre on the front
-/// vertex plane for a near-axial ray); a ray far outside the pupil is blocked.
+/// carries it, to the table's accuracy at 16^3: within a tenth of a pixel of a 1920-pixel
+/// full frame (1.9e-3 mm) 20 mm in front of the lens and 3e-5 rad in direction (a near-axial
+/// ray: 1.9e-4 mm and 3.0e-6 rad measured; a wrong frame or channel errs by millimetres); a ray
+/// far outside the pupil is blocked.
 #[test]
 fn bake_write_read_and_look_up_through_the_root() {
     let lens = load_lens("dgauss-50mm", &LoadOptions::default()).unwrap();
@@ -80,12 +83,12 @@ fn bake_write_read_and_look_up_through_the_root() {
     let [ax, ay] = on_plane(looked_up, -20.0);
     let [bx, by] = on_plane(exact.ray, -20.0);
     let miss = (ax - bx).hypot(ay - by);
-    assert!(miss < 0.1, "table and trace differ by {miss} mm at z = -20");
+    assert!(miss < 1.9e-3, "table and trace differ by {miss} mm at z = -20");
     let angle = {
         let (a, b) = (looked_up.direction(), exact.ray.direction());
         (a[0] * b[0] + a[1] * b[1] + a[2] * b[2]).min(1.0).acos()
     };
-    assert!(angle < 1e-3, "directions differ by {angle} rad");
+    assert!(angle < 3e-5, "directions differ by {angle} rad");
 
     let outside = Ray::new([0.0, 0.0, film_z], [0.0, -0.9, -0.3]).unwrap();
     assert!(!matches!(focused.lookup(&outside), Lookup::Passes(_)));
