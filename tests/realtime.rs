@@ -267,8 +267,13 @@ fn the_cli_renders_postfx_and_refuses_what_it_cannot_do_yet() {
         "{}",
         String::from_utf8_lossy(&ok.stderr)
     );
+    // It names its kernels and the filter, and no samples or trace it never made.
     assert!(
-        said.contains("postfx: 192 lens kernels") && said.contains("model postfx"),
+        said.contains("model postfx")
+            && said.contains("192 lens kernels (24 depths x 8 field radii)")
+            && said.contains("filter")
+            && !said.contains("spp")
+            && !said.contains(", trace"),
         "{said}"
     );
     assert!(out.exists());

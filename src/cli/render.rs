@@ -287,20 +287,24 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     write_png(image, 1.0, &png)?;
     let camera = &rendered.prepared.camera;
     let peel = &rendered.prepared.peel;
-    if let Some((kernels, traced_in)) = &rendered.prepared.kernels {
-        say!(
-            "postfx: {} lens kernels ({} depths x {} field radii) traced in {:.1} ms, filtered \
-             in {:.1} ms",
+    let frame_ms = rendered.trace_time.as_secs_f64() * 1e3;
+    // postfx filters the pinhole layer instead of sampling the lens: no samples, no trace.
+    let frame = match &rendered.prepared.kernels {
+        Some((kernels, traced_in)) => format!(
+            "{} lens kernels ({} depths x {} field radii) traced in {:.1} ms, filter {frame_ms:.1} ms",
             kernels.kernels.len(),
             kernels.inverse_depths.len(),
             kernels.field_tangents.len(),
             traced_in.as_secs_f64() * 1e3,
-            rendered.trace_time.as_secs_f64() * 1e3
-        );
-    }
+        ),
+        None => format!(
+            "{} spp, trace {frame_ms:.1} ms",
+            job.settings.samples_per_pixel
+        ),
+    };
     say!(
-        "model {}, film centre at z = {:.3} mm, tilt ({:.3}, {:.3}) deg, {} layers ({}x{}), {} \
-         spp: peel {:.1} ms, trace {:.1} ms",
+        "model {}, film centre at z = {:.3} mm, tilt ({:.3}, {:.3}) deg, {} layers ({}x{}): peel \
+         {:.1} ms, {frame}",
         rendered.prepared.kind(),
         camera.film_z,
         camera.film.tilt_deg[0],
@@ -308,9 +312,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         peel.layers,
         peel.view_size[0],
         peel.view_size[1],
-        job.settings.samples_per_pixel,
         peel.time.as_secs_f64() * 1e3,
-        rendered.trace_time.as_secs_f64() * 1e3
     );
     say!("wrote {} and {}", args.out.display(), png.display());
     Ok(())

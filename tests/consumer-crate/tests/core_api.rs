@@ -83,7 +83,10 @@ fn bake_write_read_and_look_up_through_the_root() {
     let [ax, ay] = on_plane(looked_up, -20.0);
     let [bx, by] = on_plane(exact.ray, -20.0);
     let miss = (ax - bx).hypot(ay - by);
-    assert!(miss < 1.9e-3, "table and trace differ by {miss} mm at z = -20");
+    assert!(
+        miss < 1.9e-3,
+        "table and trace differ by {miss} mm at z = -20"
+    );
     let angle = {
         let (a, b) = (looked_up.direction(), exact.ray.direction());
         (a[0] * b[0] + a[1] * b[1] + a[2] * b[2]).min(1.0).acos()
