@@ -75,13 +75,8 @@ fn bake_write_read_and_look_up_through_the_root() {
     let exact = tracer.trace(ray, Travel::Backward);
     assert_eq!(exact.outcome, Outcome::Ok);
     // Both on one plane in front of the lens before comparing positions.
-    let on_plane = |r: Ray, z: f64| {
-        let (p, d) = (r.position(), r.direction());
-        let t = (z - p[2]) / d[2];
-        [p[0] + t * d[0], p[1] + t * d[1]]
-    };
-    let [ax, ay] = on_plane(looked_up, -20.0);
-    let [bx, by] = on_plane(exact.ray, -20.0);
+    let [ax, ay, _] = looked_up.point_at_z(-20.0).unwrap();
+    let [bx, by, _] = exact.ray.point_at_z(-20.0).unwrap();
     let miss = (ax - bx).hypot(ay - by);
     assert!(
         miss < 1.9e-3,
