@@ -1485,7 +1485,7 @@ fn glass_medium(
         None if all_digits(glass) => refuse(format!(
             "six-digit glass code {glass}; name the glass, or give a fictitious glass as nnnnnn.vvvv"
         )),
-        _ => Ok(named_medium(glass, &[])),
+        _ => Ok(named_medium(glass, &[], None).0),
     }
 }
 
