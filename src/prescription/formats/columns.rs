@@ -95,6 +95,7 @@ pub(super) fn read(
         if dialect == Dialect::Table && rows.is_empty() && is_header(&tokens) {
             continue;
         }
+        super::check_surface_count(rows.len() + 1, source.location(Some(line)))?;
         let (stop, radius) = radius_column(tokens[0], dialect, &at(0))?;
         rows.push(Row {
             line,

@@ -463,7 +463,9 @@ pub fn write_ron(p: &Prescription) -> String {
 /// same directory, which then replaces `path` in one rename, so a reader never sees half a file.
 pub fn write_ron_file(path: &Path, p: &Prescription) -> Result<(), PrescriptionError> {
     crate::output::write_bytes(path, write_ron(p).as_bytes())
-        .map_err(|error| PrescriptionError::new(Location::file(path), Problem::Io(error.cause())))
+        .map_err(|error| {
+            PrescriptionError::new(Location::file(path), Problem::Write(error.cause()))
+        })
 }
 
 /// Decodes file bytes to text; on failure, the 1-based line of the first bad byte.
@@ -557,6 +559,19 @@ fn finite(text: &str, at: &Location) -> Result<f64, PrescriptionError> {
             Problem::NonFinite { value },
         ))
     }
+}
+
+/// Refuses a file as soon as it holds more surfaces than lensbake models
+/// ([`crate::limits::MAX_SURFACES`], the limit validation applies to a whole lens), so that a
+/// file of hundreds of thousands of surfaces costs no more to refuse than its first few hundred.
+/// `at` is the line of the surface that passes the limit.
+fn check_surface_count(count: usize, at: Location) -> Result<(), PrescriptionError> {
+    crate::limits::check(
+        "the number of surfaces",
+        count as u64,
+        crate::limits::MAX_SURFACES,
+    )
+    .map_err(|e| PrescriptionError::new(at, e.into()))
 }
 
 /// A number that must be above 0 and finite (an aperture a file states: its pupil diameter,

@@ -56,7 +56,7 @@ use super::placement::{
     StatedToroid,
 };
 use super::{
-    ContradictedGlassData, Format, LoadNote, Loaded, ModelGlass, ModelGlassNote, Source, finite, named_medium, number, odd_shape, positive,
+    ContradictedGlassData, Format, LoadNote, Loaded, check_surface_count, ModelGlass, ModelGlassNote, Source, finite, named_medium, number, odd_shape, positive,
     scale_to_mm, shape,
 };
 use crate::limits;
@@ -386,6 +386,8 @@ impl Reader {
                     )),
                 ));
             }
+            // The object and image blocks are no lens surfaces.
+            check_surface_count(self.blocks.len().saturating_sub(1), at("SURF"))?;
             self.blocks.push(Block::new(line));
             self.in_trailer = false;
             return Ok(());
