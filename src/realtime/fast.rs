@@ -17,7 +17,7 @@
 //! pinhole image instead.
 
 use super::kernels::{Kernel, LensKernels};
-use super::postfx::{OutputToLayer, Pyramid, Tiles, hash};
+use super::postfx::{OutputToLayer, Pyramid, Tiles, first_layer_untilted, hash};
 use crate::render::RenderError;
 use crate::render::camera::Camera;
 use crate::render::image::RgbImage;
@@ -113,14 +113,7 @@ pub fn postfx_fast(
     width: u32,
     height: u32,
 ) -> Result<RgbImage, RenderError> {
-    if camera.film_off_plane() != 0.0 {
-        return Err(RenderError::InvalidSetting(
-            "postfx needs a film square to the axis; the sensor is tilted".into(),
-        ));
-    }
-    let Some(front) = ldi.layers.first() else {
-        return Err(RenderError::EmptyScene);
-    };
+    let front = first_layer_untilted(camera, ldi)?;
     let view = ldi.view;
     let (lw, lh) = (view.width as usize, view.height as usize);
     let (tw, th) = (lw.div_ceil(2), lh.div_ceil(2));
@@ -151,8 +144,8 @@ pub fn postfx_fast(
             let mut colour = [0.0f32; 3];
             for s in pixels.iter().flatten() {
                 if same_surface(s.depth_mm, nearest) {
-                    for k in 0..3 {
-                        colour[k] += 0.25 * s.radiance[k];
+                    for (c, r) in colour.iter_mut().zip(s.radiance) {
+                        *c += 0.25 * r;
                     }
                 }
             }

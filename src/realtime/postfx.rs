@@ -17,7 +17,7 @@ use super::kernels::{LensKernels, PixelSpread};
 use crate::render::RenderError;
 use crate::render::camera::Camera;
 use crate::render::image::RgbImage;
-use crate::render::layers::LayeredDepthImage;
+use crate::render::layers::{Layer, LayeredDepthImage};
 use rayon::prelude::*;
 
 /// Side of a tile (pinhole pixels).
@@ -233,6 +233,20 @@ pub(super) fn hash(mut v: u32) -> u32 {
     v ^ (v >> 16)
 }
 
+/// The layer both paths filter: the first, seen through an untilted film (whose chief-ray
+/// tangents are linear in the film point, as `OutputToLayer` assumes).
+pub(super) fn first_layer_untilted<'a>(
+    camera: &Camera,
+    ldi: &'a LayeredDepthImage,
+) -> Result<&'a Layer, RenderError> {
+    if camera.film_off_plane() != 0.0 {
+        return Err(RenderError::InvalidSetting(
+            "postfx needs a film square to the axis; the sensor is tilted".into(),
+        ));
+    }
+    ldi.layers.first().ok_or(RenderError::EmptyScene)
+}
+
 /// Renders the pinhole layer of `ldi` (seen from `camera`'s eye) at `width` x `height` through
 /// the lens kernels `kernels` by the gather post-process.
 pub fn postfx(
@@ -242,14 +256,7 @@ pub fn postfx(
     width: u32,
     height: u32,
 ) -> Result<RgbImage, RenderError> {
-    if camera.film_off_plane() != 0.0 {
-        return Err(RenderError::InvalidSetting(
-            "postfx needs a film square to the axis; the sensor is tilted".into(),
-        ));
-    }
-    let Some(front) = ldi.layers.first() else {
-        return Err(RenderError::EmptyScene);
-    };
+    let front = first_layer_untilted(camera, ldi)?;
     let view = ldi.view;
     let (lw, lh) = (view.width as usize, view.height as usize);
     let aspect = ((2.0 * view.tan_half[1] / view.height as f64) / kernels.pixel_tangent) as f32;
