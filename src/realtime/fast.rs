@@ -26,6 +26,8 @@ use rayon::prelude::*;
 
 /// Side of a tile, in texels (32 pinhole pixels, the seed's tile).
 const TILE_TEXELS: usize = 16;
+/// Side of the blocks of output texels the gather hands to threads.
+const BLOCK_TEXELS: usize = 16;
 /// Most rings of taps (1 + 8 + 16 + 24 = 49 taps, the low end of Tan et al.'s 48 to 81).
 const MAX_RINGS: usize = 3;
 /// Directions a ring tap can take: a table instead of a sine and cosine per tap.
@@ -209,10 +211,29 @@ pub fn postfx_fast(
         width: tw,
         height: th,
     };
-    let gathered: Vec<Gathered> = (0..gw * gh)
+    // Block by block: a block's taps read a patch of texels that stays in cache, where a run of
+    // whole rows (rayon's split of a row-major range) reads more rows than the cache holds.
+    let (bw, bh) = (gw.div_ceil(BLOCK_TEXELS), gh.div_ceil(BLOCK_TEXELS));
+    let blocks: Vec<Vec<Gathered>> = (0..bw * bh)
         .into_par_iter()
-        .map(|i| gatherer.at(x0 + i % gw, y0 + i / gw))
+        .map(|b| {
+            let (left, top) = ((b % bw) * BLOCK_TEXELS, (b / bw) * BLOCK_TEXELS);
+            let (right, bottom) = ((left + BLOCK_TEXELS).min(gw), (top + BLOCK_TEXELS).min(gh));
+            (top..bottom)
+                .flat_map(|y| (left..right).map(move |x| (x, y)))
+                .map(|(x, y)| gatherer.at(x0 + x, y0 + y))
+                .collect()
+        })
         .collect();
+    let mut gathered = vec![Gathered::default(); gw * gh];
+    for (b, block) in blocks.iter().enumerate() {
+        let (left, top) = ((b % bw) * BLOCK_TEXELS, (b / bw) * BLOCK_TEXELS);
+        let width = (left + BLOCK_TEXELS).min(gw) - left;
+        for (row, values) in block.chunks(width).enumerate() {
+            let start = (top + row) * gw + left;
+            gathered[start..start + width].copy_from_slice(values);
+        }
+    }
 
     // 4. Upsample: nearer layers and their coverage bilinear from the gather; the own layer
     //    from the full-resolution pinhole pixel where it is sharp.
