@@ -56,8 +56,11 @@ const NEARER_LAYER: f32 = 0.95;
 const LAYER_REACH_STEP: f32 = 0.5;
 
 /// One half-resolution source texel: the nearest surface of its 2 x 2 pinhole pixels, with its
-/// kernel fitted once.
+/// kernel fitted once. Everything a tap reads, in one 64-byte cache line: the gather is bound by
+/// these loads. Colour and weight are both per unit of the spot's flux (colour times flux,
+/// amplitude over flux), so a foreground weight is directly the share of the spot it stands for.
 #[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))]
 struct Texel {
     /// Depth (mm) of the nearest surface; infinite where the texel is empty.
     depth: f32,
@@ -66,16 +69,11 @@ struct Texel {
     /// Kernel grid coordinates of a tap at offset (dx, dy) texels from the output texel:
     /// gx = m[0] dx + m[1] dy + m[2], gy = m[3] dx + m[4] dy + m[5].
     map: [f32; 6],
-    /// The prefiltered colour (the pyramid's level 0, kept here so a tap reads one record).
+    /// The prefiltered colour times the spot's flux (the pyramid's level 0, kept here so a
+    /// tap reads one record).
     colour: [f32; 3],
-    /// Weight per kernel value and per pinhole pixel of patch.
+    /// Weight per kernel value and per pinhole pixel of patch, over the spot's flux.
     amplitude: f32,
-    /// 1 / the spot's flux: the share of it a weight stands for.
-    inverse_flux: f32,
-    /// The spot's flux (relative illumination), for the full-resolution sharp pixels.
-    flux: f32,
-    /// The spot's size (RMS radius with the pixel box, pinhole pixels), before narrowing.
-    size: f32,
     /// The narrowed spot's variance (pinhole pixels squared) and its centroid on the kernel's
     /// grid: a sparse tap widens the kernel about it.
     variance: f32,
@@ -89,13 +87,19 @@ const EMPTY: Texel = Texel {
     map: [0.0; 6],
     colour: [0.0; 3],
     amplitude: 0.0,
-    inverse_flux: 0.0,
-    flux: 0.0,
-    size: 0.0,
     variance: 0.0,
     centroid_on_grid: [0.0; 2],
     node: 0,
 };
+
+/// What the full-resolution upsampling needs of a texel's spot besides the tap record.
+#[derive(Clone, Copy, Debug, Default)]
+struct Spot {
+    /// The spot's flux (relative illumination).
+    flux: f32,
+    /// Its size (RMS radius with the pixel box, pinhole pixels), before narrowing.
+    size: f32,
+}
 
 /// What the half-resolution gather leaves per texel: the sums of the centre's own layer and of
 /// nearer layers spread over it, and how much of the centre those cover.
@@ -128,7 +132,7 @@ pub fn postfx_fast(
 
     // 1. Prefilter: each texel keeps the nearest surface of its 2 x 2 pixels, its colour the
     //    patch's sum of that surface's pixels over four (premultiplied by coverage).
-    let prefiltered: Vec<(Texel, [f32; 3])> = (0..tw * th)
+    let prefiltered: Vec<(Texel, Spot)> = (0..tw * th)
         .into_par_iter()
         .map(|t| {
             let (tx, ty) = (t % tw, t / tw);
@@ -141,7 +145,7 @@ pub fn postfx_fast(
                 nearest = nearest.min(s.depth_mm);
             }
             if !nearest.is_finite() {
-                return (EMPTY, [0.0; 3]);
+                return (EMPTY, Spot::default());
             }
             let mut colour = [0.0f32; 3];
             for s in pixels.iter().flatten() {
@@ -156,11 +160,12 @@ pub fn postfx_fast(
                 view.tan_half[0] * (2.0 * centre[0] / lw as f64 - 1.0),
                 view.tan_half[1] * (1.0 - 2.0 * centre[1] / lh as f64),
             ];
-            let texel = fit(kernels, &wide, nearest, tan, aspect);
-            (Texel { colour, ..texel }, colour)
+            let (texel, spot) = fit(kernels, &wide, nearest, tan, aspect);
+            let colour = colour.map(|c| c * spot.flux);
+            (Texel { colour, ..texel }, spot)
         })
         .collect();
-    let (texels, colour): (Vec<Texel>, Vec<[f32; 3]>) = prefiltered.into_iter().unzip();
+    let (texels, spots): (Vec<Texel>, Vec<Spot>) = prefiltered.into_iter().unzip();
 
     // 2. Tiles: nearest depth and largest reach, each tile handed to every tile its texels
     //    can reach.
@@ -174,7 +179,7 @@ pub fn postfx_fast(
     );
     let widest = tiles.reach.iter().copied().fold(0.0f32, f32::max);
     let levels = (rings_for(widest).1.max(1.0).log2().ceil() as usize + 1).max(1);
-    let pyramid = Pyramid::of(tw, th, colour, levels);
+    let pyramid = Pyramid::of(tw, th, texels.iter().map(|t| t.colour).collect(), levels);
 
     // 3. The half-resolution gather, over the texels the output reads.
     let map = OutputToLayer::of(camera, ldi, width, height);
@@ -268,11 +273,12 @@ pub fn postfx_fast(
                 .then(|| {
                     let (sx, sy) = (sx as usize, sy as usize);
                     let s = front.samples[sy * lw + sx]?;
-                    let texel = texels[(sy / 2) * tw + sx / 2];
+                    let t = (sy / 2) * tw + sx / 2;
+                    let spot = spots[t];
                     let blend =
-                        ((texel.size - SHARP_SIZE) / (BLURRED_SIZE - SHARP_SIZE)).clamp(0.0, 1.0);
-                    (same_surface(s.depth_mm, texel.depth) && blend < 1.0)
-                        .then(|| (s.radiance.map(|c| c * texel.flux), blend))
+                        ((spot.size - SHARP_SIZE) / (BLURRED_SIZE - SHARP_SIZE)).clamp(0.0, 1.0);
+                    (same_surface(s.depth_mm, texels[t].depth) && blend < 1.0)
+                        .then(|| (s.radiance.map(|c| c * spot.flux), blend))
                 })
                 .flatten();
             let own: [f32; 3] = match sharp {
@@ -300,14 +306,21 @@ fn same_surface(depth: f32, nearest: f32) -> bool {
 
 /// The texel at `depth_mm` seen at tangents `tan`: its spread fitted once into an affine map
 /// from tap offsets (texels) to the node kernel's grid, narrowed by [`PIPELINE_VARIANCE`].
-fn fit(kernels: &LensKernels, wide: &[Kernel], depth_mm: f32, tan: [f64; 2], aspect: f32) -> Texel {
+fn fit(
+    kernels: &LensKernels,
+    wide: &[Kernel],
+    depth_mm: f32,
+    tan: [f64; 2],
+    aspect: f32,
+) -> (Texel, Spot) {
     let spread = kernels.spread(depth_mm as f64, tan);
     let kernel = &wide[spread.node as usize];
     if kernel.side == 0 || spread.flux <= 0.0 {
-        return Texel {
+        let dark = Texel {
             depth: depth_mm,
             ..EMPTY
         };
+        return (dark, Spot::default());
     }
     // The node's kernel over the 2-pixel box has the node's variance plus the wider box's; it
     // is scaled to the pixel's variance less what the pipeline adds.
@@ -326,7 +339,7 @@ fn fit(kernels: &LensKernels, wide: &[Kernel], depth_mm: f32, tan: [f64; 2], asp
         (spread.node_centroid[1] - kernel.origin[1] as f32) / kernel.spacing as f32
             - per_node * spread.centroid[1],
     ];
-    Texel {
+    let texel = Texel {
         depth: depth_mm,
         reach: 0.5 * (spread.support + std::f32::consts::FRAC_1_SQRT_2),
         map: [
@@ -338,17 +351,19 @@ fn fit(kernels: &LensKernels, wide: &[Kernel], depth_mm: f32, tan: [f64; 2], asp
             base[1] + 0.5,
         ],
         colour: [0.0; 3],
-        amplitude: scale * scale * spread.flux_ratio,
-        inverse_flux: 1.0 / spread.flux,
-        flux: spread.flux,
-        size: spread.size,
+        amplitude: scale * scale * spread.flux_ratio / spread.flux,
         variance: narrowed,
         centroid_on_grid: [
             (spread.node_centroid[0] - kernel.origin[0] as f32) / kernel.spacing as f32 + 0.5,
             (spread.node_centroid[1] - kernel.origin[1] as f32) / kernel.spacing as f32 + 0.5,
         ],
         node: spread.node,
-    }
+    };
+    let spot = Spot {
+        flux: spread.flux,
+        size: spread.size,
+    };
+    (texel, spot)
 }
 
 /// Rings and their spacing (texels) for a disc of `reach` texels.
@@ -475,6 +490,8 @@ impl Gatherer<'_> {
         if value <= 0.0 {
             return;
         }
+        // Per unit flux: the weight is the share of the spot that lands here, the colour is
+        // carried times the flux.
         let w = value * source.amplitude * patch;
         let c = match level {
             0 => source.colour,
@@ -482,7 +499,7 @@ impl Gatherer<'_> {
         };
         let sum = match in_front {
             true => {
-                out.coverage += w * source.inverse_flux;
+                out.coverage += w;
                 &mut out.front
             }
             false => &mut out.own,
@@ -515,5 +532,14 @@ impl Gatherer<'_> {
             return 0.0;
         }
         gain * kernel.values[gy as usize * side + gx as usize]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    /// A tap's record fills one cache line and no more.
+    #[test]
+    fn a_texel_is_one_cache_line() {
+        assert_eq!(std::mem::size_of::<super::Texel>(), 64);
     }
 }
