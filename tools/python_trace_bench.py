@@ -27,6 +27,9 @@ parser.add_argument("--cli", default=str(pathlib.Path(__file__).resolve().parent
 args = parser.parse_args()
 # rayon reads this when its pool starts, at the first trace.
 os.environ["RAYON_NUM_THREADS"] = str(args.threads)
+# NumPy's OpenBLAS keeps worker threads spinning after it starts them (5.7 % of a profile of
+# this script's traces): on a machine with few cores they take time from the trace's threads.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 
