@@ -4,9 +4,11 @@
 //! frame is shown.
 //!
 //! Accumulation spreads one render's lattice over frames: with `T` samples per pixel in all and
-//! `N` a frame, frame `k` takes lattice points `k, k + T/N, k + 2T/N, ...` (a stratified share of
-//! the lens), so after `T/N` frames the viewer holds exactly the samples `lensbake render --spp T`
-//! sums (only the order of the f32 additions differs) and stops. Any change of settings restarts.
+//! `N` a frame, frame `k` takes lattice points `o, o + T/N, o + 2T/N, ...` (a stratified share of
+//! the lens) with `o` the `k`-th offset in bit-reversed order ([`crate::render::spread_order`]),
+//! so the first frames together already cover the lens like a render with their samples; after
+//! `T/N` frames the viewer holds exactly the samples `lensbake render --spp T` sums (only the
+//! order of the f32 additions differs) and stops. Any change of settings restarts.
 //!
 //! A baked model's table is loaded or baked on a worker thread; the traced model is shown until
 //! it is ready, so baking never blocks the window.
