@@ -181,9 +181,9 @@ fn model_switch_restarts_with_the_new_model_and_a_refused_one_keeps_the_old() {
             "{kind:?} renders the traced image"
         );
     }
-    // An f-number faster than the lens is refused; the viewer keeps its settings and image.
+    // A lens that does not load is refused; the viewer keeps its settings and image.
     let kept = viewer.image();
-    assert!(viewer.apply(&Action::FNumber(0.5)).is_err());
+    assert!(viewer.apply(&Action::Lens("no-such-lens".into())).is_err());
     assert_eq!(viewer.shown_model(), ModelKind::Seidel);
     assert_eq!(viewer.image().pixels, kept.pixels);
     assert!(
@@ -327,7 +327,7 @@ fn a_bad_script_line_is_one_error_naming_file_and_line() {
 #[test]
 fn a_session_quits_at_its_frame_limit() {
     let viewer = Viewer::new(job(32, 24, 64, BackendChoice::Cpu), 1).unwrap();
-    let mut session = Session::new(viewer, Vec::new(), PathBuf::new(), Some(5));
+    let mut session = Session::new(viewer, Vec::new(), PathBuf::new(), Some(5)).unwrap();
     let mut steps = 0;
     while session.step().unwrap() != Step::Quit {
         steps += 1;
@@ -441,4 +441,199 @@ fn early_frames_at_one_sample_each_look_like_a_render_with_as_many_samples() {
     converge(&mut viewer);
     let full = job(160, 120, 256, BackendChoice::Cpu).run().unwrap().image;
     assert!(psnr(&viewer.image(), &full) > 100.0);
+}
+
+/// Runs `view` offscreen on the CPU twin, `width` x `height`, with `script` written to `dir`.
+fn run_script(dir: &Path, lens: &str, size: [u32; 2], script: &str) -> std::process::Output {
+    let file = dir.join("script.txt");
+    std::fs::write(&file, script).unwrap();
+    let (width, height) = (size[0].to_string(), size[1].to_string());
+    let tables = dir.join("tables");
+    lensbake(&[
+        "view",
+        "--lens",
+        lens,
+        "--width",
+        &width,
+        "--height",
+        &height,
+        "--spp",
+        "4",
+        "--spp-per-frame",
+        "2",
+        "--bake-resolution",
+        "16",
+        "--tables-root",
+        tables.to_str().unwrap(),
+        "--backend",
+        "cpu",
+        "--offscreen",
+        "--script",
+        file.to_str().unwrap(),
+    ])
+}
+
+fn succeeded(out: &std::process::Output) -> String {
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(
+        out.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    stdout
+}
+
+/// Defect 2 of issue 58: `fnumber` faster than wide open, even the HUD's own rounded `f/2.03`,
+/// ended a script (exit 2). It opens the lens wide open with a note instead.
+#[test]
+fn an_f_number_faster_than_wide_open_opens_wide_open_with_a_note() {
+    let dir = temp_dir("fnumber");
+    let out = run_script(
+        &dir,
+        "dgauss-50mm",
+        [32, 24],
+        "fnumber 2.03\nframes 1\nfnumber 0.5\nframes 1\nfnumber 4\nframes 2\nquit\n",
+    );
+    let stdout = succeeded(&out);
+    let notes: Vec<&str> = stdout.lines().filter(|l| l.starts_with("note: ")).collect();
+    assert_eq!(notes.len(), 2, "{stdout}");
+    for (note, asked) in notes.iter().zip(["2.03", "0.5"]) {
+        assert!(
+            note.contains(&format!("f/{asked}")) && note.contains("wide open (f/2.030"),
+            "{note}"
+        );
+    }
+    assert!(stdout.contains("hud: f/4.00, focus 2.000 m"), "{stdout}");
+    // The library clamps alike: the viewer renders wide open.
+    let mut viewer = Viewer::new(job(32, 24, 4, BackendChoice::Cpu), 2).unwrap();
+    let wide_open = viewer.job().lens.first_order(None).unwrap().1;
+    viewer.apply(&Action::FNumber(0.5)).unwrap();
+    let used = viewer.job().lens.first_order(viewer.job().f_number).unwrap().1;
+    assert!((used - wide_open).abs() < 1e-12, "f/{used}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Defect 3 of issue 58: the reflex lens cannot focus at the 2 m the viewer starts with, and
+/// switching to it ended a script (in the window, L stuck before it). A lens that cannot focus
+/// at the current distance opens at its nearest focus (unit magnification) with a note.
+#[test]
+fn every_bundled_lens_opens_in_the_viewer() {
+    let mut viewer = Viewer::new(job(40, 30, 1, BackendChoice::Cpu), 1).unwrap();
+    for bundled in lenses::BUNDLED {
+        viewer
+            .apply(&Action::Lens(bundled.name.to_string()))
+            .unwrap_or_else(|e| panic!("{}: {e}", bundled.name));
+        assert!(viewer.frame().unwrap());
+        let lit = viewer.image().pixels.iter().filter(|p| p[1] > 0.0).count();
+        let focus = viewer.focus_distance_mm().unwrap();
+        eprintln!("{}: {lit} of 1200 pixels lit, focus {focus:?}", bundled.name);
+        assert!(lit > 120, "{}: {lit} pixels lit", bundled.name);
+    }
+    let dir = temp_dir("reflex");
+    let out = run_script(
+        &dir,
+        "dgauss-50mm",
+        [40, 30],
+        "lens reflex-1000mm-f7.5\nframes 2\nlens dgauss-50mm\nframes 2\nquit\n",
+    );
+    let stdout = succeeded(&out);
+    let note = stdout
+        .lines()
+        .find(|l| l.starts_with("note: "))
+        .unwrap_or_else(|| panic!("no note: {stdout}"));
+    // Front focal point 5380.538 mm out, EFL about 1000 mm: 1:1 at about 6380 mm.
+    assert!(
+        note.contains("cannot focus at 2000 mm") && note.contains("nearest focus"),
+        "{note}"
+    );
+    assert!(stdout.contains("hud: lens dgauss-50mm"), "{stdout}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Defect 4 of issue 58: with the thin model the HUD read the real lens's conjugate of the thin
+/// model's film ("focus 1.009 m" with the 6 m wall sharp).
+#[test]
+fn the_hud_names_the_focus_of_the_model_on_screen() {
+    for kind in [ModelKind::Thin, ModelKind::Thick, ModelKind::Seidel, ModelKind::Traced] {
+        let mut start = job(32, 24, 1, BackendChoice::Cpu);
+        start.focus = FocusMode::Distance(6000.0);
+        start.model = lensbake::job::ModelChoice::Model(kind);
+        let viewer = Viewer::new(start, 1).unwrap();
+        let focus = viewer.focus_distance_mm().unwrap().unwrap();
+        eprintln!("{kind:?}: HUD focus {focus:.3} mm");
+        assert!((focus - 6000.0).abs() < 1e-6 * 6000.0, "{kind:?}: {focus}");
+        assert!(
+            viewer.hud_lines().iter().any(|l| l.ends_with("focus 6.000 m")),
+            "{:?}",
+            viewer.hud_lines()
+        );
+    }
+}
+
+/// Defect 5 of issue 58: a lens file that does not exist failed after the script's first
+/// frames, not before; so does a scene file or a screenshot into a missing folder.
+#[test]
+fn a_script_naming_missing_files_is_refused_before_the_first_frame() {
+    let dir = temp_dir("missing");
+    let shot = dir.join("first.png");
+    for (bad, needle) in [
+        ("lens /nonexistent.ron", "nonexistent.ron"),
+        ("scene /nonexistent.glb", "nonexistent.glb"),
+        ("scene /nonexistent.exr", "nonexistent.exr"),
+        ("screenshot /nonexistent/shot.png", "/nonexistent"),
+    ] {
+        let script = format!("frames 1\nscreenshot {}\nframes 1\n{bad}\n", shot.display());
+        let out = run_script(&dir, "dgauss-50mm", [16, 12], &script);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{bad}: {stderr}");
+        assert!(stderr.starts_with("error: ") && stderr.contains(":4: "), "{stderr}");
+        assert!(stderr.contains(needle), "{bad}: {stderr}");
+        assert_eq!(stderr.lines().count(), 1, "{stderr}");
+        assert!(!shot.exists(), "{bad}: the script ran before it was checked");
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Defect 6 of issue 58: the HUD said "baking table: 0/0" while a table already on disk was
+/// loaded, and the overlay's scale read "overlay white = 0.000" (no samples yet, or an error
+/// below half a thousandth).
+#[test]
+fn the_hud_says_what_the_table_worker_does_and_a_readable_overlay_scale() {
+    let dir = temp_dir("hud-table");
+    let mut start = job(48, 36, 4, BackendChoice::Cpu);
+    start.tables_root = dir.join("tables");
+    start.bake_resolution = 16;
+    let mut viewer = Viewer::new(start, 4).unwrap();
+    viewer.apply(&Action::Split(true)).unwrap();
+    viewer.wait_bake().unwrap();
+    viewer.frame().unwrap();
+    let overlay_line = |viewer: &Viewer| {
+        viewer
+            .hud_lines()
+            .into_iter()
+            .find(|l| l.starts_with("baked vs traced"))
+            .unwrap()
+    };
+    let line = overlay_line(&viewer);
+    let (_, scale) = lensbake::view::hud::error_map(&viewer.image(), &viewer.twin_image().unwrap());
+    eprintln!("{line} (scale {scale:e})");
+    let printed: f32 = line.rsplit("= ").next().unwrap().parse().unwrap();
+    assert!(
+        (printed / scale - 1.0).abs() < 0.01,
+        "{line}: the scale is {scale:e}"
+    );
+    // Off and on again: the table is on disk now, and the worker loads it.
+    viewer.apply(&Action::Split(false)).unwrap();
+    viewer.apply(&Action::Split(true)).unwrap();
+    let lines = viewer.hud_lines();
+    eprintln!("{lines:?}");
+    assert!(lines.iter().all(|l| !l.contains("0/0")), "{lines:?}");
+    assert!(lines.iter().any(|l| l.contains("table")), "{lines:?}");
+    viewer.wait_bake().unwrap();
+    let events = format!("{:?}", viewer.take_events());
+    assert!(events.contains("baked_now: false"), "{events}");
+    // Before the first frame of the new split there is no error to scale.
+    let line = overlay_line(&viewer);
+    assert!(!line.contains("0.000"), "{line}");
+    std::fs::remove_dir_all(&dir).unwrap();
 }

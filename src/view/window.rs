@@ -5,7 +5,6 @@
 
 use super::script::Action;
 use super::{MODEL_CYCLE, Session, Step, ViewError, ViewEvent, hud};
-use crate::lenses::BUNDLED;
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -205,15 +204,7 @@ impl App<'_> {
                 "c" => Action::Chromatic(viewer.camera().chromatic.is_none()),
                 "s" => Action::Split(!viewer.split()),
                 "e" => Action::ErrorOverlay(!viewer.overlay()),
-                "l" => {
-                    let current = match &job.lens {
-                        crate::job::RenderLens::Real(real) => real.source.origin.name(),
-                        crate::job::RenderLens::Ideal { .. } => String::new(),
-                    };
-                    let at = BUNDLED.iter().position(|b| b.name == current);
-                    let next = at.map_or(0, |i| (i + 1) % BUNDLED.len());
-                    Action::Lens(BUNDLED[next].name.to_string())
-                }
+                "l" => viewer.next_bundled_lens(),
                 "+" | "=" => Action::SppPerFrame(viewer.spp_per_frame().saturating_mul(2)),
                 "-" => Action::SppPerFrame((viewer.spp_per_frame() / 2).max(1)),
                 "p" => {
