@@ -637,3 +637,35 @@ fn the_hud_says_what_the_table_worker_does_and_a_readable_overlay_scale() {
     assert!(!line.contains("0.000"), "{line}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// Defect 7 of issue 58: every script action prepared the render anew (placed the film, fitted
+/// the traced pupil, peeled the scene): 20-160 ms each even at 16x12. An action that leaves the
+/// camera and the layers as they are prepares nothing; samples per frame only restart the
+/// accumulation, which still ends on the render's own samples.
+#[test]
+fn settings_that_leave_the_render_as_it_is_prepare_nothing() {
+    let mut viewer = Viewer::new(job(32, 24, 16, BackendChoice::Cpu), 4).unwrap();
+    viewer.frame().unwrap();
+    let prepared = viewer.preparations();
+    viewer.apply(&Action::SppPerFrame(2)).unwrap();
+    assert_eq!(viewer.samples(), (0, 16), "a new share size restarts");
+    for unchanged in [
+        Action::SppPerFrame(2),
+        Action::ErrorOverlay(true),
+        Action::ErrorOverlay(false),
+        Action::FNumber(0.5),
+        Action::Chromatic(false),
+        Action::Shift([0.0, 0.0]),
+        Action::Tilt([0.0, 0.0]),
+        Action::Split(false),
+        Action::Model(ModelKind::Traced),
+    ] {
+        viewer.apply(&unchanged).unwrap();
+        assert_eq!(viewer.preparations(), prepared, "{unchanged:?} prepared");
+    }
+    assert_eq!(converge(&mut viewer), 8);
+    let rendered = job(32, 24, 16, BackendChoice::Cpu).run().unwrap().image;
+    assert!(psnr(&viewer.image(), &rendered) > 100.0);
+    viewer.apply(&Action::FNumber(4.0)).unwrap();
+    assert_eq!(viewer.preparations(), prepared + 1);
+}
