@@ -276,9 +276,15 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     for line in &from_file {
         say!("lens file: {line}");
     }
-    let rendered = job
-        .run()
-        .map_err(|error| say_how_to_focus(error, unasked_focus))?;
+    // A spinner on a terminal only (indicatif hides it elsewhere): a large render is silent
+    // for seconds otherwise.
+    let progress = super::demo::stage(&format!(
+        "rendering {}x{}, {} spp",
+        job.settings.width, job.settings.height, job.settings.samples_per_pixel
+    ));
+    let rendered = job.run();
+    progress.finish_and_clear();
+    let rendered = rendered.map_err(|error| say_how_to_focus(error, unasked_focus))?;
     // Released only now, so that a render the job refuses prints its error line first.
     super::notes::release();
     print_decisions(&job, &rendered);
