@@ -303,7 +303,7 @@ fn an_offscreen_script_runs_and_writes_its_screenshots() {
 fn a_bad_script_line_is_one_error_naming_file_and_line() {
     let dir = temp_dir("bad-script");
     for (text, line, needle) in [
-        ("frames 1\nfocus 3\n", 2, "unknown action `focus`"),
+        ("frames 1\nzoom 3\n", 2, "unknown action `zoom`"),
         ("frames x\n", 1, "not a whole number"),
         ("click 9000 1\n", 1, "outside the 80x60 render"),
         ("lens no-such-lens\n", 1, "no-such-lens"),
@@ -668,4 +668,45 @@ fn settings_that_leave_the_render_as_it_is_prepare_nothing() {
     assert!(psnr(&viewer.image(), &rendered) > 100.0);
     viewer.apply(&Action::FNumber(4.0)).unwrap();
     assert_eq!(viewer.preparations(), prepared + 1);
+}
+
+/// Issue 58's camera controls: `focus-pull 2000 6000 3` renders a frame at 2 m, one between and
+/// one at 6 m; the sharp region moves from the chart (2 m) to the wall (6 m), measured by local
+/// contrast, and `focus 2000` brings the chart back.
+#[test]
+fn a_scripted_focus_pull_moves_the_sharp_region() {
+    let chart = [0.30, 0.55, 0.38, 0.62];
+    let wall = [0.20, 0.45, 0.03, 0.17];
+    let viewer = Viewer::new(job(200, 150, 16, BackendChoice::Cpu), 16).unwrap();
+    let script = lensbake::view::script::parse_script(
+        "focus-pull 2000 6000 3\nfocus 2000\nframes 1\n",
+        Path::new("pull.txt"),
+    )
+    .unwrap();
+    let mut session = Session::new(viewer, script, PathBuf::from("pull.txt"), None).unwrap();
+    let mut frames = Vec::new();
+    loop {
+        match session.step().unwrap() {
+            Step::Frame { rendered: true } => {
+                let viewer = &session.viewer;
+                let image = viewer.image();
+                let focus = viewer.focus_distance_mm().unwrap().unwrap();
+                let (c, w) = (local_contrast(&image, chart), local_contrast(&image, wall));
+                eprintln!("focus {focus:.0} mm: chart {c:.4}, wall {w:.4}");
+                frames.push((focus, c, w));
+            }
+            Step::Idle | Step::Quit => break,
+            _ => {}
+        }
+    }
+    assert_eq!(frames.len(), 4);
+    let expected = [2000.0, 3000.0, 6000.0, 2000.0];
+    for ((focus, _, _), want) in frames.iter().zip(expected) {
+        assert!((focus - want).abs() < 1e-6 * want, "{focus} against {want}");
+    }
+    let (first, last) = (frames[0], frames[2]);
+    // Measured at 200x150, f/2.03: chart 0.160 -> 0.133, wall 0.0610 -> 0.0662.
+    assert!(first.1 > 1.15 * last.1, "chart {} -> {}", first.1, last.1);
+    assert!(last.2 > 1.05 * first.2, "wall {} -> {}", first.2, last.2);
+    assert!((frames[3].1 / first.1 - 1.0).abs() < 0.02, "focus 2000 again");
 }

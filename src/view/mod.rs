@@ -406,6 +406,7 @@ impl Viewer {
                 job.focus = FocusMode::Pixel(*pixel);
             }
             Action::FNumber(f) => job.f_number = self.within_lens(&job.lens, *f)?,
+            Action::Focus(mm) => job.focus = FocusMode::Distance(*mm),
             Action::Model(kind) => job.model = ModelChoice::Model(*kind),
             Action::Split(on) => split = *on,
             Action::ErrorOverlay(on) => {
@@ -428,6 +429,7 @@ impl Viewer {
             }
             Action::Scene(spec) => job.scene = SceneSpec::parse(spec),
             Action::Frames(_)
+            | Action::FocusPull { .. }
             | Action::WaitBake
             | Action::Screenshot(_)
             | Action::WindowSize(_)
@@ -715,6 +717,8 @@ pub struct Session {
     script: VecDeque<ScriptLine>,
     script_file: PathBuf,
     frames_owed: u32,
+    /// The distances (mm) a focus pull has still to render a frame at, next first.
+    pull: VecDeque<f64>,
     frame_limit: Option<u64>,
     frames: u64,
 }
@@ -743,6 +747,7 @@ impl Session {
             script: script.into(),
             script_file,
             frames_owed: 0,
+            pull: VecDeque::new(),
             frame_limit,
             frames: 0,
         })
@@ -755,7 +760,7 @@ impl Session {
 
     /// Whether the script still has actions or owed frames.
     pub fn scripted(&self) -> bool {
-        self.frames_owed > 0 || !self.script.is_empty()
+        self.frames_owed > 0 || !self.pull.is_empty() || !self.script.is_empty()
     }
 
     /// Does the next thing: a frame the script owes, else the script's next action, else (with
@@ -766,6 +771,10 @@ impl Session {
         }
         if self.frames_owed > 0 {
             self.frames_owed -= 1;
+            return self.frame();
+        }
+        if let Some(mm) = self.pull.pop_front() {
+            self.viewer.apply(&Action::Focus(mm))?;
             return self.frame();
         }
         if let Some(next) = self.script.pop_front() {
@@ -794,6 +803,11 @@ impl Session {
     fn run(&mut self, line: &ScriptLine) -> Result<Step, ViewError> {
         match &line.action {
             Action::Frames(n) => self.frames_owed = *n,
+            Action::FocusPull {
+                from_mm,
+                to_mm,
+                frames,
+            } => self.pull = focus_pull(*from_mm, *to_mm, *frames),
             Action::WaitBake => self.viewer.wait_bake()?,
             Action::Screenshot(path) => self.viewer.screenshot(path)?,
             Action::Quit => return Ok(Step::Quit),
@@ -804,4 +818,17 @@ impl Session {
         }
         Ok(Step::Action)
     }
+}
+
+/// The distances (mm) of a focus pull's `frames` frames from `from_mm` to `to_mm`, both ends
+/// included, evenly spaced in dioptres: the film moves nearly evenly (exactly so for a thin
+/// lens far from macro), as a follow-focus wheel turns.
+fn focus_pull(from_mm: f64, to_mm: f64, frames: u32) -> VecDeque<f64> {
+    let steps = f64::from(frames.max(2) - 1);
+    (0..frames.max(2))
+        .map(|k| {
+            let t = f64::from(k) / steps;
+            1.0 / ((1.0 - t) / from_mm + t / to_mm)
+        })
+        .collect()
 }

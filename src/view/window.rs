@@ -16,7 +16,8 @@ use winit::keyboard::{Key, NamedKey};
 use winit::window::{Window, WindowId};
 
 /// Key bindings, for `--help` and the README.
-pub const KEYS: &str = "click: focus there; F / Shift+F: close / open one third stop; M: next \
+pub const KEYS: &str = "click: focus there; [ / ]: focus a quarter nearer / farther; F / \
+     Shift+F: close / open one third stop; M: next \
      model; C: chromatic on/off; S: split view; E: error overlay; arrows: shift the sensor 0.5 mm; \
      Shift+arrows: tilt it 0.5 degrees; L: next bundled lens; + / -: double / halve samples per \
      frame; P: screenshot (lensbake-view-N.png); Q or Esc: quit; drop a lens, glTF or EXR file to \
@@ -200,6 +201,15 @@ impl App<'_> {
                     };
                     let at = MODEL_CYCLE.iter().position(|&k| k == shown).unwrap_or(0);
                     Action::Model(MODEL_CYCLE[(at + 1) % MODEL_CYCLE.len()])
+                }
+                "[" | "]" => {
+                    // A quarter nearer or farther; from a focus at infinity, 100 m in.
+                    let focus = viewer.focus_distance_mm().flatten().unwrap_or(100_000.0);
+                    Action::Focus(if c.as_str() == "[" {
+                        focus / 1.25
+                    } else {
+                        focus * 1.25
+                    })
                 }
                 "c" => Action::Chromatic(viewer.camera().chromatic.is_none()),
                 "s" => Action::Split(!viewer.split()),
