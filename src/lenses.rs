@@ -185,6 +185,22 @@ pub enum WriteLensError {
         #[source]
         problem: Problem,
     },
+    /// The lens states a condition its readers refuse (`lensbake lens check` refuses it too):
+    /// a file written with it could not be read back.
+    #[error("cannot write {}: {error}", path.display())]
+    StatedCondition {
+        path: PathBuf,
+        #[source]
+        error: Box<crate::analysis::AnalysisError>,
+    },
+    /// The text that would be written is one lensbake's own reader refuses; nothing is written.
+    #[error("cannot write {}: the {what} would be refused when read back: {error}", path.display())]
+    Unreadable {
+        path: PathBuf,
+        what: &'static str,
+        #[source]
+        error: PrescriptionError,
+    },
     #[error(transparent)]
     Output(#[from] crate::output::OutputError),
     #[error(transparent)]
@@ -209,7 +225,8 @@ pub enum WriteLensError {
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 pub fn write_lens(system: &LensSystem, path: &Path) -> Result<Format, WriteLensError> {
-    use crate::prescription::formats::{write_pbrt, write_ron_file, write_zemax};
+    use crate::analysis::{AnalysisError, ConditionOverrides, DesignConditions};
+    use crate::prescription::formats::{write_pbrt, write_ron, write_zemax};
     let cannot = |what| {
         move |problem| WriteLensError::Cannot {
             path: path.to_path_buf(),
@@ -217,20 +234,50 @@ pub fn write_lens(system: &LensSystem, path: &Path) -> Result<Format, WriteLensE
             problem,
         }
     };
-    let format = Format::from_path(path).ok();
-    match format {
-        Some(Format::Zemax) => {
+    // The conditions `lensbake lens check` refuses (an entrance pupil of 1e300 mm, an object
+    // at distance 0, a 90 degree field) are refused here, naming where the input states them.
+    if let Err(error @ AnalysisError::Stated { .. }) =
+        DesignConditions::resolve(system, &ConditionOverrides::default())
+    {
+        return Err(WriteLensError::StatedCondition {
+            path: path.to_path_buf(),
+            error: Box::new(error),
+        });
+    }
+    let format = Format::from_path(path).map_err(|_| WriteLensError::Format(path.to_path_buf()))?;
+    let (text, what) = match format {
+        Format::Zemax => {
             let stated = crate::analysis::stated_as_analysed(system);
-            let text = write_zemax(&stated).map_err(cannot("a Zemax file"))?;
-            crate::output::write_bytes(path, text.as_bytes())?;
+            (write_zemax(&stated).map_err(cannot("a Zemax file"))?, "Zemax file")
         }
-        Some(Format::Pbrt) => {
+        Format::Pbrt => {
             let nm = system.design_wavelength_nm();
             let text = write_pbrt(&system.prescription, nm).map_err(cannot("a pbrt lens file"))?;
-            crate::output::write_bytes(path, text.as_bytes())?;
+            (text, "pbrt lens file")
         }
-        Some(Format::Ron) => write_ron_file(path, &system.prescription)?,
+        Format::Ron => (write_ron(&system.prescription), "RON file"),
         _ => return Err(WriteLensError::Format(path.to_path_buf())),
+    };
+    readable_back(&text, path, format).map_err(|error| WriteLensError::Unreadable {
+        path: path.to_path_buf(),
+        what,
+        error,
+    })?;
+    crate::output::write_bytes(path, text.as_bytes())?;
+    Ok(format)
+}
+
+/// Reads `text` back as `path`'s reader would and validates it as `lensbake lens check` does,
+/// so a file lensbake writes is always one it reads.
+fn readable_back(text: &str, path: &Path, format: Format) -> Result<(), PrescriptionError> {
+    use crate::analysis::{AnalysisError, ConditionOverrides, DesignConditions};
+    let loaded = read_str(text, Some(path), format, &LoadOptions::default())?;
+    let system = LensSystem::new(loaded.prescription, &loaded.map)?;
+    match DesignConditions::resolve(&system, &ConditionOverrides::default()) {
+        Err(AnalysisError::Stated { at, error, .. }) => Err(PrescriptionError::new(
+            at,
+            Problem::Unsupported(error.to_string()),
+        )),
+        _ => Ok(()),
     }
-    Ok(format.expect("written formats are named"))
 }

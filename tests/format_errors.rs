@@ -649,8 +649,15 @@ fn wavelengths_are_located_on_their_line() {
 fn zemax_fields_are_located_on_their_keyword_line() {
     let base = include_str!("../examples/lenses/cooke_triplet.zmx");
     let cases = [
-        // SURF 1's glass, on line 41.
-        ("  GLAS SK16 1 0", "  GLAS NOSUCH 1 0", 41, 1, "GLAS"),
+        // SURF 1's glass, on line 41, unknown and without the nd and Vd that would make it a
+        // model glass.
+        (
+            "  GLAS SK16 1 0 1.620408 60.32",
+            "  GLAS NOSUCH 1 0 0 0",
+            41,
+            1,
+            "GLAS",
+        ),
         // SURF 2's gap to surface 3, on line 49, made to cross it.
         ("  DISZ 6.00755", "  DISZ -6.00755", 49, 2, "DISZ"),
         // SURF 1's semi-aperture, on line 42, made larger than its 22 mm radius.

@@ -788,7 +788,8 @@ fn write_ron_file_is_atomic_and_replaces() {
     );
     let missing = dir.join("no-such-dir/lens.ron");
     let error = write_ron_file(&missing, &p).unwrap_err();
-    assert!(matches!(error.problem, Problem::Io(_)));
+    assert!(matches!(error.problem, Problem::Write(_)));
+    assert!(error.to_string().contains("cannot write file"), "{error}");
     assert_eq!(error.location.file.as_deref(), Some(missing.as_path()));
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -1750,6 +1750,76 @@ fn hostile_scenes_end_cleanly() {
 fn hostile_lens_files_end_cleanly() {
     let scratch = Scratch::new("lenses");
     let dir = scratch.path();
+    let mut cases = Vec::new();
+    for (label, path) in &hostile_lens_files(dir) {
+        for command in [
+            vec!["lens", "check", path],
+            vec!["analyze", path],
+            vec!["plot", "vignetting", path, "--out", "v.png"],
+            vec!["bake", path, "--resolution", "4", "--out", "t"],
+        ] {
+            cases.push((format!("{} of {label}", command[0]), strings(&command)));
+        }
+    }
+    run_class("hostile lens files", dir, cases, &|_, _| None);
+}
+
+/// `lens convert` refuses every hostile lens file `lens check` refuses, with one `error:` line
+/// and exit code 2, writing nothing; and a file it does write is one `lens check` reads.
+#[test]
+fn convert_refuses_what_check_refuses_and_writes_only_what_check_reads() {
+    let scratch = Scratch::new("convert");
+    let dir = scratch.path();
+    let mut failures = Vec::new();
+    let mut refused = 0;
+    let files = hostile_lens_files(dir);
+    for (label, path) in &files {
+        let check = run_in(dir, &strings(&["lens", "check", path]), None);
+        for extension in ["ron", "zmx", "dat"] {
+            let out = format!("converted.{extension}");
+            let _ = std::fs::remove_file(dir.join(&out));
+            let convert = run_in(dir, &strings(&["lens", "convert", path, &out]), None);
+            let written = dir.join(&out).exists();
+            let why = unclean(&convert).or_else(|| match (check.code, convert.code, written) {
+                (Some(2), Some(2), false) => None,
+                (Some(2), _, _) => Some(format!(
+                    "lens check refuses it but convert exited {:?} and wrote {written}",
+                    convert.code
+                )),
+                (_, Some(0), true) => {
+                    let back = run_in(dir, &strings(&["lens", "check", &out]), None);
+                    (back.code != Some(0))
+                        .then(|| format!("wrote a file lens check refuses: {}", back.stderr))
+                }
+                (_, Some(0), false) => Some("exit 0 without writing".into()),
+                _ => None,
+            });
+            if let Some(why) = why {
+                failures.push(format!("convert to .{extension} of {label}: {why}"));
+            }
+        }
+        refused += usize::from(check.code == Some(2));
+    }
+    println!(
+        "hostile class | lens convert of hostile lens files | {} files, {refused} refused by lens \
+         check | {} failures",
+        files.len(),
+        failures.len()
+    );
+    assert!(refused >= 15, "only {refused} files refused: the suite lost its teeth");
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+/// The Cooke triplet of tests/data/cooke_triplet.zmx as RON, with its stated entrance pupil
+/// (10 mm), fields (0, 14, 20 degrees) and wavelengths.
+fn stated_conditions_ron() -> String {
+    use lensbake::prescription::formats::{LoadOptions, read_file, write_ron};
+    let path = common::test_data("cooke_triplet.zmx");
+    write_ron(&read_file(&path, &LoadOptions::default()).unwrap().prescription)
+}
+
+/// The hostile lens files in `dir` (label, path as the commands name it from `dir`).
+fn hostile_lens_files(dir: &Path) -> Vec<(String, String)> {
     let ron = lensbake::lenses::find(LENS).unwrap().ron.to_string();
     let mut files: Vec<(String, String, Vec<u8>)> = Vec::new();
     let mut add = |label: &str, name: &str, bytes: Vec<u8>| {
@@ -1835,6 +1905,35 @@ fn hostile_lens_files_end_cleanly() {
             ron.replacen(from, to, 1).into_bytes(),
         );
     }
+    // Conditions a lens file states, in lensbake's own format (the readers of Zemax and CODE V
+    // refuse them on their lines; a RON file's come whole to the same checks).
+    let stated = stated_conditions_ron();
+    for (label, from, to) in [
+        (
+            "an entrance pupil of 1e300 mm",
+            "EntrancePupilDiameter(10.0)",
+            "EntrancePupilDiameter(1e300)",
+        ),
+        (
+            "an object distance of 0",
+            "object_distance_mm: None",
+            "object_distance_mm: Some(0.0)",
+        ),
+        ("a 90 degree field", "20.0,", "90.0,"),
+    ] {
+        assert!(stated.contains(from), "{label}: the Cooke triplet's RON changed");
+        add(
+            label,
+            &format!("{}.ron", label.replace(' ', "-")),
+            stated.replacen(from, to, 1).into_bytes(),
+        );
+    }
+    let mut many_seq = String::from("RDM\nEPD 10\nSO 0 1e10\n");
+    for k in 0..700_000 {
+        many_seq.push_str(if k % 2 == 0 { "S 60 2 N-BK7\n" } else { "S -60 2\n" });
+    }
+    many_seq.push_str("SI 0 0\nGO\n");
+    add("700,000 CODE V surfaces", "many.seq", many_seq.into_bytes());
     add("an empty file", "empty.ron", Vec::new());
     add(
         "binary junk",
@@ -1859,18 +1958,7 @@ fn hostile_lens_files_end_cleanly() {
         "a character device that never ends".into(),
         "/dev/zero".into(),
     ));
-    let mut cases = Vec::new();
-    for (label, path) in &paths {
-        for command in [
-            vec!["lens", "check", path],
-            vec!["analyze", path],
-            vec!["plot", "vignetting", path, "--out", "v.png"],
-            vec!["bake", path, "--resolution", "4", "--out", "t"],
-        ] {
-            cases.push((format!("{} of {label}", command[0]), strings(&command)));
-        }
-    }
-    run_class("hostile lens files", dir, cases, &|_, _| None);
+    paths
 }
 
 /// Kills `args` at a seeded random instant (up to `window`), many times; after every kill,

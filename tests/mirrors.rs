@@ -582,3 +582,44 @@ fn zemax_and_code_v_mirrors_and_obscurations_are_read() {
     assert!((a.first_order.efl + 100.0).abs() < 1e-12);
     assert!((a.first_order.f_number - 5.0).abs() < 1e-12);
 }
+
+/// A secondary mirror sitting in its primary's hole: inside the hole there is no primary, so
+/// the secondary may reach past where the primary's sphere would be; outside the hole, in the
+/// ring light crosses, surfaces that cross are refused as before.
+#[test]
+fn a_secondary_in_the_primarys_hole_does_not_cross_it() {
+    let telescope = |hole: Option<f64>, secondary_semi_aperture: f64| Prescription {
+        provenance: Provenance::default(),
+        object_medium: Medium::Air,
+        surfaces: vec![
+            Surface {
+                shape: Shape::Sphere {
+                    curvature: -1.0 / 200.0,
+                },
+                thickness: -0.5,
+                medium: Medium::Mirror,
+                semi_aperture: 50.0,
+                stop: Some(StopShape::Circle),
+                obscuration: hole,
+            },
+            Surface {
+                shape: Shape::Sphere {
+                    curvature: 1.0 / 20.0,
+                },
+                thickness: 30.0,
+                medium: Medium::Mirror,
+                semi_aperture: secondary_semi_aperture,
+                stop: None,
+                obscuration: None,
+            },
+        ],
+    };
+    // At r = 10 the secondary (sag 2.68 mm) lies 2.43 mm beyond the primary's sphere.
+    let crosses = |p: Prescription| match LensSystem::from_prescription(p) {
+        Err(e) => matches!(e.problem, lensbake::prescription::Problem::SurfacesCross { .. }),
+        Ok(_) => false,
+    };
+    assert!(crosses(telescope(None, 12.0)), "no hole: the surfaces cross");
+    assert!(!crosses(telescope(Some(15.0), 12.0)), "the secondary sits in the hole");
+    assert!(crosses(telescope(Some(15.0), 19.0)), "beyond the hole they cross");
+}

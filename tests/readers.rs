@@ -816,3 +816,154 @@ fn codev_private_glasses_by_laurent_coefficients() {
     assert!(e.to_string().contains("6 Laurent coefficients"), "{e}");
     assert_eq!(e.location.line, Some(5), "{e}");
 }
+
+fn data_file(name: &str) -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data").join(name)
+}
+
+/// The Cooke triplet of tests/data with `from` replaced by `to` in its text.
+fn cooke_with(from: &str, to: &str) -> String {
+    let text = std::fs::read_to_string(data_file("cooke_triplet.zmx")).unwrap();
+    assert!(text.contains(from), "the test file changed: {from}");
+    text.replacen(from, to, 1)
+}
+
+/// A glass no catalogue holds becomes the model glass of the nd and Vd OpticStudio writes beside
+/// its name, with a note naming surface and glass: n(d) is nd and (nd - 1) / (nF - nC) is Vd
+/// exactly, and the lens at the d line is the catalogue glass's lens to the rounding of the
+/// written nd.
+#[test]
+fn an_unknown_glass_is_read_as_the_model_glass_its_file_writes() {
+    let text = cooke_with(
+        "GLAS F2 1 0 1.620040 36.37",
+        "GLAS F2_FROM_NO_CATALOGUE 1 0 1.620040 36.37",
+    );
+    let loaded = read(&text).unwrap();
+    assert_eq!(
+        loaded.prescription.surfaces[2].medium,
+        Medium::Model {
+            nd: 1.62004,
+            vd: 36.37
+        }
+    );
+    let note = loaded
+        .notes
+        .iter()
+        .find(|n| matches!(n, LoadNote::ModelGlasses { .. }))
+        .expect("a note names the model glass");
+    let said = note.to_string();
+    assert!(
+        said.contains("surface 3 F2_FROM_NO_CATALOGUE (nd 1.62004, Vd 36.37)"),
+        "{said}"
+    );
+    let system = LensSystem::new(loaded.prescription.clone(), &loaded.map).unwrap();
+    let model = &system.dispersions[2];
+    let (d, f, c) = (
+        model.index(D_LINE_NM),
+        model.index(lensbake::glass::F_LINE_NM),
+        model.index(lensbake::glass::C_LINE_NM),
+    );
+    assert!((d - 1.62004).abs() <= 1e-12, "n(d) {d}");
+    assert!(((d - 1.0) / (f - c) - 36.37).abs() <= 1e-10, "Vd");
+    let catalogue = read(&std::fs::read_to_string(data_file("cooke_triplet.zmx")).unwrap()).unwrap();
+    let catalogue = LensSystem::new(catalogue.prescription, &catalogue.map).unwrap();
+    let options = AnalyzeOptions {
+        wavelength_nm: Some(D_LINE_NM),
+        ..AnalyzeOptions::default()
+    };
+    let (x, y) = (
+        analyze(&system, &options).unwrap().first_order.efl,
+        analyze(&catalogue, &options).unwrap().first_order.efl,
+    );
+    // SCHOTT F2's formula gives n(d) within 1e-6 of its printed nd 1.62004.
+    let catalogue_nd = lookup("F2").unwrap().dispersion().index(D_LINE_NM);
+    assert!((catalogue_nd - 1.62004).abs() < 1e-5);
+    assert!((x - y).abs() <= 1e-4 * y, "EFL {x} vs {y}");
+}
+
+/// Numbers that are no glass's are never made into one: `0 0` beside an unknown name, or a file
+/// whose numbers beside catalogue glasses are not theirs (a writer that puts `1.5 40` beside
+/// every name, as rayoptics__US08427765-1.ZMX does), leave the name unknown and refused.
+#[test]
+fn numbers_that_are_no_glass_are_not_made_into_a_model_glass() {
+    let empty = cooke_with("GLAS F2 1 0 1.620040 36.37", "GLAS F2_UNLISTED 1 0 0 0");
+    let placeholder = cooke_with("GLAS F2 1 0 1.620040 36.37", "GLAS F2_UNLISTED 1 0 1.5 40")
+        .replacen("GLAS SK16 1 0 1.620408 60.32", "GLAS SK16 1 0 1.5 40", 1);
+    for (label, text) in [("0 0", empty), ("placeholders", placeholder)] {
+        let loaded = read(&text).unwrap();
+        assert_eq!(
+            loaded.prescription.surfaces[2].medium,
+            Medium::Glass("F2_UNLISTED".into()),
+            "{label}"
+        );
+        let error = LensSystem::new(loaded.prescription.clone(), &loaded.map).unwrap_err();
+        assert!(matches!(error.problem, Problem::UnknownGlass { .. }), "{label}: {error}");
+        let contradicted = loaded
+            .notes
+            .iter()
+            .any(|n| matches!(n, LoadNote::WrittenGlassDataContradicted(c) if c.name == "SK16"));
+        assert_eq!(contradicted, label == "placeholders", "{label}");
+    }
+    let corpus = data_file("corpus/rayoptics__US08427765-1.ZMX");
+    let loaded = lensbake::prescription::formats::read_file(&corpus, &LoadOptions::default())
+        .unwrap();
+    assert!(LensSystem::new(loaded.prescription.clone(), &loaded.map).is_err());
+    assert!(
+        loaded
+            .notes
+            .iter()
+            .any(|n| matches!(n, LoadNote::WrittenGlassDataContradicted(_)))
+    );
+}
+
+/// A lens table headed by its focal length alone on a line (ISET's pbrt lens files): the number
+/// is the claimed focal length, compared with the EFL and never used for it.
+#[test]
+fn a_lens_table_headed_by_its_focal_length_reads_it_as_the_claim() {
+    let path = data_file("lens-tables/iset3d__tessar.22deg.50.0mm.dat");
+    let loaded =
+        lensbake::prescription::formats::read_file(&path, &LoadOptions::default()).unwrap();
+    assert_eq!(loaded.prescription.provenance.claimed_focal_length_mm, Some(50.0));
+    assert_eq!(loaded.prescription.surfaces.len(), 8);
+    let system = LensSystem::new(loaded.prescription, &loaded.map).unwrap();
+    let efl = analyze(&system, &AnalyzeOptions::default())
+        .unwrap()
+        .first_order
+        .efl;
+    // The table was scaled to a 50 mm claim from a design of EFL 100.18 mm (Smith).
+    assert!((efl - 50.0).abs() < 0.01 * 50.0, "EFL {efl}");
+
+    let table = |text: &str| {
+        read_str(
+            text,
+            Some(Path::new("t.dat")),
+            Format::Pbrt,
+            &LoadOptions::default(),
+        )
+    };
+    let rows = "50 5 1.5 20\n0 5 0 10\n-50 40 1 20\n";
+    assert_eq!(
+        table(&format!("# focal length\n-80\n{rows}"))
+            .unwrap()
+            .prescription
+            .provenance
+            .claimed_focal_length_mm,
+        Some(-80.0)
+    );
+    // After the first surface row, or a second one, a lone number is a short row.
+    for text in [
+        format!("{rows}50\n"),
+        format!("50\n60\n{rows}"),
+        format!("0\n{rows}"),
+        format!("inf\n{rows}"),
+    ] {
+        let error = table(&text).unwrap_err();
+        assert!(
+            matches!(
+                error.problem,
+                Problem::WrongColumnCount { .. } | Problem::Syntax(_) | Problem::NonFinite { .. }
+            ),
+            "{text}: {error}"
+        );
+    }
+}

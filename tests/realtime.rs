@@ -9,7 +9,7 @@ use common::lensbake;
 use lensbake::lenses::{self, LoadedLens};
 use lensbake::model::{FirstOrderModels, LensModel, TracedLens};
 use lensbake::prescription::formats::LoadOptions;
-use lensbake::realtime::{KernelSettings, LensKernels, postfx};
+use lensbake::realtime::{KernelSettings, LensKernels, PostfxPath};
 use lensbake::render::camera::{Camera, Film, Focus};
 use lensbake::render::image::RgbImage;
 use lensbake::render::layers::{LayeredDepthImage, View};
@@ -140,6 +140,9 @@ fn emitters(
     }
 }
 
+/// Flux tolerance of the fast path against the traced spot (the exact path's is 1 %).
+const FAST_FLUX_TOLERANCE: f64 = 0.05;
+
 /// The traced image-based ray tracer's spot of each emitter against `postfx`'s: flux within 1 %,
 /// RMS radius within 5 %, centroid within half a pixel.
 #[test]
@@ -166,28 +169,42 @@ fn a_point_emitter_through_postfx_matches_the_traced_lens_at_three_field_positio
         &KernelSettings::default(),
     )
     .unwrap();
-    let filtered = postfx(
-        &run.camera,
-        &run.ldi,
-        &kernels,
-        settings.width,
-        settings.height,
-    )
-    .unwrap();
+    // Both statements of the gather: the exact one (full resolution, every tap's kernel
+    // fitted) and the fast default (half resolution, kernels narrowed by the pipeline's blur).
     let mut fluxes = Vec::new();
-    for spot in spots {
-        let (flux, centroid, rms) = spot_moments(&traced, spot, 14.0);
-        let (got_flux, got_centroid, got_rms) = spot_moments(&filtered, spot, 14.0);
-        let shift = (got_centroid[0] - centroid[0]).hypot(got_centroid[1] - centroid[1]);
-        let report = format!(
-            "spot at {spot:?}: traced flux {flux:.4}, RMS {rms:.3} px, centroid {centroid:.3?}; \
-             postfx {got_flux:.4}, {got_rms:.3} px, {got_centroid:.3?}"
-        );
-        eprintln!("{report}");
-        assert!((got_flux / flux - 1.0).abs() < 0.01, "{report}");
-        assert!((got_rms / rms - 1.0).abs() < 0.05, "{report}");
-        assert!(shift < 0.5, "{report}");
-        fluxes.push(flux);
+    for path in [PostfxPath::Exact, PostfxPath::Fast] {
+        let filtered = path
+            .render(
+                &run.camera,
+                &run.ldi,
+                &kernels,
+                settings.width,
+                settings.height,
+            )
+            .unwrap();
+        fluxes.clear();
+        for spot in spots {
+            let (flux, centroid, rms) = spot_moments(&traced, spot, 14.0);
+            let (got_flux, got_centroid, got_rms) = spot_moments(&filtered, spot, 14.0);
+            let shift = (got_centroid[0] - centroid[0]).hypot(got_centroid[1] - centroid[1]);
+            let report = format!(
+                "spot at {spot:?}: traced flux {flux:.4}, RMS {rms:.3} px, centroid \
+                 {centroid:.3?}; postfx {} {got_flux:.4}, {got_rms:.3} px, {got_centroid:.3?}",
+                path.name()
+            );
+            eprintln!("{report}");
+            // The exact path meets issue 55's targets; the fast one (half resolution, kernels
+            // narrowed by the pipeline's blur and sampled on a 2-pixel lattice) is held to
+            // what it measures, docs/realtime.md's table.
+            let flux_tolerance = match path {
+                PostfxPath::Exact => 0.01,
+                PostfxPath::Fast => FAST_FLUX_TOLERANCE,
+            };
+            assert!((got_flux / flux - 1.0).abs() < flux_tolerance, "{report}");
+            assert!((got_rms / rms - 1.0).abs() < 0.05, "{report}");
+            assert!(shift < 0.5, "{report}");
+            fluxes.push(flux);
+        }
     }
     // The test means something: the field positions differ in vignetting by far more than 1 %.
     assert!(fluxes[2] < 0.8 * fluxes[0], "{fluxes:?}");
@@ -277,6 +294,16 @@ fn the_cli_renders_postfx_and_refuses_what_it_cannot_do_yet() {
         "{said}"
     );
     assert!(out.exists());
+    // The kernels are stored under the tables root: a second render reads them instead of
+    // tracing them again.
+    let again = lensbake(&[&base[..], &["--backend", "cpu"]].concat());
+    let said_again = String::from_utf8_lossy(&again.stdout);
+    assert_eq!(again.status.code(), Some(0), "{said_again}");
+    assert!(
+        said_again.contains("lens kernels (24 depths x 8 field radii) read from")
+            && said_again.contains("fast filter"),
+        "{said_again}"
+    );
     std::fs::remove_file(&out).unwrap();
     for (extra, message) in [
         (

@@ -17,6 +17,15 @@ LOOKUP_OUTSIDE: int
 _Path = Union[str, PathLike[str]]
 _Rows = npt.ArrayLike  # n x 3, converted to float64
 
+# Lens.trace's results, and its `out`: end positions and directions (n x 3 float64), outcome
+# codes (uint8) and the surfaces the outcomes happened at (uint32).
+_TraceArrays = Tuple[
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+    npt.NDArray[np.uint8],
+    npt.NDArray[np.uint32],
+]
+
 class LensbakeError(ValueError):
     """A lens, a table or an argument lensbake refuses; the message is the command line's."""
 
@@ -52,12 +61,8 @@ class Lens:
         *,
         apertures: bool = True,
         backward: bool = False,
-    ) -> Tuple[
-        npt.NDArray[np.float64],
-        npt.NDArray[np.float64],
-        npt.NDArray[np.uint8],
-        npt.NDArray[np.uint32],
-    ]: ...
+        out: Optional[_TraceArrays] = None,
+    ) -> _TraceArrays: ...
     # The wave options of wavefront, mtf and psf: field_deg, wavelengths_nm, weights, f_number,
     # epd_mm, object_distance_mm, ray_aiming, samples, grid, defocus_mm (help(lensbake.Lens)).
     def wavefront(self, **options: Any) -> dict[str, Any]: ...

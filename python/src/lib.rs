@@ -13,13 +13,16 @@ use lensbake::lrtf::{Parameterisation, Precision};
 use lensbake::paraxial::StopChoice;
 use lensbake::prescription::formats::{Format, LoadOptions};
 use lensbake::prescription::{Prescription, RayAiming};
-use lensbake::trace::check_start;
+use lensbake::trace::{RowResults, StartCheck};
 use lensbake::{
     Apertures, BakeRequest, Lookup, LrtfTable, ModelKind, Outcome, Ray, RayBatch, RenderJob,
     RenderLens, SceneRequirements, Tracer, Travel, WaveOptions,
 };
 use numpy::ndarray::{Array1, Array2, Array3};
-use numpy::{AllowTypeChange, IntoPyArray, PyArray1, PyArray2, PyArray3, PyArrayLike2};
+use numpy::{
+    AllowTypeChange, IntoPyArray, PyArray1, PyArray2, PyArray3, PyArrayLike2, PyArrayMethods,
+    PyUntypedArrayMethods,
+};
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
@@ -104,6 +107,41 @@ fn rows<'a>(
     })
 }
 
+/// What `Lens.trace` returns and takes as `out`: end positions, end directions (n x 3 each),
+/// outcome codes and outcome surfaces.
+type TraceArrays<'py> = (
+    Bound<'py, PyArray2<f64>>,
+    Bound<'py, PyArray2<f64>>,
+    Bound<'py, PyArray1<u8>>,
+    Bound<'py, PyArray1<u32>>,
+);
+
+/// The storage of a writable C-ordered array, refusing any other layout (results are written
+/// in place, never into a copy the caller would not see).
+fn writable<'a, T: numpy::Element, D: numpy::ndarray::Dimension>(
+    name: &str,
+    array: &Bound<'_, numpy::PyArray<T, D>>,
+    guard: &'a mut numpy::PyReadwriteArray<'_, T, D>,
+) -> PyResult<&'a mut [T]> {
+    if !array.is_c_contiguous() {
+        return Err(argument(format!(
+            "{name} must be a C-ordered (contiguous) array"
+        )));
+    }
+    guard
+        .as_slice_mut()
+        .map_err(|e| argument(format!("{name}: {e}")))
+}
+
+/// [`writable`] of an n x 3 array, as rows.
+fn writable_rows<'a>(
+    name: &str,
+    array: &Bound<'_, PyArray2<f64>>,
+    guard: &'a mut numpy::PyReadwriteArray2<'_, f64>,
+) -> PyResult<&'a mut [[f64; 3]]> {
+    Ok(writable(name, array, guard)?.as_chunks_mut::<3>().0)
+}
+
 /// The checked rays of `origins` and `directions` (same length), each also passing `check`;
 /// a refused row is named in the error.
 fn batch_of(
@@ -124,15 +162,6 @@ fn batch_of(
             .map_err(|e| format!("ray {row}: {e}"))
     })
     .map_err(argument)
-}
-
-/// Three columns as an n x 3 array in Fortran order: each column copied whole, no row
-/// interleaved (a 1M-ray trace spent 40 % of its call interleaving).
-fn columns_as_rows(columns: &[&[f64]; 3]) -> Array2<f64> {
-    let n = columns[0].len();
-    Array2::from_shape_vec((3, n), columns.concat())
-        .expect("three columns of n")
-        .reversed_axes()
 }
 
 /// Rows of three, in parallel, from `count` rows made by `row`.
@@ -159,21 +188,6 @@ type PsfImage<'py> = (Bound<'py, PyArray2<f64>>, (f64, f64));
 #[pyclass(module = "lensbake", frozen)]
 pub struct Lens {
     lens: lensbake::LoadedLens,
-}
-
-/// Outcome codes of `Lens.trace`.
-const OUTCOME_OK: u8 = 0;
-const OUTCOME_VIGNETTED: u8 = 1;
-const OUTCOME_TIR: u8 = 2;
-const OUTCOME_MISSED: u8 = 3;
-
-fn outcome_code(outcome: Outcome) -> (u8, u32) {
-    match outcome {
-        Outcome::Ok => (OUTCOME_OK, 0),
-        Outcome::Vignetted { surface } => (OUTCOME_VIGNETTED, surface as u32),
-        Outcome::Tir { surface } => (OUTCOME_TIR, surface as u32),
-        Outcome::Missed { surface } => (OUTCOME_MISSED, surface as u32),
-    }
 }
 
 fn ray_aiming(name: Option<&str>) -> PyResult<Option<RayAiming>> {
@@ -309,8 +323,11 @@ impl Lens {
     /// surface it crossed) and its unit direction there (n x 3 float64), an outcome code per
     /// ray (uint8: 0 ok, 1 vignetted, 2 total internal reflection, 3 missed a surface) and the
     /// surface (1-based, uint32) the outcome happened at (0 for ok).
-    #[pyo3(signature = (origins, directions, wavelength_nm=None, *, apertures=true, backward=false))]
-    #[allow(clippy::type_complexity)]
+    ///
+    /// `out`, a tuple of four such arrays (C-ordered, writable), receives the results instead
+    /// of new arrays and is returned: a caller tracing batch after batch allocates once.
+    #[pyo3(signature = (origins, directions, wavelength_nm=None, *, apertures=true, backward=false, out=None))]
+    #[allow(clippy::type_complexity, clippy::too_many_arguments)]
     fn trace<'py>(
         &self,
         py: Python<'py>,
@@ -319,14 +336,30 @@ impl Lens {
         wavelength_nm: Option<f64>,
         apertures: bool,
         backward: bool,
-    ) -> PyResult<(
-        Bound<'py, PyArray2<f64>>,
-        Bound<'py, PyArray2<f64>>,
-        Bound<'py, PyArray1<u8>>,
-        Bound<'py, PyArray1<u32>>,
-    )> {
+        out: Option<TraceArrays<'py>>,
+    ) -> PyResult<TraceArrays<'py>> {
         let origins = rows("origins", &origins)?;
         let directions = rows("directions", &directions)?;
+        let n = origins.len();
+        let out = match out {
+            Some(out) => out,
+            None => (
+                PyArray2::zeros(py, [n, 3], false),
+                PyArray2::zeros(py, [n, 3], false),
+                PyArray1::zeros(py, n, false),
+                PyArray1::zeros(py, n, false),
+            ),
+        };
+        let mut end_positions = out.0.try_readwrite()?;
+        let mut end_directions = out.1.try_readwrite()?;
+        let mut kinds = out.2.try_readwrite()?;
+        let mut surfaces = out.3.try_readwrite()?;
+        let results = RowResults {
+            positions: writable_rows("out[0]", &out.0, &mut end_positions)?,
+            directions: writable_rows("out[1]", &out.1, &mut end_directions)?,
+            outcome_kinds: writable("out[2]", &out.2, &mut kinds)?,
+            outcome_surfaces: writable("out[3]", &out.3, &mut surfaces)?,
+        };
         let system = &self.lens.system;
         let travel = if backward {
             Travel::Backward
@@ -338,29 +371,18 @@ impl Lens {
         } else {
             Apertures::Ignored
         };
-        let (positions, headings, codes, surfaces) = py.detach(|| -> PyResult<_> {
+        py.detach(|| -> PyResult<()> {
             let nm = wavelength_nm.unwrap_or_else(|| system.design_wavelength_nm());
             let at = system.at_checked(nm).map_err(refused)?;
-            let batch = batch_of(&origins, &directions, |ray| {
-                check_start(&at, ray, travel).map_err(|e| e.to_string())
-            })?;
-            let traced = Tracer::new(&at).trace_batch(&batch, travel, apertures);
-            let [x, y, z, dx, dy, dz] = traced.rays.columns();
-            let (codes, surfaces): (Vec<u8>, Vec<u32>) =
-                traced.outcomes.par_iter().map(|o| outcome_code(*o)).unzip();
-            Ok((
-                columns_as_rows(&[x, y, z]),
-                columns_as_rows(&[dx, dy, dz]),
-                codes,
-                surfaces,
-            ))
+            let starts = StartCheck::new(&at, travel);
+            let admit = |ray: &Ray| starts.check(ray);
+            Tracer::new(&at)
+                .trace_rows_into(&origins, &directions, travel, apertures, admit, results)
+                .map_err(|e| argument(e.to_string()))?;
+            Ok(())
         })?;
-        Ok((
-            positions.into_pyarray(py),
-            headings.into_pyarray(py),
-            Array1::from(codes).into_pyarray(py),
-            Array1::from(surfaces).into_pyarray(py),
-        ))
+        drop((end_positions, end_directions, kinds, surfaces));
+        Ok(out)
     }
 
     /// Optical path difference over the exit pupil of one field point at one wavelength, as
@@ -761,10 +783,10 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(render, m)?)?;
     m.add_function(wrap_pyfunction!(tradeoff, m)?)?;
     for (name, code) in [
-        ("OUTCOME_OK", OUTCOME_OK),
-        ("OUTCOME_VIGNETTED", OUTCOME_VIGNETTED),
-        ("OUTCOME_TIR", OUTCOME_TIR),
-        ("OUTCOME_MISSED", OUTCOME_MISSED),
+        ("OUTCOME_OK", Outcome::CODE_OK),
+        ("OUTCOME_VIGNETTED", Outcome::CODE_VIGNETTED),
+        ("OUTCOME_TIR", Outcome::CODE_TIR),
+        ("OUTCOME_MISSED", Outcome::CODE_MISSED),
         ("LOOKUP_PASSES", LRTF_PASSES as u8),
         ("LOOKUP_BLOCKED", LRTF_BLOCKED as u8),
         ("LOOKUP_OUTSIDE", LRTF_OUTSIDE as u8),

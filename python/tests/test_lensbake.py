@@ -180,6 +180,37 @@ def test_trace_equals_the_cli(dgauss, tmp_path):
             assert row["direction"] == headings[k].tolist()
 
 
+def test_trace_into_out_reuses_the_arrays(dgauss):
+    origins, directions = fan(1500, 40.0)
+    fresh = dgauss.trace(origins, directions)
+    out = (np.full((1500, 3), 7.0), np.full((1500, 3), 7.0), np.full(1500, 9, np.uint8), np.full(1500, 9, np.uint32))
+    returned = dgauss.trace(origins, directions, out=out)
+    assert all(r is o for r, o in zip(returned, out))
+    for a, b in zip(out, fresh):
+        assert np.array_equal(a, b)
+
+
+def test_trace_refuses_an_out_it_cannot_write_in_place(dgauss):
+    origins, directions = fan(8, 1.0)
+    good = lambda: [np.zeros((8, 3)), np.zeros((8, 3)), np.zeros(8, np.uint8), np.zeros(8, np.uint32)]
+    short = good()
+    short[0] = np.zeros((7, 3))
+    with pytest.raises(lensbake.LensbakeError, match="positions out has 7 rows"):
+        dgauss.trace(origins, directions, out=tuple(short))
+    fortran = good()
+    fortran[1] = np.zeros((8, 3), order="F")
+    with pytest.raises(lensbake.LensbakeError, match=r"out\[1\] must be a C-ordered"):
+        dgauss.trace(origins, directions, out=tuple(fortran))
+    read_only = good()
+    read_only[2].flags.writeable = False
+    with pytest.raises(TypeError, match="not writeable"):
+        dgauss.trace(origins, directions, out=tuple(read_only))
+    wrong_dtype = good()
+    wrong_dtype[3] = np.zeros(8, np.int64)
+    with pytest.raises(TypeError):
+        dgauss.trace(origins, directions, out=tuple(wrong_dtype))
+
+
 def test_trace_paraxial_focus(dgauss):
     # A ray 0.01 mm off the axis crosses it at the paraxial rear focus.
     first = dgauss.analyze()["first_order"]
@@ -193,7 +224,7 @@ def test_trace_refuses_bad_input_without_crashing(dgauss):
     origins, directions = fan(4, 1.0)
     with pytest.raises(lensbake.LensbakeError, match="n x 3"):
         dgauss.trace(origins[:, :2], directions[:, :2])
-    with pytest.raises(lensbake.LensbakeError, match="one direction per origin"):
+    with pytest.raises(lensbake.LensbakeError, match="directions has 3 rows where the positions have 4"):
         dgauss.trace(origins, directions[:3])
     bad = origins.copy()
     bad[2, 0] = np.nan

@@ -7,7 +7,7 @@ use lensbake::analysis::{AnalysisError, ConditionOverrides, DesignConditions};
 use lensbake::job::RenderLens;
 use lensbake::lenses::{self, BUNDLED, LensError, LensSource, LoadedLens};
 use lensbake::model::ModelKind;
-use lensbake::prescription::formats::{Format, LoadOptions, PbrtThickness, read_str};
+use lensbake::prescription::formats::{Format, LoadNote, LoadOptions, PbrtThickness, read_str};
 use lensbake::prescription::formats::{OutlineShape, PlacedLens};
 use lensbake::prescription::{DEFAULT_WAVELENGTH_NM, Location, PrescriptionError, Problem, Shape};
 use lensbake::system::LensSystem;
@@ -253,6 +253,15 @@ fn convert(input: &LensArgs, output: &Path, indices_at_nm: Option<f64>) -> anyho
         );
     }
     note_reading(&lens.source);
+    let dropped = skipped_keywords(&lens.source.loaded.notes);
+    if !dropped.is_empty() {
+        note!(
+            "{} does not carry the keywords lensbake skipped reading {}: {}",
+            output.display(),
+            lens.source.origin,
+            dropped.join(", ")
+        );
+    }
     say!(
         "wrote {} ({} surfaces, from {})",
         output.display(),
@@ -260,6 +269,23 @@ fn convert(input: &LensArgs, output: &Path, indices_at_nm: Option<f64>) -> anyho
         lens.source.origin
     );
     Ok(())
+}
+
+/// The keywords a reading skipped (harmless or unknown), which no written file carries.
+fn skipped_keywords(notes: &[LoadNote]) -> Vec<&str> {
+    let mut keywords: Vec<&str> = notes
+        .iter()
+        .flat_map(|note| match note {
+            LoadNote::SkippedKeywords { keywords } | LoadNote::UnknownHeaderKeywords { keywords } => {
+                keywords.as_slice()
+            }
+            _ => &[],
+        })
+        .map(String::as_str)
+        .collect();
+    keywords.sort_unstable();
+    keywords.dedup();
+    keywords
 }
 
 fn list() -> anyhow::Result<()> {

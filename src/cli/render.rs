@@ -10,6 +10,7 @@ use lensbake::job::{
     ModelChoice, PeelMode, RenderJob, RenderLens, Rendered, SceneSpec,
 };
 use lensbake::model::ModelKind;
+use lensbake::realtime::{KernelOrigin, PostfxPath};
 use lensbake::render::chromatic::{CHANNELS, ChromaticMode};
 use lensbake::render::image::{png_beside, write_exr, write_png};
 use lensbake::render::RenderSettings;
@@ -119,6 +120,16 @@ pub struct RenderArgs {
     /// f-number; prints the choice with its predicted and measured error.
     #[arg(long, conflicts_with_all = ["model", "table"])]
     error_budget_px: Option<f64>,
+    /// For `--model postfx`: `fast` (half resolution, at most 81 taps a pass; the real-time
+    /// path) or `exact` (full resolution, every tap's lens kernel fitted on the fly).
+    #[arg(long, value_enum, default_value = "fast")]
+    postfx: PostfxArg,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum PostfxArg {
+    Fast,
+    Exact,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -263,6 +274,10 @@ impl RenderArgs {
             tilt_deg: [self.tilt_deg.0, self.tilt_deg.1],
             chromatic: self.chromatic.into(),
             wavelengths_nm,
+            postfx_path: match self.postfx {
+                PostfxArg::Fast => PostfxPath::Fast,
+                PostfxArg::Exact => PostfxPath::Exact,
+            },
             ..RenderJob::new(lens)
         };
         Ok((job, from_file, unasked_focus))
@@ -296,13 +311,29 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let frame_ms = rendered.trace_time.as_secs_f64() * 1e3;
     // postfx filters the pinhole layer instead of sampling the lens: no samples, no trace.
     let frame = match &rendered.prepared.kernels {
-        Some((kernels, traced_in)) => format!(
-            "{} lens kernels ({} depths x {} field radii) traced in {:.1} ms, filter {frame_ms:.1} ms",
-            kernels.kernels.len(),
-            kernels.inverse_depths.len(),
-            kernels.field_tangents.len(),
-            traced_in.as_secs_f64() * 1e3,
-        ),
+        Some(prepared) => {
+            let kernels = &prepared.kernels;
+            let ms = prepared.time.as_secs_f64() * 1e3;
+            let how = match &prepared.origin {
+                KernelOrigin::Stored(path) => format!("read from {} in {ms:.1} ms", path.display()),
+                KernelOrigin::Traced { refused, saved } => {
+                    if let Some(why) = refused {
+                        say!("note: stored lens kernels not used: {why}");
+                    }
+                    match saved {
+                        Ok(path) => format!("traced in {ms:.1} ms, saved to {}", path.display()),
+                        Err(why) => format!("traced in {ms:.1} ms, not saved ({why})"),
+                    }
+                }
+            };
+            format!(
+                "{} lens kernels ({} depths x {} field radii) {how}, {} filter {frame_ms:.1} ms",
+                kernels.kernels.len(),
+                kernels.inverse_depths.len(),
+                kernels.field_tangents.len(),
+                job.postfx_path.name(),
+            )
+        }
         None => format!(
             "{} spp, trace {frame_ms:.1} ms",
             job.settings.samples_per_pixel

@@ -9,12 +9,15 @@ use super::{
 use crate::lenses::LoadedLens;
 use crate::lrtf::bake::{BakeProgress, chief_ray_film_radius};
 use crate::lrtf::focus::distance_text;
+use crate::lrtf::io::prescription_hash;
 use crate::model::{
     BakedLens, FirstOrderModels, LensModel, ModelError, ModelKind, PupilSampling, SeidelLens,
     TracedLens, pupil_film_radius,
 };
 use crate::paraxial::{FirstOrder, ImageInsideLens, ParaxialError};
-use crate::realtime::{KernelSettings, LensKernels, postfx};
+use crate::realtime::{
+    KernelKey, KernelOrigin, KernelSettings, LensKernels, PostfxPath, stored_or_traced,
+};
 use crate::render::camera::{Camera, FULL_FRAME_MM, Film, Focus};
 use crate::render::chromatic::{
     CHANNELS, Chromatic, ChromaticMode, ColourSpread, default_wavelengths, wants_chromatic,
@@ -136,6 +139,8 @@ pub struct RenderJob {
     pub chromatic: ChromaticMode,
     /// R, G, B; None: the C line, the design wavelength, the F line.
     pub wavelengths_nm: Option<[f64; CHANNELS]>,
+    /// Which statement of the postfx gather renders (the model postfx only).
+    pub postfx_path: PostfxPath,
 }
 
 impl RenderJob {
@@ -165,6 +170,7 @@ impl RenderJob {
             tilt_deg: [0.0, 0.0],
             chromatic: ChromaticMode::Auto,
             wavelengths_nm: None,
+            postfx_path: PostfxPath::Fast,
         }
     }
 }
@@ -288,9 +294,18 @@ pub struct PreparedRender {
     pub chromatic: ChromaticDecision,
     pub table: Option<TableUse>,
     pub peel: PeelReport,
-    /// For the postfx model: the lens kernels traced for this camera and these layers, and how
-    /// long they took (a cost paid once per lens, focus and depth range, not per frame).
-    pub kernels: Option<(LensKernels, Duration)>,
+    /// For the postfx model: the lens kernels for this camera and these layers.
+    pub kernels: Option<PreparedKernels>,
+}
+
+/// The postfx model's lens kernels: traced once per lens, f-number, focus, view and depth
+/// range, and kept under the tables root (`<tables>/<lens>/kernels/`) for the next render.
+#[derive(Clone, Debug)]
+pub struct PreparedKernels {
+    pub kernels: LensKernels,
+    /// Time to read or trace them.
+    pub time: Duration,
+    pub origin: KernelOrigin,
 }
 
 impl PreparedRender {
@@ -356,10 +371,10 @@ impl RenderJob {
             None => Backend::Cpu,
         };
         let image = match &prepared.kernels {
-            Some((kernels, _)) => postfx(
+            Some(prepared_kernels) => self.postfx_path.render(
                 &prepared.camera,
                 &prepared.layers,
-                kernels,
+                &prepared_kernels.kernels,
                 self.settings.width,
                 self.settings.height,
             )?,
@@ -514,17 +529,30 @@ impl RenderJob {
             },
             time: peel_time,
         };
-        let kernels = match kind {
-            ModelKind::Postfx => {
+        let kernels = match (kind, &self.lens) {
+            (ModelKind::Postfx, RenderLens::Real(real)) => {
                 let started = Instant::now();
                 let [near, far] = ldi.depth_range().ok_or(RenderError::EmptyScene)?;
-                let kernels = LensKernels::trace(
-                    &camera,
-                    &ldi.view,
-                    [near as f64, far as f64],
-                    &KernelSettings::default(),
-                )?;
-                Some((kernels, started.elapsed()))
+                let key = KernelKey {
+                    prescription_hash: prescription_hash(&real.system.prescription),
+                    f_number,
+                    film_z: camera.film_z,
+                    view: ldi.view,
+                    depth_range_mm: [near as f64, far as f64],
+                    settings: KernelSettings::default(),
+                };
+                let folder = self
+                    .tables_root
+                    .join(real.source.origin.name())
+                    .join("kernels");
+                let (kernels, origin) = stored_or_traced(&key, &folder, || {
+                    LensKernels::trace(&camera, &ldi.view, key.depth_range_mm, &key.settings)
+                })?;
+                Some(PreparedKernels {
+                    kernels,
+                    time: started.elapsed(),
+                    origin,
+                })
             }
             _ => None,
         };

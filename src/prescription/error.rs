@@ -79,6 +79,8 @@ impl fmt::Display for Location {
 pub enum Problem {
     #[error("cannot read file: {0}")]
     Io(String),
+    #[error("cannot write file: {0}")]
+    Write(String),
     #[error("the file holds no surfaces")]
     Empty,
     #[error("cannot parse `{text}` as a number")]

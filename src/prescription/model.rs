@@ -413,6 +413,24 @@ impl Shape {
             .sum();
         Some(base + poly)
     }
+
+    /// A bound on |[`Shape::sag`]| at every height up to `rim`: the conic part's magnitude
+    /// grows with the height for every conic constant, and each polynomial term is at most its
+    /// coefficient's magnitude times the rim's power. None where the conic part is undefined
+    /// before the rim (there is no finite bound to give).
+    pub fn sag_bound(&self, rim: f64) -> Option<f64> {
+        let c = self.curvature();
+        let r2 = rim * rim;
+        let disc = 1.0 - (1.0 + self.conic()) * c * c * r2;
+        if disc < 0.0 {
+            return None;
+        }
+        let base = (c * r2 / (1.0 + disc.sqrt())).abs();
+        let poly: f64 = (self.aspheric_coefficients().iter().enumerate())
+            .map(|(i, a)| a.abs() * rim.abs().powi(self.power_of_term(i)))
+            .sum();
+        Some(base + poly).filter(|bound| bound.is_finite())
+    }
 }
 
 /// Shape of the aperture stop's opening, for bokeh. Its size is the stop surface's semi-aperture.

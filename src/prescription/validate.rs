@@ -464,8 +464,15 @@ fn check_crossings(p: &Prescription, map: &SourceMap) -> Result<(), Prescription
         let (a, b) = (&p.surfaces[i], &p.surfaces[i + 1]);
         let sense = travel[i];
         let r_max = a.semi_aperture.min(b.semi_aperture);
+        // Inside a central hole or obscuration no ray passes between the two surfaces (a
+        // Cassegrain's secondary may sit in its primary's hole), so only the ring outside the
+        // larger of them must be clear.
+        let r_min = a.obscuration.into_iter().chain(b.obscuration).fold(0.0, f64::max);
+        if r_min >= r_max {
+            continue;
+        }
         for k in 0..=CROSSING_SAMPLES {
-            let r = r_max * k as f64 / CROSSING_SAMPLES as f64;
+            let r = r_min + (r_max - r_min) * k as f64 / CROSSING_SAMPLES as f64;
             let (Some(sag_a), Some(sag_b)) = (a.shape.sag(r), b.shape.sag(r)) else {
                 continue;
             };

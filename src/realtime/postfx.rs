@@ -17,7 +17,7 @@ use super::kernels::{LensKernels, PixelSpread};
 use crate::render::RenderError;
 use crate::render::camera::Camera;
 use crate::render::image::RgbImage;
-use crate::render::layers::LayeredDepthImage;
+use crate::render::layers::{Layer, LayeredDepthImage};
 use rayon::prelude::*;
 
 /// Side of a tile (pinhole pixels).
@@ -46,14 +46,19 @@ struct Source {
 /// at integers: exact for an untilted film, whose chief-ray tangents are linear in the film
 /// point.
 #[derive(Clone, Copy, Debug)]
-struct OutputToLayer {
+pub(super) struct OutputToLayer {
     origin: [f64; 2],
     column_step: [f64; 2],
     row_step: [f64; 2],
 }
 
 impl OutputToLayer {
-    fn of(camera: &Camera, ldi: &LayeredDepthImage, width: u32, height: u32) -> OutputToLayer {
+    pub(super) fn of(
+        camera: &Camera,
+        ldi: &LayeredDepthImage,
+        width: u32,
+        height: u32,
+    ) -> OutputToLayer {
         let view = &ldi.view;
         let layer_at = |x: f64, y: f64| {
             let t = camera.chief_ray_tangents(camera.film_point(width, height, x, y));
@@ -72,7 +77,7 @@ impl OutputToLayer {
         }
     }
 
-    fn at(&self, x: u32, y: u32) -> [f64; 2] {
+    pub(super) fn at(&self, x: u32, y: u32) -> [f64; 2] {
         let (x, y) = (x as f64, y as f64);
         [
             self.origin[0] + x * self.column_step[0] + y * self.row_step[0],
@@ -82,12 +87,17 @@ impl OutputToLayer {
 }
 
 /// A box pyramid of the pinhole colour (empty pixels black): level k averages 2^k x 2^k pixels.
-struct Pyramid {
+pub(super) struct Pyramid {
     levels: Vec<(usize, usize, Vec<[f32; 3]>)>,
 }
 
 impl Pyramid {
-    fn of(width: usize, height: usize, colour: Vec<[f32; 3]>, levels: usize) -> Pyramid {
+    pub(super) fn of(
+        width: usize,
+        height: usize,
+        colour: Vec<[f32; 3]>,
+        levels: usize,
+    ) -> Pyramid {
         let mut all = vec![(width, height, colour)];
         for _ in 1..levels {
             let (w, h, below) = all.last().expect("level 0 is there");
@@ -109,8 +119,18 @@ impl Pyramid {
         Pyramid { levels: all }
     }
 
+    /// Colour of the texel of level `level` holding level-0 index coordinates `p` (inside the
+    /// level-0 grid).
+    pub(super) fn nearest(&self, level: usize, p: [f32; 2]) -> [f32; 3] {
+        let (w, h, texels) = &self.levels[level.min(self.levels.len() - 1)];
+        let shift = level.min(self.levels.len() - 1);
+        let x = ((p[0] + 0.5) as usize >> shift).min(w - 1);
+        let y = ((p[1] + 0.5) as usize >> shift).min(h - 1);
+        texels[y * w + x]
+    }
+
     /// Bilinear colour of level `level` at level-0 index coordinates `p`.
-    fn at(&self, level: usize, p: [f32; 2]) -> [f32; 3] {
+    pub(super) fn at(&self, level: usize, p: [f32; 2]) -> [f32; 3] {
         let (w, h, texels) = &self.levels[level.min(self.levels.len() - 1)];
         let scale = 1.0 / (1u32 << level) as f32;
         let gx = ((p[0] + 0.5) * scale - 0.5).clamp(0.0, *w as f32 - 1.0);
@@ -130,23 +150,32 @@ impl Pyramid {
 }
 
 /// Per tile: the nearest depth and the largest reach, dilated.
-struct Tiles {
+pub(super) struct Tiles {
     columns: usize,
     rows: usize,
-    reach: Vec<f32>,
+    /// Side of a tile, in the grid's cells; reaches are in cells too.
+    side: usize,
+    pub(super) reach: Vec<f32>,
     nearest: Vec<f32>,
 }
 
 impl Tiles {
-    fn of(sources: &[Option<Source>], width: usize, height: usize) -> Tiles {
-        let (columns, rows) = (width.div_ceil(TILE), height.div_ceil(TILE));
+    /// Tiles of `side` x `side` cells over a `width` x `height` grid of `cells`, each its
+    /// (reach, depth) or None where empty.
+    pub(super) fn of(
+        cells: impl Iterator<Item = Option<(f32, f32)>>,
+        width: usize,
+        height: usize,
+        side: usize,
+    ) -> Tiles {
+        let (columns, rows) = (width.div_ceil(side), height.div_ceil(side));
         let mut reach = vec![0.0f32; columns * rows];
         let mut nearest = vec![f32::INFINITY; columns * rows];
-        for (i, source) in sources.iter().enumerate() {
-            if let Some(s) = source {
-                let tile = (i / width / TILE) * columns + (i % width) / TILE;
-                reach[tile] = reach[tile].max(s.spread.support);
-                nearest[tile] = nearest[tile].min(s.depth);
+        for (i, cell) in cells.enumerate() {
+            if let Some((cell_reach, depth)) = cell {
+                let tile = (i / width / side) * columns + (i % width) / side;
+                reach[tile] = reach[tile].max(cell_reach);
+                nearest[tile] = nearest[tile].min(depth);
             }
         }
         // Each tile hands its reach and nearest depth to every tile its pixels can reach (as
@@ -159,7 +188,7 @@ impl Tiles {
                 continue;
             }
             let (tx, ty) = (t % columns, t / columns);
-            let span = (reach[t] / TILE as f32).ceil() as usize;
+            let span = (reach[t] / side as f32).ceil() as usize;
             for y in ty.saturating_sub(span)..(ty + span + 1).min(rows) {
                 for x in tx.saturating_sub(span)..(tx + span + 1).min(columns) {
                     let to = y * columns + x;
@@ -171,15 +200,16 @@ impl Tiles {
         Tiles {
             columns,
             rows,
+            side,
             reach: dilated,
             nearest: dilated_nearest,
         }
     }
 
-    /// The dilated reach and nearest depth of the tile holding `p`.
-    fn at(&self, p: [f64; 2]) -> (f32, f32) {
-        let tx = (p[0].max(0.0) as usize / TILE).min(self.columns - 1);
-        let ty = (p[1].max(0.0) as usize / TILE).min(self.rows - 1);
+    /// The dilated reach and nearest depth of the tile holding grid point `p`.
+    pub(super) fn at(&self, p: [f64; 2]) -> (f32, f32) {
+        let tx = (p[0].max(0.0) as usize / self.side).min(self.columns - 1);
+        let ty = (p[1].max(0.0) as usize / self.side).min(self.rows - 1);
         let t = ty * self.columns + tx;
         (self.reach[t], self.nearest[t])
     }
@@ -195,12 +225,26 @@ enum Pass {
 }
 
 /// A small integer hash (for each output pixel's ring rotation).
-fn hash(mut v: u32) -> u32 {
+pub(super) fn hash(mut v: u32) -> u32 {
     v ^= v >> 16;
     v = v.wrapping_mul(0x7feb_352d);
     v ^= v >> 15;
     v = v.wrapping_mul(0x846c_a68b);
     v ^ (v >> 16)
+}
+
+/// The layer both paths filter: the first, seen through an untilted film (whose chief-ray
+/// tangents are linear in the film point, as `OutputToLayer` assumes).
+pub(super) fn first_layer_untilted<'a>(
+    camera: &Camera,
+    ldi: &'a LayeredDepthImage,
+) -> Result<&'a Layer, RenderError> {
+    if camera.film_off_plane() != 0.0 {
+        return Err(RenderError::InvalidSetting(
+            "postfx needs a film square to the axis; the sensor is tilted".into(),
+        ));
+    }
+    ldi.layers.first().ok_or(RenderError::EmptyScene)
 }
 
 /// Renders the pinhole layer of `ldi` (seen from `camera`'s eye) at `width` x `height` through
@@ -212,14 +256,7 @@ pub fn postfx(
     width: u32,
     height: u32,
 ) -> Result<RgbImage, RenderError> {
-    if camera.film_off_plane() != 0.0 {
-        return Err(RenderError::InvalidSetting(
-            "postfx needs a film square to the axis; the sensor is tilted".into(),
-        ));
-    }
-    let Some(front) = ldi.layers.first() else {
-        return Err(RenderError::EmptyScene);
-    };
+    let front = first_layer_untilted(camera, ldi)?;
     let view = ldi.view;
     let (lw, lh) = (view.width as usize, view.height as usize);
     let aspect = ((2.0 * view.tan_half[1] / view.height as f64) / kernels.pixel_tangent) as f32;
@@ -242,7 +279,14 @@ pub fn postfx(
         .iter()
         .map(|s| s.map_or([0.0; 3], |s| s.radiance))
         .collect();
-    let tiles = Tiles::of(&sources, lw, lh);
+    let tiles = Tiles::of(
+        sources
+            .iter()
+            .map(|s| s.map(|s| (s.spread.support, s.depth))),
+        lw,
+        lh,
+        TILE,
+    );
     let widest = tiles.reach.iter().copied().fold(0.0f32, f32::max);
     let spacing_of = |reach: f32| {
         let rings = ((reach / TARGET_SPACING - 0.5).ceil().max(1.0) as usize).min(MAX_RINGS);

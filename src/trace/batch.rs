@@ -1,8 +1,8 @@
 //! Many rays at once: a structure-of-arrays batch traced in parallel with rayon.
 
 use super::lanes::{Block, Finish, Isa, STRIDE};
-use super::{Apertures, Outcome, Ray, Traced, Tracer, Travel};
-use crate::pages::{Pages, fence_streaming_stores, resize_on, store_streaming};
+use super::{Apertures, Outcome, Ray, RayError, Traced, Tracer, Travel, Vec3};
+use crate::pages::{Pages, fence_streaming_stores, prefetch_lines, resize_on, store_streaming};
 use rayon::prelude::*;
 use std::ops::IndexMut;
 
@@ -369,6 +369,245 @@ impl Tracer {
     }
 }
 
+/// Where [`Tracer::trace_rows_into`] writes, one entry per ray: the final ray as
+/// [`BatchTrace`] holds it (see [`super::Traced`]) and the outcome as [`Outcome::code`] gives it.
+/// Rows and plain codes are the layout callers in other languages hold arrays in (NumPy's
+/// n x 3, a C array of structs), so results go there without a copy.
+pub struct RowResults<'a> {
+    pub positions: &'a mut [Vec3],
+    pub directions: &'a mut [Vec3],
+    /// [`Outcome::CODE_OK`] and the other kinds.
+    pub outcome_kinds: &'a mut [u8],
+    /// 1-based surface where the ray stopped; 0 for a ray that crossed every surface.
+    pub outcome_surfaces: &'a mut [u32],
+}
+
+/// Why [`Tracer::trace_rows_into`] traced nothing.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum RowsError {
+    #[error("{what} has {len} rows where the positions have {expected}: give one per ray")]
+    Length {
+        what: &'static str,
+        len: usize,
+        expected: usize,
+    },
+    #[error("ray {row}: {source}")]
+    Ray { row: usize, source: RayError },
+}
+
+/// A block's results as rows and codes, staged as the block trace finishes its rays (in the
+/// order they stop) and written out a block at a time, in ray order: with streaming stores where the batch is large (see
+/// [`STREAM_RESULTS_FROM_RAYS`]; scattered ordinary stores made a 1M-ray rows trace twice the
+/// batch trace's time), a plain copy otherwise.
+#[repr(C, align(64))]
+struct StagedRows {
+    positions: [Vec3; GROUP_RAYS],
+    directions: [Vec3; GROUP_RAYS],
+    kinds: [u8; GROUP_RAYS],
+    surfaces: [u32; GROUP_RAYS],
+    streamed: bool,
+}
+
+impl Finish for StagedRows {
+    #[inline(always)]
+    fn finish(&mut self, id: usize, traced: Traced) {
+        let j = id % GROUP_RAYS;
+        self.positions[j] = traced.ray.position;
+        self.directions[j] = traced.ray.direction;
+        (self.kinds[j], self.surfaces[j]) = traced.outcome.code();
+    }
+}
+
+impl StagedRows {
+    fn new(streamed: bool) -> StagedRows {
+        StagedRows {
+            positions: [[0.0; 3]; GROUP_RAYS],
+            directions: [[0.0; 3]; GROUP_RAYS],
+            kinds: [0; GROUP_RAYS],
+            surfaces: [0; GROUP_RAYS],
+            streamed,
+        }
+    }
+
+    /// Writes the staged rows into `out` from row `first` on, as many as `out` holds from
+    /// there up to a block.
+    fn store(&self, first: usize, out: RowResults<'_>) {
+        let len = (out.positions.len() - first).min(GROUP_RAYS);
+        let window = first..first + len;
+        if let (true, Ok(positions), Ok(directions), Ok(kinds), Ok(surfaces)) = (
+            self.streamed,
+            <&mut [Vec3; GROUP_RAYS]>::try_from(&mut out.positions[window.clone()]),
+            <&mut [Vec3; GROUP_RAYS]>::try_from(&mut out.directions[window.clone()]),
+            <&mut [u8; GROUP_RAYS]>::try_from(&mut out.outcome_kinds[window.clone()]),
+            <&mut [u32; GROUP_RAYS]>::try_from(&mut out.outcome_surfaces[window.clone()]),
+        ) {
+            store_streaming(positions, &self.positions);
+            store_streaming(directions, &self.directions);
+            store_streaming(kinds, &self.kinds);
+            store_streaming(surfaces, &self.surfaces);
+            return;
+        }
+        out.positions[window.clone()].copy_from_slice(&self.positions[..len]);
+        out.directions[window.clone()].copy_from_slice(&self.directions[..len]);
+        out.outcome_kinds[window.clone()].copy_from_slice(&self.kinds[..len]);
+        out.outcome_surfaces[window].copy_from_slice(&self.surfaces[..len]);
+    }
+}
+
+/// Rows into a block's columns, each made a ray as [`Ray::new`] makes it, then admitted by
+/// `admit`; the first row is number `first_row` in errors. Copied whole first and normalised in
+/// place column by column: made one by one, each ray's parts went through the stack and
+/// waited there on stores of other sizes, which made a rows trace of 1M rays twice as slow
+/// as the same trace from columns.
+#[inline(always)]
+fn load_rows(
+    columns: &mut [[f64; GROUP_RAYS]; 6],
+    positions: &[Vec3],
+    directions: &[Vec3],
+    first_row: usize,
+    admit: &impl Fn(&Ray) -> Result<(), RayError>,
+) -> Result<(), RowsError> {
+    let [x, y, z, dx, dy, dz] = columns;
+    for (j, (&[px, py, pz], &[ux, uy, uz])) in positions.iter().zip(directions).enumerate() {
+        [x[j], y[j], z[j], dx[j], dy[j], dz[j]] = [px, py, pz, ux, uy, uz];
+    }
+    for j in 0..positions.len() {
+        let (position, direction) = ([x[j], y[j], z[j]], [dx[j], dy[j], dz[j]]);
+        let ray = match Ray::common_length(position, direction) {
+            Some(length) => Ray::from_parts(position, direction.map(|v| v / length)),
+            None => Ray::new_careful(position, direction).map_err(|source| RowsError::Ray {
+                row: first_row + j,
+                source,
+            })?,
+        };
+        admit(&ray).map_err(|source| RowsError::Ray {
+            row: first_row + j,
+            source,
+        })?;
+        [dx[j], dy[j], dz[j]] = ray.direction;
+    }
+    Ok(())
+}
+
+impl Tracer {
+    /// Traces rays given as rows of positions and directions (a direction of any non-zero
+    /// length, normalised as [`Ray::new`] does) on the current rayon thread pool, each first
+    /// passed to `admit` (for example [`super::StartCheck::check`]; `|_| Ok(())` admits every ray),
+    /// and writes the results into `out` without allocating. Returns the number of ray-surface
+    /// intersections computed.
+    ///
+    /// The rows are checked, gathered into the tracer's columns and traced a block at a time,
+    /// so no intermediate [`RayBatch`] is built: for a caller whose arrays are rows, this is
+    /// the trace with nothing around it. When a row is refused, one refusal (not necessarily
+    /// the lowest row's) is returned and `out` holds partial results.
+    ///
+    /// ```
+    /// use lensbake::trace::{RowResults, StartCheck};
+    /// use lensbake::{Apertures, LoadOptions, Outcome, Tracer, Travel, load_lens};
+    ///
+    /// let system = load_lens("dgauss-50mm", &LoadOptions::default())?.system;
+    /// let at = system.at(system.design_wavelength_nm());
+    /// let tracer = Tracer::new(&at);
+    /// let positions = [[0.0, 1.0, -10.0], [0.0, 40.0, -10.0]];
+    /// let directions = [[0.0, 0.0, 1.0], [0.0, 0.0, 2.0]];
+    /// let (mut end_positions, mut end_directions) = ([[0.0; 3]; 2], [[0.0; 3]; 2]);
+    /// let (mut kinds, mut surfaces) = ([0u8; 2], [0u32; 2]);
+    /// let out = RowResults {
+    ///     positions: &mut end_positions,
+    ///     directions: &mut end_directions,
+    ///     outcome_kinds: &mut kinds,
+    ///     outcome_surfaces: &mut surfaces,
+    /// };
+    /// let starts = StartCheck::new(&at, Travel::Forward);
+    /// let admit = |ray: &lensbake::Ray| starts.check(ray);
+    /// tracer.trace_rows_into(&positions, &directions, Travel::Forward, Apertures::Checked, admit, out)?;
+    /// // The ray 1 mm off axis crosses every surface and leaves converging towards the axis;
+    /// // the one 40 mm off axis passes beside surface 1's
+    /// // sphere (radius 29.475 mm) and misses it.
+    /// assert_eq!((kinds[0], surfaces[0]), Outcome::Ok.code());
+    /// assert_eq!((kinds[1], surfaces[1]), Outcome::Missed { surface: 1 }.code());
+    /// assert!(end_directions[0][1] < 0.0 && end_positions[0][1] > 0.0);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn trace_rows_into(
+        &self,
+        positions: &[Vec3],
+        directions: &[Vec3],
+        travel: Travel,
+        apertures: Apertures,
+        admit: impl Fn(&Ray) -> Result<(), RayError> + Sync,
+        out: RowResults<'_>,
+    ) -> Result<u64, RowsError> {
+        let expected = positions.len();
+        for (what, len) in [
+            ("directions", directions.len()),
+            ("the positions out", out.positions.len()),
+            ("the directions out", out.directions.len()),
+            ("the outcome kinds out", out.outcome_kinds.len()),
+            ("the outcome surfaces out", out.outcome_surfaces.len()),
+        ] {
+            if len != expected {
+                return Err(RowsError::Length {
+                    what,
+                    len,
+                    expected,
+                });
+            }
+        }
+        let check = apertures == Apertures::Checked;
+        let isa = Isa::detect();
+        let streamed = cfg!(target_arch = "x86_64") && expected >= STREAM_RESULTS_FROM_RAYS;
+        positions
+            .par_chunks(CHUNK)
+            .zip(directions.par_chunks(CHUNK))
+            .zip(out.positions.par_chunks_mut(CHUNK))
+            .zip(out.directions.par_chunks_mut(CHUNK))
+            .zip(out.outcome_kinds.par_chunks_mut(CHUNK))
+            .zip(out.outcome_surfaces.par_chunks_mut(CHUNK))
+            .enumerate()
+            .map_init(
+                || (GroupBlock::new(), [[0.0; GROUP_RAYS]; 6], StagedRows::new(streamed)),
+                |(block, columns, rows_out),
+                 (chunk, (((((positions, directions), ends), headings), kinds), surfaces))| {
+                    let mut count = 0;
+                    let group_of = |first: usize| first..positions.len().min(first + GROUP_RAYS);
+                    prefetch_lines(&positions[group_of(0)]);
+                    prefetch_lines(&directions[group_of(0)]);
+                    for first in (0..positions.len()).step_by(GROUP_RAYS) {
+                        let rays = group_of(first);
+                        // The next block's rows load while this one traces.
+                        let next = group_of(rays.end);
+                        prefetch_lines(&positions[next.clone()]);
+                        prefetch_lines(&directions[next]);
+                        load_rows(
+                            columns,
+                            &positions[rays.clone()],
+                            &directions[rays.clone()],
+                            chunk * CHUNK + first,
+                            &admit,
+                        )?;
+                        let group = columns.each_ref().map(|column| &column[..rays.len()]);
+                        count += self.trace_columns_on(isa, block, group, travel, check, rows_out);
+                        rows_out.store(
+                            first,
+                            RowResults {
+                                positions: ends,
+                                directions: headings,
+                                outcome_kinds: kinds,
+                                outcome_surfaces: surfaces,
+                            },
+                        );
+                    }
+                    if rows_out.streamed {
+                        fence_streaming_stores();
+                    }
+                    Ok(count)
+                },
+            )
+            .try_reduce(|| 0, |a, b| Ok(a + b))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -398,5 +637,123 @@ mod tests {
             vignetted > n / 10 && vignetted < n / 2,
             "{vignetted} vignetted"
         );
+    }
+
+    /// Storage for a rows trace's results.
+    struct RowStorage {
+        ends: Vec<Vec3>,
+        headings: Vec<Vec3>,
+        kinds: Vec<u8>,
+        surfaces: Vec<u32>,
+    }
+
+    impl RowStorage {
+        fn new(n: usize) -> RowStorage {
+            RowStorage {
+                ends: vec![[0.0; 3]; n],
+                headings: vec![[0.0; 3]; n],
+                kinds: vec![9; n],
+                surfaces: vec![9; n],
+            }
+        }
+
+        fn results(&mut self) -> RowResults<'_> {
+            RowResults {
+                positions: &mut self.ends,
+                directions: &mut self.headings,
+                outcome_kinds: &mut self.kinds,
+                outcome_surfaces: &mut self.surfaces,
+            }
+        }
+    }
+
+    #[test]
+    fn rows_trace_as_the_batch_does() {
+        // Enough rays for several chunks and a short last block, at a few direction lengths:
+        // every row's result must be bit for bit the batch trace's of the normalised ray.
+        let system = load("dgauss-50mm", &LoadOptions::default()).unwrap().system;
+        let tracer = Tracer::new(&system.at(system.design_wavelength_nm()));
+        let bundle = FieldBundle::over_traceable_field(&tracer).unwrap();
+        let n = 3 * CHUNK + GROUP_RAYS + 17;
+        let rays = bundle.sample(n, 3);
+        let positions: Vec<Vec3> = rays.iter().map(|r| r.position).collect();
+        let directions: Vec<Vec3> = rays
+            .iter()
+            .enumerate()
+            .map(|(k, r)| r.direction.map(|v| v * (1 + k % 3) as f64))
+            .collect();
+        let mut out = RowStorage::new(n);
+        let count = tracer
+            .trace_rows_into(
+                &positions,
+                &directions,
+                Travel::Forward,
+                Apertures::Checked,
+                |_| Ok(()),
+                out.results(),
+            )
+            .unwrap();
+        let normalised: RayBatch = positions
+            .iter()
+            .zip(&directions)
+            .map(|(&p, &d)| Ray::new(p, d).unwrap())
+            .collect();
+        let batch = tracer.trace_batch(&normalised, Travel::Forward, Apertures::Checked);
+        assert_eq!(count, batch.ray_surfaces);
+        for k in 0..n {
+            let ray = batch.rays.get(k).unwrap();
+            assert_eq!(
+                (out.kinds[k], out.surfaces[k]),
+                batch.outcomes[k].code(),
+                "ray {k}"
+            );
+            assert_eq!(
+                (out.ends[k], out.headings[k]),
+                (ray.position, ray.direction),
+                "ray {k}"
+            );
+        }
+        assert!(out.kinds.contains(&Outcome::CODE_VIGNETTED));
+    }
+
+    #[test]
+    fn rows_name_the_refused_row_and_mismatched_lengths() {
+        let system = load("dgauss-50mm", &LoadOptions::default()).unwrap().system;
+        let tracer = Tracer::new(&system.at(system.design_wavelength_nm()));
+        let n = 2 * CHUNK;
+        let positions = vec![[0.0, 0.0, -10.0]; n];
+        let mut directions = vec![[0.0, 0.0, 1.0]; n];
+        directions[CHUNK + 5] = [0.0, 0.0, 0.0];
+        let mut out = RowStorage::new(n);
+        let refused = tracer.trace_rows_into(
+            &positions,
+            &directions,
+            Travel::Forward,
+            Apertures::Checked,
+            |_| Ok(()),
+            out.results(),
+        );
+        assert_eq!(
+            refused,
+            Err(RowsError::Ray {
+                row: CHUNK + 5,
+                source: RayError::ZeroDirection([0.0; 3])
+            })
+        );
+        let short = tracer.trace_rows_into(
+            &positions[1..],
+            &directions[1..],
+            Travel::Forward,
+            Apertures::Checked,
+            |_| Ok(()),
+            out.results(),
+        );
+        assert!(matches!(
+            short,
+            Err(RowsError::Length {
+                what: "the positions out",
+                ..
+            })
+        ));
     }
 }

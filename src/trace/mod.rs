@@ -25,7 +25,7 @@ mod refract;
 pub use aim::{
     AimError, RaySource, StopAim, aim_at_stop, traceable_field_deg, traceable_field_deg_from,
 };
-pub use batch::{BatchTrace, RayBatch};
+pub use batch::{BatchTrace, RayBatch, RowResults, RowsError};
 #[cfg(any(test, feature = "render"))]
 pub(crate) use batch::{GROUP_RAYS, GroupBlock};
 pub use bundle::FieldBundle;
@@ -77,35 +77,84 @@ pub enum RayError {
 /// start in front of surface 1 (at or below its z at the ray's height, the rim's z beyond the
 /// clear aperture), a backward ray behind the last surface. The tracer looks only for crossings
 /// ahead of the ray, so a ray starting inside the glass would otherwise be traced as if it
-/// started outside.
+/// started outside. For many rays, [`StartCheck`] finds what the check needs once.
 pub fn check_start(system: &SystemAt, ray: &Ray, travel: Travel) -> Result<(), RayError> {
-    let forward = travel == Travel::Forward;
-    let index = if forward {
-        0
-    } else {
-        system.surfaces.len().saturating_sub(1)
-    };
-    let Some(surface) = system.surfaces.get(index) else {
-        return Ok(());
-    };
-    let [x, y, z] = ray.position;
-    let height = x.hypot(y).min(surface.geometric_semi_aperture);
-    let surface_z = surface.vertex_z + surface.shape.sag(height).unwrap_or(0.0);
-    // Light leaving the last surface travels +z unless an odd number of mirrors turned it.
-    let wrong_side = if forward {
-        z > surface_z
-    } else {
-        (z - surface_z) * system.image_index().signum() < 0.0
-    };
-    if wrong_side {
-        return Err(RayError::StartsInside {
-            z,
-            surface: index + 1,
-            surface_z,
+    StartCheck::new(system, travel).check(ray)
+}
+
+/// [`check_start`] for the rays of one system and travel.
+pub struct StartCheck<'a> {
+    /// The surface a ray must start outside of, 0-based, with its index; None without surfaces.
+    surface: Option<(usize, &'a crate::system::SurfaceAt)>,
+    forward: bool,
+    /// +1 where a ray must start at a larger z than the surface's, -1 at a smaller one.
+    side: f64,
+    /// A ray whose z is at least this far to its side (`side * z >= admitted_beyond`) starts
+    /// outside at any height: the surface's sag is bounded there ([`Shape::sag_bound`]). Most
+    /// rays pass here without the sag's square root and division (a 1M-ray check took as long
+    /// as a third of the trace).
+    admitted_beyond: f64,
+}
+
+impl<'a> StartCheck<'a> {
+    pub fn new(system: &'a SystemAt, travel: Travel) -> StartCheck<'a> {
+        let forward = travel == Travel::Forward;
+        let index = if forward {
+            0
+        } else {
+            system.surfaces.len().saturating_sub(1)
+        };
+        // Light leaving the last surface travels +z unless an odd number of mirrors turned it.
+        let side = if forward {
+            -1.0
+        } else {
+            system.image_index().signum()
+        };
+        let surface = system.surfaces.get(index);
+        let admitted_beyond = surface
+            .and_then(|s| {
+                let bound = s.shape.sag_bound(s.geometric_semi_aperture)?;
+                // Beyond the largest z the sum vertex + sag can round to.
+                let slack = 1e-9 * (bound + s.vertex_z.abs());
+                Some(side * s.vertex_z + bound + slack)
+            })
+            .unwrap_or(f64::INFINITY);
+        StartCheck {
+            surface: surface.map(|s| (index, s)),
             forward,
-        });
+            side,
+            admitted_beyond,
+        }
     }
-    Ok(())
+
+    #[inline]
+    pub fn check(&self, ray: &Ray) -> Result<(), RayError> {
+        if self.side * ray.position[2] >= self.admitted_beyond {
+            return Ok(());
+        }
+        self.check_at_height(ray)
+    }
+
+    /// [`StartCheck::check`] of a ray near the surface: against its z at the ray's height.
+    fn check_at_height(&self, ray: &Ray) -> Result<(), RayError> {
+        let [x, y, z] = ray.position;
+        let Some((index, surface)) = self.surface else {
+            return Ok(());
+        };
+        // Not `hypot`, whose care for overflow cost most of a 1M-ray check: a square that
+        // overflows gives an infinite height, which the clamp to the rim handles alike.
+        let height = (x * x + y * y).sqrt().min(surface.geometric_semi_aperture);
+        let surface_z = surface.vertex_z + surface.shape.sag(height).unwrap_or(0.0);
+        if (z - surface_z) * self.side < 0.0 {
+            return Err(RayError::StartsInside {
+                z,
+                surface: index + 1,
+                surface_z,
+                forward: self.forward,
+            });
+        }
+        Ok(())
+    }
 }
 
 impl Ray {
@@ -116,7 +165,35 @@ impl Ray {
     };
 
     /// A ray from `position` along `direction` (any non-zero length; it is normalised).
+    #[inline]
     pub fn new(position: Vec3, direction: Vec3) -> Result<Ray, RayError> {
+        match Ray::common_length(position, direction) {
+            // Dividing by a length of exactly 1 leaves the direction as it is.
+            Some(length) => Ok(Ray {
+                position,
+                direction: direction.map(|v| v / length),
+            }),
+            None => Ray::new_careful(position, direction),
+        }
+    }
+
+    /// The direction's length when the ray is a common one, which [`Ray::new`] normalises by
+    /// one division per component: every component finite (their sum times 0 is 0 only then;
+    /// finite parts that sum past f64::MAX also go the careful way) and a squared length that
+    /// neither overflows nor is zero or subnormal. None sends the ray to [`Ray::new_careful`].
+    #[inline(always)]
+    pub(crate) fn common_length(position: Vec3, direction: Vec3) -> Option<f64> {
+        let [px, py, pz] = position;
+        let [dx, dy, dz] = direction;
+        let finite = (px + py + pz + dx + dy + dz) * 0.0 == 0.0;
+        let length_sq = dot(direction, direction);
+        (finite && length_sq.is_normal()).then(|| length_sq.sqrt())
+    }
+
+    /// [`Ray::new`] for any input: refuses what is not finite or has no length, and normalises
+    /// directions whose squared length overflows or underflows.
+    #[cold]
+    pub(crate) fn new_careful(position: Vec3, direction: Vec3) -> Result<Ray, RayError> {
         for (what, value) in [("position", position), ("direction", direction)] {
             if !value.iter().all(|v| v.is_finite()) {
                 return Err(RayError::NonFinite { what, value });
@@ -217,6 +294,28 @@ impl Outcome {
             | Outcome::Tir { surface }
             | Outcome::Missed { surface } => Some(surface),
         }
+    }
+
+    /// [`Outcome::code`] of [`Outcome::Ok`].
+    pub const CODE_OK: u8 = 0;
+    /// [`Outcome::code`] of [`Outcome::Vignetted`].
+    pub const CODE_VIGNETTED: u8 = 1;
+    /// [`Outcome::code`] of [`Outcome::Tir`].
+    pub const CODE_TIR: u8 = 2;
+    /// [`Outcome::code`] of [`Outcome::Missed`].
+    pub const CODE_MISSED: u8 = 3;
+
+    /// The outcome as two plain numbers, for arrays handed to other languages (NumPy, C): its
+    /// kind ([`Outcome::CODE_OK`] ..) and the 1-based surface where the ray stopped (0 for ok).
+    pub fn code(self) -> (u8, u32) {
+        let (kind, surface) = match self {
+            Outcome::Ok => (Outcome::CODE_OK, 0),
+            Outcome::Vignetted { surface } => (Outcome::CODE_VIGNETTED, surface),
+            Outcome::Tir { surface } => (Outcome::CODE_TIR, surface),
+            Outcome::Missed { surface } => (Outcome::CODE_MISSED, surface),
+        };
+        // Surfaces are numbered below limits::MAX_SURFACES, far inside u32.
+        (kind, surface as u32)
     }
 
     /// Lower-case name used in JSON output: ok, vignetted, tir, missed.

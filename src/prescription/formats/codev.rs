@@ -53,7 +53,7 @@ use super::placement::{
     self, ApertureOutline, Asymmetry, OutlineShape, Placement, PlacementKind, StatedOutline,
 };
 use super::{
-    AsphereTerms, Format, LoadNote, Loaded, Source, finite, named_medium, number, positive,
+    AsphereTerms, Format, LoadNote, Loaded, Source, check_surface_count, finite, named_medium, number, positive,
     scale_to_mm, shape,
 };
 use crate::prescription::DEFAULT_WAVELENGTH_NM;
@@ -74,77 +74,82 @@ struct Command {
 
 /// Lines with CODE V's continuation joined: a line whose text (before any `!` comment) ends in
 /// `&` goes on in the next line. Each joined line keeps the number of its first physical line.
-fn logical_lines(text: &str) -> Vec<(usize, String)> {
-    let mut out: Vec<(usize, String)> = Vec::new();
-    let mut pending: Option<(usize, String)> = None;
-    for (index, raw) in text.lines().enumerate() {
-        let code = raw.split('!').next().unwrap_or("").trim_end();
-        let (line, mut joined) = pending.take().unwrap_or((index + 1, String::new()));
-        match code.strip_suffix('&') {
-            Some(head) => {
-                joined.push_str(head);
-                joined.push(' ');
-                pending = Some((line, joined));
-            }
-            None => {
-                joined.push_str(raw);
-                out.push((line, joined));
+fn logical_lines(text: &str) -> impl Iterator<Item = (usize, String)> + '_ {
+    let mut lines = text.lines().enumerate();
+    std::iter::from_fn(move || {
+        let mut pending: Option<(usize, String)> = None;
+        for (index, raw) in lines.by_ref() {
+            let code = raw.split('!').next().unwrap_or("").trim_end();
+            let (line, mut joined) = pending.take().unwrap_or((index + 1, String::new()));
+            match code.strip_suffix('&') {
+                Some(head) => {
+                    joined.push_str(head);
+                    joined.push(' ');
+                    pending = Some((line, joined));
+                }
+                None => {
+                    joined.push_str(raw);
+                    return Some((line, joined));
+                }
             }
         }
-    }
-    out.extend(pending);
-    out
+        pending
+    })
 }
 
-fn commands(text: &str) -> Vec<Command> {
+/// The file's commands in order, read one logical line at a time, so a reader that stops early
+/// (at `GO`, or at an error) never tokenises the rest of the file.
+fn commands(text: &str) -> impl Iterator<Item = Command> + '_ {
+    logical_lines(text).flat_map(|(line, raw)| line_commands(line, &raw))
+}
+
+/// The commands of one logical line (`;` separates commands on a line).
+fn line_commands(line: usize, raw: &str) -> Vec<Command> {
     let mut out = Vec::new();
-    for (line, raw) in logical_lines(text) {
-        let raw = raw.as_str();
-        let mut words: Vec<String> = Vec::new();
-        let mut word = String::new();
-        let mut in_word = false;
-        let mut quote: Option<char> = None;
-        let flush = |words: &mut Vec<String>, word: &mut String, in_word: &mut bool| {
-            if *in_word {
-                words.push(std::mem::take(word));
-                *in_word = false;
-            }
-        };
-        let mut end_command = |words: &mut Vec<String>| {
-            if let Some((name, args)) = words.split_first() {
-                out.push(Command {
-                    line,
-                    name: name.to_ascii_uppercase(),
-                    args: args.to_vec(),
-                });
-            }
-            words.clear();
-        };
-        for c in raw.chars() {
-            match quote {
-                Some(q) if c == q => quote = None,
-                Some(_) => word.push(c),
-                None => match c {
-                    '\'' | '"' => {
-                        quote = Some(c);
-                        in_word = true;
-                    }
-                    '!' => break,
-                    ';' => {
-                        flush(&mut words, &mut word, &mut in_word);
-                        end_command(&mut words);
-                    }
-                    c if c.is_whitespace() => flush(&mut words, &mut word, &mut in_word),
-                    c => {
-                        word.push(c);
-                        in_word = true;
-                    }
-                },
-            }
+    let mut words: Vec<String> = Vec::new();
+    let mut word = String::new();
+    let mut in_word = false;
+    let mut quote: Option<char> = None;
+    let flush = |words: &mut Vec<String>, word: &mut String, in_word: &mut bool| {
+        if *in_word {
+            words.push(std::mem::take(word));
+            *in_word = false;
         }
-        flush(&mut words, &mut word, &mut in_word);
-        end_command(&mut words);
+    };
+    let mut end_command = |words: &mut Vec<String>| {
+        if let Some((name, args)) = words.split_first() {
+            out.push(Command {
+                line,
+                name: name.to_ascii_uppercase(),
+                args: args.to_vec(),
+            });
+        }
+        words.clear();
+    };
+    for c in raw.chars() {
+        match quote {
+            Some(q) if c == q => quote = None,
+            Some(_) => word.push(c),
+            None => match c {
+                '\'' | '"' => {
+                    quote = Some(c);
+                    in_word = true;
+                }
+                '!' => break,
+                ';' => {
+                    flush(&mut words, &mut word, &mut in_word);
+                    end_command(&mut words);
+                }
+                c if c.is_whitespace() => flush(&mut words, &mut word, &mut in_word),
+                c => {
+                    word.push(c);
+                    in_word = true;
+                }
+            },
+        }
     }
+    flush(&mut words, &mut word, &mut in_word);
+    end_command(&mut words);
     out
 }
 
@@ -653,6 +658,7 @@ impl Reader {
                         Problem::Syntax("a surface after the image surface (SI)".into()),
                     ));
                 }
+                check_surface_count(self.surfaces.len() + 1, at("S"))?;
                 self.current = Some(Current::Surface(self.surfaces.len()));
                 let (value, thickness, medium) = self.surface_words(c, source)?;
                 self.surfaces.push(SeqSurface {
@@ -1485,7 +1491,7 @@ fn glass_medium(
         None if all_digits(glass) => refuse(format!(
             "six-digit glass code {glass}; name the glass, or give a fictitious glass as nnnnnn.vvvv"
         )),
-        _ => Ok(named_medium(glass, &[])),
+        _ => Ok(named_medium(glass, &[], None).0),
     }
 }
 

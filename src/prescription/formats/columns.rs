@@ -11,7 +11,11 @@
 //! | index `0` | on the stop row: the medium of the gap the stop sits in | same |
 //! | thickness | to the next vertex, or from the previous one if asked | to the next vertex |
 //! | header row | no | one row of four non-numeric words is skipped |
+//! | focal-length row | one number alone before the first surface | same |
 //!
+//! The focal-length row is how lens-simulation toolkits (ISET's pbrt-v3 lens files,
+//! `# focal length (mm)` then `50.000`) head their tables: it becomes the lens's claimed focal
+//! length, compared with the computed EFL and never used for it.
 //! The stop is always a plane; its shape is a circle.
 
 use super::{Format, LoadNote, Loaded, PbrtThickness, Source, finite, number};
@@ -43,6 +47,7 @@ pub(super) fn read(
 ) -> Result<Loaded, PrescriptionError> {
     let mut comments: Vec<String> = Vec::new();
     let mut rows: Vec<Row> = Vec::new();
+    let mut claimed_focal_length_mm: Option<f64> = None;
     for (number, raw) in text.lines().enumerate() {
         let line = number + 1;
         let (data, comment) = match raw.split_once('#') {
@@ -71,6 +76,13 @@ pub(super) fn read(
                 .with_surface(rows.len() + 1)
                 .with_field(COLUMNS[column])
         };
+        if let ([focal_length], true, None) =
+            (tokens.as_slice(), rows.is_empty(), claimed_focal_length_mm)
+            && focal_length.parse::<f64>().is_ok()
+        {
+            claimed_focal_length_mm = Some(focal_length_row(focal_length, source, line)?);
+            continue;
+        }
         if tokens.len() != COLUMNS.len() {
             return Err(PrescriptionError::new(
                 source.location(Some(line)).with_surface(rows.len() + 1),
@@ -83,6 +95,7 @@ pub(super) fn read(
         if dialect == Dialect::Table && rows.is_empty() && is_header(&tokens) {
             continue;
         }
+        super::check_surface_count(rows.len() + 1, source.location(Some(line)))?;
         let (stop, radius) = radius_column(tokens[0], dialect, &at(0))?;
         rows.push(Row {
             line,
@@ -153,6 +166,7 @@ pub(super) fn read(
         title: comments.next().unwrap_or_else(|| source.default_title()),
         source: source.file_name(),
         notes: Some(comments.collect::<Vec<_>>().join("\n")).filter(|n| !n.is_empty()),
+        claimed_focal_length_mm,
         ..Provenance::default()
     };
     Ok(Loaded {
@@ -172,6 +186,24 @@ pub(super) fn read(
         },
         notes,
     })
+}
+
+/// The focal length a table's header row states: a finite number, not zero (a diverging
+/// lens's is negative).
+fn focal_length_row(token: &str, source: &Source, line: usize) -> Result<f64, PrescriptionError> {
+    let at = source.location(Some(line)).with_field("focal length");
+    let focal_length = finite(token, &at)?;
+    if focal_length == 0.0 {
+        return Err(PrescriptionError::new(
+            at,
+            Problem::Syntax(
+                "a focal length of 0 before the surface rows; a table's header row states the \
+                 lens's focal length"
+                    .into(),
+            ),
+        ));
+    }
+    Ok(focal_length)
 }
 
 fn first_thickness(source: &Source, row: &Row) -> Location {

@@ -200,6 +200,14 @@ pub enum LoadNote {
         count: usize,
         as_written: Vec<String>,
     },
+    /// Glass names no catalogue here holds, each read as the model glass of the nd and Vd the
+    /// file writes beside it (OpticStudio's own fallback): n = A + B / l^2 through nd at the d
+    /// line with (nd - 1) / (nF - nC) = Vd ([`crate::glass::Dispersion::model`]).
+    ModelGlasses { glasses: Vec<ModelGlassNote> },
+    /// The file names glasses no catalogue here holds, but the nd and Vd it writes beside a
+    /// glass the catalogues do hold are not that glass's (a writer's placeholder), so the
+    /// numbers beside the unknown names are not taken for theirs and those glasses stay unknown.
+    WrittenGlassDataContradicted(ContradictedGlassData),
 }
 
 impl fmt::Display for LoadNote {
@@ -264,6 +272,34 @@ impl fmt::Display for LoadNote {
                     cuts.join(", ")
                 )
             }
+            LoadNote::ModelGlasses { glasses } => {
+                let named: Vec<String> = glasses
+                    .iter()
+                    .map(|g| {
+                        let place = match g.surface {
+                            0 => "object space".to_string(),
+                            k => format!("surface {k}"),
+                        };
+                        format!("{place} {} (nd {}, Vd {})", g.name, g.glass.nd, g.glass.vd)
+                    })
+                    .collect();
+                write!(
+                    f,
+                    "glass{} in no catalogue lensbake holds, read as model glass{} from the nd and \
+                     Vd the file writes (n = A + B/l^2: nd at the d line, Vd from the F and C \
+                     lines; other wavelengths approximate): {}",
+                    if glasses.len() == 1 { "" } else { "es" },
+                    if glasses.len() == 1 { "" } else { "es" },
+                    named.join(", ")
+                )
+            }
+            LoadNote::WrittenGlassDataContradicted(c) => write!(
+                f,
+                "no model glass made from the nd and Vd the file writes beside glass names: on \
+                 line {} it writes {} as nd {}, Vd {} where the catalogue has nd {}, Vd {}, so \
+                 its numbers are not the glasses' own",
+                c.line, c.name, c.written.nd, c.written.vd, c.catalogue.nd, c.catalogue.vd
+            ),
             LoadNote::SkippedKeywords { keywords } => write!(
                 f,
                 "skipped keywords that change nothing lensbake models: {}",
@@ -427,7 +463,9 @@ pub fn write_ron(p: &Prescription) -> String {
 /// same directory, which then replaces `path` in one rename, so a reader never sees half a file.
 pub fn write_ron_file(path: &Path, p: &Prescription) -> Result<(), PrescriptionError> {
     crate::output::write_bytes(path, write_ron(p).as_bytes())
-        .map_err(|error| PrescriptionError::new(Location::file(path), Problem::Io(error.cause())))
+        .map_err(|error| {
+            PrescriptionError::new(Location::file(path), Problem::Write(error.cause()))
+        })
 }
 
 /// Decodes file bytes to text; on failure, the 1-based line of the first bad byte.
@@ -523,6 +561,19 @@ fn finite(text: &str, at: &Location) -> Result<f64, PrescriptionError> {
     }
 }
 
+/// Refuses a file as soon as it holds more surfaces than lensbake models
+/// ([`crate::limits::MAX_SURFACES`], the limit validation applies to a whole lens), so that a
+/// file of hundreds of thousands of surfaces costs no more to refuse than its first few hundred.
+/// `at` is the line of the surface that passes the limit.
+fn check_surface_count(count: usize, at: Location) -> Result<(), PrescriptionError> {
+    crate::limits::check(
+        "the number of surfaces",
+        count as u64,
+        crate::limits::MAX_SURFACES,
+    )
+    .map_err(|e| PrescriptionError::new(at, e.into()))
+}
+
 /// A number that must be above 0 and finite (an aperture a file states: its pupil diameter,
 /// f-number or numerical aperture), refused where it is written; the design conditions would
 /// otherwise drop it without a word and take the stop's own.
@@ -594,19 +645,73 @@ fn scale_to_mm(p: &mut Prescription, mm_per_unit: f64) {
     }
 }
 
-/// The medium a glass name in a CODE V or Zemax file stands for. Names the catalogues know are
-/// stored under the catalogue's spelling ("NSSK2_SCHOTT" -> "N-SSK2"), with the maker appended
-/// where another catalogue has a glass of the same name ("SK16_HIKARI"), so the file's catalogue
-/// preference (`preferred`, e.g. Zemax `GCAT`) survives into the RON; unknown names are kept as
-/// written so that resolving the lens reports them with suggestions.
-fn named_medium(name: &str, preferred: &[String]) -> Medium {
+/// The nd and Vd a file writes for a glass (Zemax `GLAS name code x nd vd ...`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ModelGlass {
+    pub nd: f64,
+    pub vd: f64,
+}
+
+impl ModelGlass {
+    /// Whether the numbers describe a dispersing glass a model can stand for: nd a finite
+    /// index above air's and Vd finite and positive. A file that writes `0 0` beside a name
+    /// says nothing about the glass, and a Vd of 0 would be a constant index, not the glass.
+    fn describes_a_glass(self) -> bool {
+        self.nd.is_finite() && self.nd > 1.0 && self.vd.is_finite() && self.vd > 0.0
+    }
+}
+
+/// A glass name no catalogue here holds, read as the model glass of the nd and Vd its file
+/// writes beside it ([`LoadNote::ModelGlasses`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ModelGlassNote {
+    /// Surface (1-based; 0 is the object space) whose medium it is.
+    pub surface: usize,
+    /// The name as the file writes it.
+    pub name: String,
+    pub glass: ModelGlass,
+}
+
+/// A catalogue glass whose nd and Vd as a file writes them are not the catalogue's
+/// ([`LoadNote::WrittenGlassDataContradicted`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ContradictedGlassData {
+    /// The line that names the glass.
+    pub line: usize,
+    pub name: String,
+    pub written: ModelGlass,
+    pub catalogue: ModelGlass,
+}
+
+/// The medium a glass name in a CODE V or Zemax file stands for, and the model glass it was
+/// read as where no catalogue holds the name. Names the catalogues know are stored under the
+/// catalogue's spelling ("NSSK2_SCHOTT" -> "N-SSK2"), with the maker appended where another
+/// catalogue has a glass of the same name ("SK16_HIKARI"), so the file's catalogue preference
+/// (`preferred`, e.g. Zemax `GCAT`) survives into the RON. An unknown name becomes the model
+/// glass of the nd and Vd the file writes beside it (`written`), as OpticStudio reads a glass its
+/// catalogues lack; without usable numbers it is kept as written, so that resolving the lens
+/// reports it with suggestions.
+fn named_medium(
+    name: &str,
+    preferred: &[String],
+    written: Option<ModelGlass>,
+) -> (Medium, Option<ModelGlass>) {
     let name = name.trim().trim_matches(|c| c == '\'' || c == '"');
     if name.is_empty() || name.eq_ignore_ascii_case("AIR") {
-        return Medium::Air;
+        return (Medium::Air, None);
     }
     match crate::glass::lookup_in(name, preferred) {
-        Ok(glass) => Medium::Glass(glass.unambiguous_name()),
-        Err(_) => Medium::Glass(name.to_string()),
+        Ok(glass) => (Medium::Glass(glass.unambiguous_name()), None),
+        Err(_) => match written.filter(|glass| glass.describes_a_glass()) {
+            Some(glass) => (
+                Medium::Model {
+                    nd: glass.nd,
+                    vd: glass.vd,
+                },
+                Some(glass),
+            ),
+            None => (Medium::Glass(name.to_string()), None),
+        },
     }
 }
 

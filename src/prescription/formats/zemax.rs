@@ -56,7 +56,7 @@ use super::placement::{
     StatedToroid,
 };
 use super::{
-    Format, LoadNote, Loaded, Source, finite, named_medium, number, odd_shape, positive,
+    ContradictedGlassData, Format, LoadNote, Loaded, check_surface_count, ModelGlass, ModelGlassNote, Source, finite, named_medium, number, odd_shape, positive,
     scale_to_mm, shape,
 };
 use crate::limits;
@@ -190,7 +190,13 @@ struct Block {
 }
 
 enum Glass {
-    Name(String),
+    /// A glass name, with the nd and Vd the file writes beside it (OpticStudio saves the
+    /// catalogue's values there), which stand in for a glass no catalogue here holds.
+    Name {
+        name: String,
+        written: Option<ModelGlass>,
+        line: usize,
+    },
     Medium(Medium),
 }
 
@@ -248,6 +254,10 @@ impl Block {
 #[derive(Default)]
 struct Reader {
     mm_per_unit: f64,
+    /// A catalogue glass whose nd and Vd as the file writes them are not the catalogue's (a
+    /// writer's placeholder such as `1.5 40` beside every name): the numbers beside an unknown
+    /// name are then no glass's either, and no model glass is made from them.
+    contradicted_glass_data: Option<ContradictedGlassData>,
     title: Option<String>,
     catalogues: Vec<String>,
     aperture: Option<ApertureSpec>,
@@ -376,6 +386,8 @@ impl Reader {
                     )),
                 ));
             }
+            // The object and image blocks are no lens surfaces.
+            check_surface_count(self.blocks.len().saturating_sub(1), at("SURF"))?;
             self.blocks.push(Block::new(line));
             self.in_trailer = false;
             return Ok(());
@@ -427,7 +439,18 @@ impl Reader {
                             Medium::Model { nd, vd }
                         })
                     } else {
-                        Glass::Name(name.to_string())
+                        let written = match (args.get(3), args.get(4)) {
+                            (Some(_), Some(_)) => Some(ModelGlass {
+                                nd: value(3)?,
+                                vd: value(4)?,
+                            }),
+                            _ => None,
+                        };
+                        Glass::Name {
+                            name: name.to_string(),
+                            written,
+                            line,
+                        }
                     });
                     true
                 }
@@ -776,6 +799,7 @@ impl Reader {
         if self.blocks.len() < 3 {
             return Err(source.error(None, Problem::Empty));
         }
+        self.contradicted_glass_data = self.first_contradicted_glass();
         self.apply_pickups(source)?;
         let (object, rest) = self.blocks.split_first().expect("at least three blocks");
         let (image, lens) = rest
@@ -1035,6 +1059,19 @@ impl Reader {
             Format::Zemax,
         )?;
         loaded.notes.extend(centred);
+        let model_glasses = self.model_glasses(lens.len());
+        if !model_glasses.is_empty() {
+            loaded.notes.push(LoadNote::ModelGlasses {
+                glasses: model_glasses,
+            });
+        }
+        if let Some(contradicted) = self.contradicted_glass_data.clone()
+            && self.names_an_unknown_glass()
+        {
+            loaded
+                .notes
+                .push(LoadNote::WrittenGlassDataContradicted(contradicted));
+        }
         if !trimmed.is_empty() {
             loaded
                 .notes
@@ -1063,8 +1100,74 @@ impl Reader {
         match &block.glass {
             None => Medium::Air,
             Some(Glass::Medium(medium)) => medium.clone(),
-            Some(Glass::Name(name)) => named_medium(name, &self.catalogues),
+            Some(Glass::Name { name, written, .. }) => {
+                named_medium(name, &self.catalogues, self.trusted(*written)).0
+            }
         }
+    }
+
+    /// The nd and Vd written beside a glass name, unless the file's numbers beside the glasses
+    /// the catalogues hold show they are not the glasses' own.
+    fn trusted(&self, written: Option<ModelGlass>) -> Option<ModelGlass> {
+        written.filter(|_| self.contradicted_glass_data.is_none())
+    }
+
+    /// The first catalogue glass whose written nd or Vd is not the catalogue's: nd off by more
+    /// than 0.005 or Vd by more than 1, far beyond the changes between catalogue editions
+    /// (1e-4 in nd, 0.1 in Vd) and far below the gap to a writer's placeholder.
+    fn first_contradicted_glass(&self) -> Option<ContradictedGlassData> {
+        self.blocks.iter().find_map(|block| {
+            let Some(Glass::Name {
+                name,
+                written: Some(written),
+                line,
+            }) = &block.glass
+            else {
+                return None;
+            };
+            let glass = crate::glass::lookup_in(name, &self.catalogues).ok()?;
+            let contradicted = !((written.nd - glass.nd).abs() <= 0.005
+                && (written.vd - glass.vd).abs() <= 1.0);
+            contradicted.then(|| ContradictedGlassData {
+                line: *line,
+                name: name.clone(),
+                written: *written,
+                catalogue: ModelGlass {
+                    nd: glass.nd,
+                    vd: glass.vd,
+                },
+            })
+        })
+    }
+
+    /// Whether a glass name the file writes numbers beside is in no catalogue here.
+    fn names_an_unknown_glass(&self) -> bool {
+        self.blocks.iter().any(|block| {
+            matches!(&block.glass, Some(Glass::Name { name, written: Some(_), .. })
+                if matches!(named_medium(name, &self.catalogues, None).0, Medium::Glass(ref known)
+                    if crate::glass::lookup(known).is_err()))
+        })
+    }
+
+    /// The glasses read as model glasses from the nd and Vd written beside their names, each
+    /// with its surface (0: the object space).
+    fn model_glasses(&self, lens_surfaces: usize) -> Vec<ModelGlassNote> {
+        self.blocks
+            .iter()
+            .take(lens_surfaces + 1)
+            .enumerate()
+            .filter_map(|(surface, block)| match &block.glass {
+                Some(Glass::Name { name, written, .. }) => {
+                    let (_, model) = named_medium(name, &self.catalogues, self.trusted(*written));
+                    model.map(|glass| ModelGlassNote {
+                        surface,
+                        name: name.clone(),
+                        glass,
+                    })
+                }
+                _ => None,
+            })
+            .collect()
     }
 
     /// Object distance, aperture, fields and wavelengths as the file states them, in mm and nm.

@@ -1,0 +1,545 @@
+//! `postfx`'s fast path: the same gather at half resolution with a bounded number of taps, each
+//! tap one affine map and one kernel read (seed 001 chapter 5's shape: half-resolution
+//! prefilter, tiles of nearest depth and largest reach, at most 81 taps in rings, separate
+//! foreground and background sums, then an upsample that keeps in-focus pixels at full
+//! resolution).
+//!
+//! Where [`super::postfx`] fits each tap's kernel on the fly (bracketing, rotating and scaling,
+//! about 50 to 100 ns a tap), this path fits every source texel's kernel once: the map from a
+//! tap's offset (in texels) to the node kernel's grid is affine, so it is folded into six
+//! numbers per texel, and a tap is four multiply-adds and one table read.
+//!
+//! The half-resolution pipeline blurs by a known amount: a texel's sources lie within +-1/2 pixel
+//! of its centre (variance 1/4 per axis) and the bilinear upsampling spreads each half-resolution
+//! value over offsets -1/2 and 3/2 with weights 3/4 and 1/4 (variance 3/4 per axis). The kernels
+//! are narrowed by that variance ([`PIPELINE_VARIANCE`]), so a spot's second moment is the
+//! lens's; spots too small to narrow are the sharp pixels, which come from the full-resolution
+//! pinhole image instead.
+
+use super::kernels::{Kernel, LensKernels};
+use super::postfx::{OutputToLayer, Pyramid, Tiles, first_layer_untilted, hash};
+use crate::render::RenderError;
+use crate::render::camera::Camera;
+use crate::render::image::RgbImage;
+use crate::render::layers::LayeredDepthImage;
+use rayon::prelude::*;
+
+/// Side of a tile, in texels (32 pinhole pixels, the seed's tile).
+const TILE_TEXELS: usize = 16;
+/// Side of the blocks of output texels the gather hands to threads.
+const BLOCK_TEXELS: usize = 16;
+/// Most rings of taps (1 + 8 + 16 + 24 = 49 taps, the low end of Tan et al.'s 48 to 81).
+const MAX_RINGS: usize = 3;
+/// Directions a ring tap can take: a table instead of a sine and cosine per tap.
+const DIRECTIONS: usize = 256;
+/// A disc of at most this many texels is read whole (no sampling noise); wider ones by rings.
+const DENSE_TEXELS: f32 = 81.0;
+/// Variance (pinhole pixels squared, both axes together) that the half-resolution prefilter and
+/// the bilinear upsampling add to every spot: 2 x (1/4 + 3/4).
+pub const PIPELINE_VARIANCE: f32 = 2.0;
+/// Variance the 2-pixel output box adds over the 1-pixel one (both axes): 2 x (4 - 1) / 12.
+const WIDER_BOX_VARIANCE: f32 = 0.5;
+/// A kernel is narrowed to at most this share of its variance: further, the 2-pixel box in it
+/// would shrink enough to miss lattice points. Spots that would need more are small, and the
+/// full-resolution pinhole pixels draw them.
+const MOST_NARROWING: f32 = 0.6;
+/// Below this spot size (RMS radius with the pixel box, pinhole pixels) a pixel's own colour is
+/// the full-resolution pinhole pixel's; above `BLURRED_SIZE` the half-resolution gather's;
+/// linear between.
+const SHARP_SIZE: f32 = 1.5;
+const BLURRED_SIZE: f32 = 2.5;
+/// A tap counts as a nearer layer only this much nearer than the centre (a slanted surface's
+/// own pixels differ by less across a tile).
+const NEARER_LAYER: f32 = 0.95;
+/// A tap more than this wider-spread (texels of reach) than the centre counts as another depth
+/// layer, in front or behind (the exact path's one pinhole pixel).
+const LAYER_REACH_STEP: f32 = 0.5;
+
+/// One half-resolution source texel: the nearest surface of its 2 x 2 pinhole pixels, with its
+/// kernel fitted once. Everything a tap reads, in one 64-byte cache line: the gather is bound by
+/// these loads. Colour and weight are both per unit of the spot's flux (colour times flux,
+/// amplitude over flux), so a foreground weight is directly the share of the spot it stands for.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))]
+struct Texel {
+    /// Depth (mm) of the nearest surface; infinite where the texel is empty.
+    depth: f32,
+    /// Farthest reach of its spot, texels.
+    reach: f32,
+    /// Kernel grid coordinates of a tap at offset (dx, dy) texels from the output texel:
+    /// gx = m[0] dx + m[1] dy + m[2], gy = m[3] dx + m[4] dy + m[5].
+    map: [f32; 6],
+    /// The prefiltered colour times the spot's flux (the pyramid's level 0, kept here so a
+    /// tap reads one record).
+    colour: [f32; 3],
+    /// Weight per kernel value and per pinhole pixel of patch, over the spot's flux.
+    amplitude: f32,
+    /// The narrowed spot's variance (pinhole pixels squared) and its centroid on the kernel's
+    /// grid: a sparse tap widens the kernel about it.
+    variance: f32,
+    centroid_on_grid: [f32; 2],
+    node: u32,
+}
+
+const EMPTY: Texel = Texel {
+    depth: f32::INFINITY,
+    reach: 0.0,
+    map: [0.0; 6],
+    colour: [0.0; 3],
+    amplitude: 0.0,
+    variance: 0.0,
+    centroid_on_grid: [0.0; 2],
+    node: 0,
+};
+
+/// What the full-resolution upsampling needs of a texel's spot besides the tap record.
+#[derive(Clone, Copy, Debug, Default)]
+struct Spot {
+    /// The spot's flux (relative illumination).
+    flux: f32,
+    /// Its size (RMS radius with the pixel box, pinhole pixels), before narrowing.
+    size: f32,
+}
+
+/// What the half-resolution gather leaves per texel: the sums of the centre's own layer and of
+/// nearer layers spread over it, and how much of the centre those cover.
+#[derive(Clone, Copy, Debug, Default)]
+struct Gathered {
+    own: [f32; 3],
+    front: [f32; 3],
+    coverage: f32,
+}
+
+/// Renders the pinhole layer of `ldi` (seen from `camera`'s eye) at `width` x `height` through
+/// the lens kernels `kernels`, by the half-resolution gather.
+pub fn postfx_fast(
+    camera: &Camera,
+    ldi: &LayeredDepthImage,
+    kernels: &LensKernels,
+    width: u32,
+    height: u32,
+) -> Result<RgbImage, RenderError> {
+    let front = first_layer_untilted(camera, ldi)?;
+    let view = ldi.view;
+    let (lw, lh) = (view.width as usize, view.height as usize);
+    let (tw, th) = (lw.div_ceil(2), lh.div_ceil(2));
+    let aspect = ((2.0 * view.tan_half[1] / view.height as f64) / kernels.pixel_tangent) as f32;
+    let wide: Vec<Kernel> = kernels
+        .kernels
+        .par_iter()
+        .map(Kernel::over_two_pixel_box)
+        .collect();
+
+    // 1. Prefilter: each texel keeps the nearest surface of its 2 x 2 pixels, its colour the
+    //    patch's sum of that surface's pixels over four (premultiplied by coverage).
+    let prefiltered: Vec<(Texel, Spot)> = (0..tw * th)
+        .into_par_iter()
+        .map(|t| {
+            let (tx, ty) = (t % tw, t / tw);
+            let mut nearest = f32::INFINITY;
+            let pixels = [(0, 0), (1, 0), (0, 1), (1, 1)].map(|(dx, dy)| {
+                let (x, y) = (2 * tx + dx, 2 * ty + dy);
+                (x < lw && y < lh).then(|| front.samples[y * lw + x]).flatten()
+            });
+            for s in pixels.iter().flatten() {
+                nearest = nearest.min(s.depth_mm);
+            }
+            if !nearest.is_finite() {
+                return (EMPTY, Spot::default());
+            }
+            let mut colour = [0.0f32; 3];
+            for s in pixels.iter().flatten() {
+                if same_surface(s.depth_mm, nearest) {
+                    for (c, r) in colour.iter_mut().zip(s.radiance) {
+                        *c += 0.25 * r;
+                    }
+                }
+            }
+            let centre = [2.0 * tx as f64 + 1.0, 2.0 * ty as f64 + 1.0];
+            let tan = [
+                view.tan_half[0] * (2.0 * centre[0] / lw as f64 - 1.0),
+                view.tan_half[1] * (1.0 - 2.0 * centre[1] / lh as f64),
+            ];
+            let (texel, spot) = fit(kernels, &wide, nearest, tan, aspect);
+            let colour = colour.map(|c| c * spot.flux);
+            (Texel { colour, ..texel }, spot)
+        })
+        .collect();
+    let (texels, spots): (Vec<Texel>, Vec<Spot>) = prefiltered.into_iter().unzip();
+
+    // 2. Tiles: nearest depth and largest reach, each tile handed to every tile its texels
+    //    can reach.
+    let tiles = Tiles::of(
+        texels
+            .iter()
+            .map(|t| t.depth.is_finite().then_some((t.reach, t.depth))),
+        tw,
+        th,
+        TILE_TEXELS,
+    );
+    let widest = tiles.reach.iter().copied().fold(0.0f32, f32::max);
+    let levels = (rings_for(widest).1.max(1.0).log2().ceil() as usize + 1).max(1);
+    let pyramid = Pyramid::of(tw, th, texels.iter().map(|t| t.colour).collect(), levels);
+
+    // 3. The half-resolution gather, over the texels the output reads.
+    let map = OutputToLayer::of(camera, ldi, width, height);
+    let corners = [
+        map.at(0, 0),
+        map.at(width - 1, 0),
+        map.at(0, height - 1),
+        map.at(width - 1, height - 1),
+    ];
+    let texel_of = |v: f64| (v - 0.5) * 0.5;
+    let span = |axis: usize, size: usize| {
+        let lo = corners.iter().map(|c| texel_of(c[axis])).fold(f64::INFINITY, f64::min);
+        let hi = corners
+            .iter()
+            .map(|c| texel_of(c[axis]))
+            .fold(f64::NEG_INFINITY, f64::max);
+        let lo = (lo.floor().max(0.0) as usize).min(size - 1);
+        let hi = (hi.ceil().max(0.0) as usize + 1).min(size - 1);
+        (lo, hi - lo + 1)
+    };
+    let (x0, gw) = span(0, tw);
+    let (y0, gh) = span(1, th);
+    let gatherer = Gatherer {
+        kernels: &wide,
+        texels: &texels,
+        pyramid: &pyramid,
+        tiles: &tiles,
+        directions: (0..DIRECTIONS)
+            .map(|i| {
+                let (s, c) = (std::f32::consts::TAU * (i as f32 + 0.5) / DIRECTIONS as f32).sin_cos();
+                [c, s]
+            })
+            .collect(),
+        width: tw,
+        height: th,
+    };
+    // Block by block: a block's taps read a patch of texels that stays in cache, where a run of
+    // whole rows (rayon's split of a row-major range) reads more rows than the cache holds.
+    let (bw, bh) = (gw.div_ceil(BLOCK_TEXELS), gh.div_ceil(BLOCK_TEXELS));
+    let blocks: Vec<Vec<Gathered>> = (0..bw * bh)
+        .into_par_iter()
+        .map(|b| {
+            let (left, top) = ((b % bw) * BLOCK_TEXELS, (b / bw) * BLOCK_TEXELS);
+            let (right, bottom) = ((left + BLOCK_TEXELS).min(gw), (top + BLOCK_TEXELS).min(gh));
+            (top..bottom)
+                .flat_map(|y| (left..right).map(move |x| (x, y)))
+                .map(|(x, y)| gatherer.at(x0 + x, y0 + y))
+                .collect()
+        })
+        .collect();
+    let mut gathered = vec![Gathered::default(); gw * gh];
+    for (b, block) in blocks.iter().enumerate() {
+        let (left, top) = ((b % bw) * BLOCK_TEXELS, (b / bw) * BLOCK_TEXELS);
+        let width = (left + BLOCK_TEXELS).min(gw) - left;
+        for (row, values) in block.chunks(width).enumerate() {
+            let start = (top + row) * gw + left;
+            gathered[start..start + width].copy_from_slice(values);
+        }
+    }
+
+    // 4. Upsample: nearer layers and their coverage bilinear from the gather; the own layer
+    //    from the full-resolution pinhole pixel where it is sharp.
+    let (w, h) = (width as usize, height as usize);
+    let pixels = (0..w * h)
+        .into_par_iter()
+        .map(|i| {
+            let p = map.at((i % w) as u32, (i / w) as u32);
+            let u = [
+                (texel_of(p[0]) as f32 - x0 as f32).clamp(0.0, (gw - 1) as f32),
+                (texel_of(p[1]) as f32 - y0 as f32).clamp(0.0, (gh - 1) as f32),
+            ];
+            let (ix, iy) = (u[0] as usize, u[1] as usize);
+            let (fx, fy) = (u[0] - ix as f32, u[1] - iy as f32);
+            let (jx, jy) = ((ix + 1).min(gw - 1), (iy + 1).min(gh - 1));
+            let corner = [
+                (&gathered[iy * gw + ix], (1.0 - fx) * (1.0 - fy)),
+                (&gathered[iy * gw + jx], fx * (1.0 - fy)),
+                (&gathered[jy * gw + ix], (1.0 - fx) * fy),
+                (&gathered[jy * gw + jx], fx * fy),
+            ];
+            let mut mixed = Gathered::default();
+            for (g, wt) in corner {
+                for k in 0..3 {
+                    mixed.own[k] += wt * g.own[k];
+                    mixed.front[k] += wt * g.front[k];
+                }
+                mixed.coverage += wt * g.coverage;
+            }
+            let (sx, sy) = (p[0] + 0.5, p[1] + 0.5);
+            let sharp = (sx >= 0.0 && sy >= 0.0 && (sx as usize) < lw && (sy as usize) < lh)
+                .then(|| {
+                    let (sx, sy) = (sx as usize, sy as usize);
+                    let s = front.samples[sy * lw + sx]?;
+                    let t = (sy / 2) * tw + sx / 2;
+                    let spot = spots[t];
+                    let blend =
+                        ((spot.size - SHARP_SIZE) / (BLURRED_SIZE - SHARP_SIZE)).clamp(0.0, 1.0);
+                    (same_surface(s.depth_mm, texels[t].depth) && blend < 1.0)
+                        .then(|| (s.radiance.map(|c| c * spot.flux), blend))
+                })
+                .flatten();
+            let own: [f32; 3] = match sharp {
+                Some((colour, blend)) => {
+                    std::array::from_fn(|k| colour[k] + blend * (mixed.own[k] - colour[k]))
+                }
+                None => mixed.own,
+            };
+            let behind = 1.0 - mixed.coverage.min(1.0);
+            std::array::from_fn(|k| mixed.front[k] + behind * own[k])
+        })
+        .collect();
+    Ok(RgbImage {
+        width,
+        height,
+        pixels,
+    })
+}
+
+/// Two depths of one surface for the prefilter: within 1 % (a texel's 2 x 2 pixels of one
+/// surface differ by far less; a silhouette by far more).
+fn same_surface(depth: f32, nearest: f32) -> bool {
+    depth <= nearest * 1.01
+}
+
+/// The texel at `depth_mm` seen at tangents `tan`: its spread fitted once into an affine map
+/// from tap offsets (texels) to the node kernel's grid, narrowed by [`PIPELINE_VARIANCE`].
+fn fit(
+    kernels: &LensKernels,
+    wide: &[Kernel],
+    depth_mm: f32,
+    tan: [f64; 2],
+    aspect: f32,
+) -> (Texel, Spot) {
+    let spread = kernels.spread(depth_mm as f64, tan);
+    let kernel = &wide[spread.node as usize];
+    if kernel.side == 0 || spread.flux <= 0.0 {
+        let dark = Texel {
+            depth: depth_mm,
+            ..EMPTY
+        };
+        return (dark, Spot::default());
+    }
+    // The node's kernel over the 2-pixel box has the node's variance plus the wider box's; it
+    // is scaled to the pixel's variance less what the pipeline adds.
+    let natural = spread.node_size * spread.node_size + WIDER_BOX_VARIANCE;
+    let wanted = spread.size * spread.size - PIPELINE_VARIANCE;
+    let narrowed = wanted.max(MOST_NARROWING * natural);
+    let scale = (natural / narrowed).sqrt();
+    let per_node = scale / kernel.spacing as f32;
+    let [c, s] = spread.azimuth;
+    // A tap at (dx, dy) texels (rows down) from the output lies at layer offset (2 dx, 2 dy);
+    // the kernel's offset, source to output with +y up, is (-2 dx, 2 aspect dy), turned by the
+    // azimuth into the kernel frame and scaled about the centroid.
+    let base = [
+        (spread.node_centroid[0] - kernel.origin[0] as f32) / kernel.spacing as f32
+            - per_node * spread.centroid[0],
+        (spread.node_centroid[1] - kernel.origin[1] as f32) / kernel.spacing as f32
+            - per_node * spread.centroid[1],
+    ];
+    let texel = Texel {
+        depth: depth_mm,
+        reach: 0.5 * (spread.support + std::f32::consts::FRAC_1_SQRT_2),
+        map: [
+            -2.0 * c * per_node,
+            2.0 * aspect * s * per_node,
+            base[0] + 0.5,
+            2.0 * s * per_node,
+            2.0 * aspect * c * per_node,
+            base[1] + 0.5,
+        ],
+        colour: [0.0; 3],
+        amplitude: scale * scale * spread.flux_ratio / spread.flux,
+        variance: narrowed,
+        centroid_on_grid: [
+            (spread.node_centroid[0] - kernel.origin[0] as f32) / kernel.spacing as f32 + 0.5,
+            (spread.node_centroid[1] - kernel.origin[1] as f32) / kernel.spacing as f32 + 0.5,
+        ],
+        node: spread.node,
+    };
+    let spot = Spot {
+        flux: spread.flux,
+        size: spread.size,
+    };
+    (texel, spot)
+}
+
+/// Rings and their spacing (texels) for a disc of `reach` texels.
+fn rings_for(reach: f32) -> (usize, f32) {
+    let rings = ((reach - 0.5).ceil().max(1.0) as usize).min(MAX_RINGS);
+    (rings, reach / (rings as f32 + 0.5))
+}
+
+/// Which layer a gather pass keeps.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Pass {
+    Own,
+    Front,
+}
+
+struct Gatherer<'a> {
+    /// The kernels over the 2-pixel box.
+    kernels: &'a [Kernel],
+    texels: &'a [Texel],
+    pyramid: &'a Pyramid,
+    tiles: &'a Tiles,
+    /// Unit vectors at the centres of [`DIRECTIONS`] equal sectors of the circle.
+    directions: Vec<[f32; 2]>,
+    width: usize,
+    height: usize,
+}
+
+impl Gatherer<'_> {
+    /// The gather at texel (x, y).
+    fn at(&self, x: usize, y: usize) -> Gathered {
+        let mut out = Gathered::default();
+        let (tile_reach, tile_nearest) = self.tiles.at([x as f64, y as f64]);
+        if tile_reach <= 0.0 {
+            return out;
+        }
+        let centre = self.texels[y * self.width + x];
+        let mut state = hash((x as u32).wrapping_mul(0x9e37_79b9) ^ y as u32);
+        if centre.depth.is_finite() {
+            self.disc(Pass::Own, &centre, [x, y], centre.reach, &mut state, &mut out);
+        }
+        // Only a nearer surface that spreads wider than the centre counts as in front, and no
+        // texel of the tile spreads wider than the tile's reach.
+        if tile_nearest < NEARER_LAYER * centre.depth
+            && tile_reach > centre.reach + LAYER_REACH_STEP
+        {
+            self.disc(Pass::Front, &centre, [x, y], tile_reach, &mut state, &mut out);
+        }
+        out
+    }
+
+    /// One disc of taps of `reach` texels around `at`: every texel where that is at most
+    /// [`DENSE_TEXELS`], else rings of taps at random points of equal patches.
+    fn disc(
+        &self,
+        pass: Pass,
+        centre: &Texel,
+        at: [usize; 2],
+        reach: f32,
+        state: &mut u32,
+        out: &mut Gathered,
+    ) {
+        let radius = reach + 0.5;
+        if std::f32::consts::PI * radius * radius <= DENSE_TEXELS {
+            let span = radius.ceil() as isize;
+            for dy in -span..=span {
+                for dx in -span..=span {
+                    if (dx * dx + dy * dy) as f32 <= radius * radius {
+                        self.tap(pass, centre, at, [dx as f32, dy as f32], 4.0, 0, out);
+                    }
+                }
+            }
+            return;
+        }
+        let (rings, spacing) = rings_for(reach);
+        let area = std::f32::consts::FRAC_PI_4 * spacing * spacing;
+        let level = area.sqrt().max(1.0).log2().ceil() as usize;
+        let mut uniform = || {
+            *state = hash(*state);
+            *state as f32 * (1.0 / 4_294_967_296.0)
+        };
+        for ring in 0..=rings {
+            let count = (8 * ring).max(1);
+            let inner = (ring as f32 - 0.5).max(0.0) * spacing;
+            let outer = (ring as f32 + 0.5) * spacing;
+            for k in 0..count {
+                let r = (inner * inner + uniform() * (outer * outer - inner * inner)).sqrt();
+                let turn = (k as f32 + uniform()) / count as f32;
+                let [c, s] = self.directions[(turn * DIRECTIONS as f32) as usize % DIRECTIONS];
+                self.tap(pass, centre, at, [r * c, r * s], 4.0 * area, level, out);
+            }
+        }
+    }
+
+    /// One tap at `offset` texels from `at` standing for `patch` pinhole pixels, its colour
+    /// from pyramid level `level`.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    fn tap(
+        &self,
+        pass: Pass,
+        centre: &Texel,
+        at: [usize; 2],
+        offset: [f32; 2],
+        patch: f32,
+        level: usize,
+        out: &mut Gathered,
+    ) {
+        let (px, py) = (at[0] as f32 + offset[0], at[1] as f32 + offset[1]);
+        let (sx, sy) = (px + 0.5, py + 0.5);
+        if sx < 0.0 || sy < 0.0 || sx as usize >= self.width || sy as usize >= self.height {
+            return;
+        }
+        let index = sy as usize * self.width + sx as usize;
+        let source = &self.texels[index];
+        if !source.depth.is_finite() {
+            return;
+        }
+        let in_front = source.depth < NEARER_LAYER * centre.depth
+            && (!centre.depth.is_finite() || source.reach > centre.reach + LAYER_REACH_STEP);
+        if in_front != (pass == Pass::Front) {
+            return;
+        }
+        let value = self.value(source, offset, patch);
+        if value <= 0.0 {
+            return;
+        }
+        // Per unit flux: the weight is the share of the spot that lands here, the colour is
+        // carried times the flux.
+        let w = value * source.amplitude * patch;
+        let c = match level {
+            0 => source.colour,
+            _ => self.pyramid.nearest(level, [px, py]),
+        };
+        let sum = match in_front {
+            true => {
+                out.coverage += w;
+                &mut out.front
+            }
+            false => &mut out.own,
+        };
+        for k in 0..3 {
+            sum[k] += w * c[k];
+        }
+    }
+
+    /// The source's kernel value at tap offset `offset`, widened for a patch larger than a
+    /// texel (a sparse tap's spot is evaluated at one point for the whole patch).
+    #[inline]
+    fn value(&self, source: &Texel, offset: [f32; 2], patch: f32) -> f32 {
+        let m = &source.map;
+        let kernel = &self.kernels[source.node as usize];
+        let side = kernel.side;
+        let mut gx = m[0] * offset[0] + m[1] * offset[1] + m[2];
+        let mut gy = m[3] * offset[0] + m[4] * offset[1] + m[5];
+        let mut gain = 1.0;
+        if patch > 4.0 {
+            // Widened about the centroid by the patch's variance beyond a texel's: offsets
+            // shrink, the weight grows by the square to keep the flux.
+            let shrink = (source.variance / (source.variance + (patch - 4.0) / 6.0)).sqrt();
+            let [cx, cy] = source.centroid_on_grid;
+            gx = cx + (gx - cx) * shrink;
+            gy = cy + (gy - cy) * shrink;
+            gain = shrink * shrink;
+        }
+        if gx < 0.0 || gy < 0.0 || gx as usize >= side || gy as usize >= side {
+            return 0.0;
+        }
+        gain * kernel.values[gy as usize * side + gx as usize]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    /// A tap's record fills one cache line and no more.
+    #[test]
+    fn a_texel_is_one_cache_line() {
+        assert_eq!(std::mem::size_of::<super::Texel>(), 64);
+    }
+}
