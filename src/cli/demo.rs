@@ -77,6 +77,8 @@ struct Timings {
     max_abs_error: f64,
 }
 
+/// A spinner on stderr naming a long stage, with its elapsed time. indicatif draws it only when
+/// stderr is a terminal, so piped and captured output stays as it was.
 pub(super) fn stage(message: &str) -> ProgressBar {
     let bar = ProgressBar::new_spinner();
     bar.set_style(ProgressStyle::with_template("{spinner} {msg} {elapsed}").expect("template"));

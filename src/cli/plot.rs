@@ -145,7 +145,10 @@ pub fn run_report(args: ReportArgs) -> anyhow::Result<()> {
             (Some(out), true) => out.join(&name),
             (None, _) => Path::new("notebooks-out").join(&name),
         };
-        let written = write_report(&name, &system, &options, &directory)?;
+        let progress = super::demo::stage(&format!("writing the report of {name}"));
+        let written = write_report(&name, &system, &options, &directory);
+        progress.finish_and_clear();
+        let written = written?;
         for (kind, reason) in &written.skipped {
             note!("{name}: {kind} skipped: {reason}");
         }

@@ -9,11 +9,11 @@ use lensbake::job::{
     BackendChoice, BackendUsed, ChromaticReason, DEFAULT_FOCUS_MM, FilmSize, FocusMode,
     ModelChoice, PeelMode, RenderJob, RenderLens, Rendered, SceneSpec,
 };
-use lensbake::model::{ModelError, ModelKind};
+use lensbake::model::ModelKind;
 use lensbake::realtime::{KernelOrigin, PostfxPath};
 use lensbake::render::chromatic::{CHANNELS, ChromaticMode};
 use lensbake::render::image::{png_beside, write_exr, write_png};
-use lensbake::render::{RenderError, RenderSettings};
+use lensbake::render::RenderSettings;
 use std::path::PathBuf;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -291,9 +291,15 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     for line in &from_file {
         say!("lens file: {line}");
     }
-    let rendered = job
-        .run()
-        .map_err(|error| say_how_to_focus(error, unasked_focus))?;
+    // A spinner on a terminal only (indicatif hides it elsewhere): a large render is silent
+    // for seconds otherwise.
+    let progress = super::demo::stage(&format!(
+        "rendering {}x{}, {} spp",
+        job.settings.width, job.settings.height, job.settings.samples_per_pixel
+    ));
+    let rendered = job.run();
+    progress.finish_and_clear();
+    let rendered = rendered.map_err(|error| say_how_to_focus(error, unasked_focus))?;
     // Released only now, so that a render the job refuses prints its error line first.
     super::notes::release();
     print_decisions(&job, &rendered);
@@ -353,13 +359,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
 /// kilometres out, beyond render's 2000 mm) is refused saying where the distance came from and
 /// which flags set another.
 fn say_how_to_focus(error: JobError, unasked_focus: Option<&str>) -> anyhow::Error {
-    let cannot_focus = match &error {
-        JobError::Model(cause) | JobError::Render(RenderError::Model(cause)) => match cause {
-            ModelError::CannotFocus(refused) => Some(refused.front_focal_mm),
-            _ => None,
-        },
-        _ => None,
-    };
+    let cannot_focus = error.cannot_focus().map(|refused| refused.front_focal_mm);
     match (cannot_focus, unasked_focus) {
         (Some(front_focal_mm), Some(origin)) => anyhow::anyhow!(
             "{error}; that distance is {origin}: give --focus-mm farther than \

@@ -253,7 +253,12 @@ pub fn run(args: TradeoffArgs) -> anyhow::Result<()> {
         frames: args.render_frames,
         ..RenderBench::default()
     };
-    let (domain, measured) = tradeoff(&loaded.system, &req, args.rays, 7, &bench)?;
+    let progress = super::demo::stage(&format!(
+        "measuring every model of {name} (bakes, traces and renders)"
+    ));
+    let measured = tradeoff(&loaded.system, &req, args.rays, 7, &bench);
+    progress.finish_and_clear();
+    let (domain, measured) = measured?;
     let finite = measured.iter().all(|m| {
         let e = &m.entry;
         e.bake_seconds.is_finite()

@@ -119,7 +119,7 @@ pub fn run(args: ViewArgs) -> anyhow::Result<()> {
     let viewer = Viewer::new(job, args.spp_per_frame)?;
     say!("{}", backend_line(viewer.backend()));
     let script_file = args.script.clone().unwrap_or_default();
-    let mut session = Session::new(viewer, script, script_file, args.frames);
+    let mut session = Session::new(viewer, script, script_file, args.frames)?;
     let mut report = |event: &ViewEvent| match event {
         ViewEvent::Screenshot(path) => say!("wrote {}", path.display()),
         ViewEvent::TableReady { dir, baked_now } => say!(
@@ -128,7 +128,7 @@ pub fn run(args: ViewArgs) -> anyhow::Result<()> {
             if *baked_now { "baked" } else { "loaded" }
         ),
         ViewEvent::BakeFailed(why) => say!("note: the bake failed ({why}); showing traced"),
-        ViewEvent::Refused(why) => say!("note: {why}"),
+        ViewEvent::Refused(why) | ViewEvent::Note(why) => say!("note: {why}"),
     };
     if args.offscreen {
         loop {

@@ -28,7 +28,7 @@ use crate::model::{
     BakedLens, FirstOrderModels, LensModel, ModelError, ModelKind, ParaxialLens, SeidelLens,
     TracedLens,
 };
-use crate::paraxial::{ObjectPosition, ParaxialError, object_in_focus};
+use crate::paraxial::{CannotFocus, ObjectPosition, ParaxialError, object_in_focus};
 use crate::render::RenderError;
 use crate::render::camera::{Camera, Film, Focus};
 use crate::render::chromatic::{CHANNELS, Chromatic};
@@ -76,6 +76,20 @@ pub enum JobError {
          --backend cpu or auto"
     )]
     PostfxOnGpu,
+}
+
+impl JobError {
+    /// The refusal of a focus nearer than the lens's front focal point, wherever in the job it
+    /// came from (the models' focusing, the renderer's camera).
+    pub fn cannot_focus(&self) -> Option<&CannotFocus> {
+        match self {
+            JobError::Model(ModelError::CannotFocus(refused))
+            | JobError::Render(RenderError::Model(ModelError::CannotFocus(refused))) => {
+                Some(refused)
+            }
+            _ => None,
+        }
+    }
 }
 
 /// The lens a job renders through: an ideal thin lens of a focal length, or a real prescription.

@@ -2,7 +2,9 @@
 //! thick models, and the first-order part of every other model).
 
 use super::ModelError;
-use crate::paraxial::{CannotFocus, Field, Paraxial, ParaxialError, ParaxialOptions};
+use crate::paraxial::{
+    CannotFocus, Field, ObjectPosition, Paraxial, ParaxialError, ParaxialOptions,
+};
 use crate::system::{LensSystem, SystemAt};
 
 /// A lens reduced to first order: power and unit-magnification principal planes, with its pupils.
@@ -52,6 +54,39 @@ impl ParaxialLens {
                 front_focal_mm: self.focal_length_mm - self.front_principal_z,
             }))?;
         Ok(self.rear_principal_z + image_distance)
+    }
+
+    /// The object in focus on a film at lens-frame `film_z`, by the same Gaussian equation
+    /// [`ParaxialLens::film_z_for_object`] focuses with (so each model names its own focus: a
+    /// thin lens's film is not where the real lens's conjugates put it); None when the film is
+    /// nearer than the rear focal plane, where no real object is in focus.
+    ///
+    /// ```
+    /// use lensbake::model::ParaxialLens;
+    /// use lensbake::paraxial::ObjectPosition;
+    /// let lens = ParaxialLens::thin(50.0, 2.0).unwrap();
+    /// let film_z = lens.film_z_for_object(6000.0).unwrap();
+    /// let Some(ObjectPosition::Finite { distance }) = lens.object_in_focus(film_z) else {
+    ///     panic!("a film behind the focal plane has a real object in focus")
+    /// };
+    /// assert!((distance - 6000.0).abs() < 1e-6);
+    /// assert_eq!(lens.object_in_focus(50.0), Some(ObjectPosition::Infinite));
+    /// assert_eq!(lens.object_in_focus(40.0), None);
+    /// ```
+    pub fn object_in_focus(&self, film_z: f64) -> Option<ObjectPosition> {
+        let image_distance = film_z - self.rear_principal_z;
+        let f = self.focal_length_mm;
+        // 1/s = 1/f - 1/s': the object's vergence, zero (to rounding) on the focal plane.
+        let vergence = 1.0 / f - 1.0 / image_distance;
+        if image_distance <= 0.0 || vergence < -1e-12 / f {
+            return None;
+        }
+        if vergence <= 1e-12 / f {
+            return Some(ObjectPosition::Infinite);
+        }
+        Some(ObjectPosition::Finite {
+            distance: 1.0 / vergence - self.front_principal_z,
+        })
     }
 
     /// The Gaussian image distance (behind the rear principal plane) of an object

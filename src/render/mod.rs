@@ -171,15 +171,45 @@ impl SampleShare {
     }
 
     /// Share `index` of `shares` interleaved shares of a lattice of `samples_per_pixel`, which
-    /// `shares` must divide.
+    /// `shares` must divide. The shares are taken in [`spread_order`], so that the first few
+    /// of them together are spread over the whole lens like a render with as many samples (in
+    /// lattice order, the first shares all fell on one sliver of the lens: 16 frames of one
+    /// sample out of 256 left 8% of the demo's pixels black).
     pub fn interleaved(index: u32, shares: u32, samples_per_pixel: u32) -> SampleShare {
         debug_assert!(shares > 0 && samples_per_pixel.is_multiple_of(shares) && index < shares);
         SampleShare {
-            offset: index,
+            offset: spread_order(index, shares),
             count: samples_per_pixel / shares,
             stride: shares,
         }
     }
+}
+
+/// The `index`-th of `0..count` in bit-reversed (van der Corput) order, skipping the values
+/// past `count` when it is not a power of two: a permutation of `0..count` whose every prefix
+/// of `2^m` entries has one value in each of `2^m` equal runs (for a power of two exactly,
+/// otherwise to within one). `index` must be below `count`.
+///
+/// ```
+/// use lensbake::render::spread_order;
+/// let order: Vec<u32> = (0..8).map(|i| spread_order(i, 8)).collect();
+/// assert_eq!(order, [0, 4, 2, 6, 1, 5, 3, 7]);
+/// let order: Vec<u32> = (0..5).map(|i| spread_order(i, 5)).collect();
+/// assert_eq!(order, [0, 4, 2, 1, 3]);
+/// ```
+pub fn spread_order(index: u32, count: u32) -> u32 {
+    if count <= 1 {
+        return 0;
+    }
+    let bits = u32::BITS - (count - 1).leading_zeros();
+    let reversed = |k: u64| ((k as u32).reverse_bits() >> (u32::BITS - bits)) as u64;
+    // Entries past `count` are skipped; fewer than half of the 2^bits are, so this ends within
+    // 2 * count steps.
+    (0..1u64 << bits)
+        .map(reversed)
+        .filter(|&value| value < count as u64)
+        .nth(index as usize)
+        .map_or(index, |value| value as u32)
 }
 
 /// Adds the weighted radiance of `share` of `settings`' samples of `layers` (packed from a layer

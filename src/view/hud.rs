@@ -2,7 +2,7 @@
 //! and the false-colour map of the split view's error.
 
 use super::Viewer;
-use crate::job::{BackendUsed, RenderLens};
+use crate::job::BackendUsed;
 use crate::plot::font::{FONT_FAMILY, ensure_registered};
 use crate::render::image::RgbImage;
 use crate::render::reference::psnr;
@@ -24,10 +24,7 @@ pub fn lines(viewer: &Viewer) -> Vec<String> {
         (false, Some(_)) => format!("{shown} (showing while {asked} bakes)"),
         (false, None) => shown.to_string(),
     };
-    let lens = match &job.lens {
-        RenderLens::Ideal { focal_length_mm } => format!("ideal:{focal_length_mm}"),
-        RenderLens::Real(real) => real.source.origin.name(),
-    };
+    let lens = super::lens_name(&job.lens);
     let focus = match viewer.focus_distance_mm() {
         Some(Some(mm)) => format!("{:.3} m", mm / 1000.0),
         Some(None) => "infinity".to_string(),
@@ -61,18 +58,38 @@ pub fn lines(viewer: &Viewer) -> Vec<String> {
         format!("lens {lens}"),
         adapter,
     ];
-    if let Some((done, total)) = viewer.bake_progress() {
-        lines.push(format!("baking table: {done}/{total}"));
+    // The worker hears of a bake's nodes only once it bakes; until then it is looking for a
+    // table on disk or loading one.
+    match viewer.bake_progress() {
+        Some((done, total)) if total > 0 => lines.push(format!("baking table: {done}/{total}")),
+        Some(_) => lines.push("table: loading (baked if none on disk fits)".to_string()),
+        None => {}
     }
     if let Some(traced) = viewer.twin_image() {
-        let baked = viewer.image();
-        let (_, scale) = error_map(&baked, &traced);
-        lines.push(format!(
-            "baked vs traced: PSNR {:.1} dB; overlay white = {scale:.3}",
-            psnr(&baked, &traced)
-        ));
+        lines.push(if samples == 0 {
+            "baked vs traced: no samples yet".to_string()
+        } else {
+            let baked = viewer.image();
+            let (_, scale) = error_map(&baked, &traced);
+            format!(
+                "baked vs traced: PSNR {:.1} dB; overlay white = {}",
+                psnr(&baked, &traced),
+                significant(scale)
+            )
+        });
     }
     lines
+}
+
+/// `value` with three significant digits, in plain notation (0.00213, 0.126, 4.50).
+fn significant(value: f32) -> String {
+    let magnitude = f64::from(value.abs());
+    let decimals = if magnitude > 0.0 {
+        (2 - magnitude.log10().floor() as i32).max(0) as usize
+    } else {
+        1
+    };
+    format!("{value:.decimals$}")
 }
 
 /// The colour scale of the error map: black, blue, magenta, orange, white at 0, 1/4, 1/2, 3/4
@@ -185,6 +202,14 @@ mod tests {
         assert!(lit(0, 200, 20, 38) > 50, "second line");
         assert_eq!(lit(0, width, 45, height), 0);
         assert_eq!(lit(220, width, 0, height), 0);
+    }
+
+    #[test]
+    fn scales_keep_three_significant_digits() {
+        assert_eq!(significant(0.000_213_4), "0.000213");
+        assert_eq!(significant(0.126_14), "0.126");
+        assert_eq!(significant(4.5), "4.50");
+        assert_eq!(significant(1234.4), "1234");
     }
 
     #[test]

@@ -4,9 +4,11 @@
 //! frame is shown.
 //!
 //! Accumulation spreads one render's lattice over frames: with `T` samples per pixel in all and
-//! `N` a frame, frame `k` takes lattice points `k, k + T/N, k + 2T/N, ...` (a stratified share of
-//! the lens), so after `T/N` frames the viewer holds exactly the samples `lensbake render --spp T`
-//! sums (only the order of the f32 additions differs) and stops. Any change of settings restarts.
+//! `N` a frame, frame `k` takes lattice points `o, o + T/N, o + 2T/N, ...` (a stratified share of
+//! the lens) with `o` the `k`-th offset in bit-reversed order ([`crate::render::spread_order`]),
+//! so the first frames together already cover the lens like a render with their samples; after
+//! `T/N` frames the viewer holds exactly the samples `lensbake render --spp T` sums (only the
+//! order of the f32 additions differs) and stops. Any change of settings restarts.
 //!
 //! A baked model's table is loaded or baked on a worker thread; the traced model is shown until
 //! it is ready, so baking never blocks the window.
@@ -17,11 +19,12 @@ pub mod window;
 
 use crate::job::{
     BackendChoice, BackendUsed, FocusMode, JobError, ModelChoice, PreparedRender, RenderJob,
-    RenderLens, SceneSpec, focus_of_film, traced_twin,
+    RenderLens, SceneSpec, traced_twin,
 };
 use crate::lenses::{self, LensError};
 use crate::lrtf::bake::BakeProgress;
-use crate::model::ModelKind;
+use crate::model::{FirstOrderModels, ModelKind};
+use crate::paraxial::{CannotFocus, ObjectPosition};
 use crate::prescription::formats::LoadOptions;
 use crate::render::camera::Camera;
 use crate::render::chromatic::ChromaticMode;
@@ -116,6 +119,9 @@ pub enum ViewEvent {
     BakeFailed(String),
     /// An interactive action was refused (the viewer kept its settings).
     Refused(String),
+    /// An action was taken as near as the lens allows to what it asked (an f-number faster
+    /// than wide open, a focus nearer than the lens reaches): what was done instead.
+    Note(String),
 }
 
 /// The viewer: its settings (a [`RenderJob`] whose `samples_per_pixel` is the accumulation
@@ -140,6 +146,8 @@ pub struct Viewer {
     last_frame: Duration,
     /// Frames rendered since the viewer opened, and their time (whatever restarted since).
     rendered: (u64, Duration),
+    /// Renders prepared since the viewer opened (film placed, pupil fitted, scene peeled).
+    preparations: u64,
     events: Vec<ViewEvent>,
 }
 
@@ -181,6 +189,7 @@ impl Viewer {
             frames_done: 0,
             last_frame: Duration::ZERO,
             rendered: (0, Duration::ZERO),
+            preparations: 1,
             events: Vec::new(),
         };
         viewer.restart();
@@ -256,10 +265,35 @@ impl Viewer {
         std::mem::take(&mut self.events)
     }
 
-    /// The object distance in focus (mm from the first vertex; None: infinity), for a real lens.
+    /// The object distance in focus (mm from the first vertex; None: infinity) on the film of
+    /// the model on screen, by that model's own first-order equation (a thin model's film is
+    /// not where the real lens's conjugates put it); None for a film no real object is focused
+    /// on.
     pub fn focus_distance_mm(&self) -> Option<Option<f64>> {
-        let real = self.job.lens.real()?;
-        focus_of_film(real, self.view.camera.film_z).ok()
+        let camera = &self.view.camera;
+        Some(match camera.model.paraxial().object_in_focus(camera.film_z)? {
+            ObjectPosition::Infinite => None,
+            ObjectPosition::Finite { distance } => Some(distance),
+        })
+    }
+
+    /// How many renders the viewer has prepared (placed the film, fitted the pupil, peeled the
+    /// scene) since it opened: the costly part of a change of settings, which actions that
+    /// change none of those inputs (samples per frame, the overlay, a value already set) skip.
+    pub fn preparations(&self) -> u64 {
+        self.preparations
+    }
+
+    /// The bundled lens after the one on screen (the first for a lens file or an ideal lens):
+    /// what the window's L key loads.
+    pub fn next_bundled_lens(&self) -> Action {
+        let current = match &self.job.lens {
+            RenderLens::Real(real) => real.source.origin.name(),
+            RenderLens::Ideal { .. } => String::new(),
+        };
+        let at = lenses::BUNDLED.iter().position(|b| b.name == current);
+        let next = at.map_or(0, |i| (i + 1) % lenses::BUNDLED.len());
+        Action::Lens(lenses::BUNDLED[next].name.to_string())
     }
 
     fn shares(&self) -> u32 {
@@ -330,6 +364,7 @@ impl Viewer {
         let result = pending.worker.join().map_err(|_| ViewError::BakeWorker)?;
         match result {
             Ok(prepared) => {
+                self.preparations += 1;
                 let table = prepared.table.clone();
                 let view = Accumulating::new(prepared)?;
                 let twin = match self.split {
@@ -355,26 +390,23 @@ impl Viewer {
     }
 
     /// Applies a settings action (not `frames`, `wait-bake`, `screenshot` or `quit`, which the
-    /// session loop runs). On an error the viewer keeps its previous settings and image.
+    /// session loop runs). On an error the viewer keeps its previous settings and image. An
+    /// f-number faster than the lens opens it wide open, and a focus nearer than the lens
+    /// reaches (a lens switched to at a distance it cannot focus) goes to its nearest focus,
+    /// each with a [`ViewEvent::Note`]. Only what the action changes is redone: samples per
+    /// frame restart the accumulation on the prepared render, a value already set does nothing.
     pub fn apply(&mut self, action: &Action) -> Result<(), ViewError> {
         let mut job = self.job.clone();
         let mut split = self.split;
         let mut spp_per_frame = self.spp_per_frame;
         match action {
             Action::SppPerFrame(n) => spp_per_frame = *n,
-            Action::Click([x, y]) => {
-                let [width, height] = [job.settings.width, job.settings.height];
-                if *x >= width || *y >= height {
-                    return Err(ViewError::OutsideRender {
-                        x: *x,
-                        y: *y,
-                        width,
-                        height,
-                    });
-                }
-                job.focus = FocusMode::Pixel([*x, *y]);
+            Action::Click(pixel) => {
+                self.inside_render(*pixel)?;
+                job.focus = FocusMode::Pixel(*pixel);
             }
-            Action::FNumber(f) => job.f_number = Some(*f),
+            Action::FNumber(f) => job.f_number = self.within_lens(&job.lens, *f)?,
+            Action::Focus(mm) => job.focus = FocusMode::Distance(*mm),
             Action::Model(kind) => job.model = ModelChoice::Model(*kind),
             Action::Split(on) => split = *on,
             Action::ErrorOverlay(on) => {
@@ -397,6 +429,7 @@ impl Viewer {
             }
             Action::Scene(spec) => job.scene = SceneSpec::parse(spec),
             Action::Frames(_)
+            | Action::FocusPull { .. }
             | Action::WaitBake
             | Action::Screenshot(_)
             | Action::WindowSize(_)
@@ -407,7 +440,35 @@ impl Viewer {
         }
         job.settings.samples_per_pixel = round_up(self.target_spp, spp_per_frame);
         job.settings.check()?;
-        let (view, twin, bake) = build(&job, split)?;
+        if split == self.split && job == self.job {
+            if spp_per_frame != self.spp_per_frame {
+                // The camera and the layers stay; only the lattice's shares change.
+                self.spp_per_frame = spp_per_frame;
+                self.restart();
+            }
+            return Ok(());
+        }
+        let (view, twin, bake) = match build(&job, split) {
+            Err(ViewError::Job(error)) if error.cannot_focus().is_some() => {
+                let refused = error.cannot_focus().cloned();
+                let nearest = refused.and_then(|r| nearest_focus(&job, &r));
+                let Some((refused, nearest_mm)) = refused.zip(nearest) else {
+                    return Err(ViewError::Job(error));
+                };
+                job.focus = FocusMode::Distance(nearest_mm);
+                let built = build(&job, split)?;
+                self.events.push(ViewEvent::Note(format!(
+                    "{} cannot focus at {} mm (its front focal point is {:.1} mm out); opened \
+                     at its nearest focus, {nearest_mm:.1} mm (1:1)",
+                    lens_name(&job.lens),
+                    crate::limits::short(refused.distance_mm),
+                    refused.front_focal_mm
+                )));
+                built
+            }
+            other => other?,
+        };
+        self.preparations += 1;
         self.job = job;
         self.split = split;
         self.spp_per_frame = spp_per_frame;
@@ -417,6 +478,74 @@ impl Viewer {
         self.bake = bake;
         self.restart();
         Ok(())
+    }
+
+    /// Refuses a pixel outside the render.
+    fn inside_render(&self, [x, y]: [u32; 2]) -> Result<(), ViewError> {
+        let [width, height] = [self.job.settings.width, self.job.settings.height];
+        if x >= width || y >= height {
+            return Err(ViewError::OutsideRender {
+                x,
+                y,
+                width,
+                height,
+            });
+        }
+        Ok(())
+    }
+
+    /// Refuses an action that would fail whatever the settings when its turn comes: a lens
+    /// that does not load, a scene file or a screenshot folder that does not exist, a click
+    /// outside the render. A script is checked whole this way before its first frame.
+    pub fn check(&self, action: &Action) -> Result<(), ViewError> {
+        match action {
+            Action::Lens(spec) => {
+                lenses::load(spec, &LoadOptions::default())?;
+            }
+            Action::Scene(spec) => match SceneSpec::parse(spec) {
+                SceneSpec::Demo => {}
+                SceneSpec::Gltf(path) | SceneSpec::Exr(path) => {
+                    std::fs::metadata(&path).map_err(|e| RenderError::Read {
+                        path: path.clone(),
+                        reason: e.to_string(),
+                    })?;
+                }
+            },
+            Action::Screenshot(path) => {
+                let folder = path.parent().filter(|p| !p.as_os_str().is_empty());
+                if folder.is_some_and(|folder| !folder.is_dir()) {
+                    return Err(RenderError::Write {
+                        path: path.clone(),
+                        reason: "its folder does not exist".to_string(),
+                    }
+                    .into());
+                }
+            }
+            Action::Click(pixel) => self.inside_render(*pixel)?,
+            _ => {}
+        }
+        Ok(())
+    }
+
+    /// The f-number to render `lens` at for an asked `f_number`: None (wide open) where it is
+    /// faster than the lens, with a note (the HUD rounds, so even its own `f/2.03` can be a
+    /// hair faster than the f/2.0304 it shows).
+    fn within_lens(&mut self, lens: &RenderLens, f_number: f64) -> Result<Option<f64>, ViewError> {
+        let Some(real) = lens.real() else {
+            return Ok(Some(f_number));
+        };
+        let wide_open = FirstOrderModels::of(&real.system, None)
+            .map_err(JobError::from)?
+            .wide_open_f_number;
+        if f_number >= wide_open {
+            return Ok(Some(f_number));
+        }
+        self.events.push(ViewEvent::Note(format!(
+            "f/{} is faster than {} wide open (f/{wide_open:.4}); using wide open",
+            crate::limits::short(f_number),
+            lens_name(lens)
+        )));
+        Ok(None)
     }
 
     /// The mean radiance accumulated so far in `acc`.
@@ -495,6 +624,25 @@ impl Viewer {
     }
 }
 
+/// The nearest focus of `job`'s lens when `refused` says it cannot focus as near as asked: the
+/// object at unit magnification, one focal length beyond the front focal point (a lens file
+/// holds no focusing mechanism, so the limit is the usual macro one, the film one focal length
+/// behind the rear focal plane).
+fn nearest_focus(job: &RenderJob, refused: &CannotFocus) -> Option<f64> {
+    let (first_order, _) = job.lens.first_order(job.f_number).ok()?;
+    let focal_length_mm = first_order.thick.focal_length_mm;
+    let nearest = refused.front_focal_mm + focal_length_mm;
+    (nearest.is_finite() && nearest > refused.distance_mm).then_some(nearest)
+}
+
+/// A lens's name for a note: the bundled name or file, or `ideal:<EFL>`.
+fn lens_name(lens: &RenderLens) -> String {
+    match lens {
+        RenderLens::Ideal { focal_length_mm } => format!("ideal:{focal_length_mm}"),
+        RenderLens::Real(real) => real.source.origin.name(),
+    }
+}
+
 /// The split view's dividing column (8-bit grey).
 const SPLIT_LINE: u8 = 128;
 
@@ -569,25 +717,40 @@ pub struct Session {
     script: VecDeque<ScriptLine>,
     script_file: PathBuf,
     frames_owed: u32,
+    /// The distances (mm) a focus pull has still to render a frame at, next first.
+    pull: VecDeque<f64>,
     frame_limit: Option<u64>,
     frames: u64,
 }
 
 impl Session {
+    /// A session running `script` (read from `script_file`, which errors name) on `viewer`,
+    /// checked whole first ([`Viewer::check`]): a line that would fail when its turn comes is
+    /// refused before anything renders.
     pub fn new(
         viewer: Viewer,
         script: Vec<ScriptLine>,
         script_file: PathBuf,
         frame_limit: Option<u64>,
-    ) -> Session {
-        Session {
+    ) -> Result<Session, ViewError> {
+        for line in &script {
+            viewer
+                .check(&line.action)
+                .map_err(|cause| ViewError::AtLine {
+                    file: script_file.clone(),
+                    line: line.line,
+                    cause: Box::new(cause),
+                })?;
+        }
+        Ok(Session {
             viewer,
             script: script.into(),
             script_file,
             frames_owed: 0,
+            pull: VecDeque::new(),
             frame_limit,
             frames: 0,
-        }
+        })
     }
 
     /// Frames rendered so far (including those with nothing left to accumulate).
@@ -597,7 +760,7 @@ impl Session {
 
     /// Whether the script still has actions or owed frames.
     pub fn scripted(&self) -> bool {
-        self.frames_owed > 0 || !self.script.is_empty()
+        self.frames_owed > 0 || !self.pull.is_empty() || !self.script.is_empty()
     }
 
     /// Does the next thing: a frame the script owes, else the script's next action, else (with
@@ -608,6 +771,10 @@ impl Session {
         }
         if self.frames_owed > 0 {
             self.frames_owed -= 1;
+            return self.frame();
+        }
+        if let Some(mm) = self.pull.pop_front() {
+            self.viewer.apply(&Action::Focus(mm))?;
             return self.frame();
         }
         if let Some(next) = self.script.pop_front() {
@@ -636,6 +803,11 @@ impl Session {
     fn run(&mut self, line: &ScriptLine) -> Result<Step, ViewError> {
         match &line.action {
             Action::Frames(n) => self.frames_owed = *n,
+            Action::FocusPull {
+                from_mm,
+                to_mm,
+                frames,
+            } => self.pull = focus_pull(*from_mm, *to_mm, *frames),
             Action::WaitBake => self.viewer.wait_bake()?,
             Action::Screenshot(path) => self.viewer.screenshot(path)?,
             Action::Quit => return Ok(Step::Quit),
@@ -646,4 +818,17 @@ impl Session {
         }
         Ok(Step::Action)
     }
+}
+
+/// The distances (mm) of a focus pull's `frames` frames from `from_mm` to `to_mm`, both ends
+/// included, evenly spaced in dioptres: the film moves nearly evenly (exactly so for a thin
+/// lens far from macro), as a follow-focus wheel turns.
+fn focus_pull(from_mm: f64, to_mm: f64, frames: u32) -> VecDeque<f64> {
+    let steps = f64::from(frames.max(2) - 1);
+    (0..frames.max(2))
+        .map(|k| {
+            let t = f64::from(k) / steps;
+            1.0 / ((1.0 - t) / from_mm + t / to_mm)
+        })
+        .collect()
 }

@@ -13,6 +13,15 @@ pub enum Action {
     /// Focus on the surface under this pixel of the render.
     Click([u32; 2]),
     FNumber(f64),
+    /// Focus on the plane this far in front of the first vertex (mm).
+    Focus(f64),
+    /// Pull focus from one distance to another (mm) over this many frames, one frame at each
+    /// step, the steps even in dioptres (as the film moves).
+    FocusPull {
+        from_mm: f64,
+        to_mm: f64,
+        frames: u32,
+    },
     Model(ModelKind),
     /// Left half baked, right half traced, identical samples.
     Split(bool),
@@ -41,7 +50,8 @@ pub enum Action {
 }
 
 /// The words a script understands, for error messages.
-const ACTIONS: &str = "spp-per-frame N, click X Y, fnumber F, model NAME, split on|off, \
+const ACTIONS: &str = "spp-per-frame N, click X Y, fnumber F, focus MM, \
+     focus-pull FROM_MM TO_MM FRAMES, model NAME, split on|off, \
      overlay on|off, chromatic on|off, shift X Y, tilt X Y, lens NAME|FILE, scene demo|FILE, \
      frames N, wait-bake, screenshot PATH, window W H, minimise on|off, quit";
 
@@ -109,6 +119,13 @@ pub fn parse_action(content: &str) -> Result<Action, String> {
             .filter(|v| v.is_finite())
             .ok_or_else(|| format!("`{verb}`: {what} `{word}` is not a finite number"))
     };
+    let distance = |word: &str| -> Result<f64, String> {
+        let mm = number(word, "distance (mm)")?;
+        if mm <= 0.0 {
+            return Err(format!("`{verb}`: a distance must be positive, got {mm}"));
+        }
+        Ok(mm)
+    };
     let switch = |word: &str| -> Result<bool, String> {
         match word {
             "on" => Ok(true),
@@ -136,6 +153,24 @@ pub fn parse_action(content: &str) -> Result<Action, String> {
                 return Err(format!("`fnumber` must be positive, got {f}"));
             }
             Action::FNumber(f)
+        }
+        "focus" => {
+            expect(1)?;
+            Action::Focus(distance(args[0])?)
+        }
+        "focus-pull" => {
+            expect(3)?;
+            let frames = whole(args[2], "frame count")?;
+            if frames < 2 || frames as u64 > MAX_VIEW_FRAMES {
+                return Err(format!(
+                    "`focus-pull` takes 2 to {MAX_VIEW_FRAMES} frames, got {frames}"
+                ));
+            }
+            Action::FocusPull {
+                from_mm: distance(args[0])?,
+                to_mm: distance(args[1])?,
+                frames,
+            }
         }
         "model" => {
             expect(1)?;
@@ -244,6 +279,16 @@ mod tests {
         assert_eq!(lines[7].action, Action::Shift([1.0, -2.0]));
         assert_eq!(lines[11].action, Action::Frames(10));
         assert_eq!(lines[14].action, Action::Quit);
+        let pull = parse_action("focus-pull 1000 6000 16").unwrap();
+        assert_eq!(
+            pull,
+            Action::FocusPull {
+                from_mm: 1000.0,
+                to_mm: 6000.0,
+                frames: 16
+            }
+        );
+        assert_eq!(parse_action("focus 2500").unwrap(), Action::Focus(2500.0));
         for (bad, needle) in [
             ("frames ten", "not a whole number"),
             ("click 1", "takes 2 arguments"),
@@ -251,6 +296,9 @@ mod tests {
             ("split maybe", "on or off"),
             ("fnumber -2", "positive"),
             ("fnumber nan", "finite"),
+            ("focus 0", "must be positive"),
+            ("focus-pull 1000 6000 1", "2 to"),
+            ("focus-pull 1000 x 16", "not a finite number"),
             ("spp-per-frame 0", "at least 1"),
             ("frames 10000001", "at most 10000000"),
             ("zoom 2", "unknown action `zoom`"),

@@ -5,7 +5,6 @@
 
 use super::script::Action;
 use super::{MODEL_CYCLE, Session, Step, ViewError, ViewEvent, hud};
-use crate::lenses::BUNDLED;
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -17,7 +16,8 @@ use winit::keyboard::{Key, NamedKey};
 use winit::window::{Window, WindowId};
 
 /// Key bindings, for `--help` and the README.
-pub const KEYS: &str = "click: focus there; F / Shift+F: close / open one third stop; M: next \
+pub const KEYS: &str = "click: focus there; [ / ]: focus a quarter nearer / farther; F / \
+     Shift+F: close / open one third stop; M: next \
      model; C: chromatic on/off; S: split view; E: error overlay; arrows: shift the sensor 0.5 mm; \
      Shift+arrows: tilt it 0.5 degrees; L: next bundled lens; + / -: double / halve samples per \
      frame; P: screenshot (lensbake-view-N.png); Q or Esc: quit; drop a lens, glTF or EXR file to \
@@ -202,18 +202,19 @@ impl App<'_> {
                     let at = MODEL_CYCLE.iter().position(|&k| k == shown).unwrap_or(0);
                     Action::Model(MODEL_CYCLE[(at + 1) % MODEL_CYCLE.len()])
                 }
+                "[" | "]" => {
+                    // A quarter nearer or farther; from a focus at infinity, 100 m in.
+                    let focus = viewer.focus_distance_mm().flatten().unwrap_or(100_000.0);
+                    Action::Focus(if c.as_str() == "[" {
+                        focus / 1.25
+                    } else {
+                        focus * 1.25
+                    })
+                }
                 "c" => Action::Chromatic(viewer.camera().chromatic.is_none()),
                 "s" => Action::Split(!viewer.split()),
                 "e" => Action::ErrorOverlay(!viewer.overlay()),
-                "l" => {
-                    let current = match &job.lens {
-                        crate::job::RenderLens::Real(real) => real.source.origin.name(),
-                        crate::job::RenderLens::Ideal { .. } => String::new(),
-                    };
-                    let at = BUNDLED.iter().position(|b| b.name == current);
-                    let next = at.map_or(0, |i| (i + 1) % BUNDLED.len());
-                    Action::Lens(BUNDLED[next].name.to_string())
-                }
+                "l" => viewer.next_bundled_lens(),
                 "+" | "=" => Action::SppPerFrame(viewer.spp_per_frame().saturating_mul(2)),
                 "-" => Action::SppPerFrame((viewer.spp_per_frame() / 2).max(1)),
                 "p" => {
