@@ -248,7 +248,10 @@ pub fn write_lens(system: &LensSystem, path: &Path) -> Result<Format, WriteLensE
     let (text, what) = match format {
         Format::Zemax => {
             let stated = crate::analysis::stated_as_analysed(system);
-            (write_zemax(&stated).map_err(cannot("a Zemax file"))?, "Zemax file")
+            (
+                write_zemax(&stated).map_err(cannot("a Zemax file"))?,
+                "Zemax file",
+            )
         }
         Format::Pbrt => {
             let nm = system.design_wavelength_nm();

@@ -1806,7 +1806,10 @@ fn convert_refuses_what_check_refuses_and_writes_only_what_check_reads() {
         files.len(),
         failures.len()
     );
-    assert!(refused >= 15, "only {refused} files refused: the suite lost its teeth");
+    assert!(
+        refused >= 15,
+        "only {refused} files refused: the suite lost its teeth"
+    );
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 
@@ -1815,7 +1818,11 @@ fn convert_refuses_what_check_refuses_and_writes_only_what_check_reads() {
 fn stated_conditions_ron() -> String {
     use lensbake::prescription::formats::{LoadOptions, read_file, write_ron};
     let path = common::test_data("cooke_triplet.zmx");
-    write_ron(&read_file(&path, &LoadOptions::default()).unwrap().prescription)
+    write_ron(
+        &read_file(&path, &LoadOptions::default())
+            .unwrap()
+            .prescription,
+    )
 }
 
 /// The hostile lens files in `dir` (label, path as the commands name it from `dir`).
@@ -1921,7 +1928,10 @@ fn hostile_lens_files(dir: &Path) -> Vec<(String, String)> {
         ),
         ("a 90 degree field", "20.0,", "90.0,"),
     ] {
-        assert!(stated.contains(from), "{label}: the Cooke triplet's RON changed");
+        assert!(
+            stated.contains(from),
+            "{label}: the Cooke triplet's RON changed"
+        );
         add(
             label,
             &format!("{}.ron", label.replace(' ', "-")),
@@ -1930,7 +1940,11 @@ fn hostile_lens_files(dir: &Path) -> Vec<(String, String)> {
     }
     let mut many_seq = String::from("RDM\nEPD 10\nSO 0 1e10\n");
     for k in 0..700_000 {
-        many_seq.push_str(if k % 2 == 0 { "S 60 2 N-BK7\n" } else { "S -60 2\n" });
+        many_seq.push_str(if k % 2 == 0 {
+            "S 60 2 N-BK7\n"
+        } else {
+            "S -60 2\n"
+        });
     }
     many_seq.push_str("SI 0 0\nGO\n");
     add("700,000 CODE V surfaces", "many.seq", many_seq.into_bytes());

@@ -616,10 +616,22 @@ fn a_secondary_in_the_primarys_hole_does_not_cross_it() {
     };
     // At r = 10 the secondary (sag 2.68 mm) lies 2.43 mm beyond the primary's sphere.
     let crosses = |p: Prescription| match LensSystem::from_prescription(p) {
-        Err(e) => matches!(e.problem, lensbake::prescription::Problem::SurfacesCross { .. }),
+        Err(e) => matches!(
+            e.problem,
+            lensbake::prescription::Problem::SurfacesCross { .. }
+        ),
         Ok(_) => false,
     };
-    assert!(crosses(telescope(None, 12.0)), "no hole: the surfaces cross");
-    assert!(!crosses(telescope(Some(15.0), 12.0)), "the secondary sits in the hole");
-    assert!(crosses(telescope(Some(15.0), 19.0)), "beyond the hole they cross");
+    assert!(
+        crosses(telescope(None, 12.0)),
+        "no hole: the surfaces cross"
+    );
+    assert!(
+        !crosses(telescope(Some(15.0), 12.0)),
+        "the secondary sits in the hole"
+    );
+    assert!(
+        crosses(telescope(Some(15.0), 19.0)),
+        "beyond the hole they cross"
+    );
 }

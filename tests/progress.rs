@@ -20,7 +20,11 @@ fn on_a_terminal(args: &[&str]) -> Option<String> {
         .args(["-qec", &line, "/dev/null"])
         .output()
         .ok()?;
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stdout));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stdout)
+    );
     Some(String::from_utf8_lossy(&out.stdout).into_owned())
 }
 
@@ -33,11 +37,25 @@ fn long_commands_show_progress_on_a_terminal_and_nothing_elsewhere() {
     let image = image.to_str().unwrap();
     let report = report.to_str().unwrap();
     let render = [
-        "render", "--lens", "dgauss-50mm", "--width", "64", "--height", "48", "--spp", "4",
-        "--backend", "cpu", "--out", image,
+        "render",
+        "--lens",
+        "dgauss-50mm",
+        "--width",
+        "64",
+        "--height",
+        "48",
+        "--spp",
+        "4",
+        "--backend",
+        "cpu",
+        "--out",
+        image,
     ];
     let report_args = ["report", "cooke-triplet", "--out", report];
-    for (args, shown) in [(&render[..], "rendering "), (&report_args[..], "writing the report")] {
+    for (args, shown) in [
+        (&render[..], "rendering "),
+        (&report_args[..], "writing the report"),
+    ] {
         let plain = common::lensbake(args);
         let stderr = String::from_utf8_lossy(&plain.stderr);
         assert!(plain.status.success(), "{stderr}");

@@ -818,7 +818,9 @@ fn codev_private_glasses_by_laurent_coefficients() {
 }
 
 fn data_file(name: &str) -> std::path::PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data").join(name)
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data")
+        .join(name)
 }
 
 /// The Cooke triplet of tests/data with `from` replaced by `to` in its text.
@@ -865,7 +867,8 @@ fn an_unknown_glass_is_read_as_the_model_glass_its_file_writes() {
     );
     assert!((d - 1.62004).abs() <= 1e-12, "n(d) {d}");
     assert!(((d - 1.0) / (f - c) - 36.37).abs() <= 1e-10, "Vd");
-    let catalogue = read(&std::fs::read_to_string(data_file("cooke_triplet.zmx")).unwrap()).unwrap();
+    let catalogue =
+        read(&std::fs::read_to_string(data_file("cooke_triplet.zmx")).unwrap()).unwrap();
     let catalogue = LensSystem::new(catalogue.prescription, &catalogue.map).unwrap();
     let options = AnalyzeOptions {
         wavelength_nm: Some(D_LINE_NM),
@@ -897,7 +900,10 @@ fn numbers_that_are_no_glass_are_not_made_into_a_model_glass() {
             "{label}"
         );
         let error = LensSystem::new(loaded.prescription.clone(), &loaded.map).unwrap_err();
-        assert!(matches!(error.problem, Problem::UnknownGlass { .. }), "{label}: {error}");
+        assert!(
+            matches!(error.problem, Problem::UnknownGlass { .. }),
+            "{label}: {error}"
+        );
         let contradicted = loaded
             .notes
             .iter()
@@ -905,8 +911,8 @@ fn numbers_that_are_no_glass_are_not_made_into_a_model_glass() {
         assert_eq!(contradicted, label == "placeholders", "{label}");
     }
     let corpus = data_file("corpus/rayoptics__US08427765-1.ZMX");
-    let loaded = lensbake::prescription::formats::read_file(&corpus, &LoadOptions::default())
-        .unwrap();
+    let loaded =
+        lensbake::prescription::formats::read_file(&corpus, &LoadOptions::default()).unwrap();
     assert!(LensSystem::new(loaded.prescription.clone(), &loaded.map).is_err());
     assert!(
         loaded
@@ -923,7 +929,10 @@ fn a_lens_table_headed_by_its_focal_length_reads_it_as_the_claim() {
     let path = data_file("lens-tables/iset3d__tessar.22deg.50.0mm.dat");
     let loaded =
         lensbake::prescription::formats::read_file(&path, &LoadOptions::default()).unwrap();
-    assert_eq!(loaded.prescription.provenance.claimed_focal_length_mm, Some(50.0));
+    assert_eq!(
+        loaded.prescription.provenance.claimed_focal_length_mm,
+        Some(50.0)
+    );
     assert_eq!(loaded.prescription.surfaces.len(), 8);
     let system = LensSystem::new(loaded.prescription, &loaded.map).unwrap();
     let efl = analyze(&system, &AnalyzeOptions::default())

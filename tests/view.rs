@@ -391,7 +391,11 @@ fn a_windowed_script_under_xvfb_exits_0_and_writes_its_screenshots() {
 /// Fraction of pixels with no light at all, and the mean luminance.
 fn black_fraction_and_mean(image: &RgbImage) -> (f64, f64) {
     let n = image.pixels.len() as f64;
-    let black = image.pixels.iter().filter(|p| p.iter().all(|&c| c <= 0.0)).count() as f64;
+    let black = image
+        .pixels
+        .iter()
+        .filter(|p| p.iter().all(|&c| c <= 0.0))
+        .count() as f64;
     let mean = image
         .pixels
         .iter()
@@ -429,7 +433,10 @@ fn early_frames_at_one_sample_each_look_like_a_render_with_as_many_samples() {
             };
             let (shown, rendered) = (bytes(&viewer.image()), bytes(&job16.run().unwrap().image));
             eprintln!("screenshot mean {shown:.1} against render --spp 16 {rendered:.1}");
-            assert!((shown / rendered - 1.0).abs() < 0.02, "{shown} vs {rendered}");
+            assert!(
+                (shown / rendered - 1.0).abs() < 0.02,
+                "{shown} vs {rendered}"
+            );
             assert!(black <= render_black + 0.002, "{black} black");
             assert!(
                 (mean / render_mean - 1.0).abs() < 0.02,
@@ -508,7 +515,12 @@ fn an_f_number_faster_than_wide_open_opens_wide_open_with_a_note() {
     let mut viewer = Viewer::new(job(32, 24, 4, BackendChoice::Cpu), 2).unwrap();
     let wide_open = viewer.job().lens.first_order(None).unwrap().1;
     viewer.apply(&Action::FNumber(0.5)).unwrap();
-    let used = viewer.job().lens.first_order(viewer.job().f_number).unwrap().1;
+    let used = viewer
+        .job()
+        .lens
+        .first_order(viewer.job().f_number)
+        .unwrap()
+        .1;
     assert!((used - wide_open).abs() < 1e-12, "f/{used}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
@@ -526,7 +538,10 @@ fn every_bundled_lens_opens_in_the_viewer() {
         assert!(viewer.frame().unwrap());
         let lit = viewer.image().pixels.iter().filter(|p| p[1] > 0.0).count();
         let focus = viewer.focus_distance_mm().unwrap();
-        eprintln!("{}: {lit} of 1200 pixels lit, focus {focus:?}", bundled.name);
+        eprintln!(
+            "{}: {lit} of 1200 pixels lit, focus {focus:?}",
+            bundled.name
+        );
         assert!(lit > 120, "{}: {lit} pixels lit", bundled.name);
     }
     let dir = temp_dir("reflex");
@@ -554,7 +569,12 @@ fn every_bundled_lens_opens_in_the_viewer() {
 /// model's film ("focus 1.009 m" with the 6 m wall sharp).
 #[test]
 fn the_hud_names_the_focus_of_the_model_on_screen() {
-    for kind in [ModelKind::Thin, ModelKind::Thick, ModelKind::Seidel, ModelKind::Traced] {
+    for kind in [
+        ModelKind::Thin,
+        ModelKind::Thick,
+        ModelKind::Seidel,
+        ModelKind::Traced,
+    ] {
         let mut start = job(32, 24, 1, BackendChoice::Cpu);
         start.focus = FocusMode::Distance(6000.0);
         start.model = lensbake::job::ModelChoice::Model(kind);
@@ -563,7 +583,10 @@ fn the_hud_names_the_focus_of_the_model_on_screen() {
         eprintln!("{kind:?}: HUD focus {focus:.3} mm");
         assert!((focus - 6000.0).abs() < 1e-6 * 6000.0, "{kind:?}: {focus}");
         assert!(
-            viewer.hud_lines().iter().any(|l| l.ends_with("focus 6.000 m")),
+            viewer
+                .hud_lines()
+                .iter()
+                .any(|l| l.ends_with("focus 6.000 m")),
             "{:?}",
             viewer.hud_lines()
         );
@@ -586,10 +609,16 @@ fn a_script_naming_missing_files_is_refused_before_the_first_frame() {
         let out = run_script(&dir, "dgauss-50mm", [16, 12], &script);
         let stderr = String::from_utf8_lossy(&out.stderr);
         assert_eq!(out.status.code(), Some(2), "{bad}: {stderr}");
-        assert!(stderr.starts_with("error: ") && stderr.contains(":4: "), "{stderr}");
+        assert!(
+            stderr.starts_with("error: ") && stderr.contains(":4: "),
+            "{stderr}"
+        );
         assert!(stderr.contains(needle), "{bad}: {stderr}");
         assert_eq!(stderr.lines().count(), 1, "{stderr}");
-        assert!(!shot.exists(), "{bad}: the script ran before it was checked");
+        assert!(
+            !shot.exists(),
+            "{bad}: the script ran before it was checked"
+        );
     }
     std::fs::remove_dir_all(&dir).unwrap();
 }
@@ -708,5 +737,8 @@ fn a_scripted_focus_pull_moves_the_sharp_region() {
     // Measured at 200x150, f/2.03: chart 0.160 -> 0.133, wall 0.0610 -> 0.0662.
     assert!(first.1 > 1.15 * last.1, "chart {} -> {}", first.1, last.1);
     assert!(last.2 > 1.05 * first.2, "wall {} -> {}", first.2, last.2);
-    assert!((frames[3].1 / first.1 - 1.0).abs() < 0.02, "focus 2000 again");
+    assert!(
+        (frames[3].1 / first.1 - 1.0).abs() < 0.02,
+        "focus 2000 again"
+    );
 }

@@ -276,9 +276,8 @@ fn skipped_keywords(notes: &[LoadNote]) -> Vec<&str> {
     let mut keywords: Vec<&str> = notes
         .iter()
         .flat_map(|note| match note {
-            LoadNote::SkippedKeywords { keywords } | LoadNote::UnknownHeaderKeywords { keywords } => {
-                keywords.as_slice()
-            }
+            LoadNote::SkippedKeywords { keywords }
+            | LoadNote::UnknownHeaderKeywords { keywords } => keywords.as_slice(),
             _ => &[],
         })
         .map(String::as_str)

@@ -11,9 +11,9 @@ use lensbake::job::{
 };
 use lensbake::model::ModelKind;
 use lensbake::realtime::{KernelOrigin, PostfxPath};
+use lensbake::render::RenderSettings;
 use lensbake::render::chromatic::{CHANNELS, ChromaticMode};
 use lensbake::render::image::{png_beside, write_exr, write_png};
-use lensbake::render::RenderSettings;
 use std::path::PathBuf;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]

@@ -467,7 +467,11 @@ fn check_crossings(p: &Prescription, map: &SourceMap) -> Result<(), Prescription
         // Inside a central hole or obscuration no ray passes between the two surfaces (a
         // Cassegrain's secondary may sit in its primary's hole), so only the ring outside the
         // larger of them must be clear.
-        let r_min = a.obscuration.into_iter().chain(b.obscuration).fold(0.0, f64::max);
+        let r_min = a
+            .obscuration
+            .into_iter()
+            .chain(b.obscuration)
+            .fold(0.0, f64::max);
         if r_min >= r_max {
             continue;
         }

@@ -139,7 +139,9 @@ pub fn postfx_fast(
             let mut nearest = f32::INFINITY;
             let pixels = [(0, 0), (1, 0), (0, 1), (1, 1)].map(|(dx, dy)| {
                 let (x, y) = (2 * tx + dx, 2 * ty + dy);
-                (x < lw && y < lh).then(|| front.samples[y * lw + x]).flatten()
+                (x < lw && y < lh)
+                    .then(|| front.samples[y * lw + x])
+                    .flatten()
             });
             for s in pixels.iter().flatten() {
                 nearest = nearest.min(s.depth_mm);
@@ -191,7 +193,10 @@ pub fn postfx_fast(
     ];
     let texel_of = |v: f64| (v - 0.5) * 0.5;
     let span = |axis: usize, size: usize| {
-        let lo = corners.iter().map(|c| texel_of(c[axis])).fold(f64::INFINITY, f64::min);
+        let lo = corners
+            .iter()
+            .map(|c| texel_of(c[axis]))
+            .fold(f64::INFINITY, f64::min);
         let hi = corners
             .iter()
             .map(|c| texel_of(c[axis]))
@@ -209,7 +214,8 @@ pub fn postfx_fast(
         tiles: &tiles,
         directions: (0..DIRECTIONS)
             .map(|i| {
-                let (s, c) = (std::f32::consts::TAU * (i as f32 + 0.5) / DIRECTIONS as f32).sin_cos();
+                let (s, c) =
+                    (std::f32::consts::TAU * (i as f32 + 0.5) / DIRECTIONS as f32).sin_cos();
                 [c, s]
             })
             .collect(),
@@ -402,14 +408,28 @@ impl Gatherer<'_> {
         let centre = self.texels[y * self.width + x];
         let mut state = hash((x as u32).wrapping_mul(0x9e37_79b9) ^ y as u32);
         if centre.depth.is_finite() {
-            self.disc(Pass::Own, &centre, [x, y], centre.reach, &mut state, &mut out);
+            self.disc(
+                Pass::Own,
+                &centre,
+                [x, y],
+                centre.reach,
+                &mut state,
+                &mut out,
+            );
         }
         // Only a nearer surface that spreads wider than the centre counts as in front, and no
         // texel of the tile spreads wider than the tile's reach.
         if tile_nearest < NEARER_LAYER * centre.depth
             && tile_reach > centre.reach + LAYER_REACH_STEP
         {
-            self.disc(Pass::Front, &centre, [x, y], tile_reach, &mut state, &mut out);
+            self.disc(
+                Pass::Front,
+                &centre,
+                [x, y],
+                tile_reach,
+                &mut state,
+                &mut out,
+            );
         }
         out
     }

@@ -92,12 +92,7 @@ pub(super) struct Pyramid {
 }
 
 impl Pyramid {
-    pub(super) fn of(
-        width: usize,
-        height: usize,
-        colour: Vec<[f32; 3]>,
-        levels: usize,
-    ) -> Pyramid {
+    pub(super) fn of(width: usize, height: usize, colour: Vec<[f32; 3]>, levels: usize) -> Pyramid {
         let mut all = vec![(width, height, colour)];
         for _ in 1..levels {
             let (w, h, below) = all.last().expect("level 0 is there");

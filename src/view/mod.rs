@@ -271,10 +271,12 @@ impl Viewer {
     /// on.
     pub fn focus_distance_mm(&self) -> Option<Option<f64>> {
         let camera = &self.view.camera;
-        Some(match camera.model.paraxial().object_in_focus(camera.film_z)? {
-            ObjectPosition::Infinite => None,
-            ObjectPosition::Finite { distance } => Some(distance),
-        })
+        Some(
+            match camera.model.paraxial().object_in_focus(camera.film_z)? {
+                ObjectPosition::Infinite => None,
+                ObjectPosition::Finite { distance } => Some(distance),
+            },
+        )
     }
 
     /// How many renders the viewer has prepared (placed the film, fitted the pupil, peeled the

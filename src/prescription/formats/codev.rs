@@ -53,8 +53,8 @@ use super::placement::{
     self, ApertureOutline, Asymmetry, OutlineShape, Placement, PlacementKind, StatedOutline,
 };
 use super::{
-    AsphereTerms, Format, LoadNote, Loaded, Source, check_surface_count, finite, named_medium, number, positive,
-    scale_to_mm, shape,
+    AsphereTerms, Format, LoadNote, Loaded, Source, check_surface_count, finite, named_medium,
+    number, positive, scale_to_mm, shape,
 };
 use crate::prescription::DEFAULT_WAVELENGTH_NM;
 use crate::prescription::error::{Location, PrescriptionError, Problem};

@@ -462,10 +462,9 @@ pub fn write_ron(p: &Prescription) -> String {
 /// Writes the canonical RON of `p` to `path` atomically: the text goes to a temporary file in the
 /// same directory, which then replaces `path` in one rename, so a reader never sees half a file.
 pub fn write_ron_file(path: &Path, p: &Prescription) -> Result<(), PrescriptionError> {
-    crate::output::write_bytes(path, write_ron(p).as_bytes())
-        .map_err(|error| {
-            PrescriptionError::new(Location::file(path), Problem::Write(error.cause()))
-        })
+    crate::output::write_bytes(path, write_ron(p).as_bytes()).map_err(|error| {
+        PrescriptionError::new(Location::file(path), Problem::Write(error.cause()))
+    })
 }
 
 /// Decodes file bytes to text; on failure, the 1-based line of the first bad byte.

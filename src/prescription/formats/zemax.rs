@@ -56,8 +56,8 @@ use super::placement::{
     StatedToroid,
 };
 use super::{
-    ContradictedGlassData, Format, LoadNote, Loaded, check_surface_count, ModelGlass, ModelGlassNote, Source, finite, named_medium, number, odd_shape, positive,
-    scale_to_mm, shape,
+    ContradictedGlassData, Format, LoadNote, Loaded, ModelGlass, ModelGlassNote, Source,
+    check_surface_count, finite, named_medium, number, odd_shape, positive, scale_to_mm, shape,
 };
 use crate::limits;
 use crate::prescription::DEFAULT_WAVELENGTH_NM;
@@ -1126,8 +1126,8 @@ impl Reader {
                 return None;
             };
             let glass = crate::glass::lookup_in(name, &self.catalogues).ok()?;
-            let contradicted = !((written.nd - glass.nd).abs() <= 0.005
-                && (written.vd - glass.vd).abs() <= 1.0);
+            let contradicted =
+                !((written.nd - glass.nd).abs() <= 0.005 && (written.vd - glass.vd).abs() <= 1.0);
             contradicted.then(|| ContradictedGlassData {
                 line: *line,
                 name: name.clone(),
