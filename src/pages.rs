@@ -125,33 +125,6 @@ pub(crate) fn fence_streaming_stores() {
     }
 }
 
-/// Asks the cache for the line holding `value` ahead of its use. No effect on any value.
-#[inline(always)]
-pub(crate) fn prefetch<T>(value: &T) {
-    #[cfg(target_arch = "x86_64")]
-    // SAFETY: a prefetch is a hint: it reads no value, cannot fault, and SSE (which has it) is
-    // part of every x86-64 CPU.
-    unsafe {
-        use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
-        _mm_prefetch::<_MM_HINT_T0>((value as *const T).cast());
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = value;
-}
-
-/// [`prefetch`] of every cache line `values` covers: for rows read in order from arrays on
-/// small pages, where the processor's own prefetcher stops at each 4 KiB page's end.
-#[inline(always)]
-pub(crate) fn prefetch_lines<T>(values: &[T]) {
-    const LINE: usize = 64;
-    let bytes = std::mem::size_of_val(values);
-    let start = values.as_ptr().cast::<u8>();
-    for offset in (0..bytes).step_by(LINE) {
-        // SAFETY: `offset < bytes`, so the address lies inside `values`.
-        prefetch(unsafe { &*start.add(offset) });
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -14,7 +14,7 @@ use half::f16;
 
 use super::param::{CHANNELS, MARGIN};
 use super::table::{Corners, Precision};
-use crate::pages::{Pages, prefetch, resize_on, to_vec_on_huge_pages};
+use crate::pages::{Pages, resize_on, to_vec_on_huge_pages};
 use crate::trace::{Isa, with_widest_isa};
 
 /// Nodes per brick edge (a power of two, so brick and offset are a shift and a mask).
@@ -331,6 +331,20 @@ impl<N: Node> Grid<N> {
             self.nodes[layout.index(row_major_node(layout.dims, k)) as usize].values()
         })
     }
+}
+
+/// Asks the cache for the line holding `node` ahead of its use. No effect on any value.
+#[inline(always)]
+fn prefetch<T>(node: &T) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: a prefetch is a hint: it reads no value, cannot fault, and SSE (which has it) is
+    // part of every x86-64 CPU.
+    unsafe {
+        use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+        _mm_prefetch::<_MM_HINT_T0>((node as *const T).cast());
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = node;
 }
 
 /// The interpolation on x86-64 processors with AVX2 and F16C (the build assumes only SSE2,

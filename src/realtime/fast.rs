@@ -4,7 +4,7 @@
 //! foreground and background sums, then an upsample that keeps in-focus pixels at full
 //! resolution).
 //!
-//! Where [`super::postfx`] fits each tap's kernel on the fly (bracketing, rotating and scaling,
+//! Where [`super::postfx()`] fits each tap's kernel on the fly (bracketing, rotating and scaling,
 //! about 50 to 100 ns a tap), this path fits every source texel's kernel once: the map from a
 //! tap's offset (in texels) to the node kernel's grid is affine, so it is folded into six
 //! numbers per texel, and a tap is four multiply-adds and one table read.
@@ -17,7 +17,9 @@
 //! pinhole image instead.
 
 use super::kernels::{Kernel, LensKernels};
-use super::postfx::{OutputToLayer, Pyramid, Tiles, first_layer_untilted, hash};
+use super::postfx::{
+    OutputToLayer, Pyramid, Tiles, first_layer_untilted, hash, layer_pixel_aspect,
+};
 use crate::render::RenderError;
 use crate::render::camera::Camera;
 use crate::render::image::RgbImage;
@@ -123,7 +125,7 @@ pub fn postfx_fast(
     let view = ldi.view;
     let (lw, lh) = (view.width as usize, view.height as usize);
     let (tw, th) = (lw.div_ceil(2), lh.div_ceil(2));
-    let aspect = ((2.0 * view.tan_half[1] / view.height as f64) / kernels.pixel_tangent) as f32;
+    let aspect = layer_pixel_aspect(ldi, kernels);
     let wide: Vec<Kernel> = kernels
         .kernels
         .par_iter()

@@ -4,7 +4,7 @@
 //!
 //! It sits above the renderer's scene input and layers ([`crate::render`]) and the lens-model
 //! layer ([`crate::model`]) and imports only downwards: [`kernels`] traces the kernel set
-//! through the exact lens and [`store`] keeps it on disk; [`postfx`] gathers with it at full
+//! through the exact lens and [`store`] keeps it on disk; [`mod@postfx`] gathers with it at full
 //! resolution, tap by tap (the accuracy statement), [`fast`] at half resolution with kernels
 //! fitted once per texel (the real-time path, and the default).
 

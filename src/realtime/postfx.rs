@@ -242,6 +242,13 @@ pub(super) fn first_layer_untilted<'a>(
     ldi.layers.first().ok_or(RenderError::EmptyScene)
 }
 
+/// A layer pixel's height in units of the kernels' pitch (the tangent one pixel spans): what
+/// scales a kernel's vertical offsets into layer rows, for both paths.
+pub(super) fn layer_pixel_aspect(ldi: &LayeredDepthImage, kernels: &LensKernels) -> f32 {
+    let view = ldi.view;
+    ((2.0 * view.tan_half[1] / view.height as f64) / kernels.pixel_tangent) as f32
+}
+
 /// Renders the pinhole layer of `ldi` (seen from `camera`'s eye) at `width` x `height` through
 /// the lens kernels `kernels` by the gather post-process.
 pub fn postfx(
@@ -254,7 +261,7 @@ pub fn postfx(
     let front = first_layer_untilted(camera, ldi)?;
     let view = ldi.view;
     let (lw, lh) = (view.width as usize, view.height as usize);
-    let aspect = ((2.0 * view.tan_half[1] / view.height as f64) / kernels.pixel_tangent) as f32;
+    let aspect = layer_pixel_aspect(ldi, kernels);
     let sources: Vec<Option<Source>> = front
         .samples
         .par_iter()
