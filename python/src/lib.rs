@@ -375,9 +375,8 @@ impl Lens {
             let nm = wavelength_nm.unwrap_or_else(|| system.design_wavelength_nm());
             let at = system.at_checked(nm).map_err(refused)?;
             let starts = StartCheck::new(&at, travel);
-            let admit = |ray: &Ray| starts.check(ray);
             Tracer::new(&at)
-                .trace_rows_into(&origins, &directions, travel, apertures, admit, results)
+                .trace_rows_into(&origins, &directions, travel, apertures, &starts, results)
                 .map_err(|e| argument(e.to_string()))?;
             Ok(())
         })?;
