@@ -30,7 +30,6 @@ fn frame_params_layout_matches_wgsl() {
             layer_width,
             layer_height,
             layer_count,
-            layer_groups,
             pyramid_levels,
             sample_offset,
             sample_count,
@@ -246,10 +245,7 @@ fn out_of_focus_occluder_edge_shows_the_background() {
     let lens = camera.model.paraxial().clone();
     let ldi = peel(&scene, &camera, &settings);
     let image = render_layers(&camera, &ldi, &settings, Backend::Cpu, None).unwrap();
-    let single_layer = LayeredDepthImage {
-        view: ldi.view,
-        layers: ldi.layers[..1].to_vec(),
-    };
+    let single_layer = ldi.nearest_layers(1);
     let flat = render_layers(&camera, &single_layer, &settings, Backend::Cpu, None).unwrap();
 
     // A film point focused on background point X sees past the occluder edge (x = 0 at depth
@@ -276,10 +272,13 @@ fn out_of_focus_occluder_edge_shows_the_background() {
             (seen - expected).abs() < 0.04,
             "column {column}: background fraction {seen:.3}, expected {expected:.3}"
         );
-        let pinhole_sees_occluder = ldi.layers[0].samples[(ldi.view.width * (ldi.view.height / 2)
-            + column
-            + (ldi.view.width - settings.width) / 2)
-            as usize]
+        let pinhole_sees_occluder = ldi
+            .surfel(
+                0,
+                (ldi.view.width * (ldi.view.height / 2)
+                    + column
+                    + (ldi.view.width - settings.width) / 2) as usize,
+            )
             .is_some_and(|s| s.radiance[0] > 0.5);
         if pinhole_sees_occluder && seen > 0.2 {
             saw_behind = true;

@@ -141,9 +141,7 @@ pub fn postfx_fast(
             let mut nearest = f32::INFINITY;
             let pixels = [(0, 0), (1, 0), (0, 1), (1, 1)].map(|(dx, dy)| {
                 let (x, y) = (2 * tx + dx, 2 * ty + dy);
-                (x < lw && y < lh)
-                    .then(|| front.samples[y * lw + x])
-                    .flatten()
+                (x < lw && y < lh).then(|| front.get(y * lw + x)).flatten()
             });
             for s in pixels.iter().flatten() {
                 nearest = nearest.min(s.depth_mm);
@@ -280,7 +278,7 @@ pub fn postfx_fast(
             let sharp = (sx >= 0.0 && sy >= 0.0 && (sx as usize) < lw && (sy as usize) < lh)
                 .then(|| {
                     let (sx, sy) = (sx as usize, sy as usize);
-                    let s = front.samples[sy * lw + sx]?;
+                    let s = front.get(sy * lw + sx)?;
                     let t = (sy / 2) * tw + sx / 2;
                     let spot = spots[t];
                     let blend =

@@ -29,10 +29,12 @@ use crate::prescription::formats::LoadOptions;
 use crate::render::camera::Camera;
 use crate::render::chromatic::ChromaticMode;
 use crate::render::gpu::GpuRenderer;
-use crate::render::gpu_types::LayerData;
+use crate::render::gpu_types::{LayerData, LayerIndex};
 use crate::render::image::{RgbImage, srgb8, write_rgb8_png};
+use crate::render::layers::LayeredDepthImage;
 use crate::render::{Backend, RenderError, SampleShare, accumulate_share};
 use script::{Action, ScriptError, ScriptLine};
+use std::borrow::Cow;
 use std::collections::VecDeque;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -70,21 +72,22 @@ pub enum ViewError {
     Window(String),
 }
 
-/// One render being accumulated: the prepared camera and layers and the running sums.
+/// One render being accumulated: the prepared camera and layers (with the kernels' index of
+/// them, derived once) and the running sums.
 struct Accumulating {
     camera: Camera,
-    layers: LayerData,
-    view_tan_half: [f64; 2],
+    layers: Arc<LayeredDepthImage>,
+    index: Arc<LayerIndex>,
     sums: Vec<[f32; 4]>,
 }
 
 impl Accumulating {
     fn new(prepared: PreparedRender) -> Result<Accumulating, ViewError> {
-        let layers = LayerData::pack(&prepared.layers)?;
+        let index = LayerIndex::of(&prepared.layers)?;
         Ok(Accumulating {
-            view_tan_half: prepared.layers.view.tan_half,
             camera: prepared.camera,
-            layers,
+            layers: Arc::new(prepared.layers),
+            index: Arc::new(index),
             sums: Vec::new(),
         })
     }
@@ -93,7 +96,7 @@ impl Accumulating {
         Accumulating {
             camera,
             layers: self.layers.clone(),
-            view_tan_half: self.view_tan_half,
+            index: self.index.clone(),
             sums: Vec::new(),
         }
     }
@@ -331,8 +334,8 @@ impl Viewer {
         for acc in std::iter::once(&mut self.view).chain(self.twin.as_mut()) {
             accumulate_share(
                 &acc.camera,
-                &acc.layers,
-                acc.view_tan_half,
+                &LayerData::with_index(&acc.layers, Cow::Borrowed(&acc.index)),
+                acc.layers.view.tan_half,
                 &self.job.settings,
                 share,
                 backend,
