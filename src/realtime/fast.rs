@@ -30,8 +30,8 @@ use rayon::prelude::*;
 /// pass, which runs wherever a tile's dilated neighbourhood holds a nearer surface, covers a
 /// quarter of the area around a blurred foreground that 32-pixel tiles gave it).
 const TILE_TEXELS: usize = 8;
-/// Side of the blocks of output texels the gather hands to threads.
-const BLOCK_TEXELS: usize = 16;
+/// Rows of output texels the gather hands to a thread at a time.
+const BAND_TEXELS: usize = 8;
 /// Most rings of taps (1 + 8 + 16 + 24 = 49 taps, the low end of Tan et al.'s 48 to 81).
 const MAX_RINGS: usize = 3;
 /// Directions a ring tap can take: a table instead of a sine and cosine per tap.
@@ -101,35 +101,37 @@ const EMPTY: Texel = Texel {
     kernel: 0,
 };
 
-/// The kernels over the 2-pixel box, each in a square of one common side (zero beyond its own
-/// grid), so a tap's lookup is one bounds test and one read with a stride every kernel shares.
+/// The kernels over the 2-pixel box, each in a square of one common side with a border of
+/// zeros (beyond its own grid too), so a tap's lookup clamps its indices into the square instead
+/// of testing them: a tap off a kernel reads a zero of its border.
 struct KernelTable {
     values: Vec<f32>,
     side: usize,
 }
 
 impl KernelTable {
+    /// Nodes of zeros before each kernel's grid, in x and in y.
+    const BORDER: f32 = 1.0;
+
     fn of(wide: &[Kernel]) -> KernelTable {
-        let side = wide.iter().map(|k| k.side).max().unwrap_or(0).max(1);
+        let side = wide.iter().map(|k| k.side).max().unwrap_or(0) + 2;
         let mut values = vec![0.0f32; wide.len() * side * side];
         for (slot, kernel) in values.chunks_mut(side * side).zip(wide) {
             for (row, source) in kernel.values.chunks(kernel.side.max(1)).enumerate() {
-                slot[row * side..row * side + source.len()].copy_from_slice(source);
+                let start = (row + 1) * side + 1;
+                slot[start..start + source.len()].copy_from_slice(source);
             }
         }
         KernelTable { values, side }
     }
 
-    /// The value at grid coordinates (gx, gy) of the kernel starting at `start`; zero off it.
+    /// The value at table coordinates (gx, gy) of the kernel starting at `start`, nearest node
+    /// (coordinates carry +1/2); zero off the kernel (a negative or NaN coordinate converts to
+    /// index 0, a large one clamps to the last, both on the border).
     #[inline(always)]
     fn at(&self, start: u32, gx: f32, gy: f32) -> f32 {
-        if !(gx >= 0.0 && gy >= 0.0) {
-            return 0.0;
-        }
-        let (ix, iy) = (gx as usize, gy as usize);
-        if ix >= self.side || iy >= self.side {
-            return 0.0;
-        }
+        let last = self.side - 1;
+        let (ix, iy) = ((gx as usize).min(last), (gy as usize).min(last));
         self.values[start as usize + iy * self.side + ix]
     }
 }
@@ -286,29 +288,19 @@ pub fn postfx_fast(
         width: tw,
         height: th,
     };
-    // Block by block: a block's taps read a patch of texels that stays in cache, where a run of
-    // whole rows (rayon's split of a row-major range) reads more rows than the cache holds.
-    let (bw, bh) = (gw.div_ceil(BLOCK_TEXELS), gh.div_ceil(BLOCK_TEXELS));
-    let blocks: Vec<Vec<Gathered>> = (0..bw * bh)
-        .into_par_iter()
-        .map(|b| {
-            let (left, top) = ((b % bw) * BLOCK_TEXELS, (b / bw) * BLOCK_TEXELS);
-            let (right, bottom) = ((left + BLOCK_TEXELS).min(gw), (top + BLOCK_TEXELS).min(gh));
-            (top..bottom)
-                .flat_map(|y| (left..right).map(move |x| (x, y)))
-                .map(|(x, y)| gatherer.at(x0 + x, y0 + y))
-                .collect()
-        })
-        .collect();
+    // Band by band of rows: a band's taps read a strip of texels that stays in cache, where
+    // rayon's split of a row-major range into single rows spreads one thread's reads over
+    // more rows than the cache holds.
     let mut gathered = vec![Gathered::default(); gw * gh];
-    for (b, block) in blocks.iter().enumerate() {
-        let (left, top) = ((b % bw) * BLOCK_TEXELS, (b / bw) * BLOCK_TEXELS);
-        let width = (left + BLOCK_TEXELS).min(gw) - left;
-        for (row, values) in block.chunks(width).enumerate() {
-            let start = (top + row) * gw + left;
-            gathered[start..start + width].copy_from_slice(values);
-        }
-    }
+    gathered
+        .par_chunks_mut(gw * BAND_TEXELS)
+        .enumerate()
+        .for_each(|(band, values)| {
+            for (i, value) in values.iter_mut().enumerate() {
+                let (x, y) = (i % gw, band * BAND_TEXELS + i / gw);
+                *value = gatherer.at(x0 + x, y0 + y);
+            }
+        });
 
     // 4. Upsample: the composited colour bilinear from the gather; where a pixel's own surface
     //    is sharp, its own layer from the full-resolution pinhole pixel under the nearer
@@ -445,19 +437,20 @@ fn fit(
     let texel = Texel {
         depth: depth_mm,
         reach: 0.5 * (spread.support + std::f32::consts::FRAC_1_SQRT_2),
+        // +1/2: the table's nearest node by truncation; the border: where the grid starts.
         map: [
             -2.0 * c * per_node,
             2.0 * aspect * s * per_node,
-            base[0] + 0.5,
+            base[0] + 0.5 + KernelTable::BORDER,
             2.0 * s * per_node,
             2.0 * aspect * c * per_node,
-            base[1] + 0.5,
+            base[1] + 0.5 + KernelTable::BORDER,
         ],
         colour: [0.0; 3],
         // A dense tap stands for one texel: 4 pinhole pixels of patch.
         weight: 4.0 * scale * scale * spread.flux_ratio / spread.flux,
         variance: narrowed,
-        centroid_on_grid: centroid_on_grid.map(|g| g + 0.5),
+        centroid_on_grid: centroid_on_grid.map(|g| g + 0.5 + KernelTable::BORDER),
         kernel: (spread.node as usize * table.side * table.side) as u32,
     };
     let spot = Spot {
