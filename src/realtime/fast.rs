@@ -273,9 +273,11 @@ pub fn postfx_fast(
     };
     let (x0, gw) = span(0, tw);
     let (y0, gh) = span(1, th);
+    let depth_reach: Vec<[f32; 2]> = texels.iter().map(|t| [t.depth, t.reach]).collect();
     let gatherer = Gatherer {
         table: &table,
         texels: &texels,
+        depth_reach: &depth_reach,
         pyramid: &pyramid,
         tiles: &tiles,
         directions: (0..DIRECTIONS)
@@ -477,6 +479,8 @@ enum Pass {
 struct Gatherer<'a> {
     table: &'a KernelTable,
     texels: &'a [Texel],
+    /// Each texel's depth and reach, as in its record.
+    depth_reach: &'a [[f32; 2]],
     pyramid: &'a Pyramid,
     tiles: &'a Tiles,
     /// Unit vectors at the centres of [`DIRECTIONS`] equal sectors of the circle.
@@ -496,8 +500,8 @@ struct Layering {
 
 impl Layering {
     #[inline(always)]
-    fn in_front(&self, source: &Texel) -> bool {
-        source.depth < self.nearer_than && source.reach > self.wider_than
+    fn in_front(&self, depth: f32, reach: f32) -> bool {
+        depth < self.nearer_than && reach > self.wider_than
     }
 }
 
@@ -607,7 +611,7 @@ impl Gatherer<'_> {
             let sources = &self.texels[(row as isize + lo) as usize..=(row as isize + hi) as usize];
             let fy = dy as f32;
             for (dx, source) in (lo..=hi).zip(sources) {
-                if layering.in_front(source) != front {
+                if layering.in_front(source.depth, source.reach) != front {
                     continue;
                 }
                 let fx = dx as f32;
@@ -656,14 +660,16 @@ impl Gatherer<'_> {
         if sx < 0.0 || sy < 0.0 || sx as usize >= self.width || sy as usize >= self.height {
             return;
         }
-        let source = &self.texels[sy as usize * self.width + sx as usize];
-        if !source.depth.is_finite() {
+        // The depth and reach first, from their own small array: a sparse tap lands far from
+        // the last one, and most foreground-pass taps land on surfaces that are not in front,
+        // so most of them never read the 64-byte record.
+        let index = sy as usize * self.width + sx as usize;
+        let [depth, reach] = self.depth_reach[index];
+        let in_front = layering.in_front(depth, reach);
+        if !depth.is_finite() || in_front != (pass == Pass::Front) {
             return;
         }
-        let in_front = layering.in_front(source);
-        if in_front != (pass == Pass::Front) {
-            return;
-        }
+        let source = &self.texels[index];
         // Widened about the centroid by the patch's variance beyond a texel's (pinhole pixels
         // squared: a texel is 4 of them): offsets shrink, the weight grows by the square to
         // keep the flux.
