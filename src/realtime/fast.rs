@@ -196,44 +196,44 @@ pub fn postfx_fast(
 
     // 1. Prefilter: each texel keeps the nearest surface of its 2 x 2 pixels, its colour the
     //    patch's sum of that surface's pixels over four (premultiplied by coverage).
-    let mut texels = vec![EMPTY; tw * th];
-    let mut spots = vec![NO_SPOT; tw * th];
-    texels
-        .par_chunks_mut(tw)
-        .zip(spots.par_chunks_mut(tw))
-        .enumerate()
-        .for_each(|(ty, (texel_row, spot_row))| {
-            for (tx, (texel, spot)) in texel_row.iter_mut().zip(spot_row).enumerate() {
-                let pixels = [(0, 0), (1, 0), (0, 1), (1, 1)].map(|(dx, dy)| {
-                    let (x, y) = (2 * tx + dx, 2 * ty + dy);
-                    (x < lw && y < lh)
-                        .then(|| front.samples[y * lw + x])
-                        .flatten()
-                });
-                let nearest = pixels
-                    .iter()
+    //    Collected in parallel: a buffer filled first on one thread takes its page faults
+    //    there, serially.
+    let (mut texels, mut spots) = (Vec::new(), Vec::new());
+    (0..tw * th)
+        .into_par_iter()
+        .map(|t| {
+            let (tx, ty) = (t % tw, t / tw);
+            let pixels = [(0, 0), (1, 0), (0, 1), (1, 1)].map(|(dx, dy)| {
+                let (x, y) = (2 * tx + dx, 2 * ty + dy);
+                (x < lw && y < lh)
+                    .then(|| front.samples[y * lw + x])
                     .flatten()
-                    .fold(f32::INFINITY, |n, s| n.min(s.depth_mm));
-                if !nearest.is_finite() {
-                    continue;
-                }
-                let mut colour = [0.0f32; 3];
-                for s in pixels.iter().flatten() {
-                    if same_surface(s.depth_mm, nearest) {
-                        for (c, r) in colour.iter_mut().zip(s.radiance) {
-                            *c += 0.25 * r;
-                        }
+            });
+            let nearest = pixels
+                .iter()
+                .flatten()
+                .fold(f32::INFINITY, |n, s| n.min(s.depth_mm));
+            if !nearest.is_finite() {
+                return (EMPTY, NO_SPOT);
+            }
+            let mut colour = [0.0f32; 3];
+            for s in pixels.iter().flatten() {
+                if same_surface(s.depth_mm, nearest) {
+                    for (c, r) in colour.iter_mut().zip(s.radiance) {
+                        *c += 0.25 * r;
                     }
                 }
-                let centre = [2.0 * tx as f64 + 1.0, 2.0 * ty as f64 + 1.0];
-                let tan = [
-                    view.tan_half[0] * (2.0 * centre[0] / lw as f64 - 1.0),
-                    view.tan_half[1] * (1.0 - 2.0 * centre[1] / lh as f64),
-                ];
-                (*texel, *spot) = fit(kernels, &wide, &wide_variance, &table, nearest, tan, aspect);
-                texel.colour = colour.map(|c| c * spot.flux);
             }
-        });
+            let centre = [2.0 * tx as f64 + 1.0, 2.0 * ty as f64 + 1.0];
+            let tan = [
+                view.tan_half[0] * (2.0 * centre[0] / lw as f64 - 1.0),
+                view.tan_half[1] * (1.0 - 2.0 * centre[1] / lh as f64),
+            ];
+            let (texel, spot) = fit(kernels, &wide, &wide_variance, &table, nearest, tan, aspect);
+            let colour = colour.map(|c| c * spot.flux);
+            (Texel { colour, ..texel }, spot)
+        })
+        .unzip_into_vecs(&mut texels, &mut spots);
 
     // 2. Tiles: nearest depth and largest reach, each tile handed to every tile its texels
     //    can reach.
@@ -273,7 +273,7 @@ pub fn postfx_fast(
     };
     let (x0, gw) = span(0, tw);
     let (y0, gh) = span(1, th);
-    let depth_reach: Vec<[f32; 2]> = texels.iter().map(|t| [t.depth, t.reach]).collect();
+    let depth_reach: Vec<[f32; 2]> = texels.par_iter().map(|t| [t.depth, t.reach]).collect();
     let gatherer = Gatherer {
         table: &table,
         texels: &texels,
@@ -290,24 +290,18 @@ pub fn postfx_fast(
         width: tw,
         height: th,
     };
-    // Band by band of rows: a band's taps read a strip of texels that stays in cache, where
-    // rayon's split of a row-major range into single rows spreads one thread's reads over
-    // more rows than the cache holds.
-    let mut gathered = vec![Gathered::default(); gw * gh];
-    gathered
-        .par_chunks_mut(gw * BAND_TEXELS)
-        .enumerate()
-        .for_each(|(band, values)| {
-            for (i, value) in values.iter_mut().enumerate() {
-                let (x, y) = (i % gw, band * BAND_TEXELS + i / gw);
-                *value = gatherer.at(x0 + x, y0 + y);
-            }
-        });
+    // Bands of rows to a thread: a band's taps read a strip of texels that stays in cache,
+    // where rayon's split of a row-major range down to single rows spreads one thread's reads
+    // over more rows than the cache holds.
+    let gathered: Vec<Gathered> = (0..gw * gh)
+        .into_par_iter()
+        .with_min_len(gw * BAND_TEXELS)
+        .map(|i| gatherer.at(x0 + i % gw, y0 + i / gw))
+        .collect();
 
     // 4. Upsample: the composited colour bilinear from the gather; where a pixel's own surface
     //    is sharp, its own layer from the full-resolution pinhole pixel under the nearer
     //    layers' bilinear sum and coverage.
-    let blurred: Vec<[f32; 3]> = gathered.par_iter().map(Gathered::composited).collect();
     let (w, h) = (width as usize, height as usize);
     let pixels = (0..w * h)
         .into_par_iter()
@@ -328,7 +322,7 @@ pub fn postfx_fast(
             ];
             let mut colour = [0.0f32; 3];
             for &(c, wt) in &corners {
-                for (o, b) in colour.iter_mut().zip(blurred[c]) {
+                for (o, b) in colour.iter_mut().zip(gathered[c].composited()) {
                     *o += wt * b;
                 }
             }
