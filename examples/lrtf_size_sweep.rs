@@ -1,9 +1,16 @@
-//! Scratch: smallest table meeting p99 image error and validity agreement per lens.
-//! cargo run --release --example lrtf_size_sweep -- RAYS LENS:FOCUS_MM... (resolutions in env RES, e.g. 32,48x48x48)
+//! Accuracy per byte (issue 61, docs/lrtf.md): for each lens and grid, the p99 image error
+//! (px of a 1920-pixel frame) and validity agreement against the exact trace of the table in
+//! f32, f16 and u16, on `RAYS` renderer rays.
+//!
+//! cargo run --release --example lrtf_size_sweep -- RAYS LENS:FOCUS_MM...
+//! e.g. `-- 50000 dgauss-50mm:2000 fisheye-10mm:2000`. Grids from $RES (default
+//! 16,24,32,48,64,96,128; `AxBxC` for an anisotropic one). With $CUBIC set, also the same f32
+//! nodes looked up with Catmull-Rom weights along the axes named in $CUBIC_AXES (default "012";
+//! linear along the others), to measure what a higher-order lookup would buy.
 use lensbake::lenses;
+use lensbake::lrtf::Precision;
 use lensbake::lrtf::bake::{BakeRequest, bake, first_order};
 use lensbake::lrtf::measure::table_error;
-use lensbake::lrtf::Precision;
 use lensbake::prescription::formats::LoadOptions;
 use lensbake::trace::Tracer;
 
@@ -15,7 +22,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .split(',')
         .map(|s| {
             let v: Vec<usize> = s.split('x').map(|x| x.parse().unwrap()).collect();
-            if v.len() == 1 { [v[0]; 3] } else { [v[0], v[1], v[2]] }
+            if v.len() == 1 {
+                [v[0]; 3]
+            } else {
+                [v[0], v[1], v[2]]
+            }
         })
         .collect();
     for spec in &args[2..] {
@@ -36,45 +47,38 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 let (p99, agree) = cubic_error(&table, &tracer, efl, rays);
                 println!(
                     "{name} {}x{}x{} cubic-f32 bytes {} img p99 {:.4} px agree {:.4} %",
-                    r[0], r[1], r[2], table.entry_bytes(), p99, 100.0 * agree
+                    r[0],
+                    r[1],
+                    r[2],
+                    table.entry_bytes(),
+                    p99,
+                    100.0 * agree
                 );
             }
             for precision in ["f32", "f16", "u16"] {
                 let t = match precision {
                     "f32" => table.clone(),
                     "f16" => table.to_precision(Precision::F16),
-                    _ => quantised(&table),
+                    _ => table.to_precision(Precision::U16),
                 };
-                let bytes = if precision == "u16" { table.entry_bytes() / 2 } else { t.entry_bytes() };
+                let bytes = t.entry_bytes();
                 let e = table_error(&t, 0, &tracer, efl, 1920.0, rays, 0x5eed);
                 println!(
                     "{name} {}x{}x{} {} bytes {} img p99 {:.4} px max {:.3} pos p99 {:.2} um agree {:.4} %",
-                    r[0], r[1], r[2], precision, bytes,
-                    e.image_px.p99, e.image_px.max, e.position_um.p99, 100.0 * (1.0 - e.validity_mismatch)
+                    r[0],
+                    r[1],
+                    r[2],
+                    precision,
+                    bytes,
+                    e.image_px.p99,
+                    e.image_px.max,
+                    e.position_um.p99,
+                    100.0 * (1.0 - e.validity_mismatch)
                 );
             }
         }
     }
     Ok(())
-}
-
-/// Simulated u16 storage: each channel quantised to 65535 steps over its range.
-fn quantised(table: &lensbake::lrtf::LrtfTable) -> lensbake::lrtf::LrtfTable {
-    let mut t = table.clone();
-    for l in &mut t.layers {
-        let mut values: Vec<[f32; 8]> = l.entries.row_major().collect();
-        for c in 0..8 {
-            let lo = values.iter().map(|v| v[c]).fold(f32::INFINITY, f32::min) as f64;
-            let hi = values.iter().map(|v| v[c]).fold(f32::NEG_INFINITY, f32::max) as f64;
-            let step = ((hi - lo) / 65535.0).max(f64::MIN_POSITIVE);
-            for v in &mut values {
-                let q = ((v[c] as f64 - lo) / step).round();
-                v[c] = (lo + q * step) as f32;
-            }
-        }
-        l.entries = lensbake::lrtf::Entries::from_row_major(l.entries.dims(), Precision::F32, &values);
-    }
-    t
 }
 
 /// Catmull-Rom weights of the four nodes around fraction f (nodes -1, 0, 1, 2).
@@ -96,7 +100,7 @@ fn cubic_error(
     count: usize,
 ) -> (f64, f64) {
     use lensbake::lrtf::bake::exact_transfer;
-    use lensbake::lrtf::measure::{angle_between, pixel_pitch, renderer_rays, Stats};
+    use lensbake::lrtf::measure::{Stats, angle_between, pixel_pitch, renderer_rays};
     use lensbake::lrtf::param::to_lens_frame;
     let l = &table.layers[0];
     let dims = table.info.resolution;
@@ -130,8 +134,8 @@ fn cubic_error(
                 } else {
                     [0.0, 1.0 - f, f, 0.0]
                 };
-                for k in 0..4 {
-                    idx[a][k] = (i as isize + k as isize - 1).clamp(0, n as isize - 1) as usize;
+                for (k, node) in idx[a].iter_mut().enumerate() {
+                    *node = (i as isize + k as isize - 1).clamp(0, n as isize - 1) as usize;
                 }
             }
             let mut v = [0.0f64; 8];

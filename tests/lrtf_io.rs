@@ -278,7 +278,10 @@ fn a_u16_table_needs_its_quantisation_and_intact_codes() {
     };
     std::fs::write(&sidecar, edited(&|s| s.layers[0].quantisation = None)).unwrap();
     let error = read_table(&dir, Some(&lens)).unwrap_err();
-    assert!(error.to_string().contains("needs wl0.quantisation"), "{error}");
+    assert!(
+        error.to_string().contains("needs wl0.quantisation"),
+        "{error}"
+    );
 
     let negative_step = edited(&|s| {
         if let Some(q) = &mut s.layers[0].quantisation {
@@ -287,7 +290,10 @@ fn a_u16_table_needs_its_quantisation_and_intact_codes() {
     });
     std::fs::write(&sidecar, negative_step).unwrap();
     let error = read_table(&dir, Some(&lens)).unwrap_err();
-    assert!(error.to_string().contains("cannot decode a table"), "{error}");
+    assert!(
+        error.to_string().contains("cannot decode a table"),
+        "{error}"
+    );
 
     std::fs::write(&sidecar, &text).unwrap();
     let mut damaged = original.clone();
@@ -295,7 +301,10 @@ fn a_u16_table_needs_its_quantisation_and_intact_codes() {
     damaged[last] ^= 0x40;
     std::fs::write(&data, &damaged).unwrap();
     let error = read_table(&dir, Some(&lens)).unwrap_err();
-    assert!(matches!(error, TableError::DataMismatch { .. }), "{error:?}");
+    assert!(
+        matches!(error, TableError::DataMismatch { .. }),
+        "{error:?}"
+    );
 
     std::fs::write(&data, &original).unwrap();
     assert_eq!(read_table(&dir, Some(&lens)).unwrap(), table);

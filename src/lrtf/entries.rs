@@ -550,7 +550,8 @@ mod vector {
                 // multiply, then an add.
                 #[inline(always)]
                 |node| {
-                    let codes = _mm256_cvtepu16_epi32(_mm_loadu_si128(nodes[node].0.as_ptr().cast()));
+                    let codes =
+                        _mm256_cvtepu16_epi32(_mm_loadu_si128(nodes[node].0.as_ptr().cast()));
                     _mm256_add_ps(low, _mm256_mul_ps(step, _mm256_cvtepi32_ps(codes)))
                 },
             )
@@ -641,7 +642,11 @@ impl Entries {
         quantisation: Quantisation,
         codes: &[[u16; CHANNELS]],
     ) -> Entries {
-        assert_eq!(codes.len(), dims.iter().product::<usize>(), "codes for a {dims:?} grid");
+        assert_eq!(
+            codes.len(),
+            dims.iter().product::<usize>(),
+            "codes for a {dims:?} grid"
+        );
         let mut grid: Grid<NodeU16> = Grid::empty(Pages::Huge, dims, quantisation);
         for (k, c) in codes.iter().enumerate() {
             let at = grid.layout.index(row_major_node(dims, k)) as usize;
@@ -1037,14 +1042,22 @@ mod tests {
             let (low, high) = column.fold((f32::MAX, f32::MIN), |(l, h), x| (l.min(x), h.max(x)));
             assert_eq!(q.low[c], low);
             let top = q.decode(&[Quantisation::LEVELS; CHANNELS])[c];
-            assert!(top >= high && top - high <= 2.0 * f32::EPSILON * high.abs().max(q.step[c]), "{c}");
+            assert!(
+                top >= high && top - high <= 2.0 * f32::EPSILON * high.abs().max(q.step[c]),
+                "{c}"
+            );
         }
         for v in &values {
             let decoded = q.decode(&q.encode(v));
             for c in 0..CHANNELS {
                 // Half a step, and the decode's f32 rounding (of low + step * code).
                 let bound = 0.5 * q.step[c] + 2.0 * f32::EPSILON * (q.low[c].abs() + v[c].abs());
-                assert!((decoded[c] - v[c]).abs() <= bound, "channel {c}: {} for {}", decoded[c], v[c]);
+                assert!(
+                    (decoded[c] - v[c]).abs() <= bound,
+                    "channel {c}: {} for {}",
+                    decoded[c],
+                    v[c]
+                );
             }
         }
         // Half a step is what is lost: the codes are not coarser than the range asks.
