@@ -399,7 +399,8 @@ fn gpu_matches_cpu_twin_for_every_lens_model_on_straight_and_tilted_sensors() {
             ..Film::full_frame_for(settings.width, settings.height)
         };
         let thin = thin_camera(2.0, 2000.0, film);
-        for camera in [&thin, &traced, &baked] {
+        let baked_u16 = in_u16(&baked);
+        for camera in [&thin, &traced, &baked, &baked_u16] {
             let ldi = peel(&scene, camera, &settings);
             let cpu = render_layers(camera, &ldi, &settings, Backend::Cpu, None).unwrap();
             let gpu_image =
@@ -407,9 +408,10 @@ fn gpu_matches_cpu_twin_for_every_lens_model_on_straight_and_tilted_sensors() {
             let channels = cpu.pixels.len() * 3;
             let (large, mean_abs) = channel_differences(&cpu, &gpu_image);
             eprintln!(
-                "{} on a sensor tilted {tilt_deg:?} deg: {large} of {channels} channels differ \
-                 beyond rounding, the rest by {mean_abs:.2e} on average",
+                "{} ({:?}) on a sensor tilted {tilt_deg:?} deg: {large} of {channels} channels \
+                 differ beyond rounding, the rest by {mean_abs:.2e} on average",
                 camera.model.name(),
+                precision_of(camera),
             );
             // The GPU traces in f32 what the CPU traces in f64 (1e-6 apart in direction, see
             // tests/shader_twins.rs); such a difference flips a sample's
@@ -429,6 +431,30 @@ fn gpu_matches_cpu_twin_for_every_lens_model_on_straight_and_tilted_sensors() {
                 camera.model.name()
             );
         }
+    }
+}
+
+/// `camera` with its baked table in u16 codes: the GPU reads the decoded codes as texels and
+/// the CPU decodes the same codes corner by corner, so the twins must agree as for f32.
+fn in_u16(camera: &Camera) -> Camera {
+    let LensModel::Baked(lens) = &camera.model else {
+        panic!("a baked camera");
+    };
+    let (_, first) = dgauss();
+    let table = lens.table.to_precision(lensbake::lrtf::Precision::U16);
+    let lens = BakedLens::new(table, &first, first.f_number).unwrap();
+    Camera::new(
+        LensModel::Baked(Box::new(lens)),
+        camera.film,
+        Focus::FilmZ(camera.film_z),
+    )
+    .unwrap()
+}
+
+fn precision_of(camera: &Camera) -> Option<lensbake::lrtf::Precision> {
+    match &camera.model {
+        LensModel::Baked(lens) => Some(lens.table.info.precision),
+        _ => None,
     }
 }
 
