@@ -659,6 +659,9 @@ mod tests {
         );
     }
 
+    /// A rows trace of fixed rays into the storage given.
+    type RowsTrace<'a> = &'a dyn Fn(&mut RowStorage) -> Result<u64, RowsError>;
+
     /// Storage for a rows trace's results.
     struct RowStorage {
         ends: Vec<Vec3>,
@@ -719,7 +722,7 @@ mod tests {
         let batch = tracer.trace_batch(&normalised, Travel::Forward, Apertures::Checked);
         let starts = StartCheck::new(&at, Travel::Forward);
         let every_ray = |_: &Ray| Ok(());
-        let admits: [&dyn Fn(&mut RowStorage) -> Result<u64, RowsError>; 2] = [
+        let admits: [RowsTrace<'_>; 2] = [
             &|out| {
                 let results = out.results();
                 tracer.trace_rows_into(

@@ -221,7 +221,9 @@ impl Ray {
         let [dx, dy, dz] = direction;
         let finite = (px + py + pz + dx + dy + dz) * 0.0 == 0.0;
         let length_sq = dot(direction, direction);
-        // `is_normal` for a square, which is never negative; NaN fails both comparisons.
+        // `is_normal` for a square, which is never negative; NaN fails both comparisons. Two
+        // compares joined by `&`, not a range's `contains`, to say the loop has no branch.
+        #[allow(clippy::manual_range_contains)]
         let normal = (length_sq >= f64::MIN_POSITIVE) & (length_sq <= f64::MAX);
         (length_sq.sqrt(), finite & normal)
     }
