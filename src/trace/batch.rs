@@ -659,9 +659,6 @@ mod tests {
         );
     }
 
-    /// A rows trace of fixed rays into the storage given.
-    type RowsTrace<'a> = &'a dyn Fn(&mut RowStorage) -> Result<u64, RowsError>;
-
     /// Storage for a rows trace's results.
     struct RowStorage {
         ends: Vec<Vec3>,
@@ -688,6 +685,29 @@ mod tests {
                 outcome_surfaces: &mut self.surfaces,
             }
         }
+    }
+
+    /// The forward rows trace of `positions` and `directions` through `tracer`, admitted by
+    /// `admit`, with apertures, into new storage; and its count of ray-surface intersections.
+    fn trace_rows(
+        tracer: &Tracer,
+        positions: &[Vec3],
+        directions: &[Vec3],
+        admit: &impl Admit,
+    ) -> (RowStorage, u64) {
+        let mut out = RowStorage::new(positions.len());
+        let results = out.results();
+        let count = tracer
+            .trace_rows_into(
+                positions,
+                directions,
+                Travel::Forward,
+                Apertures::Checked,
+                admit,
+                results,
+            )
+            .unwrap();
+        (out, count)
     }
 
     #[test]
@@ -722,33 +742,12 @@ mod tests {
         let batch = tracer.trace_batch(&normalised, Travel::Forward, Apertures::Checked);
         let starts = StartCheck::new(&at, Travel::Forward);
         let every_ray = |_: &Ray| Ok(());
-        let admits: [RowsTrace<'_>; 2] = [
-            &|out| {
-                let results = out.results();
-                tracer.trace_rows_into(
-                    &positions,
-                    &directions,
-                    Travel::Forward,
-                    Apertures::Checked,
-                    &every_ray,
-                    results,
-                )
-            },
-            &|out| {
-                let results = out.results();
-                tracer.trace_rows_into(
-                    &positions,
-                    &directions,
-                    Travel::Forward,
-                    Apertures::Checked,
-                    &starts,
-                    results,
-                )
-            },
+        let traced = [
+            trace_rows(&tracer, &positions, &directions, &every_ray),
+            trace_rows(&tracer, &positions, &directions, &starts),
         ];
-        for trace in admits {
-            let mut out = RowStorage::new(n);
-            assert_eq!(trace(&mut out).unwrap(), batch.ray_surfaces);
+        for (out, count) in traced {
+            assert_eq!(count, batch.ray_surfaces);
             for k in 0..n {
                 let ray = batch.rays.get(k).unwrap();
                 assert_eq!(
