@@ -17,8 +17,8 @@ pub use budget::{BudgetChoice, choose_for_render};
 pub use focal::{FocalSurfaceSpec, FocusPointSpec, FocusTarget};
 pub use render::{
     BackendChoice, BackendUsed, ChromaticDecision, ChromaticReason, DEFAULT_FOCUS_MM, FilmSize,
-    FocusMode, FocusPlaneReport, ModelChoice, PeelMode, PeelReport, PreparedRender, RenderJob,
-    Rendered, SceneReport, SceneSpec, TableUse,
+    FocusMode, FocusPlaneReport, ModelChoice, Orbit, PeelMode, PeelReport, PreparedRender,
+    RenderJob, Rendered, SceneReport, SceneSpec, TableUse,
 };
 pub use tables::{BakeFallback, TableNeeds, default_table_dir, find_covering_table, load_or_bake};
 

@@ -150,6 +150,16 @@ pub struct RenderJob {
     /// Factors on the Seidel sums, for effect (the Seidel model only: the traced and baked
     /// models take their aberrations from the surfaces, see docs/focal-surface.md).
     pub aberration_scale: AberrationScale,
+    /// The camera orbited about a point on its axis (mesh scenes: the demo and glTF files).
+    pub orbit: Option<Orbit>,
+}
+
+/// A camera orbit: `angles_deg` (yaw to the camera's right, pitch up) about the point on the
+/// axis `pivot_mm` in front of the first vertex ([`MeshScene::orbited`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Orbit {
+    pub pivot_mm: f64,
+    pub angles_deg: [f64; 2],
 }
 
 impl RenderJob {
@@ -181,6 +191,7 @@ impl RenderJob {
             wavelengths_nm: None,
             postfx_path: PostfxPath::Fast,
             aberration_scale: AberrationScale::AS_DESIGNED,
+            orbit: None,
         }
     }
 }
@@ -623,6 +634,12 @@ impl RenderJob {
         let mesh = match &self.scene {
             SceneSpec::Demo => MeshScene::from_panels(&Scene::demo()),
             SceneSpec::Gltf(path) => load_gltf(path)?,
+            SceneSpec::Exr(_) if self.orbit.is_some() => {
+                return Err(RenderError::InvalidSetting(
+                    "an RGB + Z EXR scene is one view of the scene: it cannot be orbited".into(),
+                )
+                .into());
+            }
             SceneSpec::Exr(path) => {
                 let report = SceneReport {
                     triangles: None,
@@ -630,6 +647,10 @@ impl RenderJob {
                 };
                 return Ok((SceneSource::Exr(path.clone()), report));
             }
+        };
+        let mesh = match self.orbit {
+            Some(orbit) => mesh.orbited(orbit.pivot_mm, orbit.angles_deg),
+            None => mesh,
         };
         // Peel where the kernel runs; the CPU twin when there is no adapter.
         let gpu = match self.backend {

@@ -70,6 +70,15 @@ pub fn lines(viewer: &Viewer) -> Vec<String> {
         }
         _ => model,
     };
+    let lens = match job.orbit {
+        Some(orbit) => format!(
+            "{lens}; orbit {:.0} deg right, {:.0} deg up about {:.2} m",
+            orbit.angles_deg[0],
+            orbit.angles_deg[1],
+            orbit.pivot_mm / 1000.0
+        ),
+        None => lens,
+    };
     let mut lines = vec![
         format!(
             "{:.1} ms/frame, {} spp/frame",

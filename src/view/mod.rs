@@ -19,7 +19,7 @@ pub mod window;
 
 use crate::job::{
     BackendChoice, BackendUsed, FocalSurfaceSpec, FocusMode, FocusPointSpec, FocusTarget, JobError,
-    ModelChoice, PreparedRender, RenderJob, RenderLens, SceneSpec, traced_twin,
+    ModelChoice, Orbit, PreparedRender, RenderJob, RenderLens, SceneSpec, traced_twin,
 };
 use crate::lenses::{self, LensError};
 use crate::lrtf::bake::BakeProgress;
@@ -500,6 +500,16 @@ impl Viewer {
                 return Ok(());
             }
             Action::SensorWidth(mm) => job.film_width_mm = Some(*mm),
+            Action::Orbit(angles) => {
+                job.orbit = (*angles != [0.0, 0.0]).then(|| Orbit {
+                    // About what is in focus on the axis (2 m when the focus is at infinity).
+                    pivot_mm: self
+                        .focus_distance_mm()
+                        .flatten()
+                        .unwrap_or(crate::job::DEFAULT_FOCUS_MM),
+                    angles_deg: *angles,
+                });
+            }
             Action::Blades(blades) => {
                 let RenderLens::Real(real) = &job.lens else {
                     return Err(JobError::IdealHasNoSurfaces.into());

@@ -33,6 +33,9 @@ pub enum Action {
     /// The aperture stop's shape: its blades (count, rotation in degrees, curvature 0 to 1), or
     /// round (None).
     Blades(Option<(u32, f64, f64)>),
+    /// Orbit the camera (yaw right, pitch up, degrees) about the point in focus on its axis
+    /// (mesh scenes); 0 0 is the scene's own view.
+    Orbit([f64; 2]),
     /// Tint the zone of focus (where the paraxial blur is under one pixel).
     ZoneOverlay(bool),
     /// Exposure (EV): the shown image's linear radiance times 2^EV.
@@ -76,7 +79,7 @@ pub const MAX_EXPOSURE_EV: f64 = 20.0;
 const ACTIONS: &str = "spp-per-frame N, click X Y, fnumber F, focus MM, \
      focus-pull FROM_MM TO_MM FRAMES, focal-surface X,Y[,TARGET[,ALPHA]];... [BETA]|off, \
      focus-point X Y [TARGET [ALPHA]], seidel-scale SA COMA AST PETZ DIST, exposure EV, sensor WIDTH_MM, zone on|off, \
-     blades COUNT ROTATION_DEG CURVATURE|off, \
+     blades COUNT ROTATION_DEG CURVATURE|off, orbit YAW PITCH, \
      model NAME, split on|off, \
      overlay on|off, chromatic on|off, shift X Y, tilt X Y, lens NAME|FILE, scene demo|FILE, \
      frames N, wait-bake, screenshot PATH, window W H, minimise on|off, quit";
@@ -242,6 +245,16 @@ pub fn parse_action(content: &str) -> Result<Action, String> {
                 ));
             }
         },
+        "orbit" => {
+            expect(2)?;
+            let angles = [number(args[0], "yaw")?, number(args[1], "pitch")?];
+            if angles.iter().any(|a| a.abs() > 180.0) {
+                return Err(format!(
+                    "`orbit` takes angles within +-180 degrees, got {angles:?}"
+                ));
+            }
+            Action::Orbit(angles)
+        }
         "zone" => {
             expect(1)?;
             Action::ZoneOverlay(switch(args[0])?)

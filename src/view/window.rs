@@ -22,7 +22,8 @@ pub const KEYS: &str = "click: focus there; Shift+click: add a focal-surface poi
      Shift+F: close / open one third stop; M: next \
      model; C: chromatic on/off; S: split view; E: error overlay; arrows: shift the sensor 0.5 mm; \
      Shift+arrows: tilt it 0.5 degrees; , / .: exposure -/+ 1/3 EV; W / Shift+W: sensor a \
-     quarter wider / narrower; Z: tint the zone of focus; B / \
+     quarter wider / narrower; Z: tint the zone of focus; O / Shift+O, I / Shift+I: orbit 5 \
+     degrees right / left, up / down (mesh scenes); B / \
      Shift+B: one aperture blade more (round after 9) / turn the blades 10 degrees; L: next bundled lens; + / -: double / halve samples per \
      frame; P: screenshot (lensbake-view-N.png); Q or Esc: quit; drop a lens, glTF or EXR file to \
      load it";
@@ -225,6 +226,16 @@ impl App<'_> {
                     Action::SensorWidth(if shift { width / 1.25 } else { width * 1.25 })
                 }
                 "z" => Action::ZoneOverlay(!viewer.zone()),
+                "o" | "i" => {
+                    // O / Shift+O: orbit 5 degrees right / left; I / Shift+I: up / down.
+                    let [yaw, pitch] = job.orbit.map_or([0.0, 0.0], |o| o.angles_deg);
+                    let step = if shift { -5.0 } else { 5.0 };
+                    Action::Orbit(if c.to_lowercase() == "o" {
+                        [yaw + step, pitch]
+                    } else {
+                        [yaw, pitch + step]
+                    })
+                }
                 "b" => {
                     // B: one blade more (round after 9, 5 after round); Shift+B: turn them 10
                     // degrees.
