@@ -3,7 +3,9 @@
 //! Criterion's throughput line reads "elements/s" = ray-surface intersections per second.
 //! `one_core` and `all_cores` trace into one reused result (`Tracer::trace_batch_into`, as a
 //! caller tracing batch after batch does); `one_core_new_output` allocates the result every
-//! call (`Tracer::trace_batch`), so its fresh pages are part of the time.
+//! call (`Tracer::trace_batch`), so its fresh pages are part of the time. `one_core_rows` traces
+//! the same rays given as rows (`Tracer::trace_rows_into`, the path Python's `Lens.trace`
+//! takes: rows normalised and start-checked, results written as rows) into reused storage.
 //!
 //! `trace_asph50` traces the same kind of bundle through the bundled Canon RF 50 mm f/1.8
 //! (`asph-50mm-f1.8`, two even aspheres among 12 surfaces) on one core: the batch trace, which
@@ -23,7 +25,8 @@ use common::load_oracle;
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use lensbake::system::LensSystem;
 use lensbake::trace::{
-    Apertures, BatchTrace, FieldBundle, RayBatch, RaySource, StopAim, Tracer, Travel, aim_at_stop,
+    Apertures, BatchTrace, FieldBundle, RayBatch, RaySource, RowResults, StartCheck, StopAim,
+    Tracer, Travel, Vec3, aim_at_stop,
 };
 
 const RAYS: usize = 100_000;
@@ -50,7 +53,8 @@ fn threads(count: usize) -> rayon::ThreadPool {
 fn trace(c: &mut Criterion) {
     let system =
         LensSystem::from_prescription(load_oracle("pbrt_dgauss_50mm").prescription).unwrap();
-    let tracer = Tracer::new(&system.at(system.design_wavelength_nm()));
+    let at = system.at(system.design_wavelength_nm());
+    let tracer = Tracer::new(&at);
     let (rays, ray_surfaces) = bundle(&tracer);
 
     let mut group = c.benchmark_group("trace_dgauss50");
@@ -71,6 +75,31 @@ fn trace(c: &mut Criterion) {
     let one = threads(1);
     group.bench_function("one_core_new_output", |b| {
         b.iter(|| one.install(|| tracer.trace_batch(&rays, Travel::Forward, Apertures::Checked)))
+    });
+    let positions: Vec<Vec3> = rays.iter().map(|ray| ray.position()).collect();
+    let directions: Vec<Vec3> = rays.iter().map(|ray| ray.direction()).collect();
+    let (mut ends, mut headings) = (vec![[0.0; 3]; RAYS], vec![[0.0; 3]; RAYS]);
+    let (mut kinds, mut surfaces) = (vec![0; RAYS], vec![0; RAYS]);
+    let starts = StartCheck::new(&at, Travel::Forward);
+    group.bench_function("one_core_rows", |b| {
+        b.iter(|| {
+            let out = RowResults {
+                positions: &mut ends,
+                directions: &mut headings,
+                outcome_kinds: &mut kinds,
+                outcome_surfaces: &mut surfaces,
+            };
+            one.install(|| {
+                tracer.trace_rows_into(
+                    &positions,
+                    &directions,
+                    Travel::Forward,
+                    Apertures::Checked,
+                    &starts,
+                    out,
+                )
+            })
+        })
     });
     group.finish();
 }

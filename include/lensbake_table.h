@@ -10,7 +10,10 @@
  *   lrtf.exr  the entries: OpenEXR, uncompressed scanlines, one part per wavelength layer, the
  *             part named "wl<k>" (k = 0, 1, ...: the sidecar's layers[k].exr_layer) and its
  *             channels named "wl<k>.<channel>" (LENSBAKE_CHANNEL_NAMES below), HALF or FLOAT
- *             samples as the sidecar's info.precision says ("F16" or "F32").
+ *             samples as the sidecar's info.precision says ("F16" or "F32"); for "U16",
+ *             UINT samples holding 16-bit codes: channel c of code q is the f32
+ *             layers[k].quantisation.low[c] + layers[k].quantisation.step[c] * q (a multiply,
+ *             then an add, in f32), decoded per node before the trilinear weights.
  *
  * Conventions: lengths in mm, angles in radians, wavelengths in nm. Lens frame: z is the optical
  * axis, light travels towards +z, origin at the vertex of surface 1. Film-side rays start behind

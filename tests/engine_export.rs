@@ -408,6 +408,13 @@ fn consumer_matches_a_monochrome_table_stopped_down() {
     consumer_matches("monochrome", &[], &["--f-number", "2.8"]);
 }
 
+/// A u16 table's codes are decoded into the texels the sampler reads, so the consumer's
+/// lookups match lensbake's ray by ray as for an f32 table.
+#[test]
+fn consumer_matches_a_u16_table() {
+    consumer_matches("u16", &["--precision", "u16"], &[]);
+}
+
 #[test]
 fn consumer_matches_a_spherical_table() {
     consumer_matches("spherical", &["--parameterisation", "spherical"], &[]);

@@ -3,7 +3,7 @@
 
 mod common;
 
-use lensbake::lrtf::io::{DATA_FILE, SIDECAR_FILE, TableError, read_table, write_table};
+use lensbake::lrtf::io::{DATA_FILE, SIDECAR_FILE, Sidecar, TableError, read_table, write_table};
 use lensbake::lrtf::param::{CHANNELS, Frame};
 use lensbake::lrtf::{
     Entries, FocusRange, Layer, LrtfTable, Parameterisation, Precision, TableInfo,
@@ -45,9 +45,7 @@ fn synthetic_table(precision: Precision) -> LrtfTable {
     // Values spanning several magnitudes, so f16 rounding is visible.
     let entries: Vec<_> = (0..n)
         .map(|k| {
-            std::array::from_fn::<f32, CHANNELS, _>(|c| {
-                precision.round((k * CHANNELS + c) as f32 * 0.137 - 3.0)
-            })
+            std::array::from_fn::<f32, CHANNELS, _>(|c| (k * CHANNELS + c) as f32 * 0.137 - 3.0)
         })
         .collect();
     let pupil = PupilTable {
@@ -102,8 +100,8 @@ fn temp_dir(name: &str) -> std::path::PathBuf {
 }
 
 #[test]
-fn write_then_read_round_trips_exactly_in_both_precisions() {
-    for precision in [Precision::F32, Precision::F16] {
+fn write_then_read_round_trips_exactly_in_every_precision() {
+    for precision in [Precision::F32, Precision::F16, Precision::U16] {
         let dir = temp_dir(precision.name());
         let table = synthetic_table(precision);
         let lens = singlet(50.0);
@@ -256,5 +254,59 @@ fn channels_are_named_by_layer_and_format_4_tables_still_read() {
     for channel in lensbake::lrtf::param::CHANNEL_NAMES {
         assert!(names_channel(&format!("wl0.{channel}\0")), "{channel}");
     }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A u16 table's file holds its codes and its sidecar the quantisation that decodes them; a
+/// sidecar without it, or with one that cannot decode, and a damaged data file are refused by
+/// name, never read as a different table.
+#[test]
+fn a_u16_table_needs_its_quantisation_and_intact_codes() {
+    let lens = singlet(50.0);
+    let dir = temp_dir("u16");
+    let table = synthetic_table(Precision::U16);
+    write_table(&table, "singlet", &lens, &dir).unwrap();
+    let sidecar = dir.join(SIDECAR_FILE);
+    let text = std::fs::read_to_string(&sidecar).unwrap();
+    assert!(text.contains("quantisation: Some("), "{text}");
+    let data = dir.join(DATA_FILE);
+    let original = std::fs::read(&data).unwrap();
+    let edited = |edit: &dyn Fn(&mut Sidecar)| {
+        let mut sidecar: Sidecar = ron::from_str(&text).unwrap();
+        edit(&mut sidecar);
+        common::sealed(&ron::ser::to_string_pretty(&sidecar, Default::default()).unwrap())
+    };
+    std::fs::write(&sidecar, edited(&|s| s.layers[0].quantisation = None)).unwrap();
+    let error = read_table(&dir, Some(&lens)).unwrap_err();
+    assert!(
+        error.to_string().contains("needs wl0.quantisation"),
+        "{error}"
+    );
+
+    let negative_step = edited(&|s| {
+        if let Some(q) = &mut s.layers[0].quantisation {
+            q.step[2] = -q.step[2] - 1.0;
+        }
+    });
+    std::fs::write(&sidecar, negative_step).unwrap();
+    let error = read_table(&dir, Some(&lens)).unwrap_err();
+    assert!(
+        error.to_string().contains("cannot decode a table"),
+        "{error}"
+    );
+
+    std::fs::write(&sidecar, &text).unwrap();
+    let mut damaged = original.clone();
+    let last = damaged.len() - 3;
+    damaged[last] ^= 0x40;
+    std::fs::write(&data, &damaged).unwrap();
+    let error = read_table(&dir, Some(&lens)).unwrap_err();
+    assert!(
+        matches!(error, TableError::DataMismatch { .. }),
+        "{error:?}"
+    );
+
+    std::fs::write(&data, &original).unwrap();
+    assert_eq!(read_table(&dir, Some(&lens)).unwrap(), table);
     std::fs::remove_dir_all(&dir).unwrap();
 }

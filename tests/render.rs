@@ -30,7 +30,6 @@ fn frame_params_layout_matches_wgsl() {
             layer_width,
             layer_height,
             layer_count,
-            layer_groups,
             pyramid_levels,
             sample_offset,
             sample_count,
@@ -246,10 +245,7 @@ fn out_of_focus_occluder_edge_shows_the_background() {
     let lens = camera.model.paraxial().clone();
     let ldi = peel(&scene, &camera, &settings);
     let image = render_layers(&camera, &ldi, &settings, Backend::Cpu, None).unwrap();
-    let single_layer = LayeredDepthImage {
-        view: ldi.view,
-        layers: ldi.layers[..1].to_vec(),
-    };
+    let single_layer = ldi.nearest_layers(1);
     let flat = render_layers(&camera, &single_layer, &settings, Backend::Cpu, None).unwrap();
 
     // A film point focused on background point X sees past the occluder edge (x = 0 at depth
@@ -276,10 +272,13 @@ fn out_of_focus_occluder_edge_shows_the_background() {
             (seen - expected).abs() < 0.04,
             "column {column}: background fraction {seen:.3}, expected {expected:.3}"
         );
-        let pinhole_sees_occluder = ldi.layers[0].samples[(ldi.view.width * (ldi.view.height / 2)
-            + column
-            + (ldi.view.width - settings.width) / 2)
-            as usize]
+        let pinhole_sees_occluder = ldi
+            .surfel(
+                0,
+                (ldi.view.width * (ldi.view.height / 2)
+                    + column
+                    + (ldi.view.width - settings.width) / 2) as usize,
+            )
             .is_some_and(|s| s.radiance[0] > 0.5);
         if pinhole_sees_occluder && seen > 0.2 {
             saw_behind = true;
@@ -400,7 +399,8 @@ fn gpu_matches_cpu_twin_for_every_lens_model_on_straight_and_tilted_sensors() {
             ..Film::full_frame_for(settings.width, settings.height)
         };
         let thin = thin_camera(2.0, 2000.0, film);
-        for camera in [&thin, &traced, &baked] {
+        let baked_u16 = in_u16(&baked);
+        for camera in [&thin, &traced, &baked, &baked_u16] {
             let ldi = peel(&scene, camera, &settings);
             let cpu = render_layers(camera, &ldi, &settings, Backend::Cpu, None).unwrap();
             let gpu_image =
@@ -408,9 +408,10 @@ fn gpu_matches_cpu_twin_for_every_lens_model_on_straight_and_tilted_sensors() {
             let channels = cpu.pixels.len() * 3;
             let (large, mean_abs) = channel_differences(&cpu, &gpu_image);
             eprintln!(
-                "{} on a sensor tilted {tilt_deg:?} deg: {large} of {channels} channels differ \
-                 beyond rounding, the rest by {mean_abs:.2e} on average",
+                "{} ({:?}) on a sensor tilted {tilt_deg:?} deg: {large} of {channels} channels \
+                 differ beyond rounding, the rest by {mean_abs:.2e} on average",
                 camera.model.name(),
+                precision_of(camera),
             );
             // The GPU traces in f32 what the CPU traces in f64 (1e-6 apart in direction, see
             // tests/shader_twins.rs); such a difference flips a sample's
@@ -430,6 +431,30 @@ fn gpu_matches_cpu_twin_for_every_lens_model_on_straight_and_tilted_sensors() {
                 camera.model.name()
             );
         }
+    }
+}
+
+/// `camera` with its baked table in u16 codes: the GPU reads the decoded codes as texels and
+/// the CPU decodes the same codes corner by corner, so the twins must agree as for f32.
+fn in_u16(camera: &Camera) -> Camera {
+    let LensModel::Baked(lens) = &camera.model else {
+        panic!("a baked camera");
+    };
+    let (_, first) = dgauss();
+    let table = lens.table.to_precision(lensbake::lrtf::Precision::U16);
+    let lens = BakedLens::new(table, &first, first.f_number).unwrap();
+    Camera::new(
+        LensModel::Baked(Box::new(lens)),
+        camera.film,
+        Focus::FilmZ(camera.film_z),
+    )
+    .unwrap()
+}
+
+fn precision_of(camera: &Camera) -> Option<lensbake::lrtf::Precision> {
+    match &camera.model {
+        LensModel::Baked(lens) => Some(lens.table.info.precision),
+        _ => None,
     }
 }
 

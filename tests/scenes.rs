@@ -15,7 +15,7 @@ use lensbake::render::gpu_types::{
 use lensbake::render::layers::{LayeredDepthImage, View};
 use lensbake::render::mesh::{DISC_SIDES, MeshScene};
 use lensbake::render::mesh_trace::TracedMesh;
-use lensbake::render::raster::{Peeling, mesh_layer_view, peel_cpu, surfel_count};
+use lensbake::render::raster::{Peeling, mesh_layer_view, peel_cpu};
 use lensbake::render::reference::{psnr, render_reference};
 use lensbake::render::scene::{Outline, Scene, Texture};
 use lensbake::render::wgsl::peel_shader;
@@ -246,9 +246,9 @@ fn assert_layers_match(
 ) -> (usize, f64, f64) {
     assert_eq!(a.view, b.view, "{what}: views");
     let mut worst = (0.0f64, 0.0f64);
-    assert_eq!(a.layers.len(), b.layers.len(), "{what}: layer counts");
-    for (l, (la, lb)) in a.layers.iter().zip(&b.layers).enumerate() {
-        for (pixel, (sa, sb)) in la.samples.iter().zip(&lb.samples).enumerate() {
+    assert_eq!(a.layer_count(), b.layer_count(), "{what}: layer counts");
+    for (l, (la, lb)) in a.layers().zip(b.layers()).enumerate() {
+        for (pixel, (sa, sb)) in la.samples().zip(lb.samples()).enumerate() {
             if skip[pixel] {
                 continue;
             }
@@ -304,8 +304,8 @@ fn gpu_peeling_matches_cpu_twin() {
                 assert_layers_match(&what, &cpu, &on_gpu, &near_edges(&data), 1e-6, 1e-6);
             eprintln!(
                 "{what}: {} layers, {} surfels, {skipped} pixels within 1/64 px of an edge not compared, largest difference: depth {depth:.1e}, radiance {colour:.1e} (relative), GPU peel {:.1} ms on {}",
-                cpu.layers.len(),
-                surfel_count(&cpu),
+                cpu.layer_count(),
+                cpu.surfel_count(),
                 started.elapsed().as_secs_f64() * 1e3,
                 gpu.adapter_description
             );
@@ -382,7 +382,7 @@ fn demo_as_meshes_peels_exactly_like_the_panels() {
         assert_layers_match("demo panels vs meshes", &panels, &meshes, &skip, 0.0, 0.0);
     eprintln!(
         "demo: {} layers, {skipped} of {} pixels on an edge not compared",
-        panels.layers.len(),
+        panels.layer_count(),
         skip.len()
     );
     // An odd-sized view puts a column and a row of centres exactly on the checker lines
@@ -405,15 +405,11 @@ fn gltf_scene_peels_its_three_visible_quads() {
         settings.max_layers,
     );
     // Near quad, chart, wall: the single-sided quad between chart and wall faces away.
-    assert_eq!(ldi.layers.len(), 3);
+    assert_eq!(ldi.layer_count(), 3);
     let (column, row) = (view.width / 2 + 3, view.height / 2 - 2);
     let pixel = (row * view.width + column) as usize;
     let tan = view.pixel_tangents(column, row);
-    let samples: Vec<_> = ldi
-        .layers
-        .iter()
-        .map(|l| l.samples[pixel].unwrap())
-        .collect();
+    let samples: Vec<_> = ldi.layers().map(|l| l.get(pixel).unwrap()).collect();
     for (s, distance) in samples.iter().zip([1500.0, 2500.0, 4500.0]) {
         let depth = camera.eye_z() + distance;
         assert!(
@@ -475,19 +471,18 @@ fn umbra_peeling_drops_exactly_the_hidden_layers() {
     assert!(umbra(1500.0) > 1000.0 && umbra(2500.0) > 2000.0 && pitch * 4500.0 > 25.0);
     let plain = peel_cpu(&PeelData::of(&scene, &view, Peeling::Plain), view, 8);
     let ldi = peel_cpu(&PeelData::of(&scene, &view, peeling), view, 8);
-    assert_eq!((plain.layers.len(), ldi.layers.len()), (3, 2));
+    assert_eq!((plain.layer_count(), ldi.layer_count()), (3, 2));
     let pixel = ((view.height / 2) * view.width + view.width / 2) as usize;
     let depths: Vec<f32> = ldi
-        .layers
+        .pixel_surfels(pixel)
         .iter()
-        .filter_map(|l| l.samples[pixel])
         .map(|s| s.depth_mm)
         .collect();
     assert_eq!(
         depths,
         [
-            plain.layers[0].samples[pixel].unwrap().depth_mm,
-            plain.layers[2].samples[pixel].unwrap().depth_mm
+            plain.surfel(0, pixel).unwrap().depth_mm,
+            plain.surfel(2, pixel).unwrap().depth_mm
         ]
     );
 }
@@ -510,21 +505,20 @@ fn umbra_peeling_on_the_demo_keeps_the_image() {
         view,
         8,
     );
-    let (kept, all) = (surfel_count(&umbra), surfel_count(&plain));
+    let (kept, all) = (umbra.surfel_count(), plain.surfel_count());
     eprintln!(
         "demo at {}x{}: plain {} layers / {all} surfels, umbra {} layers / {kept} surfels",
         view.width,
         view.height,
-        plain.layers.len(),
-        umbra.layers.len()
+        plain.layer_count(),
+        umbra.layer_count()
     );
-    assert!(kept < all && umbra.layers.len() <= plain.layers.len());
+    assert!(kept < all && umbra.layer_count() <= plain.layer_count());
     // Every umbra surfel is one of the plain surfels of its pixel, in the same order.
     for pixel in 0..(view.width * view.height) as usize {
         let of = |ldi: &LayeredDepthImage| -> Vec<f32> {
-            ldi.layers
+            ldi.pixel_surfels(pixel)
                 .iter()
-                .filter_map(|l| l.samples[pixel])
                 .map(|s| s.depth_mm)
                 .collect()
         };
@@ -565,13 +559,13 @@ fn umbra_peeling_saves_layers_on_overlapping_cards() {
         "cards at {}x{}: plain {} layers / {} surfels, umbra {} layers / {} surfels",
         view.width,
         view.height,
-        plain.layers.len(),
-        surfel_count(&plain),
-        umbra.layers.len(),
-        surfel_count(&umbra)
+        plain.layer_count(),
+        plain.surfel_count(),
+        umbra.layer_count(),
+        umbra.surfel_count()
     );
-    assert_eq!(plain.layers.len(), 13, "twelve cards and the wall");
-    assert!(umbra.layers.len() <= 3, "{}", umbra.layers.len());
+    assert_eq!(plain.layer_count(), 13, "twelve cards and the wall");
+    assert!(umbra.layer_count() <= 3, "{}", umbra.layer_count());
     let a = render_layers(&camera, &plain, &settings, Backend::Cpu, None).unwrap();
     let b = render_layers(&camera, &umbra, &settings, Backend::Cpu, None).unwrap();
     let reference = render_reference(&camera, &TracedMesh::new(&scene), &settings).unwrap();

@@ -147,17 +147,26 @@ fn sidecars_of_every_kind_follow_the_json_schema() {
     }
     let lens = lensbake::load_lens("cooke-triplet", &Default::default()).unwrap();
     let dir = tempfile::tempdir().unwrap();
+    use lensbake::lrtf::Precision;
     let kinds = [
-        ("monochrome", vec![], None),
-        ("chromatic", vec![656.27, 587.56, 486.13], None),
-        ("focus-range", vec![], Some(1000.0)),
+        ("monochrome", vec![], None, Precision::F32),
+        (
+            "chromatic",
+            vec![656.27, 587.56, 486.13],
+            None,
+            Precision::F32,
+        ),
+        ("focus-range", vec![], Some(1000.0), Precision::F32),
+        // Its layers carry the quantisation that decodes the codes.
+        ("u16", vec![], None, Precision::U16),
     ];
     let mut documents = Vec::new();
-    for (name, wavelengths_nm, focus_near_mm) in kinds {
+    for (name, wavelengths_nm, focus_near_mm, precision) in kinds {
         let request = lensbake::BakeRequest {
             resolution: [4, 4, 4],
             wavelengths_nm,
             focus_near_mm,
+            precision,
             ..Default::default()
         };
         let table = lensbake::bake(&lens.system, &request).unwrap();

@@ -375,9 +375,8 @@ impl Lens {
             let nm = wavelength_nm.unwrap_or_else(|| system.design_wavelength_nm());
             let at = system.at_checked(nm).map_err(refused)?;
             let starts = StartCheck::new(&at, travel);
-            let admit = |ray: &Ray| starts.check(ray);
             Tracer::new(&at)
-                .trace_rows_into(&origins, &directions, travel, apertures, admit, results)
+                .trace_rows_into(&origins, &directions, travel, apertures, &starts, results)
                 .map_err(|e| argument(e.to_string()))?;
             Ok(())
         })?;
@@ -660,7 +659,7 @@ impl Table {
 /// Bakes a table of `lens`: `resolution` nodes per axis, at `f_number` (None: wide open),
 /// focused at `focus_mm` in front of surface 1 (None: infinity; with `focus_near_mm` a focus
 /// range), at `wavelengths_nm` (one, or three for R, G, B; None: the design wavelength), stored
-/// as "f32" or "f16".
+/// as "f32", "f16" or "u16" (16-bit codes over each channel's range: f32's error at f16's bytes).
 #[pyfunction]
 #[pyo3(signature = (lens, resolution=32, *, f_number=None, focus_mm=None, focus_near_mm=None, wavelengths_nm=None, precision="f32"))]
 #[allow(clippy::too_many_arguments)]
@@ -676,7 +675,7 @@ fn bake(
 ) -> PyResult<Table> {
     let precision = Precision::from_name(precision).ok_or_else(|| {
         argument(format!(
-            "precision must be \"f32\" or \"f16\", got {precision:?}"
+            "precision must be \"f32\", \"f16\" or \"u16\", got {precision:?}"
         ))
     })?;
     let request = BakeRequest {

@@ -244,7 +244,7 @@ fn measure(args: &RenderBenchArgs, base: RenderSettings) -> anyhow::Result<()> {
         height: args.height,
         focus_mm: args.focus_mm,
         f_number,
-        layers: ldi.layers.len(),
+        layers: ldi.layer_count(),
         table_resolution: matched.table_resolution,
     };
 

@@ -281,7 +281,7 @@ fn run_into(args: &DemoArgs, staging: &Path) -> anyhow::Result<(usize, f64, f64)
         bake_or_load_seconds: bake_seconds,
         wavelengths_nm,
         peel_seconds,
-        layers: ldi.layers.len(),
+        layers: ldi.layer_count(),
         traced_render_seconds: traced_seconds,
         baked_render_seconds: baked_seconds,
         baked_speedup: traced_seconds / baked_seconds,

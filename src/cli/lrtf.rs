@@ -27,7 +27,7 @@ pub struct BakeArgs {
     /// N (N^3 nodes) or AxBxC.
     #[arg(long, default_value = "128")]
     pub resolution: String,
-    #[arg(long, default_value = "f32", value_parser = ["f32", "f16"])]
+    #[arg(long, default_value = "f32", value_parser = ["f32", "f16", "u16"])]
     pub precision: String,
     #[arg(long, default_value = "pupil-planes", value_parser = ["pupil-planes", "spherical"])]
     pub parameterisation: String,

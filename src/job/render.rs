@@ -34,9 +34,9 @@ use crate::render::gpu_peel::GpuPeeler;
 use crate::render::image::{RgbImage, read_exr_rgbz};
 use crate::render::layers::LayeredDepthImage;
 use crate::render::mesh::MeshScene;
-use crate::render::raster::{Peeling, mesh_layer_view, peel_mesh, surfel_count};
+use crate::render::raster::{Peeling, mesh_layer_view, peel_mesh};
 use crate::render::scene::Scene;
-use crate::render::{Backend, RenderError, RenderSettings, render_layers};
+use crate::render::{Backend, RenderError, RenderSettings, check_render_memory, render_layers};
 use crate::trace::Tracer;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
@@ -362,6 +362,7 @@ impl SceneSource {
                     PeelMode::Umbra => Peeling::umbra_for(camera),
                 };
                 let view = mesh_layer_view(camera, settings, scene)?;
+                check_render_memory(settings, &view, 0)?;
                 let layers = peel_mesh(scene, view, peeling, settings.max_layers, gpu.as_ref())?;
                 if layers.depth_range().is_none() {
                     return Err(RenderError::NothingInView(scene.why_unseen(&view)));
@@ -553,10 +554,10 @@ impl RenderJob {
         let (camera, ldi, peel_time) =
             peeled().inspect_err(|_| discard_if_baked_now(table.as_ref()))?;
         let peel = PeelReport {
-            layers: ldi.layers.len(),
+            layers: ldi.layer_count(),
             view_size: [ldi.view.width, ldi.view.height],
             mesh: match &source {
-                SceneSource::Mesh { peel, .. } => Some((*peel, surfel_count(&ldi))),
+                SceneSource::Mesh { peel, .. } => Some((*peel, ldi.surfel_count())),
                 SceneSource::Exr(_) => None,
             },
             time: peel_time,

@@ -111,7 +111,9 @@ pub fn load_or_bake(
     }
     let request = BakeRequest {
         resolution: [fallback.resolution; 3],
-        precision: Precision::F32,
+        // 16-bit codes: the f32 table's error (docs/lrtf.md, accuracy per byte) at half its
+        // bytes, so more of the table a frame reads stays in cache.
+        precision: Precision::U16,
         focus_mm: fallback.focus_mm,
         max_film_radius: Some(fallback.max_film_radius),
         wavelengths_nm: fallback.wavelengths_nm.clone(),

@@ -8,9 +8,13 @@
 //! is cut into bricks of [`BRICK`]^3 nodes stored one after the other, a node's channels
 //! together and aligned to their size (no node straddles a cache line): most cells lie inside
 //! one brick (1 to 2 KiB). An f16 table stays f16 (half the bytes per node); its values are
-//! widened to f32 on reading, which is what the f32 copy of it held before, bit for bit.
+//! widened to f32 on reading, which is what the f32 copy of it held before, bit for bit. A u16
+//! table holds each channel as a 16-bit step of that channel's range over the layer
+//! ([`Quantisation`]); its values are decoded to f32 on reading, so it samples exactly as the f32
+//! table of its decoded values does.
 
 use half::f16;
+use serde::{Deserialize, Serialize};
 
 use super::param::{CHANNELS, MARGIN};
 use super::table::{Corners, Precision};
@@ -23,8 +27,13 @@ const BRICK_NODES: usize = BRICK * BRICK * BRICK;
 
 /// A node's channels as one stored element type holds them.
 pub trait Node: Copy + Default + PartialEq + std::fmt::Debug + Send + Sync + 'static {
-    fn from_values(values: &[f32; CHANNELS]) -> Self;
-    fn values(&self) -> [f32; CHANNELS];
+    /// What a grid of these nodes needs besides them to give its values: nothing for floats,
+    /// the channels' ranges for 16-bit codes.
+    type Code: Copy + PartialEq + std::fmt::Debug + Send + Sync;
+    /// The code that holds every one of `values` (row-major nodes of one layer).
+    fn fit(values: &[[f32; CHANNELS]]) -> Self::Code;
+    fn from_values(values: &[f32; CHANNELS], code: &Self::Code) -> Self;
+    fn values(&self, code: &Self::Code) -> [f32; CHANNELS];
     /// Every channel interpolated over all eight corners of `cell` with AVX2 and F16C (see
     /// `vector`).
     ///
@@ -32,7 +41,8 @@ pub trait Node: Copy + Default + PartialEq + std::fmt::Debug + Send + Sync + 'st
     /// The processor must have AVX2 and F16C. Inlined into its caller, it is vector code only
     /// where that caller is compiled for them (elsewhere each intrinsic is a call).
     #[cfg(target_arch = "x86_64")]
-    unsafe fn interpolate_vector(nodes: &[Self], cell: &Cell) -> [f64; CHANNELS];
+    unsafe fn interpolate_vector(nodes: &[Self], code: &Self::Code, cell: &Cell)
+    -> [f64; CHANNELS];
 }
 
 /// An f32 node, aligned to its 32 bytes.
@@ -45,29 +55,118 @@ pub struct NodeF32([f32; CHANNELS]);
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct NodeF16([f16; CHANNELS]);
 
+/// A node of 16-bit codes ([`Quantisation`]), aligned to its 16 bytes.
+#[repr(C, align(16))]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct NodeU16([u16; CHANNELS]);
+
+/// How a u16 table's codes give its values: channel c of code q is `low[c] + step[c] * q`,
+/// computed in f32 (a multiply, then an add: no fused multiply-add, so every machine and the
+/// GPU's texels get the same bits). Fitted per layer to each channel's range, so a decoded code
+/// is within `step / 2` of the value it stands for, plus the decode's f32 rounding (`step` is
+/// the range over 65535).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Quantisation {
+    pub low: [f32; CHANNELS],
+    pub step: [f32; CHANNELS],
+}
+
+impl Quantisation {
+    /// The largest code.
+    pub const LEVELS: u16 = u16::MAX;
+
+    /// Each channel's range over `values` cut into [`Quantisation::LEVELS`] steps.
+    pub fn fit(values: &[[f32; CHANNELS]]) -> Quantisation {
+        let mut low = [f32::INFINITY; CHANNELS];
+        let mut high = [f32::NEG_INFINITY; CHANNELS];
+        for v in values {
+            for c in 0..CHANNELS {
+                low[c] = low[c].min(v[c]);
+                high[c] = high[c].max(v[c]);
+            }
+        }
+        let mut step = [0.0; CHANNELS];
+        for c in 0..CHANNELS {
+            if !(low[c] <= high[c]) {
+                low[c] = 0.0; // no values at all
+            } else {
+                // Rounded up, so the top code reaches the largest value.
+                let exact = (f64::from(high[c]) - f64::from(low[c])) / f64::from(Self::LEVELS);
+                step[c] = next_up(exact as f32, exact);
+            }
+        }
+        Quantisation { low, step }
+    }
+
+    /// The codes nearest to `values`.
+    #[inline]
+    pub fn encode(&self, values: &[f32; CHANNELS]) -> [u16; CHANNELS] {
+        std::array::from_fn(|c| {
+            let at = if self.step[c] > 0.0 {
+                ((f64::from(values[c]) - f64::from(self.low[c])) / f64::from(self.step[c])).round()
+            } else {
+                0.0
+            };
+            at.clamp(0.0, f64::from(Self::LEVELS)) as u16
+        })
+    }
+
+    /// The values `codes` stand for.
+    #[inline(always)]
+    pub fn decode(&self, codes: &[u16; CHANNELS]) -> [f32; CHANNELS] {
+        std::array::from_fn(|c| self.low[c] + self.step[c] * f32::from(codes[c]))
+    }
+
+    /// A quantisation whose numbers can decode a table: finite, steps not negative, and the
+    /// largest value finite too; else the first channel that fails.
+    pub fn implausible_channel(&self) -> Option<usize> {
+        (0..CHANNELS).find(|&c| {
+            let top = self.low[c] + self.step[c] * f32::from(Self::LEVELS);
+            !(self.low[c].is_finite() && self.step[c] >= 0.0 && top.is_finite())
+        })
+    }
+}
+
+/// `rounded` (the f32 nearest `exact`) moved up by one ulp when it lies below `exact`.
+fn next_up(rounded: f32, exact: f64) -> f32 {
+    if f64::from(rounded) >= exact {
+        rounded
+    } else {
+        f32::from_bits(rounded.to_bits() + 1)
+    }
+}
+
 impl Node for NodeF32 {
-    fn from_values(values: &[f32; CHANNELS]) -> Self {
+    type Code = ();
+
+    fn fit(_: &[[f32; CHANNELS]]) {}
+
+    fn from_values(values: &[f32; CHANNELS], _: &()) -> Self {
         NodeF32(*values)
     }
 
-    fn values(&self) -> [f32; CHANNELS] {
+    fn values(&self, _: &()) -> [f32; CHANNELS] {
         self.0
     }
 
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
-    unsafe fn interpolate_vector(nodes: &[Self], cell: &Cell) -> [f64; CHANNELS] {
+    unsafe fn interpolate_vector(nodes: &[Self], _: &(), cell: &Cell) -> [f64; CHANNELS] {
         // SAFETY: the caller's, passed on.
         unsafe { vector::interpolate_f32(nodes, cell) }
     }
 }
 
 impl Node for NodeF16 {
-    fn from_values(values: &[f32; CHANNELS]) -> Self {
+    type Code = ();
+
+    fn fit(_: &[[f32; CHANNELS]]) {}
+
+    fn from_values(values: &[f32; CHANNELS], _: &()) -> Self {
         NodeF16(values.map(f16::from_f32))
     }
 
-    fn values(&self) -> [f32; CHANNELS] {
+    fn values(&self, _: &()) -> [f32; CHANNELS] {
         let mut values = [0.0; CHANNELS];
         for (v, &h) in values.iter_mut().zip(&self.0) {
             *v = widen(h);
@@ -77,9 +176,37 @@ impl Node for NodeF16 {
 
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
-    unsafe fn interpolate_vector(nodes: &[Self], cell: &Cell) -> [f64; CHANNELS] {
+    unsafe fn interpolate_vector(nodes: &[Self], _: &(), cell: &Cell) -> [f64; CHANNELS] {
         // SAFETY: the caller's, passed on.
         unsafe { vector::interpolate_f16(nodes, cell) }
+    }
+}
+
+impl Node for NodeU16 {
+    type Code = Quantisation;
+
+    fn fit(values: &[[f32; CHANNELS]]) -> Quantisation {
+        Quantisation::fit(values)
+    }
+
+    fn from_values(values: &[f32; CHANNELS], code: &Quantisation) -> Self {
+        NodeU16(code.encode(values))
+    }
+
+    #[inline(always)]
+    fn values(&self, code: &Quantisation) -> [f32; CHANNELS] {
+        code.decode(&self.0)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    unsafe fn interpolate_vector(
+        nodes: &[Self],
+        code: &Quantisation,
+        cell: &Cell,
+    ) -> [f64; CHANNELS] {
+        // SAFETY: the caller's, passed on.
+        unsafe { vector::interpolate_u16(nodes, code, cell) }
     }
 }
 
@@ -103,8 +230,9 @@ fn widen(value: f16) -> f32 {
 
 /// The grid of one element type, brick by brick.
 #[derive(Debug, PartialEq)]
-pub struct Grid<N> {
+pub struct Grid<N: Node> {
     layout: Bricks,
+    code: N::Code,
     nodes: Vec<N>,
 }
 
@@ -114,6 +242,7 @@ impl<N: Node> Clone for Grid<N> {
     fn clone(&self) -> Self {
         Grid {
             layout: self.layout,
+            code: self.code,
             nodes: to_vec_on_huge_pages(&self.nodes),
         }
     }
@@ -257,6 +386,17 @@ impl Bricks {
 
 impl<N: Node> Grid<N> {
     fn from_row_major(pages: Pages, dims: [usize; 3], values: &[[f32; CHANNELS]]) -> Grid<N> {
+        let code = N::fit(values);
+        let mut grid = Grid::empty(pages, dims, code);
+        for (k, v) in values.iter().enumerate() {
+            let at = grid.layout.index(row_major_node(dims, k)) as usize;
+            grid.nodes[at] = N::from_values(v, &code);
+        }
+        grid
+    }
+
+    /// A grid of default nodes, to be filled.
+    fn empty(pages: Pages, dims: [usize; 3], code: N::Code) -> Grid<N> {
         let bricks = dims.map(|n| n.div_ceil(BRICK));
         let nodes = bricks.iter().product::<usize>() * BRICK_NODES;
         assert!(
@@ -265,18 +405,14 @@ impl<N: Node> Grid<N> {
         );
         let mut storage = Vec::new();
         resize_on(pages, &mut storage, nodes, N::default());
-        let mut grid = Grid {
+        Grid {
             layout: Bricks {
                 dims,
                 bricks: bricks.map(|b| b as u32),
             },
+            code,
             nodes: storage,
-        };
-        for (k, v) in values.iter().enumerate() {
-            let at = grid.layout.index(row_major_node(dims, k)) as usize;
-            grid.nodes[at] = N::from_values(v);
         }
-        grid
     }
 
     #[inline(always)]
@@ -291,7 +427,7 @@ impl<N: Node> Grid<N> {
         #[cfg(target_arch = "x86_64")]
         if corners == Corners::All && isa.has_avx2_f16c() {
             // SAFETY: `isa` is the set the caller is compiled for, one the processor has.
-            return unsafe { N::interpolate_vector(&self.nodes, cell) };
+            return unsafe { N::interpolate_vector(&self.nodes, &self.code, cell) };
         }
         #[cfg(not(target_arch = "x86_64"))]
         let _ = isa;
@@ -306,7 +442,7 @@ impl<N: Node> Grid<N> {
         let mut valid_weight = 0.0;
         for k in 0..8 {
             let w = cell.weight(k);
-            let entry = self.nodes[cell.node(k)].values();
+            let entry = self.nodes[cell.node(k)].values(&self.code);
             for (o, v) in out.iter_mut().zip(entry) {
                 *o += w * v as f64;
             }
@@ -328,7 +464,7 @@ impl<N: Node> Grid<N> {
     fn row_major(&self) -> impl Iterator<Item = [f32; CHANNELS]> + '_ {
         let layout = self.layout;
         (0..layout.dims.iter().product()).map(move |k| {
-            self.nodes[layout.index(row_major_node(layout.dims, k)) as usize].values()
+            self.nodes[layout.index(row_major_node(layout.dims, k)) as usize].values(&self.code)
         })
     }
 }
@@ -358,10 +494,11 @@ fn prefetch<T>(node: &T) {
 /// there. The caller, not this code, knows which set it was compiled for.
 #[cfg(target_arch = "x86_64")]
 mod vector {
-    use super::{CHANNELS, Cell, NodeF16, NodeF32};
+    use super::{CHANNELS, Cell, NodeF16, NodeF32, NodeU16, Quantisation};
     use std::arch::x86_64::{
-        __m256, _mm_loadu_si128, _mm256_add_pd, _mm256_castps256_ps128, _mm256_cvtph_ps,
-        _mm256_cvtps_pd, _mm256_extractf128_ps, _mm256_loadu_ps, _mm256_mul_pd, _mm256_set1_pd,
+        __m256, _mm_loadu_si128, _mm256_add_pd, _mm256_add_ps, _mm256_castps256_ps128,
+        _mm256_cvtepi32_ps, _mm256_cvtepu16_epi32, _mm256_cvtph_ps, _mm256_cvtps_pd,
+        _mm256_extractf128_ps, _mm256_loadu_ps, _mm256_mul_pd, _mm256_mul_ps, _mm256_set1_pd,
         _mm256_setzero_pd, _mm256_storeu_pd,
     };
 
@@ -390,6 +527,33 @@ mod vector {
                 cell,
                 #[inline(always)]
                 |node| _mm256_cvtph_ps(_mm_loadu_si128(nodes[node].0.as_ptr().cast())),
+            )
+        }
+    }
+
+    /// # Safety
+    /// The processor must have AVX2.
+    #[inline(always)]
+    pub(super) unsafe fn interpolate_u16(
+        nodes: &[NodeU16],
+        code: &Quantisation,
+        cell: &Cell,
+    ) -> [f64; CHANNELS] {
+        // SAFETY: each load reads a whole node's eight u16 (16 bytes) and the ranges' eight f32;
+        // AVX2 is the caller's to ensure.
+        unsafe {
+            let low = _mm256_loadu_ps(code.low.as_ptr());
+            let step = _mm256_loadu_ps(code.step.as_ptr());
+            accumulate(
+                cell,
+                // Codes widened exactly to f32, then decoded as `Quantisation::decode` does: a
+                // multiply, then an add.
+                #[inline(always)]
+                |node| {
+                    let codes =
+                        _mm256_cvtepu16_epi32(_mm_loadu_si128(nodes[node].0.as_ptr().cast()));
+                    _mm256_add_ps(low, _mm256_mul_ps(step, _mm256_cvtepi32_ps(codes)))
+                },
             )
         }
     }
@@ -430,6 +594,7 @@ fn row_major_node([n0, n1, _]: [usize; 3], k: usize) -> [u32; 3] {
 pub enum Entries {
     F32(Grid<NodeF32>),
     F16(Grid<NodeF16>),
+    U16(Grid<NodeU16>),
 }
 
 impl Entries {
@@ -463,13 +628,51 @@ impl Entries {
         match precision {
             Precision::F32 => Entries::F32(Grid::from_row_major(pages, dims, values)),
             Precision::F16 => Entries::F16(Grid::from_row_major(pages, dims, values)),
+            Precision::U16 => Entries::U16(Grid::from_row_major(pages, dims, values)),
         }
+    }
+
+    /// A u16 table's entries from its codes in the file's row-major order and the
+    /// quantisation that decodes them (on huge pages: a table read from disk).
+    ///
+    /// # Panics
+    /// When `codes` does not hold exactly n0 n1 n2 entries (readers check sizes first).
+    pub(crate) fn from_codes(
+        dims: [usize; 3],
+        quantisation: Quantisation,
+        codes: &[[u16; CHANNELS]],
+    ) -> Entries {
+        assert_eq!(
+            codes.len(),
+            dims.iter().product::<usize>(),
+            "codes for a {dims:?} grid"
+        );
+        let mut grid: Grid<NodeU16> = Grid::empty(Pages::Huge, dims, quantisation);
+        for (k, c) in codes.iter().enumerate() {
+            let at = grid.layout.index(row_major_node(dims, k)) as usize;
+            grid.nodes[at] = NodeU16(*c);
+        }
+        Entries::U16(grid)
+    }
+
+    /// A u16 table's quantisation and its codes in row-major order (what its file holds);
+    /// None for a float table.
+    pub fn codes(&self) -> Option<(Quantisation, Vec<[u16; CHANNELS]>)> {
+        let Entries::U16(grid) = self else {
+            return None;
+        };
+        let layout = grid.layout;
+        let codes = (0..layout.dims.iter().product())
+            .map(|k| grid.nodes[layout.index(row_major_node(layout.dims, k)) as usize].0)
+            .collect();
+        Some((grid.code, codes))
     }
 
     pub fn precision(&self) -> Precision {
         match self {
             Entries::F32(_) => Precision::F32,
             Entries::F16(_) => Precision::F16,
+            Entries::U16(_) => Precision::U16,
         }
     }
 
@@ -482,6 +685,7 @@ impl Entries {
         match self {
             Entries::F32(g) => &g.layout,
             Entries::F16(g) => &g.layout,
+            Entries::U16(g) => &g.layout,
         }
     }
 
@@ -499,6 +703,7 @@ impl Entries {
         match self {
             Entries::F32(g) => std::mem::size_of_val(g.nodes.as_slice()),
             Entries::F16(g) => std::mem::size_of_val(g.nodes.as_slice()),
+            Entries::U16(g) => std::mem::size_of_val(g.nodes.as_slice()),
         }
     }
 
@@ -507,6 +712,7 @@ impl Entries {
         match self {
             Entries::F32(g) => Box::new(g.row_major()),
             Entries::F16(g) => Box::new(g.row_major()),
+            Entries::U16(g) => Box::new(g.row_major()),
         }
     }
 
@@ -514,8 +720,9 @@ impl Entries {
     pub fn get(&self, node: [usize; 3]) -> [f32; CHANNELS] {
         let at = self.layout().index(node.map(|i| i as u32)) as usize;
         match self {
-            Entries::F32(g) => g.nodes[at].values(),
-            Entries::F16(g) => g.nodes[at].values(),
+            Entries::F32(g) => g.nodes[at].values(&g.code),
+            Entries::F16(g) => g.nodes[at].values(&g.code),
+            Entries::U16(g) => g.nodes[at].values(&g.code),
         }
     }
 
@@ -547,6 +754,7 @@ impl Entries {
         match self {
             Entries::F32(g) => g.prefetch(cell),
             Entries::F16(g) => g.prefetch(cell),
+            Entries::U16(g) => g.prefetch(cell),
         }
     }
 
@@ -571,6 +779,7 @@ impl Entries {
         match self {
             Entries::F32(g) => g.interpolate_on(isa, cell, corners),
             Entries::F16(g) => g.interpolate_on(isa, cell, corners),
+            Entries::U16(g) => g.interpolate_on(isa, cell, corners),
         }
     }
 }
@@ -579,6 +788,21 @@ impl Entries {
 mod tests {
     use super::*;
 
+    const PRECISIONS: [Precision; 3] = [Precision::F32, Precision::F16, Precision::U16];
+
+    /// `values` as a grid of `precision` holds them.
+    fn stored(precision: Precision, values: &[[f32; CHANNELS]]) -> Vec<[f32; CHANNELS]> {
+        let quantisation = Quantisation::fit(values);
+        values
+            .iter()
+            .map(|v| match precision {
+                Precision::F32 => *v,
+                Precision::F16 => v.map(|x| f16::from_f32(x).to_f32()),
+                Precision::U16 => quantisation.decode(&quantisation.encode(v)),
+            })
+            .collect()
+    }
+
     fn ramp(dims: [usize; 3]) -> Vec<[f32; CHANNELS]> {
         (0..dims.iter().product::<usize>())
             .map(|k| std::array::from_fn(|c| (k * CHANNELS + c) as f32 * 0.25))
@@ -586,16 +810,13 @@ mod tests {
     }
 
     #[test]
-    fn bricks_keep_every_entry_in_both_precisions() {
+    fn bricks_keep_every_entry_in_every_precision() {
         // Sizes that are not multiples of the brick, and one below it.
         for dims in [[5, 3, 7], [2, 2, 2], [9, 4, 6]] {
             let values = ramp(dims);
-            for precision in [Precision::F32, Precision::F16] {
+            for precision in PRECISIONS {
                 let entries = Entries::from_row_major(dims, precision, &values);
-                let rounded: Vec<_> = values
-                    .iter()
-                    .map(|v| v.map(|x| precision.round(x)))
-                    .collect();
+                let rounded = stored(precision, &values);
                 assert_eq!(entries.row_major().collect::<Vec<_>>(), rounded);
                 for (k, v) in rounded.iter().enumerate() {
                     let node = row_major_node(dims, k).map(|i| i as usize);
@@ -617,8 +838,9 @@ mod tests {
                 std::array::from_fn(|c| ((k * 7919 + c * 104_729) % 1000) as f32 * 0.0137 - 5.0)
             })
             .collect();
-        for precision in [Precision::F32, Precision::F16] {
+        for precision in PRECISIONS {
             let entries = Entries::from_row_major(dims, precision, &values);
+            let held = stored(precision, &values);
             for step in 0..500 {
                 let coords = [0.618_034, 0.414_214, 0.732_051].map(|a: f64| {
                     let t = (a * step as f64).fract();
@@ -634,9 +856,9 @@ mod tests {
                     let w = if d0 == 1 { f0 } else { 1.0 - f0 }
                         * if d1 == 1 { f1 } else { 1.0 - f1 }
                         * if d2 == 1 { f2 } else { 1.0 - f2 };
-                    let entry = values[(i0 + d0) + dims[0] * ((i1 + d1) + dims[1] * (i2 + d2))];
+                    let entry = held[(i0 + d0) + dims[0] * ((i1 + d1) + dims[1] * (i2 + d2))];
                     for (e, v) in expected.iter_mut().zip(entry) {
-                        *e += w * precision.round(v) as f64;
+                        *e += w * v as f64;
                     }
                 }
                 let got = entries.interpolate(&entries.cell(coords), Corners::All);
@@ -667,7 +889,7 @@ mod tests {
             state
         };
         let dims = [11, 7, 9];
-        for precision in [Precision::F32, Precision::F16] {
+        for precision in PRECISIONS {
             let values: Vec<[f32; CHANNELS]> = (0..dims.iter().product::<usize>())
                 .map(|_| {
                     std::array::from_fn(|_| {
@@ -676,6 +898,11 @@ mod tests {
                             let v = match precision {
                                 Precision::F32 => f32::from_bits(bits as u32),
                                 Precision::F16 => f16::from_bits(bits as u16).to_f32(),
+                                // Codes of every value in ranges a table's channels span
+                                // (a range of 1e38 would overflow its top code).
+                                Precision::U16 => {
+                                    (bits >> 11) as f32 / (1u64 << 53) as f32 * 2e3 - 1e3
+                                }
                             };
                             if v.is_finite() {
                                 break v;
@@ -692,6 +919,7 @@ mod tests {
                 let portable = match &entries {
                     Entries::F32(g) => g.interpolate_portable(&cell, Corners::All),
                     Entries::F16(g) => g.interpolate_portable(&cell, Corners::All),
+                    Entries::U16(g) => g.interpolate_portable(&cell, Corners::All),
                 };
                 let expected = portable.map(f64::to_bits);
                 let dispatched = entries.interpolate(&cell, Corners::All);
@@ -775,11 +1003,66 @@ mod tests {
     }
 
     #[test]
-    fn an_f16_grid_holds_half_the_bytes() {
+    fn f16_and_u16_grids_hold_half_the_bytes() {
         assert_eq!(std::mem::size_of::<NodeF32>(), 32);
         assert_eq!(std::mem::size_of::<NodeF16>(), 16);
+        assert_eq!(std::mem::size_of::<NodeU16>(), 16);
         assert_eq!(std::mem::align_of::<NodeF32>(), 32);
         assert_eq!(std::mem::align_of::<NodeF16>(), 16);
+        assert_eq!(std::mem::align_of::<NodeU16>(), 16);
+        let dims = [16, 16, 16];
+        let bytes = |p| Entries::from_row_major(dims, p, &ramp(dims)).stored_bytes();
+        assert_eq!(bytes(Precision::U16) * 2, bytes(Precision::F32));
+    }
+
+    #[test]
+    fn u16_codes_hold_every_value_within_half_a_step() {
+        // Channels of very different ranges and offsets, one constant: each decoded value
+        // lies within half a step of the value (plus the f32 rounding of the decode), and the
+        // range's ends are codes 0 and 65535.
+        let values: Vec<[f32; CHANNELS]> = (0..5000)
+            .map(|k| {
+                let t = (k as f32 * 0.618_034).fract();
+                [
+                    20.0 * t - 10.0,
+                    1e-3 * t,
+                    0.4 * (7.0 * t).sin(),
+                    -3.0 - t,
+                    5.0,
+                    1e4 * t * t,
+                    t - 0.5,
+                    2.0 + 0.01 * t,
+                ]
+            })
+            .collect();
+        let q = Quantisation::fit(&values);
+        assert_eq!(q.implausible_channel(), None);
+        for c in 0..CHANNELS {
+            let column = values.iter().map(|v| v[c]);
+            let (low, high) = column.fold((f32::MAX, f32::MIN), |(l, h), x| (l.min(x), h.max(x)));
+            assert_eq!(q.low[c], low);
+            let top = q.decode(&[Quantisation::LEVELS; CHANNELS])[c];
+            assert!(
+                top >= high && top - high <= 2.0 * f32::EPSILON * high.abs().max(q.step[c]),
+                "{c}"
+            );
+        }
+        for v in &values {
+            let decoded = q.decode(&q.encode(v));
+            for c in 0..CHANNELS {
+                // Half a step, and the decode's f32 rounding (of low + step * code).
+                let bound = 0.5 * q.step[c] + 2.0 * f32::EPSILON * (q.low[c].abs() + v[c].abs());
+                assert!(
+                    (decoded[c] - v[c]).abs() <= bound,
+                    "channel {c}: {} for {}",
+                    decoded[c],
+                    v[c]
+                );
+            }
+        }
+        // Half a step is what is lost: the codes are not coarser than the range asks.
+        assert!(q.step[0] <= 20.0 / 65535.0 * (1.0 + 1e-6));
+        assert_eq!(q.step[4], 0.0);
     }
 
     #[test]

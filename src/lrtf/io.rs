@@ -18,7 +18,7 @@ use exr::prelude::{
 };
 use serde::{Deserialize, Serialize};
 
-use super::entries::Entries;
+use super::entries::{Entries, Quantisation};
 use super::param::{CHANNEL_NAMES, CHANNELS, Frame};
 use super::table::{Layer, LrtfTable, Precision, TableInfo};
 use crate::pages::Pages;
@@ -50,6 +50,10 @@ pub struct LayerInfo {
     pub stop_semi_aperture: f64,
     /// The sampling pupil over film radius and focus (docs/lrtf.md).
     pub sampling_pupil: FocusPupilTable,
+    /// How a u16 table's codes decode (each channel's lowest value and step); absent for f32
+    /// and f16 tables, and then not written, so their sidecars and checksums are as before.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub quantisation: Option<Quantisation>,
 }
 
 /// The RON sidecar.
@@ -231,12 +235,19 @@ pub fn write_table(
         .iter()
         .enumerate()
         .map(|(k, layer)| {
+            let codes = layer.entries.codes();
             let channels = (0..CHANNELS)
                 .map(|c| {
                     let values = layer.entries.row_major().map(|e| e[c]);
-                    let samples = match table.info.precision {
-                        Precision::F32 => FlatSamples::F32(values.collect()),
-                        Precision::F16 => FlatSamples::F16(values.map(f16::from_f32).collect()),
+                    // OpenEXR has no 16-bit integers: a u16 table's codes go into 32-bit ones.
+                    let samples = match (&codes, table.info.precision) {
+                        (Some((_, codes)), _) => {
+                            FlatSamples::U32(codes.iter().map(|q| u32::from(q[c])).collect())
+                        }
+                        (None, Precision::F16) => {
+                            FlatSamples::F16(values.map(f16::from_f32).collect())
+                        }
+                        (None, _) => FlatSamples::F32(values.collect()),
                     };
                     AnyChannel::new(
                         channel_name(&layer_name(k), c, FORMAT_VERSION).as_str(),
@@ -286,6 +297,7 @@ pub fn write_table(
                 pupil: l.pupil.clone(),
                 stop_semi_aperture: l.stop_semi_aperture,
                 sampling_pupil: l.sampling.clone(),
+                quantisation: l.entries.codes().map(|(quantisation, _)| quantisation),
             })
             .collect(),
     };
@@ -465,6 +477,17 @@ fn implausible_number(sidecar: &Sidecar) -> Option<String> {
                 .collect::<Vec<_>>()
         };
         checks.extend(circle_checks("pupil", &layer.pupil.circles));
+        if let Some(q) = &layer.quantisation
+            && let Some(c) = q.implausible_channel()
+        {
+            return Some(format!(
+                "{} of channel {} (low {}, step {}) cannot decode a table",
+                field("quantisation"),
+                super::param::CHANNEL_NAMES[c],
+                q.low[c],
+                q.step[c]
+            ));
+        }
         let sampling = &layer.sampling_pupil;
         if sampling.nodes.is_empty() {
             return Some(format!(
@@ -671,7 +694,35 @@ pub fn read_table(
                 n1 * n2
             )));
         }
-        let mut entries = vec![[0.0f32; CHANNELS]; n0 * n1 * n2];
+        let quantisation = match (sidecar.info.precision, info.quantisation) {
+            (Precision::U16, Some(q)) => Some(q),
+            (Precision::U16, None) => {
+                return Err(TableError::Sidecar {
+                    path: dir.join(SIDECAR_FILE),
+                    message: format!(
+                        "a u16 table needs {}.quantisation, and it is missing",
+                        info.exr_layer
+                    ),
+                });
+            }
+            (_, None) => None,
+            (precision, Some(_)) => {
+                return Err(TableError::Sidecar {
+                    path: dir.join(SIDECAR_FILE),
+                    message: format!(
+                        "{}.quantisation is given for a {} table, which has none",
+                        info.exr_layer,
+                        precision.name()
+                    ),
+                });
+            }
+        };
+        // Only the kind the table holds is allocated.
+        let nodes = n0 * n1 * n2;
+        let (mut entries, mut codes) = match quantisation {
+            Some(_) => (Vec::new(), vec![[0u16; CHANNELS]; nodes]),
+            None => (vec![[0.0f32; CHANNELS]; nodes], Vec::new()),
+        };
         for c in 0..CHANNELS {
             let name = channel_name(&info.exr_layer, c, sidecar.format_version);
             let channel = exr_layer
@@ -682,6 +733,24 @@ pub fn read_table(
                 .ok_or_else(|| {
                     data_error(format!("layer {} lacks channel {name}", info.exr_layer))
                 })?;
+            if quantisation.is_some() {
+                let FlatSamples::U32(stored) = &channel.sample_data else {
+                    return Err(data_error(format!(
+                        "layer {} channel {name} of a u16 table holds floats, not codes",
+                        info.exr_layer
+                    )));
+                };
+                for (code, &value) in codes.iter_mut().zip(stored) {
+                    code[c] = u16::try_from(value).map_err(|_| {
+                        data_error(format!(
+                            "layer {} channel {name} holds the code {value}, above {}",
+                            info.exr_layer,
+                            Quantisation::LEVELS
+                        ))
+                    })?;
+                }
+                continue;
+            }
             for (entry, value) in entries.iter_mut().zip(channel.sample_data.values_as_f32()) {
                 if !value.is_finite() {
                     return Err(data_error(format!(
@@ -699,12 +768,15 @@ pub fn read_table(
             pupil: info.pupil.clone(),
             sampling: info.sampling_pupil.clone(),
             stop_semi_aperture: info.stop_semi_aperture,
-            entries: Entries::from_row_major_on(
-                Pages::Huge,
-                sidecar.info.resolution,
-                sidecar.info.precision,
-                &entries,
-            ),
+            entries: match quantisation {
+                Some(q) => Entries::from_codes(sidecar.info.resolution, q, &codes),
+                None => Entries::from_row_major_on(
+                    Pages::Huge,
+                    sidecar.info.resolution,
+                    sidecar.info.precision,
+                    &entries,
+                ),
+            },
         });
     }
     if layers.is_empty() {

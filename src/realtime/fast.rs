@@ -26,10 +26,12 @@ use crate::render::image::RgbImage;
 use crate::render::layers::LayeredDepthImage;
 use rayon::prelude::*;
 
-/// Side of a tile, in texels (32 pinhole pixels, the seed's tile).
-const TILE_TEXELS: usize = 16;
-/// Side of the blocks of output texels the gather hands to threads.
-const BLOCK_TEXELS: usize = 16;
+/// Side of a tile, in texels (16 pinhole pixels: half the seed's tile, so that the foreground
+/// pass, which runs wherever a tile's dilated neighbourhood holds a nearer surface, covers a
+/// quarter of the area around a blurred foreground that 32-pixel tiles gave it).
+const TILE_TEXELS: usize = 8;
+/// Rows of output texels the gather hands to a thread at a time.
+const BAND_TEXELS: usize = 8;
 /// Most rings of taps (1 + 8 + 16 + 24 = 49 taps, the low end of Tan et al.'s 48 to 81).
 const MAX_RINGS: usize = 3;
 /// Directions a ring tap can take: a table instead of a sine and cosine per tap.
@@ -41,9 +43,12 @@ const DENSE_TEXELS: f32 = 81.0;
 pub const PIPELINE_VARIANCE: f32 = 2.0;
 /// Variance the 2-pixel output box adds over the 1-pixel one (both axes): 2 x (4 - 1) / 12.
 const WIDER_BOX_VARIANCE: f32 = 0.5;
-/// A kernel is narrowed to at most this share of its variance: further, the 2-pixel box in it
-/// would shrink enough to miss lattice points. Spots that would need more are small, and the
-/// full-resolution pinhole pixels draw them.
+/// A node's kernel is shrunk to at least this share of its size before its box is widened
+/// (spots that would need more are small, and the full-resolution pinhole pixels draw them).
+const LEAST_NODE_SCALE: f64 = 0.5;
+/// Between nodes a pixel's kernel is the node's scaled to the pixel's size; it is narrowed to at
+/// most this share of the node's variance: the scaling also narrows the 2-pixel box in it, whose
+/// sums over the texel lattice are exact only at its own width.
 const MOST_NARROWING: f32 = 0.6;
 /// Below this spot size (RMS radius with the pixel box, pinhole pixels) a pixel's own colour is
 /// the full-resolution pinhole pixel's; above `BLURRED_SIZE` the half-resolution gather's;
@@ -59,8 +64,7 @@ const LAYER_REACH_STEP: f32 = 0.5;
 
 /// One half-resolution source texel: the nearest surface of its 2 x 2 pinhole pixels, with its
 /// kernel fitted once. Everything a tap reads, in one 64-byte cache line: the gather is bound by
-/// these loads. Colour and weight are both per unit of the spot's flux (colour times flux,
-/// amplitude over flux), so a foreground weight is directly the share of the spot it stands for.
+/// these loads.
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(64))]
 struct Texel {
@@ -74,13 +78,16 @@ struct Texel {
     /// The prefiltered colour times the spot's flux (the pyramid's level 0, kept here so a
     /// tap reads one record).
     colour: [f32; 3],
-    /// Weight per kernel value and per pinhole pixel of patch, over the spot's flux.
-    amplitude: f32,
+    /// A dense tap's weight per kernel value, over the spot's flux: the share of the spot
+    /// that one kernel value over a texel's patch stands for. Colour and weight are both per
+    /// unit of flux, so a foreground weight is directly the coverage it adds.
+    weight: f32,
     /// The narrowed spot's variance (pinhole pixels squared) and its centroid on the kernel's
     /// grid: a sparse tap widens the kernel about it.
     variance: f32,
     centroid_on_grid: [f32; 2],
-    node: u32,
+    /// Where the node's kernel starts in the [`KernelTable`].
+    kernel: u32,
 }
 
 const EMPTY: Texel = Texel {
@@ -88,20 +95,63 @@ const EMPTY: Texel = Texel {
     reach: 0.0,
     map: [0.0; 6],
     colour: [0.0; 3],
-    amplitude: 0.0,
+    weight: 0.0,
     variance: 0.0,
     centroid_on_grid: [0.0; 2],
-    node: 0,
+    kernel: 0,
 };
 
+/// The kernels over the 2-pixel box, each in a square of one common side with a border of
+/// zeros (beyond its own grid too), so a tap's lookup clamps its indices into the square instead
+/// of testing them: a tap off a kernel reads a zero of its border.
+struct KernelTable {
+    values: Vec<f32>,
+    side: usize,
+}
+
+impl KernelTable {
+    /// Nodes of zeros before each kernel's grid, in x and in y.
+    const BORDER: f32 = 1.0;
+
+    fn of(wide: &[Kernel]) -> KernelTable {
+        let side = wide.iter().map(|k| k.side).max().unwrap_or(0) + 2;
+        let mut values = vec![0.0f32; wide.len() * side * side];
+        for (slot, kernel) in values.chunks_mut(side * side).zip(wide) {
+            for (row, source) in kernel.values.chunks(kernel.side.max(1)).enumerate() {
+                let start = (row + 1) * side + 1;
+                slot[start..start + source.len()].copy_from_slice(source);
+            }
+        }
+        KernelTable { values, side }
+    }
+
+    /// The value at table coordinates (gx, gy) of the kernel starting at `start`, nearest node
+    /// (coordinates carry +1/2); zero off the kernel (a negative or NaN coordinate converts to
+    /// index 0, a large one clamps to the last, both on the border).
+    #[inline(always)]
+    fn at(&self, start: u32, gx: f32, gy: f32) -> f32 {
+        let last = self.side - 1;
+        let (ix, iy) = ((gx as usize).min(last), (gy as usize).min(last));
+        self.values[start as usize + iy * self.side + ix]
+    }
+}
+
 /// What the full-resolution upsampling needs of a texel's spot besides the tap record.
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Copy, Debug)]
 struct Spot {
     /// The spot's flux (relative illumination).
     flux: f32,
     /// Its size (RMS radius with the pixel box, pinhole pixels), before narrowing.
     size: f32,
+    /// Depth (mm) of the texel's surface; infinite where it is empty.
+    depth: f32,
 }
+
+const NO_SPOT: Spot = Spot {
+    flux: 0.0,
+    size: 0.0,
+    depth: f32::INFINITY,
+};
 
 /// What the half-resolution gather leaves per texel: the sums of the centre's own layer and of
 /// nearer layers spread over it, and how much of the centre those cover.
@@ -110,6 +160,17 @@ struct Gathered {
     own: [f32; 3],
     front: [f32; 3],
     coverage: f32,
+}
+
+impl Gathered {
+    /// The texel's colour: the nearer layers over what they leave of its own. Composited per
+    /// texel, before upsampling: mixing the sums first would dim a surface's edge texels by
+    /// the coverage of its own light spreading over the empty texels beside it (3 % of an
+    /// emitter's flux).
+    fn composited(&self) -> [f32; 3] {
+        let behind = 1.0 - self.coverage.min(1.0);
+        std::array::from_fn(|k| self.front[k] + behind * self.own[k])
+    }
 }
 
 /// Renders the pinhole layer of `ldi` (seen from `camera`'s eye) at `width` x `height` through
@@ -126,30 +187,32 @@ pub fn postfx_fast(
     let (lw, lh) = (view.width as usize, view.height as usize);
     let (tw, th) = (lw.div_ceil(2), lh.div_ceil(2));
     let aspect = layer_pixel_aspect(ldi, kernels);
-    let wide: Vec<Kernel> = kernels
+    let (wide, wide_variance): (Vec<Kernel>, Vec<f32>) = kernels
         .kernels
         .par_iter()
-        .map(Kernel::over_two_pixel_box)
-        .collect();
+        .map(half_resolution_kernel)
+        .unzip();
+    let table = KernelTable::of(&wide);
 
     // 1. Prefilter: each texel keeps the nearest surface of its 2 x 2 pixels, its colour the
     //    patch's sum of that surface's pixels over four (premultiplied by coverage).
-    let prefiltered: Vec<(Texel, Spot)> = (0..tw * th)
+    //    Collected in parallel: a buffer filled first on one thread takes its page faults
+    //    there, serially.
+    let (mut texels, mut spots) = (Vec::new(), Vec::new());
+    (0..tw * th)
         .into_par_iter()
         .map(|t| {
             let (tx, ty) = (t % tw, t / tw);
-            let mut nearest = f32::INFINITY;
             let pixels = [(0, 0), (1, 0), (0, 1), (1, 1)].map(|(dx, dy)| {
                 let (x, y) = (2 * tx + dx, 2 * ty + dy);
-                (x < lw && y < lh)
-                    .then(|| front.samples[y * lw + x])
-                    .flatten()
+                (x < lw && y < lh).then(|| front.get(y * lw + x)).flatten()
             });
-            for s in pixels.iter().flatten() {
-                nearest = nearest.min(s.depth_mm);
-            }
+            let nearest = pixels
+                .iter()
+                .flatten()
+                .fold(f32::INFINITY, |n, s| n.min(s.depth_mm));
             if !nearest.is_finite() {
-                return (EMPTY, Spot::default());
+                return (EMPTY, NO_SPOT);
             }
             let mut colour = [0.0f32; 3];
             for s in pixels.iter().flatten() {
@@ -164,12 +227,11 @@ pub fn postfx_fast(
                 view.tan_half[0] * (2.0 * centre[0] / lw as f64 - 1.0),
                 view.tan_half[1] * (1.0 - 2.0 * centre[1] / lh as f64),
             ];
-            let (texel, spot) = fit(kernels, &wide, nearest, tan, aspect);
+            let (texel, spot) = fit(kernels, &wide, &wide_variance, &table, nearest, tan, aspect);
             let colour = colour.map(|c| c * spot.flux);
             (Texel { colour, ..texel }, spot)
         })
-        .collect();
-    let (texels, spots): (Vec<Texel>, Vec<Spot>) = prefiltered.into_iter().unzip();
+        .unzip_into_vecs(&mut texels, &mut spots);
 
     // 2. Tiles: nearest depth and largest reach, each tile handed to every tile its texels
     //    can reach.
@@ -209,9 +271,11 @@ pub fn postfx_fast(
     };
     let (x0, gw) = span(0, tw);
     let (y0, gh) = span(1, th);
+    let depth_reach: Vec<[f32; 2]> = texels.par_iter().map(|t| [t.depth, t.reach]).collect();
     let gatherer = Gatherer {
-        kernels: &wide,
+        table: &table,
         texels: &texels,
+        depth_reach: &depth_reach,
         pyramid: &pyramid,
         tiles: &tiles,
         directions: (0..DIRECTIONS)
@@ -224,32 +288,18 @@ pub fn postfx_fast(
         width: tw,
         height: th,
     };
-    // Block by block: a block's taps read a patch of texels that stays in cache, where a run of
-    // whole rows (rayon's split of a row-major range) reads more rows than the cache holds.
-    let (bw, bh) = (gw.div_ceil(BLOCK_TEXELS), gh.div_ceil(BLOCK_TEXELS));
-    let blocks: Vec<Vec<Gathered>> = (0..bw * bh)
+    // Bands of rows to a thread: a band's taps read a strip of texels that stays in cache,
+    // where rayon's split of a row-major range down to single rows spreads one thread's reads
+    // over more rows than the cache holds.
+    let gathered: Vec<Gathered> = (0..gw * gh)
         .into_par_iter()
-        .map(|b| {
-            let (left, top) = ((b % bw) * BLOCK_TEXELS, (b / bw) * BLOCK_TEXELS);
-            let (right, bottom) = ((left + BLOCK_TEXELS).min(gw), (top + BLOCK_TEXELS).min(gh));
-            (top..bottom)
-                .flat_map(|y| (left..right).map(move |x| (x, y)))
-                .map(|(x, y)| gatherer.at(x0 + x, y0 + y))
-                .collect()
-        })
+        .with_min_len(gw * BAND_TEXELS)
+        .map(|i| gatherer.at(x0 + i % gw, y0 + i / gw))
         .collect();
-    let mut gathered = vec![Gathered::default(); gw * gh];
-    for (b, block) in blocks.iter().enumerate() {
-        let (left, top) = ((b % bw) * BLOCK_TEXELS, (b / bw) * BLOCK_TEXELS);
-        let width = (left + BLOCK_TEXELS).min(gw) - left;
-        for (row, values) in block.chunks(width).enumerate() {
-            let start = (top + row) * gw + left;
-            gathered[start..start + width].copy_from_slice(values);
-        }
-    }
 
-    // 4. Upsample: nearer layers and their coverage bilinear from the gather; the own layer
-    //    from the full-resolution pinhole pixel where it is sharp.
+    // 4. Upsample: the composited colour bilinear from the gather; where a pixel's own surface
+    //    is sharp, its own layer from the full-resolution pinhole pixel under the nearer
+    //    layers' bilinear sum and coverage.
     let (w, h) = (width as usize, height as usize);
     let pixels = (0..w * h)
         .into_par_iter()
@@ -262,41 +312,45 @@ pub fn postfx_fast(
             let (ix, iy) = (u[0] as usize, u[1] as usize);
             let (fx, fy) = (u[0] - ix as f32, u[1] - iy as f32);
             let (jx, jy) = ((ix + 1).min(gw - 1), (iy + 1).min(gh - 1));
-            let corner = [
-                (&gathered[iy * gw + ix], (1.0 - fx) * (1.0 - fy)),
-                (&gathered[iy * gw + jx], fx * (1.0 - fy)),
-                (&gathered[jy * gw + ix], (1.0 - fx) * fy),
-                (&gathered[jy * gw + jx], fx * fy),
+            let corners = [
+                (iy * gw + ix, (1.0 - fx) * (1.0 - fy)),
+                (iy * gw + jx, fx * (1.0 - fy)),
+                (jy * gw + ix, (1.0 - fx) * fy),
+                (jy * gw + jx, fx * fy),
             ];
+            let mut colour = [0.0f32; 3];
+            for &(c, wt) in &corners {
+                for (o, b) in colour.iter_mut().zip(gathered[c].composited()) {
+                    *o += wt * b;
+                }
+            }
+            let (sx, sy) = (p[0] + 0.5, p[1] + 0.5);
+            if !(sx >= 0.0 && sy >= 0.0 && (sx as usize) < lw && (sy as usize) < lh) {
+                return colour;
+            }
+            let (sx, sy) = (sx as usize, sy as usize);
+            let spot = spots[(sy / 2) * tw + sx / 2];
+            if spot.size >= BLURRED_SIZE {
+                return colour;
+            }
+            let Some(sample) = front.get(sy * lw + sx) else {
+                return colour;
+            };
+            if !same_surface(sample.depth_mm, spot.depth) {
+                return colour;
+            }
+            let blend = ((spot.size - SHARP_SIZE) / (BLURRED_SIZE - SHARP_SIZE)).clamp(0.0, 1.0);
             let mut mixed = Gathered::default();
-            for (g, wt) in corner {
+            for &(c, wt) in &corners {
+                let g = &gathered[c];
                 for k in 0..3 {
-                    mixed.own[k] += wt * g.own[k];
                     mixed.front[k] += wt * g.front[k];
                 }
                 mixed.coverage += wt * g.coverage;
             }
-            let (sx, sy) = (p[0] + 0.5, p[1] + 0.5);
-            let sharp = (sx >= 0.0 && sy >= 0.0 && (sx as usize) < lw && (sy as usize) < lh)
-                .then(|| {
-                    let (sx, sy) = (sx as usize, sy as usize);
-                    let s = front.samples[sy * lw + sx]?;
-                    let t = (sy / 2) * tw + sx / 2;
-                    let spot = spots[t];
-                    let blend =
-                        ((spot.size - SHARP_SIZE) / (BLURRED_SIZE - SHARP_SIZE)).clamp(0.0, 1.0);
-                    (same_surface(s.depth_mm, texels[t].depth) && blend < 1.0)
-                        .then(|| (s.radiance.map(|c| c * spot.flux), blend))
-                })
-                .flatten();
-            let own: [f32; 3] = match sharp {
-                Some((colour, blend)) => {
-                    std::array::from_fn(|k| colour[k] + blend * (mixed.own[k] - colour[k]))
-                }
-                None => mixed.own,
-            };
-            let behind = 1.0 - mixed.coverage.min(1.0);
-            std::array::from_fn(|k| mixed.front[k] + behind * own[k])
+            mixed.own = sample.radiance.map(|c| c * spot.flux);
+            let sharp = mixed.composited();
+            std::array::from_fn(|k| sharp[k] + blend * (colour[k] - sharp[k]))
         })
         .collect();
     Ok(RgbImage {
@@ -312,27 +366,52 @@ fn same_surface(depth: f32, nearest: f32) -> bool {
     depth <= nearest * 1.01
 }
 
+/// A node's kernel as the half-resolution gather samples it, and its variance (both axes,
+/// pinhole pixels squared): shrunk about its centroid by the variance the pipeline adds
+/// ([`PIPELINE_VARIANCE`]) and by the wider box's, then taken over the 2-pixel box. Shrinking
+/// before widening keeps the box exactly 2 pixels wide, so the kernel's sum over the texel
+/// lattice stays a quarter of its flux at any phase (shrinking the widened kernel shrank its
+/// box too and lost up to 3 % of an emitter's flux).
+fn half_resolution_kernel(kernel: &Kernel) -> (Kernel, f32) {
+    if kernel.side == 0 {
+        return (kernel.clone(), 0.0);
+    }
+    let size2 = kernel.size() * kernel.size();
+    let added = (PIPELINE_VARIANCE + WIDER_BOX_VARIANCE) as f64;
+    let scale = ((size2 - added) / size2)
+        .max(LEAST_NODE_SCALE * LEAST_NODE_SCALE)
+        .sqrt();
+    let variance = scale * scale * size2 + WIDER_BOX_VARIANCE as f64;
+    (kernel.scaled(scale).over_two_pixel_box(), variance as f32)
+}
+
 /// The texel at `depth_mm` seen at tangents `tan`: its spread fitted once into an affine map
-/// from tap offsets (texels) to the node kernel's grid, narrowed by [`PIPELINE_VARIANCE`].
+/// from tap offsets (texels) to the node kernel's grid, scaled to the pixel's own size less
+/// what the pipeline adds.
 fn fit(
     kernels: &LensKernels,
     wide: &[Kernel],
+    wide_variance: &[f32],
+    table: &KernelTable,
     depth_mm: f32,
     tan: [f64; 2],
     aspect: f32,
 ) -> (Texel, Spot) {
     let spread = kernels.spread(depth_mm as f64, tan);
     let kernel = &wide[spread.node as usize];
+    let dark = Texel {
+        depth: depth_mm,
+        ..EMPTY
+    };
     if kernel.side == 0 || spread.flux <= 0.0 {
-        let dark = Texel {
+        let spot = Spot {
             depth: depth_mm,
-            ..EMPTY
+            ..NO_SPOT
         };
-        return (dark, Spot::default());
+        return (dark, spot);
     }
-    // The node's kernel over the 2-pixel box has the node's variance plus the wider box's; it
-    // is scaled to the pixel's variance less what the pipeline adds.
-    let natural = spread.node_size * spread.node_size + WIDER_BOX_VARIANCE;
+    // The node's kernel is scaled to the pixel's variance less what the pipeline adds.
+    let natural = wide_variance[spread.node as usize];
     let wanted = spread.size * spread.size - PIPELINE_VARIANCE;
     let narrowed = wanted.max(MOST_NARROWING * natural);
     let scale = (natural / narrowed).sqrt();
@@ -341,35 +420,37 @@ fn fit(
     // A tap at (dx, dy) texels (rows down) from the output lies at layer offset (2 dx, 2 dy);
     // the kernel's offset, source to output with +y up, is (-2 dx, 2 aspect dy), turned by the
     // azimuth into the kernel frame and scaled about the centroid.
+    let centroid_on_grid = [
+        (spread.node_centroid[0] - kernel.origin[0] as f32) / kernel.spacing as f32,
+        (spread.node_centroid[1] - kernel.origin[1] as f32) / kernel.spacing as f32,
+    ];
     let base = [
-        (spread.node_centroid[0] - kernel.origin[0] as f32) / kernel.spacing as f32
-            - per_node * spread.centroid[0],
-        (spread.node_centroid[1] - kernel.origin[1] as f32) / kernel.spacing as f32
-            - per_node * spread.centroid[1],
+        centroid_on_grid[0] - per_node * spread.centroid[0],
+        centroid_on_grid[1] - per_node * spread.centroid[1],
     ];
     let texel = Texel {
         depth: depth_mm,
         reach: 0.5 * (spread.support + std::f32::consts::FRAC_1_SQRT_2),
+        // +1/2: the table's nearest node by truncation; the border: where the grid starts.
         map: [
             -2.0 * c * per_node,
             2.0 * aspect * s * per_node,
-            base[0] + 0.5,
+            base[0] + 0.5 + KernelTable::BORDER,
             2.0 * s * per_node,
             2.0 * aspect * c * per_node,
-            base[1] + 0.5,
+            base[1] + 0.5 + KernelTable::BORDER,
         ],
         colour: [0.0; 3],
-        amplitude: scale * scale * spread.flux_ratio / spread.flux,
+        // A dense tap stands for one texel: 4 pinhole pixels of patch.
+        weight: 4.0 * scale * scale * spread.flux_ratio / spread.flux,
         variance: narrowed,
-        centroid_on_grid: [
-            (spread.node_centroid[0] - kernel.origin[0] as f32) / kernel.spacing as f32 + 0.5,
-            (spread.node_centroid[1] - kernel.origin[1] as f32) / kernel.spacing as f32 + 0.5,
-        ],
-        node: spread.node,
+        centroid_on_grid: centroid_on_grid.map(|g| g + 0.5 + KernelTable::BORDER),
+        kernel: (spread.node as usize * table.side * table.side) as u32,
     };
     let spot = Spot {
         flux: spread.flux,
         size: spread.size,
+        depth: depth_mm,
     };
     (texel, spot)
 }
@@ -388,15 +469,32 @@ enum Pass {
 }
 
 struct Gatherer<'a> {
-    /// The kernels over the 2-pixel box.
-    kernels: &'a [Kernel],
+    table: &'a KernelTable,
     texels: &'a [Texel],
+    /// Each texel's depth and reach, as in its record.
+    depth_reach: &'a [[f32; 2]],
     pyramid: &'a Pyramid,
     tiles: &'a Tiles,
     /// Unit vectors at the centres of [`DIRECTIONS`] equal sectors of the circle.
     directions: Vec<[f32; 2]>,
     width: usize,
     height: usize,
+}
+
+/// Which sources a pass keeps: those in front of the centre (`Pass::Front`) or the others.
+/// A source is in front when it is at least [`NEARER_LAYER`] nearer and spreads at least
+/// [`LAYER_REACH_STEP`] wider than the centre (any nearer source, where the centre is empty).
+#[derive(Clone, Copy)]
+struct Layering {
+    nearer_than: f32,
+    wider_than: f32,
+}
+
+impl Layering {
+    #[inline(always)]
+    fn in_front(&self, depth: f32, reach: f32) -> bool {
+        depth < self.nearer_than && reach > self.wider_than
+    }
 }
 
 impl Gatherer<'_> {
@@ -407,12 +505,20 @@ impl Gatherer<'_> {
         if tile_reach <= 0.0 {
             return out;
         }
-        let centre = self.texels[y * self.width + x];
+        let centre = &self.texels[y * self.width + x];
+        let covered = centre.depth.is_finite();
+        let layering = Layering {
+            nearer_than: NEARER_LAYER * centre.depth,
+            wider_than: match covered {
+                true => centre.reach + LAYER_REACH_STEP,
+                false => f32::NEG_INFINITY,
+            },
+        };
         let mut state = hash((x as u32).wrapping_mul(0x9e37_79b9) ^ y as u32);
-        if centre.depth.is_finite() {
+        if covered {
             self.disc(
                 Pass::Own,
-                &centre,
+                layering,
                 [x, y],
                 centre.reach,
                 &mut state,
@@ -421,12 +527,10 @@ impl Gatherer<'_> {
         }
         // Only a nearer surface that spreads wider than the centre counts as in front, and no
         // texel of the tile spreads wider than the tile's reach.
-        if tile_nearest < NEARER_LAYER * centre.depth
-            && tile_reach > centre.reach + LAYER_REACH_STEP
-        {
+        if tile_nearest < layering.nearer_than && tile_reach > layering.wider_than {
             self.disc(
                 Pass::Front,
-                &centre,
+                layering,
                 [x, y],
                 tile_reach,
                 &mut state,
@@ -441,7 +545,7 @@ impl Gatherer<'_> {
     fn disc(
         &self,
         pass: Pass,
-        centre: &Texel,
+        layering: Layering,
         at: [usize; 2],
         reach: f32,
         state: &mut u32,
@@ -449,14 +553,7 @@ impl Gatherer<'_> {
     ) {
         let radius = reach + 0.5;
         if std::f32::consts::PI * radius * radius <= DENSE_TEXELS {
-            let span = radius.ceil() as isize;
-            for dy in -span..=span {
-                for dx in -span..=span {
-                    if (dx * dx + dy * dy) as f32 <= radius * radius {
-                        self.tap(pass, centre, at, [dx as f32, dy as f32], 4.0, 0, out);
-                    }
-                }
-            }
+            self.dense(pass == Pass::Front, layering, at, radius, out);
             return;
         }
         let (rings, spacing) = rings_for(reach);
@@ -474,22 +571,79 @@ impl Gatherer<'_> {
                 let r = (inner * inner + uniform() * (outer * outer - inner * inner)).sqrt();
                 let turn = (k as f32 + uniform()) / count as f32;
                 let [c, s] = self.directions[(turn * DIRECTIONS as f32) as usize % DIRECTIONS];
-                self.tap(pass, centre, at, [r * c, r * s], 4.0 * area, level, out);
+                self.sparse_tap(pass, layering, at, [r * c, r * s], area, level, out);
             }
         }
     }
 
-    /// One tap at `offset` texels from `at` standing for `patch` pinhole pixels, its colour
-    /// from pyramid level `level`.
+    /// Every texel within `radius` of `at` (integer offsets (dx, dy) with dx^2 + dy^2 <=
+    /// radius^2), row by row: the loop the frame spends most of its time in, so each row's
+    /// span is clipped once and a tap is a record read, a layer test, a kernel read and four
+    /// multiply-adds.
+    #[inline(always)]
+    fn dense(
+        &self,
+        front: bool,
+        layering: Layering,
+        at: [usize; 2],
+        radius: f32,
+        out: &mut Gathered,
+    ) {
+        let (x, y) = (at[0] as isize, at[1] as isize);
+        let (w, h) = (self.width as isize, self.height as isize);
+        let span = radius as isize;
+        let (mut sums, mut coverage) = ([0.0f32; 3], 0.0f32);
+        for dy in (-span).max(-y)..=span.min(h - 1 - y) {
+            let half = (radius * radius - (dy * dy) as f32).max(0.0).sqrt() as isize;
+            let (lo, hi) = ((-half).max(-x), half.min(w - 1 - x));
+            if lo > hi {
+                continue;
+            }
+            let row = ((y + dy) * w + x) as usize;
+            let sources = &self.texels[(row as isize + lo) as usize..=(row as isize + hi) as usize];
+            let fy = dy as f32;
+            for (dx, source) in (lo..=hi).zip(sources) {
+                if layering.in_front(source.depth, source.reach) != front {
+                    continue;
+                }
+                let fx = dx as f32;
+                let m = &source.map;
+                let value = self.table.at(
+                    source.kernel,
+                    m[0] * fx + m[1] * fy + m[2],
+                    m[3] * fx + m[4] * fy + m[5],
+                );
+                let weight = value * source.weight;
+                coverage += weight;
+                for (sum, c) in sums.iter_mut().zip(source.colour) {
+                    *sum += weight * c;
+                }
+            }
+        }
+        let sum = match front {
+            true => {
+                out.coverage += coverage;
+                &mut out.front
+            }
+            false => &mut out.own,
+        };
+        for (o, s) in sum.iter_mut().zip(sums) {
+            *o += s;
+        }
+    }
+
+    /// One tap at `offset` texels from `at` standing for `area` texels, its colour from
+    /// pyramid level `level`, its kernel widened to the patch (a spot evaluated at one point
+    /// for the whole patch).
     #[allow(clippy::too_many_arguments)]
     #[inline]
-    fn tap(
+    fn sparse_tap(
         &self,
         pass: Pass,
-        centre: &Texel,
+        layering: Layering,
         at: [usize; 2],
         offset: [f32; 2],
-        patch: f32,
+        area: f32,
         level: usize,
         out: &mut Gathered,
     ) {
@@ -498,23 +652,29 @@ impl Gatherer<'_> {
         if sx < 0.0 || sy < 0.0 || sx as usize >= self.width || sy as usize >= self.height {
             return;
         }
+        // The depth and reach first, from their own small array: a sparse tap lands far from
+        // the last one, and most foreground-pass taps land on surfaces that are not in front,
+        // so most of them never read the 64-byte record.
         let index = sy as usize * self.width + sx as usize;
+        let [depth, reach] = self.depth_reach[index];
+        let in_front = layering.in_front(depth, reach);
+        if !depth.is_finite() || in_front != (pass == Pass::Front) {
+            return;
+        }
         let source = &self.texels[index];
-        if !source.depth.is_finite() {
-            return;
-        }
-        let in_front = source.depth < NEARER_LAYER * centre.depth
-            && (!centre.depth.is_finite() || source.reach > centre.reach + LAYER_REACH_STEP);
-        if in_front != (pass == Pass::Front) {
-            return;
-        }
-        let value = self.value(source, offset, patch);
+        // Widened about the centroid by the patch's variance beyond a texel's (pinhole pixels
+        // squared: a texel is 4 of them): offsets shrink, the weight grows by the square to
+        // keep the flux.
+        let m = &source.map;
+        let shrink = (source.variance / (source.variance + 4.0 * (area - 1.0) / 6.0)).sqrt();
+        let [cx, cy] = source.centroid_on_grid;
+        let gx = cx + (m[0] * offset[0] + m[1] * offset[1] + m[2] - cx) * shrink;
+        let gy = cy + (m[3] * offset[0] + m[4] * offset[1] + m[5] - cy) * shrink;
+        let value = shrink * shrink * self.table.at(source.kernel, gx, gy);
         if value <= 0.0 {
             return;
         }
-        // Per unit flux: the weight is the share of the spot that lands here, the colour is
-        // carried times the flux.
-        let w = value * source.amplitude * patch;
+        let w = value * source.weight * area;
         let c = match level {
             0 => source.colour,
             _ => self.pyramid.nearest(level, [px, py]),
@@ -529,31 +689,6 @@ impl Gatherer<'_> {
         for k in 0..3 {
             sum[k] += w * c[k];
         }
-    }
-
-    /// The source's kernel value at tap offset `offset`, widened for a patch larger than a
-    /// texel (a sparse tap's spot is evaluated at one point for the whole patch).
-    #[inline]
-    fn value(&self, source: &Texel, offset: [f32; 2], patch: f32) -> f32 {
-        let m = &source.map;
-        let kernel = &self.kernels[source.node as usize];
-        let side = kernel.side;
-        let mut gx = m[0] * offset[0] + m[1] * offset[1] + m[2];
-        let mut gy = m[3] * offset[0] + m[4] * offset[1] + m[5];
-        let mut gain = 1.0;
-        if patch > 4.0 {
-            // Widened about the centroid by the patch's variance beyond a texel's: offsets
-            // shrink, the weight grows by the square to keep the flux.
-            let shrink = (source.variance / (source.variance + (patch - 4.0) / 6.0)).sqrt();
-            let [cx, cy] = source.centroid_on_grid;
-            gx = cx + (gx - cx) * shrink;
-            gy = cy + (gy - cy) * shrink;
-            gain = shrink * shrink;
-        }
-        if gx < 0.0 || gy < 0.0 || gx as usize >= side || gy as usize >= side {
-            return 0.0;
-        }
-        gain * kernel.values[gy as usize * side + gx as usize]
     }
 }
 

@@ -98,7 +98,7 @@ impl Kernel {
 
     /// Spread of the spot with the output pixel's own box added (a pixel-sized spot's RMS
     /// radius is sqrt(1/6)); interpolation scales kernels by it, so it never reaches zero.
-    fn size(&self) -> f64 {
+    pub fn size(&self) -> f64 {
         (self.rms_radius * self.rms_radius + 1.0 / 6.0).sqrt()
     }
 }
@@ -419,6 +419,19 @@ impl<'a> SpotGeometry<'a> {
 }
 
 impl Kernel {
+    /// This kernel shrunk about its centroid to `scale` times its size (`scale` in (0, 1]),
+    /// keeping its flux: the grid moves and narrows, each value grows by 1 / scale^2.
+    pub fn scaled(&self, scale: f64) -> Kernel {
+        let gain = (1.0 / (scale * scale)) as f32;
+        Kernel {
+            origin: [0, 1].map(|k| self.centroid[k] + (self.origin[k] - self.centroid[k]) * scale),
+            spacing: self.spacing * scale,
+            values: self.values.iter().map(|v| v * gain).collect(),
+            rms_radius: self.rms_radius * scale,
+            ..self.clone()
+        }
+    }
+
     /// This kernel for an output box of `2 x 2` pixels (values per output pixel, averaged over
     /// the box): the average of four copies shifted by half a pixel, since a 1-pixel box
     /// convolved with points at +-1/2 is the 2-pixel box. Summed over a lattice of 2-pixel

@@ -233,13 +233,13 @@ pub(super) fn hash(mut v: u32) -> u32 {
 pub(super) fn first_layer_untilted<'a>(
     camera: &Camera,
     ldi: &'a LayeredDepthImage,
-) -> Result<&'a Layer, RenderError> {
+) -> Result<Layer<'a>, RenderError> {
     if camera.film_off_plane() != 0.0 {
         return Err(RenderError::InvalidSetting(
             "postfx needs a film square to the axis; the sensor is tilted".into(),
         ));
     }
-    ldi.layers.first().ok_or(RenderError::EmptyScene)
+    Ok(ldi.layer(0))
 }
 
 /// A layer pixel's height in units of the kernels' pitch (the tangent one pixel spans): what
@@ -262,10 +262,9 @@ pub fn postfx(
     let view = ldi.view;
     let (lw, lh) = (view.width as usize, view.height as usize);
     let aspect = layer_pixel_aspect(ldi, kernels);
-    let sources: Vec<Option<Source>> = front
-        .samples
-        .par_iter()
-        .enumerate()
+    let sources: Vec<Option<Source>> = (0..view.pixels())
+        .into_par_iter()
+        .map(|i| (i, front.get(i)))
         .map(|(i, sample)| {
             sample.map(|s| Source {
                 depth: s.depth_mm,
@@ -277,8 +276,7 @@ pub fn postfx(
         })
         .collect();
     let colour: Vec<[f32; 3]> = front
-        .samples
-        .iter()
+        .samples()
         .map(|s| s.map_or([0.0; 3], |s| s.radiance))
         .collect();
     let tiles = Tiles::of(

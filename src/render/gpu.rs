@@ -336,8 +336,12 @@ impl GpuRenderer {
             None => &self.pipeline,
         };
         let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let depths = self.storage("layer depths", bytemuck::cast_slice(&layers.depths));
-        let colours = self.storage("layer colours", bytemuck::cast_slice(&layers.colours));
+        let starts = self.storage("layer starts", bytemuck::cast_slice(layers.starts));
+        let inverse_depths = self.storage(
+            "surfel inverse depths",
+            bytemuck::cast_slice(&layers.inverse_depths),
+        );
+        let surfels = self.storage("layer surfels", bytemuck::cast_slice(layers.surfels));
         let bounds = self.storage("depth bounds", bytemuck::cast_slice(&layers.depth_bounds));
         let pixels = (frame.width * frame.height) as u64;
         let output_bytes = pixels * 16;
@@ -387,8 +391,9 @@ impl GpuRenderer {
             let uniform = self.uniform("frame", bytemuck::bytes_of(&chunk));
             let mut layer_entries = vec![
                 uniform.as_entire_binding(),
-                depths.as_entire_binding(),
-                colours.as_entire_binding(),
+                starts.as_entire_binding(),
+                inverse_depths.as_entire_binding(),
+                surfels.as_entire_binding(),
                 bounds.as_entire_binding(),
                 output.as_entire_binding(),
             ];

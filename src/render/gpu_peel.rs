@@ -2,7 +2,7 @@
 
 use super::RenderError;
 use super::gpu_types::{PeelData, PeelParams, PeelVertex};
-use super::layers::{Layer, LayeredDepthImage, Surfel, View};
+use super::layers::{LayeredDepthImage, Surfel, View};
 use wgpu::util::DeviceExt;
 
 /// Radiance in rgb, depth in a: the layer format both the target and the previous layer use.
@@ -173,14 +173,8 @@ impl GpuPeeler {
             )));
         }
         let pixels = (view.width * view.height) as usize;
-        let empty = || Layer {
-            samples: vec![None; pixels],
-        };
         if data.vertices.is_empty() {
-            return Ok(LayeredDepthImage {
-                view,
-                layers: vec![empty()],
-            });
+            return Ok(LayeredDepthImage::from_layers(view, &[]));
         }
         let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
         let usage = wgpu::BufferUsages::STORAGE;
@@ -317,10 +311,10 @@ impl GpuPeeler {
                         })
                     })
                     .collect();
-                Layer { samples }
+                samples
             };
             readback.unmap();
-            if layer.samples.iter().all(Option::is_none) {
+            if layer.iter().all(Option::is_none) {
                 break;
             }
             layers.push(layer);
@@ -328,9 +322,6 @@ impl GpuPeeler {
         if let Some(error) = pollster::block_on(scope.pop()) {
             return Err(RenderError::Gpu(format!("peeling: {error}")));
         }
-        if layers.is_empty() {
-            layers.push(empty());
-        }
-        Ok(LayeredDepthImage { view, layers })
+        Ok(LayeredDepthImage::from_layers(view, &layers))
     }
 }

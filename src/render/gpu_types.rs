@@ -4,13 +4,12 @@
 use super::RenderError;
 use super::camera::Camera;
 use super::chromatic::{CHANNELS, ChannelLenses, Chromatic, PUPIL_EDGE_TOLERANCE};
-use super::layers::LayeredDepthImage;
+use super::layers::{LayeredDepthImage, Surfel};
 use crate::lrtf::{GpuParams, Parameterisation};
 use crate::model::{LensModel, SeidelLens};
 use bytemuck::{Pod, Zeroable};
+use std::borrow::Cow;
 
-/// Inverse depth stored for "no surface" in a packed layer (any negative value means empty).
-pub const EMPTY_INVERSE_DEPTH: f32 = -1.0;
 /// Pyramid bounds of a region with no surface at all: min above max.
 pub const EMPTY_BOUNDS: [f32; 2] = [1e30, -1e30];
 /// Which lens function the kernel applies (`FrameParams::model`).
@@ -48,7 +47,6 @@ pub struct FrameParams {
     pub layer_width: u32,
     pub layer_height: u32,
     pub layer_count: u32,
-    pub layer_groups: u32,
     pub pyramid_levels: u32,
     pub sample_offset: u32,
     pub sample_count: u32,
@@ -95,60 +93,95 @@ pub struct FrameParams {
     pub sample_stride: u32,
 }
 
-/// The layers as the kernel reads them: four inverse depths per pixel per group, one colour per
-/// pixel per layer, and the min/max inverse-depth pyramid (level 0 first).
-#[derive(Clone, Debug, PartialEq)]
-pub struct LayerData {
+/// What the kernels derive from a layered depth image: each surfel's inverse depth and the
+/// min/max pyramid. A renderer that draws the same layers many times (the viewer) keeps it
+/// beside the image instead of deriving it each frame.
+#[derive(Clone, Debug)]
+pub struct LayerIndex {
     pub width: u32,
     pub height: u32,
     pub layer_count: u32,
-    pub depths: Vec<[f32; 4]>,
-    pub colours: Vec<[f32; 4]>,
+    /// 1 / depth of each surfel, in the image's surfel order: what the march compares.
+    pub inverse_depths: Vec<f32>,
     pub depth_bounds: Vec<[f32; 2]>,
     pub pyramid_levels: u32,
     /// Nearest and farthest surfel depth (mm from the eye).
     pub depth_range: [f32; 2],
 }
 
-impl LayerData {
-    pub fn layer_groups(&self) -> u32 {
-        self.layer_count.div_ceil(4)
-    }
-
-    /// Packs layers four to a vec4 of inverse depths and builds the bounds pyramid.
-    pub fn pack(ldi: &LayeredDepthImage) -> Result<LayerData, RenderError> {
+impl LayerIndex {
+    /// The inverse depths and bounds pyramid of `ldi`; an image with no surfel is refused.
+    pub fn of(ldi: &LayeredDepthImage) -> Result<LayerIndex, RenderError> {
         let depth_range = ldi.depth_range().ok_or(RenderError::EmptyScene)?;
         let (width, height) = (ldi.view.width, ldi.view.height);
-        let pixels = (width * height) as usize;
-        let layer_count = ldi.layers.len() as u32;
-        let groups = layer_count.div_ceil(4) as usize;
-        let mut depths = vec![[EMPTY_INVERSE_DEPTH; 4]; groups * pixels];
-        let mut colours = vec![[0.0; 4]; layer_count as usize * pixels];
-        let mut level0 = vec![EMPTY_BOUNDS; pixels];
-        for (l, layer) in ldi.layers.iter().enumerate() {
-            for (pixel, sample) in layer.samples.iter().enumerate() {
-                if let Some(s) = sample {
-                    let w = 1.0 / s.depth_mm;
-                    depths[(l / 4) * pixels + pixel][l % 4] = w;
-                    colours[l * pixels + pixel] =
-                        [s.radiance[0], s.radiance[1], s.radiance[2], 1.0];
-                    let b = &mut level0[pixel];
-                    b[0] = b[0].min(w);
-                    b[1] = b[1].max(w);
-                }
-            }
-        }
+        let inverse_depths: Vec<f32> = ldi.surfels().iter().map(|s| 1.0 / s.depth_mm).collect();
+        let level0 = ldi
+            .starts()
+            .windows(2)
+            .map(|pixel| {
+                inverse_depths[pixel[0] as usize..pixel[1] as usize]
+                    .iter()
+                    .fold(EMPTY_BOUNDS, |b, &w| [b[0].min(w), b[1].max(w)])
+            })
+            .collect();
         let (depth_bounds, pyramid_levels) = build_pyramid(level0, width, height);
-        Ok(LayerData {
+        Ok(LayerIndex {
             width,
             height,
-            layer_count,
-            depths,
-            colours,
+            layer_count: ldi.layer_count() as u32,
+            inverse_depths,
             depth_bounds,
             pyramid_levels,
             depth_range,
         })
+    }
+
+    /// Bytes the index of a `width` x `height` layer view holding `surfels` surfels takes:
+    /// the inverse depths and every level of the pyramid.
+    pub fn footprint_bytes(width: u32, height: u32, surfels: u64) -> u64 {
+        let (mut w, mut h) = (width.max(1) as u64, height.max(1) as u64);
+        let mut pyramid_texels = w * h;
+        while w > 1 || h > 1 {
+            (w, h) = (w.div_ceil(2), h.div_ceil(2));
+            pyramid_texels += w * h;
+        }
+        crate::limits::product(&[surfels, 4])
+            .saturating_add(crate::limits::product(&[pyramid_texels, 8]))
+    }
+}
+
+/// A layered depth image as the kernels read it: the image's own per-pixel starts and
+/// surfels (borrowed, not copied) and its [`LayerIndex`] (whose fields it derefs to).
+#[derive(Clone, Debug)]
+pub struct LayerData<'a> {
+    /// Where each pixel's surfels start in `surfels` (one entry per pixel, one past the last).
+    pub starts: &'a [u32],
+    /// Every surfel, pixel by pixel, nearest first: a hit's radiance is read here.
+    pub surfels: &'a [Surfel],
+    pub index: Cow<'a, LayerIndex>,
+}
+
+impl<'a> LayerData<'a> {
+    /// `ldi` with its index derived now.
+    pub fn pack(ldi: &'a LayeredDepthImage) -> Result<LayerData<'a>, RenderError> {
+        Ok(LayerData::with_index(ldi, Cow::Owned(LayerIndex::of(ldi)?)))
+    }
+
+    /// `ldi` with `index`, which must be [`LayerIndex::of`] it.
+    pub fn with_index(ldi: &'a LayeredDepthImage, index: Cow<'a, LayerIndex>) -> LayerData<'a> {
+        LayerData {
+            starts: ldi.starts(),
+            surfels: ldi.surfels(),
+            index,
+        }
+    }
+}
+
+impl std::ops::Deref for LayerData<'_> {
+    type Target = LayerIndex;
+
+    fn deref(&self) -> &LayerIndex {
+        &self.index
     }
 }
 
@@ -209,7 +242,6 @@ pub fn frame_params(
         layer_width: layers.width,
         layer_height: layers.height,
         layer_count: layers.layer_count,
-        layer_groups: layers.layer_groups(),
         pyramid_levels: layers.pyramid_levels,
         sample_offset: 0,
         sample_count: samples_per_pixel,

@@ -3,7 +3,7 @@
 //! directory and is renamed into place, so no half-written file is ever left behind.
 
 use super::RenderError;
-use super::layers::{LayeredDepthImage, Surfel, View};
+use super::layers::{LayerBuilder, LayeredDepthImage, Surfel, View};
 use crate::limits;
 use std::fs::File;
 use std::io::BufWriter;
@@ -190,11 +190,11 @@ pub fn read_exr_rgbz(
         width: layer.size.0 as u32,
         height: layer.size.1 as u32,
     };
-    let mut lists = Vec::with_capacity(z.len());
+    let mut layers = LayerBuilder::new(view, 1);
     for i in 0..z.len() {
         // A pixel without a finite positive depth is background: nothing there.
         if !(z[i].is_finite() && z[i] > 0.0) {
-            lists.push(Vec::new());
+            layers.push_pixel(&mut []);
             continue;
         }
         let colour = [r[i], g[i], b[i]];
@@ -206,27 +206,21 @@ pub fn read_exr_rgbz(
                 limits::MAX_RADIANCE
             )));
         }
-        lists.push(vec![Surfel {
+        layers.push_pixel(&mut [Surfel {
             depth_mm: z[i],
             radiance: colour,
         }]);
     }
-    Ok(LayeredDepthImage::from_pixel_lists(view, lists, 1))
+    Ok(layers.finish())
 }
 
 /// Writes radiance plus a Z channel: the inverse of [`read_exr_rgbz`] for the first layer.
 pub fn write_exr_rgbz(ldi: &LayeredDepthImage, path: &Path) -> Result<(), RenderError> {
     use exr::prelude::*;
-    let first = ldi.layers.first().ok_or(RenderError::EmptyScene)?;
+    let first = ldi.layer(0);
     let size = (ldi.view.width as usize, ldi.view.height as usize);
     let samples = |f: &dyn Fn(&Surfel) -> f32| {
-        FlatSamples::F32(
-            first
-                .samples
-                .iter()
-                .map(|s| s.as_ref().map_or(0.0, f))
-                .collect(),
-        )
+        FlatSamples::F32(first.samples().map(|s| s.as_ref().map_or(0.0, f)).collect())
     };
     let channels = AnyChannels::sort(SmallVec::from_vec(vec![
         AnyChannel::new("R", samples(&|s| s.radiance[0])),

@@ -371,20 +371,17 @@ fn footprint_level(c: [u32; 2], r: [u32; 2], levels: u32) -> u32 {
 }
 
 /// The nearest layer at `pixel` whose inverse depth lies in `window` ([lower, upper], see
-/// [`Segment::depth_window`]), as its index into `layers.colours`.
+/// [`Segment::depth_window`]), as its index into `layers.surfels`.
 #[inline(always)]
-fn hit_in_pixel(frame: &FrameParams, layers: &LayerData, pixel: u32, window: Vec2) -> Option<u32> {
-    let pixels = frame.layer_width * frame.layer_height;
-    for group in 0..frame.layer_groups {
-        let depths = layers.depths[(group * pixels + pixel) as usize];
-        for (k, &w) in depths.iter().enumerate() {
-            let layer = group * 4 + k as u32;
-            if layer >= frame.layer_count || w < 0.0 || w < window[0] {
-                return None;
-            }
-            if w <= window[1] {
-                return Some(layer * pixels + pixel);
-            }
+fn hit_in_pixel(layers: &LayerData, pixel: u32, window: Vec2) -> Option<u32> {
+    let end = layers.starts[pixel as usize + 1];
+    for index in layers.starts[pixel as usize]..end {
+        let w = layers.inverse_depths[index as usize];
+        if w < window[0] {
+            return None;
+        }
+        if w <= window[1] {
+            return Some(index);
         }
     }
     None
@@ -617,7 +614,7 @@ impl MarchStart {
     }
 }
 
-/// The first layer the segment hits, as its index into `layers.colours`, marching from `start`
+/// The first layer the segment hits, as its index into `layers.surfels`, marching from `start`
 /// (the segment's [`MarchStart`]).
 ///
 /// A DDA over the cells of the depth pyramid. It starts at the segment's first pixel; in each
@@ -654,7 +651,6 @@ fn march(
         } = exit;
         if level == 0 {
             let found = hit_in_pixel(
-                frame,
                 layers,
                 pixel[1] as u32 * frame.layer_width + pixel[0] as u32,
                 window,
@@ -1327,8 +1323,7 @@ fn march_group(
                 if spans.open[k]
                     && let Some(layer) = march(frame, layers, &segment, starts.get(k, &segment))
                 {
-                    let c = layers.colours[layer as usize];
-                    add(k, w, [c[0], c[1], c[2]]);
+                    add(k, w, layers.surfels[layer as usize].radiance);
                 }
             }
         },
@@ -1816,7 +1811,7 @@ mod tests {
             let next = [ahead(x, pixel[0]), ahead(y, pixel[1])];
             let s_out = next[0].min(next[1]).min(segment.range[1]);
             let index = pixel[1] as u32 * frame.layer_width + pixel[0] as u32;
-            let found = hit_in_pixel(frame, layers, index, segment.depth_window(s_in, s_out));
+            let found = hit_in_pixel(layers, index, segment.depth_window(s_in, s_out));
             if found.is_some() || s_out >= segment.range[1] {
                 return found;
             }
@@ -1884,7 +1879,6 @@ mod tests {
 
     /// Runs both marches over `rays`; returns the hits per layer (index = layer) and the misses.
     fn compare_marches(layers: &LayerData, frame: &FrameParams, rays: &[ObjectRay]) -> Vec<u32> {
-        let pixels = frame.layer_width * frame.layer_height;
         let mut per_layer = vec![0; frame.layer_count as usize + 1];
         for (i, ray) in rays.iter().enumerate() {
             let Some((segment, start)) = layer_segment(frame, layers, ray) else {
@@ -1898,7 +1892,11 @@ mod tests {
                 "ray {i}: {ray:?}"
             );
             match found {
-                Some(index) => per_layer[(index / pixels) as usize] += 1,
+                Some(index) => {
+                    // The surfel's layer: how many of its pixel's surfels come before it.
+                    let pixel = layers.starts.partition_point(|&start| start <= index) - 1;
+                    per_layer[(index - layers.starts[pixel]) as usize] += 1
+                }
                 None => per_layer[frame.layer_count as usize] += 1,
             }
         }
@@ -1907,7 +1905,7 @@ mod tests {
 
     /// The demo scene's layers (at most `max_layers`) and one-sample frame at `width` x
     /// `height` through the thin camera.
-    fn demo_frame(width: u32, height: u32, max_layers: usize) -> (LayerData, FrameParams) {
+    fn demo_frame(width: u32, height: u32, max_layers: usize) -> (LayeredDepthImage, FrameParams) {
         let camera = thin_camera();
         let settings = RenderSettings {
             width,
@@ -1918,14 +1916,23 @@ mod tests {
         };
         let scene = Scene::demo();
         let view = layer_view(&camera, &settings, scene.nearest_distance_mm().unwrap());
-        let layers = LayerData::pack(&scene.peel(view, max_layers)).unwrap();
-        let frame = frame_params(&camera, &layers, view.tan_half, width, height, 1, 1);
-        (layers, frame)
+        let ldi = scene.peel(view, max_layers);
+        let frame = frame_params(
+            &camera,
+            &LayerData::pack(&ldi).unwrap(),
+            view.tan_half,
+            width,
+            height,
+            1,
+            1,
+        );
+        (ldi, frame)
     }
 
     #[test]
     fn hierarchical_march_finds_the_pixel_marchs_layer_on_the_demo_scene() {
-        let (layers, frame) = demo_frame(93, 61, 8);
+        let (ldi, frame) = demo_frame(93, 61, 8);
+        let layers = LayerData::pack(&ldi).unwrap();
         assert!(layers.pyramid_levels >= 7 && frame.layer_count >= 3);
         let tan_half = [frame.tan_half_x, frame.tan_half_y];
         let per_layer =
@@ -1970,7 +1977,7 @@ mod tests {
         let ldi = LayeredDepthImage::from_pixel_lists(view, lists, 6);
         let layers = LayerData::pack(&ldi).unwrap();
         let frame = frame_params(&camera, &layers, view.tan_half, 96, 64, 1, 1);
-        assert!(frame.layer_groups == 2);
+        assert!(frame.layer_count == 6);
         let tan_half = [frame.tan_half_x, frame.tan_half_y];
         let per_layer =
             compare_marches(&layers, &frame, &random_rays(frame.eye_z, tan_half, 40_000));
@@ -2195,7 +2202,7 @@ mod tests {
     /// The demo scene through dgauss-50mm's `kind` model, `width` x `height`, focused at 2 m,
     /// as a render job prepares it: the camera, the packed layers and the view's half-field
     /// tangents.
-    fn dgauss_demo(kind: ModelKind, width: u32, height: u32) -> (Camera, LayerData, [f64; 2]) {
+    fn dgauss_demo(kind: ModelKind, width: u32, height: u32) -> (Camera, LayeredDepthImage) {
         use crate::job::{BackendChoice, ModelChoice, RenderJob, RenderLens};
         let lens = crate::lenses::load("dgauss-50mm", &Default::default()).unwrap();
         let mut job = RenderJob::new(RenderLens::Real(Box::new(lens)));
@@ -2205,8 +2212,7 @@ mod tests {
         job.settings.height = height;
         job.settings.max_layers = 4;
         let prepared = job.prepare(&|_| {}).unwrap();
-        let layers = LayerData::pack(&prepared.layers).unwrap();
-        (prepared.camera, layers, prepared.layers.view.tan_half)
+        (prepared.camera, prepared.layers)
     }
 
     /// A pixel's sum is the same, bit for bit, whichever pixels share its groups of samples:
@@ -2215,7 +2221,8 @@ mod tests {
     /// leave a run's last group part-full, in rows and in a shuffled order.
     #[test]
     fn a_pixels_sum_does_not_depend_on_the_pixels_sharing_its_groups() {
-        let (camera, layers, tan_half) = dgauss_demo(ModelKind::Traced, 24, 16);
+        let (camera, ldi) = dgauss_demo(ModelKind::Traced, 24, 16);
+        let (layers, tan_half) = (LayerData::pack(&ldi).unwrap(), ldi.view.tan_half);
         let lens = LensData::of(&camera.model, super::super::gpu_types::TableTexels::Omitted);
         let rays = LensRays::of(&camera.model);
         let pixels: Vec<u32> = (0..24 * 16).collect();
@@ -2300,7 +2307,8 @@ mod tests {
     /// plane.
     #[test]
     fn seidel_rays_in_lanes_are_the_one_sample_loops_bit_for_bit() {
-        let (camera, layers, tan_half) = dgauss_demo(ModelKind::Seidel, 96, 64);
+        let (camera, ldi) = dgauss_demo(ModelKind::Seidel, 96, 64);
+        let (layers, tan_half) = (LayerData::pack(&ldi).unwrap(), ldi.view.tan_half);
         let LensRays::Seidel(params) = LensRays::of(&camera.model) else {
             panic!("a Seidel camera has Seidel rays");
         };

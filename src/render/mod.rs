@@ -29,7 +29,7 @@ pub mod wgsl;
 
 use crate::limits;
 use camera::Camera;
-use gpu_types::{FrameParams, LayerData, LensData, TableTexels, frame_params};
+use gpu_types::{FrameParams, LayerData, LayerIndex, LensData, TableTexels, frame_params};
 use image::RgbImage;
 use layers::{LayeredDepthImage, View};
 use std::path::PathBuf;
@@ -113,6 +113,41 @@ impl RenderSettings {
         }
         Ok(())
     }
+}
+
+/// Bytes a render of `settings` holds at its peak when its layer view `layers` (width,
+/// height) holds `surfels` surfels: the layers with the kernels' index of them and the
+/// running sums while it traces, then the layers, the sums and the image they become. The
+/// size policy refuses a render by this, before the layers are peeled (with the surfels not yet
+/// known, none) and again before the index and sums are allocated.
+///
+/// ```
+/// use lensbake::render::{RenderSettings, render_footprint_bytes};
+/// let settings = RenderSettings { width: 4096, height: 4096, samples_per_pixel: 1, seed: 1, max_layers: 8 };
+/// // The demo at 4096^2: a 4780^2 layer view holding 33.7 M surfels.
+/// let bytes = render_footprint_bytes(&settings, [4780, 4780], 33_689_826);
+/// assert!(bytes < 1_300_000_000, "{bytes}");
+/// ```
+pub fn render_footprint_bytes(settings: &RenderSettings, layers: [u32; 2], surfels: u64) -> u64 {
+    let pixels = limits::product(&[settings.width as u64, settings.height as u64]);
+    let sums = limits::product(&[pixels, std::mem::size_of::<[f32; 4]>() as u64]);
+    let image = limits::product(&[pixels, std::mem::size_of::<[f32; 3]>() as u64]);
+    let tracing = LayerIndex::footprint_bytes(layers[0], layers[1], surfels).saturating_add(sums);
+    let layer_pixels = limits::product(&[layers[0] as u64, layers[1] as u64]);
+    LayeredDepthImage::footprint_bytes(layer_pixels, surfels)
+        .saturating_add(tracing.max(sums.saturating_add(image)))
+}
+
+/// Refuses a render whose [`render_footprint_bytes`] is more than the memory available.
+pub fn check_render_memory(
+    settings: &RenderSettings,
+    layers: &View,
+    surfels: usize,
+) -> Result<(), RenderError> {
+    Ok(limits::check_memory(
+        "the render (layers, their index, the sums and the image)",
+        render_footprint_bytes(settings, [layers.width, layers.height], surfels as u64),
+    )?)
 }
 
 /// Largest tangent a layer view covers (87 degrees): a plane seen from the eye cannot hold rays
@@ -314,6 +349,7 @@ pub fn render_layers(
     gpu: Option<&gpu::GpuRenderer>,
 ) -> Result<RgbImage, RenderError> {
     settings.check()?;
+    check_render_memory(settings, &ldi.view, ldi.surfel_count())?;
     let layers = LayerData::pack(ldi)?;
     let mut sums = vec![[0.0f32; 4]; (settings.width * settings.height) as usize];
     accumulate_share(
@@ -326,13 +362,43 @@ pub fn render_layers(
         gpu,
         &mut sums,
     )?;
+    // The index is not needed for the image: freed before the image is allocated.
+    drop(layers);
     let scale = 1.0 / settings.samples_per_pixel as f32;
     Ok(RgbImage {
         width: settings.width,
         height: settings.height,
         pixels: sums
-            .iter()
+            .into_iter()
             .map(|s| [s[0] * scale, s[1] * scale, s[2] * scale])
             .collect(),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::render::scene::Scene;
+
+    #[test]
+    fn the_footprint_counts_what_the_layers_and_their_index_hold() {
+        // The demo's layers at 301 x 203 (odd sizes: partial pyramid cells): the bytes the
+        // image and its index really hold against the estimate the size policy refuses by.
+        let view = View {
+            eye_z: 0.0,
+            tan_half: [0.4, 0.27],
+            width: 301,
+            height: 203,
+        };
+        let ldi = Scene::demo().peel(view, 8);
+        let index = LayerIndex::of(&ldi).unwrap();
+        let surfels = ldi.surfel_count() as u64;
+        let held = 4 * ldi.starts().len() + 16 * ldi.surfels().len();
+        let indexed = 4 * index.inverse_depths.len() + 8 * index.depth_bounds.len();
+        let estimate = (
+            LayeredDepthImage::footprint_bytes(view.pixels() as u64, surfels),
+            LayerIndex::footprint_bytes(view.width, view.height, surfels),
+        );
+        assert_eq!(estimate, (held as u64, indexed as u64));
+    }
 }

@@ -269,14 +269,14 @@ mod tests {
         };
         let ldi = Scene::demo().peel(view, 8);
         assert!(
-            ldi.layers.len() >= 3,
+            ldi.layer_count() >= 3,
             "the post over the chart over the wall gives 3 layers"
         );
         for pixel in 0..(64 * 48) {
             let mut previous = 0.0;
             let mut ended = false;
-            for layer in &ldi.layers {
-                match layer.samples[pixel] {
+            for layer in ldi.layers() {
+                match layer.get(pixel) {
                     Some(s) => {
                         assert!(!ended && s.depth_mm > previous);
                         previous = s.depth_mm;
@@ -284,10 +284,7 @@ mod tests {
                     None => ended = true,
                 }
             }
-            assert!(
-                ldi.layers[0].samples[pixel].is_some(),
-                "the wall covers the view"
-            );
+            assert!(ldi.surfel(0, pixel).is_some(), "the wall covers the view");
         }
     }
 }

@@ -1,7 +1,7 @@
 //! Many rays at once: a structure-of-arrays batch traced in parallel with rayon.
 
-use super::lanes::{Block, Finish, Isa, STRIDE};
-use super::{Apertures, Outcome, Ray, RayError, Traced, Tracer, Travel, Vec3};
+use super::lanes::{Block, Finish, Isa, STRIDE, with_widest_isa};
+use super::{Admit, Apertures, Outcome, Ray, RayError, Traced, Tracer, Travel, Vec3};
 use crate::pages::{Pages, fence_streaming_stores, resize_on, store_streaming};
 use rayon::prelude::*;
 use std::ops::IndexMut;
@@ -456,35 +456,55 @@ impl StagedRows {
 }
 
 /// Rows into a block's columns, each made a ray as [`Ray::new`] makes it, then admitted by
-/// `admit`; the first row is number `first_row` in errors. Copied whole first and normalised in
-/// place column by column: made one by one, each ray's parts went through the stack and
-/// waited there on stores of other sizes (see [`Tracer::trace_rows_into`]).
+/// `admit`; the first row is number `first_row` in errors. Copied whole first, then normalised
+/// in place in one branch-free pass over the columns, which the compiler runs in vector lanes
+/// (inlined where [`with_widest_isa`] compiles it, with fused multiply-adds); a block holding
+/// any ray that is not a common one goes again ray by ray, the careful way. Made one by one,
+/// each ray's parts went through the stack and waited there on stores of other sizes, and the
+/// per-ray branches and divisions kept the loop out of vector lanes (see
+/// [`Tracer::trace_rows_into`]).
 #[inline(always)]
 fn load_rows(
     columns: &mut [[f64; GROUP_RAYS]; 6],
     positions: &[Vec3],
     directions: &[Vec3],
     first_row: usize,
-    admit: &impl Fn(&Ray) -> Result<(), RayError>,
+    admit: &impl Admit,
 ) -> Result<(), RowsError> {
     let [x, y, z, dx, dy, dz] = columns;
+    let len = positions.len().min(GROUP_RAYS);
     for (j, (&[px, py, pz], &[ux, uy, uz])) in positions.iter().zip(directions).enumerate() {
         [x[j], y[j], z[j], dx[j], dy[j], dz[j]] = [px, py, pz, ux, uy, uz];
     }
-    for j in 0..positions.len() {
-        let (position, direction) = ([x[j], y[j], z[j]], [dx[j], dy[j], dz[j]]);
-        let ray = match Ray::common_length(position, direction) {
-            Some(length) => Ray::from_parts(position, direction.map(|v| v / length)),
-            None => Ray::new_careful(position, direction).map_err(|source| RowsError::Ray {
-                row: first_row + j,
-                source,
-            })?,
-        };
-        admit(&ray).map_err(|source| RowsError::Ray {
+    let refused = |j: usize| {
+        move |source| RowsError::Ray {
             row: first_row + j,
             source,
-        })?;
-        [dx[j], dy[j], dz[j]] = ray.direction;
+        }
+    };
+    let mut all_common = true;
+    for j in 0..len {
+        let direction = [dx[j], dy[j], dz[j]];
+        let (length, common) = Ray::common_length([x[j], y[j], z[j]], direction);
+        all_common &= common;
+        [dx[j], dy[j], dz[j]] = direction.map(|v| v / length);
+    }
+    if !all_common {
+        for (j, (&position, &direction)) in positions.iter().zip(directions).enumerate() {
+            [dx[j], dy[j], dz[j]] = Ray::new(position, direction).map_err(refused(j))?.direction;
+        }
+    }
+    // Folded without an early exit, so the compare runs in vector lanes too.
+    let all_admitted = admit.admitted_beyond().is_some_and(|(side, beyond)| {
+        z[..len]
+            .iter()
+            .fold(true, |all, &z| all & (side * z >= beyond))
+    });
+    if !all_admitted {
+        for j in 0..len {
+            let ray = Ray::from_parts([x[j], y[j], z[j]], [dx[j], dy[j], dz[j]]);
+            admit.admit(&ray).map_err(refused(j))?;
+        }
     }
     Ok(())
 }
@@ -492,7 +512,7 @@ fn load_rows(
 impl Tracer {
     /// Traces rays given as rows of positions and directions (a direction of any non-zero
     /// length, normalised as [`Ray::new`] does) on the current rayon thread pool, each first
-    /// passed to `admit` (for example [`super::StartCheck::check`]; `|_| Ok(())` admits every ray),
+    /// passed to `admit` (a [`super::StartCheck`], or a closure: `|_: &Ray| Ok(())` admits every ray),
     /// and writes the results into `out` without allocating. Returns the number of ray-surface
     /// intersections computed.
     ///
@@ -523,8 +543,7 @@ impl Tracer {
     ///     outcome_surfaces: &mut surfaces,
     /// };
     /// let starts = StartCheck::new(&at, Travel::Forward);
-    /// let admit = |ray: &lensbake::Ray| starts.check(ray);
-    /// tracer.trace_rows_into(&positions, &directions, Travel::Forward, Apertures::Checked, admit, out)?;
+    /// tracer.trace_rows_into(&positions, &directions, Travel::Forward, Apertures::Checked, &starts, out)?;
     /// // The ray 1 mm off axis crosses every surface and leaves converging towards the axis;
     /// // the one 40 mm off axis passes beside surface 1's
     /// // sphere (radius 29.475 mm) and misses it.
@@ -539,7 +558,7 @@ impl Tracer {
         directions: &[Vec3],
         travel: Travel,
         apertures: Apertures,
-        admit: impl Fn(&Ray) -> Result<(), RayError> + Sync,
+        admit: &impl Admit,
         out: RowResults<'_>,
     ) -> Result<u64, RowsError> {
         let expected = positions.len();
@@ -576,13 +595,17 @@ impl Tracer {
                     let mut count = 0;
                     for first in (0..positions.len()).step_by(GROUP_RAYS) {
                         let rays = first..positions.len().min(first + GROUP_RAYS);
-                        load_rows(
-                            columns,
-                            &positions[rays.clone()],
-                            &directions[rays.clone()],
-                            chunk * CHUNK + first,
-                            &admit,
-                        )?;
+                        with_widest_isa(
+                            #[inline(always)]
+                            |_| {
+                            load_rows(
+                                columns,
+                                &positions[rays.clone()],
+                                &directions[rays.clone()],
+                                chunk * CHUNK + first,
+                                admit,
+                            )
+                        })?;
                         let group = columns.each_ref().map(|column| &column[..rays.len()]);
                         count += self.trace_columns_on(isa, block, group, travel, check, rows_out);
                         rows_out.store(
@@ -610,7 +633,7 @@ mod tests {
     use super::*;
     use crate::lenses::load;
     use crate::prescription::formats::LoadOptions;
-    use crate::trace::FieldBundle;
+    use crate::trace::{FieldBundle, StartCheck};
 
     #[test]
     fn streamed_results_equal_single_rays() {
@@ -666,51 +689,112 @@ mod tests {
 
     #[test]
     fn rows_trace_as_the_batch_does() {
-        // Enough rays for several chunks and a short last block, at a few direction lengths:
-        // every row's result must be bit for bit the batch trace's of the normalised ray.
+        // Enough rays for several chunks and a short last block, at a few direction lengths,
+        // with one block holding directions whose squared length overflows and one whose
+        // squared length is subnormal (the careful normalisation): every row's result must be
+        // bit for bit the batch trace's of the normalised ray, admitted by a closure (ray by
+        // ray) and by the start check (a block at a time, on its bound).
         let system = load("dgauss-50mm", &LoadOptions::default()).unwrap().system;
-        let tracer = Tracer::new(&system.at(system.design_wavelength_nm()));
+        let at = system.at(system.design_wavelength_nm());
+        let tracer = Tracer::new(&at);
         let bundle = FieldBundle::over_traceable_field(&tracer).unwrap();
         let n = 3 * CHUNK + GROUP_RAYS + 17;
         let rays = bundle.sample(n, 3);
         let positions: Vec<Vec3> = rays.iter().map(|r| r.position).collect();
+        let scale = |k: usize| match (k / GROUP_RAYS, k % 7) {
+            (2, 0) => 1e200,
+            (5, 0) => 1e-160,
+            _ => (1 + k % 3) as f64,
+        };
         let directions: Vec<Vec3> = rays
             .iter()
             .enumerate()
-            .map(|(k, r)| r.direction.map(|v| v * (1 + k % 3) as f64))
+            .map(|(k, r)| r.direction.map(|v| v * scale(k)))
             .collect();
-        let mut out = RowStorage::new(n);
-        let count = tracer
-            .trace_rows_into(
-                &positions,
-                &directions,
-                Travel::Forward,
-                Apertures::Checked,
-                |_| Ok(()),
-                out.results(),
-            )
-            .unwrap();
         let normalised: RayBatch = positions
             .iter()
             .zip(&directions)
             .map(|(&p, &d)| Ray::new(p, d).unwrap())
             .collect();
         let batch = tracer.trace_batch(&normalised, Travel::Forward, Apertures::Checked);
-        assert_eq!(count, batch.ray_surfaces);
-        for k in 0..n {
-            let ray = batch.rays.get(k).unwrap();
-            assert_eq!(
-                (out.kinds[k], out.surfaces[k]),
-                batch.outcomes[k].code(),
-                "ray {k}"
-            );
-            assert_eq!(
-                (out.ends[k], out.headings[k]),
-                (ray.position, ray.direction),
-                "ray {k}"
-            );
+        let starts = StartCheck::new(&at, Travel::Forward);
+        let every_ray = |_: &Ray| Ok(());
+        let admits: [&dyn Fn(&mut RowStorage) -> Result<u64, RowsError>; 2] = [
+            &|out| {
+                let results = out.results();
+                tracer.trace_rows_into(
+                    &positions,
+                    &directions,
+                    Travel::Forward,
+                    Apertures::Checked,
+                    &every_ray,
+                    results,
+                )
+            },
+            &|out| {
+                let results = out.results();
+                tracer.trace_rows_into(
+                    &positions,
+                    &directions,
+                    Travel::Forward,
+                    Apertures::Checked,
+                    &starts,
+                    results,
+                )
+            },
+        ];
+        for trace in admits {
+            let mut out = RowStorage::new(n);
+            assert_eq!(trace(&mut out).unwrap(), batch.ray_surfaces);
+            for k in 0..n {
+                let ray = batch.rays.get(k).unwrap();
+                assert_eq!(
+                    (out.kinds[k], out.surfaces[k]),
+                    batch.outcomes[k].code(),
+                    "ray {k}"
+                );
+                assert_eq!(
+                    (out.ends[k], out.headings[k]),
+                    (ray.position, ray.direction),
+                    "ray {k}"
+                );
+            }
+            assert!(out.kinds.contains(&Outcome::CODE_VIGNETTED));
         }
-        assert!(out.kinds.contains(&Outcome::CODE_VIGNETTED));
+    }
+
+    #[test]
+    fn the_start_check_refuses_the_row_that_starts_inside_among_admitted_blocks() {
+        // Every block but one lies wholly beyond the check's bound and passes on it; the ray
+        // behind surface 1's vertex must still be found, with its row.
+        let system = load("dgauss-50mm", &LoadOptions::default()).unwrap().system;
+        let at = system.at(system.design_wavelength_nm());
+        let tracer = Tracer::new(&at);
+        let n = CHUNK + 3 * GROUP_RAYS;
+        let mut positions = vec![[0.0, 1.0, at.surfaces[0].vertex_z - 10.0]; n];
+        let inside = CHUNK + GROUP_RAYS + 9;
+        positions[inside][2] = at.surfaces[0].vertex_z + 1.0;
+        let directions = vec![[0.0, 0.0, 1.0]; n];
+        let mut out = RowStorage::new(n);
+        let starts = StartCheck::new(&at, Travel::Forward);
+        let refused = tracer.trace_rows_into(
+            &positions,
+            &directions,
+            Travel::Forward,
+            Apertures::Checked,
+            &starts,
+            out.results(),
+        );
+        assert!(
+            matches!(
+                refused,
+                Err(RowsError::Ray {
+                    row,
+                    source: RayError::StartsInside { surface: 1, .. }
+                }) if row == inside
+            ),
+            "{refused:?}"
+        );
     }
 
     #[test]
@@ -727,7 +811,7 @@ mod tests {
             &directions,
             Travel::Forward,
             Apertures::Checked,
-            |_| Ok(()),
+            &|_: &Ray| Ok(()),
             out.results(),
         );
         assert_eq!(
@@ -742,7 +826,7 @@ mod tests {
             &directions[1..],
             Travel::Forward,
             Apertures::Checked,
-            |_| Ok(()),
+            &|_: &Ray| Ok(()),
             out.results(),
         );
         assert!(matches!(
@@ -759,7 +843,7 @@ mod tests {
         // Rays from twice the sag bound in front of the start surface to twice it behind, at
         // heights past the rim, on every bundled lens (spheres, aspheres, mirrors) both ways:
         // the shortcut may only skip the sag where the sag would admit the ray too.
-        use crate::trace::{StartCheck, UnitDraws};
+        use crate::trace::UnitDraws;
         let mut draws = UnitDraws::new(11);
         let mut shortcut_taken = 0;
         for lens in crate::lenses::BUNDLED {

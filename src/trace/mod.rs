@@ -157,6 +157,38 @@ impl<'a> StartCheck<'a> {
     }
 }
 
+/// What a rows trace ([`Tracer::trace_rows_into`]) asks of each ray before tracing it: a
+/// [`StartCheck`], or any `Fn(&Ray) -> Result<(), RayError>` (`|_: &Ray| Ok(())` admits every ray).
+pub trait Admit: Sync {
+    /// Ok where the ray may be traced; the reason where not.
+    fn admit(&self, ray: &Ray) -> Result<(), RayError>;
+
+    /// `(side, beyond)` where every ray with `side * z >= beyond` is admitted whatever the
+    /// rest of it: a block of such rays then passes on one vector compare of its z column,
+    /// without a call per ray. None where no such bound is known.
+    fn admitted_beyond(&self) -> Option<(f64, f64)> {
+        None
+    }
+}
+
+impl<F: Fn(&Ray) -> Result<(), RayError> + Sync> Admit for F {
+    #[inline(always)]
+    fn admit(&self, ray: &Ray) -> Result<(), RayError> {
+        self(ray)
+    }
+}
+
+impl Admit for StartCheck<'_> {
+    #[inline(always)]
+    fn admit(&self, ray: &Ray) -> Result<(), RayError> {
+        self.check(ray)
+    }
+
+    fn admitted_beyond(&self) -> Option<(f64, f64)> {
+        Some((self.side, self.admitted_beyond))
+    }
+}
+
 impl Ray {
     /// From the origin along +z: a filler for fixed-size arrays of rays.
     pub(crate) const ALONG_AXIS: Ray = Ray {
@@ -169,25 +201,29 @@ impl Ray {
     pub fn new(position: Vec3, direction: Vec3) -> Result<Ray, RayError> {
         match Ray::common_length(position, direction) {
             // Dividing by a length of exactly 1 leaves the direction as it is.
-            Some(length) => Ok(Ray {
+            (length, true) => Ok(Ray {
                 position,
                 direction: direction.map(|v| v / length),
             }),
-            None => Ray::new_careful(position, direction),
+            (_, false) => Ray::new_careful(position, direction),
         }
     }
 
-    /// The direction's length when the ray is a common one, which [`Ray::new`] normalises by
-    /// one division per component: every component finite (their sum times 0 is 0 only then;
-    /// finite parts that sum past f64::MAX also go the careful way) and a squared length that
-    /// neither overflows nor is zero or subnormal. None sends the ray to [`Ray::new_careful`].
+    /// The direction's length, and whether the ray is a common one, which [`Ray::new`]
+    /// normalises by one division per component: every component finite (their sum times 0 is
+    /// 0 only then; finite parts that sum past f64::MAX also go the careful way) and a squared
+    /// length that neither overflows nor is zero or subnormal. The others go to
+    /// [`Ray::new_careful`]. Without a branch, so a loop over many rays can run it in vector
+    /// lanes (see `load_rows` in the batch trace); the length of an uncommon ray means nothing.
     #[inline(always)]
-    pub(crate) fn common_length(position: Vec3, direction: Vec3) -> Option<f64> {
+    pub(crate) fn common_length(position: Vec3, direction: Vec3) -> (f64, bool) {
         let [px, py, pz] = position;
         let [dx, dy, dz] = direction;
         let finite = (px + py + pz + dx + dy + dz) * 0.0 == 0.0;
         let length_sq = dot(direction, direction);
-        (finite && length_sq.is_normal()).then(|| length_sq.sqrt())
+        // `is_normal` for a square, which is never negative; NaN fails both comparisons.
+        let normal = (length_sq >= f64::MIN_POSITIVE) & (length_sq <= f64::MAX);
+        (length_sq.sqrt(), finite & normal)
     }
 
     /// [`Ray::new`] for any input: refuses what is not finite or has no length, and normalises

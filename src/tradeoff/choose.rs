@@ -118,7 +118,7 @@ fn f16_floor_px(table: &LrtfTable, set: &RaySet, domain: &Domain) -> f64 {
         .flatten()
         .map(|e| {
             let code = param.encode_direction(e.direction);
-            let rounded = code.map(|v| Precision::F16.round(v as f32) as f64);
+            let rounded = code.map(|v| half::f16::from_f32(v as f32).to_f32() as f64);
             angle_between(param.decode_direction(rounded), e.direction) * px_per_rad
         })
         .collect();
@@ -219,7 +219,7 @@ pub fn choose_model(
             for precision in [Precision::F16, Precision::F32] {
                 let predicted = match precision {
                     Precision::F16 => f32_predicted + floor_px,
-                    Precision::F32 => f32_predicted,
+                    Precision::F32 | Precision::U16 => f32_predicted,
                 };
                 if predicted > budget_px {
                     considered.push(Considered {
@@ -240,6 +240,7 @@ pub fn choose_model(
                 let table = match precision {
                     Precision::F16 => to_f16(table),
                     Precision::F32 => table.clone(),
+                    Precision::U16 => table.to_precision(Precision::U16),
                 };
                 let built = baked_model(system, table.clone(), &domain, *seconds)?;
                 found = choose(built, predicted, Some(table), &mut considered);

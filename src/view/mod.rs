@@ -32,11 +32,12 @@ use crate::render::chromatic::ChromaticMode;
 use crate::render::focal_surface::DEFAULT_BETA;
 use crate::render::focus::focus_zone;
 use crate::render::gpu::GpuRenderer;
-use crate::render::gpu_types::LayerData;
+use crate::render::gpu_types::{LayerData, LayerIndex};
 use crate::render::image::{RgbImage, srgb8, write_rgb8_png};
 use crate::render::layers::LayeredDepthImage;
 use crate::render::{Backend, RenderError, SampleShare, accumulate_share};
 use script::{Action, ScriptError, ScriptLine};
+use std::borrow::Cow;
 use std::collections::VecDeque;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -74,24 +75,22 @@ pub enum ViewError {
     Window(String),
 }
 
-/// One render being accumulated: the prepared camera and layers and the running sums.
+/// One render being accumulated: the prepared camera and layers (with the kernels' index of
+/// them, derived once) and the running sums.
 struct Accumulating {
     camera: Camera,
-    /// The peeled layers (for the zone-of-focus overlay's depths) and their packed form.
-    ldi: LayeredDepthImage,
-    layers: LayerData,
-    view_tan_half: [f64; 2],
+    layers: Arc<LayeredDepthImage>,
+    index: Arc<LayerIndex>,
     sums: Vec<[f32; 4]>,
 }
 
 impl Accumulating {
     fn new(prepared: PreparedRender) -> Result<Accumulating, ViewError> {
-        let layers = LayerData::pack(&prepared.layers)?;
+        let index = LayerIndex::of(&prepared.layers)?;
         Ok(Accumulating {
-            view_tan_half: prepared.layers.view.tan_half,
             camera: prepared.camera,
-            ldi: prepared.layers,
-            layers,
+            layers: Arc::new(prepared.layers),
+            index: Arc::new(index),
             sums: Vec::new(),
         })
     }
@@ -99,9 +98,8 @@ impl Accumulating {
     fn twin(&self, camera: Camera) -> Accumulating {
         Accumulating {
             camera,
-            ldi: self.ldi.clone(),
             layers: self.layers.clone(),
-            view_tan_half: self.view_tan_half,
+            index: self.index.clone(),
             sums: Vec::new(),
         }
     }
@@ -246,7 +244,7 @@ impl Viewer {
         let settings = &self.job.settings;
         Ok(focus_zone(
             &self.view.camera,
-            &self.view.ldi,
+            &self.view.layers,
             settings.width,
             settings.height,
         )?)
@@ -384,8 +382,8 @@ impl Viewer {
         for acc in std::iter::once(&mut self.view).chain(self.twin.as_mut()) {
             accumulate_share(
                 &acc.camera,
-                &acc.layers,
-                acc.view_tan_half,
+                &LayerData::with_index(&acc.layers, Cow::Borrowed(&acc.index)),
+                acc.layers.view.tan_half,
                 &self.job.settings,
                 share,
                 backend,

@@ -19,7 +19,6 @@ struct FrameParams {
     layer_width: u32,
     layer_height: u32,
     layer_count: u32,
-    layer_groups: u32,
     pyramid_levels: u32,
     sample_offset: u32,
     sample_count: u32,
@@ -57,14 +56,17 @@ struct FrameParams {
 }
 
 @group(1) @binding(0) var<uniform> frame: FrameParams;
-// Inverse depth (1/mm from the eye) of four layers per pixel; negative = no surface.
-@group(1) @binding(1) var<storage, read> layer_depths: array<vec4<f32>>;
-// Linear RGB radiance per layer per pixel (alpha unused).
-@group(1) @binding(2) var<storage, read> layer_colours: array<vec4<f32>>;
+// Where each layer pixel's surfels start in layer_surfels (one entry per pixel and one past
+// the last); a pixel's surfels are consecutive, nearest first.
+@group(1) @binding(1) var<storage, read> layer_starts: array<u32>;
+// 1 / depth (mm from the eye) of each surfel, in layer_surfels' order.
+@group(1) @binding(2) var<storage, read> surfel_inverse_depths: array<f32>;
+// Each surfel: depth (mm) and linear RGB radiance.
+@group(1) @binding(3) var<storage, read> layer_surfels: array<vec4<f32>>;
 // Min/max inverse depth over all layers, a pyramid of 2x2 reductions, level 0 first.
-@group(1) @binding(3) var<storage, read> depth_bounds: array<vec2<f32>>;
+@group(1) @binding(4) var<storage, read> depth_bounds: array<vec2<f32>>;
 // Running sum of weighted radiance per output pixel.
-@group(1) @binding(4) var<storage, read_write> radiance_sum: array<vec4<f32>>;
+@group(1) @binding(5) var<storage, read_write> radiance_sum: array<vec4<f32>>;
 
 // A chromatic render's channels (render_chromatic only): which block of lrtf_pupil lens samples
 // come from, and the paraxial channels' lenses, R, G, B in x, y, z.
@@ -81,7 +83,7 @@ struct ChannelParams {
     exit_pupil_limit_sq: vec4<f32>,
 }
 
-@group(1) @binding(5) var<uniform> channels: ChannelParams;
+@group(1) @binding(6) var<uniform> channels: ChannelParams;
 
 // Each output pixel's film shift under a focal surface (x, y, z mm, unused), row-major; one zero
 // entry when the film is one plane. In group 3 beside the Seidel polynomial, as both entry points
@@ -340,18 +342,14 @@ struct LayerHit {
 // The nearest layer at `pixel` whose inverse depth lies in `window` (lower, upper; see
 // depth_window).
 fn hit_in_pixel(pixel: u32, window: vec2<f32>) -> LayerHit {
-    let pixels = frame.layer_width * frame.layer_height;
-    for (var group = 0u; group < frame.layer_groups; group += 1u) {
-        let depths = layer_depths[group * pixels + pixel];
-        for (var k = 0u; k < 4u; k += 1u) {
-            let layer = group * 4u + k;
-            let w = depths[k];
-            if (layer >= frame.layer_count || w < 0.0 || w < window.x) {
-                return LayerHit(vec3<f32>(0.0), false);
-            }
-            if (w <= window.y) {
-                return LayerHit(layer_colours[layer * pixels + pixel].xyz, true);
-            }
+    let end = layer_starts[pixel + 1u];
+    for (var index = layer_starts[pixel]; index < end; index += 1u) {
+        let w = surfel_inverse_depths[index];
+        if (w < window.x) {
+            return LayerHit(vec3<f32>(0.0), false);
+        }
+        if (w <= window.y) {
+            return LayerHit(layer_surfels[index].yzw, true);
         }
     }
     return LayerHit(vec3<f32>(0.0), false);
