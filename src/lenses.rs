@@ -62,7 +62,7 @@ pub const BUNDLED: &[BundledLens] = &[
 // The loader: a lens named by a file path or by a bundled lens's name.
 
 use crate::prescription::formats::{Format, LoadOptions, Loaded, read_file, read_str};
-use crate::prescription::{Location, PrescriptionError, Problem};
+use crate::prescription::{Location, PrescriptionError, Problem, StopShape};
 use crate::system::LensSystem;
 use std::fmt;
 use std::path::{Path, PathBuf};
@@ -113,6 +113,44 @@ pub struct LensSource {
 pub struct LoadedLens {
     pub source: LensSource,
     pub system: LensSystem,
+}
+
+impl LoadedLens {
+    /// The shape of the aperture stop (None for a lens without one).
+    pub fn stop_shape(&self) -> Option<&StopShape> {
+        self.system
+            .prescription
+            .surfaces
+            .iter()
+            .find_map(|s| s.stop.as_ref())
+    }
+
+    /// This lens with its aperture stop's shape replaced: round, or a diaphragm of blades (the
+    /// shape of its bokeh in a traced or baked render). Validated as a lens file stating it
+    /// would be (at least three blades, curvature 0 to 1).
+    ///
+    /// ```
+    /// use lensbake::lenses;
+    /// use lensbake::prescription::StopShape;
+    /// use lensbake::prescription::formats::LoadOptions;
+    /// let lens = lenses::load("dgauss-50mm", &LoadOptions::default()).unwrap();
+    /// let five = StopShape::Blades { count: 5, rotation_deg: 0.0, blade_curvature: 0.0 };
+    /// assert_eq!(lens.with_stop_shape(five.clone()).unwrap().stop_shape(), Some(&five));
+    /// let two = StopShape::Blades { count: 2, rotation_deg: 0.0, blade_curvature: 0.0 };
+    /// assert!(lens.with_stop_shape(two).is_err());
+    /// ```
+    pub fn with_stop_shape(&self, shape: StopShape) -> Result<LoadedLens, PrescriptionError> {
+        let mut prescription = self.system.prescription.clone();
+        for surface in &mut prescription.surfaces {
+            if surface.stop.is_some() {
+                surface.stop = Some(shape.clone());
+            }
+        }
+        Ok(LoadedLens {
+            source: self.source.clone(),
+            system: LensSystem::from_prescription(prescription)?,
+        })
+    }
 }
 
 #[derive(Debug, thiserror::Error)]

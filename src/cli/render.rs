@@ -6,10 +6,10 @@ use clap::{Args, ValueEnum};
 use lensbake::analysis::{FileDefaults, FocusFrom};
 use lensbake::job::JobError;
 use lensbake::job::{
-    BackendChoice, BackendUsed, ChromaticReason, DEFAULT_FOCUS_MM, FilmSize, FocusMode,
-    ModelChoice, PeelMode, RenderJob, RenderLens, Rendered, SceneSpec,
+    BackendChoice, BackendUsed, ChromaticReason, DEFAULT_FOCUS_MM, FilmSize, FocalSurfaceSpec,
+    FocusMode, ModelChoice, PeelMode, RenderJob, RenderLens, Rendered, SceneSpec,
 };
-use lensbake::model::ModelKind;
+use lensbake::model::{AberrationScale, ModelKind};
 use lensbake::realtime::{KernelOrigin, PostfxPath};
 use lensbake::render::RenderSettings;
 use lensbake::render::chromatic::{CHANNELS, ChromaticMode};
@@ -100,6 +100,22 @@ pub struct RenderArgs {
     #[arg(long, value_parser = parse_focus_points,
           conflicts_with_all = ["focus_mm", "focus_pixel", "sensor_mm", "tilt_deg"])]
     focus_points: Option<[(u32, u32); 3]>,
+    /// Focus per pixel on a focal surface through focus points (seed 004):
+    /// "X,Y[,TARGET[,ALPHA]];..." (quote it), TARGET a distance in mm, `scene` (the surface under
+    /// the pixel; the default) or N`dpt` (that surface defocused by N dioptres, + nearer), ALPHA
+    /// the point's weight (default 1). Pixels between points take the moving-least-squares blend
+    /// of the points' focus (weights ALPHA / distance^BETA). See docs/focal-surface.md.
+    #[arg(long, conflicts_with_all = ["focus_mm", "focus_pixel", "sensor_mm", "focus_points"])]
+    focal_surface: Option<String>,
+    /// Falloff exponent BETA of the focal surface's weights (1 to 8; the seed suggests 2 to 4).
+    #[arg(long, default_value_t = lensbake::render::focal_surface::DEFAULT_BETA,
+          requires = "focal_surface")]
+    focal_beta: f64,
+    /// Factors on the Seidel model's five sums, for effect: SPHERICAL,COMA,ASTIGMATISM,
+    /// PETZVAL,DISTORTION (1 as designed, 0 removes it; all 0 is the paraxial lens). Seidel
+    /// model only: a traced or baked lens takes its aberrations from its surfaces.
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    seidel_scale: Option<Vec<f64>>,
     #[arg(long, default_value_t = 1)]
     seed: u32,
     /// Most depth-peeled layers per pixel.
@@ -186,6 +202,7 @@ impl RenderArgs {
     fn job(&self) -> anyhow::Result<(RenderJob, Vec<String>, Option<&'static str>)> {
         let lens = super::lens::render_lens(&self.lens, &self.read)?;
         let no_focus_flag = self.focus_points.is_none()
+            && self.focal_surface.is_none()
             && self.focus_mm.is_none()
             && self.focus_pixel.is_none()
             && self.sensor_mm.is_none();
@@ -235,6 +252,12 @@ impl RenderArgs {
         } else {
             "render's default focus"
         });
+        let surface = self
+            .focal_surface
+            .as_deref()
+            .map(|text| FocalSurfaceSpec::parse(text, self.focal_beta))
+            .transpose()
+            .map_err(|e| anyhow::anyhow!("--focal-surface: {e}"))?;
         let focus = match (
             self.focus_points,
             self.focus_mm,
@@ -245,7 +268,30 @@ impl RenderArgs {
             (_, Some(d), _, _) => FocusMode::Distance(d),
             (_, _, _, Some(z)) => FocusMode::Sensor(z),
             (_, _, Some((x, y)), _) => FocusMode::Pixel([x, y]),
-            (None, None, None, None) => FocusMode::Distance(file_focus.unwrap_or(DEFAULT_FOCUS_MM)),
+            (None, None, None, None) => match surface {
+                Some(surface) => FocusMode::Surface(surface),
+                None => FocusMode::Distance(file_focus.unwrap_or(DEFAULT_FOCUS_MM)),
+            },
+        };
+        let aberration_scale = match &self.seidel_scale {
+            None => AberrationScale::AS_DESIGNED,
+            Some(_) if self.model != ModelKind::Seidel || self.error_budget_px.is_some() => {
+                anyhow::bail!(
+                    "--seidel-scale scales the Seidel model's sums: it needs --model seidel (a \
+                     traced or baked lens takes its aberrations from its surfaces)"
+                )
+            }
+            Some(list) => {
+                let factors = <[f64; 5]>::try_from(list.as_slice()).map_err(|_| {
+                    anyhow::anyhow!(
+                        "--seidel-scale takes five factors SPHERICAL,COMA,ASTIGMATISM,PETZVAL,\
+                         DISTORTION, got {}",
+                        list.len()
+                    )
+                })?;
+                AberrationScale::from_array(factors)
+                    .map_err(|e| anyhow::anyhow!("--seidel-scale: {e}"))?
+            }
         };
         let job = RenderJob {
             model: match self.error_budget_px {
@@ -278,6 +324,7 @@ impl RenderArgs {
                 PostfxArg::Fast => PostfxPath::Fast,
                 PostfxArg::Exact => PostfxPath::Exact,
             },
+            aberration_scale,
             ..RenderJob::new(lens)
         };
         Ok((job, from_file, unasked_focus))
@@ -386,6 +433,29 @@ fn print_decisions(job: &RenderJob, rendered: &Rendered) {
             None => "the cpu".to_string(),
         };
         say!("scene: {triangles} triangles, peeled on {on}");
+    }
+    if let Some(focus) = &rendered.prepared.camera.pixel_focus {
+        let distance = |mm: f64| match mm.is_finite() {
+            true => format!("{mm:.1} mm"),
+            false => "infinity".to_string(),
+        };
+        for (k, p) in focus.surface.points().iter().enumerate() {
+            say!(
+                "focal surface point {}: pixel ({:.1}, {:.1}) sharp at {} (weight {})",
+                k + 1,
+                p.pixel[0],
+                p.pixel[1],
+                distance(p.distance_mm),
+                p.weight
+            );
+        }
+        say!(
+            "focal surface: beta {}, film plane focused at {} (the image centre), film shifts              {:+.4} to {:+.4} mm along the chief rays",
+            focus.surface.beta(),
+            distance(focus.reference_mm),
+            focus.shift_range_mm[0],
+            focus.shift_range_mm[1]
+        );
     }
     if let Some(plane) = &rendered.prepared.focus_plane {
         for (k, p) in plane.objects.iter().enumerate() {

@@ -9,14 +9,16 @@
 //! other's callers.
 
 mod budget;
+mod focal;
 mod render;
 pub mod tables;
 
 pub use budget::{BudgetChoice, choose_for_render};
+pub use focal::{FocalSurfaceSpec, FocusPointSpec, FocusTarget};
 pub use render::{
     BackendChoice, BackendUsed, ChromaticDecision, ChromaticReason, DEFAULT_FOCUS_MM, FilmSize,
-    FocusMode, FocusPlaneReport, ModelChoice, PeelMode, PeelReport, PreparedRender, RenderJob,
-    Rendered, SceneReport, SceneSpec, TableUse,
+    FocusMode, FocusPlaneReport, ModelChoice, Orbit, PeelMode, PeelReport, PreparedRender,
+    RenderJob, Rendered, SceneReport, SceneSpec, TableUse,
 };
 pub use tables::{BakeFallback, TableNeeds, default_table_dir, find_covering_table, load_or_bake};
 
@@ -161,11 +163,16 @@ pub fn traced_twin(
     let (first_order, f_number) = lens.first_order(f_number)?;
     let pupil = table.pupil(table.layer).circles;
     let traced = TracedLens::new(&real.system, &first_order, f_number, pupil);
-    Ok(Camera::new(
+    let twin = Camera::new(
         LensModel::Traced(Box::new(traced)),
         baked.film,
         Focus::FilmZ(baked.film_z),
-    )?)
+    )?;
+    // The same focal surface: both halves shift their film points alike.
+    Ok(match &baked.pixel_focus {
+        Some(focus) => twin.with_focal_surface(focus.surface.clone(), focus.reference_mm)?,
+        None => twin,
+    })
 }
 
 /// The traced and the baked camera of a real lens focused at `focus_mm`, drawing identical lens

@@ -1,6 +1,7 @@
 //! [`RenderJob`]: a depth-of-field render from plain settings, with every decision on the way
 //! (focus, colour, table, backend, model under an error budget) returned beside the image.
 
+use super::focal::FocalSurfaceSpec;
 use super::tables::{BakeFallback, TableNeeds, chromatic_table_dir, default_table_dir};
 use super::{
     BudgetChoice, JobError, RenderLens, choose_for_render, find_covering_table, focus_of_film,
@@ -11,8 +12,8 @@ use crate::lrtf::bake::{BakeProgress, chief_ray_film_radius};
 use crate::lrtf::focus::distance_text;
 use crate::lrtf::io::prescription_hash;
 use crate::model::{
-    BakedLens, FirstOrderModels, LensModel, ModelError, ModelKind, PupilSampling, SeidelLens,
-    TracedLens, pupil_film_radius,
+    AberrationScale, BakedLens, FirstOrderModels, LensModel, ModelError, ModelKind, PupilSampling,
+    SeidelLens, TracedLens, pupil_film_radius,
 };
 use crate::paraxial::{FirstOrder, ImageInsideLens, ParaxialError};
 use crate::realtime::{
@@ -22,6 +23,7 @@ use crate::render::camera::{Camera, FULL_FRAME_MM, Film, Focus};
 use crate::render::chromatic::{
     CHANNELS, Chromatic, ChromaticMode, ColourSpread, default_wavelengths, wants_chromatic,
 };
+use crate::render::focal_surface::FocalSurface;
 use crate::render::focus::{
     SensorPlacement, film_z_for_pixel, paraxial_focus_plane, real_ray_focus_plane,
     scene_point_under, spot_rms_on_sensor,
@@ -96,7 +98,7 @@ pub enum BackendChoice {
 }
 
 /// Where the film goes.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub enum FocusMode {
     /// Focus on the plane this far in front of the first vertex (mm).
     Distance(f64),
@@ -107,6 +109,10 @@ pub enum FocusMode {
     /// Tilt the sensor to focus on the plane through the scene points under three pixels,
     /// picked in the untilted frame focused at infinity (replaces the job's tilt).
     Points([[u32; 2]; 3]),
+    /// Focus set per pixel by a focal surface through focus points (seed 004), their scene
+    /// distances looked up in the frame focused at infinity; the film plane itself is focused
+    /// where the surface passes the image centre (see [`crate::render::camera::PixelFocus`]).
+    Surface(FocalSurfaceSpec),
 }
 
 /// A render: the lens, the model, the scene, the camera and the output, as plain data.
@@ -141,6 +147,19 @@ pub struct RenderJob {
     pub wavelengths_nm: Option<[f64; CHANNELS]>,
     /// Which statement of the postfx gather renders (the model postfx only).
     pub postfx_path: PostfxPath,
+    /// Factors on the Seidel sums, for effect (the Seidel model only: the traced and baked
+    /// models take their aberrations from the surfaces, see docs/focal-surface.md).
+    pub aberration_scale: AberrationScale,
+    /// The camera orbited about a point on its axis (mesh scenes: the demo and glTF files).
+    pub orbit: Option<Orbit>,
+}
+
+/// A camera orbit: `angles_deg` (yaw to the camera's right, pitch up) about the point on the
+/// axis `pivot_mm` in front of the first vertex ([`MeshScene::orbited`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Orbit {
+    pub pivot_mm: f64,
+    pub angles_deg: [f64; 2],
 }
 
 impl RenderJob {
@@ -171,6 +190,8 @@ impl RenderJob {
             chromatic: ChromaticMode::Auto,
             wavelengths_nm: None,
             postfx_path: PostfxPath::Fast,
+            aberration_scale: AberrationScale::AS_DESIGNED,
+            orbit: None,
         }
     }
 }
@@ -423,9 +444,18 @@ impl RenderJob {
             ..sized
         };
         let (source, scene) = self.scene_source()?;
-        let (focus, film, focus_plane) =
+        let (focus, film, focus_plane, surface) =
             self.place_film(&model, film, &source, &first_order, f_number, asked)?;
-        let camera = Camera::new(model, film, focus)?;
+        // The focal surface's shifts are relative to the plane focused at the reference.
+        let with_surface = |camera: Camera| -> Result<Camera, RenderError> {
+            match (&surface, focus) {
+                (Some(surface), Focus::ObjectDistance(reference_mm)) => {
+                    camera.with_focal_surface(surface.clone(), reference_mm)
+                }
+                _ => Ok(camera),
+            }
+        };
+        let camera = with_surface(Camera::new(model, film, focus)?)?;
         // A budget measures every model against the exact trace (`asked`), which needs the film
         // behind the lens as much as a traced render does.
         if !matches!(asked, ModelKind::Thin | ModelKind::Thick)
@@ -476,7 +506,8 @@ impl RenderJob {
             }
             (ModelKind::Seidel, RenderLens::Real(real)) => {
                 let focus_mm = focus_of_film(real, camera.film_z)?;
-                let seidel = SeidelLens::in_focus(&real.system, &first_order, focus_mm)?;
+                let seidel = SeidelLens::in_focus(&real.system, &first_order, focus_mm)?
+                    .scaled(self.aberration_scale);
                 let model = LensModel::Seidel(Box::new(seidel));
                 (Camera::new(model, film, Focus::FilmZ(camera.film_z))?, None)
             }
@@ -501,6 +532,7 @@ impl RenderJob {
                 (camera, Some(table))
             }
         };
+        let camera = with_surface(camera).inspect_err(|_| discard_if_baked_now(table.as_ref()))?;
         let peeled = || -> Result<_, JobError> {
             let camera = match (wavelengths, &self.lens) {
                 (Some(nm), RenderLens::Real(real)) => {
@@ -603,6 +635,12 @@ impl RenderJob {
         let mesh = match &self.scene {
             SceneSpec::Demo => MeshScene::from_panels(&Scene::demo()),
             SceneSpec::Gltf(path) => load_gltf(path)?,
+            SceneSpec::Exr(_) if self.orbit.is_some() => {
+                return Err(RenderError::InvalidSetting(
+                    "an RGB + Z EXR scene is one view of the scene: it cannot be orbited".into(),
+                )
+                .into());
+            }
             SceneSpec::Exr(path) => {
                 let report = SceneReport {
                     triangles: None,
@@ -610,6 +648,10 @@ impl RenderJob {
                 };
                 return Ok((SceneSource::Exr(path.clone()), report));
             }
+        };
+        let mesh = match self.orbit {
+            Some(orbit) => mesh.orbited(orbit.pivot_mm, orbit.angles_deg),
+            None => mesh,
         };
         // Peel where the kernel runs; the CPU twin when there is no adapter.
         let gpu = match self.backend {
@@ -639,7 +681,7 @@ impl RenderJob {
         first_order: &FirstOrderModels,
         f_number: f64,
         asked: ModelKind,
-    ) -> Result<(Focus, Film, Option<FocusPlaneReport>), JobError> {
+    ) -> Result<(Focus, Film, Option<FocusPlaneReport>, Option<FocalSurface>), JobError> {
         let [width, height] = [self.settings.width, self.settings.height];
         // Picked pixels are looked up in a frame focused at infinity.
         let probe = |film: Film| -> Result<(Camera, LayeredDepthImage), JobError> {
@@ -649,7 +691,7 @@ impl RenderJob {
             let ldi = source.layers(&probe, &self.settings)?;
             Ok((probe, ldi))
         };
-        Ok(match self.focus {
+        Ok(match &self.focus {
             FocusMode::Points(pixels) => {
                 let untilted = Film {
                     tilt_deg: [0.0, 0.0],
@@ -658,7 +700,7 @@ impl RenderJob {
                 let (probe, ldi) = probe(untilted)?;
                 let mut objects = [[0.0; 3]; 3];
                 for (object, pixel) in objects.iter_mut().zip(pixels) {
-                    *object = scene_point_under(&probe, &ldi, width, height, pixel)?;
+                    *object = scene_point_under(&probe, &ldi, width, height, *pixel)?;
                 }
                 let report =
                     focus_plane(&self.lens, first_order, f_number, &untilted, objects, asked)?;
@@ -666,14 +708,30 @@ impl RenderJob {
                     tilt_deg: report.placement.tilt_deg,
                     ..film
                 };
-                (Focus::FilmZ(report.placement.film_z), film, Some(report))
+                (
+                    Focus::FilmZ(report.placement.film_z),
+                    film,
+                    Some(report),
+                    None,
+                )
             }
-            FocusMode::Distance(d) => (Focus::ObjectDistance(d), film, None),
-            FocusMode::Sensor(z) => (Focus::FilmZ(z), film, None),
+            FocusMode::Distance(d) => (Focus::ObjectDistance(*d), film, None, None),
+            FocusMode::Sensor(z) => (Focus::FilmZ(*z), film, None, None),
             FocusMode::Pixel(pixel) => {
                 let (probe, ldi) = probe(film)?;
-                let film_z = film_z_for_pixel(&probe, &ldi, width, height, pixel)?;
-                (Focus::FilmZ(film_z), film, None)
+                let film_z = film_z_for_pixel(&probe, &ldi, width, height, *pixel)?;
+                (Focus::FilmZ(film_z), film, None, None)
+            }
+            FocusMode::Surface(spec) => {
+                let (probe, ldi) = probe(film)?;
+                // The lens-frame z of the point under the pixel is minus its distance in front
+                // of the first vertex.
+                let surface = spec.resolve(|pixel| {
+                    Ok(-scene_point_under(&probe, &ldi, width, height, pixel)?[2])
+                })?;
+                let centre = [width as f64 / 2.0, height as f64 / 2.0];
+                let reference = Focus::ObjectDistance(surface.distance_at(centre));
+                (reference, film, None, Some(surface))
             }
         })
     }

@@ -24,7 +24,7 @@ pub use baked::{BakedLens, WAVELENGTH_MATCH_NM, layer_at};
 pub use paraxial::{FirstOrderModels, ParaxialLens};
 pub use sampling::{MAX_PUPIL_BOUND_GROWTH, OffPlaneBound, PupilSampling, pupil_film_radius};
 pub use seidel::{
-    SEIDEL_CONVERGED_MM, SEIDEL_INVERSE_STEPS, SEIDEL_SETTLED_MM, SeidelLens,
+    AberrationScale, SEIDEL_CONVERGED_MM, SEIDEL_INVERSE_STEPS, SEIDEL_SETTLED_MM, SeidelLens,
     TransverseCoefficients, paraxial_for,
 };
 pub use traced::{TracedLens, fit_effective_pupil};
@@ -87,6 +87,12 @@ pub enum ModelError {
         chief_image_height: f64,
         marginal_pupil_height: f64,
         n_u_image: f64,
+    },
+    #[error("the {name} factor must lie within -{max}..{max}, got {factor}")]
+    AberrationScale {
+        name: &'static str,
+        factor: f64,
+        max: f64,
     },
     #[error("unknown lens model `{0}`: expected one of {names}", names = ModelKind::NAMES.join(", "))]
     UnknownKind(String),

@@ -48,6 +48,97 @@ pub struct TransverseCoefficients {
     pub distortion: f64,
 }
 
+/// Factors on each Seidel sum of a [`SeidelLens`], for effect (seed 004 section 5.3 asks for
+/// aberrations an artist can turn up or down; seed 001's Asberg parameters are the five sums):
+/// 1 is the lens as designed, 0 removes that aberration, 2 doubles it. With every factor 0 the
+/// model is the thick (paraxial) lens.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AberrationScale {
+    /// S_I.
+    pub spherical: f64,
+    /// S_II.
+    pub coma: f64,
+    /// S_III.
+    pub astigmatism: f64,
+    /// S_IV (the field curvature with S_III).
+    pub petzval: f64,
+    /// S_V.
+    pub distortion: f64,
+}
+
+impl AberrationScale {
+    /// The lens as designed.
+    pub const AS_DESIGNED: AberrationScale = AberrationScale {
+        spherical: 1.0,
+        coma: 1.0,
+        astigmatism: 1.0,
+        petzval: 1.0,
+        distortion: 1.0,
+    };
+    /// Every aberration removed: the paraxial lens.
+    pub const NONE: AberrationScale = AberrationScale {
+        spherical: 0.0,
+        coma: 0.0,
+        astigmatism: 0.0,
+        petzval: 0.0,
+        distortion: 0.0,
+    };
+    /// Names of the factors in the order of [`AberrationScale::from_array`].
+    pub const NAMES: [&'static str; 5] =
+        ["spherical", "coma", "astigmatism", "petzval", "distortion"];
+
+    /// Largest factor accepted: beyond it the inverse map of the polynomial stops settling over
+    /// most of the field of a fast lens.
+    pub const MAX: f64 = 10.0;
+
+    /// The factors in the order of [`AberrationScale::NAMES`]; refused unless each lies in
+    /// -MAX..=MAX.
+    ///
+    /// ```
+    /// use lensbake::model::AberrationScale;
+    /// let scale = AberrationScale::from_array([2.0, 1.0, 1.0, 1.0, 0.0]).unwrap();
+    /// assert_eq!(scale.spherical, 2.0);
+    /// assert!(AberrationScale::from_array([f64::NAN, 1.0, 1.0, 1.0, 1.0]).is_err());
+    /// ```
+    pub fn from_array(factors: [f64; 5]) -> Result<AberrationScale, ModelError> {
+        if let Some((name, bad)) = Self::NAMES
+            .iter()
+            .zip(factors)
+            .find(|(_, f)| !(f.abs() <= Self::MAX))
+        {
+            return Err(ModelError::AberrationScale {
+                name,
+                factor: bad,
+                max: Self::MAX,
+            });
+        }
+        let [spherical, coma, astigmatism, petzval, distortion] = factors;
+        Ok(AberrationScale {
+            spherical,
+            coma,
+            astigmatism,
+            petzval,
+            distortion,
+        })
+    }
+
+    pub fn to_array(self) -> [f64; 5] {
+        [
+            self.spherical,
+            self.coma,
+            self.astigmatism,
+            self.petzval,
+            self.distortion,
+        ]
+    }
+}
+
+impl Default for AberrationScale {
+    fn default() -> AberrationScale {
+        AberrationScale::AS_DESIGNED
+    }
+}
+
 /// The thick-lens map plus the third-order transverse aberration of the Seidel sums, for one
 /// object conjugate (the one the sums were computed for), after Asberg (seed 001 section 3.10).
 ///
@@ -71,6 +162,8 @@ pub struct SeidelLens {
     pub marginal_pupil_height: f64,
     /// n' u' of the marginal ray in image space.
     pub n_u_image: f64,
+    /// Factors on the sums, for effect ([`AberrationScale::AS_DESIGNED`] from [`SeidelLens::new`]).
+    pub scale: AberrationScale,
 }
 
 /// Fixed-point steps of the inverse map. Eps changes by a fraction of a change in G; at f/0.95
@@ -97,7 +190,13 @@ impl SeidelLens {
             image_z: paraxial.z_image,
             chief_image_height: paraxial.image_height,
             n_u_image: system.image_index() * paraxial.marginal.image_slope(),
+            scale: AberrationScale::AS_DESIGNED,
         }
+    }
+
+    /// This model with its sums scaled by `scale` (see [`AberrationScale`]).
+    pub fn scaled(self, scale: AberrationScale) -> SeidelLens {
+        SeidelLens { scale, ..self }
     }
 
     /// The model of `system` at its design wavelength for an object in focus at `focus_mm`
@@ -124,15 +223,18 @@ impl SeidelLens {
         Ok(lens)
     }
 
+    /// The polynomial's coefficients, from the sums times [`SeidelLens::scale`].
     pub fn coefficients(&self) -> TransverseCoefficients {
-        let s = &self.sums;
+        let (s, f) = (&self.sums, &self.scale);
         let k = 1.0 / self.n_u_image;
+        let astigmatism = f.astigmatism * s.astigmatism;
+        let petzval = f.petzval * s.petzval;
         TransverseCoefficients {
-            spherical: 0.5 * s.spherical * k,
-            coma: 0.5 * s.coma * k,
-            sagittal: 0.5 * (s.astigmatism + s.petzval) * k,
-            tangential: 0.5 * (3.0 * s.astigmatism + s.petzval) * k,
-            distortion: 0.5 * s.distortion * k,
+            spherical: 0.5 * f.spherical * s.spherical * k,
+            coma: 0.5 * f.coma * s.coma * k,
+            sagittal: 0.5 * (astigmatism + petzval) * k,
+            tangential: 0.5 * (3.0 * astigmatism + petzval) * k,
+            distortion: 0.5 * f.distortion * s.distortion * k,
         }
     }
 
@@ -209,17 +311,26 @@ mod tests {
         (lens.system.at(lens.system.design_wavelength_nm()), thick)
     }
 
+    /// The double Gauss's Seidel model for an object at infinity, its transverse sums (the forms
+    /// checked against CODE V) and the image point at the edge of its field.
+    fn at_infinity() -> (SeidelLens, crate::seidel::TransverseAberrations, [f64; 2]) {
+        let (at, thick) = dgauss();
+        let paraxial = paraxial_for(&at, None).unwrap();
+        let lens = SeidelLens::new(&at, &paraxial, thick);
+        let edge = [0.0, lens.chief_image_height];
+        (lens, Seidel::new(&at, &paraxial, None).transverse, edge)
+    }
+
+    fn close(a: f64, b: f64) -> bool {
+        (a - b).abs() <= 1e-12 * (1.0 + b.abs())
+    }
+
     #[test]
     fn seidel_aberration_reproduces_the_transverse_sums() {
         // At the pupil rim and the edge of the field, the polynomial must give back the transverse
         // forms already checked against CODE V: TSA on axis, TCO and TAS in the meridional plane
         // (their sum, since both act at y = 1), SAS across it, DST through the pupil centre.
-        let (at, thick) = dgauss();
-        let paraxial = paraxial_for(&at, None).unwrap();
-        let lens = SeidelLens::new(&at, &paraxial, thick);
-        let t = Seidel::new(&at, &paraxial, None).transverse;
-        let edge = [0.0, lens.chief_image_height];
-        let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * (1.0 + b.abs());
+        let (lens, t, edge) = at_infinity();
         assert!(close(lens.aberration([0.0, 0.0], [0.0, 1.0])[1], t.tsa));
         assert!(close(lens.aberration(edge, [0.0, 0.0])[1], t.dst));
         let meridional = lens.aberration(edge, [0.0, 1.0])[1];
@@ -261,6 +372,76 @@ mod tests {
                     );
                 }
             }
+        }
+    }
+
+    #[test]
+    fn each_factor_scales_its_own_transverse_sum_only() {
+        // Doubling one sum doubles the transverse aberration it alone contributes (checked with
+        // the terms the first test matches to CODE V) and leaves the others as they were.
+        let (lens, t, edge) = at_infinity();
+        let times = |k: usize, factor: f64| {
+            let mut factors = [1.0; 5];
+            factors[k] = factor;
+            lens.clone()
+                .scaled(AberrationScale::from_array(factors).unwrap())
+        };
+        assert!(close(
+            times(0, 2.0).aberration([0.0, 0.0], [0.0, 1.0])[1],
+            2.0 * t.tsa
+        ));
+        assert!(close(
+            times(4, 2.0).aberration(edge, [0.0, 0.0])[1],
+            2.0 * t.dst
+        ));
+        assert!(close(times(4, 0.0).aberration(edge, [0.0, 0.0])[1], 0.0));
+        // Coma doubled: the meridional rim ray gains one more TCO, the rest unchanged.
+        let meridional = times(1, 2.0).aberration(edge, [0.0, 1.0])[1];
+        assert!(close(meridional, t.tsa + 2.0 * t.tco + t.tas + t.dst));
+        // Astigmatism and Petzval off together: no field term in the sagittal fan.
+        let flat = lens.clone().scaled(AberrationScale {
+            astigmatism: 0.0,
+            petzval: 0.0,
+            ..AberrationScale::AS_DESIGNED
+        });
+        assert!(close(flat.aberration(edge, [1.0, 0.0])[0], t.tsa));
+        // Factors of one are the lens as designed, bit for bit.
+        let ones = lens.clone().scaled(AberrationScale::AS_DESIGNED);
+        for g in [[0.0, 0.0], edge, [3.0, -2.0]] {
+            for p in [[0.0, 1.0], [0.7, -0.2]] {
+                assert_eq!(ones.aberration(g, p), lens.aberration(g, p));
+            }
+        }
+    }
+
+    #[test]
+    fn with_every_factor_zero_the_model_is_the_thick_lens() {
+        // Zero aberration: the inverse map returns the landing point itself, and the scene ray
+        // is the thick model's for the same film-side ray (the film at the Gaussian image).
+        let (at, thick) = dgauss();
+        let paraxial = paraxial_for(&at, None).unwrap();
+        let lens = SeidelLens::new(&at, &paraxial, thick.clone()).scaled(AberrationScale::NONE);
+        for (film, pupil) in [
+            ([0.0, 0.0], [3.0, 4.0]),
+            ([12.0, -7.0], [-5.0, 2.0]),
+            ([-15.0, 9.0], [0.5, -8.0]),
+        ] {
+            let film = [film[0], film[1], lens.image_z];
+            let pupil = [pupil[0], pupil[1], thick.exit_pupil_z];
+            let (origin, slope) = lens.object_ray(film, pupil).unwrap();
+            let (thick_origin, thick_slope) = thick.object_ray(film, pupil);
+            for k in 0..2 {
+                assert!(
+                    (slope[k] - thick_slope[k]).abs() < 1e-12,
+                    "{slope:?} {thick_slope:?}"
+                );
+                assert!((origin[k] - thick_origin[k]).abs() < 1e-9, "{origin:?}");
+            }
+            let real = SeidelLens::new(&at, &paraxial, thick.clone())
+                .object_ray(film, pupil)
+                .unwrap()
+                .1;
+            assert!((real[0] - thick_slope[0]).abs() + (real[1] - thick_slope[1]).abs() > 1e-6);
         }
     }
 

@@ -3,7 +3,8 @@
 
 use super::RenderError;
 use super::chromatic::Chromatic;
-use crate::model::{LensModel, MAX_PUPIL_BOUND_GROWTH, PupilSampling};
+use super::focal_surface::FocalSurface;
+use crate::model::{LensModel, MAX_PUPIL_BOUND_GROWTH, ParaxialLens, PupilSampling};
 
 /// How the film position is chosen.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -131,6 +132,39 @@ pub struct Camera {
     /// Each colour channel's lens at its own wavelength; None renders every channel through
     /// `model` (the monochrome path).
     pub chromatic: Option<Chromatic>,
+    /// A focus set per pixel ([`Camera::with_focal_surface`]); None focuses the whole sensor
+    /// where `film_z` puts it.
+    pub pixel_focus: Option<PixelFocus>,
+}
+
+/// A focal surface as a camera applies it: each pixel's film point moves along its chief ray
+/// (through the paraxial exit-pupil centre, so the pixel keeps looking at the same scene point)
+/// until it lies `shift(v) = z'(v) - z'(reference)` further along the axis, z'(v) the paraxial
+/// image distance of the focus vergence v the surface gives the pixel and `reference_mm` the
+/// distance the film plane itself is focused on.
+///
+/// For the thin and thick models this is exact: their film-to-scene map is the Gaussian one, so a
+/// film point at z'(v) is in focus at exactly 1/v. For Seidel, traced and baked it moves the
+/// sensor point by the paraxial difference of image distances, and the model's own map (the
+/// exact trace, the table's free-space propagation to its start plane, or the Seidel polynomial
+/// of the film plane's conjugate) takes the ray from there: the focus reached is 1/v to the
+/// accuracy with which the paraxial difference of image distances matches the real one (the
+/// real lens's focus shift with conjugate), and a Seidel model keeps the aberrations of the
+/// reference conjugate.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PixelFocus {
+    pub surface: FocalSurface,
+    pub reference_mm: f64,
+    /// The nearest and furthest axial film shifts (mm) over the surface: those of its points'
+    /// vergences, the shift being monotonic in vergence.
+    pub shift_range_mm: [f64; 2],
+}
+
+/// How far along the axis the film must move from where it focuses `reference_mm` to focus
+/// the vergence `vergence` (1/mm, 0 at infinity) instead: the difference of the two paraxial
+/// image positions.
+fn axial_shift(lens: &ParaxialLens, reference_mm: f64, vergence: f64) -> Result<f64, RenderError> {
+    Ok(lens.film_z_for_object(1.0 / vergence)? - lens.film_z_for_object(reference_mm)?)
 }
 
 impl Camera {
@@ -156,6 +190,7 @@ impl Camera {
             film,
             film_z,
             chromatic: None,
+            pixel_focus: None,
         };
         camera.check_tilt()?;
         Ok(camera)
@@ -172,6 +207,56 @@ impl Camera {
         };
         camera.check_tilt()?;
         Ok(camera)
+    }
+
+    /// This camera with its focus set per pixel by `surface`, the film plane being focused at
+    /// `reference_mm` (see [`PixelFocus`]). Refused where a point's focus is nearer than the lens
+    /// can focus, or moves the sensor into the lens or too far off the plane the pupil bound was
+    /// fitted on.
+    pub fn with_focal_surface(
+        self,
+        surface: FocalSurface,
+        reference_mm: f64,
+    ) -> Result<Camera, RenderError> {
+        let lens = self.model.paraxial();
+        let [low, high] = surface.vergence_range();
+        // A nearer focus (higher vergence) puts the film further back.
+        let shift_range_mm = [
+            axial_shift(lens, reference_mm, low)?,
+            axial_shift(lens, reference_mm, high)?,
+        ];
+        let camera = Camera {
+            pixel_focus: Some(PixelFocus {
+                surface,
+                reference_mm,
+                shift_range_mm,
+            }),
+            ..self
+        };
+        camera.check_tilt()?;
+        Ok(camera)
+    }
+
+    /// Each output pixel's film shift (lens-frame mm, x, y, z and a zero) for a `width` x
+    /// `height` image, row-major; empty without a focal surface. See [`PixelFocus`].
+    pub fn film_shifts(&self, width: u32, height: u32) -> Result<Vec<[f32; 4]>, RenderError> {
+        let Some(focus) = &self.pixel_focus else {
+            return Ok(Vec::new());
+        };
+        let lens = self.model.paraxial();
+        let mut shifts = Vec::with_capacity(width as usize * height as usize);
+        for y in 0..height {
+            for x in 0..width {
+                let centre = [x as f64 + 0.5, y as f64 + 0.5];
+                let vergence = focus.surface.vergence_at(centre);
+                let axial = axial_shift(lens, focus.reference_mm, vergence)?;
+                let film = self.film_point(width, height, centre[0], centre[1]);
+                let along = axial / (film[2] - lens.exit_pupil_z);
+                let shift = [film[0] * along, film[1] * along, axial];
+                shifts.push([shift[0] as f32, shift[1] as f32, shift[2] as f32, 0.0]);
+            }
+        }
+        Ok(shifts)
     }
 
     /// Where lens samples are drawn: the channels' common (conservative) pupil in a chromatic
@@ -198,11 +283,26 @@ impl Camera {
         let sampling = self.pupil_sampling();
         let behind = self.model.paraxial().rear_principal_z.max(sampling.z);
         let bound = sampling.off_plane_bound();
-        for corner in self.film.corners(self.film_z) {
+        // A focal surface moves each film point along the axis by a shift within its range (and
+        // across by the chief ray's slope, which changes neither test).
+        let corners = self
+            .film
+            .corners(self.film_z)
+            .into_iter()
+            .flat_map(|corner| {
+                self.focus_shift_range()
+                    .map(|shift| [corner[0], corner[1], corner[2] + shift])
+            });
+        for corner in corners {
             if corner[2] <= behind {
                 // Untilted, the whole sensor sits there: the focus put it inside the lens (a
                 // catadioptric lens forms its image among its surfaces), not a tilt.
-                let (sensor, advice) = if tilt == [0.0, 0.0] {
+                let (sensor, advice) = if self.pixel_focus.is_some() {
+                    (
+                        "the focal surface's nearest film point",
+                        " (focus points less far apart)",
+                    )
+                } else if tilt == [0.0, 0.0] {
                     ("the sensor", "")
                 } else {
                     ("the tilted sensor's corner", " (tilt less)")
@@ -228,22 +328,36 @@ impl Camera {
         Ok(())
     }
 
-    /// Largest distance of a film point from the axis (a film corner, shift and tilt included).
+    /// The nearest and furthest axial film shifts of the focal surface ([0, 0] without one).
+    fn focus_shift_range(&self) -> [f64; 2] {
+        self.pixel_focus
+            .as_ref()
+            .map_or([0.0, 0.0], |focus| focus.shift_range_mm)
+    }
+
+    /// Largest distance of a film point from the axis (a film corner, shift and tilt included,
+    /// and a focal surface's widening along the chief rays).
     pub fn film_corner_radius(&self) -> f64 {
+        let exit_z = self.model.paraxial().exit_pupil_z;
+        let furthest = self.focus_shift_range()[0]
+            .max(self.focus_shift_range()[1])
+            .max(0.0);
         self.film
             .corners(self.film_z)
             .iter()
-            .map(|c| c[0].hypot(c[1]))
+            .map(|c| c[0].hypot(c[1]) * (1.0 + furthest / (c[2] - exit_z)))
             .fold(0.0, f64::max)
     }
 
     /// Largest distance of a film point from the film plane z = `film_z` along the axis (zero
-    /// for an untilted sensor).
+    /// for an untilted sensor without a focal surface).
     pub fn film_off_plane(&self) -> f64 {
+        let [near, far] = self.focus_shift_range();
+        let focus = near.abs().max(far.abs());
         self.film
             .corners(self.film_z)
             .iter()
-            .map(|c| (c[2] - self.film_z).abs())
+            .map(|c| (c[2] - self.film_z).abs() + focus)
             .fold(0.0, f64::max)
     }
 
@@ -287,7 +401,6 @@ impl Camera {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::ParaxialLens;
 
     #[test]
     fn thin_lens_focus_obeys_gaussian_equation() {

@@ -57,6 +57,60 @@ pub fn scene_point_under(
     Ok([tan[0] * depth, tan[1] * depth, camera.eye_z() - depth])
 }
 
+/// Diameter (mm) of the paraxial blur spot that an object `distance_mm` in front of the first
+/// vertex makes on a film at lens-frame z `film_z`: the cone from the exit pupil to the
+/// object's image, cut by the film. None where the object has no real image (inside the front
+/// focal length). For a thin lens it is the textbook circle of confusion
+/// A f |s - s_f| / (s (s_f - f)).
+///
+/// ```
+/// use lensbake::model::ParaxialLens;
+/// use lensbake::render::focus::blur_diameter_mm;
+/// let lens = ParaxialLens::thin(50.0, 2.0).unwrap();
+/// let film_z = lens.film_z_for_object(2000.0).unwrap();
+/// let c = blur_diameter_mm(&lens, film_z, 6000.0).unwrap();
+/// let textbook = 25.0 * 50.0 * (6000.0f64 - 2000.0).abs() / (6000.0 * (2000.0 - 50.0));
+/// assert!((c - textbook).abs() < 1e-12);
+/// assert_eq!(blur_diameter_mm(&lens, film_z, 2000.0), Some(0.0));
+/// ```
+pub fn blur_diameter_mm(lens: &ParaxialLens, film_z: f64, distance_mm: f64) -> Option<f64> {
+    let image_z = lens.film_z_for_object(distance_mm).ok()?;
+    Some(2.0 * lens.exit_pupil_radius_mm * (film_z - image_z).abs() / (image_z - lens.exit_pupil_z))
+}
+
+/// Which output pixels of a `width` x `height` frame of `camera` see a surface of `ldi` within
+/// the zone of focus: the surface under the pixel (along its first-order chief ray) blurs to a
+/// paraxial spot under one pixel across on the pixel's film point (a focal surface's shift
+/// included). Row-major; false where nothing is under a pixel.
+pub fn focus_zone(
+    camera: &Camera,
+    ldi: &LayeredDepthImage,
+    width: u32,
+    height: u32,
+) -> Result<Vec<bool>, RenderError> {
+    let shifts = camera.film_shifts(width, height)?;
+    let pitch = camera.film.width_mm / width as f64;
+    let lens = camera.model.paraxial();
+    let mut zone = Vec::with_capacity(width as usize * height as usize);
+    for y in 0..height {
+        for x in 0..width {
+            let film = camera.film_point(width, height, x as f64 + 0.5, y as f64 + 0.5);
+            let shift = shifts
+                .get((y * width + x) as usize)
+                .map_or(0.0, |s| s[2] as f64);
+            let tan = camera.chief_ray_tangents(film);
+            let depth = layer_pixel(&ldi.view, tan).and_then(|(c, r)| ldi.nearest_depth(c, r));
+            let sharp = depth.and_then(|depth| {
+                // The surface's distance in front of the first vertex, from the eye's depth.
+                let distance = depth as f64 - camera.eye_z();
+                blur_diameter_mm(lens, film[2] + shift, distance)
+            });
+            zone.push(sharp.is_some_and(|c| c < pitch));
+        }
+    }
+    Ok(zone)
+}
+
 /// The centre z that puts the lens-frame point `image` on the sensor `film` (its shift and tilt
 /// kept): the plane through `image` with the sensor's normal, met at the sensor centre.
 pub fn film_z_through(film: &Film, image: [f64; 3]) -> f64 {

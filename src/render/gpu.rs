@@ -368,7 +368,17 @@ impl GpuRenderer {
         let lens_group = self.lens_group(pipeline, &lens.params, &lens.surfaces);
         let channel_uniform = channels.map(|c| self.uniform("channels", bytemuck::bytes_of(c)));
         let seidel = self.uniform("seidel params", bytemuck::bytes_of(&lens.seidel));
-        let seidel_group = self.bind_group(pipeline, 3, &[seidel.as_entire_binding()]);
+        let shift_zero = [[0.0f32; 4]];
+        let shifts: &[[f32; 4]] = match lens.film_shift.as_slice() {
+            [] => &shift_zero,
+            shifts => shifts,
+        };
+        let film_shift = self.storage("film shift", bytemuck::cast_slice(shifts));
+        let seidel_group = self.bind_group(
+            pipeline,
+            3,
+            &[seidel.as_entire_binding(), film_shift.as_entire_binding()],
+        );
         // The frame's samples (offset, count, stride) in dispatches of at most
         // SAMPLES_PER_DISPATCH, each starting where the last one stopped.
         let mut done = 0;

@@ -346,6 +346,9 @@ pub struct LensData {
     pub dims: [u32; 3],
     /// The Seidel model's polynomial (zeroed for every other model).
     pub seidel: SeidelParams,
+    /// Each output pixel's film shift under a focal surface (x, y, z mm and a zero, row-major;
+    /// [`Camera::film_shifts`]); empty for a focused plane.
+    pub film_shift: Vec<[f32; 4]>,
 }
 
 /// Whether [`LensData`] carries a baked table's textures: the GPU uploads them, the CPU twin
@@ -407,6 +410,7 @@ impl LensData {
                     aux,
                     dims: g.dims,
                     seidel: SeidelParams::zeroed(),
+                    film_shift: Vec::new(),
                 }
             }
             _ => LensData {
@@ -421,6 +425,7 @@ impl LensData {
                     LensModel::Seidel(lens) => SeidelParams::of(lens),
                     _ => SeidelParams::zeroed(),
                 },
+                film_shift: Vec::new(),
             },
         }
     }

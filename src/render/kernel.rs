@@ -1096,19 +1096,35 @@ fn pupil_sample(
     )
 }
 
-/// Sample `index` of output pixel (x, y): its film point and unit-square lens sample (the
-/// shader's `pixel_sample`).
+/// Sample `index` of output pixel (x, y): its film point (moved by the pixel's entry of
+/// `film_shift` under a focal surface) and unit-square lens sample (the shader's
+/// `pixel_sample`).
 #[inline(always)]
 fn pixel_sample(
     frame: &FrameParams,
     scrambles: &PixelScrambles,
+    film_shift: &[[f32; 4]],
     x: u32,
     y: u32,
     index: u32,
 ) -> (Vec3, Vec2) {
     let (lens_u, jitter) = scrambles.sample(index, frame.samples_per_pixel);
     let film = film_point(frame, [x as f32 + jitter[0], y as f32 + jitter[1]]);
-    (film, lens_u)
+    let shift = pixel_film_shift(film_shift, y * frame.width + x);
+    (
+        [film[0] + shift[0], film[1] + shift[1], film[2] + shift[2]],
+        lens_u,
+    )
+}
+
+/// The shader's `pixel_film_shift`: output pixel `pixel`'s film shift, the last entry's past the
+/// end (the GPU binds one zero entry when there is no focal surface; the CPU an empty slice).
+#[inline(always)]
+fn pixel_film_shift(film_shift: &[[f32; 4]], pixel: u32) -> [f32; 4] {
+    match film_shift.len() {
+        0 => [0.0; 4],
+        n => film_shift[(pixel as usize).min(n - 1)],
+    }
 }
 
 /// The shader's `film_point`: the film point at pixel coordinates `p` (pixel + jitter).
@@ -1216,7 +1232,12 @@ impl LaneDraws {
 /// computed and not used): the loop has no branches and writes only its own columns, so
 /// compiled for the widest instruction set it runs in vector lanes.
 #[inline(always)]
-fn sample_lanes(frame: &FrameParams, circles: &SamplingCircles, draws: &LaneDraws) -> SampleLanes {
+fn sample_lanes(
+    frame: &FrameParams,
+    circles: &SamplingCircles,
+    film_shift: &[[f32; 4]],
+    draws: &LaneDraws,
+) -> SampleLanes {
     let mut lanes = SampleLanes::EMPTY;
     for k in 0..SAMPLE_GROUP {
         let index = frame
@@ -1227,7 +1248,7 @@ fn sample_lanes(frame: &FrameParams, circles: &SamplingCircles, draws: &LaneDraw
             jitter: [draws.scrambles[2][k], draws.scrambles[3][k]],
         };
         let [x, y] = [draws.pixel[0][k], draws.pixel[1][k]];
-        let (film, lens_u) = pixel_sample(frame, &scrambles, x, y, index);
+        let (film, lens_u) = pixel_sample(frame, &scrambles, film_shift, x, y, index);
         let (pupil, weight) = pupil_sample(frame, circles, film, lens_u);
         for axis in 0..3 {
             lanes.film[axis][k] = film[axis];
@@ -1253,7 +1274,7 @@ fn for_sample_groups(
     let mut drawn = |draws: &LaneDraws, count: usize| {
         let lanes = with_widest_isa(
             #[inline(always)]
-            |_| sample_lanes(frame, &circles, draws),
+            |_| sample_lanes(frame, &circles, &lens.film_shift, draws),
         );
         group(&lanes, &draws.slot, count);
     };

@@ -90,6 +90,39 @@ pub struct MeshScene {
 pub const DISC_SIDES: usize = 64;
 
 impl MeshScene {
+    /// The scene as a camera sees it after orbiting `yaw_deg` to its right and `pitch_deg` up
+    /// about the point on the axis `pivot_mm` in front of the first vertex, still looking at
+    /// it: the scene turned the other way about that point (about the vertical axis by -yaw,
+    /// then about the horizontal one by -pitch), so what lies at the pivot stays where it is.
+    ///
+    /// ```
+    /// use lensbake::render::mesh::MeshScene;
+    /// use lensbake::render::scene::Scene;
+    /// let scene = MeshScene::from_panels(&Scene::demo());
+    /// // Orbiting 90 degrees right about the chart (2 m): a chart corner x mm right of the axis
+    /// // now lies on the axis, x mm nearer the camera than the pivot; its height stays.
+    /// let turned = scene.clone().orbited(2000.0, [90.0, 0.0]);
+    /// let chart = scene.triangles.iter().position(|t| t.corners[0][2] == -2000.0).unwrap();
+    /// for (before, after) in scene.triangles[chart].corners.iter().zip(turned.triangles[chart].corners) {
+    ///     assert!(after[0].abs() < 1e-9 && after[1] == before[1]);
+    ///     assert!((after[2] - (before[0] - 2000.0)).abs() < 1e-9);
+    /// }
+    /// ```
+    pub fn orbited(mut self, pivot_mm: f64, [yaw_deg, pitch_deg]: [f64; 2]) -> MeshScene {
+        let (sy, cy) = (-yaw_deg).to_radians().sin_cos();
+        let (sp, cp) = (-pitch_deg).to_radians().sin_cos();
+        for triangle in &mut self.triangles {
+            for corner in &mut triangle.corners {
+                let [x, y, z] = [corner[0], corner[1], corner[2] + pivot_mm];
+                // About y (vertical), then about x (horizontal), right-handed.
+                let (x, z) = (cy * x + sy * z, -sy * x + cy * z);
+                let (y, z) = (cp * y - sp * z, sp * y + cp * z);
+                *corner = [x, y, z - pivot_mm];
+            }
+        }
+        self
+    }
+
     /// The panels as meshes: each rectangle two triangles, each disc a fan of [`DISC_SIDES`]
     /// with the disc's area. Solid panels emit their colour; a checker becomes a 2 x 2 texture,
     /// nearest-sampled and repeated with texture coordinates (x, y) / (2 period), so at every

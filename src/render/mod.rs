@@ -11,6 +11,7 @@
 
 pub mod camera;
 pub mod chromatic;
+pub mod focal_surface;
 pub mod focus;
 pub mod gltf_scene;
 pub mod gpu;
@@ -303,6 +304,10 @@ pub fn accumulate_share(
             (lens, Some(channels))
         }
         None => (LensData::of(&camera.model, texels), None),
+    };
+    let lens = LensData {
+        film_shift: camera.film_shifts(settings.width, settings.height)?,
+        ..lens
     };
     match (backend, gpu) {
         (Backend::Gpu, gpu) => {

@@ -25,10 +25,29 @@ pub fn lines(viewer: &Viewer) -> Vec<String> {
         (false, None) => shown.to_string(),
     };
     let lens = super::lens_name(&job.lens);
+    let lens = match job.lens.real().and_then(|real| real.stop_shape()) {
+        Some(crate::prescription::StopShape::Blades {
+            count,
+            rotation_deg,
+            blade_curvature,
+        }) => format!(
+            "{lens}, {count} blades at {rotation_deg:.0} deg, curvature {blade_curvature:.2} \
+             (traced and baked)"
+        ),
+        _ => lens,
+    };
     let focus = match viewer.focus_distance_mm() {
         Some(Some(mm)) => format!("{:.3} m", mm / 1000.0),
         Some(None) => "infinity".to_string(),
         None => format!("sensor at {:.3} mm", viewer.camera().film_z),
+    };
+    let focus = match &viewer.camera().pixel_focus {
+        Some(surface) => format!(
+            "{focus} at the centre, focal surface of {} points (beta {})",
+            surface.surface.points().len(),
+            surface.surface.beta()
+        ),
+        None => focus,
     };
     let f_number = job
         .lens
@@ -43,6 +62,23 @@ pub fn lines(viewer: &Viewer) -> Vec<String> {
             gpu_unavailable: None,
         } => "CPU twin".to_string(),
     };
+    let scale = job.aberration_scale;
+    let model = match viewer.camera().model.kind() {
+        crate::model::ModelKind::Seidel if scale != crate::model::AberrationScale::AS_DESIGNED => {
+            let [sa, coma, ast, petz, dist] = scale.to_array();
+            format!("{model} x (SA {sa}, coma {coma}, ast {ast}, Petzval {petz}, dist {dist})")
+        }
+        _ => model,
+    };
+    let lens = match job.orbit {
+        Some(orbit) => format!(
+            "{lens}; orbit {:.0} deg right, {:.0} deg up about {:.2} m",
+            orbit.angles_deg[0],
+            orbit.angles_deg[1],
+            orbit.pivot_mm / 1000.0
+        ),
+        None => lens,
+    };
     let mut lines = vec![
         format!(
             "{:.1} ms/frame, {} spp/frame",
@@ -55,6 +91,17 @@ pub fn lines(viewer: &Viewer) -> Vec<String> {
         ),
         format!("model {model}"),
         format!("{f_number}, focus {focus}"),
+        format!(
+            "sensor {:.1} x {:.1} mm, exposure {:+.2} EV{}",
+            viewer.camera().film.width_mm,
+            viewer.camera().film.height_mm,
+            viewer.exposure_ev(),
+            if viewer.zone() {
+                ", green: blur under 1 px"
+            } else {
+                ""
+            }
+        ),
         format!("lens {lens}"),
         adapter,
     ];

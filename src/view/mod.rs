@@ -18,16 +18,19 @@ pub mod script;
 pub mod window;
 
 use crate::job::{
-    BackendChoice, BackendUsed, FocusMode, JobError, ModelChoice, PreparedRender, RenderJob,
-    RenderLens, SceneSpec, traced_twin,
+    BackendChoice, BackendUsed, FocalSurfaceSpec, FocusMode, FocusPointSpec, FocusTarget, JobError,
+    ModelChoice, Orbit, PreparedRender, RenderJob, RenderLens, SceneSpec, traced_twin,
 };
 use crate::lenses::{self, LensError};
 use crate::lrtf::bake::BakeProgress;
-use crate::model::{FirstOrderModels, ModelKind};
+use crate::model::{AberrationScale, FirstOrderModels, ModelKind};
 use crate::paraxial::{CannotFocus, ObjectPosition};
+use crate::prescription::StopShape;
 use crate::prescription::formats::LoadOptions;
 use crate::render::camera::Camera;
 use crate::render::chromatic::ChromaticMode;
+use crate::render::focal_surface::DEFAULT_BETA;
+use crate::render::focus::focus_zone;
 use crate::render::gpu::GpuRenderer;
 use crate::render::gpu_types::{LayerData, LayerIndex};
 use crate::render::image::{RgbImage, srgb8, write_rgb8_png};
@@ -137,6 +140,11 @@ pub struct Viewer {
     spp_per_frame: u32,
     split: bool,
     overlay: bool,
+    /// Exposure of the shown image (EV): its radiance times 2^EV (display only, so changing it
+    /// keeps the accumulation).
+    exposure_ev: f64,
+    /// Tint the pixels in the zone of focus ([`Viewer::focus_zone`]).
+    zone: bool,
     gpu: Option<GpuRenderer>,
     backend: BackendUsed,
     /// The main view: the model asked for, or the traced model while a table bakes; in the
@@ -184,6 +192,8 @@ impl Viewer {
             spp_per_frame,
             split: false,
             overlay: false,
+            exposure_ev: 0.0,
+            zone: false,
             gpu,
             backend,
             view,
@@ -218,6 +228,26 @@ impl Viewer {
 
     pub fn overlay(&self) -> bool {
         self.overlay
+    }
+
+    pub fn exposure_ev(&self) -> f64 {
+        self.exposure_ev
+    }
+
+    pub fn zone(&self) -> bool {
+        self.zone
+    }
+
+    /// Which pixels of the main view see a surface whose paraxial blur spot is under one pixel
+    /// across (row-major): the zone of focus the overlay tints ([`focus_zone`]).
+    pub fn focus_zone(&self) -> Result<Vec<bool>, ViewError> {
+        let settings = &self.job.settings;
+        Ok(focus_zone(
+            &self.view.camera,
+            &self.view.layers,
+            settings.width,
+            settings.height,
+        )?)
     }
 
     /// The camera of the main view (the baked half in the split view).
@@ -287,6 +317,24 @@ impl Viewer {
     /// change none of those inputs (samples per frame, the overlay, a value already set) skip.
     pub fn preparations(&self) -> u64 {
         self.preparations
+    }
+
+    /// A focal surface that starts from the plane in focus: a point at the image centre at the
+    /// current focus distance, and `point`.
+    fn surface_from_focus(&self, point: FocusPointSpec) -> FocalSurfaceSpec {
+        let settings = &self.job.settings;
+        let centre = FocusPointSpec {
+            pixel: [settings.width / 2, settings.height / 2],
+            target: match self.focus_distance_mm().flatten() {
+                Some(mm) => FocusTarget::Distance(mm),
+                None => FocusTarget::Distance(f64::INFINITY),
+            },
+            weight: 1.0,
+        };
+        FocalSurfaceSpec {
+            points: vec![centre, point],
+            beta: DEFAULT_BETA,
+        }
     }
 
     /// The bundled lens after the one on screen (the first for a lens file or an ideal lens):
@@ -411,12 +459,69 @@ impl Viewer {
                 job.focus = FocusMode::Pixel(*pixel);
             }
             Action::FNumber(f) => job.f_number = self.within_lens(&job.lens, *f)?,
+            Action::SeidelScale(factors) => {
+                job.aberration_scale =
+                    AberrationScale::from_array(*factors).map_err(JobError::from)?;
+            }
+            Action::FocalSurface(Some(spec)) => job.focus = FocusMode::Surface(spec.clone()),
+            Action::FocalSurface(None) => {
+                if matches!(job.focus, FocusMode::Surface(_)) {
+                    let focus = self.focus_distance_mm().flatten().unwrap_or(f64::INFINITY);
+                    job.focus = FocusMode::Distance(focus);
+                }
+            }
+            Action::FocusPoint(point) => {
+                self.inside_render(point.pixel)?;
+                job.focus = FocusMode::Surface(match &job.focus {
+                    FocusMode::Surface(spec) => {
+                        let mut spec = spec.clone();
+                        spec.points.push(*point);
+                        spec
+                    }
+                    // The plane in focus now stays in focus at the image centre.
+                    _ => self.surface_from_focus(*point),
+                });
+            }
             Action::Focus(mm) => job.focus = FocusMode::Distance(*mm),
             Action::Model(kind) => job.model = ModelChoice::Model(*kind),
             Action::Split(on) => split = *on,
             Action::ErrorOverlay(on) => {
                 self.overlay = *on;
                 return Ok(());
+            }
+            Action::Exposure(ev) => {
+                self.exposure_ev = *ev;
+                return Ok(());
+            }
+            Action::ZoneOverlay(on) => {
+                self.zone = *on;
+                return Ok(());
+            }
+            Action::SensorWidth(mm) => job.film_width_mm = Some(*mm),
+            Action::Orbit(angles) => {
+                job.orbit = (*angles != [0.0, 0.0]).then(|| Orbit {
+                    // About what is in focus on the axis (2 m when the focus is at infinity).
+                    pivot_mm: self
+                        .focus_distance_mm()
+                        .flatten()
+                        .unwrap_or(crate::job::DEFAULT_FOCUS_MM),
+                    angles_deg: *angles,
+                });
+            }
+            Action::Blades(blades) => {
+                let RenderLens::Real(real) = &job.lens else {
+                    return Err(JobError::IdealHasNoSurfaces.into());
+                };
+                let shape = match *blades {
+                    Some((count, rotation_deg, blade_curvature)) => StopShape::Blades {
+                        count,
+                        rotation_deg,
+                        blade_curvature,
+                    },
+                    None => StopShape::Circle,
+                };
+                let lens = real.with_stop_shape(shape).map_err(LensError::from)?;
+                job.lens = RenderLens::Real(Box::new(lens));
             }
             Action::Chromatic(on) => {
                 job.chromatic = if *on {
@@ -527,6 +632,12 @@ impl Viewer {
                 }
             }
             Action::Click(pixel) => self.inside_render(*pixel)?,
+            Action::FocusPoint(point) => self.inside_render(point.pixel)?,
+            Action::FocalSurface(Some(spec)) => {
+                for point in &spec.points {
+                    self.inside_render(point.pixel)?;
+                }
+            }
             _ => {}
         }
         Ok(())
@@ -556,13 +667,15 @@ impl Viewer {
     /// The mean radiance accumulated so far in `acc`.
     fn mean(&self, acc: &Accumulating) -> Vec<[f32; 3]> {
         let samples = (self.frames_done * self.spp_per_frame).max(1) as f32;
+        let scale = 2f64.powf(self.exposure_ev) as f32 / samples;
         acc.sums
             .iter()
-            .map(|s| [s[0] / samples, s[1] / samples, s[2] / samples])
+            .map(|s| [s[0] * scale, s[1] * scale, s[2] * scale])
             .collect()
     }
 
-    /// The accumulated render of the main view (the baked half's model in the split view).
+    /// The accumulated render of the main view (the baked half's model in the split view), its
+    /// radiance times the exposure's 2^EV.
     pub fn image(&self) -> RgbImage {
         RgbImage {
             width: self.job.settings.width,
@@ -586,6 +699,19 @@ impl Viewer {
     /// with the error overlay the error map of [`hud::error_map`]. Also the overlay's scale
     /// (radiance at the top of the colour bar) when it is on.
     pub fn display(&self) -> (Vec<u8>, Option<f32>) {
+        let (mut bytes, scale) = self.composed();
+        if self.zone {
+            // A failed lookup shows no tint rather than no frame.
+            let zone = self.focus_zone().unwrap_or_default();
+            for (rgb, _) in bytes.chunks_mut(3).zip(zone).filter(|(_, sharp)| *sharp) {
+                rgb.copy_from_slice(&zone_tint(rgb));
+            }
+        }
+        (bytes, scale)
+    }
+
+    /// [`Viewer::display`] before the zone-of-focus tint.
+    fn composed(&self) -> (Vec<u8>, Option<f32>) {
         let width = self.job.settings.width as usize;
         let baked = self.image();
         let Some(traced) = self.twin_image() else {
@@ -660,6 +786,11 @@ type Built = (Accumulating, Option<Accumulating>, Option<PendingBake>);
 
 /// The views for `job`: its model, prepared now; or, for a baked model or the split view, the
 /// traced model now and the baked one on a worker thread.
+/// A pixel of the zone of focus: half way to green, so the image stays readable under it.
+fn zone_tint(rgb: &[u8]) -> [u8; 3] {
+    [rgb[0] / 2, rgb[1] / 2 + 128, rgb[2] / 2]
+}
+
 fn build(job: &RenderJob, split: bool) -> Result<Built, ViewError> {
     let asked = match job.model {
         ModelChoice::Model(kind) => kind,

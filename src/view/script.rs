@@ -1,8 +1,10 @@
 //! Scripted viewer sessions: one action a line, parsed whole before the first frame so a typo on
 //! the last line is refused before anything renders.
 
+use crate::job::{FocalSurfaceSpec, FocusPointSpec};
 use crate::limits::MAX_VIEW_FRAMES;
-use crate::model::ModelKind;
+use crate::model::{AberrationScale, ModelKind};
+use crate::render::focal_surface::DEFAULT_BETA;
 use std::path::{Path, PathBuf};
 
 /// One thing a script (or a key, a click or a dropped file in the window) asks the viewer to do.
@@ -22,6 +24,26 @@ pub enum Action {
         to_mm: f64,
         frames: u32,
     },
+    /// Focus per pixel on a focal surface through these focus points (seed 004); None returns
+    /// to the one focused plane the surface's centre was on.
+    FocalSurface(Option<FocalSurfaceSpec>),
+    /// Add a focus point (the surface under this pixel, or a distance / defocus) to the focal
+    /// surface, starting one at the current focus's plane if there is none.
+    FocusPoint(FocusPointSpec),
+    /// The aperture stop's shape: its blades (count, rotation in degrees, curvature 0 to 1), or
+    /// round (None).
+    Blades(Option<(u32, f64, f64)>),
+    /// Orbit the camera (yaw right, pitch up, degrees) about the point in focus on its axis
+    /// (mesh scenes); 0 0 is the scene's own view.
+    Orbit([f64; 2]),
+    /// Tint the zone of focus (where the paraxial blur is under one pixel).
+    ZoneOverlay(bool),
+    /// Exposure (EV): the shown image's linear radiance times 2^EV.
+    Exposure(f64),
+    /// Sensor width (mm), its height following the image's aspect.
+    SensorWidth(f64),
+    /// Factors on the Seidel model's sums (spherical, coma, astigmatism, Petzval, distortion).
+    SeidelScale([f64; 5]),
     Model(ModelKind),
     /// Left half baked, right half traced, identical samples.
     Split(bool),
@@ -49,9 +71,16 @@ pub enum Action {
     Quit,
 }
 
+/// Largest exposure change accepted (EV either way): 2^20 takes the darkest linear radiance
+/// f32 holds well into the tone curve's shoulder and back.
+pub const MAX_EXPOSURE_EV: f64 = 20.0;
+
 /// The words a script understands, for error messages.
 const ACTIONS: &str = "spp-per-frame N, click X Y, fnumber F, focus MM, \
-     focus-pull FROM_MM TO_MM FRAMES, model NAME, split on|off, \
+     focus-pull FROM_MM TO_MM FRAMES, focal-surface X,Y[,TARGET[,ALPHA]];... [BETA]|off, \
+     focus-point X Y [TARGET [ALPHA]], seidel-scale SA COMA AST PETZ DIST, exposure EV, sensor WIDTH_MM, zone on|off, \
+     blades COUNT ROTATION_DEG CURVATURE|off, orbit YAW PITCH, \
+     model NAME, split on|off, \
      overlay on|off, chromatic on|off, shift X Y, tilt X Y, lens NAME|FILE, scene demo|FILE, \
      frames N, wait-bake, screenshot PATH, window W H, minimise on|off, quit";
 
@@ -119,13 +148,16 @@ pub fn parse_action(content: &str) -> Result<Action, String> {
             .filter(|v| v.is_finite())
             .ok_or_else(|| format!("`{verb}`: {what} `{word}` is not a finite number"))
     };
-    let distance = |word: &str| -> Result<f64, String> {
-        let mm = number(word, "distance (mm)")?;
-        if mm <= 0.0 {
-            return Err(format!("`{verb}`: a distance must be positive, got {mm}"));
+    let positive = |word: &str, what: &str| -> Result<f64, String> {
+        let value = number(word, what)?;
+        if value <= 0.0 {
+            return Err(format!(
+                "`{verb}`: the {what} must be positive, got {value}"
+            ));
         }
-        Ok(mm)
+        Ok(value)
     };
+    let distance = |word: &str| positive(word, "distance (mm)");
     let switch = |word: &str| -> Result<bool, String> {
         match word {
             "on" => Ok(true),
@@ -148,11 +180,7 @@ pub fn parse_action(content: &str) -> Result<Action, String> {
         }
         "fnumber" => {
             expect(1)?;
-            let f = number(args[0], "f-number")?;
-            if f <= 0.0 {
-                return Err(format!("`fnumber` must be positive, got {f}"));
-            }
-            Action::FNumber(f)
+            Action::FNumber(positive(args[0], "f-number")?)
         }
         "focus" => {
             expect(1)?;
@@ -171,6 +199,91 @@ pub fn parse_action(content: &str) -> Result<Action, String> {
                 to_mm: distance(args[1])?,
                 frames,
             }
+        }
+        "focal-surface" => match args {
+            ["off"] => Action::FocalSurface(None),
+            [points] | [points, _] => {
+                let beta = match args.get(1) {
+                    Some(word) => number(word, "beta")?,
+                    None => DEFAULT_BETA,
+                };
+                let spec =
+                    FocalSurfaceSpec::parse(points, beta).map_err(|e| format!("`{verb}`: {e}"))?;
+                Action::FocalSurface(Some(spec))
+            }
+            _ => {
+                return Err(format!(
+                    "`{verb}` takes X,Y[,TARGET[,ALPHA]];... and an optional BETA, or off"
+                ));
+            }
+        },
+        "focus-point" => {
+            if !(2..=4).contains(&args.len()) {
+                return Err(format!("`{verb}` takes X Y [TARGET [ALPHA]]"));
+            }
+            let spec = FocalSurfaceSpec::parse(&args.join(","), DEFAULT_BETA)
+                .map_err(|e| format!("`{verb}`: {e}"))?;
+            Action::FocusPoint(spec.points[0])
+        }
+        "blades" => match args {
+            ["off"] => Action::Blades(None),
+            [count, rotation, curvature] => {
+                let count = whole(count, "blade count")?;
+                let rotation = number(rotation, "rotation (degrees)")?;
+                let curvature = number(curvature, "curvature")?;
+                if count < 3 || !(0.0..=1.0).contains(&curvature) {
+                    return Err(format!(
+                        "`blades` takes at least 3 blades and a curvature from 0 to 1, got \
+                         {count} and {curvature}"
+                    ));
+                }
+                Action::Blades(Some((count, rotation, curvature)))
+            }
+            _ => {
+                return Err(format!(
+                    "`{verb}` takes COUNT ROTATION_DEG CURVATURE, or off"
+                ));
+            }
+        },
+        "orbit" => {
+            expect(2)?;
+            let angles = [number(args[0], "yaw")?, number(args[1], "pitch")?];
+            if angles.iter().any(|a| a.abs() > 180.0) {
+                return Err(format!(
+                    "`orbit` takes angles within +-180 degrees, got {angles:?}"
+                ));
+            }
+            Action::Orbit(angles)
+        }
+        "zone" => {
+            expect(1)?;
+            Action::ZoneOverlay(switch(args[0])?)
+        }
+        "exposure" => {
+            expect(1)?;
+            let ev = number(args[0], "exposure (EV)")?;
+            if ev.abs() > MAX_EXPOSURE_EV {
+                return Err(format!(
+                    "`exposure` takes -{MAX_EXPOSURE_EV} to {MAX_EXPOSURE_EV} EV, got {ev}"
+                ));
+            }
+            Action::Exposure(ev)
+        }
+        "sensor" => {
+            expect(1)?;
+            Action::SensorWidth(positive(args[0], "sensor width (mm)")?)
+        }
+        "seidel-scale" => {
+            expect(5)?;
+            let mut factors = [0.0; 5];
+            for (factor, (word, name)) in factors
+                .iter_mut()
+                .zip(args.iter().zip(AberrationScale::NAMES))
+            {
+                *factor = number(word, name)?;
+            }
+            AberrationScale::from_array(factors).map_err(|e| format!("`{verb}`: {e}"))?;
+            Action::SeidelScale(factors)
         }
         "model" => {
             expect(1)?;

@@ -5,6 +5,8 @@
 
 use super::script::Action;
 use super::{MODEL_CYCLE, Session, Step, ViewError, ViewEvent, hud};
+use crate::job::{FocusPointSpec, FocusTarget};
+use crate::prescription::StopShape;
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -16,10 +18,13 @@ use winit::keyboard::{Key, NamedKey};
 use winit::window::{Window, WindowId};
 
 /// Key bindings, for `--help` and the README.
-pub const KEYS: &str = "click: focus there; [ / ]: focus a quarter nearer / farther; F / \
+pub const KEYS: &str = "click: focus there; Shift+click: add a focal-surface point there; [ / ]: focus a quarter nearer / farther; F / \
      Shift+F: close / open one third stop; M: next \
      model; C: chromatic on/off; S: split view; E: error overlay; arrows: shift the sensor 0.5 mm; \
-     Shift+arrows: tilt it 0.5 degrees; L: next bundled lens; + / -: double / halve samples per \
+     Shift+arrows: tilt it 0.5 degrees; , / .: exposure -/+ 1/3 EV; W / Shift+W: sensor a \
+     quarter wider / narrower; Z: tint the zone of focus; O / Shift+O, I / Shift+I: orbit 5 \
+     degrees right / left, up / down (mesh scenes); B / \
+     Shift+B: one aperture blade more (round after 9) / turn the blades 10 degrees; L: next bundled lens; + / -: double / halve samples per \
      frame; P: screenshot (lensbake-view-N.png); Q or Esc: quit; drop a lens, glTF or EXR file to \
      load it";
 
@@ -211,6 +216,48 @@ impl App<'_> {
                         focus * 1.25
                     })
                 }
+                "," | "." => {
+                    let step = if c.as_str() == "," { -1.0 } else { 1.0 } / 3.0;
+                    Action::Exposure(viewer.exposure_ev() + step)
+                }
+                "w" => {
+                    // A quarter wider (Shift: narrower) than the sensor on screen.
+                    let width = viewer.camera().film.width_mm;
+                    Action::SensorWidth(if shift { width / 1.25 } else { width * 1.25 })
+                }
+                "z" => Action::ZoneOverlay(!viewer.zone()),
+                "o" | "i" => {
+                    // O / Shift+O: orbit 5 degrees right / left; I / Shift+I: up / down.
+                    let [yaw, pitch] = job.orbit.map_or([0.0, 0.0], |o| o.angles_deg);
+                    let step = if shift { -5.0 } else { 5.0 };
+                    Action::Orbit(if c.to_lowercase() == "o" {
+                        [yaw + step, pitch]
+                    } else {
+                        [yaw, pitch + step]
+                    })
+                }
+                "b" => {
+                    // B: one blade more (round after 9, 5 after round); Shift+B: turn them 10
+                    // degrees.
+                    let blades = match job.lens.real().and_then(|lens| lens.stop_shape()) {
+                        Some(&StopShape::Blades {
+                            count,
+                            rotation_deg,
+                            blade_curvature,
+                        }) => Some((count, rotation_deg, blade_curvature)),
+                        _ => None,
+                    };
+                    Action::Blades(match (blades, shift) {
+                        (Some((count, rotation, curvature)), true) => {
+                            Some((count, rotation + 10.0, curvature))
+                        }
+                        (Some((count, ..)), false) if count >= 9 => None,
+                        (Some((count, rotation, curvature)), false) => {
+                            Some((count + 1, rotation, curvature))
+                        }
+                        (None, _) => Some((5, 0.0, 0.0)),
+                    })
+                }
                 "c" => Action::Chromatic(viewer.camera().chromatic.is_none()),
                 "s" => Action::Split(!viewer.split()),
                 "e" => Action::ErrorOverlay(!viewer.overlay()),
@@ -274,7 +321,15 @@ impl ApplicationHandler for App<'_> {
                 ..
             } => {
                 if let Some(pixel) = self.cursor.and_then(|at| self.pixel_at(at)) {
-                    self.act(Action::Click(pixel));
+                    // Shift+click adds a focus point of a focal surface on what is there.
+                    self.act(match self.shift {
+                        true => Action::FocusPoint(FocusPointSpec {
+                            pixel,
+                            target: FocusTarget::Scene,
+                            weight: 1.0,
+                        }),
+                        false => Action::Click(pixel),
+                    });
                 }
             }
             WindowEvent::KeyboardInput { event, .. } if event.state == ElementState::Pressed => {

@@ -85,6 +85,11 @@ struct ChannelParams {
 
 @group(1) @binding(6) var<uniform> channels: ChannelParams;
 
+// Each output pixel's film shift under a focal surface (x, y, z mm, unused), row-major; one zero
+// entry when the film is one plane. In group 3 beside the Seidel polynomial, as both entry points
+// bind that group whole.
+@group(3) @binding(1) var<storage, read> film_shift: array<vec4<f32>>;
+
 // PI, MODEL_*, FOOTPRINT_CLAMP_ITERATIONS, DEPTH_TOLERANCE, DEPTH_SLACK, NO_CROSSING,
 // MONOCHROME_SAMPLING_BLOCK and the hash constants come from the Rust prelude
 // (src/render/wgsl.rs; the values and their reasons are in src/render/kernel.rs).
@@ -586,11 +591,19 @@ fn pixel_scrambles(pixel: u32) -> vec4<u32> {
     );
 }
 
-// Sample `index` of output pixel `id`: its film point and unit-square lens sample.
+// Output pixel `pixel`'s film shift under a focal surface (camera.rs, Camera::film_shifts); the
+// last entry's past the end, so the one zero entry bound without a surface shifts nothing.
+fn pixel_film_shift(pixel: u32) -> vec3<f32> {
+    return film_shift[min(pixel, arrayLength(&film_shift) - 1u)].xyz;
+}
+
+// Sample `index` of output pixel `id`: its film point (moved by the pixel's film shift) and
+// unit-square lens sample.
 fn pixel_sample(id: vec2<u32>, scrambles: vec4<u32>, index: u32) -> PixelSample {
     let lens_u = lattice_point(index, frame.samples_per_pixel, scrambles.x, scrambles.y);
     let jitter = lattice_point(index, frame.samples_per_pixel, scrambles.z, scrambles.w).yx;
-    return PixelSample(film_point(vec2<f32>(f32(id.x), f32(id.y)) + jitter), lens_u);
+    let film = film_point(vec2<f32>(f32(id.x), f32(id.y)) + jitter);
+    return PixelSample(film + pixel_film_shift(id.y * frame.width + id.x), lens_u);
 }
 
 @compute @workgroup_size(8, 8, 1)
