@@ -306,7 +306,8 @@ fn rasterise_triangle(data: &PeelData, order: usize, rows: [i64; 2]) -> Vec<Frag
 }
 
 /// The CPU twin of [`super::gpu_peel::GpuPeeler::peel`]: the same layers from the same data,
-/// [`PEEL_BAND_ROWS`] rows at a time.
+/// a band of layer rows at a time (`PEEL_BAND_ROWS`), so the fragments of a whole view never
+/// exist at once.
 pub fn peel_cpu(data: &PeelData, view: View, max_layers: usize) -> LayeredDepthImage {
     peel_in_bands(data, view, max_layers, PEEL_BAND_ROWS)
 }
