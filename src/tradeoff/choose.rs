@@ -1,7 +1,9 @@
 //! The cheapest model that keeps a scene's image error under a budget.
 //!
 //! Candidates in order of cost: thin, thick, Seidel (no table, a short fixed-point solve per ray
-//! each), baked tables by bytes (16^3 f16 up to 256^3 f32), then the exact trace. Each candidate
+//! each), baked tables by bytes (16^3 f16 up to 256^3 f32; at each size f16, then u16, whose
+//! 16-bit codes of each channel's range cost f16's bytes at about f32's error, then f32), then
+//! the exact trace. Each candidate
 //! gets a predicted error first, from cheap means, and is built and measured only when the
 //! prediction meets the budget; the first whose measured error meets it is chosen:
 //!
@@ -10,7 +12,8 @@
 //! - thin: thick's prediction plus the first-order difference between the two maps;
 //! - Seidel and baked: the measured error of a small probe (a 16^3 table, and 512 rays); a table
 //!   of N nodes per axis is predicted from the 16^3 one by the h^2 law of trilinear interpolation,
-//!   plus, for f16, the error of rounding the exact directions' encoding to f16.
+//!   plus, for f16, the error of rounding the exact directions' encoding to f16 (u16 is predicted
+//!   as f32 and its rounding left to the measurement: where that fails the budget, f32 is next).
 //!
 //! Colour: one wavelength when the lateral colour (C_II, F to C, at the edge of the used field)
 //! stays under the budget or the scene is rendered in one wavelength
@@ -216,7 +219,7 @@ pub fn choose_model(
             let scale = ((PROBE_RESOLUTION - 1) as f64 / (n - 1) as f64).powi(2);
             let f32_predicted = probe_px * scale;
             let mut f32_table: Option<(LrtfTable, f64)> = None;
-            for precision in [Precision::F16, Precision::F32] {
+            for precision in [Precision::F16, Precision::U16, Precision::F32] {
                 let predicted = match precision {
                     Precision::F16 => f32_predicted + floor_px,
                     Precision::F32 | Precision::U16 => f32_predicted,
