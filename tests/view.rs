@@ -757,14 +757,13 @@ fn a_focal_surface_through_three_points_keeps_each_sharp_and_blurs_between() {
         ([80, 75], 2000.0, [0.33, 0.47, 0.42, 0.58]),
         ([65, 12], 6000.0, [0.20, 0.45, 0.03, 0.17]),
     ];
-    // (window, the focus it is sharp at alone, the largest contrast ratio accepted). Measured:
-    // the wall below the chart, focused near the post's 1 m, 0.65 of its contrast at 6 m; the
-    // chart half way between its point and the post's, focused near 1.33 m (a 1.8 px blur spot
-    // on 5.5 px checks), 0.93 of its contrast at 2 m. The renders are deterministic (one seed),
-    // and where the surface focuses as a plane does the two agree to 0.2% (the chart's point).
+    // (window, the focus it is sharp at alone, the largest contrast ratio accepted): blurred
+    // means more than the 10% the points are held to. Measured: the wall below the chart,
+    // focused near the post's 1 m, 0.65 of its contrast at 6 m; the chart's lower right corner
+    // beside the post, between the chart's point and the post's, 0.78 of its contrast at 2 m.
     let between = [
-        ([0.45, 0.60, 0.80, 0.95], 6000.0, 0.8),
-        ([0.55, 0.62, 0.55, 0.74], 2000.0, 0.96),
+        ([0.45, 0.60, 0.80, 0.95], 6000.0, 0.9),
+        ([0.60, 0.66, 0.60, 0.73], 2000.0, 0.9),
     ];
     let render = |focus: FocusMode| {
         let mut job = job(width, height, 32, BackendChoice::Cpu);
