@@ -132,8 +132,8 @@ fn exercise(bytes: &[u8]) -> (usize, usize) {
     for format in Format::ALL {
         for pbrt_thickness in [PbrtThickness::ToNext, PbrtThickness::FromPrevious] {
             let options = LoadOptions {
-                format: None,
                 pbrt_thickness,
+                ..LoadOptions::default()
             };
             let Ok(loaded) = read_bytes(bytes, file, format, &options) else {
                 continue;
