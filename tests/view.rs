@@ -339,17 +339,30 @@ fn a_session_quits_at_its_frame_limit() {
     assert_eq!(session.viewer.samples().0, 5);
 }
 
+/// Whether every one of `tools` runs here; where one does not, `test` is skipped with a line
+/// saying so, except under CI=true, where CI installs them (.ci/run, .ci/window-keys.sh) and a
+/// missing one fails the test.
+fn tools_found(tools: &[&str], test: &str) -> bool {
+    let missing: Vec<&str> = tools
+        .iter()
+        .copied()
+        .filter(|tool| Command::new(tool).arg("--help").output().is_err())
+        .collect();
+    assert!(
+        missing.is_empty() || std::env::var("CI").as_deref() != Ok("true"),
+        "{missing:?} missing; CI installs them"
+    );
+    if !missing.is_empty() {
+        eprintln!("SKIPPED {test}: {missing:?} not found");
+    }
+    missing.is_empty()
+}
+
 /// The same script in a window on a virtual X display. Needs `xvfb-run` (Debian: xvfb); with
 /// CI=true its absence is a failure, as a missing GPU adapter is.
 #[test]
 fn a_windowed_script_under_xvfb_exits_0_and_writes_its_screenshots() {
-    let found = Command::new("xvfb-run").arg("--help").output().is_ok();
-    if !found {
-        assert!(
-            std::env::var("CI").as_deref() != Ok("true"),
-            "xvfb-run is missing; CI installs the xvfb package"
-        );
-        eprintln!("SKIPPED a_windowed_script_under_xvfb: no xvfb-run (apt-get install xvfb)");
+    if !tools_found(&["xvfb-run"], "a_windowed_script_under_xvfb") {
         return;
     }
     let dir = temp_dir("xvfb");
@@ -1341,4 +1354,49 @@ fn zoom_reloads_the_lens_at_another_position_and_the_hud_shows_its_focal_length(
     let message = refused.unwrap_err().to_string();
     assert!(message.contains("zoom position 4"), "{message}");
     assert!(lensbake::view::hud::lines(&viewer).join(" ").contains("zoom 2/3"));
+}
+
+/// A key press in a real window (issue 58; under Xvfb, keys sent with xdotool): K zooms the
+/// two-group zoom to its position 2 and P writes a screenshot, then Q quits with exit 0, and the
+/// HUD printed on the way out shows position 2's focal length. Needs `xvfb-run` and `xdotool`
+/// (Debian: xvfb, xdotool); with CI=true their absence is a failure.
+#[test]
+fn keys_pressed_in_a_window_under_xvfb_zoom_and_take_a_screenshot() {
+    if !tools_found(&["xvfb-run", "xdotool"], "keys_pressed_in_a_window") {
+        return;
+    }
+    let dir = temp_dir("window-keys");
+    let zoom_file = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data/zoom_two_group.seq");
+    // Wait for the window, give it the keyboard (Xvfb runs no window manager), press the keys a
+    // second apart (each is acted on before the next arrives), and report a viewer Q left open.
+    let session = format!(
+        "'{bin}' view --lens '{lens}' --width 64 --height 48 --spp 4 --spp-per-frame 4 \
+         --backend cpu & viewer=$!; \
+         window=$(timeout 60 xdotool search --sync --name 'lensbake view') || exit 3; \
+         xdotool windowfocus --sync $window; \
+         for key in k p q; do sleep 1; xdotool key $key; done; \
+         sleep 5; kill $viewer 2>/dev/null && {{ echo 'Q left the viewer open'; exit 4; }}; \
+         wait $viewer",
+        bin = env!("CARGO_BIN_EXE_lensbake"),
+        lens = zoom_file.display()
+    );
+    let out = common::finished(
+        Command::new("xvfb-run")
+            .args(["-a", "sh", "-c", &session])
+            .current_dir(&dir),
+        None,
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains("wrote lensbake-view-1.png"), "{stdout}");
+    assert!(dir.join("lensbake-view-1.png").is_file());
+    assert!(
+        stdout.contains("hud: 64.5 mm f/") && stdout.contains("zoom 2/3"),
+        "{stdout}"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
 }
