@@ -1211,7 +1211,8 @@ impl Reader {
             return self.check_position(source);
         }
         let target = words.get(1).filter(|w| {
-            w.len() > 1 && w[1..].bytes().all(|b| b.is_ascii_digit()) && w.starts_with(['S', 'F'])
+            w.strip_prefix(['S', 'F'])
+                .is_some_and(|n| !n.is_empty() && n.bytes().all(|b| b.is_ascii_digit()))
         });
         let field = format!("ZOO {item}");
         let values = &words[if target.is_some() { 2 } else { 1 }..];
