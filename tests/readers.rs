@@ -664,34 +664,94 @@ fn codev_pickups_copy_radius_thickness_and_conic() {
     }
 }
 
-/// A zoom file is read at position 1: zoomed thicknesses, radii, conics, the object distance,
-/// EPD and FNO take their first ZOO value (here differing from what the lens data write, so the
-/// test sees which one is used); other zoomed items are read as written and named in the note,
-/// and a pickup at position 2 changes nothing.
+/// A zoom file is read at the position asked (1 by default): zoomed thicknesses, radii, conics,
+/// the object distance, EPD, fields take that position's ZOO value (here each differs from what
+/// the lens data write, so the test sees which one is used); the pickups of that position apply
+/// (a pickup written for position 2 only changes position 2, one written for no position applies
+/// at every position without its own); other zoomed items are read as written and named in the
+/// note; a position the file does not have is one error at the `ZOO n` line.
 #[test]
-fn codev_zoom_files_are_read_at_position_one() {
+fn codev_zoom_files_are_read_at_the_position_asked() {
     let text = "RDM Y\nEPD 10\nSO 0 1e11\nS 50 5 N-BK7\nS -50 30\nS 0 20\nSI 0 0\nYAN 0 5\n\
                 ZOO 3\nZOO TIT\nTIT Z1 'wide'\nTIT Z2 'tele'\nZOO THI S2 40 50 60\n\
                 ZOO RDY S1 45 55 65\nZOO K S1 -0.2 0 0\nZOO THI S0 5000 8000 INFINITY\n\
-                ZOO EPD 8 9 10\nZOO YAN F2 5 4 3\nPIK THI S3 Z2 THI S2 Z2 2\nGO\n";
-    let loaded = codev(text).unwrap();
-    let p = &loaded.prescription;
-    assert_eq!(p.surfaces[0].shape.curvature(), 1.0 / 45.0);
-    assert_eq!(p.surfaces[0].shape.conic(), -0.2);
-    assert_eq!(p.surfaces[1].thickness, 40.0);
-    assert_eq!(p.surfaces[2].thickness, 20.0);
-    let conditions = p.provenance.conditions.as_ref().unwrap();
-    assert_eq!(conditions.object_distance_mm, Some(5000.0));
-    assert_eq!(
-        conditions.aperture,
-        Some(ApertureSpec::EntrancePupilDiameter(8.0))
-    );
-    let note = LoadNote::ZoomPosition {
-        count: 3,
-        as_written: vec!["PIK".into(), "TIT".into(), "YAN".into()],
+                ZOO EPD 8 9 10\nZOO YAN F2 5 4 3\nPIK THI S3 Z2 THI S2 Z2 2\n\
+                PIK K S2 K S1 0.5\nPIK K S2 Z3 K S1 3\nGO\n";
+    let at = |position: usize| {
+        let options = LoadOptions {
+            zoom_position: Some(position),
+            ..LoadOptions::default()
+        };
+        read_str(text, Some(Path::new("zoom.seq")), Format::CodeV, &options)
     };
-    assert!(loaded.notes.contains(&note), "{:?}", loaded.notes);
-    assert!(note.to_string().contains("position 1 of 3"), "{note}");
+    let expected = [
+        // R1, K1, t2, t3, object distance, EPD, field 2, K2.
+        (45.0, -0.2, 40.0, 20.0, Some(5000.0), 8.0, 5.0, -0.1),
+        (55.0, 0.0, 50.0, 100.0, Some(8000.0), 9.0, 4.0, 0.0),
+        (65.0, 0.0, 60.0, 20.0, None, 10.0, 3.0, 0.0),
+    ];
+    for (k, (r1, k1, t2, t3, object, epd, field, k2)) in expected.into_iter().enumerate() {
+        let loaded = at(k + 1).unwrap();
+        let p = &loaded.prescription;
+        assert_eq!(p.surfaces[0].shape.curvature(), 1.0 / r1, "position {}", k + 1);
+        assert_eq!(p.surfaces[0].shape.conic(), k1);
+        assert_eq!(p.surfaces[1].thickness, t2);
+        assert_eq!(p.surfaces[2].thickness, t3);
+        assert_eq!(p.surfaces[1].shape.conic(), k2);
+        let conditions = p.provenance.conditions.as_ref().unwrap();
+        assert_eq!(conditions.object_distance_mm, object);
+        assert_eq!(
+            conditions.aperture,
+            Some(ApertureSpec::EntrancePupilDiameter(epd))
+        );
+        assert_eq!(conditions.fields.as_ref().unwrap().y, [0.0, field]);
+        let note = LoadNote::ZoomPosition {
+            position: k + 1,
+            count: 3,
+            as_written: vec!["TIT".into()],
+        };
+        assert!(loaded.notes.contains(&note), "{:?}", loaded.notes);
+        assert!(
+            note.to_string()
+                .contains(&format!("position {} of 3", k + 1)),
+            "{note}"
+        );
+    }
+    assert_eq!(
+        codev(text).unwrap().prescription.surfaces,
+        at(1).unwrap().prescription.surfaces
+    );
+    // A position the file does not have: one error naming the ZOO n line.
+    for position in [0, 4] {
+        let e = at(position).unwrap_err();
+        assert!(
+            e.to_string().contains("the file has zoom positions 1..=3"),
+            "{e}"
+        );
+        assert_eq!(e.location.line, Some(line_of(text, "ZOO 3")), "{e}");
+        assert_eq!(e.location.field.as_deref(), Some("ZOO"), "{e}");
+    }
+    // A zoomed line without a value for the position asked is refused at that line.
+    let short = text.replace("ZOO EPD 8 9 10", "ZOO EPD 8 9");
+    let options = LoadOptions {
+        zoom_position: Some(3),
+        ..LoadOptions::default()
+    };
+    let e = read_str(&short, None, Format::CodeV, &options).unwrap_err();
+    assert!(e.to_string().contains("zoom position 3"), "{e}");
+    assert_eq!(e.location.line, Some(line_of(&short, "ZOO EPD")), "{e}");
+    // A file without zoom positions has position 1 only.
+    let plain = "EPD 10\nSO 0 1e11\nS 50 5 N-BK7\nS -50 47\nSI 0 0\n";
+    let options = LoadOptions {
+        zoom_position: Some(2),
+        ..LoadOptions::default()
+    };
+    let e = read_str(plain, None, Format::CodeV, &options).unwrap_err();
+    assert!(e.to_string().contains("no zoom positions"), "{e}");
+    // So has a lens in another format.
+    let ron = lensbake::lenses::find("cooke-triplet").unwrap().ron;
+    let e = read_str(ron, None, Format::Ron, &options).unwrap_err();
+    assert!(e.to_string().contains("without zoom positions"), "{e}");
     // A zoomed surface the file does not have is an error at its line.
     let e = codev(&text.replace("ZOO K S1", "ZOO K S7")).unwrap_err();
     assert!(e.to_string().contains("ZOO names surface 7"), "{e}");

@@ -75,6 +75,10 @@ pub struct ReadArgs {
     /// (first row 0), as in the unscaled pbrt-v4-scenes files (dgauss.dat, wide.dat, ...).
     #[arg(long)]
     pub pbrt_from_previous: bool,
+    /// Zoom lenses: read this position (1-based) of a CODE V zoom file (`ZOO`), or of a Zemax
+    /// multi-configuration file (its active configuration only); position 1 by default.
+    #[arg(long, value_name = "K", value_parser = clap::value_parser!(u32).range(1..))]
+    pub zoom_position: Option<u32>,
 }
 
 fn parse_format(text: &str) -> Result<Format, String> {
@@ -90,6 +94,7 @@ impl ReadArgs {
             } else {
                 PbrtThickness::ToNext
             },
+            zoom_position: self.zoom_position.map(|k| k as usize),
         }
     }
 }

@@ -11,12 +11,13 @@ use lensbake::limits::read_input_text;
 use lensbake::model::ModelKind;
 use lensbake::render::RenderSettings;
 use lensbake::view::script::parse_script;
-use lensbake::view::window::{KEYS, run_window};
+use lensbake::view::keys::keys_help;
+use lensbake::view::window::run_window;
 use lensbake::view::{Session, Step, ViewEvent, Viewer};
 use std::path::PathBuf;
 
 #[derive(Args, Debug)]
-#[command(after_help = format!("Keys in the window: {KEYS}."))]
+#[command(after_help = format!("Keys in the window: {}.", keys_help()))]
 pub struct ViewArgs {
     /// Lens: a lens file, a bundled lens name (`lensbake lens list`) or `ideal:<EFL_MM>`.
     #[arg(long)]

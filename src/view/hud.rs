@@ -49,10 +49,14 @@ pub fn lines(viewer: &Viewer) -> Vec<String> {
         ),
         None => focus,
     };
-    let f_number = job
-        .lens
-        .first_order(job.f_number)
-        .map_or_else(|_| "?".to_string(), |(_, f)| format!("f/{f:.2}"));
+    let f_number = job.lens.first_order(job.f_number).map_or_else(
+        |_| "?".to_string(),
+        |(models, f)| format!("{:.1} mm f/{f:.2}", models.thick.focal_length_mm),
+    );
+    let lens = match viewer.zoom_position() {
+        (_, 1) => lens,
+        (position, count) => format!("{lens}, zoom {position}/{count}"),
+    };
     let adapter = match viewer.backend() {
         BackendUsed::Gpu { adapter } => adapter.clone(),
         BackendUsed::Cpu {

@@ -15,6 +15,7 @@
 
 pub mod gpu_display;
 pub mod hud;
+pub mod keys;
 pub mod script;
 pub mod window;
 
@@ -27,7 +28,7 @@ use crate::lrtf::bake::BakeProgress;
 use crate::model::{AberrationScale, FirstOrderModels, ModelKind};
 use crate::paraxial::{CannotFocus, ObjectPosition};
 use crate::prescription::StopShape;
-use crate::prescription::formats::LoadOptions;
+use crate::prescription::formats::{LoadNote, LoadOptions};
 use crate::render::camera::Camera;
 use crate::render::chromatic::ChromaticMode;
 use crate::render::focal_surface::DEFAULT_BETA;
@@ -357,6 +358,12 @@ impl Viewer {
         Action::Lens(lenses::BUNDLED[next].name.to_string())
     }
 
+    /// The zoom position on screen and the lens's count of them ((1, 1) for a lens that does not
+    /// zoom).
+    pub fn zoom_position(&self) -> (usize, usize) {
+        zoom_of(&self.job.lens)
+    }
+
     fn shares(&self) -> u32 {
         self.job.settings.samples_per_pixel / self.spp_per_frame
     }
@@ -558,6 +565,14 @@ impl Viewer {
                 let lens = lenses::load(spec, &LoadOptions::default())?;
                 job.lens = RenderLens::Real(Box::new(lens));
                 job.f_number = None;
+            }
+            Action::Zoom(position) => {
+                let lens = at_zoom(&job.lens, *position)?;
+                job.lens = RenderLens::Real(Box::new(lens));
+                // The asked f-number stays where the new position reaches it.
+                if let Some(f) = job.f_number {
+                    job.f_number = self.within_lens(&job.lens, f)?;
+                }
             }
             Action::Scene(spec) => job.scene = SceneSpec::parse(spec),
             Action::Frames(_)
@@ -829,6 +844,44 @@ fn nearest_focus(job: &RenderJob, refused: &CannotFocus) -> Option<f64> {
     let focal_length_mm = first_order.thick.focal_length_mm;
     let nearest = refused.front_focal_mm + focal_length_mm;
     (nearest.is_finite() && nearest > refused.distance_mm).then_some(nearest)
+}
+
+/// The zoom position `lens` was read at and its count of positions; (1, 1) for a lens that does
+/// not zoom.
+fn zoom_of(lens: &RenderLens) -> (usize, usize) {
+    lens.real()
+        .and_then(|real| {
+            real.source.loaded.notes.iter().find_map(|note| match note {
+                LoadNote::ZoomPosition {
+                    position, count, ..
+                } => Some((*position, *count)),
+                _ => None,
+            })
+        })
+        .unwrap_or((1, 1))
+}
+
+/// `lens` read again from its file at zoom `position`, its stop's shape as the viewer set it.
+fn at_zoom(lens: &RenderLens, position: usize) -> Result<crate::lenses::LoadedLens, ViewError> {
+    let Some(real) = lens.real() else {
+        return Err(JobError::IdealHasNoSurfaces.into());
+    };
+    let spec = match &real.source.origin {
+        lenses::LensOrigin::File(path) => path.to_string_lossy().into_owned(),
+        lenses::LensOrigin::Bundled(name) => (*name).to_string(),
+    };
+    let options = LoadOptions {
+        format: Some(real.source.loaded.format),
+        zoom_position: Some(position),
+        ..LoadOptions::default()
+    };
+    let zoomed = lenses::load(&spec, &options)?;
+    Ok(match real.stop_shape() {
+        Some(shape) if zoomed.stop_shape() != Some(shape) => zoomed
+            .with_stop_shape(shape.clone())
+            .map_err(LensError::from)?,
+        _ => zoomed,
+    })
 }
 
 /// A lens's name for a note: the bundled name or file, or `ideal:<EFL>`.

@@ -9,9 +9,8 @@
 
 use super::gpu_display::{ComposedFrame, GpuComposer};
 use super::script::Action;
-use super::{MODEL_CYCLE, Session, Step, ViewError, ViewEvent, hud};
+use super::{Session, Step, ViewError, ViewEvent, hud, keys};
 use crate::job::{FocusPointSpec, FocusTarget};
-use crate::prescription::StopShape;
 use crate::render::gpu::{self, GpuRenderer};
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -22,17 +21,6 @@ use winit::event::{ElementState, MouseButton, WindowEvent};
 use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
 use winit::keyboard::{Key, NamedKey};
 use winit::window::{Window, WindowId};
-
-/// Key bindings, for `--help` and the README.
-pub const KEYS: &str = "click: focus there; Shift+click: add a focal-surface point there; [ / ]: focus a quarter nearer / farther; F / \
-     Shift+F: close / open one third stop; M: next \
-     model; C: chromatic on/off; S: split view; E: error overlay; arrows: shift the sensor 0.5 mm; \
-     Shift+arrows: tilt it 0.5 degrees; , / .: exposure -/+ 1/3 EV; W / Shift+W: sensor a \
-     quarter wider / narrower; Z: tint the zone of focus; O / Shift+O, I / Shift+I: orbit 5 \
-     degrees right / left, up / down (mesh scenes); B / \
-     Shift+B: one aperture blade more (round after 9) / turn the blades 10 degrees; L: next bundled lens; + / -: double / halve samples per \
-     frame; P: screenshot (lensbake-view-N.png); Q or Esc: quit; drop a lens, glTF or EXR file to \
-     load it";
 
 /// Runs `session` in a window until the script quits, the frame limit is reached or the window
 /// is closed. `report` hears each event (screenshots, tables ready, failed bakes, refused
@@ -200,110 +188,28 @@ impl App<'_> {
         })
     }
 
+    /// The action of a key press, through the one key map ([`keys::key_action`]).
     fn key_action(&mut self, key: &Key, shift: bool) -> Option<Action> {
-        let viewer = &self.session.viewer;
-        let job = viewer.job();
-        let third_stop = 2f64.powf(1.0 / 6.0);
-        let current_f = job
-            .lens
-            .first_order(job.f_number)
-            .map(|(_, f)| f)
-            .unwrap_or(2.8);
-        let [sx, sy] = job.shift_mm;
-        let [tx, ty] = job.tilt_deg;
-        let nudge = |dx: f64, dy: f64| -> Action {
-            if shift {
-                Action::Tilt([tx + dx, ty + dy])
-            } else {
-                Action::Shift([sx + dx, sy + dy])
+        let key = match key {
+            Key::Named(NamedKey::ArrowLeft) => keys::Key::Left,
+            Key::Named(NamedKey::ArrowRight) => keys::Key::Right,
+            Key::Named(NamedKey::ArrowUp) => keys::Key::Up,
+            Key::Named(NamedKey::ArrowDown) => keys::Key::Down,
+            Key::Named(NamedKey::Escape) => keys::Key::Escape,
+            Key::Character(text) => {
+                let mut chars = text.chars();
+                match (chars.next(), chars.next()) {
+                    (Some(c), None) => keys::Key::Char(c.to_ascii_lowercase()),
+                    _ => return None,
+                }
             }
-        };
-        Some(match key {
-            Key::Named(NamedKey::ArrowLeft) => nudge(-0.5, 0.0),
-            Key::Named(NamedKey::ArrowRight) => nudge(0.5, 0.0),
-            Key::Named(NamedKey::ArrowUp) => nudge(0.0, 0.5),
-            Key::Named(NamedKey::ArrowDown) => nudge(0.0, -0.5),
-            Key::Character(c) => match c.to_lowercase().as_str() {
-                "f" if shift => Action::FNumber(current_f / third_stop),
-                "f" => Action::FNumber(current_f * third_stop),
-                "m" => {
-                    let shown = match job.model {
-                        crate::job::ModelChoice::Model(kind) => kind,
-                        crate::job::ModelChoice::ErrorBudgetPx(_) => viewer.shown_model(),
-                    };
-                    let at = MODEL_CYCLE.iter().position(|&k| k == shown).unwrap_or(0);
-                    Action::Model(MODEL_CYCLE[(at + 1) % MODEL_CYCLE.len()])
-                }
-                "[" | "]" => {
-                    // A quarter nearer or farther; from a focus at infinity, 100 m in.
-                    let focus = viewer.focus_distance_mm().flatten().unwrap_or(100_000.0);
-                    Action::Focus(if c.as_str() == "[" {
-                        focus / 1.25
-                    } else {
-                        focus * 1.25
-                    })
-                }
-                "," | "." => {
-                    let step = if c.as_str() == "," { -1.0 } else { 1.0 } / 3.0;
-                    Action::Exposure(viewer.exposure_ev() + step)
-                }
-                "w" => {
-                    // A quarter wider (Shift: narrower) than the sensor on screen.
-                    let width = viewer.camera().film.width_mm;
-                    Action::SensorWidth(if shift { width / 1.25 } else { width * 1.25 })
-                }
-                "z" => Action::ZoneOverlay(!viewer.zone()),
-                "o" | "i" => {
-                    // O / Shift+O: orbit 5 degrees right / left; I / Shift+I: up / down.
-                    let [yaw, pitch] = job.orbit.map_or([0.0, 0.0], |o| o.angles_deg);
-                    let step = if shift { -5.0 } else { 5.0 };
-                    Action::Orbit(if c.to_lowercase() == "o" {
-                        [yaw + step, pitch]
-                    } else {
-                        [yaw, pitch + step]
-                    })
-                }
-                "b" => {
-                    // B: one blade more (round after 9, 5 after round); Shift+B: turn them 10
-                    // degrees.
-                    let blades = match job.lens.real().and_then(|lens| lens.stop_shape()) {
-                        Some(&StopShape::Blades {
-                            count,
-                            rotation_deg,
-                            blade_curvature,
-                        }) => Some((count, rotation_deg, blade_curvature)),
-                        _ => None,
-                    };
-                    Action::Blades(match (blades, shift) {
-                        (Some((count, rotation, curvature)), true) => {
-                            Some((count, rotation + 10.0, curvature))
-                        }
-                        (Some((count, ..)), false) if count >= 9 => None,
-                        (Some((count, rotation, curvature)), false) => {
-                            Some((count + 1, rotation, curvature))
-                        }
-                        (None, _) => Some((5, 0.0, 0.0)),
-                    })
-                }
-                "c" => Action::Chromatic(viewer.camera().chromatic.is_none()),
-                "s" => Action::Split(!viewer.split()),
-                "e" => Action::ErrorOverlay(!viewer.overlay()),
-                "l" => viewer.next_bundled_lens(),
-                "+" | "=" => Action::SppPerFrame(viewer.spp_per_frame().saturating_mul(2)),
-                "-" => Action::SppPerFrame((viewer.spp_per_frame() / 2).max(1)),
-                "p" => {
-                    self.screenshots += 1;
-                    Action::Screenshot(PathBuf::from(format!(
-                        "lensbake-view-{}.png",
-                        self.screenshots
-                    )))
-                }
-                "q" => Action::Quit,
-                _ => return None,
-            },
-            Key::Named(NamedKey::Escape) => Action::Quit,
             _ => return None,
-        })
+        };
+        let action = keys::key_action(&self.session.viewer, key, shift, self.screenshots + 1)?;
+        if matches!(action, Action::Screenshot(_)) {
+            self.screenshots += 1;
+        }
+        Some(action)
     }
 }
 

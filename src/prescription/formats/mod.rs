@@ -146,6 +146,12 @@ pub struct LoadOptions {
     /// Only meaningful for [`Format::Pbrt`]; asking for [`PbrtThickness::FromPrevious`] with any
     /// other format is an error rather than silently ignored.
     pub pbrt_thickness: PbrtThickness,
+    /// The zoom position to read (1-based): a CODE V zoom file's `ZOO` position, or a Zemax
+    /// multi-configuration file's configuration (only the active one, whose values the surface
+    /// table holds). None reads position 1 (CODE V) or the active configuration (Zemax). Any
+    /// other position of a file without zoom positions is an error, as is a position the file
+    /// does not have.
+    pub zoom_position: Option<usize>,
 }
 
 /// Something the user should know about how a file was read; not an error.
@@ -192,11 +198,12 @@ pub enum LoadNote {
     /// and lets the clear apertures vignette it; the factors only size clear apertures the file
     /// does not give.
     VignettingNotApplied { fields: Vec<usize> },
-    /// A CODE V zoom file (`ZOO n`), read at position 1: zoomed thicknesses, radii, curvatures,
-    /// conics, the object distance, EPD and FNO take their first `ZOO` value; the zoomed items in
-    /// `as_written` (fields, vignetting, ...) are read as the lens data write them, and the other
-    /// positions are not applied.
+    /// A CODE V zoom file (`ZOO n`), read at `position` of `count`: zoomed thicknesses, radii,
+    /// curvatures, conics, the object distance, EPD, FNO, fields and vignetting factors take
+    /// that position's `ZOO` value, and the pickups of that position apply; the zoomed items in
+    /// `as_written` (titles, clear apertures, ...) are read as the lens data write them.
     ZoomPosition {
+        position: usize,
         count: usize,
         as_written: Vec<String>,
     },
@@ -319,11 +326,16 @@ impl fmt::Display for LoadNote {
                  one, whose values the surface table holds; the other configurations are not \
                  applied"
             ),
-            LoadNote::ZoomPosition { count, as_written } => {
+            LoadNote::ZoomPosition {
+                position,
+                count,
+                as_written,
+            } => {
                 write!(
                     f,
-                    "zoom file: read at position 1 of {count} (each zoomed thickness, radius, \
-                     conic, object distance, EPD and FNO takes its first ZOO value)"
+                    "zoom file: read at position {position} of {count} (each zoomed thickness, \
+                     radius, conic, object distance, EPD, FNO, field and vignetting factor takes \
+                     its value there)"
                 )?;
                 if !as_written.is_empty() {
                     write!(
@@ -332,7 +344,7 @@ impl fmt::Display for LoadNote {
                         as_written.join(", ")
                     )?;
                 }
-                write!(f, "; the other positions are not applied")
+                write!(f, "; another position is read by asking for it")
             }
             LoadNote::SolvesAsWritten { solves } => write!(
                 f,
@@ -412,11 +424,53 @@ pub fn read_str(
             columns::Dialect::Pbrt(options.pbrt_thickness),
         )?,
         Format::Table => columns::read(text, &source, columns::Dialect::Table)?,
-        Format::CodeV => codev::read(text, &source)?,
+        Format::CodeV => codev::read(text, &source, options.zoom_position)?,
         Format::Zemax => zemax::read(text, &source)?,
     };
+    if format != Format::CodeV {
+        check_configuration(&loaded, options.zoom_position, &source)?;
+    }
     loaded.map.file = file.map(Path::to_path_buf);
     Ok(loaded)
+}
+
+/// Refuses a zoom position that a file other than a CODE V one does not hold: a Zemax
+/// multi-configuration file is read as its active configuration (the other configurations'
+/// operands are not applied), any other file has position 1 only.
+fn check_configuration(
+    loaded: &Loaded,
+    asked: Option<usize>,
+    source: &Source,
+) -> Result<(), PrescriptionError> {
+    let Some(asked) = asked else {
+        return Ok(());
+    };
+    let configuration = loaded.notes.iter().find_map(|note| match note {
+        LoadNote::ActiveConfiguration { active, count } => Some((*active, *count)),
+        _ => None,
+    });
+    let refusal = match configuration {
+        Some((active, _)) if active == asked => return Ok(()),
+        None if asked == 1 => return Ok(()),
+        Some((active, count)) => format!(
+            "zoom position {asked} of a Zemax multi-configuration file ({count} \
+             configurations): lensbake reads the active configuration, {active}, whose values \
+             the surface table holds; make configuration {asked} active in OpticStudio and save"
+        ),
+        None => format!(
+            "zoom position {asked} of a {} without zoom positions (position 1 is the lens)",
+            loaded.format.describe()
+        ),
+    };
+    let field = if configuration.is_some() {
+        "MNUM"
+    } else {
+        "zoom position"
+    };
+    Err(PrescriptionError::new(
+        source.location(None).with_field(field),
+        Problem::Unsupported(refusal),
+    ))
 }
 
 /// Reads a prescription from raw file contents: UTF-8 (with or without a byte-order mark),
