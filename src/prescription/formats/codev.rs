@@ -3,7 +3,8 @@
 //! Commands are separated by `;` or line ends; a line ending in `&` continues on the next; `!`
 //! starts a comment; quoted strings keep spaces.
 //!
-//! Read: `RDM` (Y = radii, the default; N = curvatures), `TITLE` (or `TIT`), `DIM` (M, C, I:
+//! Read: `RDM` (Y or no argument = radii; N = curvatures; without `RDM`, radii: see
+//! [`RadiusMode`]), `TITLE` (or `TIT`), `DIM` (M, C, I:
 //! converted to mm), `EPD`, `FNO`, `NAO` (the aperture), `WL` (nm) with `WTW` (weights) and `REF`
 //! (the design wavelength; the first `WL` when `REF` is absent, as rayoptics reads it), fields as
 //! `XAN`/`YAN` (angles), `XOB`/`YOB` (object heights), `XIM`/`YIM` (paraxial image heights) or
@@ -59,10 +60,10 @@ use super::{
     number, positive, scale_to_mm, shape,
 };
 use crate::prescription::DEFAULT_WAVELENGTH_NM;
-use crate::prescription::error::{Location, PrescriptionError, Problem};
+use crate::prescription::error::{Location, PrescriptionError, Problem, RadiusModeContradiction};
 use crate::prescription::model::{
     ApertureSpec, Conditions, FieldKind, FieldSpec, MAX_ASPHERE_TERMS, Medium, Prescription,
-    Provenance, StatedCondition, StopShape, Surface,
+    Provenance, Shape, StatedCondition, StopShape, Surface,
 };
 use crate::prescription::validate::SourceMap;
 use std::collections::{BTreeMap, BTreeSet};
@@ -155,6 +156,13 @@ fn line_commands(line: usize, raw: &str) -> Vec<Command> {
     out
 }
 
+/// Where a surface's sphere or conic ends, measured from the axis (`None`: a plane, a
+/// paraboloid or hyperboloid, which go on).
+fn rim_radius(shape: &Shape) -> Option<f64> {
+    let rim_sq = (1.0 + shape.conic()) * shape.curvature().powi(2);
+    (rim_sq > 0.0).then(|| 1.0 / rim_sq.sqrt())
+}
+
 struct SeqSurface {
     line: usize,
     /// Radius or curvature, as `radius_mode` says.
@@ -180,6 +188,16 @@ struct SeqSurface {
 }
 
 impl SeqSurface {
+    /// The profile the surface's value gives in the radius mode it was written in.
+    fn shape_as_read(&self) -> Shape {
+        let curvature = match (self.radius_mode, self.value) {
+            (false, c) => c,
+            (true, 0.0) => 0.0,
+            (true, r) => 1.0 / r,
+        };
+        shape(curvature, self.conic, &self.terms)
+    }
+
     /// An ellipse with equal semi-axes and no other stated aperture is the circle `CIR` states;
     /// centred, it leaves the surface symmetric.
     fn settle_round_ellipse(&mut self) {
@@ -308,6 +326,7 @@ const FIELD_COMMANDS: [&str; 8] = ["XAN", "YAN", "XOB", "YOB", "XIM", "YIM", "XR
 #[derive(Default)]
 struct Reader {
     radius_mode: bool,
+    mode_stated: RadiusMode,
     mm_per_unit: f64,
     title: Option<String>,
     epd: Option<f64>,
@@ -398,6 +417,22 @@ struct Pickup {
     source: usize,
     scale: f64,
     offset: f64,
+}
+
+/// How the file chose between radii and curvatures after `S`. Without `RDM`, lensbake reads
+/// radii, as optiland 0.6.3 writes its files (without `RDM`, in radii). CODE V itself and
+/// rayoptics read such a file as curvatures, and rayoptics' test files are written so
+/// (`singlet.seq`: `s 0.1 1`, `s -.05 15`, radii 10 and -20 mm as curvatures). Where the values
+/// read as radii give a surface smaller than the beam or clear aperture it must pass, the file is
+/// refused with the advice to state the mode ([`Reader::radius_mode_contradicted`]), never read
+/// as a lens of 0.1 mm radii.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+enum RadiusMode {
+    /// No `RDM`: radii.
+    #[default]
+    RadiiByDefault,
+    /// `RDM` on this line.
+    Stated { line: usize },
 }
 
 pub(super) fn read(
@@ -580,6 +615,7 @@ impl Reader {
         match name {
             "PRV" => self.private_block = Some(Vec::new()),
             "RDM" => {
+                self.mode_stated = RadiusMode::Stated { line: c.line };
                 self.radius_mode = match c.args.first().map(|a| a.to_ascii_uppercase()).as_deref() {
                     None | Some("Y" | "YES") => true,
                     Some("N" | "NO") => false,
@@ -944,6 +980,18 @@ impl Reader {
             solve if SOLVES.contains(&solve) => {
                 self.solves.insert(solve.to_string());
             }
+            // `DIF DOE` (or `DIF HOE`) makes the surface diffractive: `HOR` the order, `HWL` the
+            // construction wavelength, `HCT` the phase's form (R: a polynomial in r^2, `HCO C1`
+            // on r^2, C2 on r^4, ...: C1 alone is a paraxial power of 2 |C1| m l / HWL), `HCO`
+            // its coefficients. No lensbake tracer bends rays by a phase, so it is refused by
+            // name.
+            "DIF" => {
+                return Err(unsupported(format!(
+                    "a diffractive surface (`DIF {}`: a phase added to the surface, with HOR, \
+                     HWL, HCT, HCO); lensbake traces no diffractive phase",
+                    c.args.join(" ")
+                )));
+            }
             other => return Err(unsupported(format!("CODE V command `{other}`"))),
         }
         Ok(())
@@ -1057,26 +1105,20 @@ impl Reader {
             },
             None => self.wavelengths.first().copied(),
         };
+        self.check_stated_apertures(source)?;
         // CODE V's default: without STO, surface 1 is the stop.
         let stop_given = self.surfaces.iter().any(|s| s.stop);
         let surfaces: Vec<Surface> = self
             .surfaces
             .iter()
             .enumerate()
-            .map(|(i, s)| {
-                let curvature = match (s.radius_mode, s.value) {
-                    (false, c) => c,
-                    (true, 0.0) => 0.0,
-                    (true, r) => 1.0 / r,
-                };
-                Surface {
-                    shape: shape(curvature, s.conic, &s.terms),
-                    thickness: s.thickness,
-                    medium: s.medium.clone(),
-                    semi_aperture: s.clear_radius.unwrap_or(0.0),
-                    stop: (s.stop || (!stop_given && i == 0)).then_some(StopShape::Circle),
-                    obscuration: s.obscuration,
-                }
+            .map(|(i, s)| Surface {
+                shape: s.shape_as_read(),
+                thickness: s.thickness,
+                medium: s.medium.clone(),
+                semi_aperture: s.clear_radius.unwrap_or(0.0),
+                stop: (s.stop || (!stop_given && i == 0)).then_some(StopShape::Circle),
+                obscuration: s.obscuration,
             })
             .collect();
         let mut missing: Vec<usize> = (0..surfaces.len())
@@ -1151,6 +1193,22 @@ impl Reader {
         );
         let mut loaded =
             apertures::complete(prescription, &missing, &[], &beams, map, Format::CodeV)?;
+        if self.mode_stated == RadiusMode::RadiiByDefault {
+            for &i in &missing {
+                let surface = &loaded.prescription.surfaces[i];
+                let rim = rim_radius(&surface.shape);
+                if rim.is_some_and(|rim| surface.semi_aperture >= rim * (1.0 - 1e-12)) {
+                    return Err(self.radius_mode_contradicted(
+                        i,
+                        source,
+                        "the paraxial beam of the file's aperture and fields reaches past that \
+                         rim"
+                        .to_string(),
+                        rim.unwrap_or_default(),
+                    ));
+                }
+            }
+        }
         loaded.notes.extend(centred);
         if !trimmed.is_empty() {
             loaded
@@ -1175,6 +1233,73 @@ impl Reader {
             });
         }
         Ok(loaded)
+    }
+
+    /// A clear aperture (`CIR`) larger than where the surface as read ends (a sphere at |R|, a
+    /// conic at 1 / (|c| sqrt(1 + k))): the values after `S` were read in the wrong radius mode.
+    fn check_stated_apertures(&self, source: &Source) -> Result<(), PrescriptionError> {
+        for (i, s) in self.surfaces.iter().enumerate() {
+            let (Some(aperture), Some(rim)) = (s.clear_radius, rim_radius(&s.shape_as_read()))
+            else {
+                continue;
+            };
+            if aperture > rim {
+                return Err(self.radius_mode_contradicted(
+                    i,
+                    source,
+                    format!(
+                        "the file states a clear aperture of {} (CIR)",
+                        crate::limits::short(aperture)
+                    ),
+                    rim,
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// The error for surface `i` (0-based) whose value, read in the file's radius mode, gives a
+    /// surface that ends at `rim` (file units) where the file needs more.
+    fn radius_mode_contradicted(
+        &self,
+        i: usize,
+        source: &Source,
+        needed: String,
+        rim: f64,
+    ) -> PrescriptionError {
+        let s = &self.surfaces[i];
+        let (read_as, field) = if s.radius_mode {
+            ("a radius", "radius")
+        } else {
+            ("a curvature", "curvature")
+        };
+        let (why, suggestion) = match (self.mode_stated, s.radius_mode) {
+            (RadiusMode::RadiiByDefault, _) => (
+                "the file has no RDM, and lensbake reads radii without it".to_string(),
+                "if the file's values are curvatures (as CODE V reads a file without RDM), add \
+                 `RDM N` before the surfaces",
+            ),
+            (RadiusMode::Stated { line }, true) => (
+                format!("RDM on line {line}"),
+                "if the file's values are curvatures, write `RDM N`",
+            ),
+            (RadiusMode::Stated { line }, false) => (
+                format!("RDM N on line {line}"),
+                "if the file's values are radii, write `RDM Y`",
+            ),
+        };
+        let mut location = source.location(Some(s.line)).with_field(field);
+        location.surface = Some(i + 1);
+        PrescriptionError::new(
+            location,
+            Problem::RadiusModeContradicted(Box::new(RadiusModeContradiction {
+                read_as,
+                why,
+                radius: rim,
+                needed,
+                suggestion,
+            })),
+        )
     }
 
     /// `ZOO n` (the number of zoom positions) or `ZOO item [Sk | Fk] v1 v2 .. vn` (an item's

@@ -215,6 +215,55 @@ pub enum LoadNote {
     /// glass the catalogues do hold are not that glass's (a writer's placeholder), so the
     /// numbers beside the unknown names are not taken for theirs and those glasses stay unknown.
     WrittenGlassDataContradicted(ContradictedGlassData),
+    /// Media whose index table ends short of a wavelength the file uses, by no more than
+    /// [`crate::glass::TABLE_EXTRAPOLATION`] of its span: the index there is the table
+    /// continued, as OpticStudio and CODE V continue it ([`crate::glass::Dispersion::checked_index`]).
+    IndicesExtrapolated { media: Vec<ExtrapolatedIndex> },
+}
+
+/// One medium's index continued beyond its table at one wavelength ([`LoadNote::IndicesExtrapolated`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ExtrapolatedIndex {
+    /// Surface (1-based; 0 is the object space) whose medium it is.
+    pub surface: usize,
+    /// The glass's name, or a description of a private table.
+    pub medium: String,
+    pub wavelength_nm: f64,
+    /// The first and last wavelength (nm) of the table.
+    pub range_nm: (f64, f64),
+}
+
+/// The media of `prescription` whose table is continued at one of its file's wavelengths.
+fn extrapolated_indices(prescription: &Prescription) -> Vec<ExtrapolatedIndex> {
+    let mut wavelengths: Vec<f64> = prescription
+        .provenance
+        .conditions
+        .as_ref()
+        .map(|c| c.wavelengths_nm.clone())
+        .unwrap_or_default();
+    wavelengths.extend(prescription.provenance.design_wavelength_nm);
+    wavelengths.sort_by(f64::total_cmp);
+    wavelengths.dedup();
+    let media = std::iter::once(&prescription.object_medium)
+        .chain(prescription.surfaces.iter().map(|s| &s.medium));
+    let mut found = Vec::new();
+    for (surface, medium) in media.enumerate() {
+        // A name no catalogue holds is reported when the lens is resolved.
+        let Ok(dispersion) = crate::glass::Dispersion::of(medium) else {
+            continue;
+        };
+        for &nm in &wavelengths {
+            if let Some(range_nm) = dispersion.extrapolated_range_nm(nm) {
+                found.push(ExtrapolatedIndex {
+                    surface,
+                    medium: medium.describe(),
+                    wavelength_nm: nm,
+                    range_nm,
+                });
+            }
+        }
+    }
+    found
 }
 
 impl fmt::Display for LoadNote {
@@ -283,10 +332,7 @@ impl fmt::Display for LoadNote {
                 let named: Vec<String> = glasses
                     .iter()
                     .map(|g| {
-                        let place = match g.surface {
-                            0 => "object space".to_string(),
-                            k => format!("surface {k}"),
-                        };
+                        let place = medium_place(g.surface);
                         format!("{place} {} (nd {}, Vd {})", g.name, g.glass.nd, g.glass.vd)
                     })
                     .collect();
@@ -352,6 +398,27 @@ impl fmt::Display for LoadNote {
                  curvature and thickness in place); they are not solved again",
                 solves.join(", ")
             ),
+            LoadNote::IndicesExtrapolated { media } => {
+                let named: Vec<String> = media
+                    .iter()
+                    .map(|m| {
+                        let place = medium_place(m.surface);
+                        format!(
+                            "{place} {} at {} nm (table {}-{} nm)",
+                            m.medium, m.wavelength_nm, m.range_nm.0, m.range_nm.1
+                        )
+                    })
+                    .collect();
+                write!(
+                    f,
+                    "index{} continued beyond the glass data, the table's end segment extended \
+                     in a straight line (up to {}% of its span beyond either end; farther is \
+                     refused): {}",
+                    if media.len() == 1 { "" } else { "es" },
+                    crate::glass::TABLE_EXTRAPOLATION * 100.0,
+                    named.join(", ")
+                )
+            }
             LoadNote::UnknownHeaderKeywords { keywords } => write!(
                 f,
                 "skipped header keyword{} lensbake does not know: {} (lensbake applies every \
@@ -361,6 +428,14 @@ impl fmt::Display for LoadNote {
                 keywords.join(", ")
             ),
         }
+    }
+}
+
+/// Whose medium a note names: "object space" for 0, else "surface k".
+fn medium_place(surface: usize) -> String {
+    match surface {
+        0 => "object space".to_string(),
+        k => format!("surface {k}"),
     }
 }
 
@@ -431,6 +506,12 @@ pub fn read_str(
         check_configuration(&loaded, options.zoom_position, &source)?;
     }
     loaded.map.file = file.map(Path::to_path_buf);
+    let extrapolated = extrapolated_indices(&loaded.prescription);
+    if !extrapolated.is_empty() {
+        loaded.notes.push(LoadNote::IndicesExtrapolated {
+            media: extrapolated,
+        });
+    }
     Ok(loaded)
 }
 
