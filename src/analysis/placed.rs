@@ -537,26 +537,29 @@ fn based(
 /// use lensbake::prescription::Problem;
 /// use lensbake::trace::placed::PlacedTracer;
 ///
-/// // A 10 mm plate of n = 1.5 tilted 10 degrees about x in front of a paraxial lens.
+/// // An ideal lens of 100 mm (the stop), then a 10 mm plate of n = 1.5 tilted 10 degrees
+/// // about x in its converging beam.
 /// let text = "\
-/// UNIT MM X W X CM MR CPMR\nENPD 10\nWAVL 0.5875618\n\
-/// SURF 0\n  DISZ INFINITY\n\
-/// SURF 1\n  TYPE COORDBRK\n  PARM 3 10\n  DISZ 0\n\
-/// SURF 2\n  STOP\n  GLAS ___BLANK 1 0 1.5 60\n  DISZ 10\n\
-/// SURF 3\n  DISZ 0\n\
-/// SURF 4\n  TYPE COORDBRK\n  PARM 3 -10\n  DISZ 5\n\
-/// SURF 5\n  TYPE PARAXIAL\n  PARM 1 100\n  DISZ 100\n\
+/// UNIT MM X W X CM MR CPMR\nENPD 10\nWAVL 0.5875618\nSURF 0\n  DISZ INFINITY\n\
+/// SURF 1\n  STOP\n  TYPE PARAXIAL\n  PARM 1 100\n  DISZ 20\n\
+/// SURF 2\n  TYPE COORDBRK\n  PARM 3 10\n  DISZ 0\n\
+/// SURF 3\n  GLAS ___BLANK 1 0 1.5 60\n  DISZ 10\n\
+/// SURF 4\n  DISZ 0\n\
+/// SURF 5\n  TYPE COORDBRK\n  PARM 3 -10\n  DISZ 50\n\
 /// SURF 6\n";
-/// let lens = match read_str(text, Format::Zemax, &LoadOptions::default()).unwrap_err().problem {
+/// let read = read_str(text, None, Format::Zemax, &LoadOptions::default());
+/// let lens = match read.unwrap_err().problem {
 ///     Problem::NotRotationallySymmetric { lens, .. } => lens,
 ///     other => panic!("{other}"),
 /// };
 /// let tracer = PlacedTracer::new(&lens, 587.5618).unwrap();
 /// let options = PlacedOptions::new(587.5618, vec![[0.0, 0.0]], 10.0);
 /// let analysis = analyze_placed(&tracer, &options).unwrap();
-/// // A plate changes no focal length.
-/// let efl = analysis.first_order.efl_mm[1].unwrap();
-/// assert!((efl - 100.0).abs() < 1e-9);
+/// // A plate changes no focal length, but splits the focus (astigmatism).
+/// let [efl_x, efl_y] = analysis.first_order.efl_mm.map(Option::unwrap);
+/// assert!((efl_x - 100.0).abs() < 1e-9 && (efl_y - 100.0).abs() < 1e-9);
+/// let [bfd_x, bfd_y] = analysis.first_order.bfd_mm.map(Option::unwrap);
+/// assert!(bfd_y - bfd_x > 0.1);
 /// ```
 pub fn analyze_placed(
     tracer: &PlacedTracer,
