@@ -18,6 +18,7 @@
 //! about the OAR hold terms, such as coma and astigmatism on the axis, that no Seidel sum holds).
 
 use crate::trace::Vec3;
+use crate::trace::dot;
 use crate::trace::placed::{
     PathPoint, PlacedBeamError, PlacedTracer, SPOT_GRID, tangent_direction,
 };
@@ -180,10 +181,6 @@ pub const NO_SEIDEL: &str = "not given: Seidel sums expand the aberrations of a 
     symmetric lens in powers of field and aperture about its axis; a tilted or decentred lens has \
     no such axis, and its aberrations about the OAR hold terms (coma and astigmatism on the axis, \
     anamorphic focal lengths) that no Seidel sum holds";
-
-fn dot(a: Vec3, b: Vec3) -> f64 {
-    a[0].mul_add(b[0], a[1].mul_add(b[1], a[2] * b[2]))
-}
 
 fn cross(a: Vec3, b: Vec3) -> Vec3 {
     [

@@ -117,26 +117,17 @@ fn report(name: &str, off_axis: &str, a: &PlacedAnalysis) -> String {
         axis.image_point_mm[1],
         axis.incidence_on_image_deg
     ));
-    line(format!(
-        "  {:<40} {} mm",
-        "EFL (real-ray)",
-        pair(f.efl_mm, 6)
-    ));
-    line(format!(
-        "  {:<40} {} mm",
-        "BFD along the OAR (last surface to focus)",
-        pair(f.bfd_mm, 6)
-    ));
-    line(format!(
-        "  {:<40} {} mm",
-        "focus beyond the image plane",
-        pair(f.focus_from_image_mm, 6)
-    ));
-    line(format!(
-        "  {:<40} {} mm",
-        "exit pupil to image along the OAR",
-        pair(axis.exit_pupil_to_image_mm, 6)
-    ));
+    for (label, values) in [
+        ("EFL (real-ray)", f.efl_mm),
+        ("BFD along the OAR (last surface to focus)", f.bfd_mm),
+        ("focus beyond the image plane", f.focus_from_image_mm),
+        (
+            "exit pupil to image along the OAR",
+            axis.exit_pupil_to_image_mm,
+        ),
+    ] {
+        line(format!("  {label:<40} {} mm", pair(values, 6)));
+    }
     let s = f.image_scale_mm;
     line(format!(
         "  {:<40} [[{:.6}, {:.6}], [{:.6}, {:.6}]] mm",
