@@ -463,9 +463,10 @@ struct Based {
 }
 
 /// Differential steps: a thousandth of the pupil radius in launch, a thousandth in field
-/// tangent (halved twice). Central differences err by the cube of the aperture or field
-/// scale; Richardson leaves the fifth power, about 1e-15 relative, while rounding in 1e-16 of
-/// the coordinates over steps of 1e-4 of the scale stays below 1e-11.
+/// tangent (halved twice). Central differences err by the square of the step over the aperture
+/// or field scale, Richardson's combination by the fourth power; rounding of 1e-16 in the
+/// coordinates over steps of 1e-4 of the scale grows as the steps shrink. The two extrapolations
+/// agree to 7e-11 to 2e-9 on the corpus files, below 1e-9 on five bundled centred lenses.
 const LAUNCH_STEP: f64 = 1e-3;
 const TANGENT_STEP: f64 = 1e-3;
 
