@@ -2,6 +2,7 @@
 //! at one wavelength, field, aperture and object distance, as one serialisable value.
 
 mod conditions;
+pub mod placed;
 
 pub use conditions::{
     ConditionOverrides, DesignConditions, FIELD_FRACTIONS, FileDefaults, FocusFrom, Origin,

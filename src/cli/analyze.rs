@@ -1,6 +1,6 @@
 //! `lensbake analyze`: first-order data, pupils and Seidel sums as a readable report or JSON.
 
-use super::lens::{AimingArg, LensArgs};
+use super::lens::{AimingArg, LensArgs, Readable};
 use clap::Args;
 use lensbake::analysis::{Analysis, AnalysisError, AnalyzeOptions, analyze};
 use lensbake::paraxial::StopChoice;
@@ -39,7 +39,14 @@ pub struct AnalyzeArgs {
 }
 
 pub fn run(args: AnalyzeArgs) -> anyhow::Result<()> {
-    let lens = args.lens.load()?;
+    let lens = match args.lens.load_or_placed()? {
+        Readable::Centred(lens) => *lens,
+        Readable::Placed {
+            offence,
+            location,
+            lens,
+        } => return super::analyze_placed::run(&args, &offence, &location, &lens),
+    };
     super::lens::note_reading(&lens.source);
     let name = lens.source.origin.name();
     let options = AnalyzeOptions {

@@ -523,8 +523,8 @@ fn placed_summary(
     line(format!("  read from:   {spec}"));
     line(format!("  off the axis: {offence} at {location}"));
     line(
-        "                first-order data, Seidel sums, pupils, wave optics, bake and render need \
-         a rotationally symmetric lens; below is the exact 3-D trace"
+        "                paraxial data, Seidel sums, bake and render need a rotationally \
+         symmetric lens (`analyze` gives real-ray data); below is the exact 3-D trace"
             .to_string(),
     );
     line(format!("  wavelength:  {} nm", printed_nm(wavelength)));

@@ -99,8 +99,8 @@ pub enum Problem {
     #[error(
         "unsupported: {offence}: lensbake models rotationally symmetric systems (fold mirrors are \
          unfolded where that is exact); its paraxial, Seidel, pupil, bake and render code need \
-         one (`lensbake lens check`, `trace` and `plot spot` trace this lens in three \
-         dimensions)"
+         one (`lensbake lens check`, `analyze`, `trace` and `plot spot` trace this lens in \
+         three dimensions)"
     )]
     NotRotationallySymmetric {
         /// What leaves the axis, e.g. "surface 3 is tilted 16.440000 deg to the axis (moved by

@@ -36,8 +36,9 @@ struct PlacedSurface {
     obscuration_sq: f64,
     reflects: bool,
     equal_indices: bool,
-    /// n before / n after.
+    /// n before / n after, and n after (a mirror's is the index it reflects in).
     mu: f64,
+    index_after: f64,
     /// False for a plane that bends and clips nothing: rays pass it untested.
     met: bool,
 }
@@ -94,8 +95,32 @@ pub struct PlacedTracer {
     /// Largest distance of a vertex from the global origin plus the largest stated aperture
     /// (mm): the length rounding errors in global coordinates scale with.
     extent: f64,
-    /// Refractive index of the image space.
+    /// Refractive index of the object and of the image space.
+    object_index: f64,
     image_index: f64,
+}
+
+/// Where a ray crosses one surface it meets, and how it leaves (global frame).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PathPoint {
+    /// 1-based surface number.
+    pub surface: usize,
+    pub position: Vec3,
+    /// The unit direction after the surface, the index of the medium it then travels in, and
+    /// whether the surface reflected it.
+    pub direction: Vec3,
+    pub index: f64,
+    pub reflects: bool,
+}
+
+/// A ray's whole path: every surface it met, where it ended and its optical path (mm) from the
+/// start to there (each segment counted along the ray's direction, so a virtual segment, met
+/// behind the ray, counts negative).
+#[derive(Clone, Debug, PartialEq)]
+pub struct PlacedPath {
+    pub ray: PlacedRay,
+    pub points: Vec<PathPoint>,
+    pub optical_path: f64,
 }
 
 /// Where a ray ended, in the global frame.
@@ -242,6 +267,21 @@ fn cross_length(a: Vec3, b: Vec3) -> f64 {
     c[0].mul_add(c[0], c[1].mul_add(c[1], c[2] * c[2])).sqrt()
 }
 
+/// The unit direction of field angles `field_deg` (x, y): (tan x, tan y, 1) normalised.
+pub fn field_direction(field_deg: [f64; 2]) -> Result<Vec3, PlacedBeamError> {
+    // Every finite angle has a finite tangent (no f64 is exactly a right angle).
+    if !field_deg.iter().all(|a| a.is_finite()) {
+        return Err(PlacedBeamError::FieldAngle(field_deg));
+    }
+    Ok(tangent_direction(field_deg.map(|a| a.to_radians().tan())))
+}
+
+/// The unit direction (tx, ty, 1) normalised.
+pub fn tangent_direction([tx, ty]: [f64; 2]) -> Vec3 {
+    let length = tx.mul_add(tx, ty.mul_add(ty, 1.0)).sqrt();
+    [tx / length, ty / length, 1.0 / length]
+}
+
 /// How a ray stopped, in words.
 fn stopped(outcome: Outcome) -> String {
     match outcome {
@@ -295,10 +335,11 @@ impl PlacedTracer {
                 .and_then(|d| d.checked_index(wavelength_nm))
                 .map_err(|problem| PrescriptionError::new(location, problem))
         };
-        let mut index_before = index_of(
+        let object_index = index_of(
             &p.object_medium,
             Location::default().with_field("object_medium"),
         )?;
+        let mut index_before = object_index;
         // The Newton search of an asphere stays within twice the largest stated aperture.
         let outline_reach = lens.outlines.iter().flatten().map(ApertureOutline::reach);
         let search_radius = 2.0
@@ -348,6 +389,7 @@ impl PlacedTracer {
                 reflects,
                 equal_indices,
                 mu: index_before / index_after,
+                index_after,
             });
             index_before = index_after;
         }
@@ -364,6 +406,7 @@ impl PlacedTracer {
             image: lens.image,
             stop,
             extent,
+            object_index,
             image_index: index_before,
         })
     }
@@ -371,6 +414,18 @@ impl PlacedTracer {
     /// Traces a ray from `position` along unit `direction` (global frame) through surfaces
     /// `0..end`; `clip` says whether clear apertures and obscurations stop it.
     fn trace_through(&self, position: Vec3, direction: Vec3, end: usize, clip: bool) -> PlacedRay {
+        self.trace_visiting(position, direction, end, clip, &mut |_| {})
+    }
+
+    /// [`PlacedTracer::trace_through`], handing `visit` each surface the ray leaves.
+    fn trace_visiting(
+        &self,
+        position: Vec3,
+        direction: Vec3,
+        end: usize,
+        clip: bool,
+        visit: &mut dyn FnMut(PathPoint),
+    ) -> PlacedRay {
         let mut ray = PlacedRay {
             outcome: Outcome::Ok,
             position,
@@ -418,6 +473,13 @@ impl PlacedTracer {
                 Ok(bent) => ray.direction = s.frame.direction_to_parent(bent),
                 Err(event) => return stopped(event, ray),
             }
+            visit(PathPoint {
+                surface: i + 1,
+                position: ray.position,
+                direction: ray.direction,
+                index: s.index_after,
+                reflects: s.reflects,
+            });
         }
         ray
     }
@@ -426,7 +488,13 @@ impl PlacedTracer {
     /// clipping, onto the image plane. On [`Outcome::Ok`] the position is on the image plane; a
     /// ray that does not cross it ends [`Outcome::Missed`] at surface N + 1.
     pub fn trace(&self, position: Vec3, direction: Vec3) -> PlacedRay {
-        let mut ray = self.trace_through(position, direction, self.surfaces.len(), true);
+        let ray = self.trace_through(position, direction, self.surfaces.len(), true);
+        self.onto_image(ray)
+    }
+
+    /// A ray that left the last surface carried onto the image plane; one that does not cross
+    /// it ends [`Outcome::Missed`] at surface N + 1.
+    fn onto_image(&self, mut ray: PlacedRay) -> PlacedRay {
         if ray.outcome.is_ok() {
             match self.meet_image(&ray) {
                 Some(q) => ray.position = self.image.point_to_parent(q),
@@ -440,6 +508,70 @@ impl PlacedTracer {
         ray
     }
 
+    /// A ray's whole path ([`PlacedPath`]) onto the image plane; `clip` says whether clear
+    /// apertures and obscurations stop it (first-order data about a ray that an obscuration
+    /// blocks, such as the axis ray of a Cassegrain, are still defined).
+    pub fn trace_path(&self, position: Vec3, direction: Vec3, clip: bool) -> PlacedPath {
+        let mut points = Vec::with_capacity(self.surfaces.len());
+        let ray = self.onto_image(self.trace_visiting(
+            position,
+            direction,
+            self.surfaces.len(),
+            clip,
+            &mut |point| points.push(point),
+        ));
+        let mut optical_path = 0.0;
+        let (mut from, mut along, mut index) = (position, direction, self.object_index);
+        let ends = points
+            .iter()
+            .map(|p| (p.position, p.direction, p.index))
+            .chain(
+                ray.outcome
+                    .is_ok()
+                    .then_some((ray.position, ray.direction, index)),
+            );
+        for (to, leaving, index_after) in ends {
+            let step: f64 = (0..3).map(|k| (to[k] - from[k]) * along[k]).sum();
+            optical_path += index * step;
+            (from, along, index) = (to, leaving, index_after);
+        }
+        PlacedPath {
+            ray,
+            points,
+            optical_path,
+        }
+    }
+
+    /// Refractive index of the object space and of the image space.
+    pub fn indices(&self) -> [f64; 2] {
+        [self.object_index, self.image_index]
+    }
+
+    /// 0-based index of the stop surface.
+    pub fn stop_index(&self) -> usize {
+        self.stop
+    }
+
+    /// Where a ray crosses the stop (the stop's frame, apertures not clipping), None when it
+    /// does not get there; public for the differential rays of [`crate::analysis::placed`].
+    pub fn stop_crossing(&self, position: Vec3, direction: Vec3) -> Option<[f64; 2]> {
+        self.at_stop(position, direction)
+    }
+
+    /// The start on the plane z = 0 and the unit direction of field `field_deg`'s chief ray
+    /// (through the stop's centre), for an entrance pupil of radius `pupil_radius` mm.
+    pub fn chief_ray(
+        &self,
+        field_deg: [f64; 2],
+        pupil_radius: f64,
+    ) -> Result<(Vec3, Vec3), PlacedBeamError> {
+        let direction = field_direction(field_deg)?;
+        Ok((
+            self.aim_chief(direction, pupil_radius, field_deg)?,
+            direction,
+        ))
+    }
+
     /// Where a ray that left the last surface meets the image plane, in the plane's frame.
     fn meet_image(&self, ray: &PlacedRay) -> Option<Vec3> {
         let p = self.image.point_to_local(ray.position);
@@ -448,6 +580,11 @@ impl PlacedTracer {
         meet(&Profile::Plane, &[], p, d, sense)
             .map(|(q, _)| q)
             .filter(|q| q.iter().all(|v| v.is_finite()))
+    }
+
+    /// The image plane's normal (global frame).
+    pub fn image_normal(&self) -> Vec3 {
+        self.image.axis()
     }
 
     /// A global point in the image plane's own frame (x, y).
@@ -505,13 +642,7 @@ impl PlacedTracer {
         pupil_diameter: f64,
         grid: usize,
     ) -> Result<PlacedSpot, PlacedBeamError> {
-        // Every finite angle has a finite tangent (no f64 is exactly a right angle).
-        if !field_deg.iter().all(|a| a.is_finite()) {
-            return Err(PlacedBeamError::FieldAngle(field_deg));
-        }
-        let [tx, ty] = field_deg.map(|a| a.to_radians().tan());
-        let length = tx.mul_add(tx, ty.mul_add(ty, 1.0)).sqrt();
-        let direction = [tx / length, ty / length, 1.0 / length];
+        let direction = field_direction(field_deg)?;
         let chief_start = self.aim_chief(direction, pupil_diameter / 2.0, field_deg)?;
         let chief = self.trace(chief_start, direction);
         if !chief.outcome.is_ok() {
