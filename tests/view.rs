@@ -67,14 +67,15 @@ fn accumulation_matches_render(backend: BackendChoice) {
     let rendered = job.run().unwrap().image;
     let mut viewer = Viewer::new(job, 4).unwrap();
     assert!(viewer.frame().unwrap());
-    let one_frame = psnr(&viewer.image(), &rendered);
+    let one_frame = psnr(&viewer.image().unwrap(), &rendered);
     assert_eq!(converge(&mut viewer), 3);
     assert!(viewer.converged());
     assert!(!viewer.frame().unwrap(), "nothing left to render");
     assert_eq!(viewer.samples(), (16, 16));
-    let accumulated = psnr(&viewer.image(), &rendered);
+    let accumulated = psnr(&viewer.image().unwrap(), &rendered);
     let largest = viewer
         .image()
+        .unwrap()
         .pixels
         .iter()
         .zip(&rendered.pixels)
@@ -138,7 +139,7 @@ fn a_click_on_the_near_chart_sharpens_it_and_softens_the_far_wall() {
     start.focus = FocusMode::Distance(6000.0);
     let mut viewer = Viewer::new(start, 8).unwrap();
     converge(&mut viewer);
-    let before = viewer.image();
+    let before = viewer.image().unwrap();
     viewer
         .apply(&Action::Click([(0.45 * 240.0) as u32, 90]))
         .unwrap();
@@ -146,7 +147,7 @@ fn a_click_on_the_near_chart_sharpens_it_and_softens_the_far_wall() {
     let focus = viewer.focus_distance_mm().unwrap().unwrap();
     assert!((focus - 2000.0).abs() < 20.0, "focused at {focus} mm");
     converge(&mut viewer);
-    let after = viewer.image();
+    let after = viewer.image().unwrap();
     let (chart_before, chart_after) = (
         local_contrast(&before, chart),
         local_contrast(&after, chart),
@@ -170,23 +171,23 @@ fn model_switch_restarts_with_the_new_model_and_a_refused_one_keeps_the_old() {
     let mut viewer = Viewer::new(job(64, 48, 8, BackendChoice::Cpu), 4).unwrap();
     assert_eq!(viewer.shown_model(), ModelKind::Traced);
     viewer.frame().unwrap();
-    let traced = viewer.image();
+    let traced = viewer.image().unwrap();
     for kind in [ModelKind::Thin, ModelKind::Thick, ModelKind::Seidel] {
         viewer.apply(&Action::Model(kind)).unwrap();
         assert_eq!(viewer.shown_model(), kind);
         assert_eq!(viewer.samples().0, 0);
         viewer.frame().unwrap();
-        let image = viewer.image();
+        let image = viewer.image().unwrap();
         assert!(
             image.pixels != traced.pixels,
             "{kind:?} renders the traced image"
         );
     }
     // A lens that does not load is refused; the viewer keeps its settings and image.
-    let kept = viewer.image();
+    let kept = viewer.image().unwrap();
     assert!(viewer.apply(&Action::Lens("no-such-lens".into())).is_err());
     assert_eq!(viewer.shown_model(), ModelKind::Seidel);
-    assert_eq!(viewer.image().pixels, kept.pixels);
+    assert_eq!(viewer.image().unwrap().pixels, kept.pixels);
     assert!(
         viewer.apply(&Action::Click([64, 0])).is_err(),
         "outside the render"
@@ -203,14 +204,14 @@ fn split_view_shows_baked_left_and_traced_right_of_identical_samples() {
     viewer.apply(&Action::Split(true)).unwrap();
     // The table bakes on a worker thread; the traced model is shown meanwhile.
     assert_eq!(viewer.shown_model(), ModelKind::Traced);
-    assert!(viewer.twin_image().is_none());
+    assert!(viewer.twin_image().unwrap().is_none());
     viewer.wait_bake().unwrap();
     viewer.frame().unwrap();
     assert_eq!(viewer.shown_model(), ModelKind::Baked);
     converge(&mut viewer);
-    let baked = viewer.image();
-    let traced = viewer.twin_image().unwrap();
-    let (shown, scale) = viewer.display();
+    let baked = viewer.image().unwrap();
+    let traced = viewer.twin_image().unwrap().unwrap();
+    let (shown, scale) = viewer.display().unwrap();
     assert!(scale.is_none());
     let (left, right) = (srgb8(&baked, 1.0), srgb8(&traced, 1.0));
     for (i, pixel) in shown.chunks(3).enumerate() {
@@ -227,7 +228,7 @@ fn split_view_shows_baked_left_and_traced_right_of_identical_samples() {
     assert!(agreement > 30.0, "{agreement} dB");
     assert!(baked.pixels != traced.pixels);
     viewer.apply(&Action::ErrorOverlay(true)).unwrap();
-    let (map, scale) = viewer.display();
+    let (map, scale) = viewer.display().unwrap();
     assert!(scale.unwrap() > 0.0);
     assert_eq!(map.len(), 80 * 60 * 3);
     std::fs::remove_dir_all(&dir).unwrap();
@@ -400,6 +401,41 @@ fn a_windowed_script_under_xvfb_exits_0_and_writes_its_screenshots() {
         String::from_utf8_lossy(&out.stderr)
     );
     assert!(stdout.contains("3 frames, 12/64 samples"), "{stdout}");
+    // On a GPU the window composes its frames from the sums held there: one upload of the
+    // render, nothing read back.
+    let out = Command::new("xvfb-run")
+        .args([
+            "-a",
+            env!("CARGO_BIN_EXE_lensbake"),
+            "view",
+            "--lens",
+            "cooke-triplet",
+        ])
+        .args([
+            "--width",
+            "64",
+            "--height",
+            "48",
+            "--spp",
+            "64",
+            "--frames",
+            "3",
+            "--backend",
+            "gpu",
+        ])
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains("3 frames, 12/64 samples"), "{stdout}");
+    assert!(
+        stdout.contains("GPU transfers: 1 render uploads, 0 readbacks"),
+        "{stdout}"
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
@@ -433,7 +469,7 @@ fn early_frames_at_one_sample_each_look_like_a_render_with_as_many_samples() {
         while viewer.samples().0 < frames {
             assert!(viewer.frame().unwrap());
         }
-        let (black, mean) = black_fraction_and_mean(&viewer.image());
+        let (black, mean) = black_fraction_and_mean(&viewer.image().unwrap());
         eprintln!(
             "{frames} frames of 1 spp: {:.2}% black, mean {mean:.4} (render --spp 16: {:.2}% \
              black, mean {render_mean:.4})",
@@ -446,7 +482,10 @@ fn early_frames_at_one_sample_each_look_like_a_render_with_as_many_samples() {
                 let b = srgb8(image, 1.0);
                 b.iter().map(|&v| v as f64).sum::<f64>() / b.len() as f64
             };
-            let (shown, rendered) = (bytes(&viewer.image()), bytes(&job16.run().unwrap().image));
+            let (shown, rendered) = (
+                bytes(&viewer.image().unwrap()),
+                bytes(&job16.run().unwrap().image),
+            );
             eprintln!("screenshot mean {shown:.1} against render --spp 16 {rendered:.1}");
             assert!(
                 (shown / rendered - 1.0).abs() < 0.02,
@@ -462,7 +501,7 @@ fn early_frames_at_one_sample_each_look_like_a_render_with_as_many_samples() {
     // Every lattice point is still taken exactly once.
     converge(&mut viewer);
     let full = job(160, 120, 256, BackendChoice::Cpu).run().unwrap().image;
-    assert!(psnr(&viewer.image(), &full) > 100.0);
+    assert!(psnr(&viewer.image().unwrap(), &full) > 100.0);
 }
 
 /// Runs `view` offscreen on the CPU twin, `width` x `height`, with `script` written to `dir`.
@@ -551,7 +590,13 @@ fn every_bundled_lens_opens_in_the_viewer() {
             .apply(&Action::Lens(bundled.name.to_string()))
             .unwrap_or_else(|e| panic!("{}: {e}", bundled.name));
         assert!(viewer.frame().unwrap());
-        let lit = viewer.image().pixels.iter().filter(|p| p[1] > 0.0).count();
+        let lit = viewer
+            .image()
+            .unwrap()
+            .pixels
+            .iter()
+            .filter(|p| p[1] > 0.0)
+            .count();
         let focus = viewer.focus_distance_mm().unwrap();
         eprintln!(
             "{}: {lit} of 1200 pixels lit, focus {focus:?}",
@@ -659,7 +704,10 @@ fn the_hud_says_what_the_table_worker_does_and_a_readable_overlay_scale() {
             .unwrap()
     };
     let line = overlay_line(&viewer);
-    let (_, scale) = lensbake::view::hud::error_map(&viewer.image(), &viewer.twin_image().unwrap());
+    let (_, scale) = lensbake::view::hud::error_map(
+        &viewer.image().unwrap(),
+        &viewer.twin_image().unwrap().unwrap(),
+    );
     eprintln!("{line} (scale {scale:e})");
     let printed: f32 = line.rsplit("= ").next().unwrap().parse().unwrap();
     assert!(
@@ -709,7 +757,7 @@ fn settings_that_leave_the_render_as_it_is_prepare_nothing() {
     }
     assert_eq!(converge(&mut viewer), 8);
     let rendered = job(32, 24, 16, BackendChoice::Cpu).run().unwrap().image;
-    assert!(psnr(&viewer.image(), &rendered) > 100.0);
+    assert!(psnr(&viewer.image().unwrap(), &rendered) > 100.0);
     viewer.apply(&Action::FNumber(4.0)).unwrap();
     assert_eq!(viewer.preparations(), prepared + 1);
 }
@@ -733,7 +781,7 @@ fn a_scripted_focus_pull_moves_the_sharp_region() {
         match session.step().unwrap() {
             Step::Frame { rendered: true } => {
                 let viewer = &session.viewer;
-                let image = viewer.image();
+                let image = viewer.image().unwrap();
                 let focus = viewer.focus_distance_mm().unwrap().unwrap();
                 let (c, w) = (local_contrast(&image, chart), local_contrast(&image, wall));
                 eprintln!("focus {focus:.0} mm: chart {c:.4}, wall {w:.4}");
@@ -871,7 +919,7 @@ fn focal_surface_lines_render_what_render_does() {
         .apply(&line(&format!("focal-surface {spec} 2.5")))
         .unwrap();
     converge(&mut viewer);
-    let agreement = psnr(&viewer.image(), &rendered);
+    let agreement = psnr(&viewer.image().unwrap(), &rendered);
     eprintln!("viewer against render with the same focal surface: PSNR {agreement:.1} dB");
     assert!(agreement > 100.0, "{agreement}");
     viewer.apply(&line("focus-point 90 10 scene 2")).unwrap();
@@ -907,12 +955,12 @@ fn exposure_doubles_radiance_and_the_sensor_width_sets_the_field() {
             .sum::<f64>()
             / image.pixels.len() as f64
     };
-    let before = mean(&viewer.image());
+    let before = mean(&viewer.image().unwrap());
     let preparations = viewer.preparations();
     let line = |text: &str| lensbake::view::script::parse_action(text).unwrap();
     viewer.apply(&line("exposure 1")).unwrap();
     assert!(viewer.converged() && viewer.preparations() == preparations);
-    let after = mean(&viewer.image());
+    let after = mean(&viewer.image().unwrap());
     eprintln!("mean linear radiance {before:.5} -> {after:.5} at +1 EV");
     assert!((after / before - 2.0).abs() < 1e-6, "{after} / {before}");
     let width = viewer.camera().film.width_mm;
@@ -951,10 +999,10 @@ fn seidel_scale_one_is_the_model_and_zero_is_the_thick_lens() {
     let line = |text: &str| lensbake::view::script::parse_action(text).unwrap();
     viewer.apply(&line("seidel-scale 1 1 1 1 1")).unwrap();
     converge(&mut viewer);
-    let ones = psnr(&viewer.image(), &designed);
+    let ones = psnr(&viewer.image().unwrap(), &designed);
     viewer.apply(&line("seidel-scale 0 0 0 0 0")).unwrap();
     converge(&mut viewer);
-    let zero = psnr(&viewer.image(), &thick);
+    let zero = psnr(&viewer.image().unwrap(), &thick);
     let aberrated = psnr(&designed, &thick);
     eprintln!(
         "scale 1 vs Seidel: {ones:.1} dB; scale 0 vs thick: {zero:.1} dB; Seidel vs thick: {aberrated:.1} dB"
@@ -993,10 +1041,10 @@ fn the_zone_of_focus_follows_the_focus() {
     let at_2m = viewer.focus_zone().unwrap();
     let (plain, _) = {
         viewer.apply(&line("zone off")).unwrap();
-        viewer.display()
+        viewer.display().unwrap()
     };
     viewer.apply(&line("zone on")).unwrap();
-    let (tinted, _) = viewer.display();
+    let (tinted, _) = viewer.display().unwrap();
     viewer.apply(&line("focus 6000")).unwrap();
     let at_6m = viewer.focus_zone().unwrap();
     let shares = [
@@ -1209,11 +1257,11 @@ fn render_takes_a_focal_surface_and_seidel_factors() {
 fn orbiting_turns_the_scene_about_the_point_in_focus() {
     let mut viewer = Viewer::new(job(100, 75, 4, BackendChoice::Cpu), 4).unwrap();
     converge(&mut viewer);
-    let own = viewer.image();
+    let own = viewer.image().unwrap();
     let line = |text: &str| lensbake::view::script::parse_action(text).unwrap();
     viewer.apply(&line("orbit 20 0")).unwrap();
     converge(&mut viewer);
-    let turned = viewer.image();
+    let turned = viewer.image().unwrap();
     let hud = lensbake::view::hud::lines(&viewer).join("\n");
     assert!(
         hud.contains("orbit 20 deg right, 0 deg up about 2.00 m"),
@@ -1221,7 +1269,7 @@ fn orbiting_turns_the_scene_about_the_point_in_focus() {
     );
     viewer.apply(&line("orbit 0 0")).unwrap();
     converge(&mut viewer);
-    let back = viewer.image();
+    let back = viewer.image().unwrap();
     let (apart, again) = (psnr(&own, &turned), psnr(&own, &back));
     // The chart's middle (on the pivot) moves little; the frame as a whole a lot.
     let centre = [0.45, 0.55, 0.45, 0.55];
@@ -1235,6 +1283,156 @@ fn orbiting_turns_the_scene_about_the_point_in_focus() {
     assert!(apart < 25.0 && again > 100.0, "{apart} {again}");
     assert!((c_turned / c_own - 1.0).abs() < 0.25, "{c_own} {c_turned}");
     assert!(lensbake::view::script::parse_action("orbit 200 0").is_err());
+}
+
+/// On a GPU the viewer uploads a render once and adds each frame's samples where they are held:
+/// eight frames move nothing between the CPU and the GPU; the image is read back only when asked
+/// for, and only a settings change uploads again.
+#[test]
+fn a_gpu_viewer_keeps_its_render_on_the_gpu_between_frames() {
+    if common::gpu_or_skip("a_gpu_viewer_keeps_its_render_on_the_gpu_between_frames").is_none() {
+        return;
+    }
+    let mut viewer = Viewer::new(job(64, 48, 16, BackendChoice::Gpu), 2).unwrap();
+    let transfers = |viewer: &Viewer| viewer.gpu().unwrap().transfers();
+    assert_eq!(transfers(&viewer), (0, 0));
+    assert_eq!(converge(&mut viewer), 8);
+    assert_eq!(
+        transfers(&viewer),
+        (1, 0),
+        "uploads, readbacks after 8 frames"
+    );
+    viewer.image().unwrap();
+    assert_eq!(transfers(&viewer), (1, 1));
+    // Exposure is applied when the frame is shown: no restart, no upload.
+    viewer.apply(&Action::Exposure(1.0)).unwrap();
+    assert_eq!(transfers(&viewer), (1, 1));
+    viewer.apply(&Action::SppPerFrame(4)).unwrap();
+    assert_eq!(converge(&mut viewer), 4);
+    assert_eq!(transfers(&viewer), (2, 1));
+}
+
+/// Reads back a frame the GPU composed, as 8-bit RGB.
+fn read_composed(
+    gpu: &lensbake::render::gpu::GpuRenderer,
+    frame: &lensbake::view::gpu_display::ComposedFrame,
+) -> Vec<u8> {
+    let (device, queue) = gpu.device();
+    let size = frame.bytes_per_row as u64 * frame.height as u64;
+    let readback = device.create_buffer(&wgpu::BufferDescriptor {
+        label: None,
+        size,
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let mut encoder = device.create_command_encoder(&Default::default());
+    encoder.copy_buffer_to_buffer(frame.buffer, 0, &readback, 0, size);
+    queue.submit([encoder.finish()]);
+    readback.map_async(wgpu::MapMode::Read, .., |_| {});
+    device.poll(wgpu::PollType::wait_indefinitely()).unwrap();
+    let bytes = readback.get_mapped_range(..).unwrap().to_vec();
+    bytes
+        .chunks(frame.bytes_per_row as usize)
+        .flat_map(|row| row[..frame.width as usize * 4].chunks(4))
+        .flat_map(|rgba| [rgba[0], rgba[1], rgba[2]])
+        .collect()
+}
+
+/// Largest difference of two 8-bit images and the fraction of bytes that differ.
+fn byte_differences(a: &[u8], b: &[u8]) -> (u8, f64) {
+    assert_eq!(a.len(), b.len());
+    let largest = a
+        .iter()
+        .zip(b)
+        .map(|(x, y)| x.abs_diff(*y))
+        .max()
+        .unwrap_or(0);
+    let differ = a.iter().zip(b).filter(|(x, y)| x != y).count();
+    (largest, differ as f64 / a.len() as f64)
+}
+
+/// The window's GPU frame against its CPU twin, `Viewer::display`: the plain view, the zone of
+/// focus and the split view, tone-mapped alike to a rounding of `pow` (one level in a few
+/// bytes); and the HUD's box as `hud::draw_lines` draws it.
+#[test]
+fn the_gpu_composed_frame_is_the_cpu_display() {
+    if common::gpu_or_skip("the_gpu_composed_frame_is_the_cpu_display").is_none() {
+        return;
+    }
+    let dir = temp_dir("compose");
+    let job = RenderJob {
+        tables_root: dir.join("tables"),
+        bake_resolution: 16,
+        ..job(80, 60, 8, BackendChoice::Gpu)
+    };
+    let (width, height) = (80, 60);
+    let mut viewer = Viewer::new(job, 4).unwrap();
+    let mut composer =
+        lensbake::view::gpu_display::GpuComposer::new(viewer.gpu().unwrap()).unwrap();
+    assert!(
+        composer.compose(&viewer, &[]).unwrap().is_none(),
+        "nothing is held on the GPU before the first frame"
+    );
+    let mut compare = |viewer: &Viewer, what: &str| {
+        let frame = composer.compose(viewer, &[]).unwrap().unwrap();
+        let gpu = read_composed(viewer.gpu().unwrap(), &frame);
+        let (cpu, _) = viewer.display().unwrap();
+        let (largest, fraction) = byte_differences(&gpu, &cpu);
+        eprintln!(
+            "{what}: largest difference {largest}, {:.3} % of bytes differ",
+            fraction * 100.0
+        );
+        assert!(
+            largest <= 1 && fraction < 0.01,
+            "{what}: {largest}, {fraction}"
+        );
+        let lines = viewer.hud_lines();
+        let frame = composer.compose(viewer, &lines).unwrap().unwrap();
+        let gpu = read_composed(viewer.gpu().unwrap(), &frame);
+        let (mut cpu, _) = viewer.display().unwrap();
+        assert!(lensbake::view::hud::draw_lines(
+            &mut cpu, width, height, &lines
+        ));
+        let (largest, fraction) = byte_differences(&gpu, &cpu);
+        eprintln!(
+            "{what} with the HUD: largest difference {largest}, {:.3} % differ",
+            fraction * 100.0
+        );
+        assert!(largest <= 3, "{what} with the HUD: {largest}");
+    };
+    viewer.frame().unwrap();
+    viewer.apply(&Action::Exposure(0.5)).unwrap();
+    compare(&viewer, "plain");
+    let line = |text: &str| lensbake::view::script::parse_action(text).unwrap();
+    viewer.apply(&line("zone on")).unwrap();
+    viewer.frame().unwrap();
+    assert!(viewer.focus_zone().unwrap().iter().any(|&sharp| sharp));
+    compare(&viewer, "zone of focus");
+    viewer.apply(&line("zone off")).unwrap();
+    viewer.apply(&Action::Split(true)).unwrap();
+    viewer.wait_bake().unwrap();
+    viewer.frame().unwrap();
+    assert!(viewer.twin_image().unwrap().is_some());
+    compare(&viewer, "split view");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn the_compose_kernels_uniform_block_matches_the_rust_struct() {
+    use lensbake::view::gpu_display::{DisplayParams, compose_shader};
+    common::assert_wgsl_layout!(
+        compose_shader(),
+        DisplayParams {
+            width,
+            height,
+            row_words,
+            split,
+            scale,
+            zone,
+            hud_width,
+            hud_height,
+        }
+    );
 }
 
 /// The window's keys (issue 58): every key of the map gives, on a viewer with no window, the
@@ -1329,7 +1527,7 @@ fn zoom_reloads_the_lens_at_another_position_and_the_hud_shows_its_focal_length(
     start.film_width_mm = Some(24.0);
     let mut viewer = Viewer::new(start, 4).unwrap();
     converge(&mut viewer);
-    let wide = viewer.image();
+    let wide = viewer.image().unwrap();
     let hud = lensbake::view::hud::lines(&viewer).join("\n");
     assert!(hud.contains("45.7 mm f/") && hud.contains("zoom 1/3"), "{hud}");
     assert_eq!(
@@ -1344,7 +1542,7 @@ fn zoom_reloads_the_lens_at_another_position_and_the_hud_shows_its_focal_length(
     converge(&mut viewer);
     let hud = lensbake::view::hud::lines(&viewer).join("\n");
     assert!(hud.contains("64.5 mm f/") && hud.contains("zoom 2/3"), "{hud}");
-    let normal = viewer.image();
+    let normal = viewer.image().unwrap();
     let agreement = psnr(&wide, &normal);
     eprintln!("zoom 1 against zoom 2: PSNR {agreement:.1} dB");
     assert!(agreement < 25.0, "the render did not change: {agreement} dB");

@@ -154,6 +154,10 @@ pub fn run(args: ViewArgs) -> anyhow::Result<()> {
         session.frames(),
         mean.as_secs_f64() * 1e3
     );
+    if let Some(gpu) = session.viewer.gpu() {
+        let (uploads, readbacks) = gpu.transfers();
+        say!("GPU transfers: {uploads} render uploads, {readbacks} readbacks");
+    }
     Ok(())
 }
 

@@ -1,11 +1,17 @@
-//! The viewer's window: winit for events, a wgpu surface to show the frame (uploaded as a
-//! texture and drawn letterboxed by one full-screen triangle), the HUD drawn into the frame. The
+//! The viewer's window: winit for events, a wgpu surface to show the frame (copied into a
+//! texture and drawn letterboxed by one full-screen triangle), the HUD drawn into the frame.
+//! Where the viewer renders on a GPU it renders on the window's own device and the frame is
+//! composed there ([`super::gpu_display`]): nothing but the HUD's text is uploaded a frame, and
+//! nothing is read back but for the split view's comparison and screenshots. On the CPU twin the
+//! frame is uploaded as 8-bit pixels. The
 //! [`Session`] is the same one the headless run drives; keys, clicks and dropped files become
 //! [`Action`]s.
 
+use super::gpu_display::{ComposedFrame, GpuComposer};
 use super::script::Action;
 use super::{Session, Step, ViewError, ViewEvent, hud, keys};
 use crate::job::{FocusPointSpec, FocusTarget};
+use crate::render::gpu::{self, GpuRenderer};
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -31,6 +37,7 @@ pub fn run_window(
         report,
         window: None,
         presenter: None,
+        composer: None,
         cursor: None,
         error: None,
         screenshots: 0,
@@ -51,6 +58,8 @@ struct App<'a> {
     report: &'a mut dyn FnMut(&ViewEvent),
     window: Option<Arc<Window>>,
     presenter: Option<Presenter>,
+    /// Composes frames on the GPU where the viewer renders there, on the presenter's device.
+    composer: Option<GpuComposer>,
     cursor: Option<PhysicalPosition<f64>>,
     error: Option<ViewError>,
     screenshots: u32,
@@ -69,6 +78,10 @@ impl App<'_> {
                 .map_err(|e| ViewError::Window(e.to_string()))?,
         );
         let presenter = Presenter::new(event_loop, window.clone())?;
+        let viewer = &mut self.session.viewer;
+        if viewer.gpu().is_some() && viewer.render_on(presenter.renderer()?) {
+            self.composer = viewer.gpu().map(GpuComposer::new).transpose()?;
+        }
         window.request_redraw();
         self.window = Some(window);
         self.presenter = Some(presenter);
@@ -121,18 +134,7 @@ impl App<'_> {
                 _ => {}
             }
         }
-        let viewer = &self.session.viewer;
-        let settings = viewer.job().settings;
-        let (mut rgb, _) = viewer.display();
-        hud::draw_lines(
-            &mut rgb,
-            settings.width,
-            settings.height,
-            &viewer.hud_lines(),
-        );
-        if let Some(presenter) = &mut self.presenter
-            && let Err(error) = presenter.show(&rgb, settings.width, settings.height)
-        {
+        if let Err(error) = self.show() {
             return self.fail(event_loop, error);
         }
         let busy = step != Step::Idle;
@@ -144,6 +146,31 @@ impl App<'_> {
                 event_loop.set_control_flow(ControlFlow::Wait);
             }
         }
+    }
+
+    /// Shows the viewer's frame with the HUD: composed on the GPU where the viewer renders there,
+    /// else composed on the CPU and uploaded.
+    fn show(&mut self) -> Result<(), ViewError> {
+        let Some(presenter) = &mut self.presenter else {
+            return Ok(());
+        };
+        let viewer = &self.session.viewer;
+        let lines = viewer.hud_lines();
+        let composed = match &mut self.composer {
+            Some(composer) => composer.compose(viewer, &lines)?,
+            None => None,
+        };
+        if let Some(frame) = composed {
+            return presenter.show(FrameSource::Composed(frame));
+        }
+        let settings = viewer.job().settings;
+        let (mut rgb, _) = viewer.display()?;
+        hud::draw_lines(&mut rgb, settings.width, settings.height, &lines);
+        presenter.show(FrameSource::Bytes {
+            rgb: &rgb,
+            width: settings.width,
+            height: settings.height,
+        })
     }
 
     /// The render pixel under window position `at`, through the letterbox.
@@ -292,11 +319,23 @@ fn fragment_main(in: Varyings) -> @location(0) vec4<f32> {
 }
 "#;
 
+/// A frame to show: composed on the GPU, or 8-bit RGB pixels to upload.
+enum FrameSource<'a> {
+    Composed(ComposedFrame<'a>),
+    Bytes {
+        rgb: &'a [u8],
+        width: u32,
+        height: u32,
+    },
+}
+
 /// The window's surface, device and the pipeline that draws a frame into it.
 struct Presenter {
     surface: wgpu::Surface<'static>,
     device: wgpu::Device,
     queue: wgpu::Queue,
+    /// The adapter's name and backend, for the renderer the viewer opens on this device.
+    adapter_description: String,
     config: wgpu::SurfaceConfiguration,
     pipeline: wgpu::RenderPipeline,
     sampler: wgpu::Sampler,
@@ -323,13 +362,9 @@ impl Presenter {
             ..Default::default()
         }))
         .map_err(|e| fail("no adapter can present to this window", &e))?;
-        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
-            label: Some("lensbake view"),
-            required_limits:
-                wgpu::Limits::downlevel_webgl2_defaults().using_resolution(adapter.limits()),
-            ..Default::default()
-        }))
-        .map_err(|e| fail("opening the presentation device", &e))?;
+        // The renderer's limits, so the viewer can render on this device too.
+        let (device, queue) = gpu::request_device(&adapter, "lensbake view")
+            .map_err(|e| fail("opening the presentation device", &e))?;
         let mut config = surface
             .get_default_config(&adapter, size.width.max(1), size.height.max(1))
             .ok_or_else(|| ViewError::Window("the surface does not suit this adapter".into()))?;
@@ -380,12 +415,22 @@ impl Presenter {
             surface,
             device,
             queue,
+            adapter_description: gpu::describe(&adapter.get_info()),
             config,
             pipeline,
             sampler,
             texture_format,
             texture: None,
         })
+    }
+
+    /// The renderer on this device.
+    fn renderer(&self) -> Result<GpuRenderer, ViewError> {
+        Ok(GpuRenderer::on_device(
+            self.device.clone(),
+            self.queue.clone(),
+            self.adapter_description.clone(),
+        )?)
     }
 
     fn resize(&mut self, size: PhysicalSize<u32>) {
@@ -406,8 +451,12 @@ impl Presenter {
         [(sw - w) / 2.0, (sh - h) / 2.0, w.max(1.0), h.max(1.0)]
     }
 
-    /// Shows an 8-bit RGB frame.
-    fn show(&mut self, rgb: &[u8], width: u32, height: u32) -> Result<(), ViewError> {
+    /// Shows a frame.
+    fn show(&mut self, source: FrameSource) -> Result<(), ViewError> {
+        let [width, height] = match &source {
+            FrameSource::Composed(frame) => [frame.width, frame.height],
+            FrameSource::Bytes { width, height, .. } => [*width, *height],
+        };
         let frame = match self.surface.get_current_texture() {
             wgpu::CurrentSurfaceTexture::Success(frame)
             | wgpu::CurrentSurfaceTexture::Suboptimal(frame) => frame,
@@ -449,24 +498,42 @@ impl Presenter {
         let Some((texture, _)) = &self.texture else {
             return Ok(());
         };
-        let rgba: Vec<u8> = rgb
-            .chunks_exact(3)
-            .flat_map(|p| [p[0], p[1], p[2], 255])
-            .collect();
-        self.queue.write_texture(
-            texture.as_image_copy(),
-            &rgba,
-            wgpu::TexelCopyBufferLayout {
-                offset: 0,
-                bytes_per_row: Some(width * 4),
-                rows_per_image: Some(height),
-            },
-            wgpu::Extent3d {
-                width,
-                height,
-                depth_or_array_layers: 1,
-            },
-        );
+        let size = wgpu::Extent3d {
+            width,
+            height,
+            depth_or_array_layers: 1,
+        };
+        let mut encoder = self.device.create_command_encoder(&Default::default());
+        match source {
+            FrameSource::Composed(frame) => encoder.copy_buffer_to_texture(
+                wgpu::TexelCopyBufferInfo {
+                    buffer: frame.buffer,
+                    layout: wgpu::TexelCopyBufferLayout {
+                        offset: 0,
+                        bytes_per_row: Some(frame.bytes_per_row),
+                        rows_per_image: Some(height),
+                    },
+                },
+                texture.as_image_copy(),
+                size,
+            ),
+            FrameSource::Bytes { rgb, .. } => {
+                let rgba: Vec<u8> = rgb
+                    .chunks_exact(3)
+                    .flat_map(|p| [p[0], p[1], p[2], 255])
+                    .collect();
+                self.queue.write_texture(
+                    texture.as_image_copy(),
+                    &rgba,
+                    wgpu::TexelCopyBufferLayout {
+                        offset: 0,
+                        bytes_per_row: Some(width * 4),
+                        rows_per_image: Some(height),
+                    },
+                    size,
+                );
+            }
+        }
         let view = texture.create_view(&Default::default());
         let group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: None,
@@ -484,7 +551,6 @@ impl Presenter {
         });
         let target = frame.texture.create_view(&Default::default());
         let [x, y, w, h] = self.letterbox(width, height);
-        let mut encoder = self.device.create_command_encoder(&Default::default());
         {
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("blit"),
