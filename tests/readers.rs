@@ -693,7 +693,12 @@ fn codev_zoom_files_are_read_at_the_position_asked() {
     for (k, (r1, k1, t2, t3, object, epd, field, k2)) in expected.into_iter().enumerate() {
         let loaded = at(k + 1).unwrap();
         let p = &loaded.prescription;
-        assert_eq!(p.surfaces[0].shape.curvature(), 1.0 / r1, "position {}", k + 1);
+        assert_eq!(
+            p.surfaces[0].shape.curvature(),
+            1.0 / r1,
+            "position {}",
+            k + 1
+        );
         assert_eq!(p.surfaces[0].shape.conic(), k1);
         assert_eq!(p.surfaces[1].thickness, t2);
         assert_eq!(p.surfaces[2].thickness, t3);

@@ -306,7 +306,11 @@ fn a_bad_script_line_is_one_error_naming_file_and_line() {
     let dir = temp_dir("bad-script");
     for (text, line, needle) in [
         ("frames 1\nzooom 3\n", 2, "unknown action `zooom`"),
-        ("frames 1\nzoom 3\n", 2, "zoom position 3 of a lensbake RON without zoom positions"),
+        (
+            "frames 1\nzoom 3\n",
+            2,
+            "zoom position 3 of a lensbake RON without zoom positions",
+        ),
         ("frames x\n", 1, "not a whole number"),
         ("click 9000 1\n", 1, "outside the 80x60 render"),
         ("lens no-such-lens\n", 1, "no-such-lens"),
@@ -380,58 +384,27 @@ fn a_windowed_script_under_xvfb_exits_0_and_writes_its_screenshots() {
     assert!(out.status.success(), "{stdout}\n{stderr}");
     assert_screenshots(&dir, &stdout);
     assert!(!stderr.contains("panicked"), "{stderr}");
-    // Without a script the window renders until --frames and closes.
-    let out = Command::new("xvfb-run")
-        .args([
-            "-a",
-            env!("CARGO_BIN_EXE_lensbake"),
-            "view",
-            "--lens",
-            "cooke-triplet",
-        ])
-        .args([
-            "--width", "64", "--height", "48", "--spp", "64", "--frames", "3",
-        ])
-        .output()
-        .unwrap();
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{stdout}\n{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    assert!(stdout.contains("3 frames, 12/64 samples"), "{stdout}");
-    // On a GPU the window composes its frames from the sums held there: one upload of the
-    // render, nothing read back.
-    let out = Command::new("xvfb-run")
-        .args([
-            "-a",
-            env!("CARGO_BIN_EXE_lensbake"),
-            "view",
-            "--lens",
-            "cooke-triplet",
-        ])
-        .args([
-            "--width",
-            "64",
-            "--height",
-            "48",
-            "--spp",
-            "64",
-            "--frames",
-            "3",
-            "--backend",
-            "gpu",
-        ])
-        .output()
-        .unwrap();
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{stdout}\n{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    assert!(stdout.contains("3 frames, 12/64 samples"), "{stdout}");
+    // Without a script the window renders until --frames and closes; on a GPU it composes its
+    // frames from the sums held there: one upload of the render, nothing read back.
+    let frames_only = |extra: &[&str]| {
+        let out = Command::new("xvfb-run")
+            .args(["-a", env!("CARGO_BIN_EXE_lensbake"), "view"])
+            .args(["--lens", "cooke-triplet", "--width", "64", "--height", "48"])
+            .args(["--spp", "64", "--frames", "3"])
+            .args(extra)
+            .output()
+            .unwrap();
+        let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+        assert!(
+            out.status.success(),
+            "{stdout}\n{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert!(stdout.contains("3 frames, 12/64 samples"), "{stdout}");
+        stdout
+    };
+    frames_only(&[]);
+    let stdout = frames_only(&["--backend", "gpu"]);
     assert!(
         stdout.contains("GPU transfers: 1 render uploads, 0 readbacks"),
         "{stdout}"
@@ -1505,7 +1478,10 @@ fn every_key_gives_its_documented_action_and_the_guide_lists_them() {
     .unwrap();
     let help = keys_help();
     let out = lensbake(&["view", "--help"]);
-    let printed = String::from_utf8_lossy(&out.stdout).split_whitespace().collect::<Vec<_>>().join(" ");
+    let printed = String::from_utf8_lossy(&out.stdout)
+        .split_whitespace()
+        .collect::<Vec<_>>()
+        .join(" ");
     for binding in BINDINGS {
         let name = key_name(binding.key, binding.shift);
         let row = format!("| {name} | {} | `{}", binding.does, binding.verb);
@@ -1529,7 +1505,10 @@ fn zoom_reloads_the_lens_at_another_position_and_the_hud_shows_its_focal_length(
     converge(&mut viewer);
     let wide = viewer.image().unwrap();
     let hud = lensbake::view::hud::lines(&viewer).join("\n");
-    assert!(hud.contains("45.7 mm f/") && hud.contains("zoom 1/3"), "{hud}");
+    assert!(
+        hud.contains("45.7 mm f/") && hud.contains("zoom 1/3"),
+        "{hud}"
+    );
     assert_eq!(
         key_action(&viewer, Key::Char('k'), false, 1),
         Some(Action::Zoom(2))
@@ -1541,17 +1520,37 @@ fn zoom_reloads_the_lens_at_another_position_and_the_hud_shows_its_focal_length(
     viewer.apply(&parse_action("zoom 2").unwrap()).unwrap();
     converge(&mut viewer);
     let hud = lensbake::view::hud::lines(&viewer).join("\n");
-    assert!(hud.contains("64.5 mm f/") && hud.contains("zoom 2/3"), "{hud}");
+    assert!(
+        hud.contains("64.5 mm f/") && hud.contains("zoom 2/3"),
+        "{hud}"
+    );
     let normal = viewer.image().unwrap();
     let agreement = psnr(&wide, &normal);
     eprintln!("zoom 1 against zoom 2: PSNR {agreement:.1} dB");
-    assert!(agreement < 25.0, "the render did not change: {agreement} dB");
+    assert!(
+        agreement < 25.0,
+        "the render did not change: {agreement} dB"
+    );
     // The same sensor sees a narrower field at the longer focal length.
-    assert!(viewer.job().lens.first_order(None).unwrap().0.thick.focal_length_mm > 64.0);
+    assert!(
+        viewer
+            .job()
+            .lens
+            .first_order(None)
+            .unwrap()
+            .0
+            .thick
+            .focal_length_mm
+            > 64.0
+    );
     let refused = viewer.apply(&parse_action("zoom 4").unwrap());
     let message = refused.unwrap_err().to_string();
     assert!(message.contains("zoom position 4"), "{message}");
-    assert!(lensbake::view::hud::lines(&viewer).join(" ").contains("zoom 2/3"));
+    assert!(
+        lensbake::view::hud::lines(&viewer)
+            .join(" ")
+            .contains("zoom 2/3")
+    );
 }
 
 /// A key press in a real window (issue 58; under Xvfb, keys sent with xdotool): K zooms the

@@ -17,11 +17,7 @@ const ZOOM_FILE: &str = "zoom_two_group.seq";
 const RADII: [f64; 5] = [200.0, 30.0, 25.0, -20.0, -80.0];
 const GLASSES: [Option<&str>; 5] = [Some("N-BK7"), None, Some("N-BK7"), Some("N-SF2"), None];
 const FRONT_GAP: [f64; 3] = [45.0, 25.0, 10.0];
-const IMAGE_DISTANCE: [f64; 3] = [
-    71.291,
-    -1.25 * 25.0 + 115.014,
-    -1.25 * 10.0 + 115.381,
-];
+const IMAGE_DISTANCE: [f64; 3] = [71.291, -1.25 * 25.0 + 115.014, -1.25 * 10.0 + 115.381];
 /// The file's reference wavelength (`WL 656.27 587.56 486.13`, `REF 2`).
 const DESIGN_NM: f64 = 587.56;
 
@@ -80,7 +76,10 @@ fn each_zoom_position_has_the_focal_length_of_its_own_lens_data() {
         // EPD and the outer field zoom with the position too (`ZOO EPD`, `ZOO YAN F3`).
         assert_eq!(analysis.conditions.epd_mm, [8.0, 11.0, 16.0][position]);
         let outer = analysis.conditions.fields_deg[0];
-        assert!((outer - [20.0, 15.0, 10.0][position]).abs() < 1e-12, "{outer}");
+        assert!(
+            (outer - [20.0, 15.0, 10.0][position]).abs() < 1e-12,
+            "{outer}"
+        );
         focal_lengths.push(first.efl);
     }
     // A zoom: 45.7, 64.5 and 93.3 mm (the trace above, by a second program while designing it).

@@ -10,8 +10,8 @@ use lensbake::job::{DEFAULT_FOCUS_MM, FocusMode, ModelChoice, RenderJob, SceneSp
 use lensbake::limits::read_input_text;
 use lensbake::model::ModelKind;
 use lensbake::render::RenderSettings;
-use lensbake::view::script::parse_script;
 use lensbake::view::keys::keys_help;
+use lensbake::view::script::parse_script;
 use lensbake::view::window::run_window;
 use lensbake::view::{Session, Step, ViewEvent, Viewer};
 use std::path::PathBuf;

@@ -1219,19 +1219,22 @@ impl Reader {
         // The k-th value, once the item is known to be one lensbake applies.
         let position = self.position;
         let value_here = || -> Result<&String, PrescriptionError> {
-            position.checked_sub(1).and_then(|i| values.get(i)).ok_or_else(|| {
-                PrescriptionError::new(
-                    at(&field),
-                    Problem::WrongColumnCount {
-                        expected: format!(
-                            "a value for zoom position {} after {field}{}",
-                            position,
-                            target.map_or(String::new(), |t| format!(" {t}"))
-                        ),
-                        found: values.len(),
-                    },
-                )
-            })
+            position
+                .checked_sub(1)
+                .and_then(|i| values.get(i))
+                .ok_or_else(|| {
+                    PrescriptionError::new(
+                        at(&field),
+                        Problem::WrongColumnCount {
+                            expected: format!(
+                                "a value for zoom position {} after {field}{}",
+                                position,
+                                target.map_or(String::new(), |t| format!(" {t}"))
+                            ),
+                            found: values.len(),
+                        },
+                    )
+                })
         };
         let surface_item = match item.as_str() {
             "THI" => Some(PickupItem::Thickness),
@@ -1246,7 +1249,10 @@ impl Reader {
             .position(|command| *command == item.as_str());
         let number_of = |t: &str| -> Result<usize, PrescriptionError> {
             t[1..].parse::<usize>().map_err(|_| {
-                PrescriptionError::new(at(&field), Problem::Syntax(format!("`{t}` is not a number")))
+                PrescriptionError::new(
+                    at(&field),
+                    Problem::Syntax(format!("`{t}` is not a number")),
+                )
             })
         };
         let zoomed = match (item.as_str(), surface_item, field_list, target) {
