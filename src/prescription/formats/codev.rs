@@ -1427,7 +1427,7 @@ impl Reader {
             return Ok(());
         }
         let what = match line {
-            Some(_) => format!("the file has zoom positions 1..={count}"),
+            Some(_) => format!("the file has zoom positions 1 to {count}"),
             None => "the file has no zoom positions (no ZOO n): position 1 is the lens".into(),
         };
         Err(PrescriptionError::new(
