@@ -1,6 +1,7 @@
 //! `lensbake analyze`: first-order data, pupils and Seidel sums as a readable report or JSON.
 
 use super::lens::{AimingArg, LensArgs};
+use anyhow::Context as _;
 use clap::Args;
 use lensbake::analysis::{Analysis, AnalysisError, AnalyzeOptions, analyze};
 use lensbake::paraxial::StopChoice;
@@ -54,6 +55,12 @@ pub fn run(args: AnalyzeArgs) -> anyhow::Result<()> {
         },
         ray_aiming: args.ray_aiming.map(Into::into),
     };
+    if lensbake::analysis::is_afocal_lens(&lens.system, &options)
+        .with_context(|| format!("analysing {}", lens.source.origin))?
+    {
+        return super::analyze_afocal::run(&lens.system, &options, name, args.json)
+            .with_context(|| format!("analysing {}", lens.source.origin));
+    }
     let mut analysis = analyze(&lens.system, &options).map_err(|error| match error {
         // Located in the file already.
         AnalysisError::Stated { .. } => anyhow::Error::new(error),
@@ -208,34 +215,16 @@ fn report(a: &Analysis) -> String {
         out,
         "\nSeidel sums (Welford, mm; positive S1 = undercorrected spherical)"
     );
-    let colour = s.colour.is_some();
-    let _ = write!(
-        out,
-        "  {:>4} {:>12} {:>12} {:>12} {:>12} {:>12}",
-        "surf", "S1", "S2", "S3", "S4", "S5"
-    );
-    if colour {
-        let _ = write!(out, " {:>12} {:>12}", "C1", "C2");
-    }
-    out.push('\n');
-    let mut seidel_row = |label: String, terms: [f64; 5], colour: Option<[f64; 2]>| {
-        let _ = write!(out, "  {label:>4}");
-        for v in terms.iter().chain(colour.iter().flatten()) {
-            let _ = write!(out, " {v:>12.7}");
-        }
-        out.push('\n');
-    };
-    for surface in &s.surfaces {
-        seidel_row(
-            surface.surface.to_string(),
-            surface.terms.as_array(),
-            surface.colour.map(|c| [c.axial, c.lateral]),
-        );
-    }
-    seidel_row(
-        "sum".into(),
-        s.sums.as_array(),
-        s.colour.map(|c| [c.axial, c.lateral]),
+    write_seidel_table(
+        &mut out,
+        s.surfaces.iter().map(|surface| {
+            (
+                surface.surface.to_string(),
+                surface.terms.as_array(),
+                surface.colour.map(|c| [c.axial, c.lateral]),
+            )
+        }),
+        (s.sums.as_array(), s.colour.map(|c| [c.axial, c.lateral])),
     );
 
     let t = &s.transverse;
@@ -280,4 +269,29 @@ fn report(a: &Analysis) -> String {
         w.w040, w.w131, w.w222, w.w220, w.w311
     );
     out
+}
+
+/// One row per surface and the sums: S1..S5, and C1, C2 where the colour terms exist.
+pub(super) fn write_seidel_table(
+    out: &mut String,
+    surfaces: impl Iterator<Item = (String, [f64; 5], Option<[f64; 2]>)>,
+    (sums, colour_sums): ([f64; 5], Option<[f64; 2]>),
+) {
+    let _ = write!(
+        out,
+        "  {:>4} {:>12} {:>12} {:>12} {:>12} {:>12}",
+        "surf", "S1", "S2", "S3", "S4", "S5"
+    );
+    if colour_sums.is_some() {
+        let _ = write!(out, " {:>12} {:>12}", "C1", "C2");
+    }
+    out.push('\n');
+    let rows = surfaces.chain(std::iter::once(("sum".to_string(), sums, colour_sums)));
+    for (label, terms, colour) in rows {
+        let _ = write!(out, "  {label:>4}");
+        for v in terms.iter().chain(colour.iter().flatten()) {
+            let _ = write!(out, " {v:>12.7}");
+        }
+        out.push('\n');
+    }
 }

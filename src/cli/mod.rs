@@ -22,6 +22,7 @@ macro_rules! say_raw {
 }
 
 mod analyze;
+mod analyze_afocal;
 mod bench;
 mod bench_render;
 mod demo;
