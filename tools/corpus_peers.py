@@ -65,13 +65,6 @@ def main():
             "bfl": fod.bfl * mm,
             "epd": 2 * fod.enp_radius * mm,
             "f_number": fod.fno,
-            # Entrance pupil from the first vertex and exit pupil from the last (rayoptics'
-            # enp_dist and exp_dist), diameters.
-            "enp_dist": fod.enp_dist * mm,
-            "exp_dist": fod.exp_dist * mm,
-            "exp_diameter": 2 * fod.exp_radius * mm,
-            # The paraxial image from the last vertex, the reference exp_dist is read against.
-            "img_dist": fod.img_dist * mm,
             "seidel_sums": [sums[k] * mm for k in ["S-I", "S-II", "S-III", "S-IV", "S-V"]],
         }
     with open(os.path.join(CORPUS, "peers.json"), "w", encoding="utf-8") as out:
