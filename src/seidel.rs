@@ -232,6 +232,19 @@ pub struct SurfaceSeidel {
     pub transverse_colour: Option<TransverseColour>,
 }
 
+impl SurfaceSeidel {
+    /// The contributions without their image-space forms.
+    pub fn contributions(&self) -> SurfaceTerms {
+        SurfaceTerms {
+            surface: self.surface,
+            terms: self.terms,
+            aspheric: self.aspheric,
+            ptz: self.ptz,
+            colour: self.colour,
+        }
+    }
+}
+
 /// Seidel sums of a system for one paraxial setup.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Seidel {

@@ -5,6 +5,7 @@ use anyhow::Context as _;
 use clap::Args;
 use lensbake::analysis::{Analysis, AnalysisError, AnalyzeOptions, analyze};
 use lensbake::paraxial::StopChoice;
+use lensbake::seidel::{ColourTerms, SeidelTerms, SurfaceSeidel, SurfaceTerms};
 use std::fmt::Write as _;
 
 #[derive(Args, Debug)]
@@ -170,18 +171,8 @@ fn report(a: &Analysis) -> String {
         format!("{:.8}", f.lagrange_invariant),
         "mm",
     );
-    match f.max_field_deg_paraxial {
-        Some(deg) => row(
-            "max unvignetted half field (paraxial)",
-            format!("{deg:.4}"),
-            "deg",
-        ),
-        None => row(
-            "max unvignetted half field (paraxial)",
-            "unlimited".into(),
-            "",
-        ),
-    }
+    let (value, unit) = max_field_text(f.max_field_deg_paraxial);
+    row("max unvignetted half field (paraxial)", value, unit);
 
     let _ = writeln!(
         out,
@@ -217,14 +208,9 @@ fn report(a: &Analysis) -> String {
     );
     write_seidel_table(
         &mut out,
-        s.surfaces.iter().map(|surface| {
-            (
-                surface.surface.to_string(),
-                surface.terms.as_array(),
-                surface.colour.map(|c| [c.axial, c.lateral]),
-            )
-        }),
-        (s.sums.as_array(), s.colour.map(|c| [c.axial, c.lateral])),
+        s.surfaces.iter().map(SurfaceSeidel::contributions),
+        s.sums,
+        s.colour,
     );
 
     let t = &s.transverse;
@@ -271,11 +257,20 @@ fn report(a: &Analysis) -> String {
     out
 }
 
+/// The largest paraxially unvignetted half field as printed, with its unit.
+pub(super) fn max_field_text(deg: Option<f64>) -> (String, &'static str) {
+    match deg {
+        Some(deg) => (format!("{deg:.4}"), "deg"),
+        None => ("unlimited".into(), ""),
+    }
+}
+
 /// One row per surface and the sums: S1..S5, and C1, C2 where the colour terms exist.
 pub(super) fn write_seidel_table(
     out: &mut String,
-    surfaces: impl Iterator<Item = (String, [f64; 5], Option<[f64; 2]>)>,
-    (sums, colour_sums): ([f64; 5], Option<[f64; 2]>),
+    surfaces: impl Iterator<Item = SurfaceTerms>,
+    sums: SeidelTerms,
+    colour_sums: Option<ColourTerms>,
 ) {
     let _ = write!(
         out,
@@ -286,10 +281,13 @@ pub(super) fn write_seidel_table(
         let _ = write!(out, " {:>12} {:>12}", "C1", "C2");
     }
     out.push('\n');
-    let rows = surfaces.chain(std::iter::once(("sum".to_string(), sums, colour_sums)));
+    let rows = surfaces
+        .map(|s| (s.surface.to_string(), s.terms, s.colour))
+        .chain(std::iter::once(("sum".to_string(), sums, colour_sums)));
     for (label, terms, colour) in rows {
         let _ = write!(out, "  {label:>4}");
-        for v in terms.iter().chain(colour.iter().flatten()) {
+        let colour = colour.map(|c| [c.axial, c.lateral]);
+        for v in terms.as_array().iter().chain(colour.iter().flatten()) {
             let _ = write!(out, " {v:>12.7}");
         }
         out.push('\n');

@@ -102,18 +102,8 @@ fn report(a: &AfocalAnalysis) -> String {
         format!("{:.6}", a.apparent_field_deg),
         "deg",
     );
-    match a.max_field_deg_paraxial {
-        Some(deg) => row(
-            "max unvignetted half field (paraxial)",
-            format!("{deg:.4}"),
-            "deg",
-        ),
-        None => row(
-            "max unvignetted half field (paraxial)",
-            "unlimited".into(),
-            "",
-        ),
-    }
+    let (value, unit) = super::analyze::max_field_text(a.max_field_deg_paraxial);
+    row("max unvignetted half field (paraxial)", value, unit);
     row(
         "Lagrange invariant",
         format!("{:.8}", a.lagrange_invariant),
@@ -125,17 +115,7 @@ fn report(a: &AfocalAnalysis) -> String {
         out,
         "\nSeidel sums (Welford, mm; positive S1 = undercorrected spherical)"
     );
-    super::analyze::write_seidel_table(
-        &mut out,
-        s.surfaces.iter().map(|surface| {
-            (
-                surface.surface.to_string(),
-                surface.terms.as_array(),
-                surface.colour.map(|c| [c.axial, c.lateral]),
-            )
-        }),
-        (s.sums.as_array(), s.colour.map(|c| [c.axial, c.lateral])),
-    );
+    super::analyze::write_seidel_table(&mut out, s.surfaces.iter().copied(), s.sums, s.colour);
     let g = &s.angular;
     let _ = writeln!(
         out,
