@@ -1,9 +1,14 @@
 //! The `analyze` report: first-order data, pupils, paraxial rays and Seidel sums of one lens
 //! at one wavelength, field, aperture and object distance, as one serialisable value.
 
+mod afocal;
 mod conditions;
 pub mod placed;
 
+pub use afocal::{
+    AfocalAnalysis, AfocalSeidel, AfocalWaveField, AngularAberrations, ApparentFieldPoint,
+    analyze_afocal, is_afocal_lens,
+};
 pub use conditions::{
     ConditionOverrides, DesignConditions, FIELD_FRACTIONS, FileDefaults, FocusFrom, Origin,
     RULE_MAX_FIELD_DEG, rule_field_deg, stated_as_analysed,
@@ -60,6 +65,12 @@ pub enum AnalysisError {
     UnusableAperture { reason: String },
     #[error("real ray aiming: {0}")]
     Aiming(#[from] crate::trace::analyses::RealRayError),
+    #[error(
+        "an afocal system is analysed with a collimated beam from infinity; the object lies \
+         {distance} mm in front of surface 1 (give no object distance, or analyse the system \
+         with a focusing lens after it)"
+    )]
+    AfocalFiniteObject { distance: f64 },
     #[error("{quantity} is not finite: the lens is too close to a degenerate case to analyse")]
     NonFinite { quantity: String },
 }

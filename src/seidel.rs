@@ -16,7 +16,7 @@
 //! difference dn = n(short) - n(long)) are C_I = A y Δ(dn/n) and C_II = Abar y Δ(dn/n).
 
 use crate::glass::{C_LINE_NM, F_LINE_NM};
-use crate::paraxial::{Paraxial, paraxial_curvature};
+use crate::paraxial::{Paraxial, ParaxialRay, paraxial_curvature};
 use crate::prescription::Shape;
 use crate::system::{LensSystem, SystemAt};
 use serde::Serialize;
@@ -232,6 +232,19 @@ pub struct SurfaceSeidel {
     pub transverse_colour: Option<TransverseColour>,
 }
 
+impl SurfaceSeidel {
+    /// The contributions without their image-space forms.
+    pub fn contributions(&self) -> SurfaceTerms {
+        SurfaceTerms {
+            surface: self.surface,
+            terms: self.terms,
+            aspheric: self.aspheric,
+            ptz: self.ptz,
+            colour: self.colour,
+        }
+    }
+}
+
 /// Seidel sums of a system for one paraxial setup.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Seidel {
@@ -249,6 +262,73 @@ pub struct Seidel {
     pub colour_wavelengths_nm: Option<[f64; 2]>,
 }
 
+/// One surface's third-order contributions, the same in a focal and an afocal system (the
+/// image-space forms that divide by the image-space marginal slope are [`SurfaceSeidel`]'s).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct SurfaceTerms {
+    /// 1-based surface number.
+    pub surface: usize,
+    #[serde(flatten)]
+    pub terms: SeidelTerms,
+    /// The part of `terms` due to the aspheric departure (zero for spheres and planes).
+    pub aspheric: SeidelTerms,
+    /// c Δ(1/n), 1/mm (CODE V PTZ).
+    pub ptz: f64,
+    pub colour: Option<ColourTerms>,
+}
+
+/// Every surface's contributions for a `marginal` and a `chief` paraxial ray of `system` whose
+/// Lagrange invariant is `lagrange_invariant`; `colour` adds C_I and C_II.
+pub fn surface_terms(
+    system: &SystemAt,
+    marginal: &ParaxialRay,
+    chief: &ParaxialRay,
+    lagrange_invariant: f64,
+    colour: Option<&IndexDifferences>,
+) -> Vec<SurfaceTerms> {
+    let h = lagrange_invariant;
+    system
+        .path()
+        .zip(marginal.surfaces.iter().zip(&chief.surfaces))
+        .map(|((i, surface, n, n_after), (m, c))| {
+            let curvature = paraxial_curvature(&surface.shape);
+            let delta_u_n = m.u_after / n_after - m.u_before / n;
+            let delta_inv_n = 1.0 / n_after - 1.0 / n;
+            let delta_inv_n2 = 1.0 / (n_after * n_after) - 1.0 / (n * n);
+            let (a, abar, y, ybar) = (m.incidence, c.incidence, m.y, c.y);
+            let aspheric = aspheric_terms(&surface.shape, n_after - n, y, ybar);
+            // An ideal lens images every plane perfectly (Shape::IdealLens): no aberration.
+            let terms = if matches!(surface.shape, Shape::IdealLens { .. }) {
+                SeidelTerms::default()
+            } else {
+                SeidelTerms {
+                    spherical: -a * a * y * delta_u_n,
+                    coma: -a * abar * y * delta_u_n,
+                    astigmatism: -abar * abar * y * delta_u_n,
+                    petzval: -h * h * curvature * delta_inv_n,
+                    distortion: -abar
+                        * (abar * abar * delta_inv_n2 * y
+                            - (h + abar * y) * ybar * curvature * delta_inv_n),
+                } + aspheric
+            };
+            let colour = colour.map(|dn| {
+                let delta_dn_n = dn.after[i] / n_after - dn.before(i) / n;
+                ColourTerms {
+                    axial: a * y * delta_dn_n,
+                    lateral: abar * y * delta_dn_n,
+                }
+            });
+            SurfaceTerms {
+                surface: i + 1,
+                terms,
+                aspheric,
+                ptz: curvature * delta_inv_n,
+                colour,
+            }
+        })
+        .collect()
+}
+
 impl Seidel {
     /// Surface contributions and sums for the marginal and chief rays of `paraxial`, which
     /// must come from `system`. `colour` adds C_I and C_II.
@@ -257,57 +337,26 @@ impl Seidel {
         paraxial: &Paraxial,
         colour: Option<&IndexDifferences>,
     ) -> Seidel {
-        let h = paraxial.lagrange_invariant;
         let n_image = system.image_index();
         let u_image = paraxial.marginal.image_slope();
-        let surfaces: Vec<SurfaceSeidel> = system
-            .path()
-            .zip(
-                paraxial
-                    .marginal
-                    .surfaces
-                    .iter()
-                    .zip(&paraxial.chief.surfaces),
-            )
-            .map(|((i, surface, n, n_after), (m, c))| {
-                let curvature = paraxial_curvature(&surface.shape);
-                let delta_u_n = m.u_after / n_after - m.u_before / n;
-                let delta_inv_n = 1.0 / n_after - 1.0 / n;
-                let delta_inv_n2 = 1.0 / (n_after * n_after) - 1.0 / (n * n);
-                let (a, abar, y, ybar) = (m.incidence, c.incidence, m.y, c.y);
-                let aspheric = aspheric_terms(&surface.shape, n_after - n, y, ybar);
-                // An ideal lens images every plane perfectly (Shape::IdealLens): no aberration.
-                let terms = if matches!(surface.shape, Shape::IdealLens { .. }) {
-                    SeidelTerms::default()
-                } else {
-                    SeidelTerms {
-                        spherical: -a * a * y * delta_u_n,
-                        coma: -a * abar * y * delta_u_n,
-                        astigmatism: -abar * abar * y * delta_u_n,
-                        petzval: -h * h * curvature * delta_inv_n,
-                        distortion: -abar
-                            * (abar * abar * delta_inv_n2 * y
-                                - (h + abar * y) * ybar * curvature * delta_inv_n),
-                    } + aspheric
-                };
-                let colour = colour.map(|dn| {
-                    let delta_dn_n = dn.after[i] / n_after - dn.before(i) / n;
-                    ColourTerms {
-                        axial: a * y * delta_dn_n,
-                        lateral: abar * y * delta_dn_n,
-                    }
-                });
-                SurfaceSeidel {
-                    surface: i + 1,
-                    terms,
-                    aspheric,
-                    transverse: terms.transverse(n_image, u_image),
-                    ptz: curvature * delta_inv_n,
-                    colour,
-                    transverse_colour: colour.map(|c| c.transverse(n_image, u_image)),
-                }
-            })
-            .collect();
+        let surfaces: Vec<SurfaceSeidel> = surface_terms(
+            system,
+            &paraxial.marginal,
+            &paraxial.chief,
+            paraxial.lagrange_invariant,
+            colour,
+        )
+        .into_iter()
+        .map(|s| SurfaceSeidel {
+            surface: s.surface,
+            terms: s.terms,
+            aspheric: s.aspheric,
+            transverse: s.terms.transverse(n_image, u_image),
+            ptz: s.ptz,
+            colour: s.colour,
+            transverse_colour: s.colour.map(|c| c.transverse(n_image, u_image)),
+        })
+        .collect();
         let sums: SeidelTerms = surfaces.iter().map(|s| s.terms).sum();
         let colour_sums: Option<ColourTerms> =
             colour.map(|_| surfaces.iter().filter_map(|s| s.colour).sum());

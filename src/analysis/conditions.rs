@@ -118,21 +118,7 @@ impl DesignConditions {
         let claimed = &system.prescription.provenance;
         let mut notes = Vec::new();
 
-        let stated_primary = stated.and_then(|c| {
-            c.primary
-                .and_then(|i| c.wavelengths_nm.get(i).copied())
-                .or_else(|| c.wavelengths_nm.first().copied())
-        });
-        let (reference_nm, reference_from) = match (
-            overrides.wavelengths_nm.first(),
-            stated_primary,
-            claimed.design_wavelength_nm,
-        ) {
-            (Some(&w), _, _) => (w, Origin::Flag),
-            (None, Some(w), _) => (w, Origin::File),
-            (None, None, Some(w)) => (w, Origin::Source),
-            (None, None, None) => (system.design_wavelength_nm(), Origin::Rule),
-        };
+        let (reference_nm, reference_from) = reference_wavelength(system, overrides);
         let (wavelengths_nm, wavelengths_from) = drawn_wavelengths(
             system,
             overrides,
@@ -454,6 +440,34 @@ impl FileDefaults {
             rgb_wavelengths_nm: <[f64; 3]>::try_from(listed.as_slice()).ok(),
             notes,
         })
+    }
+}
+
+/// The analysis wavelength and where it came from: the caller's first wavelength, else the
+/// file's primary (or first), else the source's design wavelength, else the system's.
+pub(crate) fn reference_wavelength(
+    system: &LensSystem,
+    overrides: &ConditionOverrides,
+) -> (f64, Origin) {
+    let stated_primary = system
+        .prescription
+        .provenance
+        .conditions
+        .as_ref()
+        .and_then(|c| {
+            c.primary
+                .and_then(|i| c.wavelengths_nm.get(i).copied())
+                .or_else(|| c.wavelengths_nm.first().copied())
+        });
+    match (
+        overrides.wavelengths_nm.first(),
+        stated_primary,
+        system.prescription.provenance.design_wavelength_nm,
+    ) {
+        (Some(&w), _, _) => (w, Origin::Flag),
+        (None, Some(w), _) => (w, Origin::File),
+        (None, None, Some(w)) => (w, Origin::Source),
+        (None, None, None) => (system.design_wavelength_nm(), Origin::Rule),
     }
 }
 

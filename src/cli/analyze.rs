@@ -1,9 +1,11 @@
 //! `lensbake analyze`: first-order data, pupils and Seidel sums as a readable report or JSON.
 
 use super::lens::{AimingArg, LensArgs, Readable};
+use anyhow::Context as _;
 use clap::Args;
 use lensbake::analysis::{Analysis, AnalysisError, AnalyzeOptions, analyze};
 use lensbake::paraxial::StopChoice;
+use lensbake::seidel::{ColourTerms, SeidelTerms, SurfaceSeidel, SurfaceTerms};
 use std::fmt::Write as _;
 
 #[derive(Args, Debug)]
@@ -61,6 +63,12 @@ pub fn run(args: AnalyzeArgs) -> anyhow::Result<()> {
         },
         ray_aiming: args.ray_aiming.map(Into::into),
     };
+    if lensbake::analysis::is_afocal_lens(&lens.system, &options)
+        .with_context(|| format!("analysing {}", lens.source.origin))?
+    {
+        return super::analyze_afocal::run(&lens.system, &options, name, args.json)
+            .with_context(|| format!("analysing {}", lens.source.origin));
+    }
     let mut analysis = analyze(&lens.system, &options).map_err(|error| match error {
         // Located in the file already.
         AnalysisError::Stated { .. } => anyhow::Error::new(error),
@@ -170,18 +178,8 @@ fn report(a: &Analysis) -> String {
         format!("{:.8}", f.lagrange_invariant),
         "mm",
     );
-    match f.max_field_deg_paraxial {
-        Some(deg) => row(
-            "max unvignetted half field (paraxial)",
-            format!("{deg:.4}"),
-            "deg",
-        ),
-        None => row(
-            "max unvignetted half field (paraxial)",
-            "unlimited".into(),
-            "",
-        ),
-    }
+    let (value, unit) = max_field_text(f.max_field_deg_paraxial);
+    row("max unvignetted half field (paraxial)", value, unit);
 
     let _ = writeln!(
         out,
@@ -215,34 +213,11 @@ fn report(a: &Analysis) -> String {
         out,
         "\nSeidel sums (Welford, mm; positive S1 = undercorrected spherical)"
     );
-    let colour = s.colour.is_some();
-    let _ = write!(
-        out,
-        "  {:>4} {:>12} {:>12} {:>12} {:>12} {:>12}",
-        "surf", "S1", "S2", "S3", "S4", "S5"
-    );
-    if colour {
-        let _ = write!(out, " {:>12} {:>12}", "C1", "C2");
-    }
-    out.push('\n');
-    let mut seidel_row = |label: String, terms: [f64; 5], colour: Option<[f64; 2]>| {
-        let _ = write!(out, "  {label:>4}");
-        for v in terms.iter().chain(colour.iter().flatten()) {
-            let _ = write!(out, " {v:>12.7}");
-        }
-        out.push('\n');
-    };
-    for surface in &s.surfaces {
-        seidel_row(
-            surface.surface.to_string(),
-            surface.terms.as_array(),
-            surface.colour.map(|c| [c.axial, c.lateral]),
-        );
-    }
-    seidel_row(
-        "sum".into(),
-        s.sums.as_array(),
-        s.colour.map(|c| [c.axial, c.lateral]),
+    write_seidel_table(
+        &mut out,
+        s.surfaces.iter().map(SurfaceSeidel::contributions),
+        s.sums,
+        s.colour,
     );
 
     let t = &s.transverse;
@@ -287,4 +262,41 @@ fn report(a: &Analysis) -> String {
         w.w040, w.w131, w.w222, w.w220, w.w311
     );
     out
+}
+
+/// The largest paraxially unvignetted half field as printed, with its unit.
+pub(super) fn max_field_text(deg: Option<f64>) -> (String, &'static str) {
+    match deg {
+        Some(deg) => (format!("{deg:.4}"), "deg"),
+        None => ("unlimited".into(), ""),
+    }
+}
+
+/// One row per surface and the sums: S1..S5, and C1, C2 where the colour terms exist.
+pub(super) fn write_seidel_table(
+    out: &mut String,
+    surfaces: impl Iterator<Item = SurfaceTerms>,
+    sums: SeidelTerms,
+    colour_sums: Option<ColourTerms>,
+) {
+    let _ = write!(
+        out,
+        "  {:>4} {:>12} {:>12} {:>12} {:>12} {:>12}",
+        "surf", "S1", "S2", "S3", "S4", "S5"
+    );
+    if colour_sums.is_some() {
+        let _ = write!(out, " {:>12} {:>12}", "C1", "C2");
+    }
+    out.push('\n');
+    let rows = surfaces
+        .map(|s| (s.surface.to_string(), s.terms, s.colour))
+        .chain(std::iter::once(("sum".to_string(), sums, colour_sums)));
+    for (label, terms, colour) in rows {
+        let _ = write!(out, "  {label:>4}");
+        let colour = colour.map(|c| [c.axial, c.lateral]);
+        for v in terms.as_array().iter().chain(colour.iter().flatten()) {
+            let _ = write!(out, " {v:>12.7}");
+        }
+        out.push('\n');
+    }
 }

@@ -22,6 +22,7 @@ macro_rules! say_raw {
 }
 
 mod analyze;
+mod analyze_afocal;
 mod analyze_placed;
 mod bench;
 mod bench_render;

@@ -126,8 +126,14 @@ impl FirstOrder {
         (z - self.z_last_vertex) * self.image_sense() > 0.0
     }
 
-    /// Cardinal points of `system`; an afocal system (zero power) has none.
+    /// Cardinal points of `system`; an afocal system (zero power to rounding,
+    /// [`super::is_afocal`]) has none.
     pub fn of(system: &SystemAt) -> Result<FirstOrder, ParaxialError> {
+        // A power that is the rounding residue of surface powers designed to cancel would put
+        // the focal points 1e17 mm away: such a system is afocal.
+        if super::is_afocal(system) {
+            return Err(ParaxialError::Afocal);
+        }
         FirstOrder::from_matrix(
             &system_matrix(system),
             system.object_index,

@@ -6,11 +6,13 @@
 //! theta means a chief ray of object-space slope tan(theta) through the entrance-pupil centre,
 //! so a positive angle images an object point below the axis to a point above it.
 
+mod afocal;
 mod focus;
 mod matrix;
 mod pupils;
 mod rays;
 
+pub use afocal::{AFOCAL_RELATIVE_POWER, AfocalParaxial, is_afocal};
 pub use focus::{CannotFocus, ImageInsideLens, object_in_focus, sensor_z};
 pub use matrix::{
     FirstOrder, from_vertex, paraxial_curvature, refraction, surface_power, system_matrix,
@@ -79,6 +81,11 @@ impl ObjectPosition {
 pub enum ParaxialError {
     #[error("the system is afocal (zero power): it has no focal points")]
     Afocal,
+    #[error(
+        "the system has power (EFL {efl:.6e} mm): the afocal analysis takes a system whose \
+         power is zero"
+    )]
+    NotAfocal { efl: f64 },
     #[error(
         "the lens diverges (EFL {efl:.6} mm): cameras, tables and renders need a lens of positive \
          focal length"

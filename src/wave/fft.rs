@@ -108,8 +108,8 @@ pub fn polychromatic_psf(
 }
 
 /// The pupil function exp(-2πi W) on the transmitted samples, zero elsewhere, row-major.
-pub(crate) fn pupil_function(map: &WavefrontMap) -> Vec<Complex<f64>> {
-    map.opd_waves
+pub(crate) fn pupil_function(opd_waves: &[Option<f64>]) -> Vec<Complex<f64>> {
+    opd_waves
         .iter()
         .map(|w| match w {
             Some(w) => Complex::from_polar(1.0, -std::f64::consts::TAU * w),
@@ -129,7 +129,7 @@ pub fn psf(map: &WavefrontMap, grid: usize) -> Result<Psf, WaveError> {
     if grid < 2 * n || grid > MAX_GRID {
         return Err(WaveError::Grid { grid, samples: n });
     }
-    let pupil = pupil_function(map);
+    let pupil = pupil_function(&map.opd_waves);
     let transmitted = pupil.iter().filter(|p| p.norm_sqr() > 0.0).count() as f64;
     let mut field = vec![Complex::new(0.0, 0.0); grid * grid];
     for iy in 0..n {

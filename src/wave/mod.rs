@@ -18,6 +18,7 @@
 //!
 //! Nothing here draws or prints; every failure is a [`WaveError`].
 
+mod afocal;
 mod fft;
 mod huygens;
 pub mod lens;
@@ -25,6 +26,7 @@ mod mtf;
 mod pupil;
 mod zernike;
 
+pub use afocal::{AfocalWavefront, AngularMtf, afocal_wavefront};
 pub use fft::{Psf, polychromatic_psf, psf};
 pub use huygens::{FftAssumption, fft_assumptions, huygens_psf};
 pub use lens::{DEFAULT_MTF_FREQUENCIES, WaveOptions};

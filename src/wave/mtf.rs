@@ -276,9 +276,9 @@ impl FieldTrace {
 /// The pupil's autocorrelation at integer lags along one axis (0 tangential = pupil y,
 /// 1 sagittal = pupil x), normalised to 1 at lag 0: the OTF at lag × lag frequency. This is
 /// what the FFT of the FFT PSF gives on a grid at least twice the pupil, computed directly.
-fn autocorrelation(map: &WavefrontMap, axis: usize) -> Vec<Complex<f64>> {
-    let n = map.samples;
-    let pupil = pupil_function(map);
+fn autocorrelation(samples: usize, opd_waves: &[Option<f64>], axis: usize) -> Vec<Complex<f64>> {
+    let n = samples;
+    let pupil = pupil_function(opd_waves);
     let energy: f64 = pupil.iter().map(|p| p.norm_sqr()).sum();
     let at = |ix: usize, iy: usize| pupil[iy * n + ix];
     (0..n)
@@ -303,8 +303,26 @@ fn autocorrelation(map: &WavefrontMap, axis: usize) -> Vec<Complex<f64>> {
 
 /// The diffraction OTF of `map` along `axis` at each frequency, linear between lags.
 fn diffraction_otf(map: &WavefrontMap, axis: usize, frequencies: &[f64]) -> Vec<Complex<f64>> {
-    let lags = autocorrelation(map, axis);
-    let step = map.lag_frequency_per_mm[axis];
+    otf_at(
+        map.samples,
+        &map.opd_waves,
+        axis,
+        map.lag_frequency_per_mm[axis],
+        frequencies,
+    )
+}
+
+/// The diffraction OTF of an OPD grid along `axis` at each frequency, linear between lags of
+/// frequency `step` (in whatever unit the frequencies are: cycles/mm in an image plane,
+/// cycles/mrad at infinity).
+pub(super) fn otf_at(
+    samples: usize,
+    opd_waves: &[Option<f64>],
+    axis: usize,
+    step: f64,
+    frequencies: &[f64],
+) -> Vec<Complex<f64>> {
+    let lags = autocorrelation(samples, opd_waves, axis);
     frequencies
         .iter()
         .map(|f| {

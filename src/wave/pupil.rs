@@ -7,7 +7,7 @@ use crate::paraxial::{Aperture, Field, ObjectPosition, Paraxial, ParaxialOptions
 use crate::prescription::RayAiming;
 use crate::system::{LensSystem, SystemAt};
 use crate::trace::analyses::{RealRayError, RealRays};
-use crate::trace::{Apertures, Ray, Travel, Vec3};
+use crate::trace::{Apertures, Ray, Tracer, Travel, Vec3};
 use rayon::prelude::*;
 use serde::Serialize;
 
@@ -37,14 +37,14 @@ pub enum WaveLens<'a> {
 
 /// One ray after the last surface, with the optical path from the incident wavefront.
 #[derive(Clone, Copy, Debug, PartialEq)]
-struct ExitRay {
-    position: Vec3,
-    direction: Vec3,
-    optical_path: f64,
+pub(super) struct ExitRay {
+    pub(super) position: Vec3,
+    pub(super) direction: Vec3,
+    pub(super) optical_path: f64,
 }
 
 impl ExitRay {
-    fn at_z(&self, z: f64, image_index: f64) -> Option<(Vec3, f64)> {
+    pub(super) fn at_z(&self, z: f64, image_index: f64) -> Option<(Vec3, f64)> {
         let t = (z - self.position[2]) / self.direction[2];
         t.is_finite().then(|| {
             (
@@ -339,7 +339,7 @@ fn trace_real(
         Ok(field_rays
             .launch(px, py)?
             .ok()
-            .and_then(|ray| exit_ray(&real, &at, ray, wavefront_origin, apertures)))
+            .and_then(|ray| exit_ray(real.tracer(), &at, ray, wavefront_origin, apertures)))
     };
     let chief = trace(0.0, 0.0, Apertures::Ignored)?.ok_or(RealRayError::ChiefRay {
         field: field_deg,
@@ -397,14 +397,14 @@ fn trace_real(
 /// Traces `ray` and sums its optical path: from the incident wavefront through `origin` (a plane
 /// normal to a collimated beam, or a sphere about the object point)
 /// to the last surface.
-fn exit_ray(
-    real: &RealRays,
+pub(super) fn exit_ray(
+    tracer: &Tracer,
     at: &SystemAt,
     ray: Ray,
     origin: Vec3,
     apertures: Apertures,
 ) -> Option<ExitRay> {
-    let path = real.tracer().trace_path(ray, Travel::Forward, apertures);
+    let path = tracer.trace_path(ray, Travel::Forward, apertures);
     if !path.traced.outcome.is_ok() {
         return None;
     }
@@ -506,40 +506,59 @@ fn ideal(
 impl WavefrontMap {
     /// Pupil coordinates (x, y) and OPD of every transmitted sample.
     pub fn transmitted(&self) -> impl Iterator<Item = (f64, f64, f64)> + '_ {
-        let n = self.samples;
-        self.opd_waves.iter().enumerate().filter_map(move |(i, w)| {
-            w.map(|w| (pupil_coordinate(n, i % n), pupil_coordinate(n, i / n), w))
-        })
+        transmitted(self.samples, &self.opd_waves)
     }
 
     /// RMS, peak-to-valley and Strehl ratio (see [`WavefrontStats`]).
     pub fn stats(&self) -> WavefrontStats {
-        let n = self.samples;
-        let pupil_samples = (0..n * n).filter(|i| inside_pupil(n, i % n, i / n)).count();
-        let values: Vec<(f64, f64, f64)> = self.transmitted().collect();
-        let count = values.len() as f64;
-        let mean = values.iter().map(|v| v.2).sum::<f64>() / count;
-        let rms_waves = (values.iter().map(|v| (v.2 - mean).powi(2)).sum::<f64>() / count).sqrt();
-        let (low, high) = values
-            .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
-                (lo.min(v.2), hi.max(v.2))
-            });
-        let [a, b, c] = plane_fit(&values);
-        let (mut re, mut im) = (0.0, 0.0);
-        for &(x, y, w) in &values {
-            let phase = std::f64::consts::TAU * (w - a - b * x - c * y);
-            re += phase.cos();
-            im += phase.sin();
-        }
-        WavefrontStats {
-            rms_waves,
-            pv_waves: high - low,
-            strehl: (re * re + im * im) / (count * count),
-            pupil_samples,
-            transmitted_samples: values.len(),
-        }
+        wavefront_stats(self.samples, &self.opd_waves)
     }
+}
+
+/// [`WavefrontStats`] of an OPD grid of `samples` points per side (row-major, None where no
+/// ray passes).
+pub(super) fn wavefront_stats(samples: usize, opd_waves: &[Option<f64>]) -> WavefrontStats {
+    let n = samples;
+    let pupil_samples = (0..n * n).filter(|i| inside_pupil(n, i % n, i / n)).count();
+    let values: Vec<(f64, f64, f64)> = transmitted(n, opd_waves).collect();
+    let count = values.len() as f64;
+    let mean = values.iter().map(|v| v.2).sum::<f64>() / count;
+    let rms_waves = (values.iter().map(|v| (v.2 - mean).powi(2)).sum::<f64>() / count).sqrt();
+    let (low, high) = values
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+            (lo.min(v.2), hi.max(v.2))
+        });
+    let [a, b, c] = plane_fit(&values);
+    let (mut re, mut im) = (0.0, 0.0);
+    for &(x, y, w) in &values {
+        let phase = std::f64::consts::TAU * (w - a - b * x - c * y);
+        re += phase.cos();
+        im += phase.sin();
+    }
+    WavefrontStats {
+        rms_waves,
+        pv_waves: high - low,
+        strehl: (re * re + im * im) / (count * count),
+        pupil_samples,
+        transmitted_samples: values.len(),
+    }
+}
+
+/// Pupil coordinates (x, y) and OPD of every transmitted sample of a grid.
+pub(super) fn transmitted(
+    samples: usize,
+    opd_waves: &[Option<f64>],
+) -> impl Iterator<Item = (f64, f64, f64)> + '_ {
+    opd_waves.iter().enumerate().filter_map(move |(i, w)| {
+        w.map(|w| {
+            (
+                pupil_coordinate(samples, i % samples),
+                pupil_coordinate(samples, i / samples),
+                w,
+            )
+        })
+    })
 }
 
 /// Least-squares plane w = a + b x + c y through (x, y, w).
