@@ -51,9 +51,12 @@ const RAMP_STEPS: f64 = 0.5;
 const MATTE_TILE: usize = 8;
 /// A layer is reduced to the coarsest level whose reduction and upsampling add at most this
 /// share of the variance of its smallest spot.
-const LEVEL_VARIANCE_SHARE: f64 = 0.25;
+const LEVEL_VARIANCE_SHARE: f64 = 0.4;
 /// Coarsest pyramid level (texels of 2^5 = 32 pixels).
 const MOST_LEVELS: u32 = 5;
+/// Share of a kernel's light inside the reach a source spreads over (the rest, a halo's faint
+/// outer rays, is left out and the weights renormalised: the flux is kept).
+const REACH_SHARE: f64 = 0.99;
 /// Rows of source texels a thread spreads into its own buffer at a time.
 const BAND_ROWS: usize = 16;
 
@@ -140,16 +143,6 @@ impl LayerPlan {
         let at = (self.nearest - inverse) / self.step + 0.5;
         let j = (at.floor().max(0.0) as usize).min(self.count - 1);
         (j, at - j as f64)
-    }
-
-    /// The inverse depth in layer `j` nearest the plane in focus: where its spots are smallest.
-    fn sharpest(&self, j: usize) -> f64 {
-        let half = 0.5 * self.step;
-        match j.cmp(&self.focus) {
-            std::cmp::Ordering::Less => self.node(j) - half,
-            std::cmp::Ordering::Equal => self.node(j),
-            std::cmp::Ordering::Greater => self.node(j) + half,
-        }
     }
 }
 
@@ -333,10 +326,15 @@ pub fn layered(
     let aspect = layer_pixel_aspect(ldi, kernels) as f64;
     let spread: Vec<Option<SpreadLayer>> = by_layer
         .iter()
-        .enumerate()
-        .map(|(j, placed)| {
+        .map(|placed| {
             (!placed.is_empty()).then(|| {
-                let sharpest = plan.sharpest(j).max(plan.step * 1e-3);
+                // The layer's surface nearest the plane in focus has its smallest spots.
+                let focus = plan.node(plan.focus);
+                let sharpest = placed
+                    .iter()
+                    .map(|p| 1.0 / p.surfel.depth_mm as f64)
+                    .min_by(|a, b| (a - focus).abs().total_cmp(&(b - focus).abs()))
+                    .unwrap_or(focus);
                 let size = kernels.spread(1.0 / sharpest, [0.0, 0.0]).size as f64;
                 let level = (0..=MOST_LEVELS)
                     .take_while(|&l| {
@@ -395,7 +393,7 @@ struct Source {
     colour: [f32; 3],
     coverage: f32,
     /// The node kernel and the affine map from an offset (dx, dy) in texels (rows down) to the
-    /// kernel's frame: x = m[0] dx + m[1] dy + m[2], y = m[3] dx + m[4] dy + m[5].
+    /// kernel's grid coordinates: x = m[0] dx + m[1] dy + m[2], y = m[3] dx + m[4] dy + m[5].
     node: u32,
     map: [f64; 6],
     /// Farthest offset (texels) the spot reaches.
@@ -438,6 +436,12 @@ fn spread_layer(
         cell[4] += p.weight / p.surfel.depth_mm;
     }
     let per_texel = 1.0 / (side * side) as f32;
+    // Each node kernel's reach: the radius holding all but its faintest rays, plus the pixel.
+    let reach_of: Vec<f64> = kernels
+        .kernels
+        .iter()
+        .map(|k| k.radius_holding(REACH_SHARE) + std::f64::consts::FRAC_1_SQRT_2)
+        .collect();
     let pipeline = level_variance(side);
     let step = side as f64;
     let sources: Vec<Source> = sums
@@ -459,20 +463,18 @@ fn spread_layer(
             // turned by the azimuth into the kernel frame and scaled about the centroid.
             let (x, y) = (scale * step, scale * step * aspect);
             let [nc, cc] = [spread.node_centroid, spread.centroid].map(|v| v.map(f64::from));
+            let kernel = &kernels.kernels[spread.node as usize];
+            // To the node kernel's grid coordinates.
+            let (x, y) = (x / kernel.spacing, y / kernel.spacing);
+            let grid = |k: usize| (nc[k] - cc[k] * scale - kernel.origin[k]) / kernel.spacing;
+            let reach_pixels = cc[0].hypot(cc[1]) + reach_of[spread.node as usize] / scale;
             Source {
                 index,
                 colour: std::array::from_fn(|k| cell[k] * per_texel * spread.flux),
                 coverage: cell[3] * per_texel,
                 node: spread.node,
-                map: [
-                    c * x,
-                    -s * y,
-                    nc[0] - cc[0] * scale,
-                    -s * x,
-                    -c * y,
-                    nc[1] - cc[1] * scale,
-                ],
-                reach: (spread.support as f64 / step).ceil() as i32 + 1,
+                map: [c * x, -s * y, grid(0), -s * x, -c * y, grid(1)],
+                reach: (reach_pixels.min(spread.support as f64) / step).ceil() as i32 + 1,
             }
         })
         .collect();
@@ -495,7 +497,10 @@ fn spread_layer(
                 for dy in -r..=r {
                     for dx in -r..=r {
                         let (fx, fy) = (dx as f64, dy as f64);
-                        let v = kernel.at([
+                        if dx * dx + dy * dy > r * r {
+                            continue;
+                        }
+                        let v = kernel.at_node([
                             m[0] * fx + m[1] * fy + m[2],
                             m[3] * fx + m[4] * fy + m[5],
                         ]) as f32;
