@@ -142,71 +142,14 @@ fn emitters(
     }
 }
 
-/// The traced image-based ray tracer's spot of each emitter against `postfx`'s: flux within 1 %,
-/// RMS radius within 5 %, centroid within half a pixel.
-#[test]
-fn a_point_emitter_through_postfx_matches_the_traced_lens_at_three_field_positions() {
-    let settings = RenderSettings {
-        width: 144,
-        height: 96,
-        samples_per_pixel: 1024,
-        seed: 7,
-        max_layers: 2,
-    };
-    let camera = traced_camera("dgauss-50mm", settings.width, settings.height, 2000.0);
-    // On the axis, a third of the way out along x, and far out on the diagonal (cat's eye).
-    let spots = [[72.0, 48.0], [100.0, 48.0], [125.0, 86.0]];
-    let run = emitters(camera, settings, 350.0, &spots, 4);
-    let traced = render_layers(&run.camera, &run.ldi, &run.settings, Backend::Cpu, None).unwrap();
-    // Kernel depth nodes that do not fall on the emitters' depth: the test sees interpolation.
-    let near = run.ldi.depth_range().unwrap()[0] as f64;
-    let range = [near * 0.93, near * 1.6];
-    let kernels = LensKernels::trace(
-        &run.camera,
-        &run.ldi.view,
-        range,
-        &KernelSettings::default(),
-    )
-    .unwrap();
-    // Both statements of the gather: the exact one (full resolution, every tap's kernel
-    // fitted) and the fast default (half resolution, kernels narrowed by the pipeline's blur).
-    let mut fluxes = Vec::new();
-    for path in [PostfxPath::Exact, PostfxPath::Fast] {
-        let filtered = path
-            .render(
-                &run.camera,
-                &run.ldi,
-                &kernels,
-                settings.width,
-                settings.height,
-            )
-            .unwrap();
-        fluxes.clear();
-        for spot in spots {
-            let (flux, centroid, rms) = spot_moments(&traced, spot, 14.0);
-            let (got_flux, got_centroid, got_rms) = spot_moments(&filtered, spot, 14.0);
-            let shift = (got_centroid[0] - centroid[0]).hypot(got_centroid[1] - centroid[1]);
-            let report = format!(
-                "spot at {spot:?}: traced flux {flux:.4}, RMS {rms:.3} px, centroid \
-                 {centroid:.3?}; postfx {} {got_flux:.4}, {got_rms:.3} px, {got_centroid:.3?}",
-                path.name()
-            );
-            eprintln!("{report}");
-            // Both paths are held to issue 55's targets.
-            assert!((got_flux / flux - 1.0).abs() < 0.01, "{report}");
-            assert!((got_rms / rms - 1.0).abs() < 0.05, "{report}");
-            assert!(shift < 0.5, "{report}");
-            fluxes.push(flux);
-        }
-    }
-    // The test means something: the field positions differ in vignetting by far more than 1 %.
-    assert!(fluxes[2] < 0.8 * fluxes[0], "{fluxes:?}");
-}
+/// On the axis, a third of the way out along x, and far out on the diagonal (cat's eye): output
+/// pixels of the 144 x 96 emitter frame.
+const SPOTS: [[f64; 2]; 3] = [[72.0, 48.0], [100.0, 48.0], [125.0, 86.0]];
 
-/// The same emitters through `layered`: each one whole in its layer, spread by the kernel at its
-/// own depth, composited over the black behind it.
-#[test]
-fn a_point_emitter_through_layered_matches_the_traced_lens_at_three_field_positions() {
+/// The emitters of [`SPOTS`] (4 x 4 pinhole pixels, 350 mm away, dgauss-50mm focused at 2 m),
+/// their traced render (1024 spp) and a kernel set whose depth nodes do not fall on the emitters'
+/// depth (the tests see interpolation).
+fn emitter_frame() -> (EmitterRun, RgbImage, LensKernels) {
     let settings = RenderSettings {
         width: 144,
         height: 96,
@@ -215,8 +158,7 @@ fn a_point_emitter_through_layered_matches_the_traced_lens_at_three_field_positi
         max_layers: 2,
     };
     let camera = traced_camera("dgauss-50mm", settings.width, settings.height, 2000.0);
-    let spots = [[72.0, 48.0], [100.0, 48.0], [125.0, 86.0]];
-    let run = emitters(camera, settings, 350.0, &spots, 4);
+    let run = emitters(camera, settings, 350.0, &SPOTS, 4);
     let traced = render_layers(&run.camera, &run.ldi, &run.settings, Backend::Cpu, None).unwrap();
     let near = run.ldi.depth_range().unwrap()[0] as f64;
     let kernels = LensKernels::trace(
@@ -226,27 +168,20 @@ fn a_point_emitter_through_layered_matches_the_traced_lens_at_three_field_positi
         &KernelSettings::default(),
     )
     .unwrap();
-    let layered_settings = LayeredSettings {
-        layers: DEFAULT_LAYERS,
-        peeled_to: settings.max_layers,
-    };
-    let filtered = layered(
-        &run.camera,
-        &run.ldi,
-        &kernels,
-        &layered_settings,
-        settings.width,
-        settings.height,
-    )
-    .unwrap();
+    (run, traced, kernels)
+}
+
+/// Each spot of `filtered` (by `model`) against the traced one: flux within 1 %, RMS radius
+/// within 5 %, centroid within half a pixel (issue 55's targets).
+fn check_spots(traced: &RgbImage, filtered: &RgbImage, model: &str) {
     let mut fluxes = Vec::new();
-    for spot in spots {
-        let (flux, centroid, rms) = spot_moments(&traced, spot, 14.0);
-        let (got_flux, got_centroid, got_rms) = spot_moments(&filtered, spot, 14.0);
+    for spot in SPOTS {
+        let (flux, centroid, rms) = spot_moments(traced, spot, 14.0);
+        let (got_flux, got_centroid, got_rms) = spot_moments(filtered, spot, 14.0);
         let shift = (got_centroid[0] - centroid[0]).hypot(got_centroid[1] - centroid[1]);
         let report = format!(
             "spot at {spot:?}: traced flux {flux:.4}, RMS {rms:.3} px, centroid {centroid:.3?}; \
-             layered {got_flux:.4}, {got_rms:.3} px, {got_centroid:.3?}"
+             {model} {got_flux:.4}, {got_rms:.3} px, {got_centroid:.3?}"
         );
         eprintln!("{report}");
         assert!((got_flux / flux - 1.0).abs() < 0.01, "{report}");
@@ -254,7 +189,49 @@ fn a_point_emitter_through_layered_matches_the_traced_lens_at_three_field_positi
         assert!(shift < 0.5, "{report}");
         fluxes.push(flux);
     }
+    // The test means something: the field positions differ in vignetting by far more than 1 %.
     assert!(fluxes[2] < 0.8 * fluxes[0], "{fluxes:?}");
+}
+
+/// The traced image-based ray tracer's spot of each emitter against `postfx`'s.
+#[test]
+fn a_point_emitter_through_postfx_matches_the_traced_lens_at_three_field_positions() {
+    let (run, traced, kernels) = emitter_frame();
+    // Both statements of the gather: the exact one (full resolution, every tap's kernel
+    // fitted) and the fast default (half resolution, kernels narrowed by the pipeline's blur).
+    for path in [PostfxPath::Exact, PostfxPath::Fast] {
+        let filtered = path
+            .render(
+                &run.camera,
+                &run.ldi,
+                &kernels,
+                run.settings.width,
+                run.settings.height,
+            )
+            .unwrap();
+        check_spots(&traced, &filtered, &format!("postfx {}", path.name()));
+    }
+}
+
+/// The same emitters through `layered`: each one whole in its layer, spread by the kernel at its
+/// own depth, composited over the black behind it.
+#[test]
+fn a_point_emitter_through_layered_matches_the_traced_lens_at_three_field_positions() {
+    let (run, traced, kernels) = emitter_frame();
+    let layered_settings = LayeredSettings {
+        layers: DEFAULT_LAYERS,
+        peeled_to: run.settings.max_layers,
+    };
+    let filtered = layered(
+        &run.camera,
+        &run.ldi,
+        &kernels,
+        &layered_settings,
+        run.settings.width,
+        run.settings.height,
+    )
+    .unwrap();
+    check_spots(&traced, &filtered, "layered");
 }
 
 /// A vertical post `width_mm` wide on the axis at `post_mm` in front of a checkered wall at
@@ -481,6 +458,26 @@ fn the_cli_renders_postfx_and_refuses_what_it_cannot_do_yet() {
         assert!(stderr.starts_with(message), "{extra:?}: {stderr}");
         assert!(!out.exists(), "{extra:?} wrote an image");
     }
+    // layered reads the same stored kernels and refuses the GPU the same way.
+    let layered_base = base.map(|a| if a == "postfx" { "layered" } else { a });
+    let layered_run = lensbake(&[&layered_base[..], &["--backend", "cpu"]].concat());
+    let said_layered = String::from_utf8_lossy(&layered_run.stdout);
+    assert_eq!(layered_run.status.code(), Some(0), "{said_layered}");
+    assert!(
+        said_layered.contains("model layered")
+            && said_layered.contains("read from")
+            && said_layered.contains("layered filter (15 layers)"),
+        "{said_layered}"
+    );
+    std::fs::remove_file(&out).unwrap();
+    let refused = lensbake(&[&layered_base[..], &["--backend", "gpu"]].concat());
+    let stderr = String::from_utf8_lossy(&refused.stderr);
+    assert_eq!(refused.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.starts_with("error: the layered model runs on the CPU only"),
+        "{stderr}"
+    );
+    assert!(!out.exists());
     let view = lensbake(&["view", "--lens", "dgauss-50mm", "--model", "postfx"]);
     let stderr = String::from_utf8_lossy(&view.stderr);
     assert_eq!(view.status.code(), Some(2), "{stderr}");
