@@ -511,3 +511,43 @@ fn a_refused_bake_or_render_prints_its_error_before_the_notes() {
     assert!(!table.exists() && !image.exists());
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// `lens convert IN IN` would drop the keywords lensbake skipped reading IN: refused (exit 2,
+/// the file untouched) unless `--overwrite-input` says so, through another path to it too.
+#[test]
+fn convert_refuses_to_write_over_its_input_unless_told() {
+    let dir = temp_dir("convert-over-input");
+    let input = dir.join("lens.zmx");
+    std::fs::copy(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/corpus/optiland__lens1.zmx"),
+        &input,
+    )
+    .unwrap();
+    let before = std::fs::read(&input).unwrap();
+    let other_path = dir.join(".").join("lens.zmx");
+    for output in [&input, &other_path] {
+        let o = lensbake(&[
+            "lens",
+            "convert",
+            input.to_str().unwrap(),
+            output.to_str().unwrap(),
+        ]);
+        assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+        assert!(
+            stderr(&o).starts_with("error: ") && stderr(&o).contains("--overwrite-input"),
+            "{}",
+            stderr(&o)
+        );
+        assert_eq!(std::fs::read(&input).unwrap(), before);
+    }
+    let o = lensbake(&[
+        "lens",
+        "convert",
+        input.to_str().unwrap(),
+        input.to_str().unwrap(),
+        "--overwrite-input",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert_ne!(std::fs::read(&input).unwrap(), before);
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -695,12 +695,14 @@ fn ron_surfaces_over_the_limit_are_refused_before_parsing() {
 /// after reading names the command's line (CIR, GLA, K, ...) where the file wrote one.
 #[test]
 fn code_v_fields_are_located_on_their_command_line() {
-    // Surface 2's clear aperture (line 6) beyond its 50 mm radius.
+    // Surface 2's clear aperture (line 6) beyond its 50 mm radius: the curvature on line 5
+    // contradicts the CIR the file states, so the error points at the value and names the CIR.
     let e = error(
         "RDM N\nS 0.02 5 N-BK7\nCIR 10\nSTO\nS -0.02 40\nCIR 60\n",
         Format::CodeV,
     );
-    assert_at(&e, Some(6), Some(2), Some("CIR"));
+    assert_at(&e, Some(5), Some(2), Some("curvature"));
+    assert!(e.to_string().contains("clear aperture of 60 (CIR)"), "{e}");
     // Surface 1's glass given on its own line (line 3); the mechanical edge (CIR EDG) on line 4
     // does not take the clear aperture's place.
     let e = error(

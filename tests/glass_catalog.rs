@@ -508,3 +508,59 @@ fn withdrawn_glasses_resolve_to_their_1980_fits() {
     }
     assert!(corroborated > 100, "{corroborated} pairs");
 }
+
+/// HIKARI's KZFS4 (from the NIKON/HIKARI Zemax catalogue, as refractiveindex.info tabulates it)
+/// meets the sheet's nd 1.61340 and Vd 44.29 to their printed digits; SCHOTT's glass of that
+/// name, withdrawn before SCHOTT published Sellmeier data, stays unknown rather than mapped to
+/// HIKARI's.
+#[test]
+fn hikari_kzfs4_meets_its_printed_nd_and_vd() {
+    let glass = lookup("KZFS4").unwrap();
+    assert_eq!(glass.maker, "HIKARI");
+    let n = |nm: f64| glass.formula.index(nm);
+    let nd = n(D_LINE_NM);
+    let vd = (nd - 1.0) / (n(F_LINE_NM) - n(C_LINE_NM));
+    assert!((nd - 1.61340).abs() < 5e-6, "nd {nd}");
+    assert!((vd - 44.29).abs() < 5e-3, "vd {vd}");
+    assert!(matches!(
+        lookup("KZFS4_SCHOTT"),
+        Err(Problem::UnknownGlass { .. })
+    ));
+}
+
+/// A moulding variant (`L-TIM28_MOLD`) is its base glass: no maker held here publishes data of
+/// its own for it. OHARA's L-TIM28 gives its sheet's nd 1.68948 and Vd 31.0.
+#[test]
+fn moulding_variants_read_as_their_base_glass() {
+    let moulded = lookup("L-TIM28_MOLD").unwrap();
+    assert!(std::ptr::eq(moulded, lookup("L-TIM28").unwrap()));
+    let n = |nm: f64| moulded.formula.index(nm);
+    let nd = n(D_LINE_NM);
+    let vd = (nd - 1.0) / (n(F_LINE_NM) - n(C_LINE_NM));
+    assert!((nd - 1.68948).abs() < 5e-6, "nd {nd}");
+    assert!((vd - 31.0).abs() < 0.05, "vd {vd}");
+    assert!(lookup("_MOLD").is_err());
+}
+
+/// A table is continued past its ends along the spline's end tangent, up to 5% of its span
+/// (400-900 nm: 375-925 nm), and refused beyond.
+#[test]
+fn a_table_is_continued_a_twentieth_of_its_span_beyond_each_end() {
+    let table =
+        Dispersion::tabulated(vec![(400.0, 1.530), (650.0, 1.520), (900.0, 1.5155)]).unwrap();
+    for (end, outside, sign) in [(900.0, 925.0, 1.0), (400.0, 375.0, -1.0)] {
+        // The spline's slope at its end, from inside.
+        let h = 1e-4;
+        let slope = sign * (table.index(end) - table.index(end - sign * h)) / h;
+        let continued = table.index(end) + slope * (outside - end);
+        let n = table.checked_index(outside).unwrap();
+        assert!(
+            (n - continued).abs() < 1e-8,
+            "{outside} nm: {n} vs {continued}"
+        );
+        assert_eq!(table.extrapolated_range_nm(outside), Some((400.0, 900.0)));
+        assert!(table.checked_index(outside + sign * 0.1).is_err());
+    }
+    assert_eq!(table.extrapolated_range_nm(650.0), None);
+    assert_eq!(table.extrapolated_range_nm(900.0), None);
+}

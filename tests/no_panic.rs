@@ -124,16 +124,22 @@ fn mutate(rng: &mut Rng, input: &[u8]) -> Vec<u8> {
     out
 }
 
-/// Reads `bytes` as every format under both pbrt conventions, writes and rereads what loads,
-/// and validates it; returns how many of those reads loaded and how many became a lens system.
+/// Reads `bytes` as every format under both pbrt conventions and at zoom position 2, writes and
+/// rereads what loads, and validates it; returns how many of those reads loaded and how many
+/// became a lens system.
 fn exercise(bytes: &[u8]) -> (usize, usize) {
     let (mut loaded_count, mut valid_count) = (0, 0);
     let file = Some(Path::new("fuzz.lens"));
     for format in Format::ALL {
-        for pbrt_thickness in [PbrtThickness::ToNext, PbrtThickness::FromPrevious] {
+        for (pbrt_thickness, zoom_position) in [
+            (PbrtThickness::ToNext, None),
+            (PbrtThickness::FromPrevious, None),
+            (PbrtThickness::ToNext, Some(2)),
+        ] {
             let options = LoadOptions {
-                format: None,
                 pbrt_thickness,
+                zoom_position,
+                ..LoadOptions::default()
             };
             let Ok(loaded) = read_bytes(bytes, file, format, &options) else {
                 continue;
@@ -159,6 +165,7 @@ fn seeds() -> Vec<Vec<u8>> {
         .map(|e| std::fs::read(e.expect("entry").path()).expect("lens file"))
         .collect();
     seeds.push(std::fs::read(test_data("cooke_triplet.zmx")).expect("fixture"));
+    seeds.push(std::fs::read(test_data("zoom_two_group.seq")).expect("fixture"));
     // The RON form of a lens, so the RON reader gets near-valid input too.
     let table = std::fs::read_to_string(lens_file("dgauss.50mm.dat")).expect("lens file");
     let loaded = read_str(&table, None, Format::Pbrt, &LoadOptions::default()).expect("pbrt file");

@@ -31,6 +31,11 @@ pub enum LensCommand {
         /// at this wavelength instead of the design wavelength.
         #[arg(long, value_name = "NM")]
         indices_at_nm: Option<f64>,
+        /// Allow OUT to be the input file itself. Refused without it: the written file does
+        /// not carry the keywords the reader skipped (notes, display settings, ...), so writing
+        /// over the input would lose them.
+        #[arg(long)]
+        overwrite_input: bool,
     },
     /// List the bundled lenses.
     List,
@@ -75,6 +80,10 @@ pub struct ReadArgs {
     /// (first row 0), as in the unscaled pbrt-v4-scenes files (dgauss.dat, wide.dat, ...).
     #[arg(long)]
     pub pbrt_from_previous: bool,
+    /// Zoom lenses: read this position (1-based) of a CODE V zoom file (`ZOO`), or of a Zemax
+    /// multi-configuration file (its active configuration only); position 1 by default.
+    #[arg(long, value_name = "K", value_parser = clap::value_parser!(u32).range(1..))]
+    pub zoom_position: Option<u32>,
 }
 
 fn parse_format(text: &str) -> Result<Format, String> {
@@ -90,6 +99,7 @@ impl ReadArgs {
             } else {
                 PbrtThickness::ToNext
             },
+            zoom_position: self.zoom_position.map(|k| k as usize),
         }
     }
 }
@@ -235,7 +245,18 @@ pub fn run(command: LensCommand) -> anyhow::Result<()> {
             input,
             output,
             indices_at_nm,
-        } => convert(&input, &output, indices_at_nm),
+            overwrite_input,
+        } => {
+            if !overwrite_input && same_file(Path::new(&input.lens), &output) {
+                anyhow::bail!(
+                    "{}: the output is the input file; writing it would drop what lensbake \
+                     does not read (notes, display settings, ...): name another output, or pass \
+                     --overwrite-input to replace it",
+                    output.display()
+                );
+            }
+            convert(&input, &output, indices_at_nm)
+        }
         LensCommand::List => list(),
     }
 }
@@ -269,6 +290,26 @@ fn convert(input: &LensArgs, output: &Path, indices_at_nm: Option<f64>) -> anyho
         lens.source.origin
     );
     Ok(())
+}
+
+/// Whether two paths name one existing file (through links, `..` or a second hard link).
+fn same_file(a: &Path, b: &Path) -> bool {
+    let (Ok(a_meta), Ok(b_meta)) = (std::fs::metadata(a), std::fs::metadata(b)) else {
+        return false;
+    };
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        a_meta.dev() == b_meta.dev() && a_meta.ino() == b_meta.ino()
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = (a_meta, b_meta);
+        matches!(
+            (std::fs::canonicalize(a), std::fs::canonicalize(b)),
+            (Ok(x), Ok(y)) if x == y
+        )
+    }
 }
 
 /// The keywords a reading skipped (harmless or unknown), which no written file carries.

@@ -10,13 +10,14 @@ use lensbake::job::{DEFAULT_FOCUS_MM, FocusMode, ModelChoice, RenderJob, SceneSp
 use lensbake::limits::read_input_text;
 use lensbake::model::ModelKind;
 use lensbake::render::RenderSettings;
+use lensbake::view::keys::keys_help;
 use lensbake::view::script::parse_script;
-use lensbake::view::window::{KEYS, run_window};
+use lensbake::view::window::run_window;
 use lensbake::view::{Session, Step, ViewEvent, Viewer};
 use std::path::PathBuf;
 
 #[derive(Args, Debug)]
-#[command(after_help = format!("Keys in the window: {KEYS}."))]
+#[command(after_help = format!("Keys in the window: {}.", keys_help()))]
 pub struct ViewArgs {
     /// Lens: a lens file, a bundled lens name (`lensbake lens list`) or `ideal:<EFL_MM>`.
     #[arg(long)]
@@ -154,6 +155,10 @@ pub fn run(args: ViewArgs) -> anyhow::Result<()> {
         session.frames(),
         mean.as_secs_f64() * 1e3
     );
+    if let Some(gpu) = session.viewer.gpu() {
+        let (uploads, readbacks) = gpu.transfers();
+        say!("GPU transfers: {uploads} render uploads, {readbacks} readbacks");
+    }
     Ok(())
 }
 

@@ -208,8 +208,17 @@ struct GlassKey {
     maker: Option<&'static str>,
 }
 
+/// The suffix lens files add to a moulding glass's name (`L-TIM28_MOLD`) for the glass as a
+/// moulded lens has it. None of the catalogues held here publishes data of its own for such a
+/// variant (moulding's cooling shifts the index a little, by an amount the moulder sets), so the
+/// name reads as its base glass, whose data are the maker's measurements of the block.
+const MOULDED_SUFFIX: &str = "_MOLD";
+
 fn glass_key(name: &str) -> GlassKey {
-    let upper = name.trim().to_ascii_uppercase();
+    let mut upper = name.trim().to_ascii_uppercase();
+    if let Some(base) = upper.strip_suffix(MOULDED_SUFFIX).filter(|b| !b.is_empty()) {
+        upper = base.to_string();
+    }
     let (stem, maker) = match upper.rsplit_once(['_', ':', ' ']) {
         Some((stem, suffix)) => match CATALOGUES.iter().find(|m| **m == suffix) {
             Some(maker) => (stem, Some(*maker)),
@@ -228,7 +237,8 @@ pub fn lookup(name: &str) -> Result<&'static CatalogGlass, Problem> {
     lookup_in(name, &[])
 }
 
-/// Finds a glass by name, tolerant of case, dashes and a maker suffix. A maker suffix must match
+/// Finds a glass by name, tolerant of case, dashes, a maker suffix and a moulding suffix
+/// (`_MOLD`, read as the base glass). A maker suffix must match
 /// the glass's catalogue, so "SK16_SCHOTT" never resolves to HIKARI SK16. Among glasses of one
 /// name, a current glass wins over a withdrawn 1980 one, then the first catalogue of `preferred`
 /// (case-insensitive) that holds one, then [`CATALOGUES`] order. A name holding a control

@@ -68,6 +68,13 @@ pub enum Dispersion {
     },
 }
 
+/// How far beyond its first and last wavelength a table is continued, as a fraction of the
+/// span it covers: a table from 400 to 900 nm is read from 375 to 925 nm. OpticStudio and CODE V
+/// both extrapolate a glass's index beyond the wavelengths its data cover (with a warning), and
+/// the files that rely on it go a few nm past the end; far beyond, a continued table is no
+/// measurement, so it is refused there.
+pub const TABLE_EXTRAPOLATION: f64 = 0.05;
+
 /// Most points a tabulated medium may list; bounds the allocation a corrupt file can cause.
 pub const MAX_TABULATED_POINTS: usize = 256;
 
@@ -205,20 +212,50 @@ impl Dispersion {
         window
     }
 
+    /// The wavelengths (nm) at which a table's index is its end segments continued (outside its
+    /// points, within [`TABLE_EXTRAPOLATION`] of its span beyond each end): `Some(table's first
+    /// and last wavelength)` there, `None` inside the table, beyond the margin, and for every
+    /// formula that is not a table.
+    pub fn extrapolated_range_nm(&self, wavelength_nm: f64) -> Option<(f64, f64)> {
+        let Dispersion::Tabulated { points, .. } = self else {
+            return None;
+        };
+        let (low, high) = (points[0].0, points[points.len() - 1].0);
+        let margin = TABLE_EXTRAPOLATION * (high - low);
+        let beyond = (low - margin..low).contains(&wavelength_nm)
+            || (wavelength_nm > high && wavelength_nm <= high + margin);
+        beyond.then_some((low, high))
+    }
+
     /// Refractive index at `wavelength_nm`, or [`Problem::WavelengthOutOfRange`] where the
     /// formula does not describe a transparent medium there: outside
-    /// [`Dispersion::resonance_window_nm`], or an index that is not finite or is below vacuum's
-    /// ([`crate::prescription::MIN_INDEX`]: indices are relative to air).
+    /// [`Dispersion::resonance_window_nm`] (a table: outside its points by more than
+    /// [`TABLE_EXTRAPOLATION`] of its span; see [`Dispersion::extrapolated_range_nm`]), or an
+    /// index that is not finite or is below vacuum's ([`crate::prescription::MIN_INDEX`]:
+    /// indices are relative to air).
     ///
     /// The catalogue stores no datasheet validity range, so a wavelength inside the window may
     /// still lie beyond what the maker measured; every catalogue glass is tested to give a normal
     /// glass index over 380-780 nm.
+    ///
+    /// ```
+    /// use lensbake::glass::Dispersion;
+    ///
+    /// // A table from 400 to 900 nm is continued 25 nm (5% of its span) beyond each end.
+    /// let table = Dispersion::tabulated(vec![(400.0, 1.53), (650.0, 1.52), (900.0, 1.515)]).unwrap();
+    /// assert!(table.checked_index(920.0).is_ok());
+    /// assert_eq!(table.extrapolated_range_nm(920.0), Some((400.0, 900.0)));
+    /// assert!(table.checked_index(930.0).is_err());
+    /// ```
     pub fn checked_index(&self, wavelength_nm: f64) -> Result<f64, Problem> {
         let (low, high) = self.resonance_window_nm();
         let n = self.index(wavelength_nm);
         // A table's window is closed: its end points are measurements, not poles.
         let inside = match self {
-            Dispersion::Tabulated { .. } => wavelength_nm >= low && wavelength_nm <= high,
+            Dispersion::Tabulated { .. } => {
+                (wavelength_nm >= low && wavelength_nm <= high)
+                    || self.extrapolated_range_nm(wavelength_nm).is_some()
+            }
             _ => wavelength_nm > low && wavelength_nm < high,
         };
         if inside && (crate::prescription::MIN_INDEX..=crate::prescription::MAX_INDEX).contains(&n)
@@ -268,18 +305,33 @@ fn natural_spline(points: &[(f64, f64)]) -> Vec<f64> {
     second
 }
 
-/// The spline through `points` at `x`; outside the table, the end segment continued (callers
-/// that need the range use [`Dispersion::checked_index`]).
+/// The spline through `points` at `x`; outside the table, the straight line that continues it
+/// (a natural spline's second derivative is zero at its ends, so the line meets it smoothly).
+/// Callers that need the range use [`Dispersion::checked_index`].
 fn spline_value(points: &[(f64, f64)], second: &[f64], x: f64) -> f64 {
-    if points.len() == 1 {
+    let last = points.len() - 1;
+    if last == 0 {
         return points[0].1;
     }
-    let upper = points
-        .iter()
-        .position(|p| p.0 >= x)
-        .unwrap_or(points.len() - 1)
-        .max(1);
-    let (lower, upper) = (upper - 1, upper);
+    if x < points[0].0 || x > points[last].0 {
+        let (end, other) = if x < points[0].0 {
+            (0, 1)
+        } else {
+            (last, last - 1)
+        };
+        let (lower, upper) = (end.min(other), end.max(other));
+        let h = points[upper].0 - points[lower].0;
+        let chord = (points[upper].1 - points[lower].1) / h;
+        // S' at the lower end (M = 0 there) and at the upper end (M = 0 there).
+        let slope = if end == lower {
+            chord - h * second[upper] / 6.0
+        } else {
+            chord + h * second[lower] / 6.0
+        };
+        return points[end].1 + slope * (x - points[end].0);
+    }
+    let upper = points.iter().position(|p| p.0 >= x).unwrap_or(last).max(1);
+    let lower = upper - 1;
     let h = points[upper].0 - points[lower].0;
     let a = (points[upper].0 - x) / h;
     let b = 1.0 - a;

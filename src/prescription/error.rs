@@ -135,6 +135,10 @@ pub enum Problem {
     ObscurationOutOfRange { radius: f64, semi_aperture: f64 },
     #[error("semi-aperture {} mm is larger than |radius| {} mm", crate::limits::short(*.semi_aperture), crate::limits::short(*.radius))]
     ApertureExceedsRadius { semi_aperture: f64, radius: f64 },
+    /// A CODE V value read in one radius mode gives a sphere smaller than the aperture the file
+    /// needs there: the file's numbers contradict the mode it was read in.
+    #[error("{0}")]
+    RadiusModeContradicted(Box<RadiusModeContradiction>),
     #[error(
         "the conic surface is undefined beyond r = {limit} mm, inside its semi-aperture {semi_aperture} mm"
     )]
@@ -220,4 +224,25 @@ impl PrescriptionError {
             problem,
         }
     }
+}
+
+/// What [`Problem::RadiusModeContradicted`] says: how the value was read, and what the file
+/// needs of the surface it gives.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error(
+    "read as {read_as} ({why}), this value gives a surface of |radius| {} mm, but {needed}, and \
+     no such surface passes that; {suggestion}",
+    crate::limits::short(*.radius)
+)]
+pub struct RadiusModeContradiction {
+    /// "a radius" or "a curvature".
+    pub read_as: &'static str,
+    /// Why it was read so (the file's `RDM`, or its absence).
+    pub why: String,
+    /// Where the surface ends, in the file's length unit.
+    pub radius: f64,
+    /// What the file needs there (a stated clear aperture, the beam).
+    pub needed: String,
+    /// The other mode, as the file would state it.
+    pub suggestion: &'static str,
 }

@@ -5,7 +5,7 @@ pub mod formats;
 mod model;
 mod validate;
 
-pub use error::{Location, PrescriptionError, Problem};
+pub use error::{Location, PrescriptionError, Problem, RadiusModeContradiction};
 pub use model::{
     ApertureSpec, Conditions, DEFAULT_WAVELENGTH_NM, FieldKind, FieldSpec, MAX_ASPHERE_TERMS,
     MAX_INDEX, MIN_INDEX, Medium, Prescription, Provenance, RayAiming, Shape, StatedCondition,

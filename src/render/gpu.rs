@@ -5,6 +5,7 @@ use super::RenderError;
 use super::gpu_types::{ChannelParams, FrameParams, LayerData, LensData, LensParams, LensSurface};
 use super::wgsl::{ibrt_shader, lens_trace_shader};
 use std::sync::OnceLock;
+use std::sync::atomic::{AtomicU64, Ordering};
 use wgpu::util::DeviceExt;
 
 /// Samples per pixel per dispatch: keeps each submission short on slow (software) adapters.
@@ -18,9 +19,18 @@ const WORKGROUP_SIZE: u32 = 8;
 /// binary sets one up first (`main.rs`), library users are told so in README.md.
 pub(crate) fn open_device(label: &str) -> Result<(wgpu::Device, wgpu::Queue, String), RenderError> {
     let adapter = request_adapter()?;
-    let adapter_description = describe(&adapter.get_info());
+    let (device, queue) = request_device(&adapter, label)?;
+    Ok((device, queue, describe(&adapter.get_info())))
+}
+
+/// A device on `adapter` with the limits the renderer and the peeler need (a window's presenter
+/// opens its device here too, so the renderer can draw on it).
+pub(crate) fn request_device(
+    adapter: &wgpu::Adapter,
+    label: &str,
+) -> Result<(wgpu::Device, wgpu::Queue), RenderError> {
     let limits = adapter.limits();
-    let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+    pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
         label: Some(label),
         required_limits: wgpu::Limits {
             max_storage_buffer_binding_size: limits.max_storage_buffer_binding_size,
@@ -37,8 +47,7 @@ pub(crate) fn open_device(label: &str) -> Result<(wgpu::Device, wgpu::Queue, Str
         },
         ..Default::default()
     }))
-    .map_err(|e| RenderError::Gpu(e.to_string()))?;
-    Ok((device, queue, adapter_description))
+    .map_err(|e| RenderError::Gpu(e.to_string()))
 }
 
 /// The adapter wgpu picks (honouring WGPU_BACKEND and friends), preferring a fast one.
@@ -52,7 +61,7 @@ fn request_adapter() -> Result<wgpu::Adapter, RenderError> {
     .map_err(|e| RenderError::NoAdapter(e.to_string()))
 }
 
-fn describe(info: &wgpu::AdapterInfo) -> String {
+pub(crate) fn describe(info: &wgpu::AdapterInfo) -> String {
     format!("{} ({:?})", info.name, info.backend)
 }
 
@@ -84,6 +93,7 @@ pub struct GpuRenderer {
     chromatic_pipeline: OnceLock<wgpu::ComputePipeline>,
     /// The adapter's name and backend, for reports.
     pub adapter_description: String,
+    transfers: Transfers,
 }
 
 impl GpuRenderer {
@@ -91,6 +101,16 @@ impl GpuRenderer {
     /// `RenderError::NoAdapter` when there is none.
     pub fn new() -> Result<GpuRenderer, RenderError> {
         let (device, queue, adapter_description) = open_device("lensbake ibrt")?;
+        GpuRenderer::on_device(device, queue, adapter_description)
+    }
+
+    /// The IBRT pipeline built on a device opened elsewhere with [`request_device`]'s limits
+    /// (the viewer's window draws the renderer's sums on its own device this way).
+    pub(crate) fn on_device(
+        device: wgpu::Device,
+        queue: wgpu::Queue,
+        adapter_description: String,
+    ) -> Result<GpuRenderer, RenderError> {
         // Capture validation errors instead of letting wgpu's default handler panic.
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let pipeline = compute_pipeline(&device, ibrt_shader(), "render");
@@ -106,6 +126,7 @@ impl GpuRenderer {
             trace_pipeline: OnceLock::new(),
             chromatic_pipeline: OnceLock::new(),
             adapter_description,
+            transfers: Transfers::default(),
         })
     }
 
@@ -236,6 +257,7 @@ impl GpuRenderer {
             usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
+        self.transfers.readbacks.fetch_add(1, Ordering::Relaxed);
         let mut encoder = self.device.create_command_encoder(&Default::default());
         encoder.copy_buffer_to_buffer(buffer, 0, &readback, 0, bytes);
         self.queue.submit([encoder.finish()]);
@@ -323,6 +345,27 @@ impl GpuRenderer {
         lens: &LensData,
         channels: Option<&ChannelParams>,
     ) -> Result<Vec<[f32; 4]>, RenderError> {
+        let resident = self.resident(frame, layers, lens, channels)?;
+        self.accumulate_resident(
+            &resident,
+            frame.sample_offset,
+            frame.sample_count,
+            frame.sample_stride,
+        )?;
+        self.read_sums(&resident)
+    }
+
+    /// Uploads a render's layers and lens once, with running sums of zero on the GPU, so a
+    /// progressive view adds each frame's samples ([`GpuRenderer::accumulate_resident`]) with no
+    /// upload and reads the sums back only when it needs them on the CPU
+    /// ([`GpuRenderer::read_sums`]). `frame`'s sample offset, count and stride are ignored.
+    pub fn resident(
+        &self,
+        frame: &FrameParams,
+        layers: &LayerData,
+        lens: &LensData,
+        channels: Option<&ChannelParams>,
+    ) -> Result<ResidentRender, RenderError> {
         let limit = self.device.limits().max_texture_dimension_3d;
         if lens.dims.iter().any(|&n| n > limit) {
             return Err(RenderError::Gpu(format!(
@@ -344,10 +387,9 @@ impl GpuRenderer {
         let surfels = self.storage("layer surfels", bytemuck::cast_slice(layers.surfels));
         let bounds = self.storage("depth bounds", bytemuck::cast_slice(&layers.depth_bounds));
         let pixels = (frame.width * frame.height) as u64;
-        let output_bytes = pixels * 16;
-        let output = self.device.create_buffer(&wgpu::BufferDescriptor {
+        let sums = self.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("radiance sum"),
-            size: output_bytes,
+            size: pixels * 16,
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         });
@@ -366,7 +408,6 @@ impl GpuRenderer {
             ],
         );
         let lens_group = self.lens_group(pipeline, &lens.params, &lens.surfaces);
-        let channel_uniform = channels.map(|c| self.uniform("channels", bytemuck::bytes_of(c)));
         let seidel = self.uniform("seidel params", bytemuck::bytes_of(&lens.seidel));
         let shift_zero = [[0.0f32; 4]];
         let shifts: &[[f32; 4]] = match lens.film_shift.as_slice() {
@@ -379,39 +420,72 @@ impl GpuRenderer {
             3,
             &[seidel.as_entire_binding(), film_shift.as_entire_binding()],
         );
-        // The frame's samples (offset, count, stride) in dispatches of at most
-        // SAMPLES_PER_DISPATCH, each starting where the last one stopped.
+        // The frame uniform is written before each dispatch; the layer group binds it once.
+        let frame_uniform = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("frame"),
+            size: std::mem::size_of::<FrameParams>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let channel_uniform = channels.map(|c| self.uniform("channels", bytemuck::bytes_of(c)));
+        let mut layer_entries = vec![
+            frame_uniform.as_entire_binding(),
+            starts.as_entire_binding(),
+            inverse_depths.as_entire_binding(),
+            surfels.as_entire_binding(),
+            bounds.as_entire_binding(),
+            sums.as_entire_binding(),
+        ];
+        if let Some(channel_uniform) = &channel_uniform {
+            layer_entries.push(channel_uniform.as_entire_binding());
+        }
+        let layer_group = self.bind_group(pipeline, 1, &layer_entries);
+        if let Some(error) = pollster::block_on(scope.pop()) {
+            return Err(RenderError::Gpu(format!("uploading a render: {error}")));
+        }
+        self.transfers.uploads.fetch_add(1, Ordering::Relaxed);
+        Ok(ResidentRender {
+            pipeline: pipeline.clone(),
+            frame: *frame,
+            frame_uniform,
+            groups: [lrtf_group, layer_group, lens_group, seidel_group],
+            sums,
+            pixels,
+        })
+    }
+
+    /// Adds `count` samples per pixel (lattice points `offset, offset + stride, ..`) to the
+    /// resident render's sums, in dispatches of at most SAMPLES_PER_DISPATCH, each starting
+    /// where the last one stopped, and returns when they are done. Only the frame's small
+    /// uniform is written.
+    pub fn accumulate_resident(
+        &self,
+        resident: &ResidentRender,
+        offset: u32,
+        count: u32,
+        stride: u32,
+    ) -> Result<(), RenderError> {
+        let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
         let mut done = 0;
-        while done < frame.sample_count {
+        while done < count {
             let chunk = FrameParams {
-                sample_offset: frame.sample_offset + done * frame.sample_stride,
-                sample_count: SAMPLES_PER_DISPATCH.min(frame.sample_count - done),
-                ..*frame
+                sample_offset: offset + done * stride,
+                sample_count: SAMPLES_PER_DISPATCH.min(count - done),
+                sample_stride: stride,
+                ..resident.frame
             };
-            let uniform = self.uniform("frame", bytemuck::bytes_of(&chunk));
-            let mut layer_entries = vec![
-                uniform.as_entire_binding(),
-                starts.as_entire_binding(),
-                inverse_depths.as_entire_binding(),
-                surfels.as_entire_binding(),
-                bounds.as_entire_binding(),
-                output.as_entire_binding(),
-            ];
-            if let Some(channel_uniform) = &channel_uniform {
-                layer_entries.push(channel_uniform.as_entire_binding());
-            }
-            let layer_group = self.bind_group(pipeline, 1, &layer_entries);
+            self.queue
+                .write_buffer(&resident.frame_uniform, 0, bytemuck::bytes_of(&chunk));
             let mut encoder = self.device.create_command_encoder(&Default::default());
             {
                 let mut pass = encoder.begin_compute_pass(&Default::default());
-                pass.set_pipeline(pipeline);
-                pass.set_bind_group(0, &lrtf_group, &[]);
-                pass.set_bind_group(1, &layer_group, &[]);
-                pass.set_bind_group(2, &lens_group, &[]);
-                pass.set_bind_group(3, &seidel_group, &[]);
+                pass.set_pipeline(&resident.pipeline);
+                for (i, group) in resident.groups.iter().enumerate() {
+                    pass.set_bind_group(i as u32, group, &[]);
+                }
                 pass.dispatch_workgroups(
-                    frame.width.div_ceil(WORKGROUP_SIZE),
-                    frame.height.div_ceil(WORKGROUP_SIZE),
+                    resident.frame.width.div_ceil(WORKGROUP_SIZE),
+                    resident.frame.height.div_ceil(WORKGROUP_SIZE),
                     1,
                 );
             }
@@ -421,8 +495,58 @@ impl GpuRenderer {
         if let Some(error) = pollster::block_on(scope.pop()) {
             return Err(RenderError::Gpu(format!("dispatching IBRT: {error}")));
         }
-        self.read_back(&output, output_bytes)
+        // Wait for the samples: a caller timing its frames times the GPU's work, and a viewer
+        // submitting faster than the GPU renders would queue frames without bound.
+        self.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| RenderError::Gpu(e.to_string()))?;
+        Ok(())
     }
+
+    /// The resident render's per-pixel sums, read back to the CPU.
+    pub fn read_sums(&self, resident: &ResidentRender) -> Result<Vec<[f32; 4]>, RenderError> {
+        self.read_back(&resident.sums, resident.pixels * 16)
+    }
+
+    /// Bulk uploads (a render's layers and lens) and readbacks since this renderer opened: a
+    /// progressive view that keeps its render resident does one upload per render and no
+    /// readback per frame.
+    pub fn transfers(&self) -> (u64, u64) {
+        (
+            self.transfers.uploads.load(Ordering::Relaxed),
+            self.transfers.readbacks.load(Ordering::Relaxed),
+        )
+    }
+
+    /// The device and queue, for work on the same device as the renderer's buffers (the
+    /// viewer's window composes its frame from a resident render's sums this way).
+    pub fn device(&self) -> (&wgpu::Device, &wgpu::Queue) {
+        (&self.device, &self.queue)
+    }
+}
+
+/// A render held on the GPU: its bind groups (layers, lens, table) and its running sums.
+pub struct ResidentRender {
+    pipeline: wgpu::ComputePipeline,
+    frame: FrameParams,
+    frame_uniform: wgpu::Buffer,
+    groups: [wgpu::BindGroup; 4],
+    sums: wgpu::Buffer,
+    pixels: u64,
+}
+
+impl ResidentRender {
+    /// The running sums (RGBA f32 per pixel, row-major), for a pass that reads them in place.
+    pub fn sums(&self) -> &wgpu::Buffer {
+        &self.sums
+    }
+}
+
+/// Counts of bulk transfers, for [`GpuRenderer::transfers`].
+#[derive(Default)]
+struct Transfers {
+    uploads: AtomicU64,
+    readbacks: AtomicU64,
 }
 
 fn compute_pipeline(device: &wgpu::Device, source: &str, entry: &str) -> wgpu::ComputePipeline {

@@ -29,7 +29,9 @@ pub mod wgsl;
 
 use crate::limits;
 use camera::Camera;
-use gpu_types::{FrameParams, LayerData, LayerIndex, LensData, TableTexels, frame_params};
+use gpu_types::{
+    ChannelParams, FrameParams, LayerData, LayerIndex, LensData, TableTexels, frame_params,
+};
 use image::RgbImage;
 use layers::{LayeredDepthImage, View};
 use std::path::PathBuf;
@@ -280,34 +282,16 @@ pub fn accumulate_share(
             pixels
         )));
     }
-    let frame = FrameParams {
-        sample_offset: share.offset,
-        sample_count: share.count,
-        sample_stride: share.stride,
-        ..frame_params(
-            camera,
-            layers,
-            view_tan_half,
-            settings.width,
-            settings.height,
-            settings.samples_per_pixel,
-            settings.seed,
-        )
-    };
     let texels = match backend {
         Backend::Gpu => TableTexels::Packed,
         Backend::Cpu => TableTexels::Omitted,
     };
-    let (lens, channels) = match &camera.chromatic {
-        Some(chromatic) => {
-            let (lens, channels) = LensData::chromatic(camera, chromatic, texels)?;
-            (lens, Some(channels))
-        }
-        None => (LensData::of(&camera.model, texels), None),
-    };
-    let lens = LensData {
-        film_shift: camera.film_shifts(settings.width, settings.height)?,
-        ..lens
+    let (frame, lens, channels) = frame_inputs(camera, layers, view_tan_half, settings, texels)?;
+    let frame = FrameParams {
+        sample_offset: share.offset,
+        sample_count: share.count,
+        sample_stride: share.stride,
+        ..frame
     };
     match (backend, gpu) {
         (Backend::Gpu, gpu) => {
@@ -338,6 +322,54 @@ pub fn accumulate_share(
         },
     }
     Ok(())
+}
+
+/// The frame parameters (every sample of `settings`), the lens data and, for a chromatic
+/// camera, the channel parameters the kernels take for `camera` over `layers`.
+fn frame_inputs(
+    camera: &Camera,
+    layers: &LayerData,
+    view_tan_half: [f64; 2],
+    settings: &RenderSettings,
+    texels: TableTexels,
+) -> Result<(FrameParams, LensData, Option<ChannelParams>), RenderError> {
+    let frame = frame_params(
+        camera,
+        layers,
+        view_tan_half,
+        settings.width,
+        settings.height,
+        settings.samples_per_pixel,
+        settings.seed,
+    );
+    let (lens, channels) = match &camera.chromatic {
+        Some(chromatic) => {
+            let (lens, channels) = LensData::chromatic(camera, chromatic, texels)?;
+            (lens, Some(channels))
+        }
+        None => (LensData::of(&camera.model, texels), None),
+    };
+    let lens = LensData {
+        film_shift: camera.film_shifts(settings.width, settings.height)?,
+        ..lens
+    };
+    Ok((frame, lens, channels))
+}
+
+/// `settings`' render of `layers` through `camera` uploaded to `gpu` with sums of zero, for a
+/// progressive view that adds shares of samples with [`gpu::GpuRenderer::accumulate_resident`]
+/// (the lattice of `settings.samples_per_pixel`, as [`accumulate_share`] takes it).
+pub fn resident_render(
+    camera: &Camera,
+    layers: &LayerData,
+    view_tan_half: [f64; 2],
+    settings: &RenderSettings,
+    gpu: &gpu::GpuRenderer,
+) -> Result<gpu::ResidentRender, RenderError> {
+    settings.check()?;
+    let (frame, lens, channels) =
+        frame_inputs(camera, layers, view_tan_half, settings, TableTexels::Packed)?;
+    gpu.resident(&frame, layers, &lens, channels.as_ref())
 }
 
 /// Renders `ldi` through `camera`. Returns the image; radiance is the mean over samples.

@@ -1,7 +1,7 @@
 //! What the viewer writes over its image: the HUD's lines (drawn with the plots' embedded font)
 //! and the false-colour map of the split view's error.
 
-use super::Viewer;
+use super::{ViewError, Viewer};
 use crate::job::BackendUsed;
 use crate::plot::font::{FONT_FAMILY, ensure_registered};
 use crate::render::image::RgbImage;
@@ -49,10 +49,14 @@ pub fn lines(viewer: &Viewer) -> Vec<String> {
         ),
         None => focus,
     };
-    let f_number = job
-        .lens
-        .first_order(job.f_number)
-        .map_or_else(|_| "?".to_string(), |(_, f)| format!("f/{f:.2}"));
+    let f_number = job.lens.first_order(job.f_number).map_or_else(
+        |_| "?".to_string(),
+        |(models, f)| format!("{:.1} mm f/{f:.2}", models.thick.focal_length_mm),
+    );
+    let lens = match viewer.zoom_position() {
+        (_, 1) => lens,
+        (position, count) => format!("{lens}, zoom {position}/{count}"),
+    };
     let adapter = match viewer.backend() {
         BackendUsed::Gpu { adapter } => adapter.clone(),
         BackendUsed::Cpu {
@@ -112,20 +116,30 @@ pub fn lines(viewer: &Viewer) -> Vec<String> {
         Some(_) => lines.push("table: loading (baked if none on disk fits)".to_string()),
         None => {}
     }
-    if let Some(traced) = viewer.twin_image() {
-        lines.push(if samples == 0 {
-            "baked vs traced: no samples yet".to_string()
-        } else {
-            let baked = viewer.image();
-            let (_, scale) = error_map(&baked, &traced);
-            format!(
-                "baked vs traced: PSNR {:.1} dB; overlay white = {}",
-                psnr(&baked, &traced),
-                significant(scale)
-            )
-        });
+    match comparison(viewer, samples) {
+        Ok(Some(line)) => lines.push(line),
+        Ok(None) => {}
+        Err(error) => lines.push(format!("baked vs traced: cannot compare ({error})")),
     }
     lines
+}
+
+/// The split view's line comparing its halves (None outside the split view). On the GPU it
+/// reads both renders back: the comparison is the one HUD entry that needs the pixels.
+fn comparison(viewer: &Viewer, samples: u32) -> Result<Option<String>, ViewError> {
+    let Some(traced) = viewer.twin_image()? else {
+        return Ok(None);
+    };
+    if samples == 0 {
+        return Ok(Some("baked vs traced: no samples yet".to_string()));
+    }
+    let baked = viewer.image()?;
+    let (_, scale) = error_map(&baked, &traced);
+    Ok(Some(format!(
+        "baked vs traced: PSNR {:.1} dB; overlay white = {}",
+        psnr(&baked, &traced),
+        significant(scale)
+    )))
 }
 
 /// `value` with three significant digits, in plain notation (0.00213, 0.126, 4.50).
@@ -194,26 +208,52 @@ pub fn error_map(baked: &RgbImage, traced: &RgbImage) -> (Vec<u8>, f32) {
     (bytes, scale)
 }
 
+/// The HUD's text height (px).
+const TEXT_SIZE: i32 = 14;
+/// The opacity of the black box under the HUD's text (`shaders/compose.wgsl` has its own copy:
+/// the `view` tests hold the two equal).
+pub const HUD_SHADE: f64 = 0.55;
+
+/// The HUD's box for `lines` in a `width` x `height` frame: its width and height (px).
+fn text_box(lines: &[String], width: u32, height: u32) -> [u32; 2] {
+    let longest = lines.iter().map(|l| l.len()).max().unwrap_or(0) as i32;
+    let box_width = (longest * TEXT_SIZE * 55 / 100 + 12).min(width as i32);
+    let box_height = (lines.len() as i32 * (TEXT_SIZE + 3) + 8).min(height as i32);
+    [box_width.max(0) as u32, box_height.max(0) as u32]
+}
+
+/// `lines`' text as [`draw_lines`] draws it in a `width` x `height` frame, as coverage over its
+/// box (one byte a pixel, 255 where the text is opaque): what the GPU's compose pass draws over
+/// the frame. None where [`draw_lines`] would draw nothing.
+pub fn text_coverage(lines: &[String], width: u32, height: u32) -> Option<([u32; 2], Vec<u8>)> {
+    let [box_width, box_height] = text_box(lines, width, height);
+    // White text drawn over black is its own coverage; the box's black shade leaves it black.
+    let mut rgb = vec![0u8; box_width as usize * box_height as usize * 3];
+    (width >= 32 && height >= 32 && draw_lines(&mut rgb, box_width, box_height, lines)).then(|| {
+        (
+            [box_width, box_height],
+            rgb.chunks_exact(3).map(|p| p[0]).collect(),
+        )
+    })
+}
+
 /// Draws `lines` in the top-left corner of an 8-bit RGB frame, white on a dark box. Returns false
 /// (drawing nothing) where the font cannot be registered or the frame is too small.
 pub fn draw_lines(rgb: &mut [u8], width: u32, height: u32, lines: &[String]) -> bool {
     if ensure_registered().is_err() || width < 32 || height < 32 {
         return false;
     }
-    let size = 14;
     let root = BitMapBackend::with_buffer(rgb, (width, height)).into_drawing_area();
-    let box_height = (lines.len() as i32 * (size + 3) + 8).min(height as i32);
-    let longest = lines.iter().map(|l| l.len()).max().unwrap_or(0) as i32;
-    let box_width = (longest * size * 55 / 100 + 12).min(width as i32);
-    let shade = RGBAColor(0, 0, 0, 0.55).filled();
+    let [box_width, box_height] = text_box(lines, width, height).map(|n| n as i32);
+    let shade = RGBAColor(0, 0, 0, HUD_SHADE).filled();
     let ok = root
         .draw(&Rectangle::new([(0, 0), (box_width, box_height)], shade))
         .is_ok();
-    let font = (FONT_FAMILY, size).into_font().color(&WHITE);
+    let font = (FONT_FAMILY, TEXT_SIZE).into_font().color(&WHITE);
     let drawn = lines.iter().enumerate().all(|(i, line)| {
         root.draw(&Text::new(
             line.as_str(),
-            (6, 4 + i as i32 * (size + 3)),
+            (6, 4 + i as i32 * (TEXT_SIZE + 3)),
             font.clone(),
         ))
         .is_ok()

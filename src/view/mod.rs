@@ -13,7 +13,9 @@
 //! A baked model's table is loaded or baked on a worker thread; the traced model is shown until
 //! it is ready, so baking never blocks the window.
 
+pub mod gpu_display;
 pub mod hud;
+pub mod keys;
 pub mod script;
 pub mod window;
 
@@ -26,16 +28,16 @@ use crate::lrtf::bake::BakeProgress;
 use crate::model::{AberrationScale, FirstOrderModels, ModelKind};
 use crate::paraxial::{CannotFocus, ObjectPosition};
 use crate::prescription::StopShape;
-use crate::prescription::formats::LoadOptions;
+use crate::prescription::formats::{LoadNote, LoadOptions};
 use crate::render::camera::Camera;
 use crate::render::chromatic::ChromaticMode;
 use crate::render::focal_surface::DEFAULT_BETA;
 use crate::render::focus::focus_zone;
-use crate::render::gpu::GpuRenderer;
+use crate::render::gpu::{GpuRenderer, ResidentRender};
 use crate::render::gpu_types::{LayerData, LayerIndex};
 use crate::render::image::{RgbImage, srgb8, write_rgb8_png};
 use crate::render::layers::LayeredDepthImage;
-use crate::render::{Backend, RenderError, SampleShare, accumulate_share};
+use crate::render::{Backend, RenderError, SampleShare, accumulate_share, resident_render};
 use script::{Action, ScriptError, ScriptLine};
 use std::borrow::Cow;
 use std::collections::VecDeque;
@@ -76,12 +78,14 @@ pub enum ViewError {
 }
 
 /// One render being accumulated: the prepared camera and layers (with the kernels' index of
-/// them, derived once) and the running sums.
+/// them, derived once) and the running sums, on the CPU or held on the GPU (uploaded with the
+/// render's first frame there, read back only when the CPU needs the image).
 struct Accumulating {
     camera: Camera,
     layers: Arc<LayeredDepthImage>,
     index: Arc<LayerIndex>,
     sums: Vec<[f32; 4]>,
+    resident: Option<ResidentRender>,
 }
 
 impl Accumulating {
@@ -92,6 +96,7 @@ impl Accumulating {
             layers: Arc::new(prepared.layers),
             index: Arc::new(index),
             sums: Vec::new(),
+            resident: None,
         })
     }
 
@@ -101,6 +106,7 @@ impl Accumulating {
             layers: self.layers.clone(),
             index: self.index.clone(),
             sums: Vec::new(),
+            resident: None,
         }
     }
 }
@@ -154,6 +160,8 @@ pub struct Viewer {
     twin: Option<Accumulating>,
     bake: Option<PendingBake>,
     frames_done: u32,
+    /// Accumulations restarted since the viewer opened (a settings change restarts).
+    restarts: u64,
     last_frame: Duration,
     /// Frames rendered since the viewer opened, and their time (whatever restarted since).
     rendered: (u64, Duration),
@@ -200,6 +208,7 @@ impl Viewer {
             twin,
             bake,
             frames_done: 0,
+            restarts: 0,
             last_frame: Duration::ZERO,
             rendered: (0, Duration::ZERO),
             preparations: 1,
@@ -349,16 +358,27 @@ impl Viewer {
         Action::Lens(lenses::BUNDLED[next].name.to_string())
     }
 
+    /// The zoom position on screen and the lens's count of them ((1, 1) for a lens that does not
+    /// zoom).
+    pub fn zoom_position(&self) -> (usize, usize) {
+        zoom_of(&self.job.lens)
+    }
+
     fn shares(&self) -> u32 {
         self.job.settings.samples_per_pixel / self.spp_per_frame
     }
 
     fn restart(&mut self) {
-        let pixels = self.job.settings.width as usize * self.job.settings.height as usize;
+        let pixels = match self.gpu {
+            Some(_) => 0,
+            None => self.job.settings.width as usize * self.job.settings.height as usize,
+        };
         self.frames_done = 0;
+        self.restarts += 1;
         for acc in std::iter::once(&mut self.view).chain(self.twin.as_mut()) {
             acc.sums.clear();
             acc.sums.resize(pixels, [0.0; 4]);
+            acc.resident = None;
         }
     }
 
@@ -375,21 +395,30 @@ impl Viewer {
             self.shares(),
             self.job.settings.samples_per_pixel,
         );
-        let backend = match self.gpu {
-            Some(_) => Backend::Gpu,
-            None => Backend::Cpu,
-        };
+        let settings = &self.job.settings;
         for acc in std::iter::once(&mut self.view).chain(self.twin.as_mut()) {
-            accumulate_share(
-                &acc.camera,
-                &LayerData::with_index(&acc.layers, Cow::Borrowed(&acc.index)),
-                acc.layers.view.tan_half,
-                &self.job.settings,
-                share,
-                backend,
-                self.gpu.as_ref(),
-                &mut acc.sums,
-            )?;
+            let layers = LayerData::with_index(&acc.layers, Cow::Borrowed(&acc.index));
+            let tan_half = acc.layers.view.tan_half;
+            match &self.gpu {
+                Some(gpu) => {
+                    let resident = match acc.resident.take() {
+                        Some(resident) => resident,
+                        None => resident_render(&acc.camera, &layers, tan_half, settings, gpu)?,
+                    };
+                    gpu.accumulate_resident(&resident, share.offset, share.count, share.stride)?;
+                    acc.resident = Some(resident);
+                }
+                None => accumulate_share(
+                    &acc.camera,
+                    &layers,
+                    tan_half,
+                    settings,
+                    share,
+                    Backend::Cpu,
+                    None,
+                    &mut acc.sums,
+                )?,
+            }
         }
         self.frames_done += 1;
         self.last_frame = started.elapsed();
@@ -537,6 +566,14 @@ impl Viewer {
                 job.lens = RenderLens::Real(Box::new(lens));
                 job.f_number = None;
             }
+            Action::Zoom(position) => {
+                let lens = at_zoom(&job.lens, *position)?;
+                job.lens = RenderLens::Real(Box::new(lens));
+                // The asked f-number stays where the new position reaches it.
+                if let Some(f) = job.f_number {
+                    job.f_number = self.within_lens(&job.lens, f)?;
+                }
+            }
             Action::Scene(spec) => job.scene = SceneSpec::parse(spec),
             Action::Frames(_)
             | Action::FocusPull { .. }
@@ -664,33 +701,76 @@ impl Viewer {
         Ok(None)
     }
 
-    /// The mean radiance accumulated so far in `acc`.
-    fn mean(&self, acc: &Accumulating) -> Vec<[f32; 3]> {
-        let samples = (self.frames_done * self.spp_per_frame).max(1) as f32;
-        let scale = 2f64.powf(self.exposure_ev) as f32 / samples;
-        acc.sums
-            .iter()
-            .map(|s| [s[0] * scale, s[1] * scale, s[2] * scale])
-            .collect()
+    /// Renders from now on with `gpu` (a renderer on the device the window presents with, so
+    /// frames are composed where the sums are held) where the viewer renders on a GPU; false,
+    /// changing nothing, where it renders on the CPU.
+    pub fn render_on(&mut self, gpu: GpuRenderer) -> bool {
+        if self.gpu.is_none() {
+            return false;
+        }
+        self.gpu = Some(gpu);
+        self.restart();
+        true
     }
 
-    /// The accumulated render of the main view (the baked half's model in the split view), its
-    /// radiance times the exposure's 2^EV.
-    pub fn image(&self) -> RgbImage {
-        RgbImage {
-            width: self.job.settings.width,
-            height: self.job.settings.height,
-            pixels: self.mean(&self.view),
+    /// The renderer, where the viewer renders on a GPU.
+    pub fn gpu(&self) -> Option<&GpuRenderer> {
+        self.gpu.as_ref()
+    }
+
+    /// Accumulations restarted since the viewer opened: what the shown image depends on besides
+    /// its samples changes only with this.
+    pub fn restarts(&self) -> u64 {
+        self.restarts
+    }
+
+    /// The running sums held on the GPU: the main view's and the split view's traced twin's
+    /// (None until each has rendered a frame there, and on the CPU).
+    fn resident_sums(&self) -> Option<(&ResidentRender, Option<&ResidentRender>)> {
+        let view = self.view.resident.as_ref()?;
+        match &self.twin {
+            Some(twin) => Some((view, Some(twin.resident.as_ref()?))),
+            None => Some((view, None)),
         }
     }
 
-    /// The accumulated traced twin of the split view, once the table is ready.
-    pub fn twin_image(&self) -> Option<RgbImage> {
-        self.twin.as_ref().map(|twin| RgbImage {
-            width: self.job.settings.width,
-            height: self.job.settings.height,
-            pixels: self.mean(twin),
+    /// The factor from a pixel's running sum to the radiance shown: the exposure's 2^EV over
+    /// the samples accumulated.
+    fn display_scale(&self) -> f32 {
+        let samples = (self.frames_done * self.spp_per_frame).max(1) as f32;
+        2f64.powf(self.exposure_ev) as f32 / samples
+    }
+
+    /// The mean radiance accumulated so far in `acc` (read back from the GPU where it is held
+    /// there).
+    fn mean(&self, acc: &Accumulating) -> Result<RgbImage, ViewError> {
+        let settings = &self.job.settings;
+        let pixels = settings.width as usize * settings.height as usize;
+        let sums = match (&self.gpu, &acc.resident) {
+            (Some(gpu), Some(resident)) => Cow::Owned(gpu.read_sums(resident)?),
+            (Some(_), None) => Cow::Owned(vec![[0.0; 4]; pixels]),
+            (None, _) => Cow::Borrowed(&acc.sums),
+        };
+        let scale = self.display_scale();
+        Ok(RgbImage {
+            width: settings.width,
+            height: settings.height,
+            pixels: sums
+                .iter()
+                .map(|s| [s[0] * scale, s[1] * scale, s[2] * scale])
+                .collect(),
         })
+    }
+
+    /// The accumulated render of the main view (the baked half's model in the split view), its
+    /// radiance times the exposure's 2^EV. On the GPU this reads the sums back.
+    pub fn image(&self) -> Result<RgbImage, ViewError> {
+        self.mean(&self.view)
+    }
+
+    /// The accumulated traced twin of the split view, once the table is ready.
+    pub fn twin_image(&self) -> Result<Option<RgbImage>, ViewError> {
+        self.twin.as_ref().map(|twin| self.mean(twin)).transpose()
     }
 
     /// What the viewer shows, as 8-bit sRGB: the render tone-mapped as `render` writes its PNG;
@@ -698,8 +778,8 @@ impl Viewer {
     /// a grey column between them;
     /// with the error overlay the error map of [`hud::error_map`]. Also the overlay's scale
     /// (radiance at the top of the colour bar) when it is on.
-    pub fn display(&self) -> (Vec<u8>, Option<f32>) {
-        let (mut bytes, scale) = self.composed();
+    pub fn display(&self) -> Result<(Vec<u8>, Option<f32>), ViewError> {
+        let (mut bytes, scale) = self.composed()?;
         if self.zone {
             // A failed lookup shows no tint rather than no frame.
             let zone = self.focus_zone().unwrap_or_default();
@@ -707,19 +787,19 @@ impl Viewer {
                 rgb.copy_from_slice(&zone_tint(rgb));
             }
         }
-        (bytes, scale)
+        Ok((bytes, scale))
     }
 
     /// [`Viewer::display`] before the zone-of-focus tint.
-    fn composed(&self) -> (Vec<u8>, Option<f32>) {
+    fn composed(&self) -> Result<(Vec<u8>, Option<f32>), ViewError> {
         let width = self.job.settings.width as usize;
-        let baked = self.image();
-        let Some(traced) = self.twin_image() else {
-            return (srgb8(&baked, 1.0), None);
+        let baked = self.image()?;
+        let Some(traced) = self.twin_image()? else {
+            return Ok((srgb8(&baked, 1.0), None));
         };
         if self.overlay {
             let (bytes, scale) = hud::error_map(&baked, &traced);
-            return (bytes, Some(scale));
+            return Ok((bytes, Some(scale)));
         }
         let mut pixels = baked.pixels;
         for (i, p) in pixels.iter_mut().enumerate() {
@@ -733,12 +813,12 @@ impl Viewer {
         for row in bytes.chunks_mut(width * 3) {
             row[width / 2 * 3..width / 2 * 3 + 3].fill(SPLIT_LINE);
         }
-        (bytes, None)
+        Ok((bytes, None))
     }
 
     /// Writes [`Viewer::display`] as a PNG.
     pub fn screenshot(&mut self, path: &Path) -> Result<(), ViewError> {
-        let (bytes, _) = self.display();
+        let (bytes, _) = self.display()?;
         write_rgb8_png(
             &bytes,
             self.job.settings.width,
@@ -764,6 +844,44 @@ fn nearest_focus(job: &RenderJob, refused: &CannotFocus) -> Option<f64> {
     let focal_length_mm = first_order.thick.focal_length_mm;
     let nearest = refused.front_focal_mm + focal_length_mm;
     (nearest.is_finite() && nearest > refused.distance_mm).then_some(nearest)
+}
+
+/// The zoom position `lens` was read at and its count of positions; (1, 1) for a lens that does
+/// not zoom.
+fn zoom_of(lens: &RenderLens) -> (usize, usize) {
+    lens.real()
+        .and_then(|real| {
+            real.source.loaded.notes.iter().find_map(|note| match note {
+                LoadNote::ZoomPosition {
+                    position, count, ..
+                } => Some((*position, *count)),
+                _ => None,
+            })
+        })
+        .unwrap_or((1, 1))
+}
+
+/// `lens` read again from its file at zoom `position`, its stop's shape as the viewer set it.
+fn at_zoom(lens: &RenderLens, position: usize) -> Result<crate::lenses::LoadedLens, ViewError> {
+    let Some(real) = lens.real() else {
+        return Err(JobError::IdealHasNoSurfaces.into());
+    };
+    let spec = match &real.source.origin {
+        lenses::LensOrigin::File(path) => path.to_string_lossy().into_owned(),
+        lenses::LensOrigin::Bundled(name) => (*name).to_string(),
+    };
+    let options = LoadOptions {
+        format: Some(real.source.loaded.format),
+        zoom_position: Some(position),
+        ..LoadOptions::default()
+    };
+    let zoomed = lenses::load(&spec, &options)?;
+    Ok(match real.stop_shape() {
+        Some(shape) if zoomed.stop_shape() != Some(shape) => zoomed
+            .with_stop_shape(shape.clone())
+            .map_err(LensError::from)?,
+        _ => zoomed,
+    })
 }
 
 /// A lens's name for a note: the bundled name or file, or `ideal:<EFL>`.

@@ -56,6 +56,8 @@ pub enum Action {
     Tilt([f64; 2]),
     /// A bundled lens name or a lens file.
     Lens(String),
+    /// Reload the lens at this zoom position (1-based) of its zoom file.
+    Zoom(usize),
     /// `demo`, a glTF file or an RGB + Z EXR.
     Scene(String),
     /// Render this many frames.
@@ -71,6 +73,43 @@ pub enum Action {
     Quit,
 }
 
+impl Action {
+    /// The script line's first word for this action (`click` for a click in the window, `lens`
+    /// for a dropped lens file).
+    pub fn verb(&self) -> &'static str {
+        match self {
+            Action::SppPerFrame(_) => "spp-per-frame",
+            Action::Click(_) => "click",
+            Action::FNumber(_) => "fnumber",
+            Action::Focus(_) => "focus",
+            Action::FocusPull { .. } => "focus-pull",
+            Action::FocalSurface(_) => "focal-surface",
+            Action::FocusPoint(_) => "focus-point",
+            Action::Blades(_) => "blades",
+            Action::Orbit(_) => "orbit",
+            Action::ZoneOverlay(_) => "zone",
+            Action::Exposure(_) => "exposure",
+            Action::SensorWidth(_) => "sensor",
+            Action::SeidelScale(_) => "seidel-scale",
+            Action::Model(_) => "model",
+            Action::Split(_) => "split",
+            Action::ErrorOverlay(_) => "overlay",
+            Action::Chromatic(_) => "chromatic",
+            Action::Shift(_) => "shift",
+            Action::Tilt(_) => "tilt",
+            Action::Lens(_) => "lens",
+            Action::Zoom(_) => "zoom",
+            Action::Scene(_) => "scene",
+            Action::Frames(_) => "frames",
+            Action::WaitBake => "wait-bake",
+            Action::Screenshot(_) => "screenshot",
+            Action::WindowSize(_) => "window",
+            Action::Minimise(_) => "minimise",
+            Action::Quit => "quit",
+        }
+    }
+}
+
 /// Largest exposure change accepted (EV either way): 2^20 takes the darkest linear radiance
 /// f32 holds well into the tone curve's shoulder and back.
 pub const MAX_EXPOSURE_EV: f64 = 20.0;
@@ -81,7 +120,8 @@ const ACTIONS: &str = "spp-per-frame N, click X Y, fnumber F, focus MM, \
      focus-point X Y [TARGET [ALPHA]], seidel-scale SA COMA AST PETZ DIST, exposure EV, sensor WIDTH_MM, zone on|off, \
      blades COUNT ROTATION_DEG CURVATURE|off, orbit YAW PITCH, \
      model NAME, split on|off, \
-     overlay on|off, chromatic on|off, shift X Y, tilt X Y, lens NAME|FILE, scene demo|FILE, \
+     overlay on|off, chromatic on|off, shift X Y, tilt X Y, lens NAME|FILE, zoom POSITION, \
+     scene demo|FILE, \
      frames N, wait-bake, screenshot PATH, window W H, minimise on|off, quit";
 
 /// A script line that is not an action.
@@ -313,6 +353,14 @@ pub fn parse_action(content: &str) -> Result<Action, String> {
             expect(1)?;
             Action::Lens(args[0].to_string())
         }
+        "zoom" => {
+            expect(1)?;
+            let position = whole(args[0], "zoom position")?;
+            if position == 0 {
+                return Err("`zoom` positions count from 1".into());
+            }
+            Action::Zoom(position as usize)
+        }
         "scene" => {
             expect(1)?;
             Action::Scene(args[0].to_string())
@@ -392,6 +440,13 @@ mod tests {
         assert_eq!(lines[7].action, Action::Shift([1.0, -2.0]));
         assert_eq!(lines[11].action, Action::Frames(10));
         assert_eq!(lines[14].action, Action::Quit);
+        // Each action names the script word that gives it, as the window's key map checks.
+        for line in text.lines().filter_map(|l| l.split('#').next()) {
+            if let Some(verb) = line.split_whitespace().next() {
+                assert_eq!(parse_action(line).unwrap().verb(), verb, "{line}");
+            }
+        }
+        assert_eq!(parse_action("zoom 2").unwrap(), Action::Zoom(2));
         let pull = parse_action("focus-pull 1000 6000 16").unwrap();
         assert_eq!(
             pull,
@@ -414,7 +469,8 @@ mod tests {
             ("focus-pull 1000 x 16", "not a finite number"),
             ("spp-per-frame 0", "at least 1"),
             ("frames 10000001", "at most 10000000"),
-            ("zoom 2", "unknown action `zoom`"),
+            ("zoom 0", "count from 1"),
+            ("zoom", "takes 1 argument"),
             ("screenshot shot.jpg", "must end in .png"),
             ("screenshot shot", "must end in .png"),
         ] {

@@ -1,12 +1,17 @@
-//! The viewer's window: winit for events, a wgpu surface to show the frame (uploaded as a
-//! texture and drawn letterboxed by one full-screen triangle), the HUD drawn into the frame. The
+//! The viewer's window: winit for events, a wgpu surface to show the frame (copied into a
+//! texture and drawn letterboxed by one full-screen triangle), the HUD drawn into the frame.
+//! Where the viewer renders on a GPU it renders on the window's own device and the frame is
+//! composed there ([`super::gpu_display`]): nothing but the HUD's text is uploaded a frame, and
+//! nothing is read back but for the split view's comparison and screenshots. On the CPU twin the
+//! frame is uploaded as 8-bit pixels. The
 //! [`Session`] is the same one the headless run drives; keys, clicks and dropped files become
 //! [`Action`]s.
 
+use super::gpu_display::{ComposedFrame, GpuComposer};
 use super::script::Action;
-use super::{MODEL_CYCLE, Session, Step, ViewError, ViewEvent, hud};
+use super::{Session, Step, ViewError, ViewEvent, hud, keys};
 use crate::job::{FocusPointSpec, FocusTarget};
-use crate::prescription::StopShape;
+use crate::render::gpu::{self, GpuRenderer};
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -16,17 +21,6 @@ use winit::event::{ElementState, MouseButton, WindowEvent};
 use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
 use winit::keyboard::{Key, NamedKey};
 use winit::window::{Window, WindowId};
-
-/// Key bindings, for `--help` and the README.
-pub const KEYS: &str = "click: focus there; Shift+click: add a focal-surface point there; [ / ]: focus a quarter nearer / farther; F / \
-     Shift+F: close / open one third stop; M: next \
-     model; C: chromatic on/off; S: split view; E: error overlay; arrows: shift the sensor 0.5 mm; \
-     Shift+arrows: tilt it 0.5 degrees; , / .: exposure -/+ 1/3 EV; W / Shift+W: sensor a \
-     quarter wider / narrower; Z: tint the zone of focus; O / Shift+O, I / Shift+I: orbit 5 \
-     degrees right / left, up / down (mesh scenes); B / \
-     Shift+B: one aperture blade more (round after 9) / turn the blades 10 degrees; L: next bundled lens; + / -: double / halve samples per \
-     frame; P: screenshot (lensbake-view-N.png); Q or Esc: quit; drop a lens, glTF or EXR file to \
-     load it";
 
 /// Runs `session` in a window until the script quits, the frame limit is reached or the window
 /// is closed. `report` hears each event (screenshots, tables ready, failed bakes, refused
@@ -43,6 +37,7 @@ pub fn run_window(
         report,
         window: None,
         presenter: None,
+        composer: None,
         cursor: None,
         error: None,
         screenshots: 0,
@@ -63,6 +58,8 @@ struct App<'a> {
     report: &'a mut dyn FnMut(&ViewEvent),
     window: Option<Arc<Window>>,
     presenter: Option<Presenter>,
+    /// Composes frames on the GPU where the viewer renders there, on the presenter's device.
+    composer: Option<GpuComposer>,
     cursor: Option<PhysicalPosition<f64>>,
     error: Option<ViewError>,
     screenshots: u32,
@@ -81,6 +78,10 @@ impl App<'_> {
                 .map_err(|e| ViewError::Window(e.to_string()))?,
         );
         let presenter = Presenter::new(event_loop, window.clone())?;
+        let viewer = &mut self.session.viewer;
+        if viewer.gpu().is_some() && viewer.render_on(presenter.renderer()?) {
+            self.composer = viewer.gpu().map(GpuComposer::new).transpose()?;
+        }
         window.request_redraw();
         self.window = Some(window);
         self.presenter = Some(presenter);
@@ -133,18 +134,7 @@ impl App<'_> {
                 _ => {}
             }
         }
-        let viewer = &self.session.viewer;
-        let settings = viewer.job().settings;
-        let (mut rgb, _) = viewer.display();
-        hud::draw_lines(
-            &mut rgb,
-            settings.width,
-            settings.height,
-            &viewer.hud_lines(),
-        );
-        if let Some(presenter) = &mut self.presenter
-            && let Err(error) = presenter.show(&rgb, settings.width, settings.height)
-        {
+        if let Err(error) = self.show() {
             return self.fail(event_loop, error);
         }
         let busy = step != Step::Idle;
@@ -156,6 +146,31 @@ impl App<'_> {
                 event_loop.set_control_flow(ControlFlow::Wait);
             }
         }
+    }
+
+    /// Shows the viewer's frame with the HUD: composed on the GPU where the viewer renders there,
+    /// else composed on the CPU and uploaded.
+    fn show(&mut self) -> Result<(), ViewError> {
+        let Some(presenter) = &mut self.presenter else {
+            return Ok(());
+        };
+        let viewer = &self.session.viewer;
+        let lines = viewer.hud_lines();
+        let composed = match &mut self.composer {
+            Some(composer) => composer.compose(viewer, &lines)?,
+            None => None,
+        };
+        if let Some(frame) = composed {
+            return presenter.show(FrameSource::Composed(frame));
+        }
+        let settings = viewer.job().settings;
+        let (mut rgb, _) = viewer.display()?;
+        hud::draw_lines(&mut rgb, settings.width, settings.height, &lines);
+        presenter.show(FrameSource::Bytes {
+            rgb: &rgb,
+            width: settings.width,
+            height: settings.height,
+        })
     }
 
     /// The render pixel under window position `at`, through the letterbox.
@@ -173,110 +188,28 @@ impl App<'_> {
         })
     }
 
+    /// The action of a key press, through the one key map ([`keys::key_action`]).
     fn key_action(&mut self, key: &Key, shift: bool) -> Option<Action> {
-        let viewer = &self.session.viewer;
-        let job = viewer.job();
-        let third_stop = 2f64.powf(1.0 / 6.0);
-        let current_f = job
-            .lens
-            .first_order(job.f_number)
-            .map(|(_, f)| f)
-            .unwrap_or(2.8);
-        let [sx, sy] = job.shift_mm;
-        let [tx, ty] = job.tilt_deg;
-        let nudge = |dx: f64, dy: f64| -> Action {
-            if shift {
-                Action::Tilt([tx + dx, ty + dy])
-            } else {
-                Action::Shift([sx + dx, sy + dy])
+        let key = match key {
+            Key::Named(NamedKey::ArrowLeft) => keys::Key::Left,
+            Key::Named(NamedKey::ArrowRight) => keys::Key::Right,
+            Key::Named(NamedKey::ArrowUp) => keys::Key::Up,
+            Key::Named(NamedKey::ArrowDown) => keys::Key::Down,
+            Key::Named(NamedKey::Escape) => keys::Key::Escape,
+            Key::Character(text) => {
+                let mut chars = text.chars();
+                match (chars.next(), chars.next()) {
+                    (Some(c), None) => keys::Key::Char(c.to_ascii_lowercase()),
+                    _ => return None,
+                }
             }
-        };
-        Some(match key {
-            Key::Named(NamedKey::ArrowLeft) => nudge(-0.5, 0.0),
-            Key::Named(NamedKey::ArrowRight) => nudge(0.5, 0.0),
-            Key::Named(NamedKey::ArrowUp) => nudge(0.0, 0.5),
-            Key::Named(NamedKey::ArrowDown) => nudge(0.0, -0.5),
-            Key::Character(c) => match c.to_lowercase().as_str() {
-                "f" if shift => Action::FNumber(current_f / third_stop),
-                "f" => Action::FNumber(current_f * third_stop),
-                "m" => {
-                    let shown = match job.model {
-                        crate::job::ModelChoice::Model(kind) => kind,
-                        crate::job::ModelChoice::ErrorBudgetPx(_) => viewer.shown_model(),
-                    };
-                    let at = MODEL_CYCLE.iter().position(|&k| k == shown).unwrap_or(0);
-                    Action::Model(MODEL_CYCLE[(at + 1) % MODEL_CYCLE.len()])
-                }
-                "[" | "]" => {
-                    // A quarter nearer or farther; from a focus at infinity, 100 m in.
-                    let focus = viewer.focus_distance_mm().flatten().unwrap_or(100_000.0);
-                    Action::Focus(if c.as_str() == "[" {
-                        focus / 1.25
-                    } else {
-                        focus * 1.25
-                    })
-                }
-                "," | "." => {
-                    let step = if c.as_str() == "," { -1.0 } else { 1.0 } / 3.0;
-                    Action::Exposure(viewer.exposure_ev() + step)
-                }
-                "w" => {
-                    // A quarter wider (Shift: narrower) than the sensor on screen.
-                    let width = viewer.camera().film.width_mm;
-                    Action::SensorWidth(if shift { width / 1.25 } else { width * 1.25 })
-                }
-                "z" => Action::ZoneOverlay(!viewer.zone()),
-                "o" | "i" => {
-                    // O / Shift+O: orbit 5 degrees right / left; I / Shift+I: up / down.
-                    let [yaw, pitch] = job.orbit.map_or([0.0, 0.0], |o| o.angles_deg);
-                    let step = if shift { -5.0 } else { 5.0 };
-                    Action::Orbit(if c.to_lowercase() == "o" {
-                        [yaw + step, pitch]
-                    } else {
-                        [yaw, pitch + step]
-                    })
-                }
-                "b" => {
-                    // B: one blade more (round after 9, 5 after round); Shift+B: turn them 10
-                    // degrees.
-                    let blades = match job.lens.real().and_then(|lens| lens.stop_shape()) {
-                        Some(&StopShape::Blades {
-                            count,
-                            rotation_deg,
-                            blade_curvature,
-                        }) => Some((count, rotation_deg, blade_curvature)),
-                        _ => None,
-                    };
-                    Action::Blades(match (blades, shift) {
-                        (Some((count, rotation, curvature)), true) => {
-                            Some((count, rotation + 10.0, curvature))
-                        }
-                        (Some((count, ..)), false) if count >= 9 => None,
-                        (Some((count, rotation, curvature)), false) => {
-                            Some((count + 1, rotation, curvature))
-                        }
-                        (None, _) => Some((5, 0.0, 0.0)),
-                    })
-                }
-                "c" => Action::Chromatic(viewer.camera().chromatic.is_none()),
-                "s" => Action::Split(!viewer.split()),
-                "e" => Action::ErrorOverlay(!viewer.overlay()),
-                "l" => viewer.next_bundled_lens(),
-                "+" | "=" => Action::SppPerFrame(viewer.spp_per_frame().saturating_mul(2)),
-                "-" => Action::SppPerFrame((viewer.spp_per_frame() / 2).max(1)),
-                "p" => {
-                    self.screenshots += 1;
-                    Action::Screenshot(PathBuf::from(format!(
-                        "lensbake-view-{}.png",
-                        self.screenshots
-                    )))
-                }
-                "q" => Action::Quit,
-                _ => return None,
-            },
-            Key::Named(NamedKey::Escape) => Action::Quit,
             _ => return None,
-        })
+        };
+        let action = keys::key_action(&self.session.viewer, key, shift, self.screenshots + 1)?;
+        if matches!(action, Action::Screenshot(_)) {
+            self.screenshots += 1;
+        }
+        Some(action)
     }
 }
 
@@ -386,11 +319,23 @@ fn fragment_main(in: Varyings) -> @location(0) vec4<f32> {
 }
 "#;
 
+/// A frame to show: composed on the GPU, or 8-bit RGB pixels to upload.
+enum FrameSource<'a> {
+    Composed(ComposedFrame<'a>),
+    Bytes {
+        rgb: &'a [u8],
+        width: u32,
+        height: u32,
+    },
+}
+
 /// The window's surface, device and the pipeline that draws a frame into it.
 struct Presenter {
     surface: wgpu::Surface<'static>,
     device: wgpu::Device,
     queue: wgpu::Queue,
+    /// The adapter's name and backend, for the renderer the viewer opens on this device.
+    adapter_description: String,
     config: wgpu::SurfaceConfiguration,
     pipeline: wgpu::RenderPipeline,
     sampler: wgpu::Sampler,
@@ -417,13 +362,9 @@ impl Presenter {
             ..Default::default()
         }))
         .map_err(|e| fail("no adapter can present to this window", &e))?;
-        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
-            label: Some("lensbake view"),
-            required_limits:
-                wgpu::Limits::downlevel_webgl2_defaults().using_resolution(adapter.limits()),
-            ..Default::default()
-        }))
-        .map_err(|e| fail("opening the presentation device", &e))?;
+        // The renderer's limits, so the viewer can render on this device too.
+        let (device, queue) = gpu::request_device(&adapter, "lensbake view")
+            .map_err(|e| fail("opening the presentation device", &e))?;
         let mut config = surface
             .get_default_config(&adapter, size.width.max(1), size.height.max(1))
             .ok_or_else(|| ViewError::Window("the surface does not suit this adapter".into()))?;
@@ -474,12 +415,22 @@ impl Presenter {
             surface,
             device,
             queue,
+            adapter_description: gpu::describe(&adapter.get_info()),
             config,
             pipeline,
             sampler,
             texture_format,
             texture: None,
         })
+    }
+
+    /// The renderer on this device.
+    fn renderer(&self) -> Result<GpuRenderer, ViewError> {
+        Ok(GpuRenderer::on_device(
+            self.device.clone(),
+            self.queue.clone(),
+            self.adapter_description.clone(),
+        )?)
     }
 
     fn resize(&mut self, size: PhysicalSize<u32>) {
@@ -500,8 +451,12 @@ impl Presenter {
         [(sw - w) / 2.0, (sh - h) / 2.0, w.max(1.0), h.max(1.0)]
     }
 
-    /// Shows an 8-bit RGB frame.
-    fn show(&mut self, rgb: &[u8], width: u32, height: u32) -> Result<(), ViewError> {
+    /// Shows a frame.
+    fn show(&mut self, source: FrameSource) -> Result<(), ViewError> {
+        let [width, height] = match &source {
+            FrameSource::Composed(frame) => [frame.width, frame.height],
+            FrameSource::Bytes { width, height, .. } => [*width, *height],
+        };
         let frame = match self.surface.get_current_texture() {
             wgpu::CurrentSurfaceTexture::Success(frame)
             | wgpu::CurrentSurfaceTexture::Suboptimal(frame) => frame,
@@ -543,24 +498,42 @@ impl Presenter {
         let Some((texture, _)) = &self.texture else {
             return Ok(());
         };
-        let rgba: Vec<u8> = rgb
-            .chunks_exact(3)
-            .flat_map(|p| [p[0], p[1], p[2], 255])
-            .collect();
-        self.queue.write_texture(
-            texture.as_image_copy(),
-            &rgba,
-            wgpu::TexelCopyBufferLayout {
-                offset: 0,
-                bytes_per_row: Some(width * 4),
-                rows_per_image: Some(height),
-            },
-            wgpu::Extent3d {
-                width,
-                height,
-                depth_or_array_layers: 1,
-            },
-        );
+        let size = wgpu::Extent3d {
+            width,
+            height,
+            depth_or_array_layers: 1,
+        };
+        let mut encoder = self.device.create_command_encoder(&Default::default());
+        match source {
+            FrameSource::Composed(frame) => encoder.copy_buffer_to_texture(
+                wgpu::TexelCopyBufferInfo {
+                    buffer: frame.buffer,
+                    layout: wgpu::TexelCopyBufferLayout {
+                        offset: 0,
+                        bytes_per_row: Some(frame.bytes_per_row),
+                        rows_per_image: Some(height),
+                    },
+                },
+                texture.as_image_copy(),
+                size,
+            ),
+            FrameSource::Bytes { rgb, .. } => {
+                let rgba: Vec<u8> = rgb
+                    .chunks_exact(3)
+                    .flat_map(|p| [p[0], p[1], p[2], 255])
+                    .collect();
+                self.queue.write_texture(
+                    texture.as_image_copy(),
+                    &rgba,
+                    wgpu::TexelCopyBufferLayout {
+                        offset: 0,
+                        bytes_per_row: Some(width * 4),
+                        rows_per_image: Some(height),
+                    },
+                    size,
+                );
+            }
+        }
         let view = texture.create_view(&Default::default());
         let group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: None,
@@ -578,7 +551,6 @@ impl Presenter {
         });
         let target = frame.texture.create_view(&Default::default());
         let [x, y, w, h] = self.letterbox(width, height);
-        let mut encoder = self.device.create_command_encoder(&Default::default());
         {
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("blit"),

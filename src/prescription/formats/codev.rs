@@ -3,7 +3,8 @@
 //! Commands are separated by `;` or line ends; a line ending in `&` continues on the next; `!`
 //! starts a comment; quoted strings keep spaces.
 //!
-//! Read: `RDM` (Y = radii, the default; N = curvatures), `TITLE` (or `TIT`), `DIM` (M, C, I:
+//! Read: `RDM` (Y or no argument = radii; N = curvatures; without `RDM`, radii: see
+//! [`RadiusMode`]), `TITLE` (or `TIT`), `DIM` (M, C, I:
 //! converted to mm), `EPD`, `FNO`, `NAO` (the aperture), `WL` (nm) with `WTW` (weights) and `REF`
 //! (the design wavelength; the first `WL` when `REF` is absent, as rayoptics reads it), fields as
 //! `XAN`/`YAN` (angles), `XOB`/`YOB` (object heights), `XIM`/`YIM` (paraxial image heights) or
@@ -16,7 +17,8 @@
 //! -z, as CODE V writes them), `K`
 //! (conic), `A` `B` `C` `D` `E` `F` `G` `H` `J` (even-asphere terms r^4 .. r^20), `RDY`, `CUY`,
 //! `THI`, `GLA`, `CUF 0` (written into every ASP block), pickups `PIK` of `RDY`, `CUY`, `THI`
-//! and `K` with scale and offset (evaluated after the last surface), `GO` (end of input). Object distance, aperture, fields and wavelengths become the
+//! and `K` with scale and offset (evaluated after the last surface, those of the zoom position
+//! read), `GO` (end of input). Object distance, aperture, fields and wavelengths become the
 //! prescription's [`crate::prescription::Conditions`].
 //!
 //! Skipped as harmless (they change no surface) and listed in one note: see `HARMLESS`.
@@ -32,7 +34,8 @@
 //! the circle `CIR` states) and aperture decentres (`ADX`, `ADY`) are read and, like a tilted
 //! surface, leave the lens to the 3-D trace (`placement`).
 //!
-//! Zoom files (`ZOO n`) are read at position 1: see `Reader::zoom`.
+//! Zoom files (`ZOO n`) are read at one position, the first unless the caller asks for another
+//! ([`super::LoadOptions::zoom_position`]): see `Reader::zoom`.
 //!
 //! Refused with a message naming the command and line: every other command (other pickups, a `CUF` other than 0, other solves, other aperture forms (`ARO`), private glasses given by a formula other than `LAU` Laurent coefficients), a curved object or image surface, and
 //! other `CIR` forms (several values). Image-height fields and
@@ -57,10 +60,10 @@ use super::{
     number, positive, scale_to_mm, shape,
 };
 use crate::prescription::DEFAULT_WAVELENGTH_NM;
-use crate::prescription::error::{Location, PrescriptionError, Problem};
+use crate::prescription::error::{Location, PrescriptionError, Problem, RadiusModeContradiction};
 use crate::prescription::model::{
     ApertureSpec, Conditions, FieldKind, FieldSpec, MAX_ASPHERE_TERMS, Medium, Prescription,
-    Provenance, StatedCondition, StopShape, Surface,
+    Provenance, Shape, StatedCondition, StopShape, Surface,
 };
 use crate::prescription::validate::SourceMap;
 use std::collections::{BTreeMap, BTreeSet};
@@ -153,6 +156,13 @@ fn line_commands(line: usize, raw: &str) -> Vec<Command> {
     out
 }
 
+/// Where a surface's sphere or conic ends, measured from the axis (`None`: a plane, a
+/// paraboloid or hyperboloid, which go on).
+fn rim_radius(shape: &Shape) -> Option<f64> {
+    let rim_sq = (1.0 + shape.conic()) * shape.curvature().powi(2);
+    (rim_sq > 0.0).then(|| 1.0 / rim_sq.sqrt())
+}
+
 struct SeqSurface {
     line: usize,
     /// Radius or curvature, as `radius_mode` says.
@@ -178,6 +188,16 @@ struct SeqSurface {
 }
 
 impl SeqSurface {
+    /// The profile the surface's value gives in the radius mode it was written in.
+    fn shape_as_read(&self) -> Shape {
+        let curvature = match (self.radius_mode, self.value) {
+            (false, c) => c,
+            (true, 0.0) => 0.0,
+            (true, r) => 1.0 / r,
+        };
+        shape(curvature, self.conic, &self.terms)
+    }
+
     /// An ellipse with equal semi-axes and no other stated aperture is the circle `CIR` states;
     /// centred, it leaves the surface symmetric.
     fn settle_round_ellipse(&mut self) {
@@ -306,6 +326,7 @@ const FIELD_COMMANDS: [&str; 8] = ["XAN", "YAN", "XOB", "YOB", "XIM", "YIM", "XR
 #[derive(Default)]
 struct Reader {
     radius_mode: bool,
+    mode_stated: RadiusMode,
     mm_per_unit: f64,
     title: Option<String>,
     epd: Option<f64>,
@@ -343,22 +364,38 @@ struct Reader {
     current: Option<Current>,
     /// Pickups (`PIK`), applied in file order once every surface is read.
     pickups: Vec<Pickup>,
-    /// `ZOO n`: the number of zoom positions, of which lensbake reads the first.
-    zoom_positions: Option<usize>,
-    /// Position 1's values of zoomed surface items (`ZOO THI S3 v1 v2 ..`), applied once every
-    /// surface is read.
+    /// The zoom position read (1-based).
+    position: usize,
+    /// `ZOO n`: the number of zoom positions, and its line.
+    zoom_positions: Option<(usize, usize)>,
+    /// The read position's values of zoomed surface and field items (`ZOO THI S3 v1 v2 ..`,
+    /// `ZOO YAN F2 ..`), applied once every surface and field is read.
     zoomed: Vec<ZoomedItem>,
     /// Zoomed items read as the lens and system data write them (`ZOO YAN F2 ..`).
     zoomed_as_written: BTreeSet<String>,
 }
 
-/// Position 1's value of a zoomed surface item: `ZOO item Sk v1 v2 ..`.
+/// The read position's value of a zoomed surface or field item: `ZOO item Sk v1 v2 ..` or
+/// `ZOO item Fk v1 v2 ..`.
 struct ZoomedItem {
     line: usize,
-    item: PickupItem,
-    surface: usize,
+    target: ZoomTarget,
     value: f64,
 }
+
+/// What a zoomed value sets.
+#[derive(Clone, Copy)]
+enum ZoomTarget {
+    /// A surface's item (1-based surface).
+    Surface { item: PickupItem, surface: usize },
+    /// One field's value (1-based field) in the list a field command (its index in
+    /// [`FIELD_COMMANDS`]) or a vignetting command (`VUY`, `VLY`, `VUX`, `VLX`: 0..4, offset by
+    /// the field commands) states.
+    Field { list: usize, field: usize },
+}
+
+/// The vignetting commands in the order of `Reader::vignetting`.
+const VIGNETTING_COMMANDS: [&str; 4] = ["VUY", "VLY", "VUX", "VLX"];
 
 /// Lens data a pickup copies between surfaces.
 #[derive(Clone, Copy, PartialEq)]
@@ -369,10 +406,12 @@ enum PickupItem {
     Conic,
 }
 
-/// `PIK item Sk item Sj [scale [offset]]`: item of surface k = scale * (item of surface j) +
-/// offset, as CODE V defines a pickup (both items the same).
+/// `PIK item Sk [Zm] item Sj [Zm] [scale [offset]]`: item of surface k = scale * (item of
+/// surface j) + offset, as CODE V defines a pickup (both items the same), at zoom position m
+/// (every position where none is written, unless the file gives that item its own pickup there).
 struct Pickup {
     line: usize,
+    position: Option<usize>,
     item: PickupItem,
     target: usize,
     source: usize,
@@ -380,10 +419,31 @@ struct Pickup {
     offset: f64,
 }
 
-pub(super) fn read(text: &str, source: &Source) -> Result<Loaded, PrescriptionError> {
+/// How the file chose between radii and curvatures after `S`. Without `RDM`, lensbake reads
+/// radii, as optiland 0.6.3 writes its files (without `RDM`, in radii). CODE V itself and
+/// rayoptics read such a file as curvatures, and rayoptics' test files are written so
+/// (`singlet.seq`: `s 0.1 1`, `s -.05 15`, radii 10 and -20 mm as curvatures). Where the values
+/// read as radii give a surface smaller than the beam or clear aperture it must pass, the file is
+/// refused with the advice to state the mode ([`Reader::radius_mode_contradicted`]), never read
+/// as a lens of 0.1 mm radii.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+enum RadiusMode {
+    /// No `RDM`: radii.
+    #[default]
+    RadiiByDefault,
+    /// `RDM` on this line.
+    Stated { line: usize },
+}
+
+pub(super) fn read(
+    text: &str,
+    source: &Source,
+    position: Option<usize>,
+) -> Result<Loaded, PrescriptionError> {
     let mut reader = Reader {
         radius_mode: true,
         mm_per_unit: 1.0,
+        position: position.unwrap_or(1),
         current: Some(Current::Nothing),
         ..Reader::default()
     };
@@ -555,6 +615,7 @@ impl Reader {
         match name {
             "PRV" => self.private_block = Some(Vec::new()),
             "RDM" => {
+                self.mode_stated = RadiusMode::Stated { line: c.line };
                 self.radius_mode = match c.args.first().map(|a| a.to_ascii_uppercase()).as_deref() {
                     None | Some("Y" | "YES") => true,
                     Some("N" | "NO") => false,
@@ -869,13 +930,7 @@ impl Reader {
                 let pickup = pickup(c).map_err(|why| {
                     unsupported(format!("pickup `PIK {}`: {why}", c.args.join(" ")))
                 })?;
-                // A pickup at a later zoom position changes nothing at position 1.
-                match pickup {
-                    Some(pickup) => self.pickups.push(pickup),
-                    None => {
-                        self.zoomed_as_written.insert("PIK".into());
-                    }
-                }
+                self.pickups.push(pickup);
             }
             "XDE" | "YDE" | "ZDE" | "ADE" | "BDE" | "CDE" | "DAR" | "BEN" | "REV" => {
                 let value = if matches!(name, "DAR" | "BEN" | "REV") {
@@ -924,6 +979,18 @@ impl Reader {
             }
             solve if SOLVES.contains(&solve) => {
                 self.solves.insert(solve.to_string());
+            }
+            // `DIF DOE` (or `DIF HOE`) makes the surface diffractive: `HOR` the order, `HWL` the
+            // construction wavelength, `HCT` the phase's form (R: a polynomial in r^2, `HCO C1`
+            // on r^2, C2 on r^4, ...: C1 alone is a paraxial power of 2 |C1| m l / HWL), `HCO`
+            // its coefficients. No lensbake tracer bends rays by a phase, so it is refused by
+            // name.
+            "DIF" => {
+                return Err(unsupported(format!(
+                    "a diffractive surface (`DIF {}`: a phase added to the surface, with HOR, \
+                     HWL, HCT, HCO); lensbake traces no diffractive phase",
+                    c.args.join(" ")
+                )));
             }
             other => return Err(unsupported(format!("CODE V command `{other}`"))),
         }
@@ -1017,6 +1084,7 @@ impl Reader {
         if self.surfaces.is_empty() {
             return Err(source.error(None, Problem::Empty));
         }
+        self.check_position(source)?;
         self.apply_zoomed(source)?;
         self.apply_pickups(source)?;
         for s in &mut self.surfaces {
@@ -1037,26 +1105,20 @@ impl Reader {
             },
             None => self.wavelengths.first().copied(),
         };
+        self.check_stated_apertures(source)?;
         // CODE V's default: without STO, surface 1 is the stop.
         let stop_given = self.surfaces.iter().any(|s| s.stop);
         let surfaces: Vec<Surface> = self
             .surfaces
             .iter()
             .enumerate()
-            .map(|(i, s)| {
-                let curvature = match (s.radius_mode, s.value) {
-                    (false, c) => c,
-                    (true, 0.0) => 0.0,
-                    (true, r) => 1.0 / r,
-                };
-                Surface {
-                    shape: shape(curvature, s.conic, &s.terms),
-                    thickness: s.thickness,
-                    medium: s.medium.clone(),
-                    semi_aperture: s.clear_radius.unwrap_or(0.0),
-                    stop: (s.stop || (!stop_given && i == 0)).then_some(StopShape::Circle),
-                    obscuration: s.obscuration,
-                }
+            .map(|(i, s)| Surface {
+                shape: s.shape_as_read(),
+                thickness: s.thickness,
+                medium: s.medium.clone(),
+                semi_aperture: s.clear_radius.unwrap_or(0.0),
+                stop: (s.stop || (!stop_given && i == 0)).then_some(StopShape::Circle),
+                obscuration: s.obscuration,
             })
             .collect();
         let mut missing: Vec<usize> = (0..surfaces.len())
@@ -1131,6 +1193,22 @@ impl Reader {
         );
         let mut loaded =
             apertures::complete(prescription, &missing, &[], &beams, map, Format::CodeV)?;
+        if self.mode_stated == RadiusMode::RadiiByDefault {
+            for &i in &missing {
+                let surface = &loaded.prescription.surfaces[i];
+                let rim = rim_radius(&surface.shape);
+                if rim.is_some_and(|rim| surface.semi_aperture >= rim * (1.0 - 1e-12)) {
+                    return Err(self.radius_mode_contradicted(
+                        i,
+                        source,
+                        "the paraxial beam of the file's aperture and fields reaches past that \
+                         rim"
+                        .to_string(),
+                        rim.unwrap_or_default(),
+                    ));
+                }
+            }
+        }
         loaded.notes.extend(centred);
         if !trimmed.is_empty() {
             loaded
@@ -1147,8 +1225,9 @@ impl Reader {
                 solves: self.solves.into_iter().collect(),
             });
         }
-        if let Some(count) = self.zoom_positions.filter(|&n| n > 1) {
+        if let Some((count, _)) = self.zoom_positions.filter(|&(n, _)| n > 1) {
             loaded.notes.push(LoadNote::ZoomPosition {
+                position: self.position,
                 count,
                 as_written: self.zoomed_as_written.into_iter().collect(),
             });
@@ -1156,11 +1235,80 @@ impl Reader {
         Ok(loaded)
     }
 
+    /// A clear aperture (`CIR`) larger than where the surface as read ends (a sphere at |R|, a
+    /// conic at 1 / (|c| sqrt(1 + k))): the values after `S` were read in the wrong radius mode.
+    fn check_stated_apertures(&self, source: &Source) -> Result<(), PrescriptionError> {
+        for (i, s) in self.surfaces.iter().enumerate() {
+            let (Some(aperture), Some(rim)) = (s.clear_radius, rim_radius(&s.shape_as_read()))
+            else {
+                continue;
+            };
+            if aperture > rim {
+                return Err(self.radius_mode_contradicted(
+                    i,
+                    source,
+                    format!(
+                        "the file states a clear aperture of {} (CIR)",
+                        crate::limits::short(aperture)
+                    ),
+                    rim,
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// The error for surface `i` (0-based) whose value, read in the file's radius mode, gives a
+    /// surface that ends at `rim` (file units) where the file needs more.
+    fn radius_mode_contradicted(
+        &self,
+        i: usize,
+        source: &Source,
+        needed: String,
+        rim: f64,
+    ) -> PrescriptionError {
+        let s = &self.surfaces[i];
+        let (read_as, field) = if s.radius_mode {
+            ("a radius", "radius")
+        } else {
+            ("a curvature", "curvature")
+        };
+        let (why, suggestion) = match (self.mode_stated, s.radius_mode) {
+            (RadiusMode::RadiiByDefault, _) => (
+                "the file has no RDM, and lensbake reads radii without it".to_string(),
+                "if the file's values are curvatures (as CODE V reads a file without RDM), add \
+                 `RDM N` before the surfaces",
+            ),
+            (RadiusMode::Stated { line }, true) => (
+                format!("RDM on line {line}"),
+                "if the file's values are curvatures, write `RDM N`",
+            ),
+            (RadiusMode::Stated { line }, false) => (
+                format!("RDM N on line {line}"),
+                "if the file's values are radii, write `RDM Y`",
+            ),
+        };
+        let mut location = source.location(Some(s.line)).with_field(field);
+        location.surface = Some(i + 1);
+        PrescriptionError::new(
+            location,
+            Problem::RadiusModeContradicted(Box::new(RadiusModeContradiction {
+                read_as,
+                why,
+                radius: rim,
+                needed,
+                suggestion,
+            })),
+        )
+    }
+
     /// `ZOO n` (the number of zoom positions) or `ZOO item [Sk | Fk] v1 v2 .. vn` (an item's
-    /// value at each position). lensbake reads position 1: a surface's thickness, radius,
-    /// curvature and conic, the object distance (`THI S0`), EPD and FNO take their first value;
-    /// any other zoomed item (fields, vignetting, apertures, labels, variable codes) is read as
-    /// the lens and system data write it, which is position 1's, and named in the note.
+    /// value at each position). lensbake reads one position, k: a surface's thickness, radius,
+    /// curvature and conic, the object distance (`THI S0`), EPD, FNO, a field's value
+    /// (`YAN F2`, ...) and its vignetting factors (`VUY F2`, ...) take their k-th value; any
+    /// other zoomed item (titles, clear apertures, glasses, labels, variable codes) is read as
+    /// the lens and system data write it, and named in the note. A line without a k-th value
+    /// is refused where it stands.
     fn zoom(&mut self, c: &Command, source: &Source) -> Result<(), PrescriptionError> {
         let at = |field: &str| source.location(Some(c.line)).with_field(field);
         let words: Vec<String> = c.args.iter().map(|w| w.to_ascii_uppercase()).collect();
@@ -1183,81 +1331,175 @@ impl Reader {
                     )),
                 ));
             }
-            self.zoom_positions = Some(count);
-            return Ok(());
+            self.zoom_positions = Some((count, c.line));
+            // Refused here, before a zoomed item's line lacks the value.
+            return self.check_position(source);
         }
         let target = words.get(1).filter(|w| {
-            w.len() > 1 && w[1..].bytes().all(|b| b.is_ascii_digit()) && w.starts_with(['S', 'F'])
+            w.strip_prefix(['S', 'F'])
+                .is_some_and(|n| !n.is_empty() && n.bytes().all(|b| b.is_ascii_digit()))
         });
-        let first = words.get(if target.is_some() { 2 } else { 1 });
-        let pickup_item = match item.as_str() {
+        let field = format!("ZOO {item}");
+        let values = &words[if target.is_some() { 2 } else { 1 }..];
+        // The k-th value, once the item is known to be one lensbake applies.
+        let position = self.position;
+        let value_here = || -> Result<&String, PrescriptionError> {
+            position
+                .checked_sub(1)
+                .and_then(|i| values.get(i))
+                .ok_or_else(|| {
+                    PrescriptionError::new(
+                        at(&field),
+                        Problem::WrongColumnCount {
+                            expected: format!(
+                                "a value for zoom position {} after {field}{}",
+                                position,
+                                target.map_or(String::new(), |t| format!(" {t}"))
+                            ),
+                            found: values.len(),
+                        },
+                    )
+                })
+        };
+        let surface_item = match item.as_str() {
             "THI" => Some(PickupItem::Thickness),
             "RDY" => Some(PickupItem::Radius),
             "CUY" => Some(PickupItem::Curvature),
             "K" => Some(PickupItem::Conic),
             _ => None,
         };
-        let field = format!("ZOO {item}");
-        match (item.as_str(), pickup_item, target, first) {
-            ("THI", _, Some(t), Some(value)) if t == "S0" => {
-                self.object_distance = Some(object_distance(value, &at(&field))?);
+        let field_list = FIELD_COMMANDS
+            .iter()
+            .chain(&VIGNETTING_COMMANDS)
+            .position(|command| *command == item.as_str());
+        let number_of = |t: &str| -> Result<usize, PrescriptionError> {
+            t[1..].parse::<usize>().map_err(|_| {
+                PrescriptionError::new(
+                    at(&field),
+                    Problem::Syntax(format!("`{t}` is not a number")),
+                )
+            })
+        };
+        let zoomed = match (item.as_str(), surface_item, field_list, target) {
+            ("THI", _, _, Some(t)) if t == "S0" => {
+                self.object_distance = Some(object_distance(value_here()?, &at(&field))?);
                 self.stated(StatedCondition::Object, c.line, "ZOO THI S0");
+                return Ok(());
             }
-            (_, Some(item), Some(t), Some(value)) if t.starts_with('S') => {
-                let surface = t[1..].parse::<usize>().map_err(|_| {
-                    PrescriptionError::new(
-                        at(&field),
-                        Problem::Syntax(format!("`{t}` is not a surface")),
-                    )
-                })?;
-                self.zoomed.push(ZoomedItem {
-                    line: c.line,
-                    item,
-                    surface,
-                    value: finite(value, &at(&field))?,
-                });
+            (_, Some(item), _, Some(t)) if t.starts_with('S') => ZoomTarget::Surface {
+                item,
+                surface: number_of(t)?,
+            },
+            (_, _, Some(list), Some(t)) if t.starts_with('F') => ZoomTarget::Field {
+                list,
+                field: number_of(t)?,
+            },
+            ("EPD", _, _, None) => {
+                self.epd = Some(positive(value_here()?, &at(&field))?);
+                self.stated(StatedCondition::Aperture, c.line, "ZOO EPD");
+                return Ok(());
             }
-            ("EPD", _, None, Some(value)) => self.epd = Some(positive(value, &at(&field))?),
-            ("FNO", _, None, Some(value)) => self.f_number = Some(positive(value, &at(&field))?),
+            ("FNO", _, _, None) => {
+                self.f_number = Some(positive(value_here()?, &at(&field))?);
+                self.stated(StatedCondition::Aperture, c.line, "ZOO FNO");
+                return Ok(());
+            }
             _ => {
                 self.zoomed_as_written.insert(item.clone());
+                return Ok(());
             }
-        }
+        };
+        self.zoomed.push(ZoomedItem {
+            line: c.line,
+            target: zoomed,
+            value: finite(value_here()?, &at(&field))?,
+        });
         Ok(())
     }
 
-    /// Sets each zoomed surface item to its position-1 value.
+    /// Refuses a zoom position the file does not have, at its `ZOO n` line.
+    fn check_position(&self, source: &Source) -> Result<(), PrescriptionError> {
+        let (count, line) = match self.zoom_positions {
+            Some((count, line)) => (count, Some(line)),
+            None => (1, None),
+        };
+        if (1..=count).contains(&self.position) {
+            return Ok(());
+        }
+        let what = match line {
+            Some(_) => format!("the file has zoom positions 1..={count}"),
+            None => "the file has no zoom positions (no ZOO n): position 1 is the lens".into(),
+        };
+        Err(PrescriptionError::new(
+            source.location(line).with_field("ZOO"),
+            Problem::Unsupported(format!("zoom position {}; {what}", self.position)),
+        ))
+    }
+
+    /// Sets each zoomed surface and field item to its value at the position read.
     fn apply_zoomed(&mut self, source: &Source) -> Result<(), PrescriptionError> {
         for zoomed in std::mem::take(&mut self.zoomed) {
-            let Some(s) = zoomed
-                .surface
-                .checked_sub(1)
-                .and_then(|i| self.surfaces.get_mut(i))
-            else {
+            let (item, number) = match zoomed.target {
+                ZoomTarget::Field { list, field } => {
+                    let values = match list.checked_sub(FIELD_COMMANDS.len()) {
+                        Some(v) => &mut self.vignetting[v],
+                        None if FIELD_COMMANDS[list].starts_with('X') => &mut self.x_fields,
+                        None => &mut self.y_fields,
+                    };
+                    let Some(value) = field.checked_sub(1).and_then(|i| values.get_mut(i)) else {
+                        return Err(PrescriptionError::new(
+                            source.location(Some(zoomed.line)).with_field("ZOO"),
+                            Problem::Syntax(format!(
+                                "ZOO names field {field}; the file states {} values there",
+                                values.len()
+                            )),
+                        ));
+                    };
+                    *value = zoomed.value;
+                    continue;
+                }
+                ZoomTarget::Surface { item, surface } => (item, surface),
+            };
+            let Some(s) = number.checked_sub(1).and_then(|i| self.surfaces.get_mut(i)) else {
                 return Err(PrescriptionError::new(
                     source.location(Some(zoomed.line)).with_field("ZOO"),
                     Problem::Syntax(format!(
-                        "ZOO names surface {}; the file has surfaces 1..{}",
-                        zoomed.surface,
+                        "ZOO names surface {number}; the file has surfaces 1..{}",
                         self.surfaces.len()
                     )),
                 ));
             };
-            match zoomed.item {
+            match item {
                 PickupItem::Thickness => s.thickness = zoomed.value,
                 PickupItem::Conic => s.conic = zoomed.value,
                 PickupItem::Radius | PickupItem::Curvature => {
                     s.value = zoomed.value;
-                    s.radius_mode = zoomed.item == PickupItem::Radius;
+                    s.radius_mode = item == PickupItem::Radius;
                 }
             }
         }
         Ok(())
     }
 
-    /// Evaluates the pickups in file order, so a pickup may read what an earlier one wrote.
+    /// Evaluates the pickups of the position read in file order, so a pickup may read what an
+    /// earlier one wrote: those written for it (`Zk`), and those written for no position whose
+    /// item the file does not pick up for this position on its own.
     fn apply_pickups(&mut self, source: &Source) -> Result<(), PrescriptionError> {
-        for pickup in std::mem::take(&mut self.pickups) {
+        let pickups = std::mem::take(&mut self.pickups);
+        let position = self.position;
+        let own = |p: &Pickup| {
+            pickups
+                .iter()
+                .any(|q| q.position == Some(position) && q.item == p.item && q.target == p.target)
+        };
+        let here: Vec<&Pickup> = pickups
+            .iter()
+            .filter(|p| match p.position {
+                Some(k) => k == position,
+                None => !own(p),
+            })
+            .collect();
+        for pickup in here {
             let count = self.surfaces.len();
             for k in [pickup.target, pickup.source] {
                 if !(1..=count).contains(&k) {
@@ -1343,9 +1585,9 @@ impl Reader {
     }
 }
 
-/// Parses `PIK item Sk [Zm] item Sj [Zm] [scale [offset]]`; None for a pickup at a zoom position
-/// other than the first (lensbake reads position 1); the error says which part is not read.
-fn pickup(c: &Command) -> Result<Option<Pickup>, String> {
+/// Parses `PIK item Sk [Zm] item Sj [Zm] [scale [offset]]` (a source without its own position
+/// is read at the target's); the error says which part is not read.
+fn pickup(c: &Command) -> Result<Pickup, String> {
     let upper: Vec<String> = c.args.iter().map(|w| w.to_ascii_uppercase()).collect();
     let mut words = upper.into_iter().peekable();
     let (item, target, position) = item_and_surface(&mut words)?;
@@ -1353,7 +1595,7 @@ fn pickup(c: &Command) -> Result<Option<Pickup>, String> {
     if source_item != item {
         return Err("a pickup between different items".into());
     }
-    if source_position != position {
+    if source_position.is_some() && source_position != position {
         return Err("a pickup between zoom positions".into());
     }
     let mut number = |name: &str, default: f64| match words.next() {
@@ -1369,14 +1611,15 @@ fn pickup(c: &Command) -> Result<Option<Pickup>, String> {
     if words.next().is_some() {
         return Err("more words than item, surface, item, surface, scale and offset".into());
     }
-    Ok((position == 1).then_some(Pickup {
+    Ok(Pickup {
         line: c.line,
+        position,
         item,
         target,
         source,
         scale,
         offset,
-    }))
+    })
 }
 
 type Words = std::iter::Peekable<std::vec::IntoIter<String>>;
@@ -1396,8 +1639,8 @@ fn zoom_position(word: &str) -> Option<usize> {
         .filter(|&k| k > 0)
 }
 
-/// One `item Sk [Zm]` of a pickup, with its zoom position (1 where none is written).
-fn item_and_surface(words: &mut Words) -> Result<(PickupItem, usize, usize), String> {
+/// One `item Sk [Zm]` of a pickup, with its zoom position (None where none is written).
+fn item_and_surface(words: &mut Words) -> Result<(PickupItem, usize, Option<usize>), String> {
     let item = match words.next().as_deref() {
         Some("RDY") => PickupItem::Radius,
         Some("CUY") => PickupItem::Curvature,
@@ -1412,10 +1655,10 @@ fn item_and_surface(words: &mut Words) -> Result<(PickupItem, usize, usize), Str
         .and_then(|k| k.parse::<usize>().ok())
         .ok_or_else(|| format!("`{surface}` is not a surface Sk"))?;
     let position = match words.next_if(|w| w.starts_with('Z')) {
-        Some(zoom) => {
-            zoom_position(&zoom).ok_or_else(|| format!("`{zoom}` is not a zoom position Zk"))?
-        }
-        None => 1,
+        Some(zoom) => Some(
+            zoom_position(&zoom).ok_or_else(|| format!("`{zoom}` is not a zoom position Zk"))?,
+        ),
+        None => None,
     };
     Ok((item, k, position))
 }

@@ -146,6 +146,12 @@ pub struct LoadOptions {
     /// Only meaningful for [`Format::Pbrt`]; asking for [`PbrtThickness::FromPrevious`] with any
     /// other format is an error rather than silently ignored.
     pub pbrt_thickness: PbrtThickness,
+    /// The zoom position to read (1-based): a CODE V zoom file's `ZOO` position, or a Zemax
+    /// multi-configuration file's configuration (only the active one, whose values the surface
+    /// table holds). None reads position 1 (CODE V) or the active configuration (Zemax). Any
+    /// other position of a file without zoom positions is an error, as is a position the file
+    /// does not have.
+    pub zoom_position: Option<usize>,
 }
 
 /// Something the user should know about how a file was read; not an error.
@@ -192,11 +198,12 @@ pub enum LoadNote {
     /// and lets the clear apertures vignette it; the factors only size clear apertures the file
     /// does not give.
     VignettingNotApplied { fields: Vec<usize> },
-    /// A CODE V zoom file (`ZOO n`), read at position 1: zoomed thicknesses, radii, curvatures,
-    /// conics, the object distance, EPD and FNO take their first `ZOO` value; the zoomed items in
-    /// `as_written` (fields, vignetting, ...) are read as the lens data write them, and the other
-    /// positions are not applied.
+    /// A CODE V zoom file (`ZOO n`), read at `position` of `count`: zoomed thicknesses, radii,
+    /// curvatures, conics, the object distance, EPD, FNO, fields and vignetting factors take
+    /// that position's `ZOO` value, and the pickups of that position apply; the zoomed items in
+    /// `as_written` (titles, clear apertures, ...) are read as the lens data write them.
     ZoomPosition {
+        position: usize,
         count: usize,
         as_written: Vec<String>,
     },
@@ -208,6 +215,55 @@ pub enum LoadNote {
     /// glass the catalogues do hold are not that glass's (a writer's placeholder), so the
     /// numbers beside the unknown names are not taken for theirs and those glasses stay unknown.
     WrittenGlassDataContradicted(ContradictedGlassData),
+    /// Media whose index table ends short of a wavelength the file uses, by no more than
+    /// [`crate::glass::TABLE_EXTRAPOLATION`] of its span: the index there is the table
+    /// continued, as OpticStudio and CODE V continue it ([`crate::glass::Dispersion::checked_index`]).
+    IndicesExtrapolated { media: Vec<ExtrapolatedIndex> },
+}
+
+/// One medium's index continued beyond its table at one wavelength ([`LoadNote::IndicesExtrapolated`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ExtrapolatedIndex {
+    /// Surface (1-based; 0 is the object space) whose medium it is.
+    pub surface: usize,
+    /// The glass's name, or a description of a private table.
+    pub medium: String,
+    pub wavelength_nm: f64,
+    /// The first and last wavelength (nm) of the table.
+    pub range_nm: (f64, f64),
+}
+
+/// The media of `prescription` whose table is continued at one of its file's wavelengths.
+fn extrapolated_indices(prescription: &Prescription) -> Vec<ExtrapolatedIndex> {
+    let mut wavelengths: Vec<f64> = prescription
+        .provenance
+        .conditions
+        .as_ref()
+        .map(|c| c.wavelengths_nm.clone())
+        .unwrap_or_default();
+    wavelengths.extend(prescription.provenance.design_wavelength_nm);
+    wavelengths.sort_by(f64::total_cmp);
+    wavelengths.dedup();
+    let media = std::iter::once(&prescription.object_medium)
+        .chain(prescription.surfaces.iter().map(|s| &s.medium));
+    let mut found = Vec::new();
+    for (surface, medium) in media.enumerate() {
+        // A name no catalogue holds is reported when the lens is resolved.
+        let Ok(dispersion) = crate::glass::Dispersion::of(medium) else {
+            continue;
+        };
+        for &nm in &wavelengths {
+            if let Some(range_nm) = dispersion.extrapolated_range_nm(nm) {
+                found.push(ExtrapolatedIndex {
+                    surface,
+                    medium: medium.describe(),
+                    wavelength_nm: nm,
+                    range_nm,
+                });
+            }
+        }
+    }
+    found
 }
 
 impl fmt::Display for LoadNote {
@@ -276,10 +332,7 @@ impl fmt::Display for LoadNote {
                 let named: Vec<String> = glasses
                     .iter()
                     .map(|g| {
-                        let place = match g.surface {
-                            0 => "object space".to_string(),
-                            k => format!("surface {k}"),
-                        };
+                        let place = medium_place(g.surface);
                         format!("{place} {} (nd {}, Vd {})", g.name, g.glass.nd, g.glass.vd)
                     })
                     .collect();
@@ -319,11 +372,16 @@ impl fmt::Display for LoadNote {
                  one, whose values the surface table holds; the other configurations are not \
                  applied"
             ),
-            LoadNote::ZoomPosition { count, as_written } => {
+            LoadNote::ZoomPosition {
+                position,
+                count,
+                as_written,
+            } => {
                 write!(
                     f,
-                    "zoom file: read at position 1 of {count} (each zoomed thickness, radius, \
-                     conic, object distance, EPD and FNO takes its first ZOO value)"
+                    "zoom file: read at position {position} of {count} (each zoomed thickness, \
+                     radius, conic, object distance, EPD, FNO, field and vignetting factor takes \
+                     its value there)"
                 )?;
                 if !as_written.is_empty() {
                     write!(
@@ -332,7 +390,7 @@ impl fmt::Display for LoadNote {
                         as_written.join(", ")
                     )?;
                 }
-                write!(f, "; the other positions are not applied")
+                write!(f, "; another position is read by asking for it")
             }
             LoadNote::SolvesAsWritten { solves } => write!(
                 f,
@@ -340,6 +398,27 @@ impl fmt::Display for LoadNote {
                  curvature and thickness in place); they are not solved again",
                 solves.join(", ")
             ),
+            LoadNote::IndicesExtrapolated { media } => {
+                let named: Vec<String> = media
+                    .iter()
+                    .map(|m| {
+                        let place = medium_place(m.surface);
+                        format!(
+                            "{place} {} at {} nm (table {}-{} nm)",
+                            m.medium, m.wavelength_nm, m.range_nm.0, m.range_nm.1
+                        )
+                    })
+                    .collect();
+                write!(
+                    f,
+                    "index{} continued beyond the glass data, the table's end segment extended \
+                     in a straight line (up to {}% of its span beyond either end; farther is \
+                     refused): {}",
+                    if media.len() == 1 { "" } else { "es" },
+                    crate::glass::TABLE_EXTRAPOLATION * 100.0,
+                    named.join(", ")
+                )
+            }
             LoadNote::UnknownHeaderKeywords { keywords } => write!(
                 f,
                 "skipped header keyword{} lensbake does not know: {} (lensbake applies every \
@@ -349,6 +428,14 @@ impl fmt::Display for LoadNote {
                 keywords.join(", ")
             ),
         }
+    }
+}
+
+/// Whose medium a note names: "object space" for 0, else "surface k".
+fn medium_place(surface: usize) -> String {
+    match surface {
+        0 => "object space".to_string(),
+        k => format!("surface {k}"),
     }
 }
 
@@ -412,11 +499,59 @@ pub fn read_str(
             columns::Dialect::Pbrt(options.pbrt_thickness),
         )?,
         Format::Table => columns::read(text, &source, columns::Dialect::Table)?,
-        Format::CodeV => codev::read(text, &source)?,
+        Format::CodeV => codev::read(text, &source, options.zoom_position)?,
         Format::Zemax => zemax::read(text, &source)?,
     };
+    if format != Format::CodeV {
+        check_configuration(&loaded, options.zoom_position, &source)?;
+    }
     loaded.map.file = file.map(Path::to_path_buf);
+    let extrapolated = extrapolated_indices(&loaded.prescription);
+    if !extrapolated.is_empty() {
+        loaded.notes.push(LoadNote::IndicesExtrapolated {
+            media: extrapolated,
+        });
+    }
     Ok(loaded)
+}
+
+/// Refuses a zoom position that a file other than a CODE V one does not hold: a Zemax
+/// multi-configuration file is read as its active configuration (the other configurations'
+/// operands are not applied), any other file has position 1 only.
+fn check_configuration(
+    loaded: &Loaded,
+    asked: Option<usize>,
+    source: &Source,
+) -> Result<(), PrescriptionError> {
+    let Some(asked) = asked else {
+        return Ok(());
+    };
+    let configuration = loaded.notes.iter().find_map(|note| match note {
+        LoadNote::ActiveConfiguration { active, count } => Some((*active, *count)),
+        _ => None,
+    });
+    let refusal = match configuration {
+        Some((active, _)) if active == asked => return Ok(()),
+        None if asked == 1 => return Ok(()),
+        Some((active, count)) => format!(
+            "zoom position {asked} of a Zemax multi-configuration file ({count} \
+             configurations): lensbake reads the active configuration, {active}, whose values \
+             the surface table holds; make configuration {asked} active in OpticStudio and save"
+        ),
+        None => format!(
+            "zoom position {asked} of a {} without zoom positions (position 1 is the lens)",
+            loaded.format.describe()
+        ),
+    };
+    let field = if configuration.is_some() {
+        "MNUM"
+    } else {
+        "zoom position"
+    };
+    Err(PrescriptionError::new(
+        source.location(None).with_field(field),
+        Problem::Unsupported(refusal),
+    ))
 }
 
 /// Reads a prescription from raw file contents: UTF-8 (with or without a byte-order mark),

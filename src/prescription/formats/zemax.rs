@@ -44,9 +44,12 @@
 //! parameters) are read as planes in the medium before them that move the later surfaces; the
 //! lens they describe is centred by `placement` (fold mirrors unfolded) or refused there, as is
 //! one with a rectangular (`SQAP`), elliptical (`ELAP`; with equal semi-axes it is the circle
-//! `CLAP` states) or decentred (`OBDC`) clear aperture. Any
+//! `CLAP` states) or decentred (`OBDC`) clear aperture. A surface's own tilt and decentre
+//! (`SCBD 1 order 0 dx dy tx ty tz`, OpticStudio's "tilt/decenter before surface", which moves
+//! the surface and every later one as a coordinate break before it would) is read the same
+//! way; one after the surface (`SCBD` other than 1) is refused unless it is zero. Any
 //! other keyword is refused, naming keyword, line and surface: other surface types (gratings,
-//! ...), surface tilts written as `SCBD`, annular obscurations, rectangular and elliptical
+//! ...), annular obscurations, rectangular and elliptical
 //! obscurations, user-defined apertures, ignored surfaces, a curved image surface,
 //! non-sequential mode, and every unknown keyword inside the surface table.
 
@@ -187,6 +190,8 @@ struct Block {
     /// The line and keyword of each validated field (see [`validated_field`]), the last one
     /// written for the field.
     field_lines: BTreeMap<&'static str, (usize, &'static str)>,
+    /// `SCBD 1 ...`: the surface's own tilt and decentre, before it.
+    tilt_before: Option<Placement>,
 }
 
 enum Glass {
@@ -247,6 +252,7 @@ impl Block {
             glass: None,
             pickups: Vec::new(),
             field_lines: BTreeMap::new(),
+            tilt_before: None,
         }
     }
 }
@@ -403,6 +409,16 @@ impl Reader {
                         "COORDBRK" => SurfaceType::CoordinateBreak,
                         "PARAXIAL" => SurfaceType::Paraxial,
                         "TOROIDAL" => SurfaceType::Toroidal,
+                        // PARM 1 lines per um, PARM 2 the order: the ray's tangential
+                        // direction gains m l / d along the grating vector, which no lensbake
+                        // tracer applies yet.
+                        "DGRATING" => {
+                            return Err(unsupported(
+                                "a diffraction grating (TYPE DGRATING: PARM 1 lines per um, \
+                                 PARM 2 the order); lensbake traces no grating"
+                                    .into(),
+                            ));
+                        }
                         other => return Err(unsupported(format!("Zemax surface type {other}"))),
                     };
                     true
@@ -541,6 +557,41 @@ impl Reader {
                 }
                 "DIAM" => {
                     block.semi_diameter = Some(value(0)?);
+                    true
+                }
+                // Surface tilt/decenter data: which side (1: before the surface), the order
+                // (0: decentre then tilt, 1: tilt then decentre), a third flag, then decentre x,
+                // y and tilts about x, y, z in degrees. The OAP file in the corpus tilts its
+                // image plane 90 degrees about x this way, facing the beam its mirror turns.
+                "SCBD" => {
+                    let (side, order, flag) = (value(0)?, value(1)?, value(2)?);
+                    let moves = [value(3)?, value(4)?, value(5)?, value(6)?, value(7)?];
+                    if moves == [0.0; 5] {
+                        self.skipped.insert("SCBD 0".into());
+                    } else if side != 1.0 || flag != 0.0 || !(order == 0.0 || order == 1.0) {
+                        return Err(unsupported(format!(
+                            "surface tilt/decenter data `SCBD {}` (lensbake reads a tilt and \
+                             decentre before the surface: SCBD 1, order 0 or 1, flag 0)",
+                            args.join(" ")
+                        )));
+                    } else if block.kind == SurfaceType::CoordinateBreak {
+                        return Err(unsupported(
+                            "a coordinate break with its own tilt/decenter data (SCBD)".into(),
+                        ));
+                    } else {
+                        let [dx, dy, tx, ty, tz] = moves;
+                        let kind = if order == 0.0 {
+                            PlacementKind::Basic
+                        } else {
+                            PlacementKind::TiltThenDecentre
+                        };
+                        block.tilt_before = Some(Placement {
+                            decentre: [dx, dy, 0.0],
+                            tilt_deg: [tx, ty, tz],
+                            decentre_at: [Some((line, "SCBD")), Some((line, "SCBD")), None],
+                            ..Placement::new(kind, line, "SCBD")
+                        });
+                    }
                     true
                 }
                 // Extra data; only item 1 of a toroid (its count of Zernike terms) is read.
@@ -815,6 +866,12 @@ impl Reader {
                 ));
             }
         }
+        if let Some(tilt) = &object.tilt_before {
+            return Err(PrescriptionError::new(
+                source.location(Some(tilt.line)).with_field("SCBD"),
+                Problem::Unsupported("a tilted or decentred object surface (SCBD)".into()),
+            ));
+        }
         if image.curvature != 0.0 {
             return Err(PrescriptionError::new(
                 source.location(Some(image.line)).with_field("CURV"),
@@ -925,6 +982,9 @@ impl Reader {
         let placements: Vec<Option<Placement>> = lens
             .iter()
             .map(|b| {
+                if b.tilt_before.is_some() {
+                    return b.tilt_before.clone();
+                }
                 (b.kind == SurfaceType::CoordinateBreak).then(|| {
                     let [dx, dy, tx, ty, tz, order, ..] = b.parms;
                     let kind = if order == 0.0 {
@@ -991,7 +1051,7 @@ impl Reader {
         let centred = placement::centre_if_placed(
             &mut prescription,
             &placements,
-            None,
+            image.tilt_before.as_ref(),
             &asymmetries,
             &mut missing,
             &envelopes,
