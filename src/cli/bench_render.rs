@@ -13,7 +13,8 @@ use lensbake::job::tables::DEFAULT_TABLES_ROOT;
 use lensbake::job::{RenderLens, TracedAndBaked, default_table_dir};
 use lensbake::limits;
 use lensbake::model::ModelKind;
-use lensbake::realtime::{KernelSettings, LensKernels, PostfxPath};
+use lensbake::realtime::layered::DEFAULT_LAYERS;
+use lensbake::realtime::{KernelSettings, LayeredSettings, LensKernels, PostfxPath, layered};
 use lensbake::render::camera::{Camera, Film};
 use lensbake::render::gpu::GpuRenderer;
 use lensbake::render::image::RgbImage;
@@ -214,9 +215,9 @@ fn measure(args: &RenderBenchArgs, base: RenderSettings) -> anyhow::Result<()> {
         layer_view(reference_camera, &base, nearest),
         base.max_layers,
     );
-    // The post-process's kernels are traced once for the frame (per lens, focus and depth
-    // range, not per frame): timed apart from its frames.
-    let kernels = match args.models.contains(&ModelKind::Postfx) {
+    // The real-time models' kernels are traced once for the frame (per lens, focus and depth
+    // range, not per frame): timed apart from their frames.
+    let kernels = match args.models.iter().any(|kind| kind.is_realtime()) {
         true => {
             let [near, far] = ldi
                 .depth_range()
@@ -230,7 +231,7 @@ fn measure(args: &RenderBenchArgs, base: RenderSettings) -> anyhow::Result<()> {
                 &KernelSettings::default(),
             )?;
             say!(
-                "postfx lens kernels: {} traced in {:.2} s",
+                "real-time lens kernels: {} traced in {:.2} s",
                 kernels.kernels.len(),
                 started.elapsed().as_secs_f64()
             );
@@ -273,32 +274,42 @@ fn measure(args: &RenderBenchArgs, base: RenderSettings) -> anyhow::Result<()> {
                 measured_at: now_unix(),
             },
         )?;
-        // postfx has a CPU path only so far, in two statements: the fast default and the
-        // exact one.
-        let mut runs: Vec<(String, Option<PostfxPath>, &Camera, Backend, &String)> = Vec::new();
+        // The real-time models have a CPU path only so far; postfx in two statements: the fast
+        // default and the exact one.
+        let mut runs: Vec<(String, Filter, &Camera, Backend, &String)> = Vec::new();
         for (backend, backend_name) in &backends {
             for (kind, camera) in &cameras {
-                match kind {
-                    ModelKind::Postfx if *backend != Backend::Cpu => {}
-                    ModelKind::Postfx => {
-                        for path in [PostfxPath::Fast, PostfxPath::Exact] {
-                            let name = match path {
-                                PostfxPath::Fast => kind.name().to_string(),
-                                _ => format!("{} {}", kind.name(), path.name()),
-                            };
-                            runs.push((name, Some(path), camera, *backend, backend_name));
-                        }
-                    }
-                    _ => runs.push((kind.name().into(), None, camera, *backend, backend_name)),
+                let filters = match kind {
+                    _ if kind.is_realtime() && *backend != Backend::Cpu => vec![],
+                    ModelKind::Postfx => vec![
+                        (kind.name().to_string(), Filter::Postfx(PostfxPath::Fast)),
+                        (format!("{kind} exact"), Filter::Postfx(PostfxPath::Exact)),
+                    ],
+                    ModelKind::Layered => vec![(kind.name().to_string(), Filter::Layered)],
+                    _ => vec![(kind.name().to_string(), Filter::Sampled)],
+                };
+                for (name, filter) in filters {
+                    runs.push((name, filter, camera, *backend, backend_name));
                 }
             }
         }
-        for (model, postfx_path, camera, backend, backend_name) in runs {
+        for (model, filter, camera, backend, backend_name) in runs {
             let image_of = || -> anyhow::Result<RgbImage> {
-                Ok(match (postfx_path, &kernels) {
-                    (Some(path), Some(kernels)) => {
+                Ok(match (filter, &kernels) {
+                    (Filter::Postfx(path), Some(kernels)) => {
                         path.render(camera, &ldi, kernels, settings.width, settings.height)?
                     }
+                    (Filter::Layered, Some(kernels)) => layered(
+                        camera,
+                        &ldi,
+                        kernels,
+                        &LayeredSettings {
+                            layers: DEFAULT_LAYERS,
+                            peeled_to: settings.max_layers,
+                        },
+                        settings.width,
+                        settings.height,
+                    )?,
                     _ => render_layers(camera, &ldi, &settings, backend, gpu.as_ref())?,
                 })
             };
@@ -411,6 +422,15 @@ fn markdown(timings: &Timings) -> String {
         );
     }
     text
+}
+
+/// How a bench frame is made from the layers: sampled through the lens, or filtered by a
+/// real-time model's kernels.
+#[derive(Clone, Copy)]
+enum Filter {
+    Sampled,
+    Postfx(PostfxPath),
+    Layered,
 }
 
 /// Rows sort cheapest model first, as [`ModelKind`] lists them.

@@ -10,6 +10,7 @@ use lensbake::job::{
     FocusMode, ModelChoice, PeelMode, RenderJob, RenderLens, Rendered, SceneSpec,
 };
 use lensbake::model::{AberrationScale, ModelKind};
+use lensbake::realtime::layered::DEFAULT_LAYERS;
 use lensbake::realtime::{KernelOrigin, PostfxPath};
 use lensbake::render::RenderSettings;
 use lensbake::render::chromatic::{CHANNELS, ChromaticMode};
@@ -39,7 +40,8 @@ pub struct RenderArgs {
     read: ReadArgs,
     /// Lens model: thin and thick from the paraxial data, seidel (thick plus third-order
     /// aberration), traced (the exact trace in the kernel), baked (an LRTF table lookup),
-    /// postfx (the real-time gather post-process with kernels traced through the lens; CPU).
+    /// postfx (the real-time gather post-process with kernels traced through the lens; CPU),
+    /// layered (seed 002's layered depth of field with the same kernels; CPU).
     #[arg(long, default_value = "traced", value_parser = super::lens::model_parser())]
     model: ModelKind,
     /// Table directory for `--model baked`; default: the first table under tables/<lens>/ whose
@@ -140,6 +142,10 @@ pub struct RenderArgs {
     /// path) or `exact` (full resolution, every tap's lens kernel fitted on the fly).
     #[arg(long, value_enum, default_value = "fast")]
     postfx: PostfxArg,
+    /// For `--model layered`: depth layers, at equal circle-of-confusion steps about the plane
+    /// in focus (3 to 64).
+    #[arg(long, default_value_t = DEFAULT_LAYERS)]
+    layers: usize,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -324,6 +330,7 @@ impl RenderArgs {
                 PostfxArg::Fast => PostfxPath::Fast,
                 PostfxArg::Exact => PostfxPath::Exact,
             },
+            layers: self.layers,
             aberration_scale,
             ..RenderJob::new(lens)
         };
@@ -373,12 +380,15 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
                     }
                 }
             };
+            let filter = match prepared.model {
+                ModelKind::Layered => format!("layered filter ({} layers)", job.layers),
+                _ => format!("{} filter", job.postfx_path.name()),
+            };
             format!(
-                "{} lens kernels ({} depths x {} field radii) {how}, {} filter {frame_ms:.1} ms",
+                "{} lens kernels ({} depths x {} field radii) {how}, {filter} {frame_ms:.1} ms",
                 kernels.kernels.len(),
                 kernels.inverse_depths.len(),
                 kernels.field_tangents.len(),
-                job.postfx_path.name(),
             )
         }
         None => format!(
@@ -525,8 +535,8 @@ fn print_decisions(job: &RenderJob, rendered: &Rendered) {
     let why = match chromatic.reason {
         ChromaticReason::Off => None,
         ChromaticReason::SeidelModel => Some("the Seidel model is monochrome".to_string()),
-        ChromaticReason::PostfxModel => {
-            Some("the postfx model's lens kernels are monochrome".to_string())
+        ChromaticReason::RealtimeModel(kind) => {
+            Some(format!("the {kind} model's lens kernels are monochrome"))
         }
         ChromaticReason::IdealLens => Some("ideal lens".to_string()),
         ChromaticReason::Spread {

@@ -82,10 +82,11 @@ pub struct ViewArgs {
 }
 
 pub fn run(args: ViewArgs) -> anyhow::Result<()> {
-    if args.model == ModelKind::Postfx {
+    if args.model.is_realtime() {
+        let model = args.model;
         anyhow::bail!(
-            "--model postfx: the viewer accumulates sample passes and postfx has none; render it \
-             with `lensbake render --model postfx`"
+            "--model {model}: the viewer accumulates sample passes and {model} has none; render \
+             it with `lensbake render --model {model}`"
         );
     }
     // The script is read and parsed whole before anything renders.

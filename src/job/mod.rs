@@ -69,15 +69,15 @@ pub enum JobError {
     #[error("a traced twin needs the baked model of a real lens")]
     NoTracedTwin,
     #[error(
-        "chromatic on: the postfx model's lens kernels are traced at the design wavelength only; \
+        "chromatic on: the {0} model's lens kernels are traced at the design wavelength only; \
          use chromatic off or the traced or baked model (--chromatic off, --model)"
     )]
-    PostfxIsMonochrome,
+    RealtimeIsMonochrome(ModelKind),
     #[error(
-        "the postfx model runs on the CPU only so far (its WGSL twin is not written yet); use \
+        "the {0} model runs on the CPU only so far (its WGSL twin is not written yet); use \
          --backend cpu or auto"
     )]
-    PostfxOnGpu,
+    RealtimeOnGpu(ModelKind),
 }
 
 impl JobError {
@@ -274,7 +274,7 @@ impl TracedAndBaked {
                 Camera::new(LensModel::Seidel(Box::new(seidel)), film, focus)?
             }
             // The post-process filters with spots traced through the traced camera.
-            ModelKind::Traced | ModelKind::Postfx => self.traced.clone(),
+            ModelKind::Traced | ModelKind::Postfx | ModelKind::Layered => self.traced.clone(),
             ModelKind::Baked => self.baked.clone(),
         })
     }

@@ -16,8 +16,10 @@ use crate::model::{
     SeidelLens, TracedLens, pupil_film_radius,
 };
 use crate::paraxial::{FirstOrder, ImageInsideLens, ParaxialError};
+use crate::realtime::layered::DEFAULT_LAYERS;
 use crate::realtime::{
-    KernelKey, KernelOrigin, KernelSettings, LensKernels, PostfxPath, stored_or_traced,
+    KernelKey, KernelOrigin, KernelSettings, LayeredSettings, LensKernels, PostfxPath, layered,
+    stored_or_traced,
 };
 use crate::render::camera::{Camera, FULL_FRAME_MM, Film, Focus};
 use crate::render::chromatic::{
@@ -147,6 +149,8 @@ pub struct RenderJob {
     pub wavelengths_nm: Option<[f64; CHANNELS]>,
     /// Which statement of the postfx gather renders (the model postfx only).
     pub postfx_path: PostfxPath,
+    /// Depth layers of the layered model (the model layered only).
+    pub layers: usize,
     /// Factors on the Seidel sums, for effect (the Seidel model only: the traced and baked
     /// models take their aberrations from the surfaces, see docs/focal-surface.md).
     pub aberration_scale: AberrationScale,
@@ -190,6 +194,7 @@ impl RenderJob {
             chromatic: ChromaticMode::Auto,
             wavelengths_nm: None,
             postfx_path: PostfxPath::Fast,
+            layers: DEFAULT_LAYERS,
             aberration_scale: AberrationScale::AS_DESIGNED,
             orbit: None,
         }
@@ -237,8 +242,8 @@ pub enum ChromaticReason {
     Off,
     /// The Seidel model is monochrome.
     SeidelModel,
-    /// The postfx model's kernels are traced at the design wavelength.
-    PostfxModel,
+    /// The real-time models' kernels are traced at the design wavelength.
+    RealtimeModel(ModelKind),
     /// An ideal lens has no glass.
     IdealLens,
     /// The lens's colour spread on this film, in output pixels.
@@ -315,14 +320,16 @@ pub struct PreparedRender {
     pub chromatic: ChromaticDecision,
     pub table: Option<TableUse>,
     pub peel: PeelReport,
-    /// For the postfx model: the lens kernels for this camera and these layers.
+    /// For the real-time models: the lens kernels for this camera and these layers.
     pub kernels: Option<PreparedKernels>,
 }
 
-/// The postfx model's lens kernels: traced once per lens, f-number, focus, view and depth
+/// The real-time models' lens kernels: traced once per lens, f-number, focus, view and depth
 /// range, and kept under the tables root (`<tables>/<lens>/kernels/`) for the next render.
 #[derive(Clone, Debug)]
 pub struct PreparedKernels {
+    /// The real-time model that filters with them.
+    pub model: ModelKind,
     pub kernels: LensKernels,
     /// Time to read or trace them.
     pub time: Duration,
@@ -330,10 +337,11 @@ pub struct PreparedKernels {
 }
 
 impl PreparedRender {
-    /// The model that renders: the camera's, or postfx where the job traced lens kernels.
+    /// The model that renders: the camera's, or the real-time model the job traced lens
+    /// kernels for.
     pub fn kind(&self) -> ModelKind {
-        match self.kernels {
-            Some(_) => ModelKind::Postfx,
+        match &self.kernels {
+            Some(prepared) => prepared.model,
             None => self.camera.model.kind(),
         }
     }
@@ -393,6 +401,17 @@ impl RenderJob {
             None => Backend::Cpu,
         };
         let image = match &prepared.kernels {
+            Some(prepared_kernels) if prepared_kernels.model == ModelKind::Layered => layered(
+                &prepared.camera,
+                &prepared.layers,
+                &prepared_kernels.kernels,
+                &LayeredSettings {
+                    layers: self.layers,
+                    peeled_to: self.settings.max_layers,
+                },
+                self.settings.width,
+                self.settings.height,
+            )?,
             Some(prepared_kernels) => self.postfx_path.render(
                 &prepared.camera,
                 &prepared.layers,
@@ -492,7 +511,7 @@ impl RenderJob {
                 None,
             ),
             (_, RenderLens::Ideal { .. }) => return Err(JobError::IdealHasNoSurfaces),
-            (ModelKind::Traced | ModelKind::Postfx, RenderLens::Real(real)) => {
+            (ModelKind::Traced | ModelKind::Postfx | ModelKind::Layered, RenderLens::Real(real)) => {
                 let traced = TracedLens::fitted(
                     &real.system,
                     &first_order,
@@ -563,7 +582,7 @@ impl RenderJob {
             time: peel_time,
         };
         let kernels = match (kind, &self.lens) {
-            (ModelKind::Postfx, RenderLens::Real(real)) => {
+            (ModelKind::Postfx | ModelKind::Layered, RenderLens::Real(real)) => {
                 let started = Instant::now();
                 let [near, far] = ldi.depth_range().ok_or(RenderError::EmptyScene)?;
                 let key = KernelKey {
@@ -582,6 +601,7 @@ impl RenderJob {
                     LensKernels::trace(&camera, &ldi.view, key.depth_range_mm, &key.settings)
                 })?;
                 Some(PreparedKernels {
+                    model: kind,
                     kernels,
                     time: started.elapsed(),
                     origin,
@@ -758,11 +778,11 @@ impl RenderJob {
             (_, ChromaticMode::Auto) if kind == ModelKind::Seidel => {
                 return off(ChromaticReason::SeidelModel);
             }
-            (_, ChromaticMode::On) if kind == ModelKind::Postfx => {
-                return Err(JobError::PostfxIsMonochrome);
+            (_, ChromaticMode::On) if kind.is_realtime() => {
+                return Err(JobError::RealtimeIsMonochrome(kind));
             }
-            (_, ChromaticMode::Auto) if kind == ModelKind::Postfx => {
-                return off(ChromaticReason::PostfxModel);
+            (_, ChromaticMode::Auto) if kind.is_realtime() => {
+                return off(ChromaticReason::RealtimeModel(kind));
             }
             (RenderLens::Ideal { .. }, ChromaticMode::On) => {
                 return Err(JobError::IdealDoesNotDisperse);
@@ -855,16 +875,21 @@ impl RenderJob {
 
     /// The GPU renderer the backend choice asks for, and what was used.
     pub fn renderer(&self) -> Result<(Option<GpuRenderer>, BackendUsed), JobError> {
-        let postfx = self.model == ModelChoice::Model(ModelKind::Postfx);
-        if postfx && self.backend == BackendChoice::Gpu {
-            return Err(JobError::PostfxOnGpu);
+        let realtime = match self.model {
+            ModelChoice::Model(kind) if kind.is_realtime() => Some(kind),
+            _ => None,
+        };
+        if let Some(kind) = realtime
+            && self.backend == BackendChoice::Gpu
+        {
+            return Err(JobError::RealtimeOnGpu(kind));
+        }
+        if let Some(kind) = realtime {
+            let gpu_unavailable = (self.backend == BackendChoice::Auto)
+                .then(|| format!("the {kind} model has no GPU twin yet"));
+            return Ok((None, BackendUsed::Cpu { gpu_unavailable }));
         }
         let gpu = match self.backend {
-            _ if postfx => {
-                let gpu_unavailable = (self.backend == BackendChoice::Auto)
-                    .then(|| "the postfx model has no GPU twin yet".to_string());
-                return Ok((None, BackendUsed::Cpu { gpu_unavailable }));
-            }
             BackendChoice::Cpu => {
                 return Ok((
                     None,

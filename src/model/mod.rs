@@ -135,19 +135,26 @@ pub enum ModelKind {
     /// the lens's defocus spots traced through the exact lens (`crate::realtime`). Its camera
     /// holds the traced model the spots come from.
     Postfx,
+    /// The real-time tier's layered depth of field (seed 002): K depth layers and one peeled
+    /// hidden layer, each blurred by the same lens kernels as `Postfx`, composited back to
+    /// front (`crate::realtime::layered`).
+    Layered,
 }
 
 impl ModelKind {
-    pub const ALL: [ModelKind; 6] = [
+    pub const ALL: [ModelKind; 7] = [
         ModelKind::Thin,
         ModelKind::Thick,
         ModelKind::Seidel,
         ModelKind::Baked,
         ModelKind::Traced,
         ModelKind::Postfx,
+        ModelKind::Layered,
     ];
     /// Every model's name, in the order of [`ModelKind::ALL`] (for help text and messages).
-    pub const NAMES: [&'static str; 6] = ["thin", "thick", "seidel", "baked", "traced", "postfx"];
+    pub const NAMES: [&'static str; 7] = [
+        "thin", "thick", "seidel", "baked", "traced", "postfx", "layered",
+    ];
 
     pub fn name(self) -> &'static str {
         Self::NAMES[self as usize]
@@ -158,8 +165,14 @@ impl ModelKind {
     pub fn needs_surfaces(self) -> bool {
         matches!(
             self,
-            ModelKind::Traced | ModelKind::Baked | ModelKind::Postfx
+            ModelKind::Traced | ModelKind::Baked | ModelKind::Postfx | ModelKind::Layered
         )
+    }
+
+    /// Whether the model is the real-time tier's: a filter over the layered depth image with
+    /// lens kernels, not a sampler of the lens (CPU only, monochrome, no sample passes).
+    pub fn is_realtime(self) -> bool {
+        matches!(self, ModelKind::Postfx | ModelKind::Layered)
     }
 }
 
@@ -323,7 +336,7 @@ mod tests {
         }
         let err = "pinhole".parse::<ModelKind>().unwrap_err().to_string();
         assert!(
-            err.contains("pinhole") && err.contains("thin, thick, seidel, baked, traced, postfx")
+            err.contains("pinhole") && err.contains("thin, thick, seidel, baked, traced, postfx, layered")
         );
     }
 

@@ -81,8 +81,15 @@ impl Kernel {
 
     /// The kernel's value at `offset` (pinhole pixels, kernel frame), bilinear between nodes.
     pub fn at(&self, offset: [f64; 2]) -> f64 {
-        let gx = (offset[0] - self.origin[0]) / self.spacing;
-        let gy = (offset[1] - self.origin[1]) / self.spacing;
+        self.at_node([
+            (offset[0] - self.origin[0]) / self.spacing,
+            (offset[1] - self.origin[1]) / self.spacing,
+        ])
+    }
+
+    /// The kernel's value at grid coordinates `node` (node (0, 0) at 0), bilinear.
+    pub fn at_node(&self, node: [f64; 2]) -> f64 {
+        let [gx, gy] = node;
         let last = self.side as f64 - 1.0;
         if !(gx >= 0.0 && gy >= 0.0 && gx < last && gy < last) {
             return 0.0;
@@ -94,6 +101,31 @@ impl Kernel {
         let top = v[row] as f64 * (1.0 - fx) + v[row + 1] as f64 * fx;
         let bottom = v[row + self.side] as f64 * (1.0 - fx) + v[row + self.side + 1] as f64 * fx;
         top * (1.0 - fy) + bottom * fy
+    }
+
+    /// Radius about the centroid (pinhole pixels) holding `share` of the kernel's values: a
+    /// spot's faint outer rays (a halo of spherical aberration) reach far beyond its core.
+    pub fn radius_holding(&self, share: f64) -> f64 {
+        let mut rings: Vec<(f64, f64)> = self
+            .values
+            .iter()
+            .enumerate()
+            .map(|(i, &v)| {
+                let x = self.origin[0] + (i % self.side) as f64 * self.spacing - self.centroid[0];
+                let y = self.origin[1] + (i / self.side) as f64 * self.spacing - self.centroid[1];
+                (x.hypot(y), v as f64)
+            })
+            .collect();
+        rings.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let total: f64 = rings.iter().map(|r| r.1).sum();
+        let mut held = 0.0;
+        for (radius, value) in rings {
+            held += value;
+            if held >= share * total {
+                return radius;
+            }
+        }
+        0.0
     }
 
     /// Spread of the spot with the output pixel's own box added (a pixel-sized spot's RMS

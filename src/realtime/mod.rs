@@ -10,11 +10,13 @@
 
 pub mod fast;
 pub mod kernels;
+pub mod layered;
 pub mod postfx;
 pub mod store;
 
 pub use fast::postfx_fast;
 pub use kernels::{KernelSettings, LensKernels};
+pub use layered::{LayeredSettings, layered};
 pub use postfx::postfx;
 pub use store::{KernelKey, KernelStoreError};
 

@@ -236,7 +236,7 @@ pub(super) fn first_layer_untilted<'a>(
 ) -> Result<Layer<'a>, RenderError> {
     if camera.film_off_plane() != 0.0 {
         return Err(RenderError::InvalidSetting(
-            "postfx needs a film square to the axis; the sensor is tilted".into(),
+            "the real-time models need a film square to the axis; the sensor is tilted".into(),
         ));
     }
     Ok(ldi.layer(0))

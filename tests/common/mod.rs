@@ -537,6 +537,20 @@ pub fn dgauss_cameras(
     lensbake::render::camera::Camera,
     lensbake::render::camera::Camera,
 ) {
+    dgauss_cameras_focused(width, height, tilt_deg, 2000.0)
+}
+
+#[cfg(feature = "render")]
+/// [`dgauss_cameras`] focused at `focus_mm` in front of the lens, the table baked for it.
+pub fn dgauss_cameras_focused(
+    width: u32,
+    height: u32,
+    tilt_deg: [f64; 2],
+    focus_mm: f64,
+) -> (
+    lensbake::render::camera::Camera,
+    lensbake::render::camera::Camera,
+) {
     use lensbake::lrtf::bake::{BakeRequest, bake};
     use lensbake::model::LensModel;
     use lensbake::model::{BakedLens, TracedLens, pupil_film_radius};
@@ -548,10 +562,10 @@ pub fn dgauss_cameras(
     };
     let design = lens.system.at(lens.system.design_wavelength_nm());
     let thick = LensModel::Thick(first.thick.clone());
-    let focused = Camera::new(thick, film, Focus::ObjectDistance(2000.0)).unwrap();
+    let focused = Camera::new(thick, film, Focus::ObjectDistance(focus_mm)).unwrap();
     let request = BakeRequest {
         resolution: [32; 3],
-        focus_mm: Some(2000.0),
+        focus_mm: Some(focus_mm),
         max_film_radius: Some(pupil_film_radius(
             &design,
             focused.film_z,
