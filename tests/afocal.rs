@@ -79,7 +79,13 @@ fn keplerian_and_galilean_telescopes_of_thin_lenses() {
         // Apparent field: tan(theta') = gamma tan(theta), paraxially and for the real chief ray
         // (an ideal lens maps ray tangents linearly, so the telescope has no distortion).
         let tan = 0.5_f64.to_radians().tan() * (-f1 / f2);
-        common::assert_close(a.apparent_field_deg, tan.atan().to_degrees(), 1e-12, 0.0, &what);
+        common::assert_close(
+            a.apparent_field_deg,
+            tan.atan().to_degrees(),
+            1e-12,
+            0.0,
+            &what,
+        );
         for p in &a.apparent_field {
             assert!(p.distortion_percent.abs() < 1e-9, "{what}: {p:?}");
         }
@@ -142,7 +148,10 @@ fn keplerian_of_thick_singlets_matches_the_focal_lengths_of_its_halves() {
     let gap = objective.bfl - eyepiece.ffl;
     let telescope = prescription(vec![
         stop(o1),
-        Surface { thickness: gap, ..o2 },
+        Surface {
+            thickness: gap,
+            ..o2
+        },
         e1,
         e2,
     ]);
@@ -221,7 +230,11 @@ fn confocal_paraboloids_leave_a_plane_wave() {
     let paraxial = AfocalParaxial::new(&at, Some(40.0), 0.0, StopChoice::Marked).unwrap();
     let wave = afocal_wavefront(&at, &paraxial, 0.0, Sampling::default()).unwrap();
     assert!(wave.stats.rms_waves < 1e-7, "{:?}", wave.stats);
-    assert!(wave.rms_angular_spot_mrad < 1e-9, "{}", wave.rms_angular_spot_mrad);
+    assert!(
+        wave.rms_angular_spot_mrad < 1e-9,
+        "{}",
+        wave.rms_angular_spot_mrad
+    );
     assert_eq!(wave.stats.transmitted_samples, wave.stats.pupil_samples);
     // A plane wave of diameter D' = 4 mm: cutoff n' D' / lambda, MTF the aberration-free one.
     let cutoff = 4.0 / (WAVELENGTH_NM * 1e-6) / 1e3;
@@ -269,7 +282,13 @@ fn third_order_angular_spherical_and_w040_match_the_real_trace_at_small_aperture
         let a = analyze_afocal(&system, &options(epd, 0.0)).unwrap();
         // S_I of an r^4 term alone: 8 a4 (n' - n) y^4.
         let y = epd / 2.0;
-        common::assert_close(a.seidel.sums.spherical, 8.0 * a4 * 0.5 * y.powi(4), 1e-12, 0.0, "S_I");
+        common::assert_close(
+            a.seidel.sums.spherical,
+            8.0 * a4 * 0.5 * y.powi(4),
+            1e-12,
+            0.0,
+            "S_I",
+        );
         // The real marginal ray's exit slope against the angular form.
         let tracer = Tracer::new(&at);
         let ray = Ray::new([0.0, y, -1.0], [0.0, 0.0, 1.0]).unwrap();
@@ -310,7 +329,11 @@ fn corpus_zero_power_files_are_analysed_as_afocal() {
     ] {
         let path = common::test_data(&format!("corpus/{name}"));
         let out = common::lensbake(&["analyze", path.to_str().unwrap(), "--json"]);
-        assert!(out.status.success(), "{name}: {}", String::from_utf8_lossy(&out.stderr));
+        assert!(
+            out.status.success(),
+            "{name}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
         let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
         assert_eq!(json["afocal"], true, "{name}");
         let gamma = json["angular_magnification"].as_f64().unwrap();
@@ -322,11 +345,16 @@ fn corpus_zero_power_files_are_analysed_as_afocal() {
 fn a_finite_object_is_refused_with_a_reason() {
     let out = common::lensbake(&[
         "analyze",
-        common::test_data("corpus/rayoptics__dec_test.seq").to_str().unwrap(),
+        common::test_data("corpus/rayoptics__dec_test.seq")
+            .to_str()
+            .unwrap(),
         "--object-distance-mm",
         "500",
     ]);
     assert_eq!(out.status.code(), Some(2));
     let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(stderr.starts_with("error:") && stderr.contains("collimated beam"), "{stderr}");
+    assert!(
+        stderr.starts_with("error:") && stderr.contains("collimated beam"),
+        "{stderr}"
+    );
 }

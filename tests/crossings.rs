@@ -68,7 +68,10 @@ fn overlapping_plates(semi: f64, overlap: f64) -> Result<LensSystem, Prescriptio
 fn the_tolerance_scales_with_the_lens() {
     for semi in [5.0, 50.0, 500.0] {
         let diameter = 2.0 * semi;
-        assert!(overlapping_plates(semi, 0.5e-5 * diameter).is_ok(), "{semi}");
+        assert!(
+            overlapping_plates(semi, 0.5e-5 * diameter).is_ok(),
+            "{semi}"
+        );
         let error = overlapping_plates(semi, 2e-5 * diameter).unwrap_err();
         assert!(
             matches!(error.problem, Problem::SurfacesCross { next: 3, .. }),

@@ -14,8 +14,8 @@ use lensbake::realtime::{KernelSettings, LayeredSettings, LensKernels, PostfxPat
 use lensbake::render::camera::{Camera, Film, Focus};
 use lensbake::render::image::RgbImage;
 use lensbake::render::layers::{LayeredDepthImage, View};
-use lensbake::render::scene::{Outline, Panel, Scene, Texture};
 use lensbake::render::reference::{psnr, render_reference};
+use lensbake::render::scene::{Outline, Panel, Scene, Texture};
 use lensbake::render::{Backend, RenderSettings, layer_view, render_layers};
 
 /// The traced model of bundled lens `name`, wide open, on a full-frame film of `width` x
@@ -301,8 +301,18 @@ fn layered_handles_partial_occlusion_within_2_db_of_the_baked_ray_tracer() {
     };
     // (what, focus, post distance and width, wall distance and check), all mm.
     let cases = [
-        ("post in focus, wall blurred", 700.0, (700.0, 20.0), (3000.0, 150.0)),
-        ("wall in focus, post blurred", 2000.0, (600.0, 20.0), (2000.0, 60.0)),
+        (
+            "post in focus, wall blurred",
+            700.0,
+            (700.0, 20.0),
+            (3000.0, 150.0),
+        ),
+        (
+            "wall in focus, post blurred",
+            2000.0,
+            (600.0, 20.0),
+            (2000.0, 60.0),
+        ),
     ];
     for (what, focus_mm, (post_mm, width_mm), (wall_mm, check_mm)) in cases {
         let (traced, baked) =

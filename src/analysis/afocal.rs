@@ -13,8 +13,7 @@ use super::{AnalysisError, AnalyzeOptions, Origin, RULE_MAX_FIELD_DEG, first_non
 use crate::paraxial::{AfocalParaxial, Pupil, is_afocal};
 use crate::prescription::{ApertureSpec, FieldKind};
 use crate::seidel::{
-    ColourTerms, IndexDifferences, SeidelTerms, SurfaceTerms, WavefrontCoefficients,
-    surface_terms,
+    ColourTerms, IndexDifferences, SeidelTerms, SurfaceTerms, WavefrontCoefficients, surface_terms,
 };
 use crate::system::{LensSystem, SystemAt};
 use crate::trace::{Apertures, RaySource, Tracer, Travel, aim_at_stop};
@@ -28,7 +27,10 @@ const MTF_POINTS: usize = 6;
 
 /// Whether `analyze` should take `system` as afocal under `options`: its power at the analysis
 /// wavelength is zero to rounding ([`is_afocal`]).
-pub fn is_afocal_lens(system: &LensSystem, options: &AnalyzeOptions) -> Result<bool, AnalysisError> {
+pub fn is_afocal_lens(
+    system: &LensSystem,
+    options: &AnalyzeOptions,
+) -> Result<bool, AnalysisError> {
     let (wavelength_nm, _) = reference_wavelength(system, &options.overrides());
     Ok(is_afocal(&system.at_checked(wavelength_nm)?))
 }
@@ -172,8 +174,7 @@ pub fn analyze_afocal(
         ));
     }
 
-    let (epd_mm, aperture_from) = match (options.epd_mm, stated.and_then(|c| c.aperture.as_ref()))
-    {
+    let (epd_mm, aperture_from) = match (options.epd_mm, stated.and_then(|c| c.aperture.as_ref())) {
         (Some(epd), _) => (Some(epd), Origin::Flag),
         (None, Some(ApertureSpec::EntrancePupilDiameter(epd))) => (Some(*epd), Origin::File),
         (None, Some(ApertureSpec::FloatByStop) | None) => (None, Origin::Rule),
@@ -252,7 +253,11 @@ fn afocal_field(
         return (deg, Origin::Flag);
     }
     let provenance = &system.prescription.provenance;
-    match provenance.conditions.as_ref().and_then(|c| c.fields.as_ref()) {
+    match provenance
+        .conditions
+        .as_ref()
+        .and_then(|c| c.fields.as_ref())
+    {
         Some(fields) if fields.kind == FieldKind::AngleDeg => {
             let largest = fields
                 .x
@@ -383,8 +388,8 @@ fn wave_fields(
     }
     let mut out = Vec::new();
     for field_deg in fields {
-        let measured = afocal_wavefront(at, paraxial, field_deg, Sampling::default()).and_then(
-            |wave| {
+        let measured =
+            afocal_wavefront(at, paraxial, field_deg, Sampling::default()).and_then(|wave| {
                 let frequencies = frequencies_to(wave.cutoff_per_mrad, MTF_POINTS);
                 Ok(AfocalWaveField {
                     field_deg,
@@ -394,8 +399,7 @@ fn wave_fields(
                     rms_angular_spot_mrad: wave.rms_angular_spot_mrad,
                     mtf: wave.mtf(&frequencies)?,
                 })
-            },
-        );
+            });
         match measured {
             Ok(field) => out.push(field),
             Err(error) => notes.push(format!("wave optics at {field_deg:.4} deg: {error}")),

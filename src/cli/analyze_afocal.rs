@@ -45,7 +45,11 @@ fn report(a: &AfocalAnalysis) -> String {
             a.field_from,
         ),
     ] {
-        let _ = writeln!(out, "  {label:<26} {value:<24} from the {}", from.describe());
+        let _ = writeln!(
+            out,
+            "  {label:<26} {value:<24} from the {}",
+            from.describe()
+        );
     }
     for note in &a.notes {
         let _ = writeln!(out, "  note: {note}");
@@ -71,9 +75,17 @@ fn report(a: &AfocalAnalysis) -> String {
         format!("{:.9}", a.beam_magnification),
         "",
     );
-    row("residual power C", format!("{:.3e}", a.residual_power + 0.0), "1/mm");
+    row(
+        "residual power C",
+        format!("{:.3e}", a.residual_power + 0.0),
+        "1/mm",
+    );
     row("stop surface", a.stop_surface.to_string(), "");
-    row("entrance pupil z", format!("{:.6}", a.entrance_pupil.z), "mm");
+    row(
+        "entrance pupil z",
+        format!("{:.6}", a.entrance_pupil.z),
+        "mm",
+    );
     row(
         "entrance pupil diameter",
         format!("{:.6}", a.entrance_pupil.diameter),

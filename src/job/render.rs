@@ -511,7 +511,10 @@ impl RenderJob {
                 None,
             ),
             (_, RenderLens::Ideal { .. }) => return Err(JobError::IdealHasNoSurfaces),
-            (ModelKind::Traced | ModelKind::Postfx | ModelKind::Layered, RenderLens::Real(real)) => {
+            (
+                ModelKind::Traced | ModelKind::Postfx | ModelKind::Layered,
+                RenderLens::Real(real),
+            ) => {
                 let traced = TracedLens::fitted(
                     &real.system,
                     &first_order,

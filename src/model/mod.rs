@@ -336,7 +336,8 @@ mod tests {
         }
         let err = "pinhole".parse::<ModelKind>().unwrap_err().to_string();
         assert!(
-            err.contains("pinhole") && err.contains("thin, thick, seidel, baked, traced, postfx, layered")
+            err.contains("pinhole")
+                && err.contains("thin, thick, seidel, baked, traced, postfx, layered")
         );
     }
 

@@ -337,9 +337,7 @@ pub fn layered(
                     .unwrap_or(focus);
                 let size = kernels.spread(1.0 / sharpest, [0.0, 0.0]).size as f64;
                 let level = (0..=MOST_LEVELS)
-                    .take_while(|&l| {
-                        level_variance(1 << l) <= LEVEL_VARIANCE_SHARE * size * size
-                    })
+                    .take_while(|&l| level_variance(1 << l) <= LEVEL_VARIANCE_SHARE * size * size)
                     .last()
                     .unwrap_or(0);
                 spread_layer(placed, 1 << level, ldi, kernels, aspect)
@@ -500,10 +498,9 @@ fn spread_layer(
                         if dx * dx + dy * dy > r * r {
                             continue;
                         }
-                        let v = kernel.at_node([
-                            m[0] * fx + m[1] * fy + m[2],
-                            m[3] * fx + m[4] * fy + m[5],
-                        ]) as f32;
+                        let v = kernel
+                            .at_node([m[0] * fx + m[1] * fy + m[2], m[3] * fx + m[4] * fy + m[5]])
+                            as f32;
                         if v > 0.0 {
                             let ox = (sx + reach) as isize + dx as isize;
                             let oy = (sy + reach - first_row) as isize + dy as isize;
