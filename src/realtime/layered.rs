@@ -427,8 +427,8 @@ fn spread_layer(
     for p in placed {
         let t = texel_of(p.pixel);
         let cell = &mut sums[(t[1] - lo[1]) * sw + t[0] - lo[0]];
-        for k in 0..3 {
-            cell[k] += p.weight * p.surfel.radiance[k];
+        for (sum, radiance) in cell.iter_mut().zip(p.surfel.radiance) {
+            *sum += p.weight * radiance;
         }
         cell[3] += p.weight;
         cell[4] += p.weight / p.surfel.depth_mm;
@@ -519,8 +519,8 @@ fn spread_layer(
                 for &(at, v) in &weights {
                     let w = v * norm;
                     let texel = &mut out[at];
-                    for k in 0..3 {
-                        texel[k] += w * source.colour[k];
+                    for (sum, colour) in texel.iter_mut().zip(source.colour) {
+                        *sum += w * colour;
                     }
                     texel[3] += w * source.coverage;
                 }
