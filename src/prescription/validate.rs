@@ -76,7 +76,8 @@ impl SourceMap {
 const CROSSING_SAMPLES: usize = 64;
 
 /// Overlap of neighbouring surfaces (mm) accepted as touching; larger overlaps are refused as
-/// crossing surfaces, unless within [`CROSSING_RELATIVE_TOLERANCE`] of the lens's size.
+/// crossing surfaces, unless within `CROSSING_RELATIVE_TOLERANCE` (1e-5) of the lens's largest
+/// clear diameter.
 pub const CROSSING_TOLERANCE_MM: f64 = 1e-6;
 
 /// Overlap accepted as touching, as a fraction of the lens's largest clear diameter.
