@@ -702,15 +702,13 @@ impl Viewer {
     }
 
     /// Renders from now on with `gpu` (a renderer on the device the window presents with, so
-    /// frames are composed where the sums are held) where the viewer renders on a GPU; false,
-    /// changing nothing, where it renders on the CPU.
-    pub fn render_on(&mut self, gpu: GpuRenderer) -> bool {
-        if self.gpu.is_none() {
-            return false;
+    /// frames are composed where the sums are held) where the viewer renders on a GPU; on the
+    /// CPU twin it changes nothing.
+    pub fn render_on(&mut self, gpu: GpuRenderer) {
+        if self.gpu.is_some() {
+            self.gpu = Some(gpu);
+            self.restart();
         }
-        self.gpu = Some(gpu);
-        self.restart();
-        true
     }
 
     /// The renderer, where the viewer renders on a GPU.
