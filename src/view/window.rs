@@ -323,7 +323,7 @@ fn fragment_main(in: Varyings) -> @location(0) vec4<f32> {
 
 /// A frame to show: composed on the GPU, or 8-bit RGB pixels to upload.
 enum FrameSource<'a> {
-    Composed(ComposedFrame<'a>),
+    Composed(ComposedFrame),
     Bytes {
         rgb: &'a [u8],
         width: u32,
@@ -509,7 +509,7 @@ impl Presenter {
         match source {
             FrameSource::Composed(frame) => encoder.copy_buffer_to_texture(
                 wgpu::TexelCopyBufferInfo {
-                    buffer: frame.buffer,
+                    buffer: &frame.buffer,
                     layout: wgpu::TexelCopyBufferLayout {
                         offset: 0,
                         bytes_per_row: Some(frame.bytes_per_row),
