@@ -322,8 +322,15 @@ pub fn layered(
         by_layer[p.layer as usize].push(p);
     }
 
-    // 3. Each layer reduced and spread by its sources' kernels.
+    // 3. Each layer reduced and spread by its sources' kernels. A node kernel's reach (the
+    //    radius holding all but its faintest rays, plus the pixel) is the same for every
+    //    layer: a sort of the kernel's values, found once per frame.
     let aspect = layer_pixel_aspect(ldi, kernels) as f64;
+    let reach_of: Vec<f64> = kernels
+        .kernels
+        .par_iter()
+        .map(|k| k.radius_holding(REACH_SHARE) + std::f64::consts::FRAC_1_SQRT_2)
+        .collect();
     let spread: Vec<Option<SpreadLayer>> = by_layer
         .iter()
         .map(|placed| {
@@ -340,7 +347,7 @@ pub fn layered(
                     .take_while(|&l| level_variance(1 << l) <= LEVEL_VARIANCE_SHARE * size * size)
                     .last()
                     .unwrap_or(0);
-                spread_layer(placed, 1 << level, ldi, kernels, aspect)
+                spread_layer(placed, 1 << level, ldi, kernels, &reach_of, aspect)
             })
         })
         .collect();
@@ -402,12 +409,14 @@ struct Source {
 /// colour, coverage and coverage-weighted inverse depth, averaged) and spread: every source
 /// texel's light goes to the texels around it by its own lens kernel, narrowed by the variance
 /// the reduction and the upsampling add, its weights summing to the spot's flux (the coverage
-/// by the same weights over the flux, so that it sums to the source's).
+/// by the same weights over the flux, so that it sums to the source's). `reach_of`: each node
+/// kernel's reach (pixels from its centroid).
 fn spread_layer(
     placed: &[Placement],
     side: usize,
     ldi: &LayeredDepthImage,
     kernels: &LensKernels,
+    reach_of: &[f64],
     aspect: f64,
 ) -> SpreadLayer {
     let view = ldi.view;
@@ -434,12 +443,6 @@ fn spread_layer(
         cell[4] += p.weight / p.surfel.depth_mm;
     }
     let per_texel = 1.0 / (side * side) as f32;
-    // Each node kernel's reach: the radius holding all but its faintest rays, plus the pixel.
-    let reach_of: Vec<f64> = kernels
-        .kernels
-        .iter()
-        .map(|k| k.radius_holding(REACH_SHARE) + std::f64::consts::FRAC_1_SQRT_2)
-        .collect();
     let pipeline = level_variance(side);
     let step = side as f64;
     let sources: Vec<Source> = sums
