@@ -512,13 +512,14 @@ fn spread_layer(
                     }
                 }
                 let total: f32 = weights.iter().map(|w| w.1).sum();
-                if total <= 0.0 {
+                let norm = if total > 0.0 {
+                    1.0 / total
+                } else {
                     // A spot narrower than the lattice: all of it on its own texel.
                     weights.clear();
                     weights.push(((sy + reach - first_row) * ow + sx + reach, 1.0));
-                }
-                let norm = 1.0 / total.max(f32::MIN_POSITIVE);
-                let norm = if total > 0.0 { norm } else { 1.0 };
+                    1.0
+                };
                 for &(at, v) in &weights {
                     let w = v * norm;
                     let texel = &mut out[at];
