@@ -246,11 +246,11 @@ pub fn layered(
 
     // 1. Where each layer holds visible surface, tile by tile, dilated by one tile.
     let (tw, th) = (lw.div_ceil(MATTE_TILE), lh.div_ceil(MATTE_TILE));
+    let tile_of = |pixel: usize| (pixel / lw / MATTE_TILE) * tw + (pixel % lw) / MATTE_TILE;
     let mut held = vec![0u64; tw * th];
     for (pixel, surfel) in ldi.layer(0).samples().enumerate() {
         if let Some(s) = surfel {
-            let tile = (pixel / lw / MATTE_TILE) * tw + (pixel % lw) / MATTE_TILE;
-            held[tile] |= 1 << layer_of(&s).0;
+            held[tile_of(pixel)] |= 1 << layer_of(&s).0;
         }
     }
     let near_held: Vec<u64> = (0..tw * th)
@@ -267,36 +267,38 @@ pub fn layered(
         .collect();
 
     // 2. Mattes: every pixel's visible surface and its hidden one, each whole in its own layer
-    //    and fading into the layer in front across the boundary.
-    let (placements, void): (Vec<Vec<Placement>>, Vec<bool>) = (0..view.pixels())
+    //    and fading into the layer in front across the boundary: at most four placements a
+    //    pixel, kept on the stack (a vector per pixel was an allocation per pixel).
+    let mut void = vec![true; view.pixels()];
+    let placements: Vec<Placement> = (0..view.pixels())
         .into_par_iter()
-        .map(|pixel| {
+        .zip(void.par_iter_mut())
+        .flat_map_iter(|(pixel, void)| {
             let stack = ldi.pixel_surfels(pixel);
-            let mut out = Vec::new();
+            let mut out = [None; 4];
             let Some(visible) = stack.first() else {
-                return (out, true);
+                return out.into_iter().flatten();
             };
-            let tile = (pixel / lw / MATTE_TILE) * tw + (pixel % lw) / MATTE_TILE;
+            let tile = tile_of(pixel);
+            let mut count = 0;
             let mut place = |surfel: &Surfel, in_front_of: Option<usize>| -> usize {
                 let (j, behind) = layer_of(surfel);
-                out.push(Placement {
-                    layer: j as u8,
-                    pixel: pixel as u32,
-                    weight: 1.0,
-                    surfel: *surfel,
-                });
-                let front = j.wrapping_sub(1);
-                if j > 0
+                let mut put = |layer: usize, weight: f64| {
+                    out[count] = Some(Placement {
+                        layer: layer as u8,
+                        pixel: pixel as u32,
+                        weight: weight as f32,
+                        surfel: *surfel,
+                    });
+                    count += 1;
+                };
+                put(j, 1.0);
+                if let Some(front) = j.checked_sub(1)
                     && (0.0..RAMP_STEPS).contains(&behind)
                     && in_front_of.is_none_or(|v| front > v)
                     && near_held[tile] & (1 << front) != 0
                 {
-                    out.push(Placement {
-                        layer: front as u8,
-                        pixel: pixel as u32,
-                        weight: (1.0 - behind / RAMP_STEPS) as f32,
-                        surfel: *surfel,
-                    });
+                    put(front, 1.0 - behind / RAMP_STEPS);
                 }
                 j
             };
@@ -313,12 +315,12 @@ pub fn layered(
                 None => 0,
             };
             // Nothing behind the last surface used where the stack is whole and it is the last.
-            let void = stack.len() < settings.peeled_to && last + 1 == stack.len();
-            (out, void)
+            *void = stack.len() < settings.peeled_to && last + 1 == stack.len();
+            out.into_iter().flatten()
         })
-        .unzip();
+        .collect();
     let mut by_layer: Vec<Vec<Placement>> = vec![Vec::new(); plan.count];
-    for p in placements.into_iter().flatten() {
+    for p in placements {
         by_layer[p.layer as usize].push(p);
     }
 
