@@ -32,6 +32,7 @@
 
 use super::kernels::LensKernels;
 use super::postfx::{OutputToLayer, first_layer_untilted, layer_pixel_aspect};
+use crate::paraxial::ObjectPosition;
 use crate::render::RenderError;
 use crate::render::camera::Camera;
 use crate::render::image::RgbImage;
@@ -200,14 +201,11 @@ impl SpreadLayer {
 /// (0 where the film lies at or inside the focal length: focused at infinity). It places the
 /// layers' nodes only; every source is spread by the kernel traced at its own depth.
 fn focus_inverse_depth(camera: &Camera) -> f64 {
-    let lens = camera.model.paraxial();
-    let image = camera.film_z - lens.rear_principal_z;
-    let inverse_object = 1.0 / lens.focal_length_mm - 1.0 / image;
-    if !(inverse_object > 0.0 && image > 0.0) {
-        return 0.0;
+    match camera.model.paraxial().object_in_focus(camera.film_z) {
+        // The object plane lies at z = -distance, the eye (the entrance pupil) at eye_z.
+        Some(ObjectPosition::Finite { distance }) => 1.0 / (camera.eye_z() + distance),
+        Some(ObjectPosition::Infinite) | None => 0.0,
     }
-    let object = 1.0 / inverse_object;
-    1.0 / (lens.entrance_pupil_z - lens.front_principal_z + object)
 }
 
 /// Variance (layer pixels squared, both axes together) that reducing to texels of `side`
