@@ -284,8 +284,8 @@ fn psnr_in(
 
 /// Partial occlusion (issue 55): a thin post in focus before a blurred checkered wall, and the
 /// wall in focus behind a blurred post. Around the post, against the exact lens on the true
-/// geometry, `layered` is within 2 dB of the baked image-based ray tracer (the single-layer
-/// `postfx` is reported beside them).
+/// geometry, `layered` is within 2 dB of the baked image-based ray tracer, and the single-layer
+/// `postfx` is not (the box measures what a hidden layer adds).
 #[test]
 fn layered_handles_partial_occlusion_within_2_db_of_the_baked_ray_tracer() {
     let settings = RenderSettings {
@@ -354,6 +354,9 @@ fn layered_handles_partial_occlusion_within_2_db_of_the_baked_ray_tracer() {
             reference_settings.samples_per_pixel, settings.samples_per_pixel
         );
         assert!(layered_db > baked_db - 2.0, "{what}");
+        // The box tells partial occlusion apart: postfx, which holds only the visible layer,
+        // falls well short there (docs/realtime.md: about 9 dB below layered in both cases).
+        assert!(postfx_db < layered_db - 3.0, "{what}");
     }
 }
 

@@ -32,6 +32,7 @@
 
 use super::kernels::LensKernels;
 use super::postfx::{OutputToLayer, first_layer_untilted, layer_pixel_aspect};
+use crate::paraxial::ObjectPosition;
 use crate::render::RenderError;
 use crate::render::camera::Camera;
 use crate::render::image::RgbImage;
@@ -200,14 +201,11 @@ impl SpreadLayer {
 /// (0 where the film lies at or inside the focal length: focused at infinity). It places the
 /// layers' nodes only; every source is spread by the kernel traced at its own depth.
 fn focus_inverse_depth(camera: &Camera) -> f64 {
-    let lens = camera.model.paraxial();
-    let image = camera.film_z - lens.rear_principal_z;
-    let inverse_object = 1.0 / lens.focal_length_mm - 1.0 / image;
-    if !(inverse_object > 0.0 && image > 0.0) {
-        return 0.0;
+    match camera.model.paraxial().object_in_focus(camera.film_z) {
+        // The object plane lies at z = -distance, the eye (the entrance pupil) at eye_z.
+        Some(ObjectPosition::Finite { distance }) => 1.0 / (camera.eye_z() + distance),
+        Some(ObjectPosition::Infinite) | None => 0.0,
     }
-    let object = 1.0 / inverse_object;
-    1.0 / (lens.entrance_pupil_z - lens.front_principal_z + object)
 }
 
 /// Variance (layer pixels squared, both axes together) that reducing to texels of `side`
@@ -246,11 +244,11 @@ pub fn layered(
 
     // 1. Where each layer holds visible surface, tile by tile, dilated by one tile.
     let (tw, th) = (lw.div_ceil(MATTE_TILE), lh.div_ceil(MATTE_TILE));
+    let tile_of = |pixel: usize| (pixel / lw / MATTE_TILE) * tw + (pixel % lw) / MATTE_TILE;
     let mut held = vec![0u64; tw * th];
     for (pixel, surfel) in ldi.layer(0).samples().enumerate() {
         if let Some(s) = surfel {
-            let tile = (pixel / lw / MATTE_TILE) * tw + (pixel % lw) / MATTE_TILE;
-            held[tile] |= 1 << layer_of(&s).0;
+            held[tile_of(pixel)] |= 1 << layer_of(&s).0;
         }
     }
     let near_held: Vec<u64> = (0..tw * th)
@@ -267,36 +265,38 @@ pub fn layered(
         .collect();
 
     // 2. Mattes: every pixel's visible surface and its hidden one, each whole in its own layer
-    //    and fading into the layer in front across the boundary.
-    let (placements, void): (Vec<Vec<Placement>>, Vec<bool>) = (0..view.pixels())
+    //    and fading into the layer in front across the boundary: at most four placements a
+    //    pixel, kept on the stack (a vector per pixel was an allocation per pixel).
+    let mut void = vec![true; view.pixels()];
+    let placements: Vec<Placement> = (0..view.pixels())
         .into_par_iter()
-        .map(|pixel| {
+        .zip(void.par_iter_mut())
+        .flat_map_iter(|(pixel, void)| {
             let stack = ldi.pixel_surfels(pixel);
-            let mut out = Vec::new();
+            let mut out = [None; 4];
             let Some(visible) = stack.first() else {
-                return (out, true);
+                return out.into_iter().flatten();
             };
-            let tile = (pixel / lw / MATTE_TILE) * tw + (pixel % lw) / MATTE_TILE;
+            let tile = tile_of(pixel);
+            let mut count = 0;
             let mut place = |surfel: &Surfel, in_front_of: Option<usize>| -> usize {
                 let (j, behind) = layer_of(surfel);
-                out.push(Placement {
-                    layer: j as u8,
-                    pixel: pixel as u32,
-                    weight: 1.0,
-                    surfel: *surfel,
-                });
-                let front = j.wrapping_sub(1);
-                if j > 0
+                let mut put = |layer: usize, weight: f64| {
+                    out[count] = Some(Placement {
+                        layer: layer as u8,
+                        pixel: pixel as u32,
+                        weight: weight as f32,
+                        surfel: *surfel,
+                    });
+                    count += 1;
+                };
+                put(j, 1.0);
+                if let Some(front) = j.checked_sub(1)
                     && (0.0..RAMP_STEPS).contains(&behind)
                     && in_front_of.is_none_or(|v| front > v)
                     && near_held[tile] & (1 << front) != 0
                 {
-                    out.push(Placement {
-                        layer: front as u8,
-                        pixel: pixel as u32,
-                        weight: (1.0 - behind / RAMP_STEPS) as f32,
-                        surfel: *surfel,
-                    });
+                    put(front, 1.0 - behind / RAMP_STEPS);
                 }
                 j
             };
@@ -313,17 +313,24 @@ pub fn layered(
                 None => 0,
             };
             // Nothing behind the last surface used where the stack is whole and it is the last.
-            let void = stack.len() < settings.peeled_to && last + 1 == stack.len();
-            (out, void)
+            *void = stack.len() < settings.peeled_to && last + 1 == stack.len();
+            out.into_iter().flatten()
         })
-        .unzip();
+        .collect();
     let mut by_layer: Vec<Vec<Placement>> = vec![Vec::new(); plan.count];
-    for p in placements.into_iter().flatten() {
+    for p in placements {
         by_layer[p.layer as usize].push(p);
     }
 
-    // 3. Each layer reduced and spread by its sources' kernels.
+    // 3. Each layer reduced and spread by its sources' kernels. A node kernel's reach (the
+    //    radius holding all but its faintest rays, plus the pixel) is the same for every
+    //    layer: a sort of the kernel's values, found once per frame.
     let aspect = layer_pixel_aspect(ldi, kernels) as f64;
+    let reach_of: Vec<f64> = kernels
+        .kernels
+        .par_iter()
+        .map(|k| k.radius_holding(REACH_SHARE) + std::f64::consts::FRAC_1_SQRT_2)
+        .collect();
     let spread: Vec<Option<SpreadLayer>> = by_layer
         .iter()
         .map(|placed| {
@@ -340,7 +347,7 @@ pub fn layered(
                     .take_while(|&l| level_variance(1 << l) <= LEVEL_VARIANCE_SHARE * size * size)
                     .last()
                     .unwrap_or(0);
-                spread_layer(placed, 1 << level, ldi, kernels, aspect)
+                spread_layer(placed, 1 << level, ldi, kernels, &reach_of, aspect)
             })
         })
         .collect();
@@ -402,12 +409,14 @@ struct Source {
 /// colour, coverage and coverage-weighted inverse depth, averaged) and spread: every source
 /// texel's light goes to the texels around it by its own lens kernel, narrowed by the variance
 /// the reduction and the upsampling add, its weights summing to the spot's flux (the coverage
-/// by the same weights over the flux, so that it sums to the source's).
+/// by the same weights over the flux, so that it sums to the source's). `reach_of`: each node
+/// kernel's reach (pixels from its centroid).
 fn spread_layer(
     placed: &[Placement],
     side: usize,
     ldi: &LayeredDepthImage,
     kernels: &LensKernels,
+    reach_of: &[f64],
     aspect: f64,
 ) -> SpreadLayer {
     let view = ldi.view;
@@ -434,12 +443,6 @@ fn spread_layer(
         cell[4] += p.weight / p.surfel.depth_mm;
     }
     let per_texel = 1.0 / (side * side) as f32;
-    // Each node kernel's reach: the radius holding all but its faintest rays, plus the pixel.
-    let reach_of: Vec<f64> = kernels
-        .kernels
-        .iter()
-        .map(|k| k.radius_holding(REACH_SHARE) + std::f64::consts::FRAC_1_SQRT_2)
-        .collect();
     let pipeline = level_variance(side);
     let step = side as f64;
     let sources: Vec<Source> = sums
@@ -509,13 +512,14 @@ fn spread_layer(
                     }
                 }
                 let total: f32 = weights.iter().map(|w| w.1).sum();
-                if total <= 0.0 {
+                let norm = if total > 0.0 {
+                    1.0 / total
+                } else {
                     // A spot narrower than the lattice: all of it on its own texel.
                     weights.clear();
                     weights.push(((sy + reach - first_row) * ow + sx + reach, 1.0));
-                }
-                let norm = 1.0 / total.max(f32::MIN_POSITIVE);
-                let norm = if total > 0.0 { norm } else { 1.0 };
+                    1.0
+                };
                 for &(at, v) in &weights {
                     let w = v * norm;
                     let texel = &mut out[at];
