@@ -1277,6 +1277,10 @@ fn a_gpu_viewer_keeps_its_render_on_the_gpu_between_frames() {
     );
     viewer.image().unwrap();
     assert_eq!(transfers(&viewer), (1, 1));
+    // The HUD and the shown frame read the same sums: once a frame between them.
+    viewer.image().unwrap();
+    viewer.hud_lines();
+    assert_eq!(transfers(&viewer), (1, 1));
     // Exposure is applied when the frame is shown: no restart, no upload.
     viewer.apply(&Action::Exposure(1.0)).unwrap();
     assert_eq!(transfers(&viewer), (1, 1));
@@ -1299,7 +1303,7 @@ fn read_composed(
         mapped_at_creation: false,
     });
     let mut encoder = device.create_command_encoder(&Default::default());
-    encoder.copy_buffer_to_buffer(frame.buffer, 0, &readback, 0, size);
+    encoder.copy_buffer_to_buffer(&frame.buffer, 0, &readback, 0, size);
     queue.submit([encoder.finish()]);
     readback.map_async(wgpu::MapMode::Read, .., |_| {});
     device.poll(wgpu::PollType::wait_indefinitely()).unwrap();

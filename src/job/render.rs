@@ -390,10 +390,12 @@ impl RenderJob {
     pub fn run(&self) -> Result<Rendered, JobError> {
         let prepared = self.prepare(&|_| {})?;
         let (gpu, backend) = self.renderer()?;
-        if let Some(g) = &gpu
-            && prepared.camera.chromatic.is_some()
-        {
-            g.prepare_chromatic()?;
+        // Pipelines are built before the clock starts.
+        if let Some(g) = &gpu {
+            match prepared.camera.chromatic {
+                Some(_) => g.prepare_chromatic()?,
+                None => g.prepare()?,
+            }
         }
         let started = Instant::now();
         let kernel = match gpu {
@@ -876,7 +878,8 @@ impl RenderJob {
         Ok((baked, table))
     }
 
-    /// The GPU renderer the backend choice asks for, and what was used.
+    /// The GPU renderer the backend choice asks for (its pipelines built on first use), and what
+    /// was used.
     pub fn renderer(&self) -> Result<(Option<GpuRenderer>, BackendUsed), JobError> {
         let realtime = match self.model {
             ModelChoice::Model(kind) if kind.is_realtime() => Some(kind),
@@ -901,9 +904,9 @@ impl RenderJob {
                     },
                 ));
             }
-            BackendChoice::Gpu => GpuRenderer::new()?,
+            BackendChoice::Gpu => GpuRenderer::open()?,
             BackendChoice::Auto => match gpu_worth_using()
-                .and_then(|()| GpuRenderer::new().map_err(|e| e.to_string()))
+                .and_then(|()| GpuRenderer::open().map_err(|e| e.to_string()))
             {
                 Ok(gpu) => gpu,
                 Err(why) => {

@@ -86,7 +86,8 @@ pub fn gpu_worth_using() -> Result<(), String> {
 pub struct GpuRenderer {
     device: wgpu::Device,
     queue: wgpu::Queue,
-    pipeline: wgpu::ComputePipeline,
+    /// The monochrome `render` pipeline, built on first use (see [`GpuRenderer::open`]).
+    pipeline: OnceLock<wgpu::ComputePipeline>,
     /// The ray-by-ray harness `trace_lens_rays`, built on first use (only tests ask for it).
     trace_pipeline: OnceLock<wgpu::ComputePipeline>,
     /// `render_chromatic`, built on first use so monochrome work never compiles it.
@@ -98,36 +99,49 @@ pub struct GpuRenderer {
 
 impl GpuRenderer {
     /// Opens the first GPU adapter wgpu finds (honouring WGPU_BACKEND and friends), or
-    /// `RenderError::NoAdapter` when there is none.
+    /// `RenderError::NoAdapter` when there is none, and builds the IBRT pipeline.
     pub fn new() -> Result<GpuRenderer, RenderError> {
-        let (device, queue, adapter_description) = open_device("lensbake ibrt")?;
-        GpuRenderer::on_device(device, queue, adapter_description)
+        let renderer = GpuRenderer::open()?;
+        renderer.prepare()?;
+        Ok(renderer)
     }
 
-    /// The IBRT pipeline built on a device opened elsewhere with [`request_device`]'s limits
-    /// (the viewer's window draws the renderer's sums on its own device this way).
+    /// [`GpuRenderer::new`] without building the IBRT pipeline, which is built on the first
+    /// render: the viewer opens its renderer so, since its window may give it another device
+    /// before the first frame (the pipeline takes seconds to build on a software adapter).
+    pub fn open() -> Result<GpuRenderer, RenderError> {
+        let (device, queue, adapter_description) = open_device("lensbake ibrt")?;
+        Ok(GpuRenderer::on_device(device, queue, adapter_description))
+    }
+
+    /// A renderer on a device opened elsewhere with [`request_device`]'s limits (the viewer's
+    /// window draws the renderer's sums on its own device this way); its pipelines are built on
+    /// first use.
     pub(crate) fn on_device(
         device: wgpu::Device,
         queue: wgpu::Queue,
         adapter_description: String,
-    ) -> Result<GpuRenderer, RenderError> {
-        // Capture validation errors instead of letting wgpu's default handler panic.
-        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let pipeline = compute_pipeline(&device, ibrt_shader(), "render");
-        if let Some(error) = pollster::block_on(scope.pop()) {
-            return Err(RenderError::Gpu(format!(
-                "building the IBRT pipeline: {error}"
-            )));
-        }
-        Ok(GpuRenderer {
+    ) -> GpuRenderer {
+        GpuRenderer {
             device,
             queue,
-            pipeline,
+            pipeline: OnceLock::new(),
             trace_pipeline: OnceLock::new(),
             chromatic_pipeline: OnceLock::new(),
             adapter_description,
             transfers: Transfers::default(),
-        })
+        }
+    }
+
+    /// Builds the monochrome `render` pipeline now rather than on the first render (callers
+    /// that time renders build it first).
+    pub fn prepare(&self) -> Result<(), RenderError> {
+        self.render_pipeline().map(|_| ())
+    }
+
+    /// The monochrome `render` pipeline, built the first time it is asked for.
+    fn render_pipeline(&self) -> Result<&wgpu::ComputePipeline, RenderError> {
+        self.pipeline_once(&self.pipeline, ibrt_shader(), "render")
     }
 
     /// Builds the `render_chromatic` pipeline now rather than on the first chromatic render (it
@@ -376,7 +390,7 @@ impl GpuRenderer {
         }
         let pipeline = match channels {
             Some(_) => self.chromatic_pipeline()?,
-            None => &self.pipeline,
+            None => self.render_pipeline()?,
         };
         let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
         let starts = self.storage("layer starts", bytemuck::cast_slice(layers.starts));

@@ -40,8 +40,8 @@ pub fn compose_shader() -> &'static str {
 }
 
 /// A frame composed on the GPU: RGBA8 rows of `bytes_per_row` bytes, `width` x `height` pixels.
-pub struct ComposedFrame<'a> {
-    pub buffer: &'a wgpu::Buffer,
+pub struct ComposedFrame {
+    pub buffer: wgpu::Buffer,
     pub bytes_per_row: u32,
     pub width: u32,
     pub height: u32,
@@ -116,7 +116,7 @@ impl GpuComposer {
         &mut self,
         viewer: &Viewer,
         hud_lines: &[String],
-    ) -> Result<Option<ComposedFrame<'_>>, ViewError> {
+    ) -> Result<Option<ComposedFrame>, ViewError> {
         let Some((view, twin)) = viewer.resident_sums() else {
             return Ok(None);
         };
@@ -126,19 +126,19 @@ impl GpuComposer {
         let settings = viewer.job().settings;
         let [width, height] = [settings.width, settings.height];
         let row_words = width.next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT / 4);
-        if self
-            .frame
-            .as_ref()
-            .is_none_or(|(_, size)| *size != [width, height])
-        {
-            let buffer = self.device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("composed frame"),
-                size: row_words as u64 * height as u64 * 4,
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-                mapped_at_creation: false,
-            });
-            self.frame = Some((buffer, [width, height]));
-        }
+        let frame = match &self.frame {
+            Some((buffer, size)) if *size == [width, height] => buffer.clone(),
+            _ => {
+                let buffer = self.device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("composed frame"),
+                    size: row_words as u64 * height as u64 * 4,
+                    usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                    mapped_at_creation: false,
+                });
+                self.frame = Some((buffer.clone(), [width, height]));
+                buffer
+            }
+        };
         if viewer.zone()
             && self
                 .zone
@@ -189,9 +189,6 @@ impl GpuComposer {
         };
         self.queue
             .write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
-        let Some((frame, _)) = &self.frame else {
-            return Ok(None);
-        };
         let zone = match (&self.zone, viewer.zone()) {
             (Some((bits, _)), true) => bits,
             _ => &self.placeholder,

@@ -40,6 +40,7 @@ use crate::render::layers::LayeredDepthImage;
 use crate::render::{Backend, RenderError, SampleShare, accumulate_share, resident_render};
 use script::{Action, ScriptError, ScriptLine};
 use std::borrow::Cow;
+use std::cell::RefCell;
 use std::collections::VecDeque;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -86,6 +87,9 @@ struct Accumulating {
     index: Arc<LayerIndex>,
     sums: Vec<[f32; 4]>,
     resident: Option<ResidentRender>,
+    /// The resident sums last read back and the frame count they hold: the HUD's comparison and
+    /// the shown frame read them once a frame between them.
+    read_back: RefCell<Option<(u32, Vec<[f32; 4]>)>>,
 }
 
 impl Accumulating {
@@ -97,6 +101,7 @@ impl Accumulating {
             index: Arc::new(index),
             sums: Vec::new(),
             resident: None,
+            read_back: RefCell::new(None),
         })
     }
 
@@ -107,6 +112,7 @@ impl Accumulating {
             index: self.index.clone(),
             sums: Vec::new(),
             resident: None,
+            read_back: RefCell::new(None),
         }
     }
 }
@@ -379,6 +385,7 @@ impl Viewer {
             acc.sums.clear();
             acc.sums.resize(pixels, [0.0; 4]);
             acc.resident = None;
+            acc.read_back.take();
         }
     }
 
@@ -704,15 +711,13 @@ impl Viewer {
     }
 
     /// Renders from now on with `gpu` (a renderer on the device the window presents with, so
-    /// frames are composed where the sums are held) where the viewer renders on a GPU; false,
-    /// changing nothing, where it renders on the CPU.
-    pub fn render_on(&mut self, gpu: GpuRenderer) -> bool {
-        if self.gpu.is_none() {
-            return false;
+    /// frames are composed where the sums are held) where the viewer renders on a GPU; on the
+    /// CPU twin it changes nothing.
+    pub fn render_on(&mut self, gpu: GpuRenderer) {
+        if self.gpu.is_some() {
+            self.gpu = Some(gpu);
+            self.restart();
         }
-        self.gpu = Some(gpu);
-        self.restart();
-        true
     }
 
     /// The renderer, where the viewer renders on a GPU.
@@ -748,20 +753,29 @@ impl Viewer {
     fn mean(&self, acc: &Accumulating) -> Result<RgbImage, ViewError> {
         let settings = &self.job.settings;
         let pixels = settings.width as usize * settings.height as usize;
-        let sums = match (&self.gpu, &acc.resident) {
-            (Some(gpu), Some(resident)) => Cow::Owned(gpu.read_sums(resident)?),
-            (Some(_), None) => Cow::Owned(vec![[0.0; 4]; pixels]),
-            (None, _) => Cow::Borrowed(&acc.sums),
-        };
         let scale = self.display_scale();
-        Ok(RgbImage {
+        let shown = |sums: &[[f32; 4]]| RgbImage {
             width: settings.width,
             height: settings.height,
             pixels: sums
                 .iter()
                 .map(|s| [s[0] * scale, s[1] * scale, s[2] * scale])
                 .collect(),
-        })
+        };
+        match (&self.gpu, &acc.resident) {
+            (Some(gpu), Some(resident)) => {
+                let mut read_back = acc.read_back.borrow_mut();
+                let fresh = read_back
+                    .as_ref()
+                    .is_some_and(|(frames, _)| *frames == self.frames_done);
+                if !fresh {
+                    *read_back = Some((self.frames_done, gpu.read_sums(resident)?));
+                }
+                Ok(shown(read_back.as_ref().map_or(&[], |(_, sums)| sums)))
+            }
+            (Some(_), None) => Ok(shown(&vec![[0.0; 4]; pixels])),
+            (None, _) => Ok(shown(&acc.sums)),
+        }
     }
 
     /// The accumulated render of the main view (the baked half's model in the split view), its

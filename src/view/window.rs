@@ -79,8 +79,10 @@ impl App<'_> {
         );
         let presenter = Presenter::new(event_loop, window.clone())?;
         let viewer = &mut self.session.viewer;
-        if viewer.gpu().is_some() && viewer.render_on(presenter.renderer()?) {
-            self.composer = viewer.gpu().map(GpuComposer::new).transpose()?;
+        if viewer.gpu().is_some() {
+            let renderer = presenter.renderer();
+            self.composer = Some(GpuComposer::new(&renderer)?);
+            viewer.render_on(renderer);
         }
         window.request_redraw();
         self.window = Some(window);
@@ -321,7 +323,7 @@ fn fragment_main(in: Varyings) -> @location(0) vec4<f32> {
 
 /// A frame to show: composed on the GPU, or 8-bit RGB pixels to upload.
 enum FrameSource<'a> {
-    Composed(ComposedFrame<'a>),
+    Composed(ComposedFrame),
     Bytes {
         rgb: &'a [u8],
         width: u32,
@@ -425,12 +427,12 @@ impl Presenter {
     }
 
     /// The renderer on this device.
-    fn renderer(&self) -> Result<GpuRenderer, ViewError> {
-        Ok(GpuRenderer::on_device(
+    fn renderer(&self) -> GpuRenderer {
+        GpuRenderer::on_device(
             self.device.clone(),
             self.queue.clone(),
             self.adapter_description.clone(),
-        )?)
+        )
     }
 
     fn resize(&mut self, size: PhysicalSize<u32>) {
@@ -507,7 +509,7 @@ impl Presenter {
         match source {
             FrameSource::Composed(frame) => encoder.copy_buffer_to_texture(
                 wgpu::TexelCopyBufferInfo {
-                    buffer: frame.buffer,
+                    buffer: &frame.buffer,
                     layout: wgpu::TexelCopyBufferLayout {
                         offset: 0,
                         bytes_per_row: Some(frame.bytes_per_row),
