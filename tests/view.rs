@@ -1557,6 +1557,38 @@ fn zoom_reloads_the_lens_at_another_position_and_the_hud_shows_its_focal_length(
     );
 }
 
+/// K on a lens with one readable position keeps the lens on screen without reading its file
+/// again: here a Zemax multi-configuration file, read as its active configuration 2 (a file
+/// with `MNUM 3 2`), whose file is gone by the time K is pressed. Reading it again at position
+/// 1 would be refused (lensbake reads only the active configuration) and could not find it.
+#[test]
+fn zoom_key_on_a_lens_with_one_position_reads_nothing_again() {
+    let dir = temp_dir("zoom-one-position");
+    let file = dir.join("singlet.zmx");
+    std::fs::write(
+        &file,
+        "VERS 190513 80 123456\nMODE SEQ\nNAME Singlet\nUNIT MM X W X CM MR CPMM\nENPD 10\n\
+         GCAT SCHOTT\nFTYP 0 0 2 3 0 0 0\nXFLN 0 0 0 0\nYFLN 0 5 0 0\nFWGN 1 2 1 1\n\
+         WAVM 1 0.5875618 1\nPWAV 1\n\
+         SURF 0\n  TYPE STANDARD\n  CURV 0.0 0 0 0 0 \"\"\n  DISZ INFINITY\n\
+         SURF 1\n  STOP\n  TYPE STANDARD\n  CURV 0.02 0 0 0 0 \"\"\n  DISZ 5\n\
+           GLAS N-BK7 0 0 1.5168 64.17 0 0 0 0 0 0\n  DIAM 6 1 0 0 1 \"\"\n\
+         SURF 2\n  TYPE STANDARD\n  CURV -0.02 0 0 0 0 \"\"\n  DISZ 47\n  DIAM 6 1 0 0 1 \"\"\n\
+         SURF 3\n  TYPE STANDARD\n  CURV 0\n  DISZ 0\nMNUM 3 2\n",
+    )
+    .unwrap();
+    let lens = lenses::load(file.to_str().unwrap(), &LoadOptions::default()).unwrap();
+    let mut start = job(32, 24, 1, BackendChoice::Cpu);
+    start.lens = RenderLens::Real(Box::new(lens));
+    let mut viewer = Viewer::new(start, 1).unwrap();
+    std::fs::remove_dir_all(&dir).unwrap();
+    let before = viewer.job().clone();
+    let zoom = key_action(&viewer, Key::Char('k'), false, 1).unwrap();
+    assert_eq!(zoom, Action::Zoom(1));
+    viewer.apply(&zoom).unwrap();
+    assert!(*viewer.job() == before);
+}
+
 /// A key press in a real window (issue 58; under Xvfb, keys sent with xdotool): K zooms the
 /// two-group zoom to its position 2 and P writes a screenshot, then Q quits with exit 0, and the
 /// HUD printed on the way out shows position 2's focal length. Needs `xvfb-run` and `xdotool`

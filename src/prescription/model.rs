@@ -397,6 +397,21 @@ impl Shape {
         if c == 0.0 { f64::INFINITY } else { 1.0 / c }
     }
 
+    /// The height (mm) where the conic base ends, where [`Shape::sag`] stops being defined: a
+    /// sphere at |R|, an ellipsoid (k > -1) at 1 / (|c| sqrt(1 + k)). None for a surface that
+    /// goes on at every height (a plane, a paraboloid, a hyperboloid).
+    ///
+    /// ```
+    /// use lensbake::prescription::Shape;
+    ///
+    /// assert_eq!(Shape::from_radius(-25.0).rim_radius(), Some(25.0));
+    /// assert_eq!(Shape::Plane.rim_radius(), None);
+    /// ```
+    pub fn rim_radius(&self) -> Option<f64> {
+        let rim_sq = (1.0 + self.conic()) * self.curvature().powi(2);
+        (rim_sq > 0.0).then(|| 1.0 / rim_sq.sqrt())
+    }
+
     /// Sag z(r) at radial height r, or None where the conic base is undefined (beyond its rim).
     pub fn sag(&self, r: f64) -> Option<f64> {
         let c = self.curvature();

@@ -392,27 +392,22 @@ fn check_surface(i: usize, s: &Surface, map: &SourceMap) -> Result<(), Prescript
         }
     }
 
-    let conic = s.shape.conic();
-    let limit_sq = (1.0 + conic) * curvature * curvature;
-    if limit_sq > 0.0 {
-        let limit = 1.0 / limit_sq.sqrt();
-        if s.semi_aperture > limit {
-            let problem = if matches!(s.shape, Shape::Sphere { .. }) {
-                Problem::ApertureExceedsRadius {
-                    semi_aperture: s.semi_aperture,
-                    radius: limit,
-                }
-            } else {
-                Problem::ApertureExceedsConic {
-                    semi_aperture: s.semi_aperture,
-                    limit,
-                }
-            };
-            return Err(PrescriptionError::new(
-                map.surface(i, "semi_aperture"),
-                problem,
-            ));
-        }
+    if let Some(limit) = s.shape.rim_radius().filter(|&rim| s.semi_aperture > rim) {
+        let problem = if matches!(s.shape, Shape::Sphere { .. }) {
+            Problem::ApertureExceedsRadius {
+                semi_aperture: s.semi_aperture,
+                radius: limit,
+            }
+        } else {
+            Problem::ApertureExceedsConic {
+                semi_aperture: s.semi_aperture,
+                limit,
+            }
+        };
+        return Err(PrescriptionError::new(
+            map.surface(i, "semi_aperture"),
+            problem,
+        ));
     }
     if let Some(StopShape::Blades {
         count,

@@ -573,6 +573,8 @@ impl Viewer {
                 job.lens = RenderLens::Real(Box::new(lens));
                 job.f_number = None;
             }
+            // The position on screen: nothing to read again (K on a lens with one position).
+            Action::Zoom(position) if *position == zoom_of(&job.lens).0 => return Ok(()),
             Action::Zoom(position) => {
                 let lens = at_zoom(&job.lens, *position)?;
                 job.lens = RenderLens::Real(Box::new(lens));

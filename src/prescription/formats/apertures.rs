@@ -364,10 +364,8 @@ fn derive(
         }
         // Rays this far out would miss the surface: a sphere ends at |R|, a conic (k > -1) at
         // 1 / (|c| sqrt(1 + k)). The paraxial estimate knows no such end; the surface does.
-        let shape = &p.surfaces[i].shape;
-        let rim_sq = (1.0 + shape.conic()) * shape.curvature().powi(2);
-        if rim_sq > 0.0 && radius > 1.0 / rim_sq.sqrt() {
-            radius = 1.0 / rim_sq.sqrt();
+        if let Some(rim) = p.surfaces[i].shape.rim_radius().filter(|&rim| radius > rim) {
+            radius = rim;
             at_edge.push(i);
         }
         p.surfaces[i].semi_aperture = radius;

@@ -156,13 +156,6 @@ fn line_commands(line: usize, raw: &str) -> Vec<Command> {
     out
 }
 
-/// Where a surface's sphere or conic ends, measured from the axis (`None`: a plane, a
-/// paraboloid or hyperboloid, which go on).
-fn rim_radius(shape: &Shape) -> Option<f64> {
-    let rim_sq = (1.0 + shape.conic()) * shape.curvature().powi(2);
-    (rim_sq > 0.0).then(|| 1.0 / rim_sq.sqrt())
-}
-
 struct SeqSurface {
     line: usize,
     /// Radius or curvature, as `radius_mode` says.
@@ -1196,7 +1189,7 @@ impl Reader {
         if self.mode_stated == RadiusMode::RadiiByDefault {
             for &i in &missing {
                 let surface = &loaded.prescription.surfaces[i];
-                let rim = rim_radius(&surface.shape);
+                let rim = surface.shape.rim_radius();
                 if rim.is_some_and(|rim| surface.semi_aperture >= rim * (1.0 - 1e-12)) {
                     return Err(self.radius_mode_contradicted(
                         i,
@@ -1239,7 +1232,7 @@ impl Reader {
     /// conic at 1 / (|c| sqrt(1 + k))): the values after `S` were read in the wrong radius mode.
     fn check_stated_apertures(&self, source: &Source) -> Result<(), PrescriptionError> {
         for (i, s) in self.surfaces.iter().enumerate() {
-            let (Some(aperture), Some(rim)) = (s.clear_radius, rim_radius(&s.shape_as_read()))
+            let (Some(aperture), Some(rim)) = (s.clear_radius, s.shape_as_read().rim_radius())
             else {
                 continue;
             };
