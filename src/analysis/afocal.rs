@@ -306,22 +306,26 @@ fn afocal_seidel(
     let sums: SeidelTerms = surfaces.iter().map(|s| s.terms).sum();
     let colour_sums: Option<ColourTerms> =
         colour.map(|_| surfaces.iter().filter_map(|s| s.colour).sum());
-    // -1 / (2 n' h') per unit of S, in mrad.
-    let k = -1e3 / (2.0 * at.image_index() * paraxial.marginal.last_height());
+    // The angular forms are the transverse ones with the image-space slope u' replaced by
+    // -h' (in thousandths, for mrad).
+    let u_equivalent = -paraxial.marginal.last_height() / 1e3;
+    let n_image = at.image_index();
+    let t = sums.transverse(n_image, u_equivalent);
+    let colour_angular = colour_sums.map(|c| c.transverse(n_image, u_equivalent));
     AfocalSeidel {
         wavefront: sums.wavefront(at.wavelength_nm),
         ptz: surfaces.iter().map(|s| s.ptz).sum(),
         colour: colour_sums,
         colour_wavelengths_nm: colour.map(|dn| [dn.short_nm, dn.long_nm]),
         angular: AngularAberrations {
-            spherical: k * sums.spherical,
-            tangential_coma: 3.0 * k * sums.coma,
-            tangential_astigmatism: k * (3.0 * sums.astigmatism + sums.petzval),
-            sagittal_astigmatism: k * (sums.astigmatism + sums.petzval),
-            petzval: k * sums.petzval,
-            distortion: k * sums.distortion,
-            axial_colour: colour_sums.map(|c| 2.0 * k * c.axial),
-            lateral_colour: colour_sums.map(|c| 2.0 * k * c.lateral),
+            spherical: t.tsa,
+            tangential_coma: t.tco,
+            tangential_astigmatism: t.tas,
+            sagittal_astigmatism: t.sas,
+            petzval: t.ptb,
+            distortion: t.dst,
+            axial_colour: colour_angular.map(|c| c.ax),
+            lateral_colour: colour_angular.map(|c| c.lat),
         },
         sums,
         surfaces,
