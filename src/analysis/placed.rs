@@ -453,7 +453,8 @@ struct Based {
 /// tangent (halved twice). Central differences err by the square of the step over the aperture
 /// or field scale, Richardson's combination by the fourth power; rounding of 1e-16 in the
 /// coordinates over steps of 1e-4 of the scale grows as the steps shrink. The two extrapolations
-/// agree to 7e-11 to 2e-9 on the corpus files, below 1e-9 on five bundled centred lenses.
+/// agree to 7e-11 to 2e-9 on the corpus files with power, below 1e-9 on five bundled centred
+/// lenses.
 const LAUNCH_STEP: f64 = 1e-3;
 const TANGENT_STEP: f64 = 1e-3;
 
