@@ -17,10 +17,10 @@
 //! about an axis of rotational symmetry, and a tilted or decentred lens has none (its aberrations
 //! about the OAR hold terms, such as coma and astigmatism on the axis, that no Seidel sum holds).
 
-use crate::trace::{Vec3, cross, dot, normalised};
 use crate::trace::placed::{
     PathPoint, PlacedBeamError, PlacedTracer, SPOT_GRID, tangent_direction,
 };
+use crate::trace::{Vec3, cross, dot, normalised};
 use crate::wave::{WavefrontMap, WavefrontStats, inside_pupil, pupil_coordinate};
 use serde::Serialize;
 

@@ -34,8 +34,8 @@ pub use mtf::{
     FieldTrace, Mtf, MtfAcrossField, MtfAtField, Spectrum, ThroughFocus, diffraction_limited_mtf,
     frequencies_to, mtf_across_field,
 };
-pub(crate) use pupil::{inside_pupil, pupil_coordinate};
 pub use pupil::{PupilTrace, WaveLens, WavefrontMap, WavefrontStats};
+pub(crate) use pupil::{inside_pupil, pupil_coordinate};
 pub use zernike::{FRINGE_TERMS, ZernikeFit, ZernikeOrdering, ZernikeTerm, zernike_fit};
 
 use crate::paraxial::ParaxialError;
