@@ -190,9 +190,15 @@ pub fn analyze_afocal(
         crate::limits::check_length("the entrance-pupil diameter (mm)", epd)?;
     }
     let probe = AfocalParaxial::new(&at, epd_mm, 0.0, options.stop)?;
-    let open = AfocalParaxial::new(&at, None, 0.0, options.stop)?
-        .entrance_pupil
-        .diameter;
+    // The stop's own pupil: the probe's, unless an EPD was asked for.
+    let open = match epd_mm {
+        None => probe.entrance_pupil.diameter,
+        Some(_) => {
+            AfocalParaxial::new(&at, None, 0.0, options.stop)?
+                .entrance_pupil
+                .diameter
+        }
+    };
     if probe.entrance_pupil.diameter > open * (1.0 + 1e-9) {
         notes.push(format!(
             "the {} {:.3} mm entrance pupil is larger than the stop's {open:.3} mm: the paraxial \
