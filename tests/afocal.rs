@@ -87,7 +87,8 @@ fn keplerian_and_galilean_telescopes_of_thin_lenses() {
             &what,
         );
         for p in &a.apparent_field {
-            assert!(p.distortion_percent.abs() < 1e-9, "{what}: {p:?}");
+            // 1e-12 relative, in percent (measured: 4e-14 percent).
+            assert!(p.distortion_percent.abs() < 1e-10, "{what}: {p:?}");
         }
         // Ideal lenses have no aberration.
         assert_eq!(a.seidel.sums.as_array(), [0.0; 5], "{what}");
@@ -229,7 +230,8 @@ fn confocal_paraboloids_leave_a_plane_wave() {
     let at = system.at(WAVELENGTH_NM);
     let paraxial = AfocalParaxial::new(&at, Some(40.0), 0.0, StopChoice::Marked).unwrap();
     let wave = afocal_wavefront(&at, &paraxial, 0.0, Sampling::default()).unwrap();
-    assert!(wave.stats.rms_waves < 1e-7, "{:?}", wave.stats);
+    // Rounding of 200 mm paths: measured 2.4e-11 waves.
+    assert!(wave.stats.rms_waves < 1e-9, "{:?}", wave.stats);
     assert!(
         wave.rms_angular_spot_mrad < 1e-9,
         "{}",

@@ -190,9 +190,15 @@ pub fn analyze_afocal(
         crate::limits::check_length("the entrance-pupil diameter (mm)", epd)?;
     }
     let probe = AfocalParaxial::new(&at, epd_mm, 0.0, options.stop)?;
-    let open = AfocalParaxial::new(&at, None, 0.0, options.stop)?
-        .entrance_pupil
-        .diameter;
+    // The stop's own pupil: the probe's, unless an EPD was asked for.
+    let open = match epd_mm {
+        None => probe.entrance_pupil.diameter,
+        Some(_) => {
+            AfocalParaxial::new(&at, None, 0.0, options.stop)?
+                .entrance_pupil
+                .diameter
+        }
+    };
     if probe.entrance_pupil.diameter > open * (1.0 + 1e-9) {
         notes.push(format!(
             "the {} {:.3} mm entrance pupil is larger than the stop's {open:.3} mm: the paraxial \
@@ -306,22 +312,26 @@ fn afocal_seidel(
     let sums: SeidelTerms = surfaces.iter().map(|s| s.terms).sum();
     let colour_sums: Option<ColourTerms> =
         colour.map(|_| surfaces.iter().filter_map(|s| s.colour).sum());
-    // -1 / (2 n' h') per unit of S, in mrad.
-    let k = -1e3 / (2.0 * at.image_index() * paraxial.marginal.last_height());
+    // The angular forms are the transverse ones with the image-space slope u' replaced by
+    // -h' (in thousandths, for mrad).
+    let u_equivalent = -paraxial.marginal.last_height() / 1e3;
+    let n_image = at.image_index();
+    let t = sums.transverse(n_image, u_equivalent);
+    let colour_angular = colour_sums.map(|c| c.transverse(n_image, u_equivalent));
     AfocalSeidel {
         wavefront: sums.wavefront(at.wavelength_nm),
         ptz: surfaces.iter().map(|s| s.ptz).sum(),
         colour: colour_sums,
         colour_wavelengths_nm: colour.map(|dn| [dn.short_nm, dn.long_nm]),
         angular: AngularAberrations {
-            spherical: k * sums.spherical,
-            tangential_coma: 3.0 * k * sums.coma,
-            tangential_astigmatism: k * (3.0 * sums.astigmatism + sums.petzval),
-            sagittal_astigmatism: k * (sums.astigmatism + sums.petzval),
-            petzval: k * sums.petzval,
-            distortion: k * sums.distortion,
-            axial_colour: colour_sums.map(|c| 2.0 * k * c.axial),
-            lateral_colour: colour_sums.map(|c| 2.0 * k * c.lateral),
+            spherical: t.tsa,
+            tangential_coma: t.tco,
+            tangential_astigmatism: t.tas,
+            sagittal_astigmatism: t.sas,
+            petzval: t.ptb,
+            distortion: t.dst,
+            axial_colour: colour_angular.map(|c| c.ax),
+            lateral_colour: colour_angular.map(|c| c.lat),
         },
         sums,
         surfaces,

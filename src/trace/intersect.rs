@@ -185,6 +185,16 @@ pub(crate) fn dot(a: Vec3, b: Vec3) -> f64 {
     a[2].mul_add(b[2], a[1].mul_add(b[1], a[0] * b[0]))
 }
 
+/// The cross product a x b, each component one fused multiply-add.
+#[inline(always)]
+pub(crate) fn cross(a: Vec3, b: Vec3) -> Vec3 {
+    [
+        a[1].mul_add(b[2], -(a[2] * b[1])),
+        a[2].mul_add(b[0], -(a[0] * b[2])),
+        a[0].mul_add(b[1], -(a[1] * b[0])),
+    ]
+}
+
 /// Squared distance of a hit point from the axis, as every path of the tracer rounds it.
 #[inline(always)]
 pub(crate) fn radius_sq(q: Vec3) -> f64 {
@@ -791,7 +801,7 @@ fn finish_candidate(gradient: Vec3, d: Vec3, sense: f64) -> (Vec3, bool) {
 }
 
 #[inline(always)]
-fn normalised(v: Vec3) -> Vec3 {
+pub(crate) fn normalised(v: Vec3) -> Vec3 {
     let inv = 1.0 / dot(v, v).sqrt();
     [v[0] * inv, v[1] * inv, v[2] * inv]
 }

@@ -32,7 +32,7 @@ pub use bundle::FieldBundle;
 pub(crate) use bundle::UnitDraws;
 #[cfg(feature = "render")]
 pub(crate) use intersect::ASPHERE_MAX_STEPS;
-pub(crate) use intersect::dot;
+pub(crate) use intersect::{cross, dot, normalised};
 pub(crate) use lanes::{Isa, LANES, LaneVisitor, NoVisit, Slots, with_widest_isa};
 
 use crate::paraxial::Pupil;

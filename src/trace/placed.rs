@@ -259,11 +259,7 @@ impl PlacedBeam {
 
 /// |a x b|: the sine of the angle between unit vectors a and b.
 fn cross_length(a: Vec3, b: Vec3) -> f64 {
-    let c = [
-        a[1].mul_add(b[2], -(a[2] * b[1])),
-        a[2].mul_add(b[0], -(a[0] * b[2])),
-        a[0].mul_add(b[1], -(a[1] * b[0])),
-    ];
+    let c = super::cross(a, b);
     c[0].mul_add(c[0], c[1].mul_add(c[1], c[2] * c[2])).sqrt()
 }
 

@@ -35,6 +35,7 @@ pub use mtf::{
     frequencies_to, mtf_across_field,
 };
 pub use pupil::{PupilTrace, WaveLens, WavefrontMap, WavefrontStats};
+pub(crate) use pupil::{inside_pupil, pupil_coordinate};
 pub use zernike::{FRINGE_TERMS, ZernikeFit, ZernikeOrdering, ZernikeTerm, zernike_fit};
 
 use crate::paraxial::ParaxialError;
